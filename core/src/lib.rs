@@ -1,0 +1,16 @@
+//! # libtranscut core
+//!
+//! Subsurface light transport for translucent objects, returned as per-vertex outgoing radiance.
+//! Data flows one way through the stages (each a module):
+//!
+//! `mesh` (surface input, tetrahedral topology) → `mesher` (surface → quality tetrahedra) →
+//! `optics` (media) → `sparse` (linear algebra) → …
+//!
+//! Every stage reports typed errors; nothing panics on bad input.
+
+pub mod mesh;
+pub mod mesher;
+pub mod progress;
+
+pub use glam::DVec3;
+pub use progress::{Cancelled, Progress};

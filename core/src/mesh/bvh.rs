@@ -1,0 +1,2 @@
+//! placeholder
+pub struct TriangleBvh; pub struct RayHit; pub struct SurfacePoint;

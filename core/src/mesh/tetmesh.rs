@@ -1,0 +1,2 @@
+//! placeholder
+pub struct TetMesh; pub struct BoundaryFace; pub struct TetMeshError;

@@ -1,0 +1,75 @@
+//! Progress reporting and cooperative cancellation for long work.
+//!
+//! The core never draws progress bars: it calls a user callback with a stage name and a fraction in
+//! `[0, 1]`. The callback returns `true` to continue and `false` to cancel; the running stage then
+//! stops at its next check and returns [`Cancelled`].
+
+use std::fmt;
+
+/// A progress sink: `report(stage, fraction) -> keep going?`.
+///
+/// `Progress::none()` ignores reports and never cancels. The callback may be called from several
+/// threads, hence `Sync`.
+#[derive(Clone, Copy)]
+pub struct Progress<'a> {
+    callback: Option<&'a (dyn Fn(&str, f64) -> bool + Sync)>,
+}
+
+/// The user cancelled the work through the progress callback.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("cancelled by the progress callback")]
+pub struct Cancelled;
+
+impl<'a> Progress<'a> {
+    /// A sink that ignores reports and never cancels.
+    #[must_use]
+    pub fn none() -> Self {
+        Self { callback: None }
+    }
+
+    /// Wraps a callback `(stage, fraction) -> continue?`.
+    #[must_use]
+    pub fn new(callback: &'a (dyn Fn(&str, f64) -> bool + Sync)) -> Self {
+        Self { callback: Some(callback) }
+    }
+
+    /// Reports `fraction` (clamped to `[0, 1]`) of `stage` done.
+    ///
+    /// # Errors
+    /// [`Cancelled`] when the callback asked to stop.
+    pub fn report(&self, stage: &str, fraction: f64) -> Result<(), Cancelled> {
+        match self.callback {
+            Some(cb) if !cb(stage, fraction.clamp(0.0, 1.0)) => Err(Cancelled),
+            _ => Ok(()),
+        }
+    }
+}
+
+impl Default for Progress<'_> {
+    fn default() -> Self {
+        Self::none()
+    }
+}
+
+impl fmt::Debug for Progress<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Progress").field("callback", &self.callback.is_some()).finish()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    #[test]
+    fn callback_can_cancel_after_some_reports() {
+        let calls = AtomicUsize::new(0);
+        let cb = |_: &str, _: f64| calls.fetch_add(1, Ordering::SeqCst) < 2;
+        let p = Progress::new(&cb);
+        assert!(p.report("a", 0.1).is_ok());
+        assert!(p.report("a", 0.2).is_ok());
+        assert_eq!(p.report("a", 0.3), Err(Cancelled));
+        assert!(Progress::none().report("x", 2.0).is_ok());
+    }
+}
