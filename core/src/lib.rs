@@ -10,7 +10,9 @@
 
 pub mod mesh;
 pub mod mesher;
+pub mod optics;
 pub mod progress;
+pub mod sparse;
 
 pub use glam::DVec3;
 pub use progress::{Cancelled, Progress};

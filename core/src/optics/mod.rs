@@ -1,0 +1,1 @@
+//! Optical media (placeholder until optics lands).
