@@ -1,2 +1,423 @@
-//! placeholder
-pub struct TetMesh; pub struct BoundaryFace; pub struct TetMeshError;
+//! The tetrahedral mesh and its topology: one-rings, unique edges, boundary faces with outward
+//! normals, boundary flags, volumes, dihedral angles and per-tet material ids.
+//!
+//! Layout: positions and tets are plain arrays; the topology is built once in [`TetMesh::new`]
+//! (parallel sorts, deterministic) and then only read. Vertex adjacency is stored in CSR form:
+//! the neighbours of vertex `v` are `ring[ring_offsets[v]..ring_offsets[v + 1]]`, sorted.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::bvh::SurfacePoint;
+use super::quality::{dihedral_angles, tet_volume, QualityReport, TET_EDGES, TET_FACES};
+
+/// A triangle of the boundary surface, counter-clockwise seen from outside, and the tet it
+/// belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BoundaryFace {
+    /// Vertex indices, oriented so that the right-hand normal points out of the solid.
+    pub vertices: [u32; 3],
+    /// The tet that owns this face.
+    pub tet: u32,
+}
+
+/// What is wrong with a tetrahedral mesh given to [`TetMesh::new`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum TetMeshError {
+    /// No vertices or no tets.
+    #[error("empty tetrahedral mesh: {vertices} vertices, {tets} tets")]
+    Empty { vertices: usize, tets: usize },
+    /// A vertex coordinate is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite coordinate")]
+    NonFinite { vertex: usize },
+    /// A tet refers to a vertex that does not exist.
+    #[error("tet {tet} refers to vertex {index}, but there are {vertex_count} vertices")]
+    IndexOutOfRange { tet: usize, index: u32, vertex_count: usize },
+    /// A tet repeats a vertex or has (numerically) zero volume.
+    #[error("tet {tet} is degenerate (volume {volume:e})")]
+    Degenerate { tet: usize, volume: f64 },
+    /// A triangle is shared by more than two tets.
+    #[error("face ({}, {}, {}) is shared by {count} tets; a tet mesh shares a face by at most 2", .face[0], .face[1], .face[2])]
+    NonManifoldFace { face: [u32; 3], count: usize },
+    /// The per-tet material array does not have one entry per tet.
+    #[error("{materials} material ids for {tets} tets")]
+    MaterialCount { materials: usize, tets: usize },
+}
+
+/// A tetrahedral mesh with positively oriented tets and its topology.
+#[derive(Debug, Clone)]
+pub struct TetMesh {
+    positions: Vec<DVec3>,
+    tets: Vec<[u32; 4]>,
+    materials: Vec<u32>,
+    ring_offsets: Vec<u32>,
+    ring: Vec<u32>,
+    edges: Vec<[u32; 2]>,
+    boundary_faces: Vec<BoundaryFace>,
+    on_boundary: Vec<bool>,
+    surface_map: Vec<SurfacePoint>,
+}
+
+impl TetMesh {
+    /// Builds a mesh and its topology. Negatively oriented tets are flipped (two vertices swapped);
+    /// `materials` gives a material id per tet (empty = all 0).
+    ///
+    /// # Errors
+    /// [`TetMeshError`] for empty input, non-finite coordinates, out-of-range indices, degenerate
+    /// tets (volume below `1e-14 ×` bounding-box diagonal³) and faces shared by more than two tets.
+    pub fn new(positions: Vec<DVec3>, mut tets: Vec<[u32; 4]>, materials: Vec<u32>) -> Result<Self, TetMeshError> {
+        if positions.is_empty() || tets.is_empty() {
+            return Err(TetMeshError::Empty { vertices: positions.len(), tets: tets.len() });
+        }
+        if let Some(v) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(TetMeshError::NonFinite { vertex: v });
+        }
+        let materials = if materials.is_empty() { vec![0; tets.len()] } else { materials };
+        if materials.len() != tets.len() {
+            return Err(TetMeshError::MaterialCount { materials: materials.len(), tets: tets.len() });
+        }
+        let n = positions.len();
+        let (lo, hi) = positions
+            .iter()
+            .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| (a.min(*p), b.max(*p)));
+        let min_volume = 1e-14 * (hi - lo).length().powi(3);
+        tets.par_iter_mut().enumerate().try_for_each(|(t, tet)| {
+            if let Some(&index) = tet.iter().find(|&&i| i as usize >= n) {
+                return Err(TetMeshError::IndexOutOfRange { tet: t, index, vertex_count: n });
+            }
+            let mut volume = tet_volume(tet.map(|i| positions[i as usize]));
+            if volume < 0.0 {
+                tet.swap(2, 3);
+                volume = -volume;
+            }
+            if volume <= min_volume {
+                return Err(TetMeshError::Degenerate { tet: t, volume });
+            }
+            Ok(())
+        })?;
+        let boundary_faces = boundary_faces(&tets)?;
+        let edges = unique_edges(&tets);
+        let (ring_offsets, ring) = one_rings(n, &edges);
+        let mut on_boundary = vec![false; n];
+        for f in &boundary_faces {
+            for v in f.vertices {
+                on_boundary[v as usize] = true;
+            }
+        }
+        Ok(Self { positions, tets, materials, ring_offsets, ring, edges, boundary_faces, on_boundary, surface_map: Vec::new() })
+    }
+
+    /// Vertex positions.
+    #[must_use]
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    /// Tets as vertex quadruples, all positively oriented ([`tet_volume`] > 0).
+    #[must_use]
+    pub fn tets(&self) -> &[[u32; 4]] {
+        &self.tets
+    }
+
+    /// Per-tet material id.
+    #[must_use]
+    pub fn materials(&self) -> &[u32] {
+        &self.materials
+    }
+
+    /// Replaces the per-tet material ids.
+    ///
+    /// # Errors
+    /// [`TetMeshError::MaterialCount`] when `materials.len()` is not the tet count.
+    pub fn set_materials(&mut self, materials: Vec<u32>) -> Result<(), TetMeshError> {
+        if materials.len() != self.tets.len() {
+            return Err(TetMeshError::MaterialCount { materials: materials.len(), tets: self.tets.len() });
+        }
+        self.materials = materials;
+        Ok(())
+    }
+
+    /// Number of vertices.
+    #[must_use]
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Number of tets.
+    #[must_use]
+    pub fn tet_count(&self) -> usize {
+        self.tets.len()
+    }
+
+    /// The corner positions of tet `t`.
+    #[must_use]
+    pub fn tet_positions(&self, t: usize) -> [DVec3; 4] {
+        self.tets[t].map(|i| self.positions[i as usize])
+    }
+
+    /// Volume of tet `t` (positive).
+    #[must_use]
+    pub fn tet_volume(&self, t: usize) -> f64 {
+        tet_volume(self.tet_positions(t))
+    }
+
+    /// Dihedral angles (radians) of tet `t` at its edges `(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`.
+    #[must_use]
+    pub fn dihedral_angles(&self, t: usize) -> [f64; 6] {
+        dihedral_angles(self.tet_positions(t))
+    }
+
+    /// Sorted neighbours of vertex `v` (its one-ring).
+    #[must_use]
+    pub fn one_ring(&self, v: usize) -> &[u32] {
+        &self.ring[self.ring_offsets[v] as usize..self.ring_offsets[v + 1] as usize]
+    }
+
+    /// CSR offsets of the one-rings (`vertex_count + 1` entries) and the concatenated rings.
+    #[must_use]
+    pub fn one_rings(&self) -> (&[u32], &[u32]) {
+        (&self.ring_offsets, &self.ring)
+    }
+
+    /// Unique edges `[i, j]` with `i < j`, sorted.
+    #[must_use]
+    pub fn edges(&self) -> &[[u32; 2]] {
+        &self.edges
+    }
+
+    /// Boundary triangles, oriented outward.
+    #[must_use]
+    pub fn boundary_faces(&self) -> &[BoundaryFace] {
+        &self.boundary_faces
+    }
+
+    /// Outward unit normal of boundary face `f`.
+    #[must_use]
+    pub fn boundary_normal(&self, f: usize) -> DVec3 {
+        let [a, b, c] = self.boundary_faces[f].vertices.map(|i| self.positions[i as usize]);
+        (b - a).cross(c - a).normalize_or_zero()
+    }
+
+    /// Area of boundary face `f`.
+    #[must_use]
+    pub fn boundary_area(&self, f: usize) -> f64 {
+        let [a, b, c] = self.boundary_faces[f].vertices.map(|i| self.positions[i as usize]);
+        0.5 * (b - a).cross(c - a).length()
+    }
+
+    /// Whether vertex `v` lies on the boundary surface.
+    #[must_use]
+    pub fn is_boundary_vertex(&self, v: usize) -> bool {
+        self.on_boundary[v]
+    }
+
+    /// Per-vertex boundary flags.
+    #[must_use]
+    pub fn boundary_flags(&self) -> &[bool] {
+        &self.on_boundary
+    }
+
+    /// Total volume.
+    #[must_use]
+    pub fn volume(&self) -> f64 {
+        (0..self.tets.len()).into_par_iter().map(|t| self.tet_volume(t)).sum()
+    }
+
+    /// For each vertex of the user's surface mesh this was built from, its location on the
+    /// boundary (`SurfacePoint::triangle` indexes [`Self::boundary_faces`]). Empty when the mesh
+    /// was not built from a surface.
+    #[must_use]
+    pub fn surface_map(&self) -> &[SurfacePoint] {
+        &self.surface_map
+    }
+
+    /// Sets the map from the user's surface vertices to the boundary (see [`Self::surface_map`]).
+    pub fn set_surface_map(&mut self, map: Vec<SurfacePoint>) {
+        self.surface_map = map;
+    }
+
+    /// Interpolates a per-vertex quantity at the user's surface vertices through the surface map.
+    #[must_use]
+    pub fn sample_at_user_vertices<const N: usize>(&self, values: &[[f64; N]]) -> Vec<[f64; N]> {
+        self.surface_map
+            .iter()
+            .map(|sp| {
+                let verts = self.boundary_faces[sp.triangle as usize].vertices;
+                let mut out = [0.0; N];
+                for (k, &v) in verts.iter().enumerate() {
+                    for (o, x) in out.iter_mut().zip(values[v as usize]) {
+                        *o += sp.bary[k] * x;
+                    }
+                }
+                out
+            })
+            .collect()
+    }
+
+    /// Dihedral-angle statistics over all tets.
+    #[must_use]
+    pub fn quality(&self) -> QualityReport {
+        let per_tet: Vec<(f64, f64, f64)> = (0..self.tets.len())
+            .into_par_iter()
+            .map(|t| {
+                let a = self.dihedral_angles(t);
+                let lo = a.iter().copied().fold(f64::INFINITY, f64::min).to_degrees();
+                let hi = a.iter().copied().fold(0.0, f64::max).to_degrees();
+                (lo, hi, self.tet_volume(t))
+            })
+            .collect();
+        let mut report = QualityReport {
+            min_dihedral_deg: f64::INFINITY,
+            max_dihedral_deg: 0.0,
+            min_angle_histogram: [0; 9],
+            max_angle_histogram: [0; 9],
+            min_volume: f64::INFINITY,
+        };
+        for (lo, hi, vol) in per_tet {
+            report.min_dihedral_deg = report.min_dihedral_deg.min(lo);
+            report.max_dihedral_deg = report.max_dihedral_deg.max(hi);
+            report.min_volume = report.min_volume.min(vol);
+            report.min_angle_histogram[((lo / 10.0) as usize).min(8)] += 1;
+            report.max_angle_histogram[(((hi - 90.0).max(0.0) / 10.0) as usize).min(8)] += 1;
+        }
+        report
+    }
+}
+
+/// Faces that belong to exactly one tet, oriented outward; errors on faces shared by > 2 tets.
+fn boundary_faces(tets: &[[u32; 4]]) -> Result<Vec<BoundaryFace>, TetMeshError> {
+    let mut faces: Vec<([u32; 3], u32, u8)> = tets
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(t, tet)| {
+            (0..4u8).map(move |f| {
+                let mut key = TET_FACES[f as usize].map(|i| tet[i]);
+                key.sort_unstable();
+                (key, t as u32, f)
+            })
+        })
+        .collect();
+    faces.par_sort_unstable();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < faces.len() {
+        let mut j = i + 1;
+        while j < faces.len() && faces[j].0 == faces[i].0 {
+            j += 1;
+        }
+        match j - i {
+            1 => {
+                let (_, t, f) = faces[i];
+                let vertices = TET_FACES[f as usize].map(|k| tets[t as usize][k]);
+                out.push(BoundaryFace { vertices, tet: t });
+            }
+            2 => {}
+            count => return Err(TetMeshError::NonManifoldFace { face: faces[i].0, count }),
+        }
+        i = j;
+    }
+    Ok(out)
+}
+
+/// Unique undirected edges, sorted, `[i, j]` with `i < j`.
+fn unique_edges(tets: &[[u32; 4]]) -> Vec<[u32; 2]> {
+    let mut keys: Vec<u64> = tets
+        .par_iter()
+        .flat_map_iter(|tet| {
+            TET_EDGES.iter().map(move |&[a, b]| {
+                let (i, j) = (tet[a].min(tet[b]), tet[a].max(tet[b]));
+                (u64::from(i) << 32) | u64::from(j)
+            })
+        })
+        .collect();
+    keys.par_sort_unstable();
+    keys.dedup();
+    keys.into_iter().map(|k| [(k >> 32) as u32, k as u32]).collect()
+}
+
+/// CSR vertex adjacency from sorted unique edges; each ring comes out sorted.
+fn one_rings(n: usize, edges: &[[u32; 2]]) -> (Vec<u32>, Vec<u32>) {
+    let mut degree = vec![0u32; n + 1];
+    for &[i, j] in edges {
+        degree[i as usize + 1] += 1;
+        degree[j as usize + 1] += 1;
+    }
+    for v in 0..n {
+        degree[v + 1] += degree[v];
+    }
+    let offsets = degree;
+    let mut fill = offsets[..n].to_vec();
+    let mut ring = vec![0u32; edges.len() * 2];
+    // Edges are sorted by (i, j), so vertex v first receives its lower neighbours i (from edges
+    // (i, v), ascending in i) and then its upper neighbours j (from edges (v, j), ascending in j):
+    // every ring comes out sorted without a sort.
+    for &[i, j] in edges {
+        ring[fill[i as usize] as usize] = j;
+        fill[i as usize] += 1;
+        ring[fill[j as usize] as usize] = i;
+        fill[j as usize] += 1;
+    }
+    (offsets, ring)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_tet() -> TetMesh {
+        let p = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
+        TetMesh::new(p, vec![[0, 1, 2, 3]], vec![]).unwrap()
+    }
+
+    #[test]
+    fn single_tet_topology() {
+        let m = unit_tet();
+        assert_eq!(m.edges().len(), 6);
+        assert_eq!(m.boundary_faces().len(), 4);
+        assert!((m.volume() - 1.0 / 6.0).abs() < 1e-15);
+        assert_eq!(m.one_ring(0), &[1, 2, 3]);
+        // Outward normals point away from the centroid.
+        let c = DVec3::splat(0.25);
+        for f in 0..4 {
+            let v = m.boundary_faces()[f].vertices[0] as usize;
+            assert!(m.boundary_normal(f).dot(m.positions()[v] - c) > 0.0);
+        }
+    }
+
+    #[test]
+    fn inverted_tet_is_flipped_and_degenerate_rejected() {
+        let p = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
+        let m = TetMesh::new(p.clone(), vec![[0, 2, 1, 3]], vec![]).unwrap();
+        assert!(m.tet_volume(0) > 0.0);
+        let flat = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(1.0, 1.0, 0.0)];
+        assert!(matches!(TetMesh::new(flat, vec![[0, 1, 2, 3]], vec![]), Err(TetMeshError::Degenerate { tet: 0, .. })));
+        assert!(matches!(
+            TetMesh::new(p, vec![[0, 1, 2, 7]], vec![]),
+            Err(TetMeshError::IndexOutOfRange { tet: 0, index: 7, vertex_count: 4 })
+        ));
+    }
+
+    #[test]
+    fn two_tets_share_an_interior_face() {
+        let p = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z, DVec3::splat(1.0)];
+        let m = TetMesh::new(p, vec![[0, 1, 2, 3], [1, 2, 3, 4]], vec![]).unwrap();
+        assert_eq!(m.boundary_faces().len(), 6);
+        assert_eq!(m.edges().len(), 9);
+        assert!(!m.is_boundary_vertex(0) || m.boundary_flags().iter().all(|&b| b));
+    }
+
+    #[test]
+    fn regular_tet_dihedral_is_arccos_one_third() {
+        let p = [
+            DVec3::new(1.0, 1.0, 1.0),
+            DVec3::new(1.0, -1.0, -1.0),
+            DVec3::new(-1.0, 1.0, -1.0),
+            DVec3::new(-1.0, -1.0, 1.0),
+        ];
+        let p = if tet_volume(p) < 0.0 { [p[0], p[2], p[1], p[3]] } else { p };
+        for a in dihedral_angles(p) {
+            assert!((a - (1.0f64 / 3.0).acos()).abs() < 1e-12);
+        }
+    }
+}
