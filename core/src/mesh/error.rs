@@ -3,38 +3,138 @@
 /// What is wrong with a surface mesh or the file it came from.
 ///
 /// Every variant names the file (where there is one) and the line, face or vertex at fault.
+///
+/// Numbering conventions: `face` and `vertex` are 0-based positions in the list of faces and
+/// vertices (in file order); `line` is the 1-based line of a text file; `index` is a vertex
+/// reference exactly as the user wrote it (1-based or negative in OBJ, 0-based in PLY and arrays).
+/// `path` is `None` for meshes built from in-memory arrays.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum MeshError {
     /// The file could not be read.
     #[error("cannot read {path}: {source}")]
     Io {
+        /// The file.
         path: String,
+        /// The operating system's error.
         #[source]
         source: std::io::Error,
     },
     /// The file is neither OBJ nor PLY.
     #[error("{path}: not an OBJ or PLY file")]
-    UnknownFormat { path: String },
-    /// A syntax error at a line (OBJ, PLY header) or element (PLY body).
+    UnknownFormat {
+        /// The file.
+        path: String,
+    },
+    /// A syntax error at a line (OBJ, PLY header, ASCII PLY body).
     #[error("{path}:{line}: {message}")]
-    Parse { path: String, line: usize, message: String },
+    Parse {
+        /// The file.
+        path: String,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong, naming the offending token.
+        message: String,
+    },
     /// The file ended before all declared data was read.
     #[error("{path}: truncated: {message}")]
-    Truncated { path: String, message: String },
+    Truncated {
+        /// The file.
+        path: String,
+        /// What was missing, e.g. "face 12 of 500".
+        message: String,
+    },
+    /// Binary data that cannot be valid (e.g. a negative list length), naming the element.
+    #[error("{path}: {message}")]
+    Malformed {
+        /// The file.
+        path: String,
+        /// What is wrong and where (element and property).
+        message: String,
+    },
     /// No vertices or no faces.
     #[error("empty mesh: {0}")]
     Empty(String),
     /// A coordinate is NaN or infinite.
-    #[error("vertex {vertex} has a non-finite coordinate ({x}, {y}, {z})")]
-    NonFinite { vertex: usize, x: f64, y: f64, z: f64 },
+    #[error(
+        "{}vertex {vertex} has a non-finite coordinate ({x}, {y}, {z})",
+        at(path, line)
+    )]
+    NonFinite {
+        /// 0-based vertex number.
+        vertex: usize,
+        /// The coordinates as read.
+        x: f64,
+        /// See `x`.
+        y: f64,
+        /// See `x`.
+        z: f64,
+        /// The file, if the mesh came from one.
+        path: Option<String>,
+        /// The 1-based line, for text files.
+        line: Option<usize>,
+    },
     /// A face refers to a vertex that does not exist.
-    #[error("face {face} refers to vertex {index}, but there are {vertex_count} vertices")]
-    IndexOutOfRange { face: usize, index: i64, vertex_count: usize },
+    #[error(
+        "{}face {face} refers to vertex {index}, but there are {vertex_count} vertices",
+        at(path, line)
+    )]
+    IndexOutOfRange {
+        /// 0-based face number.
+        face: usize,
+        /// The vertex reference as written by the user.
+        index: i64,
+        /// How many vertices there are (in OBJ, for a relative index: defined so far).
+        vertex_count: usize,
+        /// The file, if the mesh came from one.
+        path: Option<String>,
+        /// The 1-based line, for text files.
+        line: Option<usize>,
+    },
     /// A face has fewer than three vertices.
-    #[error("face {face} has {count} vertices; a face needs at least 3")]
-    TooFewVertices { face: usize, count: usize },
-    /// Every face has zero area, so there is no surface.
-    #[error("all {faces} faces have zero area: there is no surface")]
-    AllFacesDegenerate { faces: usize },
+    #[error(
+        "{}face {face} has {count} vertices; a face needs at least 3",
+        at(path, line)
+    )]
+    TooFewVertices {
+        /// 0-based face number.
+        face: usize,
+        /// How many vertices it has.
+        count: usize,
+        /// The file, if the mesh came from one.
+        path: Option<String>,
+        /// The 1-based line, for text files.
+        line: Option<usize>,
+    },
+    /// Every face has zero area (or collapsed when duplicate vertices were welded), so there is
+    /// no surface.
+    #[error("{}all {faces} faces have zero area: there is no surface", at(path, &None))]
+    AllFacesDegenerate {
+        /// Number of faces in the input.
+        faces: usize,
+        /// The file, if the mesh came from one.
+        path: Option<String>,
+    },
+    /// A flat triangle index array whose length is not a multiple of 3.
+    #[error("the triangle index array has {len} entries, which is not a multiple of 3")]
+    IndexCountNotMultipleOf3 {
+        /// Length of the index array.
+        len: usize,
+    },
+    /// The weld tolerance is negative, NaN or infinite.
+    #[error("weld tolerance {value} is invalid: it must be finite and >= 0")]
+    InvalidTolerance {
+        /// The tolerance given.
+        value: f64,
+    },
+}
+
+/// `"path:line: "`, `"path: "` or `""`, the prefix that locates an error.
+fn at(path: &Option<String>, line: &Option<usize>) -> String {
+    match (path, line) {
+        (Some(p), Some(l)) => format!("{p}:{l}: "),
+        (Some(p), None) => format!("{p}: "),
+        (None, Some(l)) => format!("line {l}: "),
+        (None, None) => String::new(),
+    }
 }

@@ -1,5 +1,446 @@
-//! Wavefront OBJ reader (placeholder until the reader lands).
-use super::{MeshError, TriMesh};
+//! Wavefront OBJ reader.
+//!
+//! Reads the polygonal geometry of an OBJ file: `v` lines (x y z, an optional w or vertex colour
+//! after them is ignored) and `f` faces whose corners are written `i`, `i/t`, `i//n` or `i/t/n`.
+//! Indices are 1-based; negative indices count back from the last vertex defined so far (−1 is
+//! the last one), as the OBJ specification says. Positive indices may refer to vertices defined
+//! later in the file. Texture coordinates, normals, groups, materials, smoothing groups, lines,
+//! points and free-form geometry are accepted and ignored, as are statements this reader does not
+//! know. `#` starts a comment (to the end of the line), a `\` at the end of a line continues the
+//! statement on the next one, and CRLF line ends are fine.
+
 use std::path::Path;
-pub fn load_obj(path: &Path) -> Result<TriMesh, MeshError> { Err(MeshError::UnknownFormat { path: path.display().to_string() }) }
-pub fn parse_obj(_text: &str, path: &str) -> Result<TriMesh, MeshError> { Err(MeshError::UnknownFormat { path: path.into() }) }
+
+use glam::DVec3;
+
+use super::trimesh::{build, WeldOptions};
+use super::{MeshError, TriMesh};
+
+/// Loads an OBJ file, triangulating n-gons and welding duplicate positions with the default
+/// [`WeldOptions`].
+///
+/// Bytes that are not UTF-8 (e.g. Latin-1 object names in comments) are tolerated: only the
+/// ASCII numbers and keywords matter.
+///
+/// # Errors
+/// [`MeshError::Io`] if the file cannot be read, and every error of [`parse_obj`].
+pub fn load_obj(path: &Path) -> Result<TriMesh, MeshError> {
+    load_obj_with(path, &WeldOptions::default())
+}
+
+/// [`load_obj`] with explicit welding options.
+///
+/// # Errors
+/// As [`load_obj`], and [`MeshError::InvalidTolerance`] for a bad tolerance.
+pub fn load_obj_with(path: &Path, weld: &WeldOptions) -> Result<TriMesh, MeshError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+        path: name.clone(),
+        source,
+    })?;
+    let text = String::from_utf8_lossy(&bytes);
+    parse_obj_with(&text, &name, weld)
+}
+
+/// Parses OBJ text; `path_for_messages` names the source in errors.
+///
+/// # Errors
+/// - [`MeshError::Parse`] with the 1-based line and the bad token: a coordinate or index that is
+///   not a number, a vertex with fewer than 3 coordinates, a vertex index of 0, a corner with
+///   more than three `/`-separated parts, a line that does not start with a keyword;
+/// - [`MeshError::NonFinite`] (with the line) for a NaN or infinite coordinate;
+/// - [`MeshError::TooFewVertices`] (with the line) for a face with fewer than 3 corners;
+/// - [`MeshError::IndexOutOfRange`] (with the line) for an index past the last vertex of the
+///   file, or a negative index reaching before the first vertex; the index is reported as
+///   written;
+/// - [`MeshError::Empty`] for a file without vertices or faces, and
+///   [`MeshError::AllFacesDegenerate`] if every face has zero area.
+pub fn parse_obj(text: &str, path_for_messages: &str) -> Result<TriMesh, MeshError> {
+    parse_obj_with(text, path_for_messages, &WeldOptions::default())
+}
+
+/// [`parse_obj`] with explicit welding options.
+///
+/// # Errors
+/// As [`parse_obj`], and [`MeshError::InvalidTolerance`] for a bad tolerance.
+pub fn parse_obj_with(
+    text: &str,
+    path_for_messages: &str,
+    weld: &WeldOptions,
+) -> Result<TriMesh, MeshError> {
+    let mut reader = ObjReader::new(path_for_messages, text.len());
+    let mut lines = text.split('\n');
+    let mut line_no = 0usize;
+    let mut joined = String::new();
+    while let Some(raw) = lines.next() {
+        line_no += 1;
+        let line = strip_comment(raw);
+        if line.trim_end().ends_with('\\') {
+            // A continued statement: join the physical lines, report errors at the first one.
+            let start = line_no;
+            joined.clear();
+            let mut cur = line;
+            loop {
+                let t = cur.trim_end();
+                if let Some(body) = t.strip_suffix('\\') {
+                    joined.push_str(body);
+                    joined.push(' ');
+                    match lines.next() {
+                        Some(nx) => {
+                            line_no += 1;
+                            cur = strip_comment(nx);
+                        }
+                        None => break,
+                    }
+                } else {
+                    joined.push_str(cur);
+                    break;
+                }
+            }
+            reader.statement(&joined, start)?;
+        } else {
+            reader.statement(line, line_no)?;
+        }
+    }
+    reader.finish(weld)
+}
+
+/// The line without its comment and line end.
+fn strip_comment(raw: &str) -> &str {
+    let line = raw.strip_suffix('\r').unwrap_or(raw);
+    match line.find('#') {
+        Some(i) => &line[..i],
+        None => line,
+    }
+}
+
+/// Statements that are part of OBJ but carry nothing a surface mesh needs.
+const IGNORED: &[&str] = &[
+    "vt",
+    "vn",
+    "vp",
+    "l",
+    "p",
+    "o",
+    "g",
+    "s",
+    "mg",
+    "usemtl",
+    "mtllib",
+    "maplib",
+    "usemap",
+    "lod",
+    "bevel",
+    "c_interp",
+    "d_interp",
+    "shadow_obj",
+    "trace_obj",
+    "ctech",
+    "stech",
+    "cstype",
+    "deg",
+    "bmat",
+    "step",
+    "curv",
+    "curv2",
+    "surf",
+    "parm",
+    "trim",
+    "hole",
+    "scrv",
+    "sp",
+    "end",
+    "con",
+    "call",
+    "csh",
+];
+
+struct ObjReader<'a> {
+    path: &'a str,
+    positions: Vec<DVec3>,
+    offsets: Vec<usize>,
+    indices: Vec<u32>,
+    face_lines: Vec<usize>,
+}
+
+impl<'a> ObjReader<'a> {
+    fn new(path: &'a str, text_len: usize) -> Self {
+        // A vertex line is at least ~20 bytes in practice; reserve for a typical mix.
+        let guess = text_len / 64;
+        let mut offsets = Vec::with_capacity(guess + 1);
+        offsets.push(0);
+        ObjReader {
+            path,
+            positions: Vec::with_capacity(guess / 2),
+            offsets,
+            indices: Vec::with_capacity(guess * 3),
+            face_lines: Vec::with_capacity(guess),
+        }
+    }
+
+    fn parse_error(&self, line: usize, message: String) -> MeshError {
+        MeshError::Parse {
+            path: self.path.to_owned(),
+            line,
+            message,
+        }
+    }
+
+    fn statement(&mut self, line: &str, line_no: usize) -> Result<(), MeshError> {
+        let mut tokens = line.split_ascii_whitespace();
+        let Some(keyword) = tokens.next() else {
+            return Ok(());
+        };
+        match keyword {
+            "v" => self.vertex(tokens, line_no),
+            "f" | "fo" => self.face(tokens, line_no),
+            k if IGNORED.contains(&k) => Ok(()),
+            k if k.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_') => {
+                Ok(()) // an extension statement some other program writes
+            }
+            k => Err(self.parse_error(
+                line_no,
+                format!(
+                    "unexpected '{k}': an OBJ statement starts with a keyword such as 'v' or 'f'"
+                ),
+            )),
+        }
+    }
+
+    fn vertex<'t>(
+        &mut self,
+        mut tokens: impl Iterator<Item = &'t str>,
+        line_no: usize,
+    ) -> Result<(), MeshError> {
+        let mut xyz = [0.0f64; 3];
+        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+            let Some(tok) = tokens.next() else {
+                return Err(self.parse_error(
+                    line_no,
+                    format!("vertex has {k} coordinates; 'v' needs x, y and z"),
+                ));
+            };
+            xyz[k] = tok.parse::<f64>().map_err(|_| {
+                self.parse_error(
+                    line_no,
+                    format!("cannot read '{tok}' as the {axis} coordinate of a vertex"),
+                )
+            })?;
+        }
+        // An optional weight w, or vertex colours r g b (some exporters write them): ignored,
+        // but they must be numbers.
+        for tok in tokens {
+            if tok.parse::<f64>().is_err() {
+                return Err(self.parse_error(
+                    line_no,
+                    format!("cannot read '{tok}' as a number after a vertex's x y z"),
+                ));
+            }
+        }
+        let p = DVec3::from_array(xyz);
+        if !p.is_finite() {
+            return Err(MeshError::NonFinite {
+                vertex: self.positions.len(),
+                x: p.x,
+                y: p.y,
+                z: p.z,
+                path: Some(self.path.to_owned()),
+                line: Some(line_no),
+            });
+        }
+        self.positions.push(p);
+        Ok(())
+    }
+
+    fn face<'t>(
+        &mut self,
+        tokens: impl Iterator<Item = &'t str>,
+        line_no: usize,
+    ) -> Result<(), MeshError> {
+        let face = self.offsets.len() - 1;
+        let defined = self.positions.len();
+        let start = self.indices.len();
+        for tok in tokens {
+            let mut parts = tok.split('/');
+            let first = parts.next().unwrap_or("");
+            // Texture and normal references must be well-formed, even though they are ignored.
+            let mut extra = 0;
+            for part in parts {
+                extra += 1;
+                if extra > 2 || (!part.is_empty() && parse_int(part).is_none()) {
+                    return Err(self.parse_error(
+                        line_no,
+                        format!("bad face corner '{tok}': expected i, i/t, i//n or i/t/n"),
+                    ));
+                }
+            }
+            let Some(index) = parse_int(first) else {
+                return Err(self.parse_error(
+                    line_no,
+                    format!("cannot read '{first}' in face corner '{tok}' as a vertex index"),
+                ));
+            };
+            let resolved = if index > 0 {
+                index - 1
+            } else if index < 0 {
+                let r = defined as i64 + index;
+                if r < 0 {
+                    return Err(MeshError::IndexOutOfRange {
+                        face,
+                        index,
+                        vertex_count: defined,
+                        path: Some(self.path.to_owned()),
+                        line: Some(line_no),
+                    });
+                }
+                r
+            } else {
+                return Err(self.parse_error(
+                    line_no,
+                    format!("vertex index 0 in face corner '{tok}': OBJ indices start at 1 (or -1 for the last vertex)"),
+                ));
+            };
+            let Ok(resolved) = u32::try_from(resolved) else {
+                return Err(MeshError::IndexOutOfRange {
+                    face,
+                    index,
+                    vertex_count: defined,
+                    path: Some(self.path.to_owned()),
+                    line: Some(line_no),
+                });
+            };
+            self.indices.push(resolved);
+        }
+        let count = self.indices.len() - start;
+        if count < 3 {
+            return Err(MeshError::TooFewVertices {
+                face,
+                count,
+                path: Some(self.path.to_owned()),
+                line: Some(line_no),
+            });
+        }
+        self.offsets.push(self.indices.len());
+        self.face_lines.push(line_no);
+        Ok(())
+    }
+
+    fn finish(self, weld: &WeldOptions) -> Result<TriMesh, MeshError> {
+        // Positive indices may point forward, so they are checked once every vertex is known.
+        let n = self.positions.len();
+        if n > 0 {
+            for face in 0..self.offsets.len() - 1 {
+                let poly = &self.indices[self.offsets[face]..self.offsets[face + 1]];
+                if let Some(&i) = poly.iter().find(|&&i| i as usize >= n) {
+                    return Err(MeshError::IndexOutOfRange {
+                        face,
+                        index: i64::from(i) + 1,
+                        vertex_count: n,
+                        path: Some(self.path.to_owned()),
+                        line: Some(self.face_lines[face]),
+                    });
+                }
+            }
+        }
+        build(
+            self.positions,
+            &self.offsets,
+            &self.indices,
+            weld,
+            Some(self.path),
+        )
+    }
+}
+
+/// A decimal integer with an optional sign; `None` if malformed or out of `i64` range.
+fn parse_int(s: &str) -> Option<i64> {
+    let b = s.as_bytes();
+    let (neg, digits) = match b.first()? {
+        b'-' => (true, &b[1..]),
+        b'+' => (false, &b[1..]),
+        _ => (false, b),
+    };
+    if digits.is_empty() {
+        return None;
+    }
+    let mut v: i64 = 0;
+    for &c in digits {
+        if !c.is_ascii_digit() {
+            return None;
+        }
+        v = v.checked_mul(10)?.checked_add(i64::from(c - b'0'))?;
+    }
+    Some(if neg { -v } else { v })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parse_int_forms() {
+        assert_eq!(parse_int("12"), Some(12));
+        assert_eq!(parse_int("-3"), Some(-3));
+        assert_eq!(parse_int("+4"), Some(4));
+        assert_eq!(parse_int(""), None);
+        assert_eq!(parse_int("-"), None);
+        assert_eq!(parse_int("1.5"), None);
+        assert_eq!(parse_int("99999999999999999999"), None);
+    }
+
+    #[test]
+    fn corner_forms_and_relative_indices() {
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n\
+                    f 1/1/1 2/1/1 3//1\nf -4 -2/1 -1\n";
+        let m = parse_obj(text, "t.obj").unwrap();
+        assert_eq!(m.triangles(), &[[0, 1, 2], [0, 2, 3]]);
+    }
+
+    #[test]
+    fn continuation_comments_crlf() {
+        let text = "# header\r\nv 0 0 0 # origin\r\nv 1 0 0\r\nv 0 \\\r\n 1 0\r\nf 1 2 \\\r\n3\r\n";
+        let m = parse_obj(text, "t.obj").unwrap();
+        assert_eq!(m.user_vertex_count(), 3);
+        assert_eq!(m.triangles(), &[[0, 1, 2]]);
+        assert!((m.area() - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn continued_statement_errors_at_its_first_line() {
+        let text = "v 0 0 0\nv 1 0 \\\n  zz\n";
+        let e = parse_obj(text, "t.obj").unwrap_err();
+        assert!(matches!(e, MeshError::Parse { line: 2, .. }), "{e}");
+        assert!(e.to_string().contains("'zz'"), "{e}");
+    }
+
+    #[test]
+    fn forward_references_are_allowed() {
+        let m = parse_obj("f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n", "t.obj").unwrap();
+        assert_eq!(m.triangles().len(), 1);
+    }
+
+    #[test]
+    fn bad_corner_token_is_named() {
+        let e = parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2/x 3\n", "t.obj").unwrap_err();
+        assert!(matches!(e, MeshError::Parse { line: 4, .. }));
+        assert!(e.to_string().contains("'2/x'"), "{e}");
+        let e = parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2/1/1/1 3\n", "t.obj").unwrap_err();
+        assert!(e.to_string().contains("'2/1/1/1'"), "{e}");
+    }
+
+    #[test]
+    fn too_few_coordinates() {
+        let e = parse_obj("v 0 0\n", "t.obj").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "t.obj:1: vertex has 2 coordinates; 'v' needs x, y and z"
+        );
+    }
+
+    #[test]
+    fn garbage_line_is_rejected() {
+        let e = parse_obj("v 0 0 0\n1 2 3\n", "t.obj").unwrap_err();
+        assert!(matches!(e, MeshError::Parse { line: 2, .. }));
+        assert!(e.to_string().contains("'1'"), "{e}");
+    }
+}

@@ -1,19 +1,33 @@
 //! The surface triangle mesh every method starts from.
 
-use glam::DVec3;
+use glam::{DMat4, DVec3, DVec4};
 
+use super::triangulate::triangulate;
+use super::weld::weld;
 use super::MeshError;
 
+/// Triangles with less than this fraction of the squared bounding-box diagonal as area are
+/// degenerate and dropped.
+const DEGENERATE_AREA: f64 = 1e-14;
+
 /// Options for merging duplicate vertex positions.
+///
+/// Files often repeat a position for every face that uses it (a cube as 6 separate quads with 24
+/// vertices, a mesh split along UV seams or hard edges). Welding makes those faces share
+/// vertices, so the surface is connected and closed where it should be.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WeldOptions {
-    /// Positions closer than `relative_tolerance × bounding-box diagonal` are merged.
+    /// Positions closer than `relative_tolerance × bounding-box diagonal` are merged (the
+    /// diagonal of the box around all user vertices). `0` merges only identical positions.
+    /// Must be finite and `>= 0`. The default is `1e-7`.
     pub relative_tolerance: f64,
 }
 
 impl Default for WeldOptions {
     fn default() -> Self {
-        Self { relative_tolerance: 1e-7 }
+        Self {
+            relative_tolerance: 1e-7,
+        }
     }
 }
 
@@ -30,6 +44,197 @@ pub struct TriMesh {
 }
 
 impl TriMesh {
+    /// Builds a welded triangle mesh from polygons over the user's vertices.
+    ///
+    /// Each polygon lists 0-based indices into `user_positions`, in counter-clockwise order seen
+    /// from outside. The mesh is built in these steps:
+    /// 1. validation (see Errors);
+    /// 2. welding: positions closer than `weld.relative_tolerance` × the bounding-box diagonal are
+    ///    merged; the lowest user index of each group is its representative, and every user vertex
+    ///    keeps an entry in [`user_to_internal`](Self::user_to_internal), also vertices that no
+    ///    face uses (they map to a welded vertex that may be unreferenced);
+    /// 3. triangulation of polygons with more than 3 corners (quads along their better diagonal,
+    ///    convex polygons as a fan, non-convex ones by ear clipping in the plane of their Newell
+    ///    normal), keeping each polygon's winding;
+    /// 4. dropping triangles that are degenerate: a corner repeated after welding, or an area
+    ///    below `1e-14 ×` diagonal².
+    ///
+    /// # Errors
+    /// - [`MeshError::Empty`]: no vertices or no polygons;
+    /// - [`MeshError::InvalidTolerance`]: a negative or non-finite weld tolerance;
+    /// - [`MeshError::NonFinite`]: a NaN or infinite coordinate (naming the first such vertex);
+    /// - [`MeshError::TooFewVertices`]: a polygon with fewer than 3 indices;
+    /// - [`MeshError::IndexOutOfRange`]: an index `>= user_positions.len()`;
+    /// - [`MeshError::AllFacesDegenerate`]: no triangle with a non-zero area is left.
+    pub fn from_polygons(
+        user_positions: Vec<DVec3>,
+        polygons: &[Vec<u32>],
+        weld: &WeldOptions,
+    ) -> Result<TriMesh, MeshError> {
+        let mut offsets = Vec::with_capacity(polygons.len() + 1);
+        offsets.push(0);
+        let mut indices = Vec::with_capacity(polygons.iter().map(Vec::len).sum());
+        for poly in polygons {
+            indices.extend_from_slice(poly);
+            offsets.push(indices.len());
+        }
+        build(user_positions, &offsets, &indices, weld, None)
+    }
+
+    /// Builds a welded triangle mesh from flat arrays: `positions` (`f32` or `f64` triples) and
+    /// `indices`, three 0-based vertex indices per triangle, counter-clockwise seen from outside.
+    /// Welding uses [`WeldOptions::default`]; see [`from_polygons`](Self::from_polygons) for the
+    /// steps.
+    ///
+    /// # Errors
+    /// [`MeshError::IndexCountNotMultipleOf3`] if `indices.len() % 3 != 0`, and every error of
+    /// [`from_polygons`](Self::from_polygons).
+    pub fn from_triangles<T: Copy + Into<f64>>(
+        positions: &[[T; 3]],
+        indices: &[u32],
+    ) -> Result<TriMesh, MeshError> {
+        if indices.len() % 3 != 0 {
+            return Err(MeshError::IndexCountNotMultipleOf3 { len: indices.len() });
+        }
+        let positions: Vec<DVec3> = positions
+            .iter()
+            .map(|p| DVec3::new(p[0].into(), p[1].into(), p[2].into()))
+            .collect();
+        let offsets: Vec<usize> = (0..=indices.len() / 3).map(|f| 3 * f).collect();
+        build(positions, &offsets, indices, &WeldOptions::default(), None)
+    }
+
+    /// Edge-connected components ("shells"): two triangles are in the same shell when a chain of
+    /// triangles, each sharing an edge with the next, joins them (triangles touching only at a
+    /// vertex are in different shells).
+    ///
+    /// Returns the number of shells and, for each triangle, its shell id in `0..count`. Shells
+    /// are numbered in the order of their first triangle.
+    #[must_use]
+    pub fn shells(&self) -> (usize, Vec<u32>) {
+        let t = self.triangles.len();
+        let mut parent: Vec<u32> = (0..t as u32).collect();
+        fn find(parent: &mut [u32], mut x: u32) -> u32 {
+            while parent[x as usize] != x {
+                let up = parent[parent[x as usize] as usize];
+                parent[x as usize] = up; // path halving
+                x = up;
+            }
+            x
+        }
+        let edges = self.sorted_edges();
+        for pair in edges.windows(2) {
+            if pair[0].0 == pair[1].0 {
+                let (a, b) = (find(&mut parent, pair[0].1), find(&mut parent, pair[1].1));
+                if a != b {
+                    // Union towards the lower triangle keeps roots deterministic.
+                    let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+                    parent[hi as usize] = lo;
+                }
+            }
+        }
+        let mut id = vec![u32::MAX; t];
+        let mut shell_of = Vec::with_capacity(t);
+        let mut count = 0u32;
+        for tri in 0..t as u32 {
+            let root = find(&mut parent, tri) as usize;
+            if id[root] == u32::MAX {
+                id[root] = count;
+                count += 1;
+            }
+            shell_of.push(id[root]);
+        }
+        (count as usize, shell_of)
+    }
+
+    /// Edges used by exactly one triangle, directed as in that triangle. Empty for a closed mesh.
+    #[must_use]
+    pub fn boundary_edges(&self) -> Vec<[u32; 2]> {
+        let edges = self.sorted_edges();
+        let mut out = Vec::new();
+        let mut i = 0;
+        while i < edges.len() {
+            let mut j = i + 1;
+            while j < edges.len() && edges[j].0 == edges[i].0 {
+                j += 1;
+            }
+            if j - i == 1 {
+                let (_, tri, k) = edges[i];
+                let v = self.triangles[tri as usize];
+                out.push([v[k as usize], v[(k as usize + 1) % 3]]);
+            }
+            i = j;
+        }
+        out
+    }
+
+    /// Whether the surface is closed (watertight): every edge is shared by exactly two
+    /// triangles.
+    #[must_use]
+    pub fn is_closed(&self) -> bool {
+        let edges = self.sorted_edges();
+        let mut i = 0;
+        while i < edges.len() {
+            let mut j = i + 1;
+            while j < edges.len() && edges[j].0 == edges[i].0 {
+                j += 1;
+            }
+            if j - i != 2 {
+                return false;
+            }
+            i = j;
+        }
+        !self.triangles.is_empty()
+    }
+
+    /// The mesh with every position transformed by `m` (a point transform: translation applies;
+    /// a projective matrix is divided through by `w`). The user vertex map is kept.
+    ///
+    /// If `m` mirrors (negative determinant of its linear part), the winding of every triangle
+    /// is reversed, so triangles that faced outwards still do and
+    /// [`signed_volume`](Self::signed_volume) keeps its sign. `m` should be finite and
+    /// invertible: a singular matrix flattens the mesh (its triangles are kept, with zero area).
+    #[must_use]
+    pub fn transformed(&self, m: &DMat4) -> TriMesh {
+        let affine = m.row(3) == DVec4::new(0.0, 0.0, 0.0, 1.0);
+        let positions = self
+            .positions
+            .iter()
+            .map(|&p| {
+                if affine {
+                    m.transform_point3(p)
+                } else {
+                    m.project_point3(p)
+                }
+            })
+            .collect();
+        let linear = glam::DMat3::from_mat4(*m);
+        let triangles = if linear.determinant() < 0.0 {
+            self.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect()
+        } else {
+            self.triangles.clone()
+        };
+        TriMesh {
+            positions,
+            triangles,
+            user_to_internal: self.user_to_internal.clone(),
+        }
+    }
+
+    /// Every triangle edge as (undirected key, triangle, corner where it starts), sorted by key.
+    fn sorted_edges(&self) -> Vec<(u64, u32, u8)> {
+        let mut edges = Vec::with_capacity(3 * self.triangles.len());
+        for (t, tri) in self.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let key = (u64::from(a.min(b)) << 32) | u64::from(a.max(b));
+                edges.push((key, t as u32, k as u8));
+            }
+        }
+        edges.sort_unstable();
+        edges
+    }
+
     /// Internal (welded) vertex positions.
     #[must_use]
     pub fn positions(&self) -> &[DVec3] {
@@ -75,7 +280,11 @@ impl TriMesh {
     #[must_use]
     pub fn triangle(&self, t: usize) -> [DVec3; 3] {
         let [a, b, c] = self.triangles[t];
-        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
+        [
+            self.positions[a as usize],
+            self.positions[b as usize],
+            self.positions[c as usize],
+        ]
     }
 
     /// Area-weighted normal of triangle `t` (length = twice the area).
@@ -88,7 +297,9 @@ impl TriMesh {
     /// Total surface area.
     #[must_use]
     pub fn area(&self) -> f64 {
-        (0..self.triangles.len()).map(|t| 0.5 * self.triangle_cross(t).length()).sum()
+        (0..self.triangles.len())
+            .map(|t| 0.5 * self.triangle_cross(t).length())
+            .sum()
     }
 
     /// Signed enclosed volume by the divergence theorem (exact for closed, consistently oriented
@@ -108,6 +319,142 @@ pub(crate) fn check_finite(vertex: usize, p: DVec3) -> Result<(), MeshError> {
     if p.is_finite() {
         Ok(())
     } else {
-        Err(MeshError::NonFinite { vertex, x: p.x, y: p.y, z: p.z })
+        Err(MeshError::NonFinite {
+            vertex,
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            path: None,
+            line: None,
+        })
     }
+}
+
+/// Builds a [`TriMesh`] from user positions and polygons given as `indices[offsets[f] ..
+/// offsets[f + 1]]`; `path` names the file in errors. Readers validate with line numbers first
+/// where they have them; this validates again for everything else.
+pub(crate) fn build(
+    user_positions: Vec<DVec3>,
+    offsets: &[usize],
+    indices: &[u32],
+    weld_options: &WeldOptions,
+    path: Option<&str>,
+) -> Result<TriMesh, MeshError> {
+    let prefix = path.map(|p| format!("{p}: ")).unwrap_or_default();
+    let owned_path = || path.map(str::to_owned);
+    let tolerance = weld_options.relative_tolerance;
+    if !(tolerance.is_finite() && tolerance >= 0.0) {
+        return Err(MeshError::InvalidTolerance { value: tolerance });
+    }
+    if user_positions.is_empty() {
+        return Err(MeshError::Empty(format!("{prefix}there are no vertices")));
+    }
+    let faces = offsets.len().saturating_sub(1);
+    if faces == 0 {
+        return Err(MeshError::Empty(format!(
+            "{prefix}there are no faces ({} vertices but nothing connects them)",
+            user_positions.len()
+        )));
+    }
+    let n = user_positions.len();
+    if u32::try_from(n).is_err() {
+        return Err(MeshError::Malformed {
+            path: path.unwrap_or("mesh").to_owned(),
+            message: format!("{n} vertices: at most {} are supported", u32::MAX),
+        });
+    }
+    for (i, p) in user_positions.iter().enumerate() {
+        check_finite(i, *p).map_err(|e| match e {
+            MeshError::NonFinite {
+                vertex, x, y, z, ..
+            } => MeshError::NonFinite {
+                vertex,
+                x,
+                y,
+                z,
+                path: owned_path(),
+                line: None,
+            },
+            other => other,
+        })?;
+    }
+    for face in 0..faces {
+        let poly = &indices[offsets[face]..offsets[face + 1]];
+        if poly.len() < 3 {
+            return Err(MeshError::TooFewVertices {
+                face,
+                count: poly.len(),
+                path: owned_path(),
+                line: None,
+            });
+        }
+        if let Some(&index) = poly.iter().find(|&&i| i as usize >= n) {
+            return Err(MeshError::IndexOutOfRange {
+                face,
+                index: i64::from(index),
+                vertex_count: n,
+                path: owned_path(),
+                line: None,
+            });
+        }
+    }
+
+    let (lo, hi) = user_positions.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let diagonal = (hi - lo).length();
+    let welded = weld(&user_positions, tolerance * diagonal);
+    drop(user_positions);
+    let positions = welded.positions;
+    let map = welded.map;
+    let min_cross = 2.0 * DEGENERATE_AREA * diagonal * diagonal;
+
+    let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(indices.len().saturating_sub(2 * faces));
+    let mut corners: Vec<u32> = Vec::new();
+    let mut scratch: Vec<[u32; 3]> = Vec::new();
+    for face in 0..faces {
+        corners.clear();
+        for &i in &indices[offsets[face]..offsets[face + 1]] {
+            let v = map[i as usize];
+            if corners.last() != Some(&v) {
+                corners.push(v);
+            }
+        }
+        while corners.len() > 1 && corners.first() == corners.last() {
+            corners.pop();
+        }
+        if corners.len() < 3 {
+            continue; // collapsed by welding
+        }
+        scratch.clear();
+        triangulate(&positions, &corners, &mut scratch);
+        for &[a, b, c] in &scratch {
+            if a == b || b == c || c == a {
+                continue;
+            }
+            let (pa, pb, pc) = (
+                positions[a as usize],
+                positions[b as usize],
+                positions[c as usize],
+            );
+            // Written so that an unexpected NaN also counts as degenerate.
+            let has_area = (pb - pa).cross(pc - pa).length() > min_cross;
+            if !has_area {
+                continue;
+            }
+            triangles.push([a, b, c]);
+        }
+    }
+    if triangles.is_empty() {
+        return Err(MeshError::AllFacesDegenerate {
+            faces,
+            path: owned_path(),
+        });
+    }
+    Ok(TriMesh {
+        positions,
+        triangles,
+        user_to_internal: map,
+    })
 }
