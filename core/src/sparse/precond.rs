@@ -1,0 +1,396 @@
+//! Preconditioners for the three-channel Krylov solvers.
+//!
+//! * [`Jacobi`]: `z = D⁻¹ r`. No setup beyond inverting the diagonal; PCG fuses it into its
+//!   vector updates, so it costs no extra pass over memory.
+//! * [`Chebyshev`]: a Chebyshev polynomial in `D⁻¹A` over Jacobi, `z = p(D⁻¹A) D⁻¹ r`, with `p`
+//!   of degree `degree`: `degree` extra matrix–vector products per application, each fused
+//!   with its vector updates into one parallel pass. The interval is `[λmax/ratio, λmax]`,
+//!   `λmax` a Gershgorin bound of `D⁻¹A` (so `p > 0` on the whole spectrum and the
+//!   preconditioner is SPD). The matrix is applied from an `f32` copy of its values (the
+//!   preconditioner need not be exact; half the bytes to stream).
+//!
+//! Which to use is recorded in the [module documentation](super) with measurements.
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+
+use super::csr::{CsrMatrix3, CsrPattern};
+use super::error::SparseError;
+use super::ops::{row_mul, sum_partials, CHUNK};
+
+/// Which preconditioner to build (a plain, copyable choice for options, the CLI and the C ABI).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum PreconditionerKind {
+    /// No preconditioning (`z = r`).
+    Identity,
+    /// Diagonal scaling. The default: see the module documentation for the measurements.
+    #[default]
+    Jacobi,
+    /// A Chebyshev polynomial of degree `degree` (≥ 1) over Jacobi: `degree` extra
+    /// matrix–vector products per iteration.
+    Chebyshev {
+        /// Polynomial degree, 1 to [`Chebyshev::MAX_DEGREE`].
+        degree: usize,
+    },
+}
+
+/// Diagonal (Jacobi) preconditioner: the inverse diagonal, per channel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Jacobi {
+    inv_diag: Vec<[f64; 3]>,
+}
+
+fn inverse_diagonal(a: &CsrMatrix3) -> Result<Vec<[f64; 3]>, SparseError> {
+    let d = a.diagonal();
+    if let Some((row, channel, value)) = d
+        .iter()
+        .enumerate()
+        .find_map(|(i, v)| v.iter().position(|&x| !(x > 0.0 && x.is_finite())).map(|c| (i, c, v[c])))
+    {
+        return Err(SparseError::NonPositiveDiagonal { row, channel, value });
+    }
+    Ok(d.into_iter().map(|v| v.map(|x| 1.0 / x)).collect())
+}
+
+impl Jacobi {
+    /// Inverts the diagonal of `a`.
+    ///
+    /// # Errors
+    /// [`SparseError::NonPositiveDiagonal`] naming the first row and channel whose diagonal is
+    /// not positive and finite (an SPD matrix has a positive diagonal).
+    pub fn new(a: &CsrMatrix3) -> Result<Self, SparseError> {
+        Ok(Self { inv_diag: inverse_diagonal(a)? })
+    }
+
+    /// The inverse diagonal.
+    #[must_use]
+    pub fn inv_diag(&self) -> &[[f64; 3]] {
+        &self.inv_diag
+    }
+}
+
+/// Chebyshev polynomial preconditioner over Jacobi (see the module documentation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Chebyshev {
+    inv_diag: Vec<[f64; 3]>,
+    pattern: Arc<CsrPattern>,
+    values: Vec<[f32; 3]>,
+    degree: usize,
+    lambda_max: [f64; 3],
+    lambda_min: [f64; 3],
+}
+
+/// Scratch vectors for one application of a preconditioner.
+#[derive(Debug, Default)]
+pub(crate) struct PrecondWork {
+    d0: Vec<[f64; 3]>,
+    d1: Vec<[f64; 3]>,
+    res: Vec<[f64; 3]>,
+}
+
+impl PrecondWork {
+    fn ensure(&mut self, n: usize) {
+        for v in [&mut self.d0, &mut self.d1, &mut self.res] {
+            if v.len() != n {
+                *v = vec![[0.0; 3]; n];
+            }
+        }
+    }
+}
+
+impl Chebyshev {
+    /// The largest supported degree.
+    pub const MAX_DEGREE: usize = 16;
+    /// The interval is `[λmax / RATIO, λmax]` (tuned on the Laplacian proxy, see the module
+    /// documentation).
+    pub const RATIO: f64 = 8.0;
+
+    /// Builds the preconditioner for `a`: inverse diagonal, Gershgorin bound of `D⁻¹A`, and an
+    /// `f32` copy of the values.
+    ///
+    /// # Errors
+    /// [`SparseError::NonPositiveDiagonal`] as for [`Jacobi::new`];
+    /// [`SparseError::InvalidOption`] if `degree` is 0 or above [`Self::MAX_DEGREE`].
+    pub fn new(a: &CsrMatrix3, degree: usize) -> Result<Self, SparseError> {
+        if degree == 0 || degree > Self::MAX_DEGREE {
+            return Err(SparseError::InvalidOption(format!(
+                "Chebyshev degree {degree}: must be 1 to {}",
+                Self::MAX_DEGREE
+            )));
+        }
+        let inv_diag = inverse_diagonal(a)?;
+        let p = a.pattern();
+        let vals = a.values();
+        // Gershgorin bounds of D⁻¹A (row sums) and of D^-½ A D^-½ (same spectrum); take the
+        // smaller. Both are valid for any matrix.
+        let bounds: [f64; 6] = (0..a.n())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|i| {
+                let mut s = [0.0; 6];
+                let r0 = p.row_ptr()[i];
+                for (q, &j) in p.row(i).iter().enumerate() {
+                    let v = vals[r0 + q];
+                    for c in 0..3 {
+                        s[c] += v[c].abs() * inv_diag[i][c];
+                        s[3 + c] += v[c].abs() * (inv_diag[i][c] * inv_diag[j as usize][c]).sqrt();
+                    }
+                }
+                s
+            })
+            .reduce(|| [0.0; 6], |a, b| std::array::from_fn(|k| a[k].max(b[k])));
+        let lambda_max = [0, 1, 2].map(|c| bounds[c].min(bounds[3 + c]));
+        let lambda_min = lambda_max.map(|l| l / Self::RATIO);
+        #[allow(clippy::cast_possible_truncation)]
+        let values = vals.iter().map(|v| v.map(|x| x as f32)).collect();
+        Ok(Self { inv_diag, pattern: Arc::clone(p), values, degree, lambda_max, lambda_min })
+    }
+
+    /// The polynomial degree (extra matrix–vector products per application).
+    #[must_use]
+    pub fn degree(&self) -> usize {
+        self.degree
+    }
+
+    /// The interval `[λmin, λmax]` of `D⁻¹A` the polynomial is built for, per channel.
+    #[must_use]
+    pub fn interval(&self) -> [[f64; 2]; 3] {
+        [0, 1, 2].map(|c| [self.lambda_min[c], self.lambda_max[c]])
+    }
+
+    /// `z = p(D⁻¹A) D⁻¹ r`; returns `r·z` per channel (deterministic).
+    fn apply_dot(&self, r: &[[f64; 3]], z: &mut [[f64; 3]], w: &mut PrecondWork) -> [f64; 3] {
+        let n = r.len();
+        w.ensure(n);
+        let theta: [f64; 3] = std::array::from_fn(|c| 0.5 * (self.lambda_max[c] + self.lambda_min[c]));
+        let delta: [f64; 3] = std::array::from_fn(|c| 0.5 * (self.lambda_max[c] - self.lambda_min[c]));
+        let sigma: [f64; 3] = std::array::from_fn(|c| theta[c] / delta[c]);
+        let mut rho: [f64; 3] = std::array::from_fn(|c| 1.0 / sigma[c]);
+        let inv_theta = theta.map(|t| 1.0 / t);
+        let dinv = &self.inv_diag;
+        // Step 1: d0 = D⁻¹ r / θ (z = d0, implicit).
+        w.d0.par_chunks_mut(CHUNK).zip(r.par_chunks(CHUNK)).zip(dinv.par_chunks(CHUNK)).for_each(|((d, r), di)| {
+            for ((d, r), di) in d.iter_mut().zip(r).zip(di) {
+                *d = [0, 1, 2].map(|c| di[c] * r[c] * inv_theta[c]);
+            }
+        });
+        let p = &*self.pattern;
+        let vals = &self.values;
+        for step in 2..=self.degree + 1 {
+            let first = step == 2;
+            let last = step == self.degree + 1;
+            let mut c1 = [0.0; 3];
+            let mut c2 = [0.0; 3];
+            for c in 0..3 {
+                let rn = 1.0 / (2.0 * sigma[c] - rho[c]);
+                c1[c] = rn * rho[c];
+                c2[c] = 2.0 * rn / delta[c];
+                rho[c] = rn;
+            }
+            let (d_old, d_new) = (&w.d0, &mut w.d1);
+            let res = &mut w.res;
+            let parts: Vec<[f64; 3]> = (d_new.par_chunks_mut(CHUNK), res.par_chunks_mut(CHUNK), z.par_chunks_mut(CHUNK))
+                .into_par_iter()
+                .enumerate()
+                .map(|(ci, (dn, rs, zc))| {
+                    let r0 = ci * CHUNK;
+                    let mut dot = [0.0; 3];
+                    for li in 0..dn.len() {
+                        let i = r0 + li;
+                        let (s, e) = (p.row_ptr()[i], p.row_ptr()[i + 1]);
+                        let ad = row_mul(&p.col_idx()[s..e], &vals[s..e], d_old);
+                        let res_in = if first { r[i] } else { rs[li] };
+                        let dold = d_old[i];
+                        let di = dinv[i];
+                        let mut zi = if first { dold } else { zc[li] };
+                        let mut resi = [0.0; 3];
+                        let mut dni = [0.0; 3];
+                        for c in 0..3 {
+                            resi[c] = res_in[c] - ad[c];
+                            dni[c] = c1[c] * dold[c] + c2[c] * di[c] * resi[c];
+                            zi[c] += dni[c];
+                        }
+                        zc[li] = zi;
+                        if last {
+                            let ri = r[i];
+                            for c in 0..3 {
+                                dot[c] += ri[c] * zi[c];
+                            }
+                        } else {
+                            rs[li] = resi;
+                            dn[li] = dni;
+                        }
+                    }
+                    dot
+                })
+                .collect();
+            if last {
+                return sum_partials(&parts);
+            }
+            std::mem::swap(&mut w.d0, &mut w.d1);
+        }
+        unreachable!("degree ≥ 1 always reaches the last step")
+    }
+}
+
+/// A built preconditioner for three-channel systems.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Preconditioner {
+    /// No preconditioning.
+    Identity,
+    /// Diagonal scaling.
+    Jacobi(Jacobi),
+    /// Chebyshev polynomial over Jacobi.
+    Chebyshev(Chebyshev),
+}
+
+impl Preconditioner {
+    /// Builds the preconditioner of the given kind for `a`.
+    ///
+    /// # Errors
+    /// [`SparseError::NonPositiveDiagonal`] (Jacobi, Chebyshev) if a diagonal entry is not
+    /// positive; [`SparseError::InvalidOption`] for a bad Chebyshev degree.
+    pub fn new(a: &CsrMatrix3, kind: PreconditionerKind) -> Result<Self, SparseError> {
+        Ok(match kind {
+            PreconditionerKind::Identity => Self::Identity,
+            PreconditionerKind::Jacobi => Self::Jacobi(Jacobi::new(a)?),
+            PreconditionerKind::Chebyshev { degree } => Self::Chebyshev(Chebyshev::new(a, degree)?),
+        })
+    }
+
+    /// The kind this preconditioner was built as.
+    #[must_use]
+    pub fn kind(&self) -> PreconditionerKind {
+        match self {
+            Self::Identity => PreconditionerKind::Identity,
+            Self::Jacobi(_) => PreconditionerKind::Jacobi,
+            Self::Chebyshev(c) => PreconditionerKind::Chebyshev { degree: c.degree },
+        }
+    }
+
+    /// The dimension it was built for (`None` for the identity, which fits any).
+    #[must_use]
+    pub fn n(&self) -> Option<usize> {
+        match self {
+            Self::Identity => None,
+            Self::Jacobi(j) => Some(j.inv_diag.len()),
+            Self::Chebyshev(c) => Some(c.inv_diag.len()),
+        }
+    }
+
+    pub(crate) fn check_dimension(&self, n: usize) -> Result<(), SparseError> {
+        match self.n() {
+            Some(m) if m != n => Err(SparseError::DimensionMismatch {
+                what: "preconditioner dimension (matrix rows)",
+                expected: n,
+                found: m,
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// `z = M⁻¹ r`.
+    ///
+    /// # Errors
+    /// [`SparseError::DimensionMismatch`] if `r`, `z` and the preconditioner differ in size.
+    pub fn apply(&self, r: &[[f64; 3]], z: &mut [[f64; 3]]) -> Result<(), SparseError> {
+        self.check_dimension(r.len())?;
+        if z.len() != r.len() {
+            return Err(SparseError::DimensionMismatch { what: "z length", expected: r.len(), found: z.len() });
+        }
+        self.apply_dot(r, z, &mut PrecondWork::default());
+        Ok(())
+    }
+
+    /// `z = M⁻¹ r`, returning `r·z` (lengths checked by the caller).
+    pub(crate) fn apply_dot(&self, r: &[[f64; 3]], z: &mut [[f64; 3]], w: &mut PrecondWork) -> [f64; 3] {
+        match self {
+            Self::Identity => {
+                z.copy_from_slice(r);
+                super::ops::dot3(r, r)
+            }
+            Self::Jacobi(j) => {
+                let parts: Vec<[f64; 3]> = (z.par_chunks_mut(CHUNK), r.par_chunks(CHUNK), j.inv_diag.par_chunks(CHUNK))
+                    .into_par_iter()
+                    .map(|(z, r, d)| {
+                        let mut s = [0.0; 3];
+                        for ((z, r), d) in z.iter_mut().zip(r).zip(d) {
+                            for c in 0..3 {
+                                z[c] = d[c] * r[c];
+                                s[c] += r[c] * z[c];
+                            }
+                        }
+                        s
+                    })
+                    .collect();
+                sum_partials(&parts)
+            }
+            Self::Chebyshev(c) => c.apply_dot(r, z, w),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sparse::csr::Triplet;
+
+    fn path_laplacian(n: usize) -> CsrMatrix3 {
+        let mut t = Vec::new();
+        for i in 0..n {
+            t.push(Triplet::new(i as u32, i as u32, [2.1, 2.5, 3.0]));
+            if i + 1 < n {
+                t.push(Triplet::new(i as u32, i as u32 + 1, [-1.0; 3]));
+                t.push(Triplet::new(i as u32 + 1, i as u32, [-1.0; 3]));
+            }
+        }
+        CsrMatrix3::from_triplets(n, &t).unwrap()
+    }
+
+    #[test]
+    fn chebyshev_is_symmetric_positive_and_bounds_hold() {
+        let a = path_laplacian(50);
+        let c = Chebyshev::new(&a, 3).unwrap();
+        for [lo, hi] in c.interval() {
+            assert!(lo > 0.0 && hi >= lo && hi <= 2.0 / 2.1 * 2.1 + 1e-12);
+        }
+        let pc = Preconditioner::Chebyshev(c.clone());
+        // Columns of M⁻¹ via unit vectors: symmetric and positive definite.
+        let n = a.n();
+        let mut m = vec![vec![[0.0; 3]; n]; n];
+        for j in 0..n {
+            let mut e = vec![[0.0; 3]; n];
+            e[j] = [1.0; 3];
+            pc.apply(&e, &mut m[j]).unwrap();
+        }
+        for ch in 0..3 {
+            let dm = nalgebra::DMatrix::from_fn(n, n, |i, j| m[j][i][ch]);
+            assert!((&dm - dm.transpose()).abs().max() < 1e-6 * dm.abs().max());
+            let sym = (&dm + dm.transpose()) * 0.5;
+            assert!(sym.symmetric_eigenvalues().min() > 0.0);
+        }
+        // The f32 copy of the matrix applies like the f64 one, to f32 accuracy.
+        let x: Vec<[f64; 3]> = (0..n).map(|i| [i as f64, 1.0, -0.5 * i as f64]).collect();
+        let mut y = vec![[0.0; 3]; n];
+        crate::sparse::csr::spmv3(&c.pattern, &c.values, &x, &mut y);
+        let y64 = a.mul_vec(&x).unwrap();
+        for (u, v) in y.iter().zip(&y64) {
+            for ch in 0..3 {
+                assert!((u[ch] - v[ch]).abs() <= 1e-6 * (1.0 + v[ch].abs()));
+            }
+        }
+    }
+
+    #[test]
+    fn bad_diagonal_and_degree_are_errors() {
+        let mut a = path_laplacian(5);
+        let k = a.pattern().diagonal_positions()[3];
+        a.values_mut()[k][2] = -1.0;
+        let e = Jacobi::new(&a).unwrap_err();
+        assert!(matches!(e, SparseError::NonPositiveDiagonal { row: 3, channel: 2, .. }), "{e}");
+        assert!(matches!(Chebyshev::new(&path_laplacian(5), 0), Err(SparseError::InvalidOption(_))));
+    }
+}
