@@ -1,1 +1,57 @@
-fn main() {}
+//! `transcut`: mesh, bake, render and benchmark translucent objects from the shell.
+
+mod bench;
+mod mesh_cmd;
+mod progress;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Subsurface scattering for translucent objects (marble, wax, milk, jade, skin), computed as
+/// per-vertex radiance by solving the diffusion equation on a tetrahedral mesh.
+#[derive(Parser)]
+#[command(name = "transcut", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Fill a surface mesh (OBJ or PLY) with quality tetrahedra and write them as VTK.
+    Mesh(mesh_cmd::MeshArgs),
+    /// Run benchmarks and print JSON.
+    Bench(bench::BenchArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Mesh(args) => mesh_cmd::run(&args),
+        Command::Bench(args) => bench::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("transcut: error: {}", error_chain(&e));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The error and its causes joined by ": ", skipping a cause whose text the previous message
+/// already contains (the core's errors include their source in their own message).
+fn error_chain(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if !out.contains(&text) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&text);
+        }
+    }
+    out
+}

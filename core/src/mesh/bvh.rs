@@ -154,11 +154,11 @@ impl TriangleBvh {
         hit
     }
 
-    /// Every crossing of the segment `a → b` (parameter `t ∈ [0, 1]`), sorted by `t`, appended to
-    /// `out` as `(t, triangle)`.
+    /// Every crossing of the segment `a → b` (parameter `t ∈ [0, 1]`, end points included), sorted
+    /// by `t`, appended to `out` as `(t, triangle)`.
     pub fn segment_hits(&self, a: DVec3, b: DVec3, out: &mut Vec<(f64, u32)>) {
         let start = out.len();
-        let mut t_far = 1.0;
+        let mut t_far = 1.0 + 1e-12;
         self.traverse_ray(a, b - a, -1e-12, &mut t_far, &mut |t, tri, _, _| {
             out.push((t, tri));
             false

@@ -17,10 +17,10 @@ mod weld;
 
 pub use bvh::{RayHit, SurfacePoint, TriangleBvh};
 pub use error::MeshError;
-pub use obj::{load_obj, parse_obj};
-pub use ply::{load_ply, parse_ply};
-pub use quality::{dihedral_angles, tet_volume, QualityReport};
-pub use tetmesh::{BoundaryFace, TetMesh, TetMeshError};
+pub use obj::{load_obj, load_obj_with, parse_obj, parse_obj_with};
+pub use ply::{load_ply, load_ply_with, parse_ply, parse_ply_with};
+pub use quality::{dihedral_angles, dihedral_cotangents, tet_volume, QualityReport};
+pub use tetmesh::{BoundaryFace, BoundaryTopology, TetMesh, TetMeshError};
 pub use trimesh::{TriMesh, WeldOptions};
 pub use vtk::write_vtk;
 
@@ -38,29 +38,28 @@ pub fn load(path: impl AsRef<Path>) -> Result<TriMesh, MeshError> {
         Some("obj") => load_obj(path),
         Some("ply") => load_ply(path),
         _ => {
-            let head = std::fs::read(path)
-                .map_err(|source| MeshError::Io { path: path.display().to_string(), source })?;
-            if head.starts_with(b"ply") {
-                load_ply(path)
-            } else if looks_like_obj(&head) {
-                load_obj(path)
+            let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: path.display().to_string(), source })?;
+            let name = path.display().to_string();
+            if bytes.starts_with(b"ply") {
+                parse_ply(&bytes, &name)
+            } else if looks_like_obj(&bytes) {
+                let text = String::from_utf8_lossy(&bytes);
+                parse_obj(&text, &name)
             } else {
-                Err(MeshError::UnknownFormat { path: path.display().to_string() })
+                Err(MeshError::UnknownFormat { path: name })
             }
         }
     }
 }
 
+/// Whether the text starts like an OBJ file: its first statement (after comments and blank
+/// lines) is an OBJ keyword followed by whitespace.
 fn looks_like_obj(bytes: &[u8]) -> bool {
-    let text = match std::str::from_utf8(&bytes[..bytes.len().min(4096)]) {
-        Ok(t) => t,
-        Err(e) => match std::str::from_utf8(&bytes[..e.valid_up_to()]) {
-            Ok(t) => t,
-            Err(_) => return false,
-        },
-    };
-    text.lines().any(|l| {
-        let l = l.trim_start();
-        l.starts_with("v ") || l.starts_with("f ") || l.starts_with("vn ") || l.starts_with("o ")
-    })
+    const KEYWORDS: [&str; 10] = ["v", "vt", "vn", "f", "o", "g", "s", "usemtl", "mtllib", "l"];
+    let text = String::from_utf8_lossy(&bytes[..bytes.len().min(1 << 16)]);
+    text.lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .and_then(|l| l.split_whitespace().next())
+        .is_some_and(|k| KEYWORDS.contains(&k))
 }

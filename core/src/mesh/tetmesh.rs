@@ -21,6 +21,25 @@ pub struct BoundaryFace {
     pub tet: u32,
 }
 
+/// Defects of a boundary surface (all zero for a closed 2-manifold).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct BoundaryTopology {
+    /// Edges in only one boundary triangle.
+    pub open_edges: usize,
+    /// Edges in more than two boundary triangles.
+    pub nonmanifold_edges: usize,
+    /// Vertices whose boundary triangles form more than one fan.
+    pub nonmanifold_vertices: usize,
+}
+
+impl BoundaryTopology {
+    /// Whether the boundary is a closed 2-manifold.
+    #[must_use]
+    pub fn is_closed_manifold(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
 /// What is wrong with a tetrahedral mesh given to [`TetMesh::new`].
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -253,6 +272,81 @@ impl TetMesh {
                 out
             })
             .collect()
+    }
+
+    /// Checks that the boundary surface is closed and manifold: every boundary edge in exactly two
+    /// boundary triangles, and the boundary triangles around every boundary vertex forming a
+    /// single fan.
+    #[must_use]
+    pub fn boundary_topology(&self) -> BoundaryTopology {
+        let mut edges: Vec<(u64, u32)> = self
+            .boundary_faces
+            .iter()
+            .enumerate()
+            .flat_map(|(f, face)| {
+                (0..3).map(move |k| {
+                    let (a, b) = (face.vertices[k], face.vertices[(k + 1) % 3]);
+                    ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), f as u32)
+                })
+            })
+            .collect();
+        edges.par_sort_unstable();
+        let mut report = BoundaryTopology::default();
+        let mut i = 0;
+        while i < edges.len() {
+            let mut j = i + 1;
+            while j < edges.len() && edges[j].0 == edges[i].0 {
+                j += 1;
+            }
+            match j - i {
+                1 => report.open_edges += 1,
+                2 => {}
+                _ => report.nonmanifold_edges += 1,
+            }
+            i = j;
+        }
+        // Per-vertex fan count: union-find over the faces around v, joined when they share an edge
+        // through v; a manifold vertex has one component.
+        let mut parent: Vec<u32> = (0..self.boundary_faces.len() as u32).collect();
+        fn find(parent: &mut [u32], mut x: u32) -> u32 {
+            while parent[x as usize] != x {
+                parent[x as usize] = parent[parent[x as usize] as usize];
+                x = parent[x as usize];
+            }
+            x
+        }
+        let mut faces_at: Vec<Vec<u32>> = vec![Vec::new(); self.positions.len()];
+        for (f, face) in self.boundary_faces.iter().enumerate() {
+            for &v in &face.vertices {
+                faces_at[v as usize].push(f as u32);
+            }
+        }
+        for (v, faces) in faces_at.iter().enumerate() {
+            if faces.len() < 2 {
+                continue;
+            }
+            for &f in faces {
+                parent[f as usize] = f;
+            }
+            for (x, &f) in faces.iter().enumerate() {
+                for &g in &faces[x + 1..] {
+                    let shared = self.boundary_faces[f as usize]
+                        .vertices
+                        .iter()
+                        .filter(|&&w| w as usize != v && self.boundary_faces[g as usize].vertices.contains(&w))
+                        .count();
+                    if shared > 0 {
+                        let (a, b) = (find(&mut parent, f), find(&mut parent, g));
+                        parent[a as usize] = b;
+                    }
+                }
+            }
+            let roots = faces.iter().filter(|&&f| find(&mut parent, f) == f).count();
+            if roots > 1 {
+                report.nonmanifold_vertices += 1;
+            }
+        }
+        report
     }
 
     /// Dihedral-angle statistics over all tets.

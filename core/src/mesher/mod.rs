@@ -16,6 +16,7 @@
 //! 10%, at most four passes) or a lattice spacing.
 
 mod lattice;
+mod manifold;
 mod stencil;
 mod stuffing;
 mod winding;
@@ -132,6 +133,17 @@ pub struct MesherStats {
     /// Cut points placed by winding-number bisection because no surface crossed the edge (holes
     /// of open scans); these are not on the input surface.
     pub bisected_cuts: usize,
+    /// Vertices duplicated to separate lobes of the solid that touched only along an edge or at
+    /// a point (see `split_pinched_vertices`); the geometry is unchanged.
+    pub split_vertices: usize,
+    /// Tets added to close the gap where two lobes met along an edge (all their vertices are on
+    /// the surface; each within the dihedral bounds).
+    pub filled_tets: usize,
+    /// Tets removed where two lobes met along an edge or at a vertex and splitting could not
+    /// separate them (a few, on features thinner than the lattice).
+    pub removed_tets: usize,
+    /// Vertices exposed by those removals and moved onto the input surface.
+    pub projected_vertices: usize,
     /// Stage timings.
     pub timings: MesherTimings,
 }
@@ -164,18 +176,21 @@ pub fn tetrahedralize_with(surface: &TriMesh, options: &MesherOptions, progress:
     if surface.triangles().is_empty() || !(diagonal > 0.0) {
         return Err(MesherError::NoInterior { detail: ": the surface has no area".into() });
     }
+    if extent.min_element() <= 1e-9 * diagonal {
+        return Err(MesherError::NoInterior { detail: ": the surface is flat".into() });
+    }
 
     let t = Instant::now();
     let winding = WindingNumber::new(TriangleBvh::from_indexed(surface.positions(), surface.triangles()));
     timings.winding_tree_ms = ms(t);
 
     let t = Instant::now();
-    let (stuffed, spacing, passes) = match options.size {
+    let (stuffed, spacing, mut passes) = match options.size {
         MeshSize::Spacing(h) => {
             if !(h.is_finite() && h > 0.0) {
                 return Err(MesherError::InvalidOptions(format!("spacing must be positive and finite, got {h}")));
             }
-            (run_pass(&winding, lo, hi, h, options, &progress)?, h, 1)
+            (run_pass(&winding, lo, hi, h, 0, options, &progress)?, h, 1)
         }
         MeshSize::Tets(target) => {
             if target < 1 {
@@ -191,7 +206,22 @@ pub fn tetrahedralize_with(surface: &TriMesh, options: &MesherOptions, progress:
 
     let t = Instant::now();
     let bisected_cuts = stuffed.bisected_cuts;
-    let mut mesh = TetMesh::new(stuffed.positions, stuffed.tets, Vec::new())?;
+    let (mut mesh, mut repair) = manifold::make_manifold(stuffed.positions, stuffed.tets, winding.bvh())?;
+    let mut bisected_cuts = bisected_cuts;
+    // A pinch that could only be repaired by removing tets exposes interior vertices; another
+    // lattice offset at the same spacing usually has none.
+    for variant in 1..=3 {
+        if repair.removed_tets == 0 {
+            break;
+        }
+        passes += 1;
+        let again = run_pass(&winding, lo, hi, spacing, variant, options, &progress)?;
+        let bisected = again.bisected_cuts;
+        let (m, r) = manifold::make_manifold(again.positions, again.tets, winding.bvh())?;
+        if r.removed_tets < repair.removed_tets {
+            (mesh, repair, bisected_cuts) = (m, r, bisected);
+        }
+    }
     timings.topology_ms = ms(t);
     progress.report("topology", 1.0)?;
 
@@ -212,6 +242,10 @@ pub fn tetrahedralize_with(surface: &TriMesh, options: &MesherOptions, progress:
         quality,
         hausdorff,
         bisected_cuts,
+        split_vertices: repair.split_vertices,
+        filled_tets: repair.filled_tets,
+        removed_tets: repair.removed_tets,
+        projected_vertices: repair.projected_vertices,
         timings,
     };
     Ok(Tetrahedralization { mesh, stats })
@@ -221,10 +255,18 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-/// The BCC lattice of spacing `h` covering `[lo, hi]` with one and a half cells of margin, so
-/// that every lattice vertex on the rim is outside.
-fn lattice_for(lo: DVec3, hi: DVec3, h: f64) -> Lattice {
-    let origin = lo - DVec3::splat(1.5 * h);
+/// The BCC lattice of spacing `h` covering `[lo, hi]` with at least one and a half cells of
+/// margin, so that every lattice vertex on the rim is outside. The origin is shifted by an
+/// irrational fraction of `h` so that lattice planes do not coincide with the axis-aligned faces
+/// of CAD models (a lattice vertex exactly on the surface has an ill-defined label).
+///
+/// `variant` picks another irrational shift, used when a lattice position produced a pinch that
+/// could only be repaired by removing tets.
+fn lattice_for(lo: DVec3, hi: DVec3, h: f64, variant: u32) -> Lattice {
+    const SHIFT: [f64; 3] = [0.118_033_988_749_895, 0.141_421_356_237_31, 0.173_205_080_756_89];
+    const GOLDEN: f64 = 0.618_033_988_749_895;
+    let shift = DVec3::from_array(SHIFT.map(|s| (s + f64::from(variant) * GOLDEN).fract()));
+    let origin = lo - DVec3::splat(1.5 * h) - shift * h;
     let cells = ((hi - origin) / h + 1.5).ceil();
     Lattice { origin, h, n: [cells.x as usize, cells.y as usize, cells.z as usize] }
 }
@@ -234,6 +276,7 @@ fn run_pass(
     lo: DVec3,
     hi: DVec3,
     h: f64,
+    variant: u32,
     options: &MesherOptions,
     progress: &Progress,
 ) -> Result<stuffing::Stuffed, MesherError> {
@@ -242,7 +285,7 @@ fn run_pass(
     if !(vertices <= options.max_lattice_vertices as f64) || vertices >= u32::MAX as f64 / 2.0 {
         return Err(MesherError::TooLarge { vertices: vertices as usize, limit: options.max_lattice_vertices });
     }
-    Ok(stuffing::stuff(winding, &lattice_for(lo, hi, h), progress)?)
+    Ok(stuffing::stuff(winding, &lattice_for(lo, hi, h, variant), progress)?)
 }
 
 /// Adjusts the lattice spacing until the tet count is within 10% of `target` (at most four
@@ -266,7 +309,7 @@ fn size_to_count(
     let mut passes = 0;
     for pass in 1..=4 {
         passes = pass;
-        let stuffed = run_pass(winding, lo, hi, h, options, progress)?;
+        let stuffed = run_pass(winding, lo, hi, h, 0, options, progress)?;
         let count = stuffed.tets.len();
         let ratio = count as f64 / target as f64;
         let better = best.as_ref().is_none_or(|(b, _)| (b.tets.len() as f64 / target as f64).ln().abs() > ratio.ln().abs());
@@ -310,4 +353,52 @@ fn map_user_vertices(surface: &TriMesh, mesh: &TetMesh, input: &TriangleBvh) -> 
         .reduce(|| 0.0, f64::max);
     let map = surface.user_to_internal().iter().map(|&i| internal[i as usize]).collect();
     (map, Hausdorff { boundary_to_input, input_to_boundary, max: boundary_to_input.max(input_to_boundary) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A closed, outward-oriented UV sphere as a `TriMesh`.
+    pub(crate) fn uv_sphere(radius: f64, nu: usize, nv: usize) -> TriMesh {
+        let mut positions = vec![DVec3::new(0.0, 0.0, radius)];
+        for j in 1..nv {
+            let th = std::f64::consts::PI * j as f64 / nv as f64;
+            for i in 0..nu {
+                let ph = 2.0 * std::f64::consts::PI * i as f64 / nu as f64;
+                positions.push(radius * DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()));
+            }
+        }
+        positions.push(DVec3::new(0.0, 0.0, -radius));
+        let ring = |j: usize, i: usize| (1 + (j - 1) * nu + i % nu) as u32;
+        let south = (positions.len() - 1) as u32;
+        let mut triangles = Vec::new();
+        for i in 0..nu {
+            triangles.push([0, ring(1, i), ring(1, i + 1)]);
+            triangles.push([south, ring(nv - 1, i + 1), ring(nv - 1, i)]);
+        }
+        for j in 1..nv - 1 {
+            for i in 0..nu {
+                triangles.push([ring(j, i), ring(j + 1, i), ring(j + 1, i + 1)]);
+                triangles.push([ring(j, i), ring(j + 1, i + 1), ring(j, i + 1)]);
+            }
+        }
+        let user_to_internal = (0..positions.len() as u32).collect();
+        TriMesh { positions, triangles, user_to_internal }
+    }
+
+    #[test]
+    fn sphere_meshes_with_quality_and_fidelity() {
+        let s = uv_sphere(10.0, 96, 48);
+        assert!(s.signed_volume() > 0.0);
+        let t = tetrahedralize_with(&s, &MesherOptions::with_tets(50_000), Progress::none()).unwrap();
+        let st = &t.stats;
+        eprintln!("{st:#?}");
+        assert!(st.quality.min_dihedral_deg >= 10.0, "{}", st.quality.min_dihedral_deg);
+        assert!(st.quality.max_dihedral_deg <= 165.0, "{}", st.quality.max_dihedral_deg);
+        assert!((st.tets as f64 / 50_000.0 - 1.0).abs() < 0.3);
+        assert!(st.hausdorff.boundary_to_input <= 0.01 * st.spacing);
+        let v = t.mesh.volume();
+        assert!((v / s.signed_volume() - 1.0).abs() < 0.02, "{v}");
+    }
 }

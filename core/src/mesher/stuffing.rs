@@ -27,6 +27,18 @@ pub(crate) struct Stuffed {
     pub bisected_cuts: usize,
 }
 
+/// The winding number, re-evaluated with a strict far-field criterion where the fast value is
+/// within 0.1 of the ½ threshold (near sharp creases the fast value can be a few per cent off,
+/// enough to flip the label of a point just outside a face).
+pub(crate) fn accurate_winding(surface: &WindingNumber, p: DVec3) -> f64 {
+    let w = surface.at(p);
+    if (w - 0.5).abs() < 0.1 {
+        surface.at_with_accuracy(p, 8.0)
+    } else {
+        w
+    }
+}
+
 /// Labels of lattice vertices: +1 inside, 0 on the surface (warped), −1 outside.
 fn label(w: f64) -> i8 {
     if w >= 0.5 {
@@ -50,7 +62,7 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
             if cancelled.load(Ordering::Relaxed) {
                 return vec![0.0; ids.len()];
             }
-            let out: Vec<f64> = ids.iter().map(|&v| surface.at(lattice.position(v as u32))).collect();
+            let out: Vec<f64> = ids.iter().map(|&v| accurate_winding(surface, lattice.position(v as u32))).collect();
             let d = done.fetch_add(out.len(), Ordering::Relaxed) + out.len();
             if progress.report("winding numbers", d as f64 / nv as f64).is_err() {
                 cancelled.store(true, Ordering::Relaxed);
@@ -183,7 +195,7 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
                         verts.clear();
                         let centroid = || {
                             let c = ids.iter().map(|&v| positions[v as usize]).sum::<DVec3>() / 4.0;
-                            surface.at(c) >= 0.5
+                            accurate_winding(surface, c) >= 0.5
                         };
                         fill(&ctx, ids, l, centroid, &mut verts);
                         for t in &verts {
@@ -277,11 +289,17 @@ fn cut_point(surface: &WindingNumber, a: DVec3, b: DVec3, w_a: f64, hits: &mut V
     let (mut lo, mut hi) = (0.0, 1.0);
     for _ in 0..30 {
         let mid = 0.5 * (lo + hi);
-        if surface.at(a + mid * d) >= 0.5 {
+        if accurate_winding(surface, a + mid * d) >= 0.5 {
             lo = mid;
         } else {
             hi = mid;
         }
     }
-    (a + 0.5 * (lo + hi) * d, true)
+    let t = 0.5 * (lo + hi);
+    // Inconsistently oriented faces break the ±1 walk, but the crossing is still on the surface:
+    // take the surface crossing nearest to where the winding number drops below ½.
+    match hits.iter().min_by(|x, y| (x.0 - t).abs().total_cmp(&(y.0 - t).abs())) {
+        Some(&(th, _)) => (a + th.clamp(0.0, 1.0) * d, false),
+        None => (a + t * d, true),
+    }
 }

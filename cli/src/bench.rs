@@ -1,0 +1,115 @@
+//! `transcut bench`: benchmarks with JSON output. Times are medians of several runs measured in
+//! one process, so ratios between entries are meaningful on a noisy machine.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use serde::Serialize;
+use transcut::mesh;
+use transcut::mesher::{tetrahedralize_with, MesherOptions};
+use transcut::Progress;
+
+/// Which benchmark to run.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Suite {
+    /// Tetrahedralise a mesh at several sizes: time and quality.
+    Mesh,
+}
+
+/// Arguments of `transcut bench`.
+#[derive(Args)]
+pub struct BenchArgs {
+    /// The benchmark suite.
+    #[arg(value_enum, default_value = "mesh")]
+    pub suite: Suite,
+    /// Input surface mesh (default: the shared Stanford bunny).
+    #[arg(long, default_value = "../shared/data/meshes/stanford-bunny.obj")]
+    pub input: PathBuf,
+    /// Target tet counts, comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [100_000usize, 500_000, 1_000_000])]
+    pub tets: Vec<usize>,
+    /// Runs per size; the median is reported.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+}
+
+#[derive(Serialize)]
+struct MeshEntry {
+    target_tets: usize,
+    tets: usize,
+    vertices: usize,
+    min_dihedral_deg: f64,
+    max_dihedral_deg: f64,
+    tets_below_10_deg: usize,
+    hausdorff: f64,
+    median_ms: f64,
+    runs_ms: Vec<f64>,
+    median_stage_ms: transcut::mesher::MesherTimings,
+}
+
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    match args.suite {
+        Suite::Mesh => bench_mesh(args),
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn bench_mesh(args: &BenchArgs) -> anyhow::Result<()> {
+    let load_start = Instant::now();
+    let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
+    let load_ms = load_start.elapsed().as_secs_f64() * 1e3;
+    let mut entries = Vec::new();
+    for &target in &args.tets {
+        let mut runs = Vec::new();
+        let mut stages = Vec::new();
+        let mut last = None;
+        for _ in 0..args.runs {
+            let start = Instant::now();
+            let t = tetrahedralize_with(&input, &MesherOptions::with_tets(target), Progress::none())?;
+            runs.push(start.elapsed().as_secs_f64() * 1e3);
+            stages.push(t.stats.timings);
+            last = Some(t);
+        }
+        let t = last.context("at least one run")?;
+        let q = &t.stats.quality;
+        let pick = |f: fn(&transcut::mesher::MesherTimings) -> f64| median(stages.iter().map(f).collect());
+        entries.push(MeshEntry {
+            target_tets: target,
+            tets: t.stats.tets,
+            vertices: t.stats.vertices,
+            min_dihedral_deg: q.min_dihedral_deg,
+            max_dihedral_deg: q.max_dihedral_deg,
+            tets_below_10_deg: q.min_angle_histogram[0],
+            hausdorff: t.stats.hausdorff.max,
+            median_ms: median(runs.clone()),
+            runs_ms: runs,
+            median_stage_ms: transcut::mesher::MesherTimings {
+                winding_tree_ms: pick(|s| s.winding_tree_ms),
+                stuffing_ms: pick(|s| s.stuffing_ms),
+                topology_ms: pick(|s| s.topology_ms),
+                mapping_ms: pick(|s| s.mapping_ms),
+                total_ms: pick(|s| s.total_ms),
+            },
+        });
+    }
+    let report = serde_json::json!({
+        "suite": "mesh",
+        "input": args.input.display().to_string(),
+        "load_ms": load_ms,
+        "threads": rayon::current_num_threads(),
+        "entries": entries,
+    });
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}

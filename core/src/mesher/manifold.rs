@@ -1,0 +1,432 @@
+//! Making the boundary a 2-manifold where isosurface stuffing leaves two lobes of the solid
+//! touching along an edge or at a vertex (a pinch: a short lattice edge with both ends warped
+//! onto the surface and the lattice vertices around it alternating in, out, out, in, out, out).
+//!
+//! Such a vertex's star — the tets around it — falls into several groups connected through faces
+//! that contain the vertex. Each group beyond the first gets its own copy of the vertex (same
+//! position), which separates the lobes: the geometry is unchanged, the boundary becomes
+//! manifold, and no tet changes shape.
+
+use glam::DVec3;
+
+use crate::mesh::{TetMesh, TetMeshError};
+
+/// What [`make_manifold`] changed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct Repair {
+    /// Vertex copies added by splitting pinched vertices.
+    pub split_vertices: usize,
+    /// Tets added to close the gap between two lobes meeting along an edge.
+    pub filled_tets: usize,
+    /// Tets removed where neither splitting nor filling applied.
+    pub removed_tets: usize,
+    /// Vertices exposed by a removal and moved onto the input surface (where every tet around
+    /// them stays within the dihedral bounds).
+    pub projected_vertices: usize,
+}
+
+/// Moves boundary vertices among `touched` that a removal exposed (off the input surface) to
+/// their closest point on it, one at a time, keeping each move only if every tet around the
+/// vertex stays positively oriented and within the dihedral bounds.
+fn project_exposed(positions: &mut [DVec3], tets: &[[u32; 4]], mesh: &TetMesh, touched: &[u32], surface: &crate::mesh::TriangleBvh) -> usize {
+    let scale = mesh.positions().iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+    let mut moved = 0;
+    for &v in touched {
+        if !mesh.is_boundary_vertex(v as usize) {
+            continue;
+        }
+        let Some(target) = surface.closest_point(positions[v as usize]) else { continue };
+        if target.distance <= 1e-9 * scale {
+            continue;
+        }
+        let around: Vec<usize> = (0..tets.len()).filter(|&t| tets[t].contains(&v)).collect();
+        let old = positions[v as usize];
+        positions[v as usize] = target.point;
+        let ok = around.iter().all(|&t| {
+            let p = tets[t].map(|w| positions[w as usize]);
+            let angles = crate::mesh::dihedral_angles(p);
+            crate::mesh::tet_volume(p) > 0.0
+                && angles.iter().all(|a| (MIN_DIHEDRAL_DEG..=MAX_DIHEDRAL_DEG).contains(&a.to_degrees()))
+        });
+        if ok {
+            moved += 1;
+        } else {
+            positions[v as usize] = old;
+        }
+    }
+    moved
+}
+
+/// Builds the tet mesh with a closed 2-manifold boundary.
+///
+/// First every pinched vertex is split (no geometric change). Where the boundary is still not
+/// manifold — two lobes meeting along an edge or at a vertex whose tets also connect elsewhere —
+/// the tets of the smaller side are removed (the smaller wedge around the edge, the smaller fans
+/// at the vertex) and the split repeated. This happens at a handful of places on thin features
+/// and removes a few tets; [`Repair`] reports how many.
+pub(crate) fn make_manifold(
+    mut positions: Vec<DVec3>,
+    mut tets: Vec<[u32; 4]>,
+    surface: &crate::mesh::TriangleBvh,
+) -> Result<(TetMesh, Repair), TetMeshError> {
+    let mut repair = Repair::default();
+    // Vertices of removed tets (current numbering): candidates for projection at the end.
+    let mut touched: Vec<u32> = Vec::new();
+    for _ in 0..16 {
+        repair.split_vertices += split_pinched_vertices(&mut positions, &mut tets);
+        let mesh = TetMesh::new(positions.clone(), tets.clone(), Vec::new())?;
+        let fill = gap_tets(&mesh);
+        if !fill.is_empty() {
+            repair.filled_tets += fill.len();
+            tets.extend(fill);
+            continue;
+        }
+        let remove = tets_to_remove(&mesh);
+        if remove.is_empty() {
+            if touched.is_empty() {
+                return Ok((mesh, repair));
+            }
+            repair.projected_vertices = project_exposed(&mut positions, &tets, &mesh, &touched, surface);
+            let mesh = TetMesh::new(positions, tets, Vec::new())?;
+            return Ok((mesh, repair));
+        }
+        repair.removed_tets += remove.len();
+        touched.extend(remove.iter().flat_map(|&t| tets[t as usize]));
+        let mut keep = vec![true; tets.len()];
+        for t in remove {
+            keep[t as usize] = false;
+        }
+        let mut k = 0;
+        tets.retain(|_| {
+            k += 1;
+            keep[k - 1]
+        });
+        if tets.is_empty() {
+            return Err(TetMeshError::Empty { vertices: positions.len(), tets: 0 });
+        }
+        // Vertices left without tets are dropped by renumbering.
+        let mut id = vec![u32::MAX; positions.len()];
+        let mut kept = Vec::new();
+        for t in tets.iter_mut() {
+            for v in t.iter_mut() {
+                if id[*v as usize] == u32::MAX {
+                    id[*v as usize] = kept.len() as u32;
+                    kept.push(positions[*v as usize]);
+                }
+                *v = id[*v as usize];
+            }
+        }
+        positions = kept;
+        touched.retain_mut(|v| {
+            *v = id[*v as usize];
+            *v != u32::MAX
+        });
+        touched.sort_unstable();
+        touched.dedup();
+    }
+    let mesh = TetMesh::new(positions, tets, Vec::new())?;
+    Ok((mesh, repair))
+}
+
+/// Tets that close the gap between two wedges meeting along a non-manifold boundary edge
+/// `(u, v)`: around the edge the boundary faces `(u, v, x)` alternate between the wedges; a tet
+/// `(u, v, x, y)` of two neighbouring faces from different wedges fills the empty sector between
+/// them. All its vertices are already on the surface, so fidelity is kept; it is only used when
+/// its dihedral angles stay within the mesher's bounds and it overlaps no tet (its sector is
+/// empty: no other face of the edge lies inside it).
+fn gap_tets(mesh: &TetMesh) -> Vec<[u32; 4]> {
+    let faces = mesh.boundary_faces();
+    let mut by_edge: Vec<(u64, u32)> = faces
+        .iter()
+        .enumerate()
+        .flat_map(|(f, face)| {
+            (0..3).map(move |k| {
+                let (a, b) = (face.vertices[k], face.vertices[(k + 1) % 3]);
+                ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), f as u32)
+            })
+        })
+        .collect();
+    by_edge.sort_unstable();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < by_edge.len() {
+        let j = i + by_edge[i..].iter().take_while(|e| e.0 == by_edge[i].0).count();
+        if j - i > 2 {
+            let (u, v) = ((by_edge[i].0 >> 32) as u32, by_edge[i].0 as u32);
+            if let Some(t) = best_gap_tet(mesh, u, v, &by_edge[i..j]) {
+                out.push(t);
+            }
+        }
+        i = j;
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// The best-shaped gap tet at edge `(u, v)` whose boundary faces are `edge_faces`.
+fn best_gap_tet(mesh: &TetMesh, u: u32, v: u32, edge_faces: &[(u64, u32)]) -> Option<[u32; 4]> {
+    let p = mesh.positions();
+    let (pu, pv) = (p[u as usize], p[v as usize]);
+    let axis = (pv - pu).normalize_or_zero();
+    let frame_x = axis.any_orthonormal_vector();
+    let frame_y = axis.cross(frame_x);
+    // Third vertex of each face, its angle around the edge, and whether the owning tet lies on
+    // the counter-clockwise side of the face (the face's solid side).
+    let mut around: Vec<(f64, u32, bool)> = edge_faces
+        .iter()
+        .map(|&(_, f)| {
+            let face = mesh.boundary_faces()[f as usize];
+            let x = face.vertices.into_iter().find(|&w| w != u && w != v).unwrap_or(u);
+            let d = p[x as usize] - pu;
+            let angle = d.dot(frame_y).atan2(d.dot(frame_x));
+            let tet = mesh.tets()[face.tet as usize];
+            let inner = tet.into_iter().find(|w| !face.vertices.contains(w)).unwrap_or(u);
+            let di = p[inner as usize] - pu;
+            let inner_angle = di.dot(frame_y).atan2(di.dot(frame_x));
+            let ccw = (inner_angle - angle).rem_euclid(std::f64::consts::TAU) < std::f64::consts::PI;
+            (angle, x, ccw)
+        })
+        .collect();
+    around.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let n = around.len();
+    let mut best: Option<(f64, [u32; 4])> = None;
+    for k in 0..n {
+        let (a0, x, side_x) = around[k];
+        let (a1, y, side_y) = around[(k + 1) % n];
+        // An empty sector runs from a face whose solid lies clockwise to the next face whose
+        // solid lies counter-clockwise.
+        if side_x || !side_y {
+            continue;
+        }
+        let sweep = (a1 - a0).rem_euclid(std::f64::consts::TAU);
+        if sweep >= std::f64::consts::PI {
+            continue;
+        }
+        let mut t = [u, v, x, y];
+        let pos = t.map(|w| p[w as usize]);
+        let vol = crate::mesh::tet_volume(pos);
+        if vol < 0.0 {
+            t.swap(2, 3);
+        }
+        let angles = crate::mesh::dihedral_angles(t.map(|w| p[w as usize]));
+        let lo = angles.iter().copied().fold(f64::INFINITY, f64::min).to_degrees();
+        let hi = angles.iter().copied().fold(0.0, f64::max).to_degrees();
+        if vol.abs() > 0.0 && lo >= MIN_DIHEDRAL_DEG && hi <= MAX_DIHEDRAL_DEG && best.is_none_or(|(q, _)| lo > q) {
+            best = Some((lo, t));
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// Quality bounds a repair tet must meet: those the stuffing guarantees.
+const MIN_DIHEDRAL_DEG: f64 = 10.0;
+const MAX_DIHEDRAL_DEG: f64 = 165.0;
+
+/// Tets to remove so that non-manifold boundary edges and vertices go away: around each edge in
+/// more than two boundary faces, the smaller face-connected group of the tets sharing the edge;
+/// at each vertex whose boundary faces form several fans, the owners of all but the largest fan.
+fn tets_to_remove(mesh: &TetMesh) -> Vec<u32> {
+    let faces = mesh.boundary_faces();
+    let mut by_edge: Vec<(u64, u32)> = faces
+        .iter()
+        .enumerate()
+        .flat_map(|(f, face)| {
+            (0..3).map(move |k| {
+                let (a, b) = (face.vertices[k], face.vertices[(k + 1) % 3]);
+                ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), f as u32)
+            })
+        })
+        .collect();
+    by_edge.sort_unstable();
+    let mut remove = Vec::new();
+    let mut i = 0;
+    while i < by_edge.len() {
+        let j = i + by_edge[i..].iter().take_while(|e| e.0 == by_edge[i].0).count();
+        if j - i > 2 {
+            let (u, v) = ((by_edge[i].0 >> 32) as u32, by_edge[i].0 as u32);
+            let around: Vec<u32> =
+                (0..mesh.tet_count() as u32).filter(|&t| mesh.tets()[t as usize].contains(&u) && mesh.tets()[t as usize].contains(&v)).collect();
+            let groups = groups_by_shared_face(mesh, &around);
+            if let Some(smallest) = groups.iter().min_by_key(|g| g.len()) {
+                remove.extend(smallest);
+            }
+        }
+        i = j;
+    }
+    // Fans at each vertex.
+    let mut faces_at: Vec<Vec<u32>> = vec![Vec::new(); mesh.vertex_count()];
+    for (f, face) in faces.iter().enumerate() {
+        for &v in &face.vertices {
+            faces_at[v as usize].push(f as u32);
+        }
+    }
+    for (v, around) in faces_at.iter().enumerate() {
+        let fans = fans(faces, v as u32, around);
+        if fans.len() > 1 {
+            let largest = fans.iter().enumerate().max_by_key(|(_, f)| f.len()).map_or(0, |(i, _)| i);
+            for (k, fan) in fans.iter().enumerate() {
+                if k != largest {
+                    remove.extend(fan.iter().map(|&f| faces[f as usize].tet));
+                }
+            }
+        }
+    }
+    remove.sort_unstable();
+    remove.dedup();
+    remove
+}
+
+/// Groups of `tets` connected through shared faces (three shared vertices).
+fn groups_by_shared_face(mesh: &TetMesh, tets: &[u32]) -> Vec<Vec<u32>> {
+    let mut group: Vec<usize> = (0..tets.len()).collect();
+    for a in 0..tets.len() {
+        for b in a + 1..tets.len() {
+            let (ta, tb) = (mesh.tets()[tets[a] as usize], mesh.tets()[tets[b] as usize]);
+            if ta.iter().filter(|x| tb.contains(x)).count() == 3 {
+                let (ra, rb) = (root(&mut group, a), root(&mut group, b));
+                group[ra] = rb;
+            }
+        }
+    }
+    collect_groups(&mut group, tets)
+}
+
+/// The fans of boundary faces around vertex `v`: groups joined through edges at `v`.
+fn fans(faces: &[crate::mesh::BoundaryFace], v: u32, around: &[u32]) -> Vec<Vec<u32>> {
+    let mut group: Vec<usize> = (0..around.len()).collect();
+    for a in 0..around.len() {
+        for b in a + 1..around.len() {
+            let (fa, fb) = (faces[around[a] as usize].vertices, faces[around[b] as usize].vertices);
+            if fa.iter().any(|&w| w != v && fb.contains(&w)) {
+                let (ra, rb) = (root(&mut group, a), root(&mut group, b));
+                group[ra] = rb;
+            }
+        }
+    }
+    collect_groups(&mut group, around)
+}
+
+fn root(group: &mut [usize], mut x: usize) -> usize {
+    while group[x] != x {
+        group[x] = group[group[x]];
+        x = group[x];
+    }
+    x
+}
+
+fn collect_groups(group: &mut [usize], items: &[u32]) -> Vec<Vec<u32>> {
+    let mut out: Vec<(usize, Vec<u32>)> = Vec::new();
+    for (i, &item) in items.iter().enumerate() {
+        let r = root(group, i);
+        match out.iter_mut().find(|g| g.0 == r) {
+            Some(g) => g.1.push(item),
+            None => out.push((r, vec![item])),
+        }
+    }
+    out.into_iter().map(|g| g.1).collect()
+}
+
+/// Splits every vertex whose star has several face-connected groups; returns how many copies
+/// were added.
+pub(crate) fn split_pinched_vertices(positions: &mut Vec<DVec3>, tets: &mut [[u32; 4]]) -> usize {
+    let n = positions.len();
+    // Vertex → tets incidence (CSR).
+    let mut offsets = vec![0u32; n + 1];
+    for t in tets.iter() {
+        for &v in t {
+            offsets[v as usize + 1] += 1;
+        }
+    }
+    for v in 0..n {
+        offsets[v + 1] += offsets[v];
+    }
+    let mut fill = offsets[..n].to_vec();
+    let mut star = vec![0u32; offsets[n] as usize];
+    for (ti, t) in tets.iter().enumerate() {
+        for &v in t {
+            star[fill[v as usize] as usize] = ti as u32;
+            fill[v as usize] += 1;
+        }
+    }
+    let mut added = 0;
+    let mut group = Vec::new();
+    for v in 0..n {
+        let around = &star[offsets[v] as usize..offsets[v + 1] as usize];
+        if around.len() < 2 {
+            continue;
+        }
+        // Union-find over the star: two tets are joined when they share a face through v, i.e.
+        // three vertices (v and two others).
+        group.clear();
+        group.extend(0..around.len() as u32);
+        fn find(g: &mut [u32], mut x: u32) -> u32 {
+            while g[x as usize] != x {
+                g[x as usize] = g[g[x as usize] as usize];
+                x = g[x as usize];
+            }
+            x
+        }
+        for a in 0..around.len() {
+            for b in a + 1..around.len() {
+                let (ta, tb) = (tets[around[a] as usize], tets[around[b] as usize]);
+                let shared = ta.iter().filter(|x| tb.contains(x)).count();
+                if shared == 3 {
+                    let (ra, rb) = (find(&mut group, a as u32), find(&mut group, b as u32));
+                    group[ra as usize] = rb;
+                }
+            }
+        }
+        let first_root = find(&mut group, 0);
+        let mut copies: Vec<(u32, u32)> = Vec::new();
+        for a in 0..around.len() {
+            let root = find(&mut group, a as u32);
+            if root == first_root {
+                continue;
+            }
+            let copy = match copies.iter().find(|c| c.0 == root) {
+                Some(c) => c.1,
+                None => {
+                    positions.push(positions[v]);
+                    added += 1;
+                    let id = (positions.len() - 1) as u32;
+                    copies.push((root, id));
+                    id
+                }
+            };
+            for x in tets[around[a] as usize].iter_mut() {
+                if *x as usize == v {
+                    *x = copy;
+                }
+            }
+        }
+    }
+    added
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_tets_touching_at_a_vertex_are_separated() {
+        let mut p = vec![
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::Y,
+            DVec3::Z,
+            -DVec3::X,
+            -DVec3::Y,
+            -DVec3::Z,
+        ];
+        let mut tets = vec![[0, 1, 2, 3], [0, 4, 5, 6]];
+        assert_eq!(split_pinched_vertices(&mut p, &mut tets), 1);
+        assert_eq!(p.len(), 8);
+        assert_eq!(tets[1][0], 7);
+        assert_eq!(p[7], DVec3::ZERO);
+        // Face-connected tets are left alone.
+        let mut p2 = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z, DVec3::splat(1.0)];
+        let mut t2 = vec![[0, 1, 2, 3], [1, 2, 3, 4]];
+        assert_eq!(split_pinched_vertices(&mut p2, &mut t2), 0);
+    }
+}

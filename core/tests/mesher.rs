@@ -1,0 +1,134 @@
+//! The mesher on every shared test mesh: orientation, dihedral bounds, closed manifold boundary,
+//! size control, fidelity, the user-vertex map, invariance under similarity transforms, and bad
+//! input.
+
+use std::path::PathBuf;
+
+use glam::{DMat4, DQuat, DVec3};
+use rand::{Rng, SeedableRng};
+use transcut::mesh::{self, TriMesh};
+use transcut::mesher::{tetrahedralize_with, MeshSize, MesherError, MesherOptions, Tetrahedralization};
+use transcut::Progress;
+
+const MESHES: [&str; 8] =
+    ["cow", "suzanne", "stanford-bunny", "fandisk", "homer", "cheburashka", "spot", "rocker-arm"];
+
+fn shared_mesh(name: &str) -> TriMesh {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes").join(format!("{name}.obj"));
+    mesh::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Whether every edge of the input is shared by exactly two triangles.
+fn is_closed(m: &TriMesh) -> bool {
+    let mut edges: Vec<(u32, u32)> = m
+        .triangles()
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
+        .collect();
+    edges.sort_unstable();
+    let mut i = 0;
+    while i < edges.len() {
+        let j = edges[i..].iter().take_while(|e| **e == edges[i]).count();
+        if j != 2 {
+            return false;
+        }
+        i += j;
+    }
+    true
+}
+
+fn mesh_to(m: &TriMesh, tets: usize) -> Tetrahedralization {
+    tetrahedralize_with(m, &MesherOptions::with_tets(tets), Progress::none()).expect("meshing succeeds")
+}
+
+/// Every property the issue asks of a mesh of about `target` tets.
+fn check(name: &str, input: &TriMesh, t: &Tetrahedralization, target: usize) {
+    let s = &t.stats;
+    let m = &t.mesh;
+    eprintln!(
+        "{name} @ {target}: {} tets, {} verts, dihedral [{:.2}°, {:.2}°], hausdorff {:.3e} (h = {:.3e}), split {} filled {} removed {} projected {}, {:.0} ms",
+        s.tets, s.vertices, s.quality.min_dihedral_deg, s.quality.max_dihedral_deg, s.hausdorff.max, s.spacing, s.split_vertices, s.filled_tets, s.removed_tets, s.projected_vertices, s.timings.total_ms
+    );
+    assert!((s.tets as f64 / target as f64 - 1.0).abs() <= 0.3, "{name}: {} tets for a target of {target}", s.tets);
+    assert!(s.quality.min_dihedral_deg >= 10.0, "{name}: min dihedral {}", s.quality.min_dihedral_deg);
+    assert!(s.quality.max_dihedral_deg <= 165.0, "{name}: max dihedral {}", s.quality.max_dihedral_deg);
+    assert!((0..m.tet_count()).all(|i| m.tet_volume(i) > 0.0), "{name}: a tet is not positively oriented");
+    let topo = m.boundary_topology();
+    assert!(topo.is_closed_manifold(), "{name}: boundary {topo:?}");
+    assert_eq!(m.surface_map().len(), input.user_vertex_count(), "{name}: every user vertex is mapped");
+    assert!(m.surface_map().iter().all(|p| p.distance.is_finite() && (p.bary.iter().sum::<f64>() - 1.0).abs() < 1e-9));
+    if is_closed(input) {
+        assert!(s.hausdorff.boundary_to_input <= 0.01 * s.spacing, "{name}: boundary {:.3e} off the surface", s.hausdorff.boundary_to_input);
+        assert_eq!(s.bisected_cuts, 0, "{name}: a closed input needs no bisected cut");
+    }
+}
+
+#[test]
+fn every_shared_mesh_at_100k_tets() {
+    for name in MESHES {
+        let input = shared_mesh(name);
+        check(name, &input, &mesh_to(&input, 100_000), 100_000);
+    }
+}
+
+#[test]
+fn every_shared_mesh_at_500k_and_1m_tets() {
+    for name in MESHES {
+        let input = shared_mesh(name);
+        for target in [500_000, 1_000_000] {
+            check(name, &input, &mesh_to(&input, target), target);
+        }
+    }
+}
+
+#[test]
+fn similarity_transforms_keep_counts_and_quality() {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    for name in ["spot", "suzanne", "fandisk"] {
+        let input = shared_mesh(name);
+        let base = mesh_to(&input, 30_000).stats;
+        for _ in 0..3 {
+            let axis = DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5).normalize();
+            let scale = 10f64.powf(rng.random_range(-3.0..3.0));
+            let shift = DVec3::new(rng.random(), rng.random(), rng.random()) * 100.0 - 50.0;
+            let xf = DMat4::from_scale_rotation_translation(DVec3::splat(scale), DQuat::from_axis_angle(axis, rng.random_range(0.0..6.28)), shift);
+            let moved = input.transformed(&xf);
+            let t = mesh_to(&moved, 30_000);
+            let s = &t.stats;
+            eprintln!("{name} scaled {scale:.3e}: {} tets vs {}", s.tets, base.tets);
+            assert!((s.tets as f64 / base.tets as f64 - 1.0).abs() <= 0.02 || (s.tets as f64 / 30_000.0 - 1.0).abs() <= 0.1,
+                "{name}: {} tets after a similarity transform, {} before", s.tets, base.tets);
+            assert!(s.quality.min_dihedral_deg >= 10.0 && s.quality.max_dihedral_deg <= 165.0);
+            assert!(t.mesh.boundary_topology().is_closed_manifold());
+        }
+    }
+}
+
+#[test]
+fn a_single_open_sheet_has_no_interior() {
+    let positions = vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y];
+    let sheet = TriMesh::from_polygons(positions, &[vec![0, 1, 2, 3]], &Default::default()).unwrap();
+    let err = tetrahedralize_with(&sheet, &MesherOptions::with_tets(1000), Progress::none()).unwrap_err();
+    assert!(matches!(err, MesherError::NoInterior { .. }), "{err}");
+    assert!(err.to_string().contains("encloses no volume"));
+}
+
+#[test]
+fn invalid_sizes_are_rejected_with_a_message() {
+    let input = shared_mesh("spot");
+    for size in [MeshSize::Tets(0), MeshSize::Spacing(0.0), MeshSize::Spacing(f64::NAN), MeshSize::Spacing(-1.0)] {
+        let err = tetrahedralize_with(&input, &MesherOptions { size, ..Default::default() }, Progress::none()).unwrap_err();
+        assert!(matches!(err, MesherError::InvalidOptions(_)), "{size:?}: {err}");
+    }
+    let err = tetrahedralize_with(&input, &MesherOptions { size: MeshSize::Spacing(1e-6), ..Default::default() }, Progress::none())
+        .unwrap_err();
+    assert!(matches!(err, MesherError::TooLarge { .. }), "{err}");
+}
+
+#[test]
+fn cancelling_stops_meshing() {
+    let input = shared_mesh("spot");
+    let cancel = |_: &str, f: f64| f < 0.3;
+    let err = tetrahedralize_with(&input, &MesherOptions::with_tets(50_000), Progress::new(&cancel)).unwrap_err();
+    assert!(matches!(err, MesherError::Cancelled(_)));
+}

@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Runs every test of libtranscut. This is the README's test command; CI (.ci/run) calls it.
+# It installs what the tests need when it is missing, so it works on a fresh machine.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if ! command -v cargo >/dev/null 2>&1; then
+    echo "scripts/test.sh: cargo is required (https://rustup.rs)" >&2
+    exit 1
+fi
+if [ ! -d ../shared/data/meshes ]; then
+    echo "scripts/test.sh: the shared test meshes are expected in ../shared/data/meshes" >&2
+    exit 1
+fi
+
+# Tests run optimised (profile.test has opt-level 2): the mesher and solver tests work at
+# real sizes (up to 1M tets).
+cargo test --workspace --all-targets --locked
+cargo test --workspace --doc --locked
