@@ -13,6 +13,7 @@ pub mod mesher;
 pub mod optics;
 pub mod progress;
 pub mod sparse;
+pub mod diffusion;
 
 pub use glam::DVec3;
 pub use progress::{Cancelled, Progress};

@@ -1,0 +1,558 @@
+//! Assembly of the TransCut linear system M φ = b (TransCut §3.2, eqs. 10–14, as restated in
+//! ARCHITECTURE.md "The equations").
+//!
+//! Per tet t (κ_t, μ_t constant, per channel, lengths in mm):
+//!
+//! - κ_t = 1/(3(μ_t + σ′s_t)), μ_t = σa_t ([`Medium::diffusion_coefficient`]);
+//! - eq. 10: w_ij = −Σ_{t ∋ ij} (1/6) κ_t |kl| cot θ_kl (k, l the other two vertices of t,
+//!   θ_kl the dihedral angle at edge kl);
+//! - eq. 14: M_ij = 4 w_ij;
+//! - eq. 13: M_ii = −4 Σ_j w_ij + Σ_{t ∋ i} V_t μ_t (+ 2 S_i/(3A) on the boundary), S_i the
+//!   area of the boundary triangles around i;
+//! - eq. 12: b_i = 8 S_i q_i / (3A(1 − Fdr)) on the boundary, 0 inside.
+//!
+//! This is 4 × the P1 finite-element system of the weak form (see [`super::fem`]) with the volume
+//! mass and the boundary mass lumped to the diagonal: the edge weight is the P1 stiffness
+//! entry, w_ijt = κ_t V_t ∇β_i·∇β_j (TransCut §3.3), the lumped mass is ∫ μ β_i = Σ V_t μ_t / 4,
+//! and the lumped boundary mass is ∫ β_i dS = S_i/3.
+//!
+//! The values are filled row by row in parallel from the mesh-only [`Structure`]: every row sums
+//! its own tets in increasing tet order, so the matrix is bit-for-bit symmetric and identical for
+//! any thread count.
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+
+use super::error::DiffusionError;
+use super::fem;
+use super::structure::{fill_rows, BoundaryVertices, Structure, EDGE_INDEX, INTERIOR, OTHERS};
+use crate::mesh::TetMesh;
+use crate::optics::{BoundaryTerms, Medium};
+use crate::sparse::{CsrMatrix3, CsrPattern};
+
+/// Which discretisation of the diffusion equation a [`DiffusionSystem`] holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Discretization {
+    /// TransCut eqs. 10–14: cotangent edge weights, lumped volume and boundary mass.
+    #[default]
+    TransCut,
+    /// The P1 Galerkin reference with consistent volume and boundary mass and a consistent
+    /// boundary load ([`super::fem`]), scaled by the same factor 4.
+    ConsistentFem,
+}
+
+/// Per-material coefficients (mm and mm⁻¹), per channel.
+#[derive(Debug, Clone)]
+pub(crate) struct Coefficients {
+    /// κ = 1/(3(σa + σ′s)).
+    pub kappa: Vec<[f64; 3]>,
+    /// μ = σa.
+    pub mu: Vec<[f64; 3]>,
+}
+
+/// A diffusion system on a tet mesh: the sparsity pattern (shared), the three-channel matrix M,
+/// the source q per boundary vertex and the right-hand side b.
+///
+/// The matrix depends on the media only ([`DiffusionSystem::set_media`] refills it, e.g. after
+/// painting); the right-hand side on the light only ([`DiffusionSystem::set_source`], relighting).
+/// The pattern and the mesh geometry are computed once.
+#[derive(Debug, Clone)]
+pub struct DiffusionSystem {
+    structure: Arc<Structure>,
+    discretization: Discretization,
+    media: Vec<Medium>,
+    terms: BoundaryTerms,
+    matrix: CsrMatrix3,
+    source: Vec<[f64; 3]>,
+    rhs: Vec<[f64; 3]>,
+}
+
+/// Assembles the TransCut system (eqs. 10–14) of `mesh` filled with `media`, indexed by the
+/// mesh's per-tet material ids; positions are in scene units, `mm_per_unit` millimetres each.
+/// The source starts at q = 0 (b = 0); set it with [`DiffusionSystem::set_source`].
+///
+/// # Errors
+/// [`DiffusionError::InvalidScale`] for a `mm_per_unit` that is not finite and > 0;
+/// [`DiffusionError::MaterialOutOfRange`] naming the first tet whose material id has no
+/// medium; [`DiffusionError::InvalidMedium`] naming an invalid medium of the table;
+/// [`DiffusionError::MixedRefractiveIndex`] when the media on the surface disagree on η;
+/// [`DiffusionError::DegenerateTet`] for a tet whose geometry gives non-finite coefficients.
+pub fn assemble(mesh: &TetMesh, media: &[Medium], mm_per_unit: f64) -> Result<DiffusionSystem, DiffusionError> {
+    DiffusionSystem::new(mesh, media, mm_per_unit, Discretization::TransCut)
+}
+
+/// The right-hand side of `system` for the source `q` (one entry per boundary vertex, in the
+/// order of [`DiffusionSystem::boundary`]), without changing the system. For TransCut, eq. 12:
+/// b_i = 8 S_i q_i / (3A(1 − Fdr)) on boundary vertices, 0 inside; for the consistent FEM the
+/// consistent boundary load ([`super::fem`]).
+///
+/// # Errors
+/// [`DiffusionError::LengthMismatch`] unless `q` has one entry per boundary vertex;
+/// [`DiffusionError::InvalidSource`] naming the first negative or non-finite value.
+pub fn rhs(system: &DiffusionSystem, q: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, DiffusionError> {
+    let s = &system.structure;
+    check_source(&s.boundary, q)?;
+    Ok(match system.discretization {
+        Discretization::TransCut => rhs_transcut(s, &system.terms, q),
+        Discretization::ConsistentFem => fem::rhs_consistent(s, &system.terms, q),
+    })
+}
+
+impl DiffusionSystem {
+    /// Assembles a system with the chosen discretisation; see [`assemble`] (TransCut) and
+    /// [`super::fem::assemble_consistent`].
+    ///
+    /// # Errors
+    /// Those of [`assemble`].
+    pub fn new(
+        mesh: &TetMesh,
+        media: &[Medium],
+        mm_per_unit: f64,
+        discretization: Discretization,
+    ) -> Result<DiffusionSystem, DiffusionError> {
+        super::structure::check_scale(mm_per_unit)?;
+        check_materials(mesh.materials(), media)?;
+        let structure = Arc::new(Structure::new(mesh, mm_per_unit)?);
+        let (coefficients, terms) = prepare_media(&structure, media)?;
+        let mut matrix = CsrMatrix3::zeros(Arc::clone(&structure.pattern));
+        fill_matrix(&structure, discretization, &coefficients, &terms, matrix.values_mut());
+        let nb = structure.boundary.len();
+        let n = structure.n();
+        Ok(DiffusionSystem {
+            structure,
+            discretization,
+            media: media.to_vec(),
+            terms,
+            matrix,
+            source: vec![[0.0; 3]; nb],
+            rhs: vec![[0.0; 3]; n],
+        })
+    }
+
+    /// Refills the matrix for new media on the same mesh (painting, material edits): the pattern
+    /// and geometry are reused. If η changes, the right-hand side is recomputed for the current
+    /// source. On error the system is unchanged.
+    ///
+    /// # Errors
+    /// [`DiffusionError::MaterialOutOfRange`], [`DiffusionError::InvalidMedium`],
+    /// [`DiffusionError::MixedRefractiveIndex`] as in [`assemble`].
+    pub fn set_media(&mut self, media: &[Medium]) -> Result<(), DiffusionError> {
+        check_materials(&self.structure.materials, media)?;
+        let (coefficients, terms) = prepare_media(&self.structure, media)?;
+        fill_matrix(&self.structure, self.discretization, &coefficients, &terms, self.matrix.values_mut());
+        self.media = media.to_vec();
+        if terms != self.terms {
+            self.terms = terms;
+            self.rhs = rhs(self, &self.source)?;
+        }
+        Ok(())
+    }
+
+    /// Sets the transmitted source q (one entry per boundary vertex, in the order of
+    /// [`DiffusionSystem::boundary`], per channel) and recomputes b ([`rhs`]). On error the
+    /// system is unchanged.
+    ///
+    /// # Errors
+    /// Those of [`rhs`].
+    pub fn set_source(&mut self, q: &[[f64; 3]]) -> Result<(), DiffusionError> {
+        self.rhs = rhs(self, q)?;
+        self.source = q.to_vec();
+        Ok(())
+    }
+
+    /// The sparsity pattern (the mesh's vertex graph plus the diagonal), shared with the matrix.
+    #[must_use]
+    pub fn pattern(&self) -> &Arc<CsrPattern> {
+        &self.structure.pattern
+    }
+
+    /// The matrix M, per channel.
+    #[must_use]
+    pub fn matrix(&self) -> &CsrMatrix3 {
+        &self.matrix
+    }
+
+    /// The right-hand side b, one entry per vertex.
+    #[must_use]
+    pub fn rhs(&self) -> &[[f64; 3]] {
+        &self.rhs
+    }
+
+    /// The transmitted source q, one entry per boundary vertex.
+    #[must_use]
+    pub fn source(&self) -> &[[f64; 3]] {
+        &self.source
+    }
+
+    /// The boundary vertices (ids, areas S_i, normals): the order of q and of the radiance.
+    #[must_use]
+    pub fn boundary(&self) -> &BoundaryVertices {
+        &self.structure.boundary
+    }
+
+    /// The boundary constants (Fdr, A, Ft along the normal) of the object's η.
+    #[must_use]
+    pub fn boundary_terms(&self) -> &BoundaryTerms {
+        &self.terms
+    }
+
+    /// The discretisation this system holds.
+    #[must_use]
+    pub fn discretization(&self) -> Discretization {
+        self.discretization
+    }
+
+    /// The media table the matrix was filled from.
+    #[must_use]
+    pub fn media(&self) -> &[Medium] {
+        &self.media
+    }
+
+    /// Millimetres per scene unit.
+    #[must_use]
+    pub fn mm_per_unit(&self) -> f64 {
+        self.structure.mm_per_unit
+    }
+
+    /// Number of vertices (unknowns per channel).
+    #[must_use]
+    pub fn vertex_count(&self) -> usize {
+        self.structure.n()
+    }
+
+    /// The mesh-only structure.
+    pub(crate) fn structure(&self) -> &Structure {
+        &self.structure
+    }
+}
+
+/// Checks the material ids against the table, naming the first tet at fault.
+fn check_materials(materials: &[u32], media: &[Medium]) -> Result<(), DiffusionError> {
+    if let Some(tet) = materials.par_iter().position_first(|&m| m as usize >= media.len()) {
+        return Err(DiffusionError::MaterialOutOfRange { tet, material: materials[tet], media: media.len() });
+    }
+    Ok(())
+}
+
+/// Validates the media, derives κ and μ per material and the boundary constants of the one η of
+/// the surface media.
+pub(crate) fn prepare_media(
+    s: &Structure,
+    media: &[Medium],
+) -> Result<(Coefficients, BoundaryTerms), DiffusionError> {
+    for (index, m) in media.iter().enumerate() {
+        m.validate().map_err(|source| DiffusionError::InvalidMedium { index, source })?;
+    }
+    let first = s.face_material.first().copied().unwrap_or(0);
+    let first_eta = media[first as usize].eta;
+    if let Some(&other) = s.face_material.iter().find(|&&m| media[m as usize].eta != first_eta) {
+        return Err(DiffusionError::MixedRefractiveIndex {
+            first,
+            first_eta,
+            other,
+            other_eta: media[other as usize].eta,
+        });
+    }
+    let terms = BoundaryTerms::new(first_eta)
+        .map_err(|source| DiffusionError::InvalidMedium { index: first as usize, source })?;
+    let coefficients = Coefficients {
+        kappa: media.iter().map(Medium::diffusion_coefficient).collect(),
+        mu: media.iter().map(|m| m.sigma_a).collect(),
+    };
+    Ok((coefficients, terms))
+}
+
+/// Fills the matrix values of the chosen discretisation.
+fn fill_matrix(
+    s: &Structure,
+    discretization: Discretization,
+    c: &Coefficients,
+    terms: &BoundaryTerms,
+    values: &mut [[f64; 3]],
+) {
+    match discretization {
+        Discretization::TransCut => fill_transcut(s, c, terms, values),
+        Discretization::ConsistentFem => fem::fill_consistent(s, c, terms, values),
+    }
+}
+
+/// TransCut eqs. 10, 13 and 14, row by row: for every tet t around vertex i and every other
+/// vertex j of t, the tet's part of the edge weight w_ijt = −(1/6)κ_t|kl| cot θ_kl (eq. 10) goes
+/// to M_ij as 4w_ijt (eq. 14) and to M_ii as −4w_ijt; V_t μ_t goes to M_ii (eq. 13, lumped
+/// absorption), and on boundary vertices 2S_i/(3A) ([`BoundaryTerms::matrix_diagonal`]).
+pub(crate) fn fill_transcut(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, values: &mut [[f64; 3]]) {
+    let row_ptr = s.pattern.row_ptr();
+    let diag = s.pattern.diagonal_positions();
+    fill_rows(values, row_ptr, |i, row| {
+        row.fill([0.0; 3]);
+        let mut d = [0.0; 3];
+        for inc in s.tets_of(i) {
+            let t = inc.tet as usize;
+            let m = s.materials[t] as usize;
+            let (kappa, mu) = (c.kappa[m], c.mu[m]);
+            let a = inc.local as usize;
+            for (k, &b) in OTHERS[a].iter().enumerate() {
+                let coef = s.edge_coef[t][EDGE_INDEX[a][b]];
+                let v = &mut row[inc.slots[k] as usize];
+                for ch in 0..3 {
+                    let w4 = -4.0 * kappa[ch] * coef;
+                    v[ch] += w4;
+                    d[ch] -= w4;
+                }
+            }
+            for ch in 0..3 {
+                d[ch] += s.volume[t] * mu[ch];
+            }
+        }
+        let b = s.boundary_index[i];
+        if b != INTERIOR {
+            let x = terms.matrix_diagonal(s.boundary.area_mm2[b as usize]);
+            for dc in &mut d {
+                *dc += x;
+            }
+        }
+        row[diag[i] - row_ptr[i]] = d;
+    });
+}
+
+/// TransCut eq. 12: b_i = 8 S_i q_i / (3A(1 − Fdr)) on boundary vertices
+/// ([`BoundaryTerms::rhs`]), 0 inside.
+fn rhs_transcut(s: &Structure, terms: &BoundaryTerms, q: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let mut b = vec![[0.0; 3]; s.n()];
+    for (k, &v) in s.boundary.ids.iter().enumerate() {
+        let area = s.boundary.area_mm2[k];
+        b[v as usize] = q[k].map(|qc| terms.rhs(area, qc));
+    }
+    b
+}
+
+/// q must have one finite, non-negative entry per boundary vertex.
+fn check_source(boundary: &BoundaryVertices, q: &[[f64; 3]]) -> Result<(), DiffusionError> {
+    if q.len() != boundary.len() {
+        return Err(DiffusionError::LengthMismatch {
+            what: "source q (one entry per boundary vertex)",
+            expected: boundary.len(),
+            found: q.len(),
+        });
+    }
+    for (index, v) in q.iter().enumerate() {
+        if let Some(channel) = v.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+            return Err(DiffusionError::InvalidSource {
+                index,
+                vertex: boundary.ids[index],
+                channel,
+                value: v[channel],
+            });
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    /// The cube [0, size]³ as `cells`³ cubes of 6 Kuhn tets each (interior vertices from 2
+    /// cells on).
+    pub(crate) fn cube_mesh(cells: usize, size: f64) -> TetMesh {
+        let m = cells + 1;
+        let idx = |x: usize, y: usize, z: usize| (x + m * (y + m * z)) as u32;
+        let h = size / cells as f64;
+        let mut positions = Vec::new();
+        for z in 0..m {
+            for y in 0..m {
+                for x in 0..m {
+                    positions.push(DVec3::new(x as f64, y as f64, z as f64) * h);
+                }
+            }
+        }
+        let mut tets = Vec::new();
+        for z in 0..cells {
+            for y in 0..cells {
+                for x in 0..cells {
+                    let c = |d: usize| idx(x + (d & 1), y + ((d >> 1) & 1), z + ((d >> 2) & 1));
+                    // Kuhn: six tets along the main diagonal 0 → 7.
+                    for perm in [[1, 2, 4], [1, 4, 2], [2, 1, 4], [2, 4, 1], [4, 1, 2], [4, 2, 1]] {
+                        let (a, b) = (perm[0], perm[0] | perm[1]);
+                        tets.push([c(0), c(a), c(b), c(7)]);
+                    }
+                }
+            }
+        }
+        TetMesh::new(positions, tets, Vec::new()).unwrap()
+    }
+
+    fn marble() -> Medium {
+        Medium::preset("marble").unwrap()
+    }
+
+    #[test]
+    fn rows_of_the_stiffness_sum_to_the_absorption_and_boundary_terms() {
+        let mesh = cube_mesh(3, 2.0);
+        let sys = assemble(&mesh, &[marble()], 1.5).unwrap();
+        let p = sys.pattern();
+        let vals = sys.matrix().values();
+        let m = marble();
+        let s = sys.structure();
+        for i in 0..mesh.vertex_count() {
+            let mut row_sum = [0.0; 3];
+            for k in p.row_ptr()[i]..p.row_ptr()[i + 1] {
+                for c in 0..3 {
+                    row_sum[c] += vals[k][c];
+                }
+            }
+            // −4Σw_ij cancels the off-diagonals: the row sum is V_i μ (+ 2S_i/(3A)).
+            let vi: f64 = s.tets_of(i).iter().map(|inc| s.volume[inc.tet as usize]).sum();
+            let b = s.boundary_index[i];
+            let boundary = if b == INTERIOR {
+                0.0
+            } else {
+                2.0 * s.boundary.area_mm2[b as usize] / (3.0 * sys.boundary_terms().a)
+            };
+            for c in 0..3 {
+                let expect = vi * m.sigma_a[c] + boundary;
+                assert!((row_sum[c] - expect).abs() < 1e-12 * vals[p.diagonal_positions()[i]][c]);
+            }
+        }
+        // Lengths in mm: the cube is 3 mm wide, so the volume is 27 mm³ and the area 54 mm².
+        assert!((s.volume.iter().sum::<f64>() - 27.0).abs() < 1e-12);
+        assert!((sys.boundary().total_area_mm2() - 54.0).abs() < 1e-12);
+        assert!(sys.matrix().is_symmetric(0.0));
+    }
+
+    #[test]
+    fn matrix_matches_a_direct_sum_of_equation_10() {
+        // Direct transcription of eqs. 10, 13, 14 with the mesh module's dihedral angles.
+        let mesh = cube_mesh(2, 1.0);
+        let m = Medium::new([0.1, 0.2, 0.3], [1.0, 2.0, 3.0], 1.4, 0.0).unwrap();
+        let sys = assemble(&mesh, &[m], 2.0).unwrap();
+        let n = mesh.vertex_count();
+        let kappa = m.diffusion_coefficient();
+        let mut dense = vec![vec![[0.0; 3]; n]; n];
+        for t in 0..mesh.tet_count() {
+            let tet = mesh.tets()[t];
+            let p = mesh.tet_positions(t).map(|x| x * 2.0);
+            let angles = crate::mesh::dihedral_angles(p);
+            for (i, j) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+                let [k, l] = super::super::structure::other_pair(i, j);
+                let theta = angles[EDGE_INDEX[k][l]];
+                for c in 0..3 {
+                    let w = -kappa[c] * (p[k] - p[l]).length() / theta.tan() / 6.0;
+                    let (a, b) = (tet[i] as usize, tet[j] as usize);
+                    dense[a][b][c] += 4.0 * w;
+                    dense[b][a][c] += 4.0 * w;
+                    dense[a][a][c] -= 4.0 * w;
+                    dense[b][b][c] -= 4.0 * w;
+                }
+            }
+            let v = crate::mesh::tet_volume(p);
+            for &a in &tet {
+                for c in 0..3 {
+                    dense[a as usize][a as usize][c] += v * m.sigma_a[c];
+                }
+            }
+        }
+        let a = BoundaryTerms::new(1.4).unwrap().a;
+        for f in 0..mesh.boundary_faces().len() {
+            let area = mesh.boundary_area(f) * 4.0;
+            for &v in &mesh.boundary_faces()[f].vertices {
+                for c in 0..3 {
+                    dense[v as usize][v as usize][c] += 2.0 * area / (3.0 * a);
+                }
+            }
+        }
+        let scale = dense.iter().flatten().map(|v| v[0].abs()).fold(0.0, f64::max);
+        for i in 0..n {
+            for j in 0..n {
+                let got = sys.matrix().get(i, j).unwrap_or([0.0; 3]);
+                for c in 0..3 {
+                    assert!((got[c] - dense[i][j][c]).abs() < 1e-12 * scale, "({i}, {j}) {c}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn right_hand_side_is_equation_12() {
+        let mesh = cube_mesh(2, 1.0);
+        let mut sys = assemble(&mesh, &[marble()], 1.0).unwrap();
+        let nb = sys.boundary().len();
+        assert_eq!(nb, 26);
+        let q: Vec<[f64; 3]> = (0..nb).map(|k| [k as f64, 1.0, 0.5]).collect();
+        sys.set_source(&q).unwrap();
+        let t = *sys.boundary_terms();
+        for (k, &v) in sys.boundary().ids.iter().enumerate() {
+            let s = sys.boundary().area_mm2[k];
+            for c in 0..3 {
+                let expect = 8.0 * s * q[k][c] / (3.0 * t.a * (1.0 - t.fdr));
+                assert!((sys.rhs()[v as usize][c] - expect).abs() < 1e-14 * (1.0 + expect));
+            }
+        }
+        assert_eq!(sys.rhs()[13], [0.0; 3]); // the centre vertex is interior
+        assert_eq!(sys.source(), &q[..]);
+    }
+
+    #[test]
+    fn bad_inputs_are_named_and_leave_the_system_unchanged() {
+        let mut mesh = cube_mesh(1, 1.0);
+        assert!(matches!(assemble(&mesh, &[marble()], 0.0), Err(DiffusionError::InvalidScale { .. })));
+        assert!(matches!(assemble(&mesh, &[marble()], f64::NAN), Err(DiffusionError::InvalidScale { .. })));
+        assert!(matches!(
+            assemble(&mesh, &[], 1.0),
+            Err(DiffusionError::MaterialOutOfRange { tet: 0, material: 0, media: 0 })
+        ));
+        let bad = Medium { sigma_a: [-1.0, 0.0, 0.0], ..marble() };
+        assert!(matches!(
+            assemble(&mesh, &[marble(), bad], 1.0),
+            Err(DiffusionError::InvalidMedium { index: 1, .. })
+        ));
+        mesh.set_materials(vec![0, 0, 1, 0, 0, 0]).unwrap();
+        let other = Medium { eta: 1.3, ..marble() };
+        let e = assemble(&mesh, &[marble(), other], 1.0).unwrap_err();
+        assert!(matches!(e, DiffusionError::MixedRefractiveIndex { first: 0, other: 1, .. }), "{e}");
+
+        let mut sys = assemble(&mesh, &[marble(), marble()], 1.0).unwrap();
+        let before = sys.clone();
+        assert!(matches!(sys.set_source(&[[1.0; 3]; 3]), Err(DiffusionError::LengthMismatch { .. })));
+        let mut q = vec![[1.0; 3]; sys.boundary().len()];
+        q[5][1] = f64::NAN;
+        assert!(matches!(
+            sys.set_source(&q),
+            Err(DiffusionError::InvalidSource { index: 5, channel: 1, .. })
+        ));
+        q[5][1] = -0.5;
+        assert!(matches!(sys.set_source(&q), Err(DiffusionError::InvalidSource { index: 5, .. })));
+        assert!(matches!(sys.set_media(&[marble()]), Err(DiffusionError::MaterialOutOfRange { tet: 2, .. })));
+        assert_eq!(sys.matrix().values(), before.matrix().values());
+        assert_eq!(sys.rhs(), before.rhs());
+    }
+
+    #[test]
+    fn set_media_refills_values_on_the_same_pattern() {
+        let mesh = cube_mesh(2, 1.0);
+        let skin = Medium::preset("skin1").unwrap();
+        let mut sys = assemble(&mesh, &[marble()], 1.0).unwrap();
+        sys.set_source(&vec![[1.0; 3]; sys.boundary().len()]).unwrap();
+        let pattern = Arc::clone(sys.pattern());
+        sys.set_media(&[skin]).unwrap();
+        assert!(Arc::ptr_eq(&pattern, sys.pattern()));
+        let mut fresh = assemble(&mesh, &[skin], 1.0).unwrap();
+        fresh.set_source(&vec![[1.0; 3]; fresh.boundary().len()]).unwrap();
+        assert_eq!(sys.matrix().values(), fresh.matrix().values());
+        // η changed from 1.5 to 1.3: b follows.
+        assert_eq!(sys.rhs(), fresh.rhs());
+    }
+
+    #[test]
+    fn assembly_is_deterministic_across_thread_counts() {
+        let mesh = cube_mesh(6, 1.0);
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let a = one.install(|| assemble(&mesh, &[marble()], 1.0).unwrap());
+        let four = rayon::ThreadPoolBuilder::new().num_threads(4).build().unwrap();
+        let b = four.install(|| assemble(&mesh, &[marble()], 1.0).unwrap());
+        assert_eq!(a.matrix().values(), b.matrix().values());
+    }
+}
