@@ -10,6 +10,7 @@
 
 pub mod mesh;
 pub mod mesher;
+pub mod light;
 pub mod optics;
 pub mod progress;
 pub mod sparse;
