@@ -16,7 +16,7 @@ use super::error::SparseError;
 use super::ops::{row_mul, CHUNK};
 
 /// Rows per parallel block in pattern building and assembly (fixed, for reproducibility).
-const ROW_BLOCK: usize = 1024;
+pub(crate) const ROW_BLOCK: usize = 1024;
 
 mod private {
     pub trait Sealed {}
@@ -94,7 +94,7 @@ fn check_dimension(n: usize) -> Result<(), SparseError> {
 }
 
 /// Splits `data` (indexed by `row_ptr`) into one mutable slice per block of `ROW_BLOCK` rows.
-fn split_row_blocks<'a, T>(mut data: &'a mut [T], row_ptr: &[usize]) -> Vec<&'a mut [T]> {
+pub(crate) fn split_row_blocks<'a, T>(mut data: &'a mut [T], row_ptr: &[usize]) -> Vec<&'a mut [T]> {
     let n = row_ptr.len() - 1;
     let mut out = Vec::with_capacity(n.div_ceil(ROW_BLOCK));
     let mut r0 = 0;
@@ -771,6 +771,13 @@ mod tests {
         assert!(matches!(e, SparseError::IndexOutOfRange { index: 5, n: 3, .. }), "{e}");
         let g = CsrPattern::from_entries(3, &[[0, 2]]).unwrap();
         assert!(!g.is_structurally_symmetric());
+        assert_eq!(CsrPattern::from_csr(3, g.row_ptr().to_vec(), g.col_idx().to_vec()).unwrap(), g);
+        // from_csr checks its invariants.
+        let bad = |rp: Vec<usize>, ci: Vec<u32>| CsrPattern::from_csr(2, rp, ci).unwrap_err();
+        assert!(matches!(bad(vec![0, 1], vec![0]), SparseError::DimensionMismatch { .. }));
+        assert!(matches!(bad(vec![0, 1, 2], vec![0, 0]), SparseError::InvalidOption(_))); // no diagonal in row 1
+        assert!(matches!(bad(vec![0, 2, 3], vec![1, 0, 1]), SparseError::InvalidOption(_))); // unsorted
+        assert!(matches!(bad(vec![0, 1, 3], vec![0, 1, 2]), SparseError::IndexOutOfRange { index: 2, .. }));
     }
 
     #[test]

@@ -41,6 +41,7 @@ mod mm;
 mod ops;
 mod pcg;
 mod precond;
+mod scaled;
 
 pub use bicgstab::bicgstab;
 pub use csr::{CsrMatrix, CsrMatrix3, CsrPattern, Entry, Triplet};
@@ -72,11 +73,32 @@ pub struct SolveOptions<'a> {
     pub max_iterations: usize,
     /// Optional progress/cancellation hook, see [`Monitor`].
     pub monitor: Option<Monitor<'a>>,
+    /// Arithmetic of the PCG iteration (BiCGSTAB always uses `f64`). Default
+    /// [`Precision::Mixed`].
+    pub precision: Precision,
+}
+
+/// Arithmetic of the PCG matrix–vector products.
+///
+/// Either way the tolerance is met on the `f64` system: convergence is only declared on a
+/// residual `b − Ax` recomputed in `f64` from the original matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Precision {
+    /// CG on the Jacobi-scaled matrix `S A S` (`S = D^-½`) stored in `f32`, vectors and scalars
+    /// in `f64`, with the residual recomputed in `f64` from `A` whenever it has dropped ten-fold
+    /// ("reliable updates") and before a channel is declared converged. Streams about 40% fewer
+    /// bytes per iteration for the same iteration count (see the module documentation). With
+    /// [`Preconditioner::Identity`] the solve runs in [`Precision::Double`].
+    #[default]
+    Mixed,
+    /// Everything in `f64` on the original matrix.
+    Double,
 }
 
 impl Default for SolveOptions<'_> {
     fn default() -> Self {
-        Self { tolerance: 1e-6, max_iterations: 10_000, monitor: None }
+        Self { tolerance: 1e-6, max_iterations: 10_000, monitor: None, precision: Precision::Mixed }
     }
 }
 
@@ -92,6 +114,13 @@ impl<'a> SolveOptions<'a> {
     #[must_use]
     pub fn with_max_iterations(mut self, max_iterations: usize) -> Self {
         self.max_iterations = max_iterations;
+        self
+    }
+
+    /// Sets the precision.
+    #[must_use]
+    pub fn with_precision(mut self, precision: Precision) -> Self {
+        self.precision = precision;
         self
     }
 
@@ -119,6 +148,7 @@ impl fmt::Debug for SolveOptions<'_> {
             .field("tolerance", &self.tolerance)
             .field("max_iterations", &self.max_iterations)
             .field("monitor", &self.monitor.is_some())
+            .field("precision", &self.precision)
             .finish()
     }
 }

@@ -1,22 +1,25 @@
 //! Preconditioners for the three-channel Krylov solvers.
 //!
-//! * [`Jacobi`]: `z = D⁻¹ r`. No setup beyond inverting the diagonal; PCG fuses it into its
-//!   vector updates, so it costs no extra pass over memory.
-//! * [`Chebyshev`]: a Chebyshev polynomial in `D⁻¹A` over Jacobi, `z = p(D⁻¹A) D⁻¹ r`, with `p`
-//!   of degree `degree`: `degree` extra matrix–vector products per application, each fused
-//!   with its vector updates into one parallel pass. The interval is `[λmax/ratio, λmax]`,
-//!   `λmax` a Gershgorin bound of `D⁻¹A` (so `p > 0` on the whole spectrum and the
-//!   preconditioner is SPD). The matrix is applied from an `f32` copy of its values (the
-//!   preconditioner need not be exact; half the bytes to stream).
+//! * [`Jacobi`]: diagonal scaling, `M = D`. In mixed precision (the default) PCG runs plain CG
+//!   on the scaled matrix `Â = S A S`, `S = D^-½` (unit diagonal, equivalent to Jacobi-PCG in
+//!   exact arithmetic), so the preconditioner costs nothing inside the iteration; in `f64`
+//!   (`Precision::Double`) `z = D⁻¹ r` is fused into the vector update.
+//! * [`Chebyshev`]: a Chebyshev polynomial over Jacobi, `z = S p(Â) S r`, with `p` of degree
+//!   `degree`: `degree` extra matrix–vector products per application (with `f32` values), each
+//!   fused with its vector updates into one parallel pass. The interval is
+//!   `[λmax/RATIO, λmax]`, `λmax` a Gershgorin bound of `Â`, so that `p > 0` on the whole
+//!   spectrum and the preconditioner is SPD. Fully parallel, unlike SSOR or IC(0).
 //!
-//! Which to use is recorded in the [module documentation](super) with measurements.
-
-use std::sync::Arc;
+//! Both keep the scaled operator `Â` in `f32` (16 bytes per nonzero with its column index), built
+//! in one parallel pass. Which to use, with measurements, is in the [module
+//! documentation](super); in short, Jacobi: each Chebyshev degree cuts the iterations about as
+//! much as it adds matrix passes, and the iteration is bound by memory traffic.
 
 use rayon::prelude::*;
 
-use super::csr::{CsrMatrix3, CsrPattern};
+use super::csr::CsrMatrix3;
 use super::error::SparseError;
+use super::scaled::ScaledOperator;
 use super::ops::{row_mul, sum_partials, CHUNK};
 
 /// Which preconditioner to build (a plain, copyable choice for options, the CLI and the C ABI).
@@ -40,9 +43,10 @@ pub enum PreconditionerKind {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Jacobi {
     inv_diag: Vec<[f64; 3]>,
+    op: ScaledOperator,
 }
 
-fn inverse_diagonal(a: &CsrMatrix3) -> Result<Vec<[f64; 3]>, SparseError> {
+pub(crate) fn inverse_diagonal(a: &CsrMatrix3) -> Result<Vec<[f64; 3]>, SparseError> {
     let d = a.diagonal();
     if let Some((row, channel, value)) = d
         .iter()
@@ -55,13 +59,14 @@ fn inverse_diagonal(a: &CsrMatrix3) -> Result<Vec<[f64; 3]>, SparseError> {
 }
 
 impl Jacobi {
-    /// Inverts the diagonal of `a`.
+    /// Inverts the diagonal of `a` and builds the scaled operator `S A S` in `f32`
+    /// (`S = D^-½`) that the mixed-precision PCG iterates on.
     ///
     /// # Errors
     /// [`SparseError::NonPositiveDiagonal`] naming the first row and channel whose diagonal is
     /// not positive and finite (an SPD matrix has a positive diagonal).
     pub fn new(a: &CsrMatrix3) -> Result<Self, SparseError> {
-        Ok(Self { inv_diag: inverse_diagonal(a)? })
+        Ok(Self { inv_diag: inverse_diagonal(a)?, op: ScaledOperator::new(a)? })
     }
 
     /// The inverse diagonal.
@@ -69,14 +74,16 @@ impl Jacobi {
     pub fn inv_diag(&self) -> &[[f64; 3]] {
         &self.inv_diag
     }
+
+    pub(crate) fn operator(&self) -> &ScaledOperator {
+        &self.op
+    }
 }
 
 /// Chebyshev polynomial preconditioner over Jacobi (see the module documentation).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Chebyshev {
-    inv_diag: Vec<[f64; 3]>,
-    pattern: Arc<CsrPattern>,
-    values: Vec<[f32; 3]>,
+    op: ScaledOperator,
     degree: usize,
     lambda_max: [f64; 3],
     lambda_min: [f64; 3],
@@ -107,8 +114,8 @@ impl Chebyshev {
     /// documentation).
     pub const RATIO: f64 = 8.0;
 
-    /// Builds the preconditioner for `a`: inverse diagonal, Gershgorin bound of `D⁻¹A`, and an
-    /// `f32` copy of the values.
+    /// Builds the preconditioner for `a`: the scaled operator `S A S` in `f32` (`S = D^-½`) and a
+    /// Gershgorin bound of its spectrum.
     ///
     /// # Errors
     /// [`SparseError::NonPositiveDiagonal`] as for [`Jacobi::new`];
@@ -120,32 +127,10 @@ impl Chebyshev {
                 Self::MAX_DEGREE
             )));
         }
-        let inv_diag = inverse_diagonal(a)?;
-        let p = a.pattern();
-        let vals = a.values();
-        // Gershgorin bounds of D⁻¹A (row sums) and of D^-½ A D^-½ (same spectrum); take the
-        // smaller. Both are valid for any matrix.
-        let bounds: [f64; 6] = (0..a.n())
-            .into_par_iter()
-            .with_min_len(CHUNK)
-            .map(|i| {
-                let mut s = [0.0; 6];
-                let r0 = p.row_ptr()[i];
-                for (q, &j) in p.row(i).iter().enumerate() {
-                    let v = vals[r0 + q];
-                    for c in 0..3 {
-                        s[c] += v[c].abs() * inv_diag[i][c];
-                        s[3 + c] += v[c].abs() * (inv_diag[i][c] * inv_diag[j as usize][c]).sqrt();
-                    }
-                }
-                s
-            })
-            .reduce(|| [0.0; 6], |a, b| std::array::from_fn(|k| a[k].max(b[k])));
-        let lambda_max = [0, 1, 2].map(|c| bounds[c].min(bounds[3 + c]));
+        let op = ScaledOperator::new(a)?;
+        let lambda_max = op.lambda_max;
         let lambda_min = lambda_max.map(|l| l / Self::RATIO);
-        #[allow(clippy::cast_possible_truncation)]
-        let values = vals.iter().map(|v| v.map(|x| x as f32)).collect();
-        Ok(Self { inv_diag, pattern: Arc::clone(p), values, degree, lambda_max, lambda_min })
+        Ok(Self { op, degree, lambda_max, lambda_min })
     }
 
     /// The polynomial degree (extra matrix–vector products per application).
@@ -160,8 +145,19 @@ impl Chebyshev {
         [0, 1, 2].map(|c| [self.lambda_min[c], self.lambda_max[c]])
     }
 
-    /// `z = p(D⁻¹A) D⁻¹ r`; returns `r·z` per channel (deterministic).
-    fn apply_dot(&self, r: &[[f64; 3]], z: &mut [[f64; 3]], w: &mut PrecondWork) -> [f64; 3] {
+    pub(crate) fn operator(&self) -> &ScaledOperator {
+        &self.op
+    }
+
+    /// `ẑ = p(Â) r̂` on the scaled system; with `scale = Some(S)`, in unscaled terms
+    /// `z = S p(Â) S r`. Returns `r·z` per channel (deterministic).
+    pub(crate) fn apply_scaled(
+        &self,
+        r: &[[f64; 3]],
+        z: &mut [[f64; 3]],
+        scale: Option<&[[f64; 3]]>,
+        w: &mut PrecondWork,
+    ) -> [f64; 3] {
         let n = r.len();
         w.ensure(n);
         let theta: [f64; 3] = std::array::from_fn(|c| 0.5 * (self.lambda_max[c] + self.lambda_min[c]));
@@ -169,15 +165,17 @@ impl Chebyshev {
         let sigma: [f64; 3] = std::array::from_fn(|c| theta[c] / delta[c]);
         let mut rho: [f64; 3] = std::array::from_fn(|c| 1.0 / sigma[c]);
         let inv_theta = theta.map(|t| 1.0 / t);
-        let dinv = &self.inv_diag;
-        // Step 1: d0 = D⁻¹ r / θ (z = d0, implicit).
-        w.d0.par_chunks_mut(CHUNK).zip(r.par_chunks(CHUNK)).zip(dinv.par_chunks(CHUNK)).for_each(|((d, r), di)| {
-            for ((d, r), di) in d.iter_mut().zip(r).zip(di) {
-                *d = [0, 1, 2].map(|c| di[c] * r[c] * inv_theta[c]);
+        let sc = |i: usize| scale.map_or([1.0; 3], |s| s[i]);
+        // Step 1: d0 = r̂ / θ (ẑ = d0, implicit).
+        w.d0.par_chunks_mut(CHUNK).enumerate().for_each(|(k, d)| {
+            let r0 = k * CHUNK;
+            for (li, d) in d.iter_mut().enumerate() {
+                let (ri, si) = (r[r0 + li], sc(r0 + li));
+                *d = [0, 1, 2].map(|c| si[c] * ri[c] * inv_theta[c]);
             }
         });
-        let p = &*self.pattern;
-        let vals = &self.values;
+        let p = &*self.op.pattern;
+        let vals = &self.op.values;
         for step in 2..=self.degree + 1 {
             let first = step == 2;
             let last = step == self.degree + 1;
@@ -201,27 +199,28 @@ impl Chebyshev {
                         let i = r0 + li;
                         let (s, e) = (p.row_ptr()[i], p.row_ptr()[i + 1]);
                         let ad = row_mul(&p.col_idx()[s..e], &vals[s..e], d_old);
-                        let res_in = if first { r[i] } else { rs[li] };
+                        let si = sc(i);
+                        let res_in = if first { [0, 1, 2].map(|c| si[c] * r[i][c]) } else { rs[li] };
                         let dold = d_old[i];
-                        let di = dinv[i];
                         let mut zi = if first { dold } else { zc[li] };
                         let mut resi = [0.0; 3];
                         let mut dni = [0.0; 3];
                         for c in 0..3 {
                             resi[c] = res_in[c] - ad[c];
-                            dni[c] = c1[c] * dold[c] + c2[c] * di[c] * resi[c];
+                            dni[c] = c1[c] * dold[c] + c2[c] * resi[c];
                             zi[c] += dni[c];
                         }
-                        zc[li] = zi;
                         if last {
                             let ri = r[i];
                             for c in 0..3 {
+                                zi[c] *= si[c];
                                 dot[c] += ri[c] * zi[c];
                             }
                         } else {
                             rs[li] = resi;
                             dn[li] = dni;
                         }
+                        zc[li] = zi;
                     }
                     dot
                 })
@@ -277,7 +276,7 @@ impl Preconditioner {
         match self {
             Self::Identity => None,
             Self::Jacobi(j) => Some(j.inv_diag.len()),
-            Self::Chebyshev(c) => Some(c.inv_diag.len()),
+            Self::Chebyshev(c) => Some(c.op.s.len()),
         }
     }
 
@@ -328,7 +327,7 @@ impl Preconditioner {
                     .collect();
                 sum_partials(&parts)
             }
-            Self::Chebyshev(c) => c.apply_dot(r, z, w),
+            Self::Chebyshev(c) => c.apply_scaled(r, z, Some(&c.op.s), w),
         }
     }
 }
@@ -355,18 +354,18 @@ mod tests {
         let a = path_laplacian(50);
         let c = Chebyshev::new(&a, 3).unwrap();
         for [lo, hi] in c.interval() {
-            assert!(lo > 0.0 && hi >= lo && hi <= 2.0 / 2.1 * 2.1 + 1e-12);
+            assert!(lo > 0.0 && hi >= lo && hi <= 2.0);
         }
         let pc = Preconditioner::Chebyshev(c.clone());
         // Columns of M⁻¹ via unit vectors: symmetric and positive definite.
         let n = a.n();
         let mut m = vec![vec![[0.0; 3]; n]; n];
-        for j in 0..n {
+        for (j, col) in m.iter_mut().enumerate() {
             let mut e = vec![[0.0; 3]; n];
             e[j] = [1.0; 3];
-            pc.apply(&e, &mut m[j]).unwrap();
+            pc.apply(&e, col).unwrap();
         }
-        for ch in 0..3 {
+        for ch in [0, 1, 2] {
             let dm = nalgebra::DMatrix::from_fn(n, n, |i, j| m[j][i][ch]);
             assert!((&dm - dm.transpose()).abs().max() < 1e-6 * dm.abs().max());
             let sym = (&dm + dm.transpose()) * 0.5;
@@ -375,7 +374,14 @@ mod tests {
         // The f32 copy of the matrix applies like the f64 one, to f32 accuracy.
         let x: Vec<[f64; 3]> = (0..n).map(|i| [i as f64, 1.0, -0.5 * i as f64]).collect();
         let mut y = vec![[0.0; 3]; n];
-        crate::sparse::csr::spmv3(&c.pattern, &c.values, &x, &mut y);
+        let s = &c.op.s;
+        let xs: Vec<[f64; 3]> = x.iter().zip(s).map(|(x, s)| [0, 1, 2].map(|k| x[k] / s[k])).collect();
+        crate::sparse::csr::spmv3(&c.op.pattern, &c.op.values, &xs, &mut y);
+        for (y, s) in y.iter_mut().zip(s) {
+            for k in 0..3 {
+                y[k] /= s[k];
+            }
+        }
         let y64 = a.mul_vec(&x).unwrap();
         for (u, v) in y.iter().zip(&y64) {
             for ch in 0..3 {
