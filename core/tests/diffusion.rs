@@ -1,0 +1,456 @@
+//! The TransCut diffusion solver (`transcut::diffusion`) on tetrahedralised spheres, against the
+//! closed form of the uniformly lit sphere (ARCHITECTURE.md, "Validation that needs no other
+//! program"; `optics::UniformSphere`).
+//!
+//! # Set-up
+//!
+//! A UV sphere of radius R = 20 (256 × 128 segments, so its faceting, at most 1.5e-3 mm deep, is
+//! far below the tet error) is filled by the isosurface-stuffing mesher; mm_per_unit = 1. Every
+//! boundary vertex gets the same transmitted source q = π(1 − F_ext(η)) (a constant environment of
+//! radiance 1). Errors are relative, per channel, at the boundary vertices: the maximum over them,
+//! and the area-weighted RMS (weights S_i/3).
+//!
+//! # Reference radius
+//!
+//! The reference is φ(R) with the sphere's radius R = 20, **without correction**: the tet
+//! boundary is a polyhedron inscribed in the sphere (0.13% less volume at 200k tets), but the
+//! surface fluence depends on the radius only through (x coth x − 1)/R, x = σtr R, so using the
+//! radius of the sphere of equal volume instead changes the reference by less than 1e-4
+//! (asserted in `uniform_sphere_matches_the_closed_form_for_every_preset`). The boundary vertices
+//! lie on the boundary where the condition is imposed, so they are compared with φ(R), not φ(|x|).
+//!
+//! # Resolution
+//!
+//! The discretisation error at the surface is, to leading order, C (σtr h)² with h the lattice
+//! spacing (interior tets have volume h³/12) and C ≈ 0.01–0.04 for the RMS, about 2.5× that for
+//! the maximum; the radiance error is the fluence error times the amplification φ/(φ − 2q) of
+//! eq. 3 (1.3 for marble, 2.7 for chicken, > 10 for ketchup). At 200k tets on this sphere
+//! h ≈ 1.25 mm, which resolves the diffuse mean free path ℓd = 1/σtr of the marble- and milk-like
+//! channels but not that of skin, chicken, potato (blue), apple (blue), jade (red) or ketchup
+//! (ℓd down to 0.4 mm). So the < 1% bound is asserted on every channel whose predicted radiance
+//! error amp · (σtr h)² · 0.075 is below 1.1% (`amp · (σtr h)² ≤ 0.15`), and every other channel
+//! is checked against the second-order error model. Ketchup's green and blue channels have an
+//! albedo below 0.1: there the diffusion approximation predicts φ(R) < 2q, i.e. a negative
+//! exitant radiance, and only φ is compared.
+
+use std::sync::{Mutex, OnceLock};
+use std::time::Instant;
+
+use transcut::diffusion::{
+    assemble, assemble_consistent, energy_balance, solve, surface_fluence, surface_radiance, DiffusionSystem,
+};
+use transcut::mesh::{TetMesh, TriMesh};
+use transcut::mesher::{tetrahedralize, MesherOptions};
+use transcut::optics::{f_ext, radiance_from_fluence, Medium, UniformSphere, PRESET_NAMES};
+use transcut::sparse::SolveOptions;
+use transcut::DVec3;
+
+/// Sphere radius (scene units = mm).
+const RADIUS: f64 = 20.0;
+
+/// A UV sphere: `segments` around the axis, `rings` from pole to pole, counter-clockwise seen
+/// from outside (quads, triangles at the poles).
+fn uv_sphere(radius: f64, segments: usize, rings: usize) -> TriMesh {
+    let mut positions = vec![DVec3::new(0.0, 0.0, radius)];
+    for j in 1..rings {
+        let theta = std::f64::consts::PI * j as f64 / rings as f64;
+        for k in 0..segments {
+            let phi = 2.0 * std::f64::consts::PI * k as f64 / segments as f64;
+            positions.push(radius * DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()));
+        }
+    }
+    positions.push(DVec3::new(0.0, 0.0, -radius));
+    let south = (positions.len() - 1) as u32;
+    let v = |j: usize, k: usize| (1 + (j - 1) * segments + k % segments) as u32;
+    let mut polygons = Vec::new();
+    for k in 0..segments {
+        polygons.push(vec![0, v(1, k), v(1, k + 1)]);
+        for j in 1..rings - 1 {
+            polygons.push(vec![v(j, k), v(j + 1, k), v(j + 1, k + 1), v(j, k + 1)]);
+        }
+        polygons.push(vec![v(rings - 1, k), south, v(rings - 1, k + 1)]);
+    }
+    TriMesh::from_polygons(positions, &polygons, &Default::default()).unwrap()
+}
+
+/// The sphere meshed with about `tets` tets, built once per size for the whole test binary.
+fn sphere_mesh(tets: usize) -> &'static TetMesh {
+    static SURFACE: OnceLock<TriMesh> = OnceLock::new();
+    static MESHES: Mutex<Vec<(usize, &'static TetMesh)>> = Mutex::new(Vec::new());
+    let surface = SURFACE.get_or_init(|| uv_sphere(RADIUS, 256, 128));
+    let mut meshes = MESHES.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some(&(_, m)) = meshes.iter().find(|(n, _)| *n == tets) {
+        return m;
+    }
+    let mesh: &'static TetMesh = Box::leak(Box::new(tetrahedralize(surface, &MesherOptions::with_tets(tets)).unwrap()));
+    meshes.push((tets, mesh));
+    mesh
+}
+
+/// Lattice spacing of a stuffed mesh from its volume and tet count (interior tets: h³/12).
+fn spacing(mesh: &TetMesh) -> f64 {
+    (12.0 * mesh.volume() / mesh.tet_count() as f64).cbrt()
+}
+
+/// q = π(1 − F_ext(η)): what a constant environment of radiance 1 transmits.
+fn uniform_q(m: &Medium) -> f64 {
+    std::f64::consts::PI * (1.0 - f_ext(m.eta))
+}
+
+/// Assembled (TransCut or consistent FEM), lit uniformly and solved with the default options.
+fn solved(mesh: &TetMesh, m: Medium, consistent: bool) -> (DiffusionSystem, Vec<[f64; 3]>) {
+    let mut sys = if consistent { assemble_consistent(mesh, &[m], 1.0) } else { assemble(mesh, &[m], 1.0) }.unwrap();
+    sys.set_source(&vec![[uniform_q(&m); 3]; sys.boundary().len()]).unwrap();
+    let sol = solve(&sys, None, &SolveOptions::default()).unwrap();
+    (sys, sol.phi)
+}
+
+/// Three numbers in exponent notation.
+fn exp3(v: [f64; 3]) -> String {
+    format!("({:.2e}, {:.2e}, {:.2e})", v[0], v[1], v[2])
+}
+
+/// Relative errors at the boundary vertices, per channel.
+#[derive(Debug, Clone, Copy)]
+struct SurfaceErrors {
+    /// Max over boundary vertices of |φ_i/φ(R) − 1|.
+    phi_max: [f64; 3],
+    /// Area-weighted RMS of φ_i/φ(R) − 1.
+    phi_rms: [f64; 3],
+    /// Area-weighted mean of φ_i/φ(R) − 1 (the systematic part).
+    phi_mean: [f64; 3],
+    /// The same for Lo(x, n) against the closed form.
+    lo_max: [f64; 3],
+    lo_rms: [f64; 3],
+}
+
+fn surface_errors(sys: &DiffusionSystem, phi: &[[f64; 3]], sphere: &UniformSphere) -> SurfaceErrors {
+    let phis = surface_fluence(sys, phi).unwrap();
+    let lo = surface_radiance(sys, phi).unwrap();
+    let (exact, exact_lo) = (sphere.surface_fluence(), sphere.surface_radiance(1.0));
+    let b = sys.boundary();
+    let area: f64 = b.area_mm2.iter().sum();
+    let mut e = SurfaceErrors { phi_max: [0.0; 3], phi_rms: [0.0; 3], phi_mean: [0.0; 3], lo_max: [0.0; 3], lo_rms: [0.0; 3] };
+    for k in 0..b.len() {
+        let w = b.area_mm2[k] / area;
+        for c in 0..3 {
+            let ep = phis[k][c] / exact[c] - 1.0;
+            let el = lo[k][c] / exact_lo[c] - 1.0;
+            e.phi_max[c] = e.phi_max[c].max(ep.abs());
+            e.phi_rms[c] += w * ep * ep;
+            e.phi_mean[c] += w * ep;
+            e.lo_max[c] = e.lo_max[c].max(el.abs());
+            e.lo_rms[c] += w * el * el;
+        }
+    }
+    for c in 0..3 {
+        e.phi_rms[c] = e.phi_rms[c].sqrt();
+        e.lo_rms[c] = e.lo_rms[c].sqrt();
+    }
+    e
+}
+
+/// Every preset at about 200k tets: the < 1% bound on φ and Lo (max over the boundary vertices)
+/// for every channel the mesh resolves (see the module documentation), the second-order error
+/// model RMS ≤ 0.06 (σtr h)² (· amp for Lo) for the others.
+///
+/// Measured (TransCut, h = 1.25 mm), resolved channels: the largest errors are marble blue
+/// (σtr h = 0.32) with φ 0.48% / Lo 0.63% and skin2 red (0.26) with φ 0.35% / Lo 0.54%;
+/// unresolved: e.g. skin1 blue (σtr h = 1.85) φ RMS 11.6%, chicken1 blue Lo RMS 7.4%, ketchup
+/// blue φ RMS 27%.
+#[test]
+fn uniform_sphere_matches_the_closed_form_for_every_preset() {
+    let mesh = sphere_mesh(200_000);
+    assert!(mesh.tet_count() >= 200_000 * 9 / 10, "{} tets", mesh.tet_count());
+    let h = spacing(mesh);
+    let r_eff = (3.0 * mesh.volume() / (4.0 * std::f64::consts::PI)).cbrt();
+    eprintln!("{} tets, {} vertices, h = {h:.4} mm, equal-volume radius {r_eff:.4}", mesh.tet_count(), mesh.vertex_count());
+    let mut resolved = 0;
+    for name in PRESET_NAMES {
+        let m = Medium::preset(name).unwrap();
+        let q = uniform_q(&m);
+        let sphere = UniformSphere::new(m, RADIUS, [q; 3]).unwrap();
+        // The volume correction is negligible (module documentation).
+        let corrected = UniformSphere::new(m, r_eff, [q; 3]).unwrap().surface_fluence();
+        for c in 0..3 {
+            assert!((corrected[c] / sphere.surface_fluence()[c] - 1.0).abs() < 1e-4, "{name}");
+        }
+        let t = Instant::now();
+        let (sys, phi) = solved(mesh, m, false);
+        let elapsed = t.elapsed().as_secs_f64();
+        let e = surface_errors(&sys, &phi, &sphere);
+        let tr = m.sigma_tr();
+        let exact = sphere.surface_fluence();
+        for c in 0..3 {
+            let x2 = (tr[c] * h).powi(2);
+            let amp = exact[c] / (exact[c] - 2.0 * q); // Lo error / φ error
+            eprintln!(
+                "{name:9} ch{c} σtr·h {:.3} amp {amp:6.2}: φ max {:.2e} rms {:.2e} | Lo max {:.2e} rms {:.2e} ({elapsed:.2} s)",
+                tr[c] * h, e.phi_max[c], e.phi_rms[c], e.lo_max[c], e.lo_rms[c]
+            );
+            if amp > 0.0 && amp * x2 <= 0.15 {
+                resolved += 1;
+                assert!(e.phi_max[c] < 0.01, "{name} channel {c}: φ error {:.3e}", e.phi_max[c]);
+                assert!(e.lo_max[c] < 0.01, "{name} channel {c}: Lo error {:.3e}", e.lo_max[c]);
+            } else {
+                assert!(e.phi_rms[c] <= 0.06 * x2, "{name} channel {c}: φ RMS {:.3e}, (σtr h)² {x2:.3}", e.phi_rms[c]);
+                if amp > 0.0 {
+                    assert!(e.lo_rms[c] <= 0.06 * amp * x2, "{name} channel {c}: Lo RMS {:.3e}", e.lo_rms[c]);
+                }
+            }
+        }
+    }
+    assert!(resolved >= 15, "only {resolved} resolved channels");
+}
+
+/// Refinement 25k → 50k → 100k → 200k tets, marble (σtr h from 0.30 to 0.15 in red, 0.64 to
+/// 0.32 in blue), order = log(e₁/e₂)/log(h₁/h₂), h ∝ tets^(−1/3).
+///
+/// The systematic error (area-weighted mean of φ_i/φ(R) − 1) converges at second order in the
+/// green and blue channels (measured orders 1.91, 1.98, 1.94 and 1.87, 1.93, 1.90; red's
+/// systematic error is below 7e-5 throughout and not used). The pointwise error (RMS over the
+/// boundary vertices) is dominated by the irregular boundary layer of the stuffed mesh, whose
+/// configurations change from one lattice spacing to the next; its order rises from 1.5 to 1.8
+/// over these refinements (1.8 from 200k to 400k): asserted ≥ 1.4.
+#[test]
+fn transcut_converges_at_second_order() {
+    let m = Medium::preset("marble").unwrap();
+    let sphere = UniformSphere::new(m, RADIUS, [uniform_q(&m); 3]).unwrap();
+    let mut levels = Vec::new();
+    for n in [25_000, 50_000, 100_000, 200_000] {
+        let mesh = sphere_mesh(n);
+        let (sys, phi) = solved(mesh, m, false);
+        levels.push(((mesh.tet_count() as f64).powf(-1.0 / 3.0), surface_errors(&sys, &phi, &sphere)));
+    }
+    for w in levels.windows(2) {
+        let ((h1, e1), (h2, e2)) = (w[0], w[1]);
+        let order = |a: f64, b: f64| (a / b).ln() / (h1 / h2).ln();
+        let mean = [1, 2].map(|c| order(e1.phi_mean[c].abs(), e2.phi_mean[c].abs()));
+        let rms = [0, 1, 2].map(|c| order(e1.phi_rms[c], e2.phi_rms[c]));
+        eprintln!(
+            "h ratio {:.4}: mean errors {} -> {}, orders (G, B) {mean:.3?}; RMS {} -> {}, orders {rms:.3?}",
+            h1 / h2,
+            exp3(e1.phi_mean),
+            exp3(e2.phi_mean),
+            exp3(e1.phi_rms),
+            exp3(e2.phi_rms)
+        );
+        for o in mean {
+            assert!((1.7..=2.3).contains(&o), "order {o}");
+        }
+        for o in rms {
+            assert!(o >= 1.4, "RMS order {o}");
+        }
+        for c in 1..3 {
+            assert!(e1.phi_mean[c] < 0.0 && e2.phi_mean[c] < 0.0, "a systematic under-estimate");
+        }
+    }
+    let fine = levels[3].1;
+    eprintln!("200k: φ mean {}, RMS {}, max {}", exp3(fine.phi_mean), exp3(fine.phi_rms), exp3(fine.phi_max));
+}
+
+/// TransCut (lumped masses) against the consistent P1 FEM on the same meshes: they differ by
+/// the mass lumping, O(h²). Measured max |φ_TC/φ_FEM − 1| over the boundary, marble (R, G, B):
+/// (2.1e-4, 6.7e-4, 1.7e-3) at 100k and (1.2e-4, 3.5e-4, 8.9e-4) at 200k tets (Lo: 1.2e-3 at
+/// most); skin2 blue (σtr h = 1.15, unresolved) 3.8% at 200k. Asserted: at most 0.05 (σtr h)²
+/// everywhere, below 0.5% for marble, and shrinking by more than 1.3× per doubling.
+#[test]
+fn transcut_and_consistent_fem_agree() {
+    let mut previous: Option<[f64; 3]> = None;
+    for n in [100_000, 200_000] {
+        let mesh = sphere_mesh(n);
+        for name in ["marble", "skin2"] {
+            let m = Medium::preset(name).unwrap();
+            let (tc, phi_tc) = solved(mesh, m, false);
+            let (fem, phi_fem) = solved(mesh, m, true);
+            let (a, b) = (surface_fluence(&tc, &phi_tc).unwrap(), surface_fluence(&fem, &phi_fem).unwrap());
+            let (la, lb) = (surface_radiance(&tc, &phi_tc).unwrap(), surface_radiance(&fem, &phi_fem).unwrap());
+            let mut diff = [0.0f64; 3];
+            let mut diff_lo = [0.0f64; 3];
+            for k in 0..a.len() {
+                for c in 0..3 {
+                    diff[c] = diff[c].max((a[k][c] / b[k][c] - 1.0).abs());
+                    diff_lo[c] = diff_lo[c].max((la[k][c] / lb[k][c] - 1.0).abs());
+                }
+            }
+            eprintln!("{n} {name}: max |φ_TC/φ_FEM − 1| {}, Lo {}", exp3(diff), exp3(diff_lo));
+            let tr = m.sigma_tr();
+            let h = spacing(mesh);
+            for c in 0..3 {
+                // Both are within about 0.04 (σtr h)² of the closed form (RMS).
+                assert!(diff[c] <= 0.05 * (tr[c] * h).powi(2), "{name} channel {c}: {diff:?}");
+            }
+            if name == "marble" {
+                for c in 0..3 {
+                    assert!(diff[c] < 5e-3 && diff_lo[c] < 5e-3, "{diff:?} {diff_lo:?}");
+                }
+                if let Some(p) = previous {
+                    for c in 0..3 {
+                        // Second order: 2^(2/3) = 1.59 per doubling of the tet count.
+                        assert!(p[c] / diff[c] > 1.3, "{p:?} -> {diff:?}");
+                    }
+                }
+                previous = Some(diff);
+            }
+        }
+    }
+}
+
+/// M is symmetric (to 1e-12 of its largest entry; the assembly makes it exactly symmetric) and
+/// positive definite (a dense Cholesky factorisation succeeds), also with two materials and
+/// with the stuffed mesh's obtuse dihedral angles, which make some off-diagonal entries
+/// positive (so M is not an M-matrix and positive definiteness does not come from diagonal
+/// dominance).
+#[test]
+fn matrix_is_symmetric_positive_definite() {
+    let mut mesh = sphere_mesh(3_000).clone();
+    // Two materials with the same η: the lower half of the sphere is skin, the upper marble.
+    let marble = Medium::preset("marble").unwrap();
+    let skin = Medium { eta: marble.eta, ..Medium::preset("skin1").unwrap() };
+    let materials = (0..mesh.tet_count())
+        .map(|t| u32::from(mesh.tet_positions(t).iter().map(|p| p.z).sum::<f64>() < 0.0))
+        .collect();
+    mesh.set_materials(materials).unwrap();
+    for consistent in [false, true] {
+        let sys = if consistent {
+            assemble_consistent(&mesh, &[marble, skin], 1.0)
+        } else {
+            assemble(&mesh, &[marble, skin], 1.0)
+        }
+        .unwrap();
+        let m = sys.matrix();
+        let largest = m.values().iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
+        assert!(m.is_symmetric(1e-12 * largest));
+        let positive_off_diagonal = (0..m.n())
+            .flat_map(|i| m.pattern().row(i).iter().map(move |&j| (i, j as usize)))
+            .filter(|&(i, j)| i != j && m.get(i, j).unwrap()[0] > 0.0)
+            .count();
+        if !consistent {
+            assert!(positive_off_diagonal > 0, "expected obtuse angles in a stuffed mesh");
+        }
+        for c in 0..3 {
+            let dense = m.to_dense(c);
+            assert!(dense.clone().cholesky().is_some(), "channel {c} is not positive definite");
+            assert!((&dense - dense.transpose()).amax() <= 1e-12 * largest);
+        }
+    }
+}
+
+/// Energy balance: absorbed + exitant = transmitted incident power.
+///
+/// Integrating the diffusion equation over Ω: ∫ μφ dV = ∫_∂Ω κ∇φ·n dS, and the boundary
+/// condition φ + 2Aκ∇φ·n = Q, Q = 4q/(1 − Fdr), turns the right side into ∫ (Q − φ)/(2A) dS:
+/// what is absorbed is the net flux entering through the surface. The exitance (power leaving
+/// per area) is the hemispherical integral of eq. 3, ∫ Lo cos θo dωo =
+/// [(1 + 1/A)φ − 4q/(1 + Fdr)]/(4π) · ∫ Ft cos θo dωo; with ∫ Ft cos θo dωo = π(1 − Fdr) and
+/// 1 + 1/A = 2/(1 + Fdr) it is (φ − 2q)/(2A). Adding: absorbed + exitant =
+/// ∫ (Q − 2q)/(2A) dS = ∫ q dS, because (4/(1 − Fdr) − 2)/(2A) = 1.
+///
+/// Discretely the same identity holds exactly (to the solver tolerance): the sum of the rows of
+/// M φ = b (4 × the weak form tested with 1) cancels the stiffness, the lumped absorption rows
+/// sum to Σ_t μ_t V_t φ̄_t = ∫ μ φ_h for piecewise-linear φ_h, and the boundary rows to
+/// (1/(2A)) ∫ φ_h dS and (1/(2A)) ∫ Q dS. Checked here to 1e-5, independently of the library's
+/// `energy_balance`, and with the exitance integrated numerically from the radiance query
+/// (`radiance_from_fluence` over the hemisphere, Ft = T(η, θo)/η² exactly), where
+/// ∫ Ft cos θo dωo = π(1 − F_ext)/η² differs from π(1 − Fdr) only by the Egan–Hilgeman fit of
+/// Fdr (measured: discrete defect below 2e-7, with the integrated query below 9e-4; asserted
+/// 1e-5 and 1%).
+#[test]
+fn energy_balance_holds() {
+    let mesh = sphere_mesh(50_000);
+    for name in ["marble", "skin1", "jade"] {
+        let m = Medium::preset(name).unwrap();
+        let (sys, phi) = solved(mesh, m, false);
+        let q = uniform_q(&m);
+        let t = *sys.boundary_terms();
+        // Absorbed, with the lumped mass: Σ_i φ_i Σ_{t ∋ i} V_t μ / 4.
+        let mut lumped = vec![0.0; mesh.vertex_count()];
+        for tet in 0..mesh.tet_count() {
+            for &v in &mesh.tets()[tet] {
+                lumped[v as usize] += mesh.tet_volume(tet) / 4.0;
+            }
+        }
+        let absorbed = [0, 1, 2].map(|c| (0..phi.len()).map(|i| lumped[i] * m.sigma_a[c] * phi[i][c]).sum::<f64>());
+        // Surface integrals of piecewise-linear functions over the boundary triangles.
+        let mut phi_integral = [0.0; 3];
+        let mut lo_weighted = [0.0; 3]; // ∫ [(1 + 1/A)φ − 4q/(1 + Fdr)] dS
+        let mut area = 0.0;
+        for (f, face) in mesh.boundary_faces().iter().enumerate() {
+            let a = mesh.boundary_area(f);
+            area += a;
+            for c in 0..3 {
+                let mean = face.vertices.iter().map(|&v| phi[v as usize][c]).sum::<f64>() / 3.0;
+                phi_integral[c] += a * mean;
+                lo_weighted[c] += a * ((1.0 + 1.0 / t.a) * mean - 4.0 * q / (1.0 + t.fdr));
+            }
+        }
+        let incident = q * area;
+        // Hemispherical integral of the radiance query per unit bracket: 2π ∫₀¹ Ft(μ) μ dμ/(4π).
+        let steps = 20_000;
+        let hemisphere: f64 = (0..steps)
+            .map(|k| {
+                let mu = (k as f64 + 0.5) / steps as f64;
+                // radiance_from_fluence is linear in [(1 + 1/A)φ − 4q/(1 + Fdr)]: take φ giving
+                // a bracket of 1.
+                let phi_one = (1.0 + 4.0 * q / (1.0 + t.fdr)) / (1.0 + 1.0 / t.a);
+                2.0 * std::f64::consts::PI * radiance_from_fluence(phi_one, q, t.eta, mu) * mu / steps as f64
+            })
+            .sum();
+        let library = energy_balance(&sys, &phi).unwrap();
+        for c in 0..3 {
+            let exitant = (phi_integral[c] - 2.0 * q * area) / (2.0 * t.a);
+            let discrete = (absorbed[c] + exitant) / incident - 1.0;
+            let integrated = (absorbed[c] + hemisphere * lo_weighted[c]) / incident - 1.0;
+            eprintln!(
+                "{name} ch{c}: absorbed {:.4} + exitant {:.4} of incident {incident:.4}: defect {discrete:.1e}, \
+                 with the integrated radiance query {integrated:.1e}",
+                absorbed[c] / incident, exitant / incident
+            );
+            assert!(discrete.abs() < 1e-5, "{name} {c}: {discrete}");
+            assert!(integrated.abs() < 0.01, "{name} {c}: {integrated}");
+            assert!((library.absorbed[c] / absorbed[c] - 1.0).abs() < 1e-10);
+            assert!((library.exitant[c] / exitant - 1.0).abs() < 1e-10);
+            assert!((library.incident[c] / incident - 1.0).abs() < 1e-10);
+        }
+    }
+}
+
+/// Relighting changes only b: the pattern and the matrix are kept, and the previous solution is
+/// a warm start that saves iterations.
+#[test]
+fn relighting_keeps_the_matrix_and_warm_starts() {
+    let mesh = sphere_mesh(50_000);
+    let m = Medium::preset("marble").unwrap();
+    let (mut sys, phi) = solved(mesh, m, false);
+    let cold_iterations = solve(&sys, None, &SolveOptions::default()).unwrap().stats.iterations;
+    let values = sys.matrix().values().to_vec();
+    let pattern = std::sync::Arc::clone(sys.pattern());
+    // The uniform light tilted by ±5% towards +x.
+    let light = DVec3::new(1.0, 0.0, 0.0);
+    let q: Vec<[f64; 3]> = sys
+        .boundary()
+        .normal
+        .iter()
+        .map(|n| [uniform_q(&m) * (1.0 + 0.05 * n.dot(light)); 3])
+        .collect();
+    sys.set_source(&q).unwrap();
+    assert!(std::sync::Arc::ptr_eq(&pattern, sys.pattern()));
+    assert_eq!(sys.matrix().values(), &values[..]);
+    let warm = solve(&sys, Some(&phi), &SolveOptions::default()).unwrap();
+    let cold = solve(&sys, None, &SolveOptions::default()).unwrap();
+    let exact = solve(&sys, None, &SolveOptions::default().with_tolerance(1e-12)).unwrap();
+    let error = |x: &[[f64; 3]]| {
+        [0, 1, 2].map(|c| (0..x.len()).map(|i| (x[i][c] / exact.phi[i][c] - 1.0).abs()).fold(0.0, f64::max))
+    };
+    eprintln!(
+        "iterations: uniform cold {cold_iterations:?}, relit cold {:?} (error {}), warm {:?} (error {})",
+        cold.stats.iterations,
+        exp3(error(&cold.phi)),
+        warm.stats.iterations,
+        exp3(error(&warm.phi))
+    );
+    for c in 0..3 {
+        assert!(warm.stats.iterations[c] < cold.stats.iterations[c]);
+        assert!(error(&warm.phi)[c] < 1e-3 && error(&cold.phi)[c] < 1e-3);
+    }
+}
