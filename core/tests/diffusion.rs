@@ -33,6 +33,8 @@
 //! albedo below 0.1: there the diffusion approximation predicts φ(R) < 2q, i.e. a negative
 //! exitant radiance, and only φ is compared.
 
+#![allow(clippy::needless_range_loop)] // per-channel loops read best indexed
+
 use std::sync::{Mutex, OnceLock};
 use std::time::Instant;
 

@@ -351,6 +351,7 @@ fn check_source(boundary: &BoundaryVertices, q: &[[f64; 3]]) -> Result<(), Diffu
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // per-channel loops read best indexed
 pub(crate) mod tests {
     use super::*;
     use glam::DVec3;

@@ -81,12 +81,12 @@ pub(crate) fn fill_consistent(s: &Structure, c: &Coefficients, terms: &BoundaryT
                 let area = s.face_area[f.face as usize];
                 // 4 · area (1 + δ_ij)/12 / (2A).
                 let (on, off) = (area / (3.0 * terms.a), area / (6.0 * terms.a));
-                for ch in 0..3 {
-                    row[d][ch] += on;
+                for x in &mut row[d] {
+                    *x += on;
                 }
                 for &slot in &f.slots {
-                    for ch in 0..3 {
-                        row[slot as usize][ch] += off;
+                    for x in &mut row[slot as usize] {
+                        *x += off;
                     }
                 }
             }
@@ -115,6 +115,7 @@ pub(crate) fn rhs_consistent(s: &Structure, terms: &BoundaryTerms, q: &[[f64; 3]
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // per-channel loops read best indexed
 mod tests {
     use super::super::assemble;
     use super::*;

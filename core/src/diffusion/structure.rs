@@ -237,7 +237,7 @@ impl Structure {
                     row += 1;
                 }
                 let tet = tets[inc.tet as usize];
-                inc.slots = OTHERS[inc.local as usize].map(|b| slot(row, tet[b as usize]));
+                inc.slots = OTHERS[inc.local as usize].map(|b| slot(row, tet[b]));
             }
         });
 
