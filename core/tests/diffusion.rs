@@ -158,7 +158,7 @@ fn surface_errors(sys: &DiffusionSystem, phi: &[[f64; 3]], sphere: &UniformSpher
 ///
 /// Measured (TransCut, h = 1.25 mm), resolved channels: the largest errors are marble blue
 /// (σtr h = 0.32) with φ 0.48% / Lo 0.63% and skin2 red (0.26) with φ 0.35% / Lo 0.54%;
-/// unresolved: e.g. skin1 blue (σtr h = 1.85) φ RMS 11.6%, chicken1 blue Lo RMS 7.4%, ketchup
+/// unresolved: e.g. skin1 blue (σtr h = 1.84) φ RMS 11.6%, chicken1 blue Lo RMS 7.4%, ketchup
 /// blue φ RMS 27%.
 #[test]
 fn uniform_sphere_matches_the_closed_form_for_every_preset() {
