@@ -43,6 +43,8 @@ struct MeshEntry {
     min_dihedral_deg: f64,
     max_dihedral_deg: f64,
     tets_below_10_deg: usize,
+    passes: usize,
+    lattice_vertices: usize,
     hausdorff: f64,
     median_ms: f64,
     runs_ms: Vec<f64>,
@@ -91,6 +93,8 @@ fn bench_mesh(args: &BenchArgs) -> anyhow::Result<()> {
             min_dihedral_deg: q.min_dihedral_deg,
             max_dihedral_deg: q.max_dihedral_deg,
             tets_below_10_deg: q.min_angle_histogram[0],
+            passes: t.stats.passes,
+            lattice_vertices: t.stats.lattice_vertices,
             hausdorff: t.stats.hausdorff.max,
             median_ms: median(runs.clone()),
             runs_ms: runs,
@@ -100,6 +104,12 @@ fn bench_mesh(args: &BenchArgs) -> anyhow::Result<()> {
                 topology_ms: pick(|s| s.topology_ms),
                 mapping_ms: pick(|s| s.mapping_ms),
                 total_ms: pick(|s| s.total_ms),
+                final_pass: transcut::mesher::PhaseTimings {
+                    labels_ms: pick(|s| s.final_pass.labels_ms),
+                    cuts_ms: pick(|s| s.final_pass.cuts_ms),
+                    warp_ms: pick(|s| s.final_pass.warp_ms),
+                    stencils_ms: pick(|s| s.final_pass.stencils_ms),
+                },
             },
         });
     }

@@ -127,6 +127,22 @@ impl TetMesh {
         Ok(Self { positions, tets, materials, ring_offsets, ring, edges, boundary_faces, on_boundary, surface_map: Vec::new() })
     }
 
+    /// The same mesh with every position mapped by `f` (e.g. a rigid motion). The topology is
+    /// kept; it is re-validated only for orientation and degeneracy.
+    ///
+    /// # Errors
+    /// [`TetMeshError`] if the map makes a position non-finite or a tet degenerate or inverted.
+    pub fn map_positions(mut self, f: impl Fn(DVec3) -> DVec3 + Sync) -> Result<Self, TetMeshError> {
+        self.positions.par_iter_mut().for_each(|p| *p = f(*p));
+        if let Some(v) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(TetMeshError::NonFinite { vertex: v });
+        }
+        if let Some(t) = (0..self.tets.len()).find(|&t| !(self.tet_volume(t) > 0.0)) {
+            return Err(TetMeshError::Degenerate { tet: t, volume: self.tet_volume(t) });
+        }
+        Ok(self)
+    }
+
     /// Vertex positions.
     #[must_use]
     pub fn positions(&self) -> &[DVec3] {

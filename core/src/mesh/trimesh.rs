@@ -302,13 +302,22 @@ impl TriMesh {
             .sum()
     }
 
-    /// Signed enclosed volume by the divergence theorem (exact for closed, consistently oriented
-    /// meshes; an estimate for open ones).
+    /// Signed enclosed volume by the divergence theorem: the sum of the signed volumes of the
+    /// tets joining each triangle to a reference point. Exact (and independent of the point) for
+    /// closed, consistently oriented meshes; for open ones an estimate whose value depends on the
+    /// point, so the area-weighted centroid of the surface is used, which makes the estimate
+    /// invariant under rotation and translation.
     #[must_use]
     pub fn signed_volume(&self) -> f64 {
+        let (weighted, area) = (0..self.triangles.len()).fold((DVec3::ZERO, 0.0), |(c, a), t| {
+            let [p, q, r] = self.triangle(t);
+            let w = 0.5 * (q - p).cross(r - p).length();
+            (c + w * (p + q + r) / 3.0, a + w)
+        });
+        let origin = if area > 0.0 { weighted / area } else { DVec3::ZERO };
         (0..self.triangles.len())
             .map(|t| {
-                let [a, b, c] = self.triangle(t);
+                let [a, b, c] = self.triangle(t).map(|p| p - origin);
                 a.dot(b.cross(c)) / 6.0
             })
             .sum()

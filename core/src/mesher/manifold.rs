@@ -67,13 +67,14 @@ fn project_exposed(positions: &mut [DVec3], tets: &[[u32; 4]], mesh: &TetMesh, t
 pub(crate) fn make_manifold(
     mut positions: Vec<DVec3>,
     mut tets: Vec<[u32; 4]>,
+    mut on_surface: Vec<bool>,
     surface: &crate::mesh::TriangleBvh,
 ) -> Result<(TetMesh, Repair), TetMeshError> {
     let mut repair = Repair::default();
     // Vertices of removed tets (current numbering): candidates for projection at the end.
     let mut touched: Vec<u32> = Vec::new();
     for _ in 0..16 {
-        repair.split_vertices += split_pinched_vertices(&mut positions, &mut tets);
+        repair.split_vertices += split_pinched_vertices(&mut positions, &mut tets, &mut on_surface);
         let mesh = TetMesh::new(positions.clone(), tets.clone(), Vec::new())?;
         let fill = gap_tets(&mesh);
         if !fill.is_empty() {
@@ -107,16 +108,20 @@ pub(crate) fn make_manifold(
         // Vertices left without tets are dropped by renumbering.
         let mut id = vec![u32::MAX; positions.len()];
         let mut kept = Vec::new();
+        let mut kept_surface = Vec::new();
         for t in tets.iter_mut() {
             for v in t.iter_mut() {
                 if id[*v as usize] == u32::MAX {
                     id[*v as usize] = kept.len() as u32;
                     kept.push(positions[*v as usize]);
+                    // A removal exposes interior vertices: from now on any vertex may be pinched.
+                    kept_surface.push(true);
                 }
                 *v = id[*v as usize];
             }
         }
         positions = kept;
+        on_surface = kept_surface;
         touched.retain_mut(|v| {
             *v = id[*v as usize];
             *v != u32::MAX
@@ -329,7 +334,10 @@ fn collect_groups(group: &mut [usize], items: &[u32]) -> Vec<Vec<u32>> {
 
 /// Splits every vertex whose star has several face-connected groups; returns how many copies
 /// were added.
-pub(crate) fn split_pinched_vertices(positions: &mut Vec<DVec3>, tets: &mut [[u32; 4]]) -> usize {
+///
+/// Only vertices flagged in `on_surface` are examined (an interior vertex's star is a ball);
+/// copies inherit the flag.
+pub(crate) fn split_pinched_vertices(positions: &mut Vec<DVec3>, tets: &mut [[u32; 4]], on_surface: &mut Vec<bool>) -> usize {
     let n = positions.len();
     // Vertex → tets incidence (CSR).
     let mut offsets = vec![0u32; n + 1];
@@ -353,7 +361,7 @@ pub(crate) fn split_pinched_vertices(positions: &mut Vec<DVec3>, tets: &mut [[u3
     let mut group = Vec::new();
     for v in 0..n {
         let around = &star[offsets[v] as usize..offsets[v + 1] as usize];
-        if around.len() < 2 {
+        if around.len() < 2 || !on_surface[v] {
             continue;
         }
         // Union-find over the star: two tets are joined when they share a face through v, i.e.
@@ -388,6 +396,7 @@ pub(crate) fn split_pinched_vertices(positions: &mut Vec<DVec3>, tets: &mut [[u3
                 Some(c) => c.1,
                 None => {
                     positions.push(positions[v]);
+                    on_surface.push(true);
                     added += 1;
                     let id = (positions.len() - 1) as u32;
                     copies.push((root, id));
@@ -410,6 +419,7 @@ mod tests {
 
     #[test]
     fn two_tets_touching_at_a_vertex_are_separated() {
+        let mut surface = vec![true; 7];
         let mut p = vec![
             DVec3::ZERO,
             DVec3::X,
@@ -420,13 +430,13 @@ mod tests {
             -DVec3::Z,
         ];
         let mut tets = vec![[0, 1, 2, 3], [0, 4, 5, 6]];
-        assert_eq!(split_pinched_vertices(&mut p, &mut tets), 1);
+        assert_eq!(split_pinched_vertices(&mut p, &mut tets, &mut surface), 1);
         assert_eq!(p.len(), 8);
         assert_eq!(tets[1][0], 7);
         assert_eq!(p[7], DVec3::ZERO);
         // Face-connected tets are left alone.
         let mut p2 = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z, DVec3::splat(1.0)];
         let mut t2 = vec![[0, 1, 2, 3], [1, 2, 3, 4]];
-        assert_eq!(split_pinched_vertices(&mut p2, &mut t2), 0);
+        assert_eq!(split_pinched_vertices(&mut p2, &mut t2, &mut vec![true; 5]), 0);
     }
 }
