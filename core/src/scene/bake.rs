@@ -1,0 +1,241 @@
+//! Baking a scene: every object meshed, lit, solved and sampled at its user's vertices.
+
+use std::time::Instant;
+
+use super::Scene;
+use crate::diffusion::{self, DiffusionError};
+use crate::light::{self, LightError, SourceOptions};
+use crate::mesh::{TetMesh, TriangleBvh};
+use crate::mesher::{self, MesherError, MesherOptions, MesherStats};
+use crate::progress::{Cancelled, Progress};
+use crate::sparse::SolveOptions;
+
+/// How to bake.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BakeOptions {
+    /// Target tetrahedra per object.
+    pub tets: usize,
+    /// Relative residual ‖b − Mφ‖/‖b‖ at which the solve stops.
+    pub tolerance: f64,
+    /// Iteration cap of the solver.
+    pub max_iterations: usize,
+    /// Worker threads (0 = all cores).
+    pub threads: usize,
+    /// Sampling of area and environment lights and shadow rays.
+    pub source: SourceOptions,
+    /// Whether objects shadow themselves and each other.
+    pub shadows: bool,
+}
+
+impl Default for BakeOptions {
+    fn default() -> Self {
+        Self { tets: 200_000, tolerance: 1e-6, max_iterations: 10_000, threads: 0, source: SourceOptions::default(), shadows: true }
+    }
+}
+
+/// Why a bake failed. Every variant names the object (index and name) where one is at fault.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SceneError {
+    /// The scene has no objects.
+    #[error("the scene has no objects")]
+    NoObjects,
+    /// A bake option is out of range.
+    #[error("invalid bake option: {0}")]
+    InvalidOptions(String),
+    /// An object's own parameters are invalid.
+    #[error("object {index} ({name}): {message}")]
+    InvalidObject { index: usize, name: String, message: String },
+    /// Meshing an object failed.
+    #[error("object {index} ({name}): meshing failed: {source}")]
+    Mesher {
+        index: usize,
+        name: String,
+        #[source]
+        source: MesherError,
+    },
+    /// A light is invalid or the source could not be computed.
+    #[error("lights: {0}")]
+    Light(#[from] LightError),
+    /// Assembly or solve failed for an object.
+    #[error("object {index} ({name}): {source}")]
+    Diffusion {
+        index: usize,
+        name: String,
+        #[source]
+        source: DiffusionError,
+    },
+    /// Cancelled through the progress callback.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
+}
+
+/// What was measured for one object.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ObjectStats {
+    pub tets: usize,
+    pub vertices: usize,
+    pub boundary_vertices: usize,
+    /// Solver iterations per channel.
+    pub iterations: [usize; 3],
+    /// Final relative residual per channel.
+    pub relative_residual: [f64; 3],
+    /// Vertices whose diffusion radiance was negative and clamped to zero.
+    pub clamped_vertices: usize,
+    pub meshing_ms: f64,
+    pub assembly_ms: f64,
+    pub source_ms: f64,
+    pub solve_ms: f64,
+    pub total_ms: f64,
+    /// The mesher's own statistics.
+    pub meshing: MesherStats,
+}
+
+/// One object's result.
+#[derive(Debug, Clone)]
+pub struct ObjectBake {
+    /// Lo(x, n), linear RGB, one per vertex of the object's input mesh, in the user's order.
+    pub radiance: Vec<[f64; 3]>,
+    /// The tet mesh the object was solved on (world space).
+    pub tet_mesh: TetMesh,
+    /// The fluence φ at every tet-mesh vertex (a warm start for later solves).
+    pub fluence: Vec<[f64; 3]>,
+    pub stats: ObjectStats,
+}
+
+/// The result of [`bake`]: one entry per object, in scene order.
+#[derive(Debug, Clone)]
+pub struct Bake {
+    pub objects: Vec<ObjectBake>,
+    /// Wall time of the whole bake.
+    pub total_ms: f64,
+}
+
+/// Bakes per-vertex radiance for every object of `scene`.
+///
+/// # Errors
+/// [`SceneError`] naming the object or light at fault.
+pub fn bake(scene: &Scene, options: &BakeOptions) -> Result<Bake, SceneError> {
+    bake_with(scene, options, Progress::none())
+}
+
+/// [`bake`] with progress reporting and cancellation.
+///
+/// # Errors
+/// As [`bake`], plus [`SceneError::Cancelled`].
+pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<Bake, SceneError> {
+    validate(scene, options)?;
+    if options.threads > 0 {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(options.threads)
+            .build()
+            .map_err(|e| SceneError::InvalidOptions(format!("cannot start {} threads: {e}", options.threads)))?;
+        pool.install(|| bake_all(scene, options, progress))
+    } else {
+        bake_all(scene, options, progress)
+    }
+}
+
+fn validate(scene: &Scene, options: &BakeOptions) -> Result<(), SceneError> {
+    if scene.objects.is_empty() {
+        return Err(SceneError::NoObjects);
+    }
+    if options.tets == 0 {
+        return Err(SceneError::InvalidOptions("tets must be at least 1".into()));
+    }
+    if !(options.tolerance > 0.0 && options.tolerance < 1.0) {
+        return Err(SceneError::InvalidOptions(format!("tolerance must lie in (0, 1), got {}", options.tolerance)));
+    }
+    if options.max_iterations == 0 {
+        return Err(SceneError::InvalidOptions("max_iterations must be at least 1".into()));
+    }
+    for (index, o) in scene.objects.iter().enumerate() {
+        let bad = |message: String| SceneError::InvalidObject { index, name: o.name.clone(), message };
+        if !(o.mm_per_unit.is_finite() && o.mm_per_unit > 0.0) {
+            return Err(bad(format!("mm_per_unit must be positive and finite, got {}", o.mm_per_unit)));
+        }
+        if !o.transform.is_finite() || o.transform.determinant().abs() < 1e-300 {
+            return Err(bad("the transform is singular or not finite".into()));
+        }
+        o.medium.validate().map_err(|e| bad(e.to_string()))?;
+    }
+    light::validate_lights(&scene.lights)?;
+    Ok(())
+}
+
+fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<Bake, SceneError> {
+    let start = Instant::now();
+    let n = scene.objects.len() as f64;
+    // World-space surfaces: they are meshed, and together they shadow.
+    let world: Vec<_> = scene.objects.iter().map(|o| o.mesh.transformed(&o.transform)).collect();
+    let occluder = options.shadows.then(|| {
+        let corners = world.iter().flat_map(|m| (0..m.triangles().len()).map(move |t| m.triangle(t))).collect();
+        TriangleBvh::new(corners)
+    });
+    let mut objects = Vec::with_capacity(scene.objects.len());
+    for (index, (object, surface)) in scene.objects.iter().zip(&world).enumerate() {
+        let name = || object.name.clone();
+        let t0 = Instant::now();
+        let stage = |s: &str, f: f64| progress.report(&format!("{}: {s}", object.name), (index as f64 + f) / n);
+        let mesh_progress = |s: &str, f: f64| stage(s, 0.6 * f).is_ok();
+        let meshed = mesher::tetrahedralize_with(surface, &MesherOptions::with_tets(options.tets), Progress::new(&mesh_progress))
+            .map_err(|source| match source {
+                MesherError::Cancelled(c) => SceneError::Cancelled(c),
+                source => SceneError::Mesher { index, name: name(), source },
+            })?;
+        let meshing_ms = ms(t0);
+        stage("assembly", 0.6)?;
+
+        let t = Instant::now();
+        let diffusion_error = |source| SceneError::Diffusion { index, name: name(), source };
+        let mut system = diffusion::assemble(&meshed.mesh, &[object.medium], object.mm_per_unit).map_err(diffusion_error)?;
+        let assembly_ms = ms(t);
+        stage("light", 0.7)?;
+
+        let t = Instant::now();
+        let boundary = system.boundary();
+        let points: Vec<_> = boundary.ids.iter().map(|&v| meshed.mesh.positions()[v as usize]).collect();
+        let q = light::transmitted_source(&scene.lights, &points, &boundary.normal, object.medium.eta, occluder.as_ref(), &options.source)?;
+        system.set_source(&q).map_err(diffusion_error)?;
+        let source_ms = ms(t);
+        stage("solve", 0.8)?;
+
+        let t = Instant::now();
+        let solve_options = SolveOptions { tolerance: options.tolerance, max_iterations: options.max_iterations, ..SolveOptions::default() };
+        let solution = diffusion::solve(&system, None, &solve_options).map_err(diffusion_error)?;
+        let lo = diffusion::surface_radiance(&system, &solution.phi).map_err(diffusion_error)?;
+        let solve_ms = ms(t);
+
+        // Per tet-mesh vertex (boundary entries only), clamped, then at the user's vertices.
+        let mut per_vertex = vec![[0.0; 3]; meshed.mesh.vertex_count()];
+        let mut clamped = 0;
+        for (&v, l) in system.boundary().ids.iter().zip(&lo) {
+            if l.iter().any(|&x| x < 0.0) {
+                clamped += 1;
+            }
+            per_vertex[v as usize] = l.map(|x| x.max(0.0));
+        }
+        let radiance = meshed.mesh.sample_at_user_vertices(&per_vertex);
+        let stats = ObjectStats {
+            tets: meshed.mesh.tet_count(),
+            vertices: meshed.mesh.vertex_count(),
+            boundary_vertices: system.boundary().len(),
+            iterations: solution.stats.iterations,
+            relative_residual: solution.stats.relative_residual,
+            clamped_vertices: clamped,
+            meshing_ms,
+            assembly_ms,
+            source_ms,
+            solve_ms,
+            total_ms: ms(t0),
+            meshing: meshed.stats,
+        };
+        objects.push(ObjectBake { radiance, tet_mesh: meshed.mesh, fluence: solution.phi, stats });
+        stage("done", 1.0)?;
+    }
+    Ok(Bake { objects, total_ms: ms(start) })
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
