@@ -278,6 +278,9 @@ fn non_finite_inputs_and_bad_sizes_are_named() {
     let other = jacobi(&random_spd(n + 1, 10, 1));
     let e = pcg(&a, &b, &mut x, &other, &SolveOptions::default()).unwrap_err();
     assert!(matches!(e, SparseError::DimensionMismatch { .. }), "{e}");
+    let same_size = jacobi(&random_spd(n, 10, 1));
+    let e = pcg(&a, &b, &mut x, &same_size, &SolveOptions::default()).unwrap_err();
+    assert!(matches!(e, SparseError::PatternMismatch(_)), "{e}");
     let e = pcg(&a, &b, &mut x, &pc, &SolveOptions::default().with_tolerance(f64::NAN)).unwrap_err();
     assert!(matches!(e, SparseError::InvalidOption(_)), "{e}");
 }

@@ -27,8 +27,9 @@ fn breakdown(channel: usize, iteration: usize, reason: String) -> SparseError {
 /// `relative_residual` is the true final residual, `x` is unchanged on error.
 ///
 /// # Errors
-/// * [`SparseError::DimensionMismatch`], [`SparseError::NonFinite`],
-///   [`SparseError::InvalidOption`] for bad inputs, as for [`pcg`](super::pcg);
+/// * [`SparseError::DimensionMismatch`], [`SparseError::PatternMismatch`],
+///   [`SparseError::NonFinite`], [`SparseError::InvalidOption`] for bad inputs, as for
+///   [`pcg`](super::pcg);
 /// * [`SparseError::Breakdown`] naming the channel and iteration when `r̂ᵀr`, `r̂ᵀv` or `ω`
 ///   vanishes (or turns non-finite);
 /// * [`SparseError::Cancelled`] when the monitor returns `false`.

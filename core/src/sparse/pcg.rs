@@ -2,7 +2,8 @@
 //!
 //! Each channel has its own α, β and stopping test; a converged channel gets α = 0 from then
 //! on, so its `x` and `r` stop changing, while the loop continues for the others. No scalar or
-//! vector ever mixes channels, so a channel's iterates do not depend on the other two.
+//! vector ever mixes channels, so a channel's iterates do not depend on the other two (except
+//! through the one global decision below to finish a mixed-precision solve in `f64`).
 //!
 //! Two paths ([`Precision`]):
 //!
@@ -13,7 +14,10 @@
 //!   channel's residual estimate has dropped a hundredfold since its last recomputation, or meets
 //!   the tolerance, its residual is recomputed in `f64` from `A` ("reliable update",
 //!   Sleijpen & van der Vorst 1996) and replaces the recursive one; only a recomputed residual
-//!   can declare a channel converged.
+//!   can declare a channel converged. It is also recomputed every 100 iterations; if it exceeds
+//!   the recursive estimate four-fold, the `f32` operator no longer resolves what is left (a
+//!   tolerance near `f32`'s limit for the conditioning, or a badly scaled system) and the solve
+//!   continues in `f64` from the current iterate.
 //! * **Double**: everything in `f64` on `A`: `q = A p` with `pᵀq`; `x += α p`, `r −= α q` with
 //!   `‖r‖²` and, for Jacobi, `rᵀD⁻¹r` (z is never stored); `p = z + β p`. When every channel's
 //!   recursive residual meets the tolerance, the true residual is computed once and a channel
@@ -22,8 +26,7 @@
 use rayon::prelude::*;
 
 use super::ops::{row_mul, sum_partials, CHUNK};
-use super::precond::{PrecondWork, Preconditioner};
-use super::precond::Chebyshev;
+use super::precond::{Chebyshev, PrecondWork, Preconditioner};
 use super::scaled::{reliable_residual, ScaledOperator};
 use super::{check_inputs, relative, residual, CsrMatrix3, Precision, SolveOptions, SolveStats, SparseError};
 
@@ -36,10 +39,15 @@ const MAX_RESTARTS: usize = 3;
 ///
 /// A channel whose right-hand side is zero gets `x = 0` at once (0 iterations). On success `x`
 /// holds the solution, also when the iteration limit was hit (`converged == false` then); on
-/// error `x` is left unchanged.
+/// error `x` is left unchanged. `options.precision` chooses the arithmetic (see the module
+/// documentation of [`Precision`]); either way a channel is declared converged only on its
+/// residual `b − Ax` recomputed in `f64`, which `SolveStats::relative_residual` reports.
+///
+/// The preconditioner must have been built from this matrix (its current values).
 ///
 /// # Errors
-/// * [`SparseError::DimensionMismatch`] if `b`, `x` or the preconditioner do not match `A`;
+/// * [`SparseError::DimensionMismatch`] if `b`, `x` or the preconditioner do not match `A`,
+///   [`SparseError::PatternMismatch`] if the preconditioner was built on another pattern;
 /// * [`SparseError::NonFinite`] naming the row and channel of a NaN/infinite value in `b`, `x`
 ///   or `A`;
 /// * [`SparseError::InvalidOption`] for a negative or NaN tolerance;

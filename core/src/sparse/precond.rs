@@ -47,15 +47,15 @@ pub struct Jacobi {
 }
 
 pub(crate) fn inverse_diagonal(a: &CsrMatrix3) -> Result<Vec<[f64; 3]>, SparseError> {
-    let d = a.diagonal();
-    if let Some((row, channel, value)) = d
-        .iter()
-        .enumerate()
-        .find_map(|(i, v)| v.iter().position(|&x| !(x > 0.0 && x.is_finite())).map(|c| (i, c, v[c])))
-    {
-        return Err(SparseError::NonPositiveDiagonal { row, channel, value });
+    let vals = a.values();
+    let dpos = a.pattern().diagonal_positions();
+    let bad = |v: &[f64; 3]| v.iter().position(|&x| !(x > 0.0 && x.is_finite()));
+    if let Some(row) = dpos.par_iter().position_first(|&k| bad(&vals[k]).is_some()) {
+        let v = vals[dpos[row]];
+        let channel = bad(&v).unwrap_or(0);
+        return Err(SparseError::NonPositiveDiagonal { row, channel, value: v[channel] });
     }
-    Ok(d.into_iter().map(|v| v.map(|x| 1.0 / x)).collect())
+    Ok(dpos.par_iter().map(|&k| vals[k].map(|x| 1.0 / x)).collect())
 }
 
 impl Jacobi {
@@ -66,7 +66,9 @@ impl Jacobi {
     /// [`SparseError::NonPositiveDiagonal`] naming the first row and channel whose diagonal is
     /// not positive and finite (an SPD matrix has a positive diagonal).
     pub fn new(a: &CsrMatrix3) -> Result<Self, SparseError> {
-        Ok(Self { inv_diag: inverse_diagonal(a)?, op: ScaledOperator::new(a)? })
+        let inv_diag = inverse_diagonal(a)?;
+        let op = ScaledOperator::from_inverse_diagonal(a, &inv_diag);
+        Ok(Self { inv_diag, op })
     }
 
     /// The inverse diagonal.
@@ -288,6 +290,22 @@ impl Preconditioner {
                 found: m,
             }),
             _ => Ok(()),
+        }
+    }
+
+    /// Checks that the preconditioner was built on `a`'s pattern (cheap when they share the
+    /// `Arc`, one comparison pass otherwise).
+    pub(crate) fn check_matrix(&self, a: &CsrMatrix3) -> Result<(), SparseError> {
+        self.check_dimension(a.n())?;
+        let own = match self {
+            Self::Identity => return Ok(()),
+            Self::Jacobi(j) => &j.op.pattern,
+            Self::Chebyshev(c) => &c.op.pattern,
+        };
+        if std::sync::Arc::ptr_eq(own, a.pattern()) || **own == **a.pattern() {
+            Ok(())
+        } else {
+            Err(SparseError::PatternMismatch("the preconditioner was built for another matrix".into()))
         }
     }
 

@@ -35,7 +35,11 @@ impl ScaledOperator {
     /// # Errors
     /// [`SparseError::NonPositiveDiagonal`] for a diagonal entry that is not positive.
     pub(crate) fn new(a: &CsrMatrix3) -> Result<Self, SparseError> {
-        let inv = inverse_diagonal(a)?;
+        Ok(Self::from_inverse_diagonal(a, &inverse_diagonal(a)?))
+    }
+
+    /// Builds `Â` from `a` and its (checked, positive) inverse diagonal.
+    pub(crate) fn from_inverse_diagonal(a: &CsrMatrix3, inv: &[[f64; 3]]) -> Self {
         let s: Vec<[f64; 3]> = inv.par_iter().map(|v| v.map(f64::sqrt)).collect();
         #[allow(clippy::cast_possible_truncation)]
         let d: Vec<[f32; 3]> = inv.par_iter().map(|v| v.map(|t| (1.0 / t) as f32)).collect();
@@ -83,7 +87,7 @@ impl ScaledOperator {
             }
         }
         let lambda_max = [0, 1, 2].map(|c| m[c].min(m[3 + c]));
-        Ok(Self { pattern: Arc::clone(p), values, s, d, lambda_max })
+        Self { pattern: Arc::clone(p), values, s, d, lambda_max }
     }
 
     /// `q = Â p`; returns `pᵀq` per channel.
