@@ -15,6 +15,7 @@ pub mod optics;
 pub mod progress;
 pub mod sparse;
 pub mod diffusion;
+pub mod volume;
 pub mod scene;
 
 pub use glam::DVec3;
