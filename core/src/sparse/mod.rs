@@ -33,15 +33,16 @@
 //! the boundary only; cold start, tolerance 1e-6, release build (`cargo test --release -p
 //! transcut --test sparse -- --ignored --nocapture bench_`). The machine was shared with other
 //! builds (load 4–8 on 2 cores), so the stable figure is the CPU time of a one-thread solve
-//! (per-thread accounting, min of 3–7 interleaved rounds, two runs):
+//! (per-thread accounting, min of 3–7 interleaved rounds; the range over three runs, whose
+//! ranking never changed):
 //!
 //! | preconditioner | iterations R/G/B | Mixed: 1-thread CPU ms | Double: 1-thread CPU ms |
 //! |----------------|------------------|------------------------|-------------------------|
-//! | Jacobi         | 117/112/106      | **252–263**            | 346–347                 |
-//! | Chebyshev 1    | 73/70/67         | 324–326                | 381–383                 |
-//! | Chebyshev 2    | 53/51/48         | 342–353                | 381–393                 |
-//! | Chebyshev 3    | 43/41/39         | 365–380                | 398–404                 |
-//! | Chebyshev 4    | 38/36/34         | 393–408                | 418–424                 |
+//! | Jacobi         | 117/112/106      | **246–263**            | 288–347                 |
+//! | Chebyshev 1    | 73/70/67         | 296–326                | 333–383                 |
+//! | Chebyshev 2    | 53/51/48         | 326–353                | 347–393                 |
+//! | Chebyshev 3    | 43/41/39         | 345–380                | 362–404                 |
+//! | Chebyshev 4    | 38/36/34         | 380–408                | 385–424                 |
 //!
 //! Every solve met 1e-6 on the `f64` residual; mixed and double iteration counts agree to ±1.
 //! **Jacobi is the default**: a Chebyshev step removes iterations at about the rate it adds
@@ -52,7 +53,7 @@
 //! in the quietest moments, 2.0 ms on one. A quiet 2-core cold solve should thus take about
 //! 5.5 GB / 40 GB/s ≈ 135 ms (mixed, Jacobi, including ~9 `f64` residual recomputations) —
 //! above the 100 ms goal; wall times measured under the load were 300–400 ms. Preconditioner
-//! setup (inverse diagonal and the `f32` scaled copy) takes 8–20 ms and is reused while the
+//! setup (inverse diagonal and the `f32` scaled copy) takes 8–35 ms and is reused while the
 //! matrix values do not change. Rounding the matrix itself to `f32` leaves a residual floor of
 //! 1e-6 to 2.2e-6 on this system, which is why `f32` is only used inside the iteration, with
 //! `f64` residuals (see [`Precision`]).
@@ -116,7 +117,7 @@ pub enum Precision {
     /// in `f64`, with the residual recomputed in `f64` from `A` whenever it has dropped 100-fold
     /// ("reliable updates") and before a channel is declared converged; continues in `f64` by
     /// itself if the `f32` operator stops resolving the residual. Streams about 30% fewer bytes
-    /// per iteration for the same iteration count, 25–30% less time (see the module
+    /// per iteration for the same iteration count, 15–30% less time (see the module
     /// documentation). With [`Preconditioner::Identity`] the solve runs in
     /// [`Precision::Double`].
     #[default]
