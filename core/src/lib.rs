@@ -17,6 +17,7 @@ pub mod sparse;
 pub mod diffusion;
 pub mod volume;
 pub mod scene;
+pub mod render;
 
 pub use glam::DVec3;
 pub use progress::{Cancelled, Progress};
