@@ -150,8 +150,9 @@ impl Veins {
     /// The per-tet media of `mesh` with the rule `sampling`; η of the two media, g of the base.
     ///
     /// # Errors
-    /// None in practice (the media and parameters were checked by [`Veins::new`]); the
-    /// signature matches the other sources.
+    /// Never for veins built by [`Veins::new`], which checks the media and parameters (every
+    /// sample is a convex combination of the two valid media); the `Result` matches the other
+    /// sources.
     pub fn per_tet(&self, mesh: &TetMesh, sampling: TetSampling) -> Result<PerTetMedia, VolumeError> {
         PerTetMedia::from_field(mesh, self, self.base.eta, self.base.g, sampling)
     }
