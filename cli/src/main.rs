@@ -1,8 +1,10 @@
 //! `transcut`: mesh, bake, render and benchmark translucent objects from the shell.
 
+mod bake_cmd;
 mod bench;
 mod mesh_cmd;
 mod progress;
+mod spec;
 
 use std::process::ExitCode;
 
@@ -21,6 +23,8 @@ struct Cli {
 enum Command {
     /// Fill a surface mesh (OBJ or PLY) with quality tetrahedra and write them as VTK.
     Mesh(mesh_cmd::MeshArgs),
+    /// Bake per-vertex subsurface radiance of a mesh under lights and write it with the mesh.
+    Bake(bake_cmd::BakeArgs),
     /// Run benchmarks and print JSON.
     Bench(bench::BenchArgs),
 }
@@ -29,6 +33,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Mesh(args) => mesh_cmd::run(&args),
+        Command::Bake(args) => bake_cmd::run(&args),
         Command::Bench(args) => bench::run(&args),
     };
     match result {

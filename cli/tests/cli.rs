@@ -63,8 +63,74 @@ fn bad_input_fails_with_a_clear_message() {
 fn help_explains_the_commands() {
     let out = transcut().arg("--help").output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(text.contains("mesh") && text.contains("bench"));
+    assert!(text.contains("mesh") && text.contains("bake") && text.contains("bench"));
     let out = transcut().args(["mesh", "--help"]).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("--tets") && text.contains("winding number"));
+}
+
+#[test]
+fn bake_writes_ply_npy_and_the_system() {
+    let dir = std::env::temp_dir().join(format!("transcut-bake-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let spot = shared_mesh("spot.obj");
+    let ply = dir.join("spot.ply");
+    let out = transcut()
+        .args(["bake", spot.to_str().unwrap(), "--medium", "skin1", "--scale", "50", "--tets", "15000", "--json"])
+        .args(["--light", "sun:dir=0,-1,0,irradiance=3", "-o"])
+        .arg(&ply)
+        .arg("--export-system")
+        .arg(dir.join("system"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(json["stats"]["tets"].as_u64().unwrap() > 10_000);
+    assert!(json["stats"]["iterations"].as_array().unwrap().iter().all(|i| i.as_u64().unwrap() > 0));
+    // The PLY has the user's 2,930 vertices with float colours, all finite and non-negative.
+    let bytes = std::fs::read(&ply).unwrap();
+    let end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    let header = String::from_utf8_lossy(&bytes[..end]);
+    assert!(header.contains("element vertex 2930") && header.contains("property float red"), "{header}");
+    let colours: Vec<f32> = bytes[end..end + 2930 * 24]
+        .chunks(24)
+        .flat_map(|v| (3..6).map(move |k| f32::from_le_bytes(v[4 * k..4 * k + 4].try_into().unwrap())))
+        .collect();
+    assert!(colours.iter().all(|c| c.is_finite() && *c >= 0.0));
+    assert!(colours.iter().any(|&c| c > 0.01));
+    for name in ["M_red.mtx", "M_green.mtx", "M_blue.mtx", "b.mtx"] {
+        let text = std::fs::read_to_string(dir.join("system").join(name)).unwrap();
+        assert!(text.starts_with("%%MatrixMarket matrix"), "{name}");
+    }
+    // The same radiance as .npy: the header names the shape.
+    let npy = dir.join("spot.npy");
+    let out = transcut()
+        .args(["bake", spot.to_str().unwrap(), "--medium", "skin1", "--scale", "50", "--tets", "15000"])
+        .args(["--light", "sun:dir=0,-1,0,irradiance=3", "-o"])
+        .arg(&npy)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let bytes = std::fs::read(&npy).unwrap();
+    assert!(bytes.starts_with(b"\x93NUMPY\x01\x00"));
+    let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    assert_eq!((10 + header_len) % 64, 0);
+    assert!(String::from_utf8_lossy(&bytes[10..10 + header_len]).contains("'shape': (2930, 3)"));
+    assert_eq!(bytes.len(), 10 + header_len + 2930 * 12);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bake_rejects_bad_specs_clearly() {
+    let spot = shared_mesh("spot.obj");
+    for (args, words) in [
+        (vec!["--light", "laser:pos=0,0,0"], "unknown light kind"),
+        (vec!["--medium", "jello"], "marble"),
+        (vec!["--scale", "0"], "--scale"),
+    ] {
+        let out = transcut().args(["bake", spot.to_str().unwrap(), "--tets", "1000"]).args(&args).output().unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(words), "{args:?}: {err}");
+    }
 }
