@@ -108,10 +108,10 @@ fn badly_scaled_systems_converge_in_both_precisions() {
     let t: Vec<f64> = (0..n).map(|_| 10f64.powf(rng.random_range(-2.0..2.0))).collect();
     let p = a.pattern();
     let mut values = a.values().to_vec();
-    for i in 0..n {
-        for k in p.row_ptr()[i]..p.row_ptr()[i + 1] {
-            let j = p.col_idx()[k] as usize;
-            values[k] = values[k].map(|v| v * t[i] * t[j]);
+    for (i, &ti) in t.iter().enumerate() {
+        let (s, e) = (p.row_ptr()[i], p.row_ptr()[i + 1]);
+        for (v, &j) in values[s..e].iter_mut().zip(&p.col_idx()[s..e]) {
+            *v = v.map(|x| x * ti * t[j as usize]);
         }
     }
     let bm = CsrMatrix3::new(Arc::clone(p), values).unwrap();

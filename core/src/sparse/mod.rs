@@ -33,30 +33,34 @@
 //! the boundary only; cold start, tolerance 1e-6, release build (`cargo test --release -p
 //! transcut --test sparse -- --ignored --nocapture bench_`). The machine was shared with other
 //! builds (load 4–8 on 2 cores), so the stable figure is the CPU time of a one-thread solve
-//! (per-thread accounting, min of 3–7 interleaved rounds; the range over three runs, whose
-//! ranking never changed):
+//! (per-thread accounting, min of 3–7 interleaved rounds; the range over the runs, whose
+//! ranking never changed; Chebyshev with its interval ratio 60, tuned on iteration counts, see
+//! [`Chebyshev::RATIO`]):
 //!
 //! | preconditioner | iterations R/G/B | Mixed: 1-thread CPU ms | Double: 1-thread CPU ms |
 //! |----------------|------------------|------------------------|-------------------------|
-//! | Jacobi         | 117/112/106      | **246–263**            | 288–347                 |
-//! | Chebyshev 1    | 73/70/67         | 296–326                | 333–383                 |
-//! | Chebyshev 2    | 53/51/48         | 326–353                | 347–393                 |
-//! | Chebyshev 3    | 43/41/39         | 345–380                | 362–404                 |
-//! | Chebyshev 4    | 38/36/34         | 380–408                | 385–424                 |
+//! | Jacobi         | 117/112/106      | **246–281**            | 288–352                 |
+//! | Chebyshev 1    | 70/67/64         | 305–310                | 360–362                 |
+//! | Chebyshev 2    | 47/45/43         | 317–318                | 337–381                 |
+//! | Chebyshev 3    | 36/34/33         | 311–345                | 332–351                 |
+//! | Chebyshev 4    | 29/28/27         | 306–333                | 319–351                 |
 //!
 //! Every solve met 1e-6 on the `f64` residual; mixed and double iteration counts agree to ±1.
 //! **Jacobi is the default**: a Chebyshev step removes iterations at about the rate it adds
-//! matrix passes (`degree` passes of the `f32` operator per iteration), and the iteration is
-//! bound by memory traffic, so fewer iterations do not pay. The traffic per Jacobi iteration is
-//! 43.8 MB mixed (f32 operator 16 B/nonzero: 20.4 MB; vectors 23.4 MB) against 61.8 MB in `f64`;
-//! a three-channel f64 SpMV alone streams 39 MB and took 0.90–1.0 ms on 2 threads (≈ 40 GB/s)
-//! in the quietest moments, 2.0 ms on one. A quiet 2-core cold solve should thus take about
-//! 5.5 GB / 40 GB/s ≈ 135 ms (mixed, Jacobi, including ~9 `f64` residual recomputations) —
-//! above the 100 ms goal; wall times measured under the load were 300–400 ms. Preconditioner
-//! setup (inverse diagonal and the `f32` scaled copy) takes 8–35 ms and is reused while the
-//! matrix values do not change. Rounding the matrix itself to `f32` leaves a residual floor of
-//! 1e-6 to 2.2e-6 on this system, which is why `f32` is only used inside the iteration, with
-//! `f64` residuals (see [`Precision`]).
+//! matrix passes (`degree` passes of the `f32` operator per iteration, each with its vector
+//! updates), the iteration is bound by memory traffic, and Jacobi does the fewest flops. By
+//! bytes streamed per solve (the model below) Chebyshev 4 would be about 5% ahead of Jacobi
+//! (≈ 5.2 against 5.5 GB), within the noise of these measurements; worth re-measuring on a quiet
+//! machine, 2 threads. The traffic per Jacobi iteration is 43.8 MB mixed (f32 operator
+//! 16 B/nonzero: 20.4 MB; vectors 23.4 MB) against 61.8 MB in `f64`; a three-channel f64 SpMV
+//! alone streams 39 MB and took 0.90–1.0 ms on 2 threads (≈ 40 GB/s) in the quietest moments,
+//! 2.0 ms on one. A quiet 2-core cold solve should thus take about 5.5 GB / 40 GB/s ≈ 135 ms
+//! (mixed, Jacobi, including ~9 `f64` residual recomputations), above the 100 ms goal; wall times
+//! measured under the load were 280–400 ms. Preconditioner setup (inverse diagonal and the
+//! `f32` scaled copy) takes 8–35 ms and is reused while the matrix values do not change.
+//! Rounding the matrix itself to `f32` leaves a residual floor of 1e-6 to 2.2e-6 on this system,
+//! which is why `f32` is only used inside the iteration, with `f64` residuals (see
+//! [`Precision`]).
 //!
 //! # Errors
 //!
