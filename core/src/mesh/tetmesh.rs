@@ -290,11 +290,11 @@ impl TetMesh {
             .collect()
     }
 
-    /// Checks that the boundary surface is closed and manifold: every boundary edge in exactly two
-    /// boundary triangles, and the boundary triangles around every boundary vertex forming a
-    /// single fan.
+    /// Boundary edges `[a, b]` (`a < b`, sorted) that do not lie in exactly two boundary
+    /// triangles, each with the indices of the boundary faces around it: open edges (one face)
+    /// and non-manifold edges (more than two).
     #[must_use]
-    pub fn boundary_topology(&self) -> BoundaryTopology {
+    pub fn irregular_boundary_edges(&self) -> Vec<([u32; 2], Vec<u32>)> {
         let mut edges: Vec<(u64, u32)> = self
             .boundary_faces
             .iter()
@@ -307,19 +307,25 @@ impl TetMesh {
             })
             .collect();
         edges.par_sort_unstable();
+        edges
+            .chunk_by(|x, y| x.0 == y.0)
+            .filter(|group| group.len() != 2)
+            .map(|group| ([(group[0].0 >> 32) as u32, group[0].0 as u32], group.iter().map(|e| e.1).collect()))
+            .collect()
+    }
+
+    /// Checks that the boundary surface is closed and manifold: every boundary edge in exactly two
+    /// boundary triangles, and the boundary triangles around every boundary vertex forming a
+    /// single fan.
+    #[must_use]
+    pub fn boundary_topology(&self) -> BoundaryTopology {
         let mut report = BoundaryTopology::default();
-        let mut i = 0;
-        while i < edges.len() {
-            let mut j = i + 1;
-            while j < edges.len() && edges[j].0 == edges[i].0 {
-                j += 1;
+        for (_, faces) in self.irregular_boundary_edges() {
+            if faces.len() == 1 {
+                report.open_edges += 1;
+            } else {
+                report.nonmanifold_edges += 1;
             }
-            match j - i {
-                1 => report.open_edges += 1,
-                2 => {}
-                _ => report.nonmanifold_edges += 1,
-            }
-            i = j;
         }
         // Per-vertex fan count: union-find over the faces around v, joined when they share an edge
         // through v; a manifold vertex has one component.

@@ -140,37 +140,19 @@ pub(crate) fn make_manifold(
 /// its dihedral angles stay within the mesher's bounds and it overlaps no tet (its sector is
 /// empty: no other face of the edge lies inside it).
 fn gap_tets(mesh: &TetMesh) -> Vec<[u32; 4]> {
-    let faces = mesh.boundary_faces();
-    let mut by_edge: Vec<(u64, u32)> = faces
-        .iter()
-        .enumerate()
-        .flat_map(|(f, face)| {
-            (0..3).map(move |k| {
-                let (a, b) = (face.vertices[k], face.vertices[(k + 1) % 3]);
-                ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), f as u32)
-            })
-        })
+    let mut out: Vec<[u32; 4]> = mesh
+        .irregular_boundary_edges()
+        .into_iter()
+        .filter(|(_, faces)| faces.len() > 2)
+        .filter_map(|([u, v], faces)| best_gap_tet(mesh, u, v, &faces))
         .collect();
-    by_edge.sort_unstable();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < by_edge.len() {
-        let j = i + by_edge[i..].iter().take_while(|e| e.0 == by_edge[i].0).count();
-        if j - i > 2 {
-            let (u, v) = ((by_edge[i].0 >> 32) as u32, by_edge[i].0 as u32);
-            if let Some(t) = best_gap_tet(mesh, u, v, &by_edge[i..j]) {
-                out.push(t);
-            }
-        }
-        i = j;
-    }
     out.sort_unstable();
     out.dedup();
     out
 }
 
 /// The best-shaped gap tet at edge `(u, v)` whose boundary faces are `edge_faces`.
-fn best_gap_tet(mesh: &TetMesh, u: u32, v: u32, edge_faces: &[(u64, u32)]) -> Option<[u32; 4]> {
+fn best_gap_tet(mesh: &TetMesh, u: u32, v: u32, edge_faces: &[u32]) -> Option<[u32; 4]> {
     let p = mesh.positions();
     let (pu, pv) = (p[u as usize], p[v as usize]);
     let axis = (pv - pu).normalize_or_zero();
@@ -180,7 +162,7 @@ fn best_gap_tet(mesh: &TetMesh, u: u32, v: u32, edge_faces: &[(u64, u32)]) -> Op
     // the counter-clockwise side of the face (the face's solid side).
     let mut around: Vec<(f64, u32, bool)> = edge_faces
         .iter()
-        .map(|&(_, f)| {
+        .map(|&f| {
             let face = mesh.boundary_faces()[f as usize];
             let x = face.vertices.into_iter().find(|&w| w != u && w != v).unwrap_or(u);
             let d = p[x as usize] - pu;
@@ -233,23 +215,9 @@ const MAX_DIHEDRAL_DEG: f64 = 165.0;
 /// at each vertex whose boundary faces form several fans, the owners of all but the largest fan.
 fn tets_to_remove(mesh: &TetMesh) -> Vec<u32> {
     let faces = mesh.boundary_faces();
-    let mut by_edge: Vec<(u64, u32)> = faces
-        .iter()
-        .enumerate()
-        .flat_map(|(f, face)| {
-            (0..3).map(move |k| {
-                let (a, b) = (face.vertices[k], face.vertices[(k + 1) % 3]);
-                ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), f as u32)
-            })
-        })
-        .collect();
-    by_edge.sort_unstable();
     let mut remove = Vec::new();
-    let mut i = 0;
-    while i < by_edge.len() {
-        let j = i + by_edge[i..].iter().take_while(|e| e.0 == by_edge[i].0).count();
-        if j - i > 2 {
-            let (u, v) = ((by_edge[i].0 >> 32) as u32, by_edge[i].0 as u32);
+    for ([u, v], edge_faces) in mesh.irregular_boundary_edges() {
+        if edge_faces.len() > 2 {
             let around: Vec<u32> =
                 (0..mesh.tet_count() as u32).filter(|&t| mesh.tets()[t as usize].contains(&u) && mesh.tets()[t as usize].contains(&v)).collect();
             let groups = groups_by_shared_face(mesh, &around);
@@ -257,7 +225,6 @@ fn tets_to_remove(mesh: &TetMesh) -> Vec<u32> {
                 remove.extend(smallest);
             }
         }
-        i = j;
     }
     // Fans at each vertex.
     let mut faces_at: Vec<Vec<u32>> = vec![Vec::new(); mesh.vertex_count()];
