@@ -4,6 +4,8 @@ mod bake_cmd;
 mod bench;
 mod mesh_cmd;
 mod progress;
+mod render_cmd;
+mod scene_file;
 mod spec;
 
 use std::process::ExitCode;
@@ -25,6 +27,8 @@ enum Command {
     Mesh(mesh_cmd::MeshArgs),
     /// Bake per-vertex subsurface radiance of a mesh under lights and write it with the mesh.
     Bake(bake_cmd::BakeArgs),
+    /// Bake a TOML scene file and render it to PNG or EXR.
+    Render(render_cmd::RenderArgs),
     /// Run benchmarks and print JSON.
     Bench(bench::BenchArgs),
 }
@@ -34,6 +38,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Mesh(args) => mesh_cmd::run(&args),
         Command::Bake(args) => bake_cmd::run(&args),
+        Command::Render(args) => render_cmd::run(&args),
         Command::Bench(args) => bench::run(&args),
     };
     match result {

@@ -1,0 +1,131 @@
+//! `transcut render` on every example scene at a reduced size, and scene-file errors.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples")
+}
+
+fn out_dir() -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("render-tests");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Runs `transcut render` and returns (success, stderr).
+fn transcut_render(scene: &Path, output: &Path, extra: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_transcut"))
+        .arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(output)
+        .args(["--width", "96", "--height", "72", "--tets", "8000", "--json"])
+        .args(extra)
+        .output()
+        .unwrap();
+    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+fn render_example(name: &str, ext: &str) -> PathBuf {
+    let output = out_dir().join(format!("{name}.{ext}"));
+    let (ok, stderr) = transcut_render(&examples().join(format!("{name}.toml")), &output, &[]);
+    assert!(ok, "{name}: {stderr}");
+    output
+}
+
+/// Checks size, finiteness and coverage; returns the RGBA image.
+fn check_png(path: &Path) -> image::RgbaImage {
+    let img = image::open(path).unwrap().to_rgba8();
+    assert_eq!(img.dimensions(), (96, 72), "{}", path.display());
+    assert_eq!(img.get_pixel(0, 0)[3], 0, "{}: corner covered", path.display());
+    let covered = img.pixels().filter(|p| p[3] > 0).count();
+    assert!(covered > 50, "{}: only {covered} object pixels", path.display());
+    assert!(img.pixels().any(|p| p[3] > 0 && (p[0] > 5 || p[1] > 5 || p[2] > 5)), "{}: object is black", path.display());
+    img
+}
+
+#[test]
+fn bunny_is_brighter_on_the_lit_side() {
+    let img = check_png(&render_example("bunny_marble", "png"));
+    // The sun comes from the left (it travels along +x): split the object's pixels at their
+    // mean column and compare mean luminance.
+    let pixels: Vec<(u32, f64)> = img
+        .enumerate_pixels()
+        .filter(|(_, _, p)| p[3] == 255)
+        .map(|(x, _, p)| (x, 0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2])))
+        .collect();
+    let mid = pixels.iter().map(|p| f64::from(p.0)).sum::<f64>() / pixels.len() as f64;
+    let mean = |left: bool| {
+        let v: Vec<f64> = pixels.iter().filter(|p| (f64::from(p.0) < mid) == left).map(|p| p.1).collect();
+        v.iter().sum::<f64>() / v.len() as f64
+    };
+    let (lit, far) = (mean(true), mean(false));
+    assert!(lit > far * 1.05, "lit side {lit:.1} vs far side {far:.1}");
+}
+
+#[test]
+fn other_examples_render() {
+    for name in ["spot_skin_backlit", "suzanne_jade_hdr", "layered_block"] {
+        check_png(&render_example(name, "png"));
+    }
+}
+
+#[test]
+fn exr_output_is_linear() {
+    let path = render_example("layered_block", "exr");
+    let img = image::open(&path).unwrap().to_rgba32f();
+    assert_eq!(img.dimensions(), (96, 72));
+    assert!(img.pixels().all(|p| p.0.iter().all(|v| v.is_finite())));
+    assert_eq!(img.get_pixel(0, 0)[3], 0.0);
+    let object: Vec<f32> = img.pixels().filter(|p| p[3] == 1.0).map(|p| p[0].max(p[1]).max(p[2])).collect();
+    assert!(!object.is_empty());
+    // Linear, not tone-mapped to [0, 1] sRGB codes: positive values, and the PNG of the same
+    // scene differs (its sRGB curve lifts dark values well above the linear ones).
+    assert!(object.iter().all(|&v| v >= 0.0));
+    let max = object.iter().copied().fold(0.0f32, f32::max);
+    assert!(max > 0.0);
+    let png = image::open(render_example("layered_block", "png")).unwrap().to_rgba8();
+    let dark = img
+        .enumerate_pixels()
+        .filter(|(_, _, p)| p[3] == 1.0 && p[1] > 0.01 && p[1] < 0.1)
+        .map(|(x, y, p)| (f64::from(p[1]), f64::from(png.get_pixel(x, y)[1]) / 255.0))
+        .collect::<Vec<_>>();
+    for (linear, srgb) in dark.iter().take(20) {
+        assert!(srgb > linear, "linear {linear} vs sRGB {srgb}");
+    }
+}
+
+fn write_scene(name: &str, text: &str) -> PathBuf {
+    let path = out_dir().join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+const HEAD: &str = "[camera]\nposition = [0, 0, 150]\ntarget = [0, 0, 0]\nfov_deg = 35\nwidth = 64\nheight = 48\n";
+
+fn expect_error(name: &str, text: &str, words: &[&str]) {
+    let scene = write_scene(name, text);
+    let (ok, stderr) = transcut_render(&scene, &out_dir().join("never.png"), &[]);
+    assert!(!ok, "{name} succeeded");
+    for w in words.iter().chain([&name]) {
+        assert!(stderr.contains(w), "{name}: '{w}' not in: {stderr}");
+    }
+}
+
+#[test]
+fn scene_file_errors_name_the_file_and_problem() {
+    let block = examples().join("box.obj");
+    let object = format!("[[object]]\nmesh = \"{}\"\nmedium = \"marble\"\n", block.display());
+    expect_error("unknown_key.toml", &format!("{HEAD}[render]\nexposure = 1\n{object}"), &["exposure", "render"]);
+    expect_error("unknown_object_key.toml", &format!("{HEAD}{object}colour = 1\n"), &["colour"]);
+    expect_error("unknown_light_key.toml", &format!("{HEAD}{object}[[light]]\nkind = \"sun\"\ndir = [0,0,-1]\nirradiance = 1\npos = [0,0,0]\n"), &["pos", "light 1"]);
+    expect_error("missing_mesh.toml", &format!("{HEAD}[[object]]\nmesh = \"no-such.obj\"\nmedium = \"marble\"\n"), &["no-such.obj", "not found"]);
+    expect_error("bad_preset.toml", &format!("{HEAD}[[object]]\nmesh = \"{}\"\nmedium = \"plutonium\"\n", block.display()), &["plutonium", "medium"]);
+    expect_error(
+        "bad_medium.toml",
+        &format!("{HEAD}[[object]]\nmesh = \"{}\"\nmedium = {{ sigma_a = [0.1, 0.1], sigma_s = 1 }}\n", block.display()),
+        &["sigma_a", "medium"],
+    );
+    expect_error("no_camera.toml", &object, &["camera"]);
+}
