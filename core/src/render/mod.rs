@@ -23,8 +23,9 @@
 //!
 //! Triangles are clipped against the near plane and a guard band, snapped to 1/256 pixel and
 //! rasterised with exact integer edge functions and the top-left fill rule into a 1/w z-buffer
-//! at every supersample ([`SamplePattern`]); each sample is shaded and the samples are filtered
-//! into pixels ([`Filter`]). The image is cut into 32 × 32 tiles rendered in parallel with rayon;
+//! at every supersample ([`SamplePattern`]). Each triangle is shaded once per pixel at the
+//! centroid of the samples it covers there, or at every sample ([`Shading`]), and the samples
+//! are filtered into pixels ([`Filter`]). The image is cut into 32 × 32 tiles rendered in parallel with rayon;
 //! every tile is a pure function of the inputs, and depth ties go to the triangle listed first,
 //! so the image is bit-identical whatever the number of threads.
 //!
@@ -86,13 +87,16 @@ pub use camera::Camera;
 pub use error::RenderError;
 pub use output::{aces_fitted, srgb_oetf, Image, ToneMap};
 pub use scene::{
-    area_weighted_normals, AlphaMode, Filter, GroundPlane, RenderObject, RenderOptions, RenderScene,
-    SamplePattern, SpecularLight, MAX_GRID, MIN_ROUGHNESS,
+    area_weighted_normals, AlphaMode, Filter, GroundPlane, RenderObject, RenderOptions,
+    RenderScene, SamplePattern, Shading, SpecularLight, MAX_GRID, MIN_ROUGHNESS,
 };
 pub use shade::{ggx_distribution, ggx_specular, view_factor};
 
 use camera::CameraFrame;
-use raster::{fixed_offsets, setup_triangle, SampleBuffer, ScreenTri, Viewport, GROUND, NO_PRIM, ONE, TILE};
+use raster::{
+    fixed_offsets, setup_triangle, SampleBuffer, ScreenTri, Viewport, GROUND, MAX_SAMPLES, NO_PRIM,
+    ONE, TILE,
+};
 use shade::Lighting;
 
 /// Largest image width or height, in pixels.
@@ -125,6 +129,7 @@ struct Frame<'a> {
     /// Resolve weights: (dx, dy, sample, weight), normalised to sum to 1.
     weights: &'a [(i32, i32, usize, f64)],
     lighting: &'a Lighting,
+    shading: Shading,
     eye: DVec3,
     background: DVec3,
     ground_radiance: DVec3,
@@ -151,7 +156,10 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
     for (i, o) in scene.objects.iter().enumerate() {
         o.validate(i)?;
     }
-    let too_many = |count: usize| RenderError::TooManyTriangles { count, max: NO_PRIM as usize - 1 };
+    let too_many = |count: usize| RenderError::TooManyTriangles {
+        count,
+        max: NO_PRIM as usize - 1,
+    };
     let total: usize = scene.objects.iter().map(|o| o.triangles.len()).sum();
     if scene.objects.len() >= GROUND as usize || total >= NO_PRIM as usize {
         return Err(too_many(total));
@@ -190,7 +198,11 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
         width,
         height,
         apron,
-        near: if max_depth > 0.0 { NEAR_FRACTION * max_depth } else { 1.0 },
+        near: if max_depth > 0.0 {
+            NEAR_FRACTION * max_depth
+        } else {
+            1.0
+        },
         cull_back_faces: options.cull_back_faces,
     };
 
@@ -241,9 +253,9 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
         environment: scene.environment.map(DVec3::from),
         alpha: options.specular_roughness * options.specular_roughness,
     };
-    let ground_radiance = scene
-        .ground
-        .map_or(DVec3::ZERO, |g| DVec3::from(g.radiance(&scene.lights, scene.environment)));
+    let ground_radiance = scene.ground.map_or(DVec3::ZERO, |g| {
+        DVec3::from(g.radiance(&scene.lights, scene.environment))
+    });
     let ctx = Frame {
         objects: &objects,
         tris: &tris,
@@ -251,6 +263,7 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
         offsets: &offsets,
         weights: &weights,
         lighting: &lighting,
+        shading: options.shading,
         eye: frame.position,
         background: DVec3::from(options.background),
         ground_radiance,
@@ -267,7 +280,9 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
 
     let tiles: Vec<Vec<[f32; 4]>> = (0..tiles_x * tiles_y)
         .into_par_iter()
-        .map_init(TileScratch::default, |scratch, t| render_tile(&ctx, &frame, t, scratch))
+        .map_init(TileScratch::default, |scratch, t| {
+            render_tile(&ctx, &frame, t, scratch)
+        })
         .collect();
 
     let mut rgba = vec![[0f32; 4]; width as usize * height as usize];
@@ -278,7 +293,11 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
             rgba[start..start + row.len()].copy_from_slice(row);
         }
     }
-    Ok(Image { width: scene.camera.width, height: scene.camera.height, rgba })
+    Ok(Image {
+        width: scene.camera.width,
+        height: scene.camera.height,
+        rgba,
+    })
 }
 
 /// Pixel rectangle (x0, y0, w, h) of tile `t`.
@@ -348,6 +367,8 @@ struct TileScratch {
     colour: Vec<DVec3>,
     /// Per sample: 0 background, 1 ground, 2 object.
     kind: Vec<u8>,
+    /// Per-pixel shading groups.
+    groups: Vec<Group>,
 }
 
 const KIND_BACKGROUND: u8 = 0;
@@ -355,75 +376,117 @@ const KIND_GROUND: u8 = 1;
 const KIND_OBJECT: u8 = 2;
 
 /// Rasterises, shades and resolves one tile; returns its pixels row by row.
-fn render_tile(ctx: &Frame<'_>, frame: &CameraFrame, t: i32, scratch: &mut TileScratch) -> Vec<[f32; 4]> {
+fn render_tile(
+    ctx: &Frame<'_>,
+    frame: &CameraFrame,
+    t: i32,
+    scratch: &mut TileScratch,
+) -> Vec<[f32; 4]> {
     let (x0, y0, tw, th) = tile_rect(t, ctx.tiles_x, ctx.width, ctx.height);
-    let exposed_bg = ctx.background * ctx.exposure;
-    let bg_pixel = [exposed_bg.x as f32, exposed_bg.y as f32, exposed_bg.z as f32, 0.0];
     let bin = &ctx.bins[t as usize];
     if bin.is_empty() {
-        return vec![bg_pixel; (tw * th) as usize];
+        return vec![ctx.background_pixel(); (tw * th) as usize];
     }
     let a = ctx.apron;
-    let ns = ctx.offsets.len();
-    let buf = &mut scratch.samples;
-    buf.reset(x0 - a, y0 - a, tw + 2 * a, th + 2 * a, ns);
+    scratch
+        .samples
+        .reset(x0 - a, y0 - a, tw + 2 * a, th + 2 * a, ctx.offsets.len());
     for &id in bin {
-        buf.rasterise(&ctx.tris[id as usize], id, ctx.offsets);
+        scratch
+            .samples
+            .rasterise(&ctx.tris[id as usize], id, ctx.offsets);
     }
+    shade_tile(ctx, frame, scratch);
+    resolve_tile(ctx, scratch, (x0, y0, tw, th))
+}
 
-    // Shade every sample.
+/// Shades every covered sample of the tile's buffer into `scratch.colour` and `scratch.kind`.
+/// Colours are read only where `kind` says something was drawn, so the colour buffer needs no
+/// clearing.
+#[inline(never)]
+fn shade_tile(ctx: &Frame<'_>, frame: &CameraFrame, scratch: &mut TileScratch) {
+    let buf = &scratch.samples;
+    let ns = buf.samples;
     let n = buf.prim.len();
-    scratch.colour.clear();
-    scratch.colour.resize(n, ctx.background);
+    if scratch.colour.len() < n {
+        scratch.colour.resize(n, DVec3::ZERO);
+    }
     scratch.kind.clear();
     scratch.kind.resize(n, KIND_BACKGROUND);
     for py in buf.y0..buf.y0 + buf.h {
         for px in buf.x0..buf.x0 + buf.w {
-            for (s, o) in ctx.offsets.iter().enumerate() {
-                let idx = buf.index(px, py, s);
-                let prim = buf.prim[idx];
-                if prim == NO_PRIM {
-                    continue;
+            let base = buf.index(px, py, 0);
+            let prims = &buf.prim[base..base + ns];
+            let colour = &mut scratch.colour[base..base + ns];
+            let kind = &mut scratch.kind[base..base + ns];
+            let origin = (i64::from(px) * ONE, i64::from(py) * ONE);
+            match ctx.shading {
+                Shading::PerSample => {
+                    for (s, &prim) in prims.iter().enumerate() {
+                        if prim == NO_PRIM {
+                            continue;
+                        }
+                        let o = ctx.offsets[s];
+                        let at = ((origin.0 + o[0]) as f64, (origin.1 + o[1]) as f64);
+                        (colour[s], kind[s]) = shade_prim(ctx, frame, prim, at);
+                    }
                 }
-                let tri = &ctx.tris[prim as usize];
-                if tri.object == GROUND {
-                    scratch.colour[idx] = ctx.ground_radiance;
-                    scratch.kind[idx] = KIND_GROUND;
-                } else {
-                    let (sx, sy) = (i64::from(px) * ONE + o[0], i64::from(py) * ONE + o[1]);
-                    scratch.colour[idx] = shade_sample(ctx, frame, tri, sx, sy);
-                    scratch.kind[idx] = KIND_OBJECT;
+                Shading::PerPixel => {
+                    shade_pixel(ctx, frame, origin, prims, colour, kind, &mut scratch.groups);
                 }
             }
         }
     }
+}
 
-    // Resolve pixels with the filter weights, in a fixed order.
+/// Filters the shaded samples into the tile's pixels (rectangle `(x0, y0, w, h)`), summing the
+/// weighted samples in a fixed order; applies the exposure.
+#[inline(never)]
+fn resolve_tile(
+    ctx: &Frame<'_>,
+    scratch: &TileScratch,
+    (x0, y0, tw, th): (i32, i32, i32, i32),
+) -> Vec<[f32; 4]> {
+    let buf = &scratch.samples;
+    let bg_pixel = ctx.background_pixel();
+    // Sample index of each weight relative to the pixel's first sample.
+    let origin = buf.index(x0, y0, 0) as isize;
+    let rel: Vec<(isize, f64)> = ctx
+        .weights
+        .iter()
+        .map(|&(dx, dy, s, w)| (buf.index(x0 + dx, y0 + dy, s) as isize - origin, w))
+        .collect();
     let mut out = Vec::with_capacity((tw * th) as usize);
     for py in y0..y0 + th {
         for px in x0..x0 + tw {
+            let base = buf.index(px, py, 0) as isize;
             let mut sum = DVec3::ZERO;
             let mut alpha = 0.0;
             let (mut any_drawn, mut all_covered) = (false, true);
-            for &(dx, dy, s, w) in ctx.weights {
-                let idx = buf.index(px + dx, py + dy, s);
+            for &(r, w) in &rel {
+                let idx = (base + r) as usize;
                 let kind = scratch.kind[idx];
-                sum += scratch.colour[idx] * w;
-                any_drawn |= kind != KIND_BACKGROUND;
-                let covered = match kind {
-                    KIND_OBJECT => 1.0,
-                    KIND_GROUND => ctx.ground_alpha,
-                    _ => 0.0,
+                let (colour, covered) = match kind {
+                    KIND_OBJECT => (scratch.colour[idx], 1.0),
+                    KIND_GROUND => (scratch.colour[idx], ctx.ground_alpha),
+                    _ => (ctx.background, 0.0),
                 };
-                all_covered &= covered == 1.0;
+                sum += colour * w;
                 alpha += covered * w;
+                any_drawn |= kind != KIND_BACKGROUND;
+                all_covered &= covered == 1.0;
             }
             if !any_drawn {
                 out.push(bg_pixel);
                 continue;
             }
-            // Exact 0 and 1 where the filter saw nothing or only covered samples.
-            let alpha = if all_covered { 1.0 } else { alpha.clamp(0.0, 1.0) };
+            // Exactly 1 where the filter saw only covered samples (and 0, above, where it saw
+            // only background).
+            let alpha = if all_covered {
+                1.0
+            } else {
+                alpha.clamp(0.0, 1.0)
+            };
             let c = sum * ctx.exposure;
             out.push([c.x as f32, c.y as f32, c.z as f32, alpha as f32]);
         }
@@ -431,10 +494,89 @@ fn render_tile(ctx: &Frame<'_>, frame: &CameraFrame, t: i32, scratch: &mut TileS
     out
 }
 
-/// Radiance of an object sample at fixed-point position (sx, sy).
-fn shade_sample(ctx: &Frame<'_>, frame: &CameraFrame, tri: &ScreenTri, sx: i64, sy: i64) -> DVec3 {
+impl Frame<'_> {
+    /// A background pixel: the exposed background colour with alpha 0.
+    fn background_pixel(&self) -> [f32; 4] {
+        let c = self.background * self.exposure;
+        [c.x as f32, c.y as f32, c.z as f32, 0.0]
+    }
+}
+
+/// Shades one pixel's samples once per triangle: the samples are grouped by the triangle that
+/// covers them (in sample order), each group is shaded at the centroid of its samples, and the
+/// value is written to every sample of the group. `groups` is scratch space.
+fn shade_pixel(
+    ctx: &Frame<'_>,
+    frame: &CameraFrame,
+    origin: (i64, i64),
+    prims: &[u32],
+    colour: &mut [DVec3],
+    kind: &mut [u8],
+    groups: &mut Vec<Group>,
+) {
+    groups.clear();
+    let mut group_of = [0u8; MAX_SAMPLES];
+    for (s, &prim) in prims.iter().enumerate() {
+        if prim == NO_PRIM {
+            continue;
+        }
+        let g = match groups.iter().position(|g| g.prim == prim) {
+            Some(g) => g,
+            None => {
+                groups.push(Group {
+                    prim,
+                    sum_x: 0,
+                    sum_y: 0,
+                    count: 0,
+                    colour: DVec3::ZERO,
+                    kind: 0,
+                });
+                groups.len() - 1
+            }
+        };
+        let o = ctx.offsets[s];
+        let group = &mut groups[g];
+        group.sum_x += o[0];
+        group.sum_y += o[1];
+        group.count += 1;
+        group_of[s] = g as u8;
+    }
+    for g in groups.iter_mut() {
+        let c = g.count as f64;
+        let at = (
+            origin.0 as f64 + g.sum_x as f64 / c,
+            origin.1 as f64 + g.sum_y as f64 / c,
+        );
+        (g.colour, g.kind) = shade_prim(ctx, frame, g.prim, at);
+    }
+    for (s, &prim) in prims.iter().enumerate() {
+        if prim != NO_PRIM {
+            let g = &groups[group_of[s] as usize];
+            (colour[s], kind[s]) = (g.colour, g.kind);
+        }
+    }
+}
+
+/// The samples of one pixel covered by one screen triangle, and their shared shading.
+struct Group {
+    prim: u32,
+    /// Sums of the samples' fixed-point offsets in the pixel.
+    sum_x: i64,
+    sum_y: i64,
+    count: i64,
+    colour: DVec3,
+    kind: u8,
+}
+
+/// Radiance and kind of the surface of screen triangle `prim` at a point in fixed-point pixel
+/// units.
+fn shade_prim(ctx: &Frame<'_>, frame: &CameraFrame, prim: u32, at: (f64, f64)) -> (DVec3, u8) {
+    let tri = &ctx.tris[prim as usize];
+    if tri.object == GROUND {
+        return (ctx.ground_radiance, KIND_GROUND);
+    }
     let o = &ctx.objects[tri.object as usize];
-    let b = tri.barycentric_at(sx, sy);
+    let b = tri.barycentric_at(at.0, at.1);
     let [i0, i1, i2] = o.triangles[tri.triangle as usize].map(|v| v as usize);
     let p = o.positions[i0] * b.x + o.positions[i1] * b.y + o.positions[i2] * b.z;
     let n = o.normals[i0] * b.x + o.normals[i1] * b.y + o.normals[i2] * b.z;
@@ -447,7 +589,10 @@ fn shade_sample(ctx: &Frame<'_>, frame: &CameraFrame, tri: &ScreenTri, sx: i64, 
     let r = |i: usize| DVec3::from(o.radiance[i]);
     let baked = r(i0) * b.x + r(i1) * b.y + r(i2) * b.z;
     let v = (ctx.eye - p).try_normalize().unwrap_or(-frame.forward);
-    ctx.lighting.shade(baked, n, v, o.eta, o.inv_ft_normal)
+    (
+        ctx.lighting.shade(baked, n, v, o.eta, o.inv_ft_normal),
+        KIND_OBJECT,
+    )
 }
 
 #[cfg(test)]
@@ -456,17 +601,26 @@ mod tests {
 
     #[test]
     fn resolve_weights_sum_to_one() {
-        for pattern in [SamplePattern::Centre, SamplePattern::RotatedGrid4, SamplePattern::Grid(3)] {
+        for pattern in [
+            SamplePattern::Centre,
+            SamplePattern::RotatedGrid4,
+            SamplePattern::Grid(3),
+        ] {
             let off = fixed_offsets(&pattern.offsets());
             for filter in [Filter::Box, Filter::Tent] {
                 let w = resolve_weights(&off, filter);
                 let total: f64 = w.iter().map(|e| e.3).sum();
                 assert!((total - 1.0).abs() < 1e-12);
-                assert!(w.iter().all(|e| e.3 > 0.0 && e.0.abs() <= 1 && e.1.abs() <= 1));
+                assert!(w
+                    .iter()
+                    .all(|e| e.3 > 0.0 && e.0.abs() <= 1 && e.1.abs() <= 1));
             }
         }
         // The box filter sees only the pixel's own samples.
-        let w = resolve_weights(&fixed_offsets(&SamplePattern::Grid(2).offsets()), Filter::Box);
+        let w = resolve_weights(
+            &fixed_offsets(&SamplePattern::Grid(2).offsets()),
+            Filter::Box,
+        );
         assert_eq!(w.len(), 4);
         assert!(w.iter().all(|e| e.0 == 0 && e.1 == 0 && e.3 == 0.25));
     }
@@ -484,8 +638,14 @@ mod tests {
             bounds: [TILE, 0, TILE + 2, 3],
         };
         let bins = bin_triangles(&[tri], 3, 2, 0);
-        assert_eq!(bins.iter().map(Vec::len).collect::<Vec<_>>(), vec![0, 1, 0, 0, 0, 0]);
+        assert_eq!(
+            bins.iter().map(Vec::len).collect::<Vec<_>>(),
+            vec![0, 1, 0, 0, 0, 0]
+        );
         let bins = bin_triangles(&[tri], 3, 2, 1);
-        assert_eq!(bins.iter().map(Vec::len).collect::<Vec<_>>(), vec![1, 1, 0, 0, 0, 0]);
+        assert_eq!(
+            bins.iter().map(Vec::len).collect::<Vec<_>>(),
+            vec![1, 1, 0, 0, 0, 0]
+        );
     }
 }

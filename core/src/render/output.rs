@@ -142,7 +142,10 @@ impl Image {
                 .expect("to_srgb8 returns width × height × 4 bytes");
         buffer
             .save_with_format(path, ImageFormat::Png)
-            .map_err(|source| RenderError::Write { path: path.to_path_buf(), source })
+            .map_err(|source| RenderError::Write {
+                path: path.to_path_buf(),
+                source,
+            })
     }
 
     /// Writes a linear RGBA 32-bit float OpenEXR file: the image's values as they are (exposure
@@ -158,7 +161,10 @@ impl Image {
                 .expect("rgba has width × height pixels");
         buffer
             .save_with_format(path, ImageFormat::OpenExr)
-            .map_err(|source| RenderError::Write { path: path.to_path_buf(), source })
+            .map_err(|source| RenderError::Write {
+                path: path.to_path_buf(),
+                source,
+            })
     }
 }
 
@@ -200,11 +206,18 @@ mod tests {
 
     #[test]
     fn srgb8_encoding() {
-        let img = Image { width: 2, height: 1, rgba: vec![[0.18, 0.0, 5.0, 0.5], [1.0, -1.0, f32::NAN, 1.0]] };
+        let img = Image {
+            width: 2,
+            height: 1,
+            rgba: vec![[0.18, 0.0, 5.0, 0.5], [1.0, -1.0, f32::NAN, 1.0]],
+        };
         let clamp = img.to_srgb8(ToneMap::Clamp);
         assert_eq!(clamp, vec![118, 0, 255, 128, 255, 0, 0, 255]);
         let aces = img.to_srgb8(ToneMap::AcesFitted);
-        assert_eq!(aces[0], quantise(srgb_oetf(aces_fitted(f64::from(0.18f32)))));
+        assert_eq!(
+            aces[0],
+            quantise(srgb_oetf(aces_fitted(f64::from(0.18f32))))
+        );
         assert_eq!(aces[3], 128);
         assert_eq!(img.pixel(0, 0), Some([0.18, 0.0, 5.0, 0.5]));
         assert!(img.pixel(2, 0).is_none());
