@@ -121,13 +121,18 @@ struct Prepared<'a> {
 }
 
 /// Everything a tile needs, shared read-only by all tiles.
-struct Frame<'a> {
+struct TileContext<'a> {
     objects: &'a [Prepared<'a>],
     tris: &'a [ScreenTri],
     bins: &'a [Vec<u32>],
     offsets: &'a [[i64; 2]],
+    /// Mean of the sample offsets in fixed-point units: where a pixel covered by one triangle
+    /// is shaded (computed as the per-triangle centroids are).
+    offset_mean: (f64, f64),
     /// Resolve weights: (dx, dy, sample, weight), normalised to sum to 1.
     weights: &'a [(i32, i32, usize, f64)],
+    /// The distinct (dx, dy) of `weights`: the neighbouring pixels the filter reaches.
+    neighbours: &'a [(i32, i32)],
     lighting: &'a Lighting,
     shading: Shading,
     eye: DVec3,
@@ -244,6 +249,9 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
     let offsets_f = options.samples.offsets();
     let offsets = fixed_offsets(&offsets_f);
     let weights = resolve_weights(&offsets, options.filter);
+    let mut neighbours: Vec<(i32, i32)> = weights.iter().map(|w| (w.0, w.1)).collect();
+    neighbours.sort_unstable();
+    neighbours.dedup();
     let lighting = Lighting {
         lights: scene
             .lights
@@ -256,12 +264,20 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
     let ground_radiance = scene.ground.map_or(DVec3::ZERO, |g| {
         DVec3::from(g.radiance(&scene.lights, scene.environment))
     });
-    let ctx = Frame {
+    let ctx = TileContext {
         objects: &objects,
         tris: &tris,
         bins: &bins,
         offsets: &offsets,
+        offset_mean: {
+            let n = offsets.len() as f64;
+            let sum = offsets
+                .iter()
+                .fold((0i64, 0i64), |a, o| (a.0 + o[0], a.1 + o[1]));
+            (sum.0 as f64 / n, sum.1 as f64 / n)
+        },
         weights: &weights,
+        neighbours: &neighbours,
         lighting: &lighting,
         shading: options.shading,
         eye: frame.position,
@@ -369,15 +385,20 @@ struct TileScratch {
     kind: Vec<u8>,
     /// Per-pixel shading groups.
     groups: Vec<Group>,
+    /// Per buffer pixel: the kind shared by all its samples if that is background or ground,
+    /// else [`MIXED`].
+    uniform: Vec<u8>,
 }
 
 const KIND_BACKGROUND: u8 = 0;
 const KIND_GROUND: u8 = 1;
 const KIND_OBJECT: u8 = 2;
+/// A pixel whose samples are not all background or all ground.
+const MIXED: u8 = u8::MAX;
 
 /// Rasterises, shades and resolves one tile; returns its pixels row by row.
 fn render_tile(
-    ctx: &Frame<'_>,
+    ctx: &TileContext<'_>,
     frame: &CameraFrame,
     t: i32,
     scratch: &mut TileScratch,
@@ -404,7 +425,7 @@ fn render_tile(
 /// Colours are read only where `kind` says something was drawn, so the colour buffer needs no
 /// clearing.
 #[inline(never)]
-fn shade_tile(ctx: &Frame<'_>, frame: &CameraFrame, scratch: &mut TileScratch) {
+fn shade_tile(ctx: &TileContext<'_>, frame: &CameraFrame, scratch: &mut TileScratch) {
     let buf = &scratch.samples;
     let ns = buf.samples;
     let n = buf.prim.len();
@@ -413,6 +434,7 @@ fn shade_tile(ctx: &Frame<'_>, frame: &CameraFrame, scratch: &mut TileScratch) {
     }
     scratch.kind.clear();
     scratch.kind.resize(n, KIND_BACKGROUND);
+    scratch.uniform.clear();
     for py in buf.y0..buf.y0 + buf.h {
         for px in buf.x0..buf.x0 + buf.w {
             let base = buf.index(px, py, 0);
@@ -435,6 +457,10 @@ fn shade_tile(ctx: &Frame<'_>, frame: &CameraFrame, scratch: &mut TileScratch) {
                     shade_pixel(ctx, frame, origin, prims, colour, kind, &mut scratch.groups);
                 }
             }
+            // Pixels wholly background or wholly ground have a constant colour.
+            let k0 = kind[0];
+            let uniform = k0 != KIND_OBJECT && kind.iter().all(|&k| k == k0);
+            scratch.uniform.push(if uniform { k0 } else { MIXED });
         }
     }
 }
@@ -443,7 +469,7 @@ fn shade_tile(ctx: &Frame<'_>, frame: &CameraFrame, scratch: &mut TileScratch) {
 /// weighted samples in a fixed order; applies the exposure.
 #[inline(never)]
 fn resolve_tile(
-    ctx: &Frame<'_>,
+    ctx: &TileContext<'_>,
     scratch: &TileScratch,
     (x0, y0, tw, th): (i32, i32, i32, i32),
 ) -> Vec<[f32; 4]> {
@@ -456,9 +482,38 @@ fn resolve_tile(
         .iter()
         .map(|&(dx, dy, s, w)| (buf.index(x0 + dx, y0 + dy, s) as isize - origin, w))
         .collect();
+    // Pixel index (in the buffer) of each neighbour the filter reaches, relative to the pixel.
+    let neighbours: Vec<isize> = ctx
+        .neighbours
+        .iter()
+        .map(|&(dx, dy)| (dy * buf.w + dx) as isize)
+        .collect();
+    let ground = ctx.ground_radiance * ctx.exposure;
+    let ground_pixel = [
+        ground.x as f32,
+        ground.y as f32,
+        ground.z as f32,
+        ctx.ground_alpha as f32,
+    ];
     let mut out = Vec::with_capacity((tw * th) as usize);
     for py in y0..y0 + th {
         for px in x0..x0 + tw {
+            // Where every sample the filter reaches is background, or every one is ground, the
+            // pixel is that constant exactly.
+            let p = ((py - buf.y0) * buf.w + (px - buf.x0)) as isize;
+            let u = scratch.uniform[(p + neighbours[0]) as usize];
+            if u != MIXED
+                && neighbours
+                    .iter()
+                    .all(|&q| scratch.uniform[(p + q) as usize] == u)
+            {
+                out.push(if u == KIND_GROUND {
+                    ground_pixel
+                } else {
+                    bg_pixel
+                });
+                continue;
+            }
             let base = buf.index(px, py, 0) as isize;
             let mut sum = DVec3::ZERO;
             let mut alpha = 0.0;
@@ -468,7 +523,7 @@ fn resolve_tile(
                 let kind = scratch.kind[idx];
                 let (colour, covered) = match kind {
                     KIND_OBJECT => (scratch.colour[idx], 1.0),
-                    KIND_GROUND => (scratch.colour[idx], ctx.ground_alpha),
+                    KIND_GROUND => (ctx.ground_radiance, ctx.ground_alpha),
                     _ => (ctx.background, 0.0),
                 };
                 sum += colour * w;
@@ -494,7 +549,7 @@ fn resolve_tile(
     out
 }
 
-impl Frame<'_> {
+impl TileContext<'_> {
     /// A background pixel: the exposed background colour with alpha 0.
     fn background_pixel(&self) -> [f32; 4] {
         let c = self.background * self.exposure;
@@ -506,7 +561,7 @@ impl Frame<'_> {
 /// covers them (in sample order), each group is shaded at the centroid of its samples, and the
 /// value is written to every sample of the group. `groups` is scratch space.
 fn shade_pixel(
-    ctx: &Frame<'_>,
+    ctx: &TileContext<'_>,
     frame: &CameraFrame,
     origin: (i64, i64),
     prims: &[u32],
@@ -514,6 +569,26 @@ fn shade_pixel(
     kind: &mut [u8],
     groups: &mut Vec<Group>,
 ) {
+    // The common case: one triangle (or the ground, or nothing) covers the whole pixel.
+    let first = prims[0];
+    if prims.iter().all(|&p| p == first) {
+        if first == NO_PRIM {
+            return;
+        }
+        if ctx.tris[first as usize].object == GROUND {
+            // The resolve reads the ground's constant radiance; only the kind is needed.
+            kind.fill(KIND_GROUND);
+            return;
+        }
+        let at = (
+            origin.0 as f64 + ctx.offset_mean.0,
+            origin.1 as f64 + ctx.offset_mean.1,
+        );
+        let (c, k) = shade_prim(ctx, frame, first, at);
+        colour.fill(c);
+        kind.fill(k);
+        return;
+    }
     groups.clear();
     let mut group_of = [0u8; MAX_SAMPLES];
     for (s, &prim) in prims.iter().enumerate() {
@@ -570,7 +645,12 @@ struct Group {
 
 /// Radiance and kind of the surface of screen triangle `prim` at a point in fixed-point pixel
 /// units.
-fn shade_prim(ctx: &Frame<'_>, frame: &CameraFrame, prim: u32, at: (f64, f64)) -> (DVec3, u8) {
+fn shade_prim(
+    ctx: &TileContext<'_>,
+    frame: &CameraFrame,
+    prim: u32,
+    at: (f64, f64),
+) -> (DVec3, u8) {
     let tri = &ctx.tris[prim as usize];
     if tri.object == GROUND {
         return (ctx.ground_radiance, KIND_GROUND);
