@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use transcut::diffusion::assemble;
-use transcut::mesh::{TetMesh, TriMesh};
+use transcut::mesh::TetMesh;
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
 use transcut::volume::{
@@ -19,30 +19,8 @@ use transcut::DVec3;
 /// Sphere radius (scene units = mm).
 const RADIUS: f64 = 10.0;
 
-/// A UV sphere: `segments` around the axis, `rings` from pole to pole, counter-clockwise seen
-/// from outside.
-fn uv_sphere(radius: f64, segments: usize, rings: usize) -> TriMesh {
-    let mut positions = vec![DVec3::new(0.0, 0.0, radius)];
-    for j in 1..rings {
-        let theta = std::f64::consts::PI * j as f64 / rings as f64;
-        for k in 0..segments {
-            let phi = 2.0 * std::f64::consts::PI * k as f64 / segments as f64;
-            positions.push(radius * DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()));
-        }
-    }
-    positions.push(DVec3::new(0.0, 0.0, -radius));
-    let south = (positions.len() - 1) as u32;
-    let v = |j: usize, k: usize| (1 + (j - 1) * segments + k % segments) as u32;
-    let mut polygons = Vec::new();
-    for k in 0..segments {
-        polygons.push(vec![0, v(1, k), v(1, k + 1)]);
-        for j in 1..rings - 1 {
-            polygons.push(vec![v(j, k), v(j + 1, k), v(j + 1, k + 1), v(j, k + 1)]);
-        }
-        polygons.push(vec![v(rings - 1, k), south, v(rings - 1, k + 1)]);
-    }
-    TriMesh::from_polygons(positions, &polygons, &Default::default()).unwrap()
-}
+mod common;
+use common::uv_sphere;
 
 /// The sphere of radius [`RADIUS`] meshed with about 20 000 tets, built once.
 fn sphere() -> &'static TetMesh {
