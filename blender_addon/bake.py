@@ -1,0 +1,208 @@
+"""A bake in three steps: gather (main thread, bpy), run (any thread, no bpy), write (main thread).
+
+:func:`run_job` only touches the library and NumPy, so the modal operator runs it on a worker
+thread while Blender stays responsive; :class:`BakeRunner` carries the progress the library
+reports and the cancel request (ESC) back the other way. :func:`write_results` is the only step
+that changes Blender data, and it runs only after every object baked.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from . import native
+from .lights import LightSpec
+from .mesh_export import BakeError, MeshJob
+
+
+@dataclass
+class BakeJob:
+    """Everything a bake needs, as plain data."""
+
+    meshes: list  # [MeshJob]
+    lights: list  # [LightSpec]
+    options: dict  # TcBakeOptions fields
+    attribute_name: str
+    warnings: list = field(default_factory=list)
+
+
+def build_scene(lib: native.Library, job: BakeJob) -> tuple:
+    """A native scene holding the job's objects and lights; returns (scene, object indices)."""
+    scene = lib.scene()
+    try:
+        indices = []
+        for mesh in job.meshes:
+            where = f"'{mesh.object_name}'"
+            try:
+                idx = scene.add_mesh(mesh.positions, mesh.triangles)
+                scene.set_transform(idx, mesh.matrix_world)
+                scene.set_scale(idx, mesh.mm_per_unit)
+                getattr(scene, mesh.medium.method)(idx, **mesh.medium.kwargs)
+            except native.TranscutError as exc:
+                raise BakeError(f"{where} ({mesh.medium.source}): {exc.message or exc.status_name}") from exc
+            indices.append(idx)
+        for light in job.lights:
+            try:
+                getattr(scene, light.method)(**light.kwargs)
+            except native.TranscutError as exc:
+                raise BakeError(f"light '{light.source}': {exc.message or exc.status_name}") from exc
+        return scene, indices
+    except BaseException:
+        scene.close()
+        raise
+
+
+def run_job(lib: native.Library, job: BakeJob, progress: Optional[Callable[[str, float], bool]] = None) -> list:
+    """Bakes the job; returns one float32 (vertex_count, 3) radiance array per mesh.
+
+    Raises :class:`native.TranscutError` (``TC_CANCELLED`` after a cancel) or :class:`BakeError`.
+    """
+    scene, indices = build_scene(lib, job)
+    try:
+        scene.bake(progress=progress, **job.options)
+        results = []
+        for mesh, idx in zip(job.meshes, indices):
+            rgb = scene.radiance(idx)
+            if rgb.shape[0] != mesh.vertex_count:
+                raise BakeError(
+                    f"'{mesh.object_name}': the library returned {rgb.shape[0]} values for "
+                    f"{mesh.vertex_count} vertices"
+                )
+            results.append(rgb)
+        return results
+    finally:
+        scene.close()
+
+
+class BakeRunner:
+    """Runs :func:`run_job` on a worker thread; progress and cancel cross threads under a lock."""
+
+    def __init__(self, lib: native.Library, job: BakeJob):
+        self.lib = lib
+        self.job = job
+        self._lock = threading.Lock()
+        self._cancel = False
+        self.stage = ""
+        self.fraction = 0.0
+        self.results: Optional[list] = None
+        self.error: Optional[BaseException] = None
+        self._thread: Optional[threading.Thread] = None
+
+    def progress(self, stage: str, fraction: float) -> bool:
+        """The library's progress callback (any thread): records progress, returns cancel."""
+        with self._lock:
+            self.stage = stage
+            self.fraction = min(max(fraction, 0.0), 1.0)
+            return self._cancel
+
+    def cancel(self) -> None:
+        """Asks the library to stop at its next progress report."""
+        with self._lock:
+            self._cancel = True
+
+    @property
+    def cancelled(self) -> bool:
+        with self._lock:
+            return self._cancel
+
+    def snapshot(self) -> tuple:
+        with self._lock:
+            return self.stage, self.fraction
+
+    def _run(self) -> None:
+        try:
+            self.results = run_job(self.lib, self.job, self.progress)
+        except BaseException as exc:  # reported by the main thread
+            self.error = exc
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name="transcut-bake", daemon=True)
+        self._thread.start()
+
+    def run_here(self) -> None:
+        """Runs on the calling thread (background mode, tests)."""
+        self._run()
+
+    def done(self) -> bool:
+        return self._thread is None or not self._thread.is_alive()
+
+    def wait(self, timeout: Optional[float] = None) -> bool:
+        if self._thread is not None:
+            self._thread.join(timeout)
+        return self.done()
+
+
+def error_message(exc: BaseException) -> str:
+    """A one-line message for the user."""
+    if isinstance(exc, native.TranscutError):
+        if exc.status == native.TC_CANCELLED:
+            return "bake cancelled; nothing was changed"
+        return f"libtranscut: {exc.message or exc.status_name} ({exc.status_name})"
+    if isinstance(exc, native.LibraryNotFound):
+        return str(exc)
+    if isinstance(exc, BakeError):
+        return str(exc)
+    return f"{type(exc).__name__}: {exc}"
+
+
+def _replace_with_evaluated(obj, depsgraph, expected_vertices: int):
+    """The object's evaluated mesh as a new mesh datablock (modifiers applied)."""
+    import bpy
+
+    ob_eval = obj.evaluated_get(depsgraph)
+    mesh = bpy.data.meshes.new_from_object(ob_eval, preserve_all_data_layers=True, depsgraph=depsgraph)
+    if len(mesh.vertices) != expected_vertices:
+        bpy.data.meshes.remove(mesh)
+        raise BakeError(f"'{obj.name}' changed during the bake; bake again")
+    return mesh
+
+
+def write_results(context, job: BakeJob, results: list) -> None:
+    """Writes each object's radiance to its FLOAT_COLOR point attribute and makes it active.
+
+    Checks everything first (objects still exist, vertex counts unchanged); only then changes
+    data, so an error leaves every object as it was.
+    """
+    import bpy
+
+    depsgraph = context.evaluated_depsgraph_get()
+    targets = []
+    for mesh_job, rgb in zip(job.meshes, results):
+        obj = bpy.data.objects.get(mesh_job.object_name)
+        if obj is None or obj.type != "MESH":
+            raise BakeError(f"'{mesh_job.object_name}' was removed during the bake")
+        if len(obj.data.vertices) != mesh_job.original_vertex_count:
+            raise BakeError(f"'{obj.name}' changed during the bake; bake again")
+        if not np.all(np.isfinite(rgb)):
+            raise BakeError(f"'{obj.name}': the library returned non-finite radiance")
+        targets.append((obj, mesh_job, rgb))
+    new_meshes = []
+    try:
+        for obj, mesh_job, _ in targets:
+            new_meshes.append(
+                _replace_with_evaluated(obj, depsgraph, mesh_job.vertex_count) if mesh_job.replace_mesh else None
+            )
+    except BaseException:
+        for m in new_meshes:
+            if m is not None:
+                bpy.data.meshes.remove(m)
+        raise
+    name = job.attribute_name
+    for (obj, mesh_job, rgb), new_mesh in zip(targets, new_meshes):
+        if new_mesh is not None:
+            obj.modifiers.clear()
+            obj.data = new_mesh
+        mesh = obj.data
+        attr = mesh.color_attributes.get(name)
+        if attr is None:
+            attr = mesh.color_attributes.new(name, "FLOAT_COLOR", "POINT")
+        rgba = np.ones((rgb.shape[0], 4), dtype=np.float32)
+        rgba[:, :3] = rgb
+        attr.data.foreach_set("color", rgba.reshape(-1))
+        mesh.color_attributes.active_color = attr
+        mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
+        mesh.update()

@@ -1,0 +1,115 @@
+"""Settings: per scene (what a bake produces and how precisely) and per object (its medium).
+
+``Scene.transcut`` and ``Object.transcut`` attach at register and detach at unregister.
+"""
+
+from __future__ import annotations
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty, StringProperty
+
+#: The library's measured presets (``tc_medium_preset`` names; Jensen et al. 2001, and jade).
+PRESET_NAMES = (
+    "apple",
+    "chicken1",
+    "chicken2",
+    "cream",
+    "ketchup",
+    "marble",
+    "potato",
+    "skimmilk",
+    "skin1",
+    "skin2",
+    "wholemilk",
+    "jade",
+)
+
+
+class TranscutSceneSettings(bpy.types.PropertyGroup):
+    attribute_name: StringProperty(
+        name="Attribute",
+        description="Name of the FLOAT_COLOR point attribute the bake writes (and makes active)",
+        default="SSS",
+    )
+    tets: IntProperty(
+        name="Resolution",
+        description="Target number of tetrahedra per object (more: finer detail, slower bake)",
+        default=100_000,
+        min=1_000,
+        soft_max=2_000_000,
+    )
+    tolerance: FloatProperty(
+        name="Tolerance",
+        description="Relative residual at which the solver stops (smaller: more precise, slower)",
+        default=1e-6,
+        min=1e-12,
+        max=1e-1,
+        precision=8,
+    )
+    shadows: BoolProperty(
+        name="Shadows",
+        description="Objects shadow the lights (each other and themselves)",
+        default=True,
+    )
+    apply_modifiers: BoolProperty(
+        name="Apply Modifiers",
+        description=(
+            "When the modifiers change the vertex count, replace the mesh by the evaluated one "
+            "(modifiers applied) so the attribute has a value per baked vertex; off: such objects "
+            "are an error"
+        ),
+        default=True,
+    )
+
+
+class TranscutObjectSettings(bpy.types.PropertyGroup):
+    medium_source: EnumProperty(
+        name="Medium",
+        description="Where the object's scattering medium comes from",
+        items=(
+            ("MATERIAL", "Material", "Principled BSDF subsurface inputs of the object's material"),
+            ("PRESET", "Preset", "A measured material"),
+            ("COEFFICIENTS", "Coefficients", "Absorption and reduced scattering coefficients in 1/mm"),
+        ),
+        default="MATERIAL",
+    )
+    preset: EnumProperty(
+        name="Preset",
+        items=tuple((n, n.capitalize(), f"Measured '{n}'") for n in PRESET_NAMES),
+        default="marble",
+    )
+    sigma_a: FloatVectorProperty(
+        name="Absorption",
+        description="Absorption coefficient σa per RGB channel, 1/mm",
+        size=3,
+        min=0.0,
+        default=(0.0021, 0.0041, 0.0071),
+        precision=5,
+    )
+    sigma_s_prime: FloatVectorProperty(
+        name="Reduced Scattering",
+        description="Reduced scattering coefficient σ′s per RGB channel, 1/mm",
+        size=3,
+        min=0.0,
+        default=(2.19, 2.62, 3.00),
+        precision=4,
+    )
+    eta: FloatProperty(name="IOR", description="Refractive index", default=1.3, min=1.0, max=3.99)
+    g: FloatProperty(name="Anisotropy", description="Scattering anisotropy g", default=0.0, min=-0.99, max=0.99)
+
+
+classes = (TranscutSceneSettings, TranscutObjectSettings)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.transcut = PointerProperty(type=TranscutSceneSettings)
+    bpy.types.Object.transcut = PointerProperty(type=TranscutObjectSettings)
+
+
+def unregister():
+    del bpy.types.Object.transcut
+    del bpy.types.Scene.transcut
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

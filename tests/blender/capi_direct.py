@@ -1,0 +1,124 @@
+"""The C ABI called directly through ctypes, independently of the add-on's ``native.py``.
+
+The reference the add-on's bakes are compared with: the same mesh, medium and lights sent
+straight to libtranscut with prototypes declared here from ``include/transcut.h``, with the
+Blender unit conversions written out again by hand (so a wrong conversion or a wrong struct
+layout in the add-on shows up as a mismatch).
+"""
+
+from __future__ import annotations
+
+import ctypes
+from ctypes import POINTER, Structure, c_char_p, c_double, c_float, c_int, c_int32, c_size_t, c_uint32, c_uint64, c_void_p
+
+import numpy as np
+
+D3 = c_double * 3
+PD = POINTER(c_double)
+
+
+class Artist(Structure):
+    _fields_ = [("albedo", D3), ("radius", D3), ("scale", c_double), ("ior", c_double), ("anisotropy", c_double)]
+
+
+class Options(Structure):
+    _fields_ = [
+        ("size", c_uint32),
+        ("method", c_uint32),
+        ("tets", c_uint64),
+        ("tolerance", c_double),
+        ("max_iterations", c_uint32),
+        ("threads", c_uint32),
+        ("shadows", c_uint32),
+        ("area_samples", c_uint32),
+        ("environment_samples", c_uint32),
+    ]
+
+
+Progress = ctypes.CFUNCTYPE(c_int32, c_void_p, c_char_p, c_double)
+
+
+def d3(v):
+    return D3(*[float(x) for x in v])
+
+
+class Direct:
+    """A minimal client: one scene, built call by call."""
+
+    def __init__(self, path: str):
+        self.c = c = ctypes.CDLL(path)
+        c.tc_last_error_message.restype = c_char_p
+        c.tc_scene_create.argtypes = [POINTER(c_void_p)]
+        c.tc_scene_destroy.argtypes = [POINTER(c_void_p)]
+        c.tc_scene_destroy.restype = None
+        c.tc_scene_add_mesh.argtypes = [c_void_p, POINTER(c_float), c_size_t, POINTER(c_uint32), c_size_t, POINTER(c_uint32)]
+        c.tc_object_set_transform.argtypes = [c_void_p, c_uint32, POINTER(c_float)]
+        c.tc_object_set_scale.argtypes = [c_void_p, c_uint32, c_double]
+        c.tc_object_set_medium_artist.argtypes = [c_void_p, c_uint32, POINTER(Artist)]
+        c.tc_scene_add_sun.argtypes = [c_void_p, PD, PD, c_double]
+        c.tc_scene_add_point.argtypes = [c_void_p, PD, PD]
+        c.tc_scene_add_rect.argtypes = [c_void_p, PD, PD, PD, PD, c_int]
+        c.tc_scene_add_environment.argtypes = [c_void_p, PD]
+        c.tc_bake_options_default.argtypes = [POINTER(Options)]
+        c.tc_bake_options_default.restype = None
+        c.tc_scene_bake.argtypes = [c_void_p, POINTER(Options), Progress, c_void_p]
+        c.tc_object_vertex_count.argtypes = [c_void_p, c_uint32, POINTER(c_size_t)]
+        c.tc_object_radiance.argtypes = [c_void_p, c_uint32, POINTER(c_float), c_size_t]
+        for name in ("tc_scene_create", "tc_scene_add_mesh", "tc_object_set_transform", "tc_object_set_scale",
+                     "tc_object_set_medium_artist", "tc_scene_add_sun", "tc_scene_add_point", "tc_scene_add_rect",
+                     "tc_scene_add_environment", "tc_scene_bake", "tc_object_vertex_count", "tc_object_radiance"):
+            getattr(c, name).restype = c_int32
+
+    def ok(self, status, what):
+        if status != 0:
+            raise RuntimeError(f"{what}: status {status}: {self.c.tc_last_error_message().decode()}")
+
+    def bake(self, objects, lights, tets, tolerance, shadows=True):
+        """objects: [(positions (n,3) f32 object space, triangles (m,3) u32, matrix (4,4) row-major,
+        mm_per_unit, artist dict)]; lights: [(kind, args tuple)]. Returns [radiance (n,3)]."""
+        scene = c_void_p()
+        self.ok(self.c.tc_scene_create(ctypes.byref(scene)), "create")
+        try:
+            ids = []
+            for pos, tri, matrix, mm, art in objects:
+                pos = np.ascontiguousarray(pos, np.float32)
+                tri = np.ascontiguousarray(tri, np.uint32)
+                out = c_uint32()
+                self.ok(self.c.tc_scene_add_mesh(scene, pos.ctypes.data_as(POINTER(c_float)), pos.shape[0],
+                                                 tri.ctypes.data_as(POINTER(c_uint32)), tri.size, ctypes.byref(out)),
+                        "add_mesh")
+                col_major = np.ascontiguousarray(np.asarray(matrix, np.float64).T, np.float32)
+                self.ok(self.c.tc_object_set_transform(scene, out.value, col_major.ctypes.data_as(POINTER(c_float))),
+                        "transform")
+                self.ok(self.c.tc_object_set_scale(scene, out.value, mm), "scale")
+                a = Artist(d3(art["albedo"]), d3(art["radius"]), art["scale"], art["ior"], art["anisotropy"])
+                self.ok(self.c.tc_object_set_medium_artist(scene, out.value, ctypes.byref(a)), "artist")
+                ids.append((out.value, pos.shape[0]))
+            for kind, args in lights:
+                if kind == "sun":
+                    self.ok(self.c.tc_scene_add_sun(scene, d3(args[0]), d3(args[1]), float(args[2])), kind)
+                elif kind == "point":
+                    self.ok(self.c.tc_scene_add_point(scene, d3(args[0]), d3(args[1])), kind)
+                elif kind == "rect":
+                    self.ok(self.c.tc_scene_add_rect(scene, d3(args[0]), d3(args[1]), d3(args[2]), d3(args[3]), 0), kind)
+                elif kind == "env":
+                    self.ok(self.c.tc_scene_add_environment(scene, d3(args[0])), kind)
+                else:
+                    raise ValueError(kind)
+            opts = Options()
+            self.c.tc_bake_options_default(ctypes.byref(opts))
+            opts.tets = tets
+            opts.tolerance = tolerance
+            opts.shadows = 1 if shadows else 0
+            self.ok(self.c.tc_scene_bake(scene, ctypes.byref(opts), Progress(), None), "bake")
+            results = []
+            for idx, n in ids:
+                count = c_size_t()
+                self.ok(self.c.tc_object_vertex_count(scene, idx, ctypes.byref(count)), "vertex_count")
+                assert count.value == n
+                rgb = np.empty((n, 3), np.float32)
+                self.ok(self.c.tc_object_radiance(scene, idx, rgb.ctypes.data_as(POINTER(c_float)), rgb.size), "radiance")
+                results.append(rgb)
+            return results
+        finally:
+            self.c.tc_scene_destroy(ctypes.byref(scene))

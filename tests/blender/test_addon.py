@@ -1,0 +1,431 @@
+"""The Blender add-on, headless (issue 5, "How it is checked").
+
+Bakes are small (15k tets, a 32×16 UV sphere) so the whole file runs in well under a minute.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import ADDON_MODULE, bpy, disable, enable, require_library
+
+from mathutils import Vector
+
+TETS = 15_000
+TOL = 1e-6
+# A sphere of radius 1 unit at 1 cm per unit (10 mm): marble-like mean free paths of a few
+# tenths of a millimetre (Subsurface Radius in scene units × Scale).
+UNIT_SCALE = 0.01
+MM_PER_UNIT = 10.0
+ARTIST = dict(albedo=(0.83, 0.79, 0.75), radius=(0.046, 0.038, 0.033), scale=1.0, ior=1.3, anisotropy=0.0)
+
+
+# -- scene builders --------------------------------------------------------------------------
+
+
+def marble_material(name="Marble", weight=1.0):
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    p = mat.node_tree.nodes["Principled BSDF"]
+    p.inputs["Base Color"].default_value = (*ARTIST["albedo"], 1.0)
+    p.inputs["Subsurface Weight"].default_value = weight
+    p.inputs["Subsurface Radius"].default_value = ARTIST["radius"]
+    p.inputs["Subsurface Scale"].default_value = ARTIST["scale"]
+    p.inputs["IOR"].default_value = ARTIST["ior"]
+    p.inputs["Subsurface Anisotropy"].default_value = ARTIST["anisotropy"]
+    return mat
+
+
+def add_sphere(location=(0.0, 0.0, 0.0)):
+    bpy.context.scene.unit_settings.scale_length = UNIT_SCALE
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=1.0, location=location)
+    obj = bpy.context.active_object
+    obj.data.materials.append(marble_material())
+    return obj
+
+
+def add_light(kind, location=(0.0, 0.0, 0.0), rotation=(0.0, 0.0, 0.0), **props):
+    data = bpy.data.lights.new(f"{kind.lower()}_light", kind)
+    for key, value in props.items():
+        setattr(data, key, value)
+    obj = bpy.data.objects.new(data.name, data)
+    obj.location = location
+    obj.rotation_euler = rotation
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.update()
+    return obj
+
+
+def select_only(*objs):
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    for o in objs:
+        o.select_set(True)
+    if objs:
+        bpy.context.view_layer.objects.active = objs[0]
+    bpy.context.view_layer.update()
+
+
+def evaluated_arrays(obj):
+    """The evaluated mesh (modifiers applied): positions, triangles, world matrix."""
+    deps = bpy.context.evaluated_depsgraph_get()
+    ob_eval = obj.evaluated_get(deps)
+    me = ob_eval.to_mesh()
+    try:
+        pos = np.empty(len(me.vertices) * 3, np.float32)
+        me.vertices.foreach_get("co", pos)
+        me.calc_loop_triangles()
+        tri = np.empty(len(me.loop_triangles) * 3, np.uint32)
+        me.loop_triangles.foreach_get("vertices", tri)
+        nrm = np.empty(len(me.vertices) * 3, np.float32)
+        me.vertices.foreach_get("normal", nrm)
+    finally:
+        ob_eval.to_mesh_clear()
+    m = np.array([list(r) for r in obj.matrix_world], np.float64)
+    return pos.reshape(-1, 3), tri.reshape(-1, 3), m, nrm.reshape(-1, 3)
+
+
+def attribute_rgb(obj, name="SSS"):
+    attr = obj.data.attributes[name]
+    assert attr.data_type == "FLOAT_COLOR" and attr.domain == "POINT"
+    buf = np.empty(len(attr.data) * 4, np.float32)
+    attr.data.foreach_get("color", buf)
+    return buf.reshape(-1, 4)[:, :3]
+
+
+def snapshot():
+    """What a failed bake must leave unchanged: per object its mesh, vertices and attributes."""
+    out = {"meshes": sorted(m.name for m in bpy.data.meshes)}
+    for o in bpy.data.objects:
+        if o.type == "MESH":
+            co = np.empty(len(o.data.vertices) * 3, np.float32)
+            o.data.vertices.foreach_get("co", co)
+            out[o.name] = (
+                o.data.name,
+                len(o.data.vertices),
+                sorted(a.name for a in o.data.attributes),
+                co.tobytes(),
+                len(o.modifiers),
+            )
+    return out
+
+
+def bake():
+    return bpy.ops.object.transcut_bake()
+
+
+def world_points(pos, m):
+    return pos.astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+
+
+def luminance(rgb):
+    return rgb @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def assert_matches_direct(lib, obj, lights, rgb):
+    pos, tri, m, _ = evaluated_arrays(obj)
+    (ref,) = lib.bake([(pos, tri, m, MM_PER_UNIT, ARTIST)], lights, TETS, TOL)
+    assert rgb.shape == ref.shape
+    scale = float(np.abs(ref).max())
+    assert scale > 0.0
+    np.testing.assert_allclose(rgb, ref, rtol=1e-4, atol=1e-4 * scale)
+
+
+def assert_lit_side_brighter(obj, towards):
+    """Vertices whose world normal faces `towards(point)` outshine those facing away."""
+    pos, _, m, nrm = evaluated_arrays(obj)
+    wp = world_points(pos, m)
+    wn = nrm.astype(np.float64) @ np.linalg.inv(m[:3, :3])
+    wn /= np.linalg.norm(wn, axis=1, keepdims=True)
+    to_light = towards(wp)
+    to_light /= np.linalg.norm(to_light, axis=1, keepdims=True)
+    cos = np.sum(wn * to_light, axis=1)
+    lum = luminance(attribute_rgb(obj).astype(np.float64))
+    lit, far = lum[cos > 0.7].mean(), lum[cos < -0.7].mean()
+    assert lit > 2.0 * far, (lit, far)
+
+
+def check_attribute(obj, expected_vertices):
+    rgb = attribute_rgb(obj)
+    assert rgb.shape == (expected_vertices, 3)
+    assert np.all(np.isfinite(rgb))
+    assert np.all(rgb >= 0.0)
+    assert obj.data.color_attributes.active_color.name == "SSS"
+    return rgb
+
+
+# -- registration ----------------------------------------------------------------------------
+
+
+def test_registers_from_source_folder(addon):
+    assert addon.__name__ == ADDON_MODULE
+    assert "transcut_bake" in dir(bpy.ops.object)
+    assert "transcut" in bpy.types.Scene.bl_rna.properties
+    assert "transcut" in bpy.types.Object.bl_rna.properties
+    assert bpy.context.preferences.addons[ADDON_MODULE].preferences is not None
+    assert "UNDO" in addon.operators.OBJECT_OT_transcut_bake.bl_options
+    assert bpy.context.scene.transcut.attribute_name == "SSS"
+
+
+def test_unregister_leaves_nothing_behind(addon):
+    names = [
+        "OBJECT_OT_transcut_bake",
+        "VIEW3D_PT_transcut",
+        "TranscutSceneSettings",
+        "TranscutObjectSettings",
+        "TranscutPreferences",
+        "PREFERENCES_OT_transcut_reload_library",
+    ]
+    assert any(hasattr(bpy.types, n) for n in names)
+    menu_func = addon.operators.menu_func
+    assert menu_func in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()
+    disable()
+    for n in names:
+        assert not hasattr(bpy.types, n), n
+    assert "transcut_bake" not in dir(bpy.ops.object)
+    assert "transcut_reload_library" not in dir(bpy.ops.preferences)
+    assert "transcut" not in bpy.types.Scene.bl_rna.properties
+    assert "transcut" not in bpy.types.Object.bl_rna.properties
+    assert menu_func not in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()
+    assert ADDON_MODULE not in bpy.context.preferences.addons
+    enable()  # and it comes back cleanly
+    assert "transcut_bake" in dir(bpy.ops.object)
+
+
+# -- conversions (no library needed) ---------------------------------------------------------
+
+
+def test_light_unit_conversions(scene, addon):
+    lights = addon.lights
+    warnings = []
+    sun = add_light("SUN", rotation=(math.radians(30), 0.0, 0.0), energy=3.0, color=(1.0, 0.5, 0.25), angle=0.02)
+    (spec,) = lights.convert_light(sun.name, sun.data, sun.matrix_world, warnings)
+    assert spec.method == "add_sun"
+    np.testing.assert_allclose(spec.kwargs["irradiance"], [3.0, 1.5, 0.75])
+    np.testing.assert_allclose(spec.kwargs["direction"], [0.0, math.sin(math.radians(30)), -math.cos(math.radians(30))], atol=1e-7)
+    assert spec.kwargs["angular_diameter_deg"] == pytest.approx(math.degrees(0.02))
+
+    point = add_light("POINT", location=(1.0, 2.0, 3.0), energy=1000.0)
+    (spec,) = lights.convert_light(point.name, point.data, point.matrix_world, warnings)
+    np.testing.assert_allclose(spec.kwargs["intensity"], [1000.0 / (4.0 * math.pi)] * 3)  # 79.577 W/sr
+    np.testing.assert_allclose(spec.kwargs["position"], [1.0, 2.0, 3.0])
+
+    spot = add_light("SPOT", energy=100.0, spot_size=math.radians(60), spot_blend=0.25)
+    (spec,) = lights.convert_light(spot.name, spot.data, spot.matrix_world, warnings)
+    np.testing.assert_allclose(spec.kwargs["intensity"], [100.0 / (4.0 * math.pi)] * 3)
+    assert spec.kwargs["cone_half_angle_deg"] == pytest.approx(30.0)
+    np.testing.assert_allclose(spec.kwargs["direction"], [0.0, 0.0, -1.0], atol=1e-12)
+
+    area = add_light("AREA", location=(0.0, 0.0, 2.0), energy=150.0, shape="RECTANGLE", size=1.5, size_y=0.8)
+    area.scale = (2.0, 1.0, 1.0)
+    bpy.context.view_layer.update()
+    (spec,) = lights.convert_light(area.name, area.data, area.matrix_world, warnings)
+    # A = (2 × 1.5) × 0.8 = 2.4 world units²; L = P/(π A) = 150/(2.4π) = 19.894.
+    np.testing.assert_allclose(spec.kwargs["radiance"], [150.0 / (math.pi * 2.4)] * 3)
+    np.testing.assert_allclose(spec.kwargs["half_u"], [1.5, 0.0, 0.0])
+    np.testing.assert_allclose(np.cross(spec.kwargs["half_u"], spec.kwargs["half_v"]), [0.0, 0.0, -0.6], rtol=1e-6)  # 4|u×v| = A
+
+    disk = add_light("AREA", energy=10.0, shape="DISK", size=2.0)
+    (spec,) = lights.convert_light(disk.name, disk.data, disk.matrix_world, warnings)
+    assert spec.method == "add_disc" and spec.kwargs["radius"] == pytest.approx(1.0)
+    np.testing.assert_allclose(spec.kwargs["radiance"], [10.0 / (math.pi * math.pi)] * 3)
+    assert warnings == []
+
+
+def test_world_and_unit_scale_conversions(scene, addon):
+    world = bpy.data.worlds.new("Sky")
+    world.use_nodes = True
+    bg = world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.3, 0.4, 0.5, 1.0)
+    bg.inputs["Strength"].default_value = 2.0
+    (spec,) = addon.lights.world_lights(world, [])
+    assert spec.method == "add_environment"
+    np.testing.assert_allclose(spec.kwargs["radiance"], [0.6, 0.8, 1.0])
+
+    obj = add_sphere()
+    bpy.context.scene.world = world
+    job = addon.operators.prepare(bpy.context)
+    (mesh,) = job.meshes
+    assert mesh.mm_per_unit == pytest.approx(MM_PER_UNIT)  # scale_length 0.01 m × 1000
+    assert mesh.medium.method == "set_medium_artist"
+    np.testing.assert_allclose(mesh.medium.kwargs["radius"], ARTIST["radius"], rtol=1e-6)
+    assert mesh.vertex_count == len(obj.data.vertices)
+
+
+# -- errors: each reports and changes nothing ------------------------------------------------
+
+
+def expect_error(match):
+    before = snapshot()
+    with pytest.raises(RuntimeError, match=match):
+        bake()
+    assert snapshot() == before
+
+
+def test_error_non_mesh_selected(scene):
+    add_sphere()
+    sun = add_light("SUN", energy=3.0)
+    select_only(sun)
+    expect_error("no mesh object selected")
+
+
+def test_error_empty_mesh(scene):
+    add_light("SUN", energy=3.0)
+    obj = bpy.data.objects.new("Empty", bpy.data.meshes.new("Empty"))
+    bpy.context.scene.collection.objects.link(obj)
+    obj.data.materials.append(marble_material())
+    select_only(obj)
+    expect_error("no faces")
+
+
+def test_error_zero_scale(scene):
+    add_light("SUN", energy=3.0)
+    obj = add_sphere()
+    obj.scale = (1.0, 0.0, 1.0)
+    select_only(obj)
+    expect_error("zero scale")
+
+
+def test_error_attribute_name_taken(scene):
+    add_light("SUN", energy=3.0)
+    obj = add_sphere()
+    select_only(obj)
+    obj.data.attributes.new("SSS", "FLOAT", "FACE")
+    expect_error("taken by a FLOAT FACE attribute")
+
+
+def test_error_library_not_found(scene):
+    prefs = bpy.context.preferences.addons[ADDON_MODULE].preferences
+    missing = "/nonexistent/transcut/libtranscut.so"
+    add_light("SUN", energy=3.0)
+    select_only(add_sphere())
+    prefs.library_path = missing  # reloads: fails softly
+    try:
+        import importlib
+
+        state = importlib.import_module(ADDON_MODULE + ".library").state
+        assert state.lib is None
+        assert state.tried == [(missing, "no such file")]
+        expect_error("/nonexistent/transcut/libtranscut.so")
+    finally:
+        prefs.library_path = ""
+
+
+# -- bakes compared with the C ABI called directly -------------------------------------------
+
+
+def test_sun_bake_matches_direct_abi(scene, lib):
+    obj = add_sphere()
+    sun = add_light("SUN", rotation=(math.radians(40), 0.0, math.radians(20)), energy=3.0, color=(1.0, 0.9, 0.8))
+    select_only(obj)
+    assert bake() == {"FINISHED"}
+    rgb = check_attribute(obj, len(obj.data.vertices))
+    direction = np.array(sun.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0)))
+    irradiance = [3.0 * 1.0, 3.0 * 0.9, 3.0 * 0.8]  # W/m²
+    assert_matches_direct(lib, obj, [("sun", (direction, irradiance, math.degrees(sun.data.angle)))], rgb)
+    assert_lit_side_brighter(obj, lambda p: np.broadcast_to(-direction, p.shape).copy())
+
+
+def test_point_light_bake_matches_direct_abi(scene, lib):
+    obj = add_sphere()
+    add_light("POINT", location=(2.0, -1.5, 2.5), energy=500.0)
+    select_only(obj)
+    assert bake() == {"FINISHED"}
+    rgb = check_attribute(obj, len(obj.data.vertices))
+    intensity = [500.0 / (4.0 * math.pi)] * 3  # I = P/(4π) W/sr
+    assert_matches_direct(lib, obj, [("point", ((2.0, -1.5, 2.5), intensity))], rgb)
+    assert_lit_side_brighter(obj, lambda p: np.array([2.0, -1.5, 2.5]) - p)
+
+
+def test_area_light_bake_matches_direct_abi(scene, lib):
+    obj = add_sphere()
+    add_light("AREA", location=(0.0, 0.0, 3.0), energy=300.0, shape="RECTANGLE", size=1.5, size_y=0.8)
+    select_only(obj)
+    assert bake() == {"FINISHED"}
+    rgb = check_attribute(obj, len(obj.data.vertices))
+    radiance = [300.0 / (math.pi * 1.5 * 0.8)] * 3  # L = P/(π A), emitting down (−Z)
+    rect = ((0.0, 0.0, 3.0), (0.75, 0.0, 0.0), (0.0, -0.4, 0.0), radiance)
+    assert_matches_direct(lib, obj, [("rect", rect)], rgb)
+    assert_lit_side_brighter(obj, lambda p: np.array([0.0, 0.0, 3.0]) - p)
+
+
+def test_world_colour_bake_matches_direct_abi(scene, lib):
+    obj = add_sphere()
+    world = bpy.data.worlds.new("Sky")
+    world.use_nodes = True
+    bg = world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.3, 0.4, 0.5, 1.0)
+    bg.inputs["Strength"].default_value = 2.0
+    bpy.context.scene.world = world
+    select_only(obj)
+    assert bake() == {"FINISHED"}
+    rgb = check_attribute(obj, len(obj.data.vertices))
+    assert_matches_direct(lib, obj, [("env", ((0.6, 0.8, 1.0),))], rgb)
+    # Uniform light on a sphere: every vertex nearly the same.
+    lum = luminance(rgb.astype(np.float64))
+    assert lum.min() > 0.8 * lum.max()
+
+
+def test_modifiers_applied(scene, lib):
+    bpy.context.scene.unit_settings.scale_length = UNIT_SCALE
+    bpy.ops.mesh.primitive_cube_add(size=2.0)
+    cube = bpy.context.active_object
+    cube.data.materials.append(marble_material())
+    mod = cube.modifiers.new("Subdivision", "SUBSURF")
+    mod.levels = 2
+    sun = add_light("SUN", rotation=(math.radians(30), 0.0, 0.0), energy=3.0)
+    select_only(cube)
+    pos, tri, m, _ = evaluated_arrays(cube)
+    assert len(cube.data.vertices) == 8 and pos.shape[0] == 98
+    assert bake() == {"FINISHED"}
+    assert len(cube.data.vertices) == 98 and len(cube.modifiers) == 0
+    rgb = check_attribute(cube, 98)
+    direction = np.array(sun.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0)))
+    (ref,) = lib.bake([(pos, tri, m, MM_PER_UNIT, ARTIST)], [("sun", (direction, [3.0] * 3, math.degrees(sun.data.angle)))], TETS, TOL)
+    np.testing.assert_allclose(rgb, ref, rtol=1e-4, atol=1e-4 * float(np.abs(ref).max()))
+
+
+def test_rebake_reuses_attribute(scene, lib):
+    obj = add_sphere()
+    add_light("SUN", energy=3.0)
+    select_only(obj)
+    assert bake() == {"FINISHED"}
+    first = attribute_rgb(obj).copy()
+    bpy.context.scene.transcut.attribute_name = "SSS"
+    assert bake() == {"FINISHED"}
+    assert [a.name for a in obj.data.color_attributes] == ["SSS"]
+    np.testing.assert_array_equal(attribute_rgb(obj), first)
+
+
+# -- progress and cancel ---------------------------------------------------------------------
+
+
+def test_progress_reported_and_cancel_changes_nothing(scene, addon):
+    require_library()
+    obj = add_sphere()
+    add_light("SUN", energy=3.0)
+    select_only(obj)
+    ctx = bpy.context
+    job = addon.operators.prepare(ctx)
+    lib = addon.library.get(ctx)
+
+    runner = addon.bake.BakeRunner(lib, job)
+    reports = []
+    record = runner.progress
+    runner.progress = lambda stage, f: (reports.append((stage, f)), record(stage, f))[1]
+    runner.run_here()
+    assert runner.error is None and len(runner.results) == 1
+    assert reports and all(0.0 <= f <= 1.0 for _, f in reports)
+
+    before = snapshot()
+    runner = addon.bake.BakeRunner(lib, job)
+    runner.cancel()  # as ESC does: the library's next progress call returns "cancel"
+    runner.start()  # on a worker thread, as the modal operator runs it
+    assert runner.wait(timeout=120)
+    assert runner.results is None
+    assert isinstance(runner.error, addon.native.TranscutError)
+    assert runner.error.status == addon.native.TC_CANCELLED
+    assert addon.bake.error_message(runner.error) == "bake cancelled; nothing was changed"
+    assert snapshot() == before
