@@ -11,11 +11,12 @@ VENV="${1:-.venv}"
 BPY_SPEC="bpy==4.5.*"
 PYTHON="${PYTHON311:-python3.11}"
 
-# Shared libraries that bpy's Blender module links against even in background mode.
+# Shared libraries that bpy's Blender module links against even in background mode (from
+# `ldd bpy/__init__.so`; libgl1 brings libglx0 and libglvnd's dispatcher, libx11-6 brings xcb).
 need_debs=()
 if command -v dpkg-query >/dev/null 2>&1; then
-    for deb in libx11-6 libxrender1 libxxf86vm1 libxfixes3 libxi6 libxkbcommon0 libsm6 \
-               libice6 libgl1 libegl1 libglx0 libxext6 libgomp1; do
+    for deb in libx11-6 libxrender1 libxfixes3 libxi6 libxkbcommon0 libxext6 libsm6 libice6 \
+               libgl1; do
         if ! dpkg-query -W -f='${Status}' "$deb" 2>/dev/null | grep -q "install ok installed"; then
             need_debs+=("$deb")
         fi
