@@ -429,3 +429,80 @@ def test_progress_reported_and_cancel_changes_nothing(scene, addon):
     assert runner.error.status == addon.native.TC_CANCELLED
     assert addon.bake.error_message(runner.error) == "bake cancelled; nothing was changed"
     assert snapshot() == before
+
+
+# -- media sources and world textures --------------------------------------------------------
+
+
+def test_environment_texture_sky_lights_the_top(scene, addon):
+    require_library()
+    obj = add_sphere()
+    img = bpy.data.images.new("sky", 64, 32, float_buffer=True)
+    px = np.full((32, 64, 4), 1.0, np.float32)
+    px[16:, :, :3] = 2.0  # Blender stores rows bottom first: rows 16.. are the upper hemisphere
+    px[:16, :, :3] = 0.02
+    img.pixels.foreach_set(px.reshape(-1))
+    world = bpy.data.worlds.new("Sky")
+    world.use_nodes = True
+    nodes = world.node_tree.nodes
+    tex = nodes.new("ShaderNodeTexEnvironment")
+    tex.image = img
+    world.node_tree.links.new(tex.outputs["Color"], nodes["Background"].inputs["Color"])
+    bpy.context.scene.world = world
+    (spec,) = addon.lights.world_lights(world, [])
+    assert spec.method == "add_environment_image"
+    rgb = spec.kwargs["rgb"]
+    assert rgb.shape == (32, 64, 3) and rgb[0, 0, 0] == 2.0 and rgb[-1, 0, 0] == pytest.approx(0.02)  # row 0 = top
+    select_only(obj)
+    assert bake() == {"FINISHED"}
+    check_attribute(obj, len(obj.data.vertices))
+    assert_lit_side_brighter(obj, lambda p: np.broadcast_to(np.array([0.0, 0.0, 1.0]), p.shape).copy())
+
+
+def test_preset_and_coefficient_media(scene, addon):
+    require_library()
+    obj = add_sphere()
+    add_light("SUN", energy=3.0)
+    select_only(obj)
+    obj.transcut.medium_source = "PRESET"
+    obj.transcut.preset = "skin1"
+    (mesh,) = addon.operators.prepare(bpy.context).meshes
+    assert (mesh.medium.method, mesh.medium.kwargs) == ("set_medium_preset", {"name": "skin1"})
+    assert bake() == {"FINISHED"}
+    skin = attribute_rgb(obj).copy()
+    obj.transcut.medium_source = "COEFFICIENTS"  # the defaults are marble's coefficients
+    assert bake() == {"FINISHED"}
+    marble = attribute_rgb(obj)
+    assert np.all(np.isfinite(skin)) and np.all(np.isfinite(marble))
+    # Skin absorbs far more than marble: it comes out darker.
+    assert luminance(skin.astype(np.float64)).mean() < 0.9 * luminance(marble.astype(np.float64)).mean()
+
+
+def test_error_material_without_subsurface(scene):
+    add_light("SUN", energy=3.0)
+    obj = add_sphere()
+    obj.data.materials[0].node_tree.nodes["Principled BSDF"].inputs["Subsurface Weight"].default_value = 0.0
+    select_only(obj)
+    expect_error("Subsurface Weight 0")
+    obj.data.materials.clear()
+    expect_error("no material with a Principled BSDF")
+
+
+def test_two_objects_bake_together(scene, lib):
+    a = add_sphere(location=(-1.5, 0.0, 0.0))
+    b = add_sphere(location=(1.5, 0.0, 0.0))
+    sun = add_light("SUN", rotation=(0.0, math.radians(-90), 0.0), energy=3.0)  # travels along +X
+    select_only(a, b)
+    assert bake() == {"FINISHED"}
+    rgb_a, rgb_b = check_attribute(a, len(a.data.vertices)), check_attribute(b, len(b.data.vertices))
+    direction = np.array(sun.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0)))
+    assert direction[0] > 0.99
+    objs = []
+    for o in (a, b):
+        pos, tri, m, _ = evaluated_arrays(o)
+        objs.append((pos, tri, m, MM_PER_UNIT, ARTIST))
+    ref_a, ref_b = lib.bake(objs, [("sun", (direction, [3.0] * 3, math.degrees(sun.data.angle)))], TETS, TOL)
+    for rgb, ref in ((rgb_a, ref_a), (rgb_b, ref_b)):
+        np.testing.assert_allclose(rgb, ref, rtol=1e-4, atol=1e-4 * float(np.abs(ref).max()))
+    # Sphere a shadows b's lit side: b gets less light than a.
+    assert luminance(rgb_b.astype(np.float64)).mean() < 0.8 * luminance(rgb_a.astype(np.float64)).mean()
