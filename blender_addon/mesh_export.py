@@ -231,4 +231,12 @@ def gather(context, warnings: list, objects: Optional[list] = None) -> list:
     settings = scene.transcut
     depsgraph = context.evaluated_depsgraph_get()
     objs = objects if objects is not None else selected_meshes(context)
+    owners: dict = {}
+    for o in objs:
+        other = owners.setdefault(o.data.name, o.name)
+        if other != o.name:
+            raise BakeError(
+                f"'{other}' and '{o.name}' share the mesh '{o.data.name}', which can hold one bake; "
+                "make them single user (Object ▸ Relations ▸ Make Single User) or bake one at a time"
+            )
     return [gather_mesh(o, depsgraph, scene, settings, warnings) for o in objs]

@@ -506,3 +506,72 @@ def test_two_objects_bake_together(scene, lib):
         np.testing.assert_allclose(rgb, ref, rtol=1e-4, atol=1e-4 * float(np.abs(ref).max()))
     # Sphere a shadows b's lit side: b gets less light than a.
     assert luminance(rgb_b.astype(np.float64)).mean() < 0.8 * luminance(rgb_a.astype(np.float64)).mean()
+
+
+def test_error_shared_mesh(scene):
+    add_light("SUN", energy=3.0)
+    a = add_sphere()
+    b = bpy.data.objects.new("Twin", a.data)
+    bpy.context.scene.collection.objects.link(b)
+    select_only(a, b)
+    expect_error("share the mesh")
+
+
+# -- drawing (headless: a recording layout checks every property and operator drawn) --------
+
+
+class RecordingLayout:
+    """Stands in for UILayout: checks each drawn property and operator exists, records labels."""
+
+    def __init__(self, log):
+        self.log = log
+        self.use_property_split = False
+        self.use_property_decorate = False
+
+    def _child(self, *args, **kwargs):
+        return RecordingLayout(self.log)
+
+    box = column = row = split = _child
+
+    def prop(self, data, name, **kwargs):
+        assert name in data.bl_rna.properties, f"{type(data).__name__} has no property {name!r}"
+        self.log.append(("prop", name))
+
+    def label(self, text="", **kwargs):
+        self.log.append(("label", text))
+
+    def operator(self, idname, **kwargs):
+        category, name = idname.split(".")
+        assert name in dir(getattr(bpy.ops, category)), idname
+        self.log.append(("operator", idname))
+
+    def separator(self, **kwargs):
+        pass
+
+
+def test_panels_draw(scene, addon):
+    obj = add_sphere()
+    select_only(obj)
+    panel_cls = addon.ui.VIEW3D_PT_transcut
+    for source in ("MATERIAL", "PRESET", "COEFFICIENTS"):
+        obj.transcut.medium_source = source
+        log = []
+        fake = type("P", (), {"layout": RecordingLayout(log)})()
+        panel_cls.draw(fake, bpy.context)
+        assert ("operator", "object.transcut_bake") in log
+        assert ("prop", "tets") in log and ("prop", "attribute_name") in log
+        if source == "COEFFICIENTS":
+            assert ("prop", "sigma_s_prime") in log
+
+    prefs = bpy.context.preferences.addons[ADDON_MODULE].preferences
+    missing = "/nonexistent/libtranscut.so"
+    prefs.library_path = missing
+    try:
+        log = []
+        fake = type("P", (), {"layout": RecordingLayout(log), "library_path": missing, "bl_rna": prefs.bl_rna})()
+        addon.preferences.TranscutPreferences.draw(fake, bpy.context)
+        # The exact path tried and the reason are on screen.
+        assert ("label", f"Tried: {missing}") in log and ("label", "    no such file") in log
+        assert ("operator", "preferences.transcut_reload_library") in log
+    finally:
+        prefs.library_path = ""
