@@ -39,6 +39,8 @@ def build_scene(lib: native.Library, job: BakeJob) -> tuple:
             where = f"'{mesh.object_name}'"
             try:
                 idx = scene.add_mesh(mesh.positions, mesh.triangles)
+                if lib.has("tc_object_set_name"):
+                    scene.set_name(idx, mesh.object_name)
                 scene.set_transform(idx, mesh.matrix_world)
                 scene.set_scale(idx, mesh.mm_per_unit)
                 getattr(scene, mesh.medium.method)(idx, **mesh.medium.kwargs)

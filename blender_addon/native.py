@@ -179,14 +179,14 @@ _f = POINTER(c_float)
 _u32 = POINTER(c_uint32)
 
 # name: (restype, argtypes). TcStatus is a transparent int32_t.
-_PROTOTYPES = {
+# What the Blender add-on needs: a library without one of these is refused at load.
+_REQUIRED = {
     "tc_version": (c_uint32, []),
     "tc_version_string": (c_char_p, []),
     "tc_last_error_message": (c_char_p, []),
     "tc_scene_create": (c_int32, [POINTER(_ScenePtr)]),
     "tc_scene_destroy": (None, [POINTER(_ScenePtr)]),
     "tc_scene_add_mesh": (c_int32, [_ScenePtr, _f, c_size_t, _u32, c_size_t, _u32]),
-    "tc_scene_add_tet_mesh": (c_int32, [_ScenePtr, _f, c_size_t, _u32, c_size_t, _u32, _u32]),
     "tc_object_set_transform": (c_int32, [_ScenePtr, c_uint32, _f]),
     "tc_object_set_scale": (c_int32, [_ScenePtr, c_uint32, c_double]),
     "tc_object_vertex_count": (c_int32, [_ScenePtr, c_uint32, POINTER(c_size_t)]),
@@ -194,7 +194,6 @@ _PROTOTYPES = {
     "tc_object_set_medium": (c_int32, [_ScenePtr, c_uint32, POINTER(TcMedium)]),
     "tc_object_set_medium_preset": (c_int32, [_ScenePtr, c_uint32, c_char_p]),
     "tc_object_set_medium_artist": (c_int32, [_ScenePtr, c_uint32, POINTER(TcArtistMedium)]),
-    "tc_object_set_media_table": (c_int32, [_ScenePtr, c_uint32, POINTER(TcMedium), c_size_t]),
     "tc_scene_add_sun": (c_int32, [_ScenePtr, _d3, _d3, c_double]),
     "tc_scene_add_point": (c_int32, [_ScenePtr, _d3, _d3]),
     "tc_scene_add_spot": (c_int32, [_ScenePtr, _d3, _d3, _d3, c_double, c_double]),
@@ -202,11 +201,22 @@ _PROTOTYPES = {
     "tc_scene_add_disc": (c_int32, [_ScenePtr, _d3, _d3, c_double, _d3, c_int]),
     "tc_scene_add_environment": (c_int32, [_ScenePtr, _d3]),
     "tc_scene_add_environment_image": (c_int32, [_ScenePtr, _f, c_size_t, c_size_t, c_double]),
-    "tc_scene_add_environment_file": (c_int32, [_ScenePtr, c_char_p, c_double]),
-    "tc_scene_clear_lights": (c_int32, [_ScenePtr]),
     "tc_bake_options_default": (None, [POINTER(TcBakeOptions)]),
     "tc_scene_bake": (c_int32, [_ScenePtr, POINTER(TcBakeOptions), TcProgressFn, c_void_p]),
     "tc_object_radiance": (c_int32, [_ScenePtr, c_uint32, _f, c_size_t]),
+}
+# The rest of the header: bound when the library has them; calling a missing one raises.
+_OPTIONAL = {
+    "tc_status_name": (c_char_p, [c_int32]),
+    "tc_scene_object_count": (c_int32, [_ScenePtr, POINTER(c_uint32)]),
+    "tc_scene_light_count": (c_int32, [_ScenePtr, POINTER(c_uint32)]),
+    "tc_object_set_name": (c_int32, [_ScenePtr, c_uint32, c_char_p]),
+    "tc_scene_add_mesh_file": (c_int32, [_ScenePtr, c_char_p, _u32]),
+    "tc_scene_add_tet_mesh": (c_int32, [_ScenePtr, _f, c_size_t, _u32, c_size_t, _u32, _u32]),
+    "tc_medium_from_artist": (c_int32, [POINTER(TcArtistMedium), c_double, POINTER(TcMedium)]),
+    "tc_object_set_media_table": (c_int32, [_ScenePtr, c_uint32, POINTER(TcMedium), c_size_t]),
+    "tc_scene_add_environment_file": (c_int32, [_ScenePtr, c_char_p, c_double]),
+    "tc_scene_clear_lights": (c_int32, [_ScenePtr]),
     "tc_object_stats": (c_int32, [_ScenePtr, c_uint32, POINTER(TcBakeStats)]),
 }
 
@@ -308,14 +318,16 @@ class Library:
         self.path = os.path.abspath(path)
         self.cdll = ctypes.CDLL(self.path)
         missing = []
-        for name, (restype, argtypes) in _PROTOTYPES.items():
-            try:
-                fn = getattr(self.cdll, name)
-            except AttributeError:
-                missing.append(name)
-                continue
-            fn.restype = restype
-            fn.argtypes = argtypes
+        self.optional_missing = []
+        for table, absent in ((_REQUIRED, missing), (_OPTIONAL, self.optional_missing)):
+            for name, (restype, argtypes) in table.items():
+                try:
+                    fn = getattr(self.cdll, name)
+                except AttributeError:
+                    absent.append(name)
+                    continue
+                fn.restype = restype
+                fn.argtypes = argtypes
         if missing:
             raise AttributeError(f"{self.path} lacks {', '.join(missing)} (not a libtranscut build?)")
         self.version = int(self.cdll.tc_version())
@@ -325,6 +337,16 @@ class Library:
                 f"{self.path} is libtranscut {self.version_string}; this binding needs ABI major "
                 f"version {ABI_MAJOR}"
             )
+
+    def has(self, name: str) -> bool:
+        """Whether the library exports the C function ``name``."""
+        return hasattr(self.cdll, name) and name not in self.optional_missing
+
+    def function(self, name: str):
+        """The C function ``name`` (prototype declared); AttributeError naming it if absent."""
+        if name in self.optional_missing:
+            raise AttributeError(f"{self.path} ({self.version_string}) has no {name}")
+        return getattr(self.cdll, name)
 
     def last_error_message(self) -> str:
         """``tc_last_error_message()`` of the calling thread ('' when none)."""
@@ -418,7 +440,7 @@ class Scene:
         ids = None if tet_medium is None else np.ascontiguousarray(tet_medium, dtype=np.uint32)
         out = c_uint32()
         self._check(
-            self._c.tc_scene_add_tet_mesh(
+            self.lib.function("tc_scene_add_tet_mesh")(
                 self._h(),
                 pos.ctypes.data_as(_f),
                 pos.size // 3,
@@ -441,6 +463,10 @@ class Scene:
     def set_scale(self, obj: int, mm_per_unit: float) -> None:
         """Millimetres per scene unit of the object (``tc_object_set_scale``)."""
         self._check(self._c.tc_object_set_scale(self._h(), obj, float(mm_per_unit)), "tc_object_set_scale")
+
+    def set_name(self, obj: int, name: str) -> None:
+        """Names the object in the library's messages (``tc_object_set_name``)."""
+        self._check(self.lib.function("tc_object_set_name")(self._h(), obj, name.encode("utf-8")), "tc_object_set_name")
 
     def vertex_count(self, obj: int) -> int:
         """``tc_object_vertex_count``."""
@@ -550,13 +576,13 @@ class Scene:
     def add_environment_file(self, path: str, strength: float = 1.0) -> None:
         """An equirectangular environment read from a .hdr / .exr file."""
         self._check(
-            self._c.tc_scene_add_environment_file(self._h(), os.fsencode(path), float(strength)),
+            self.lib.function("tc_scene_add_environment_file")(self._h(), os.fsencode(path), float(strength)),
             "tc_scene_add_environment_file",
         )
 
     def clear_lights(self) -> None:
         """Removes every light (``tc_scene_clear_lights``)."""
-        self._check(self._c.tc_scene_clear_lights(self._h()), "tc_scene_clear_lights")
+        self._check(self.lib.function("tc_scene_clear_lights")(self._h()), "tc_scene_clear_lights")
 
     # -- bake ------------------------------------------------------------------------------
 
@@ -606,7 +632,7 @@ class Scene:
         """``tc_object_stats`` as a dict."""
         st = TcBakeStats()
         st.size = ctypes.sizeof(TcBakeStats)
-        self._check(self._c.tc_object_stats(self._h(), obj, ctypes.byref(st)), "tc_object_stats")
+        self._check(self.lib.function("tc_object_stats")(self._h(), obj, ctypes.byref(st)), "tc_object_stats")
         out = {name: getattr(st, name) for name, _ in TcBakeStats._fields_ if name != "size"}
         out["iterations"] = list(st.iterations)
         return out
