@@ -183,18 +183,16 @@ fn write_ply(out: &mut impl Write, mesh: &TriMesh, radiance: &[[f64; 3]]) -> std
 fn export_system(dir: &Path, scene: &Scene, object: &transcut::scene::ObjectBake) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir)?;
     let o = &scene.objects[0];
-    let mut system = diffusion::assemble(&object.tet_mesh, &[o.medium], o.mm_per_unit)?;
+    let mut system = diffusion::assemble(&object.tet_mesh, &object.media, o.mm_per_unit)?;
     let boundary = system.boundary();
     let points: Vec<_> = boundary.ids.iter().map(|&v| object.tet_mesh.positions()[v as usize]).collect();
-    let bvh = transcut::mesh::TriangleBvh::from_indexed(
-        &o.mesh.transformed(&o.transform).positions().to_vec(),
-        o.mesh.triangles(),
-    );
+    let surface = o.world_surface()?;
+    let bvh = transcut::mesh::TriangleBvh::from_indexed(surface.positions(), surface.triangles());
     let q = transcut::light::transmitted_source(
         &scene.lights,
         &points,
         &boundary.normal,
-        o.medium.eta,
+        system.boundary_terms().eta,
         Some(&bvh),
         &transcut::light::SourceOptions::default(),
     )?;

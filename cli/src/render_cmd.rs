@@ -13,7 +13,7 @@ use anyhow::{bail, Context};
 use clap::Args;
 use transcut::light::{Environment, Light};
 use transcut::render::{render, Camera, GroundPlane, RenderObject, RenderOptions, RenderScene, SamplePattern, SpecularLight};
-use transcut::scene::{bake_with, BakeOptions, Scene};
+use transcut::scene::{bake_with, BakeOptions, Object, Scene};
 use transcut::{DVec3, Progress};
 
 use crate::progress::StageBar;
@@ -81,7 +81,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
     let t_render = Instant::now();
     // World-space meshes over their welded vertices, with the radiance of their user vertices.
-    let world: Vec<_> = scene.objects.iter().map(|o| o.mesh.transformed(&o.transform)).collect();
+    let world = scene.objects.iter().map(Object::world_surface).collect::<Result<Vec<_>, _>>()?;
     let radiance: Vec<Vec<[f64; 3]>> = world
         .iter()
         .zip(&baked.objects)
@@ -96,8 +96,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let objects: Vec<RenderObject<'_>> = world
         .iter()
         .zip(&radiance)
-        .zip(&scene.objects)
-        .map(|((mesh, r), o)| RenderObject { positions: mesh.positions(), triangles: mesh.triangles(), radiance: r, normals: None, eta: o.medium.eta })
+        .zip(&baked.objects)
+        .map(|((mesh, r), b)| RenderObject { positions: mesh.positions(), triangles: mesh.triangles(), radiance: r, normals: None, eta: b.eta })
         .collect();
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for mesh in &world {

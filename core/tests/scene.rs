@@ -48,7 +48,7 @@ fn uniform_sphere_under_a_constant_sky_matches_the_closed_form() {
     };
     let result = bake(&scene, &BakeOptions { tets: 60_000, ..Default::default() }).unwrap();
     let o = &result.objects[0];
-    assert_eq!(o.radiance.len(), scene.objects[0].mesh.user_vertex_count());
+    assert_eq!(o.radiance.len(), scene.objects[0].shape.output_vertex_count());
     let q = std::f64::consts::PI * (1.0 - f_ext(1.3));
     let exact = UniformSphere::new(medium, 10.0, [q; 3]).unwrap().surface_radiance(1.0);
     for c in 0..3 {

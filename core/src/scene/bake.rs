@@ -2,11 +2,13 @@
 
 use std::time::Instant;
 
-use super::Scene;
+use super::{Object, Scene, Shape};
 use crate::diffusion::{self, DiffusionError};
 use crate::light::{self, LightError, SourceOptions};
-use crate::mesh::{TetMesh, TriangleBvh};
+use crate::mesh::{TetMesh, TetMeshError, TriangleBvh};
 use crate::mesher::{self, MesherError, MesherOptions, MesherStats};
+use crate::optics::Medium;
+use crate::volume::VolumeError;
 use crate::progress::{Cancelled, Progress};
 use crate::sparse::SolveOptions;
 
@@ -46,6 +48,14 @@ pub enum SceneError {
     /// An object's own parameters are invalid.
     #[error("object {index} ({name}): {message}")]
     InvalidObject { index: usize, name: String, message: String },
+    /// An object's heterogeneous medium could not be put on its tets.
+    #[error("object {index} ({name}): medium: {source}")]
+    Medium {
+        index: usize,
+        name: String,
+        #[source]
+        source: VolumeError,
+    },
     /// Meshing an object failed.
     #[error("object {index} ({name}): meshing failed: {source}")]
     Mesher {
@@ -87,17 +97,23 @@ pub struct ObjectStats {
     pub source_ms: f64,
     pub solve_ms: f64,
     pub total_ms: f64,
-    /// The mesher's own statistics.
-    pub meshing: MesherStats,
+    /// The mesher's own statistics (`None` for an object given as a ready tet mesh).
+    pub meshing: Option<MesherStats>,
 }
 
 /// One object's result.
 #[derive(Debug, Clone)]
 pub struct ObjectBake {
-    /// Lo(x, n), linear RGB, one per vertex of the object's input mesh, in the user's order.
+    /// Lo(x, n), linear RGB, one per vertex of the object's input mesh, in the user's order
+    /// (for a ready tet mesh: one per tet-mesh vertex, 0 inside).
     pub radiance: Vec<[f64; 3]>,
-    /// The tet mesh the object was solved on (world space).
+    /// The tet mesh the object was solved on (world space), its material ids indexing `media`.
     pub tet_mesh: TetMesh,
+    /// The media table the system was assembled with (`diffusion::assemble(&tet_mesh, &media,
+    /// mm_per_unit)` rebuilds it).
+    pub media: Vec<Medium>,
+    /// Refractive index at the object's surface (one per object), for renderers' specular.
+    pub eta: f64,
     /// The fluence φ at every tet-mesh vertex (a warm start for later solves).
     pub fluence: Vec<[f64; 3]>,
     pub stats: ObjectStats,
@@ -157,7 +173,7 @@ fn validate(scene: &Scene, options: &BakeOptions) -> Result<(), SceneError> {
         if !o.transform.is_finite() || o.transform.determinant().abs() < 1e-300 {
             return Err(bad("the transform is singular or not finite".into()));
         }
-        o.medium.validate().map_err(|e| bad(e.to_string()))?;
+        o.medium.validate(&o.shape).map_err(bad)?;
     }
     light::validate_lights(&scene.lights)?;
     Ok(())
@@ -167,7 +183,14 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
     let start = Instant::now();
     let n = scene.objects.len() as f64;
     // World-space surfaces: they are meshed, and together they shadow.
-    let world: Vec<_> = scene.objects.iter().map(|o| o.mesh.transformed(&o.transform)).collect();
+    let world = scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(index, o)| {
+            o.world_surface().map_err(|e| SceneError::InvalidObject { index, name: o.name.clone(), message: e.to_string() })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let occluder = options.shadows.then(|| {
         let corners = world.iter().flat_map(|m| (0..m.triangles().len()).map(move |t| m.triangle(t))).collect();
         TriangleBvh::new(corners)
@@ -177,25 +200,26 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
         let name = || object.name.clone();
         let t0 = Instant::now();
         let stage = |s: &str, f: f64| progress.report(&format!("{}: {s}", object.name), (index as f64 + f) / n);
-        let mesh_progress = |s: &str, f: f64| stage(s, 0.6 * f).is_ok();
-        let meshed = mesher::tetrahedralize_with(surface, &MesherOptions::with_tets(options.tets), Progress::new(&mesh_progress))
-            .map_err(|source| match source {
-                MesherError::Cancelled(c) => SceneError::Cancelled(c),
-                source => SceneError::Mesher { index, name: name(), source },
-            })?;
+        let (mut tet_mesh, meshing) = world_tets(object, surface, options, &stage).map_err(|e| e.at(index, name()))?;
         let meshing_ms = ms(t0);
         stage("assembly", 0.6)?;
 
         let t = Instant::now();
+        let to_object = object.transform.inverse();
+        let media = object
+            .medium
+            .apply(&mut tet_mesh, &to_object, object.mm_per_unit)
+            .map_err(|source| SceneError::Medium { index, name: name(), source })?;
         let diffusion_error = |source| SceneError::Diffusion { index, name: name(), source };
-        let mut system = diffusion::assemble(&meshed.mesh, &[object.medium], object.mm_per_unit).map_err(diffusion_error)?;
+        let mut system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(diffusion_error)?;
         let assembly_ms = ms(t);
         stage("light", 0.7)?;
 
         let t = Instant::now();
         let boundary = system.boundary();
-        let points: Vec<_> = boundary.ids.iter().map(|&v| meshed.mesh.positions()[v as usize]).collect();
-        let q = light::transmitted_source(&scene.lights, &points, &boundary.normal, object.medium.eta, occluder.as_ref(), &options.source)?;
+        let points: Vec<_> = boundary.ids.iter().map(|&v| tet_mesh.positions()[v as usize]).collect();
+        let eta = system.boundary_terms().eta;
+        let q = light::transmitted_source(&scene.lights, &points, &boundary.normal, eta, occluder.as_ref(), &options.source)?;
         system.set_source(&q).map_err(diffusion_error)?;
         let source_ms = ms(t);
         stage("solve", 0.8)?;
@@ -207,7 +231,7 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
         let solve_ms = ms(t);
 
         // Per tet-mesh vertex (boundary entries only), clamped, then at the user's vertices.
-        let mut per_vertex = vec![[0.0; 3]; meshed.mesh.vertex_count()];
+        let mut per_vertex = vec![[0.0; 3]; tet_mesh.vertex_count()];
         let mut clamped = 0;
         for (&v, l) in system.boundary().ids.iter().zip(&lo) {
             if l.iter().any(|&x| x < 0.0) {
@@ -215,10 +239,13 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
             }
             per_vertex[v as usize] = l.map(|x| x.max(0.0));
         }
-        let radiance = meshed.mesh.sample_at_user_vertices(&per_vertex);
+        let radiance = match object.shape {
+            Shape::Surface(_) => tet_mesh.sample_at_user_vertices(&per_vertex),
+            Shape::Tetrahedra(_) => per_vertex,
+        };
         let stats = ObjectStats {
-            tets: meshed.mesh.tet_count(),
-            vertices: meshed.mesh.vertex_count(),
+            tets: tet_mesh.tet_count(),
+            vertices: tet_mesh.vertex_count(),
             boundary_vertices: system.boundary().len(),
             iterations: solution.stats.iterations,
             relative_residual: solution.stats.relative_residual,
@@ -228,12 +255,51 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
             source_ms,
             solve_ms,
             total_ms: ms(t0),
-            meshing: meshed.stats,
+            meshing,
         };
-        objects.push(ObjectBake { radiance, tet_mesh: meshed.mesh, fluence: solution.phi, stats });
+        objects.push(ObjectBake { radiance, tet_mesh, media, eta, fluence: solution.phi, stats });
         stage("done", 1.0)?;
     }
     Ok(Bake { objects, total_ms: ms(start) })
+}
+
+/// Why an object's world-space tet mesh could not be made (the object is named by the caller).
+enum TetsError {
+    Mesher(MesherError),
+    Transform(TetMeshError),
+}
+
+impl TetsError {
+    fn at(self, index: usize, name: String) -> SceneError {
+        match self {
+            Self::Mesher(MesherError::Cancelled(c)) => SceneError::Cancelled(c),
+            Self::Mesher(source) => SceneError::Mesher { index, name, source },
+            Self::Transform(e) => SceneError::InvalidObject { index, name, message: format!("the transformed tet mesh is invalid: {e}") },
+        }
+    }
+}
+
+/// The object's tets in world space: its surface meshed (progress 0 → 0.6 of the object), or its
+/// ready tet mesh transformed.
+fn world_tets(
+    object: &Object,
+    surface: &crate::mesh::TriMesh,
+    options: &BakeOptions,
+    stage: &(dyn Fn(&str, f64) -> Result<(), crate::progress::Cancelled> + Sync),
+) -> Result<(TetMesh, Option<MesherStats>), TetsError> {
+    match &object.shape {
+        Shape::Surface(_) => {
+            let mesh_progress = |s: &str, f: f64| stage(s, 0.6 * f).is_ok();
+            let meshed = mesher::tetrahedralize_with(surface, &MesherOptions::with_tets(options.tets), Progress::new(&mesh_progress))
+                .map_err(TetsError::Mesher)?;
+            Ok((meshed.mesh, Some(meshed.stats)))
+        }
+        Shape::Tetrahedra(mesh) => {
+            let m = object.transform;
+            let world = mesh.clone().map_positions(move |p| m.transform_point3(p)).map_err(TetsError::Transform)?;
+            Ok((world, None))
+        }
+    }
 }
 
 fn ms(t: Instant) -> f64 {

@@ -13,37 +13,12 @@
 //! meshes); such values are clamped to zero and counted in the statistics.
 
 mod bake;
+mod object;
 
 pub use bake::{bake, bake_with, Bake, BakeOptions, ObjectBake, ObjectStats, SceneError};
-
-use glam::DMat4;
+pub use object::{MediumSource, Object, Shape};
 
 use crate::light::Light;
-use crate::mesh::TriMesh;
-use crate::optics::Medium;
-
-/// A translucent object: a surface mesh in object space, its placement and its medium.
-#[derive(Debug, Clone)]
-pub struct Object {
-    /// A name for messages and reports.
-    pub name: String,
-    /// The closed (or nearly closed) surface, in object space, scene units.
-    pub mesh: TriMesh,
-    /// Object → world transform (scene units).
-    pub transform: DMat4,
-    /// Millimetres per scene unit: the media are in mm⁻¹.
-    pub mm_per_unit: f64,
-    /// The homogeneous medium filling the object.
-    pub medium: Medium,
-}
-
-impl Object {
-    /// An object at the origin with the identity transform.
-    #[must_use]
-    pub fn new(name: impl Into<String>, mesh: TriMesh, medium: Medium, mm_per_unit: f64) -> Self {
-        Self { name: name.into(), mesh, transform: DMat4::IDENTITY, mm_per_unit, medium }
-    }
-}
 
 /// Objects and the lights that shine on them.
 #[derive(Debug, Clone, Default)]

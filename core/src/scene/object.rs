@@ -1,0 +1,192 @@
+//! What an object is made of: its shape (a surface to mesh, or a ready tet mesh) and its medium
+//! (homogeneous, a material table, per-tet values, a voxel grid or a procedural field).
+
+use glam::{DMat4, DVec3};
+
+use crate::mesh::{MeshError, TetMesh, TriMesh};
+use crate::optics::Medium;
+use crate::volume::{Layers, PerTetMedia, TableLayout, TetSampling, Veins, VolumeError, VoxelGrid};
+
+/// The geometry of an object, in object space (scene units).
+#[derive(Debug, Clone)]
+pub enum Shape {
+    /// A closed (or nearly closed) surface; the bake tetrahedralizes it and returns radiance at
+    /// its vertices, in the user's order.
+    Surface(TriMesh),
+    /// A ready tetrahedral mesh; the bake solves on it as given and returns radiance at every
+    /// tet-mesh vertex (0 at interior vertices, which have no outgoing radiance).
+    Tetrahedra(TetMesh),
+}
+
+impl Shape {
+    /// Number of vertices the bake returns radiance for.
+    #[must_use]
+    pub fn output_vertex_count(&self) -> usize {
+        match self {
+            Self::Surface(mesh) => mesh.user_vertex_count(),
+            Self::Tetrahedra(mesh) => mesh.vertex_count(),
+        }
+    }
+}
+
+/// The medium filling an object. Every heterogeneous source is reduced to one medium per tet
+/// (TransCut assumes κ and μ piecewise constant per tet) on the mesh the bake solves on.
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub enum MediumSource {
+    /// One medium everywhere.
+    Homogeneous(Medium),
+    /// A table indexed by the material ids of a [`Shape::Tetrahedra`] mesh
+    /// ([`TetMesh::materials`]); with a surface, every tet has id 0.
+    Table(Vec<Medium>),
+    /// One medium per tet of a [`Shape::Tetrahedra`] mesh, in tet order.
+    PerTet(PerTetMedia),
+    /// A voxel grid placed in object space (scene units), sampled at five points per tet
+    /// ([`TetSampling::FivePoint`]), with the object's η and g.
+    Voxels {
+        /// The coefficients.
+        grid: VoxelGrid,
+        /// Refractive index of the object.
+        eta: f64,
+        /// Scattering anisotropy of the object.
+        g: f64,
+    },
+    /// Media by depth below the (world-space) surface, depths in millimetres.
+    Layers(Layers),
+    /// Marble veins from seeded noise, evaluated in object space (they move with the object).
+    Veins(Veins),
+}
+
+impl From<Medium> for MediumSource {
+    fn from(medium: Medium) -> Self {
+        Self::Homogeneous(medium)
+    }
+}
+
+impl MediumSource {
+    /// Checks what can be checked without the tet mesh.
+    ///
+    /// # Errors
+    /// A message naming the invalid medium, table entry or parameter.
+    pub fn validate(&self, shape: &Shape) -> Result<(), String> {
+        match self {
+            Self::Homogeneous(m) => m.validate().map_err(|e| e.to_string()),
+            Self::Table(table) => {
+                if table.is_empty() {
+                    return Err("the material table is empty".into());
+                }
+                for (i, m) in table.iter().enumerate() {
+                    m.validate().map_err(|e| format!("material table entry {i}: {e}"))?;
+                }
+                if let Shape::Tetrahedra(mesh) = shape {
+                    if let Some((t, &id)) = mesh.materials().iter().enumerate().find(|(_, &id)| id as usize >= table.len()) {
+                        return Err(format!("tet {t} has material id {id} but the table has {} entries", table.len()));
+                    }
+                }
+                Ok(())
+            }
+            Self::PerTet(media) => match shape {
+                Shape::Tetrahedra(mesh) if mesh.tet_count() == media.len() => Ok(()),
+                Shape::Tetrahedra(mesh) => {
+                    Err(format!("per-tet media for {} tets but the tet mesh has {}", media.len(), mesh.tet_count()))
+                }
+                Shape::Surface(_) => Err("per-tet media need a ready tet mesh (the bake's tets are not known in advance); \
+                                          use a voxel grid or a procedural field with a surface"
+                    .into()),
+            },
+            Self::Voxels { eta, g, .. } => {
+                if !(*eta >= 1.0 && *eta < 4.0) {
+                    return Err(format!("voxel medium: eta must lie in [1, 4), got {eta}"));
+                }
+                if !(*g > -1.0 && *g < 1.0) {
+                    return Err(format!("voxel medium: g must lie in (-1, 1), got {g}"));
+                }
+                Ok(())
+            }
+            Self::Layers(_) | Self::Veins(_) => Ok(()),
+        }
+    }
+
+    /// The medium table for the diffusion assembly on `mesh` (world space, the object's tets),
+    /// writing the material ids it indexes into `mesh`. `to_object` maps world to object space.
+    ///
+    /// # Errors
+    /// [`VolumeError`] from sampling a field or from a length mismatch.
+    pub(crate) fn apply(&self, mesh: &mut TetMesh, to_object: &DMat4, mm_per_unit: f64) -> Result<Vec<Medium>, VolumeError> {
+        let in_object_space = |mesh: &TetMesh| {
+            let m = *to_object;
+            mesh.clone().map_positions(move |p: DVec3| m.transform_point3(p)).map_err(|_| VolumeError::InvalidParameter {
+                field: "transform determinant",
+                value: m.determinant(),
+                requirement: "the world-to-object map must keep every tet valid",
+            })
+        };
+        let per_tet = match self {
+            Self::Homogeneous(m) => {
+                mesh.set_materials(vec![0; mesh.tet_count()]).expect("one id per tet");
+                return Ok(vec![*m]);
+            }
+            Self::Table(table) => return Ok(table.clone()),
+            Self::PerTet(media) => media.clone(),
+            Self::Voxels { grid, eta, g } => grid.per_tet(&in_object_space(mesh)?, *eta, *g, TetSampling::FivePoint)?,
+            Self::Layers(layers) => layers.per_tet(mesh, mm_per_unit, TetSampling::FivePoint)?,
+            Self::Veins(veins) => veins.per_tet(&in_object_space(mesh)?, TetSampling::FivePoint)?,
+        };
+        per_tet.apply(mesh, TableLayout::PerTet)
+    }
+}
+
+/// A translucent object: a shape in object space, its placement and its medium.
+#[derive(Debug, Clone)]
+pub struct Object {
+    /// A name for messages and reports.
+    pub name: String,
+    /// The geometry, in object space, scene units.
+    pub shape: Shape,
+    /// Object → world transform (scene units).
+    pub transform: DMat4,
+    /// Millimetres per scene unit: the media are in mm⁻¹.
+    pub mm_per_unit: f64,
+    /// What fills the object.
+    pub medium: MediumSource,
+}
+
+impl Object {
+    /// A surface at the origin (identity transform) filled with one medium.
+    #[must_use]
+    pub fn new(name: impl Into<String>, mesh: TriMesh, medium: Medium, mm_per_unit: f64) -> Self {
+        Self::with_shape(name, Shape::Surface(mesh), MediumSource::Homogeneous(medium), mm_per_unit)
+    }
+
+    /// A ready tet mesh at the origin (identity transform).
+    #[must_use]
+    pub fn from_tets(name: impl Into<String>, mesh: TetMesh, medium: MediumSource, mm_per_unit: f64) -> Self {
+        Self::with_shape(name, Shape::Tetrahedra(mesh), medium, mm_per_unit)
+    }
+
+    /// Any shape and medium source, at the origin.
+    #[must_use]
+    pub fn with_shape(name: impl Into<String>, shape: Shape, medium: MediumSource, mm_per_unit: f64) -> Self {
+        Self { name: name.into(), shape, transform: DMat4::IDENTITY, mm_per_unit, medium }
+    }
+
+    /// The surface in world space (the boundary of a tet mesh), for shadows and rendering. Its
+    /// user vertices are the ones the bake returns radiance for ([`Shape::output_vertex_count`]).
+    ///
+    /// # Errors
+    /// [`MeshError`] when a tet mesh's boundary has no triangle of non-zero area.
+    pub fn world_surface(&self) -> Result<TriMesh, MeshError> {
+        Ok(match &self.shape {
+            Shape::Surface(mesh) => mesh.transformed(&self.transform),
+            Shape::Tetrahedra(mesh) => boundary_surface(mesh)?.transformed(&self.transform),
+        })
+    }
+}
+
+/// The boundary of a tet mesh as a triangle mesh whose user vertices are all tet-mesh vertices
+/// (interior ones unreferenced), so per-vertex values index it directly.
+fn boundary_surface(mesh: &TetMesh) -> Result<TriMesh, MeshError> {
+    let positions: Vec<[f64; 3]> = mesh.positions().iter().map(|p| p.to_array()).collect();
+    let indices: Vec<u32> = mesh.boundary_faces().iter().flat_map(|f| f.vertices).collect();
+    TriMesh::from_triangles(&positions, &indices)
+}
