@@ -13,6 +13,10 @@ if [ ! -d ../shared/data/meshes ]; then
     exit 1
 fi
 
+# The GPU tests (core/tests/gpu*.rs) need a Vulkan adapter: install Mesa's lavapipe (software
+# Vulkan, Debian mesa-vulkan-drivers) when missing, so the GPU path is tested on every machine.
+bash scripts/install-lavapipe.sh
+
 # Tests run optimised (profile.test has opt-level 2): the mesher and solver tests work at
 # real sizes (up to 1M tets).
 cargo test --workspace --all-targets --locked

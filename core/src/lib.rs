@@ -18,6 +18,7 @@ pub mod diffusion;
 pub mod volume;
 pub mod scene;
 pub mod render;
+pub mod gpu;
 
 pub use glam::DVec3;
 pub use progress::{Cancelled, Progress};

@@ -1,0 +1,146 @@
+//! The choice between the CPU and GPU paths: [`Backend`] (`TRANSCUT_BACKEND=cpu|gpu|auto`) and
+//! [`solve`], which runs the diffusion solve on the chosen one and reports which one ran.
+
+use std::fmt;
+use std::str::FromStr;
+
+use super::error::GpuError;
+use crate::diffusion::{self, DiffusionSystem, Solution};
+use crate::sparse::SolveOptions;
+
+/// The environment variable that chooses the backend when the caller does not.
+pub const BACKEND_ENV: &str = "TRANSCUT_BACKEND";
+
+/// Where the diffusion solve runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// The CPU path (rayon), always available.
+    Cpu,
+    /// The GPU path (wgpu); an error if no adapter exists.
+    Gpu,
+    /// The GPU when an adapter exists, else the CPU (the report says why).
+    #[default]
+    Auto,
+}
+
+impl Backend {
+    /// The backend named by `TRANSCUT_BACKEND`, or `default` when it is unset or empty.
+    ///
+    /// # Errors
+    /// [`GpuError::UnknownBackend`] for a value other than cpu, gpu, auto (any case).
+    pub fn from_env_or(default: Backend) -> Result<Backend, GpuError> {
+        match std::env::var(BACKEND_ENV) {
+            Ok(v) if !v.trim().is_empty() => v.parse(),
+            _ => Ok(default),
+        }
+    }
+
+    /// The lowercase name (`cpu`, `gpu`, `auto`).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Cpu => "cpu",
+            Backend::Gpu => "gpu",
+            Backend::Auto => "auto",
+        }
+    }
+}
+
+impl FromStr for Backend {
+    type Err = GpuError;
+
+    fn from_str(s: &str) -> Result<Backend, GpuError> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "cpu" => Ok(Backend::Cpu),
+            "gpu" => Ok(Backend::Gpu),
+            "auto" => Ok(Backend::Auto),
+            _ => Err(GpuError::UnknownBackend { value: s.to_owned() }),
+        }
+    }
+}
+
+impl fmt::Display for Backend {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Which path ran a solve, and why.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct BackendReport {
+    /// The backend asked for.
+    pub requested: Backend,
+    /// The backend that ran ([`Backend::Cpu`] or [`Backend::Gpu`], never `Auto`).
+    pub used: Backend,
+    /// The GPU adapter's name when the GPU ran.
+    pub device: Option<String>,
+    /// Why `Auto` fell back to the CPU (the GPU error's message), `None` otherwise.
+    pub fallback: Option<String>,
+    /// The GPU timings when the GPU ran.
+    #[cfg(feature = "gpu")]
+    pub gpu: Option<super::GpuStats>,
+}
+
+/// Solves the diffusion system on `backend`: [`Backend::Cpu`] is [`diffusion::solve`];
+/// [`Backend::Gpu`] is [`super::solve`] on the process-wide device ([`super::GpuContext::shared`]);
+/// [`Backend::Auto`] tries the GPU and, if no device can be had, solves on the CPU and says so
+/// in [`BackendReport::fallback`]. Errors of the solve itself (not converged, bad warm start)
+/// are returned as they are, never hidden by a fallback.
+///
+/// # Errors
+/// [`GpuError::NoAdapter`], [`GpuError::DeviceRequest`] or [`GpuError::NotBuilt`] when the GPU
+/// was required and cannot be had; [`GpuError::Diffusion`] for the errors of
+/// [`diffusion::solve`]; the other variants for a failing device.
+pub fn solve(
+    backend: Backend,
+    system: &DiffusionSystem,
+    warm_start: Option<&[[f64; 3]]>,
+    options: &SolveOptions<'_>,
+) -> Result<(Solution, BackendReport), GpuError> {
+    let cpu = |fallback: Option<String>| -> Result<(Solution, BackendReport), GpuError> {
+        let solution = diffusion::solve(system, warm_start, options)?;
+        Ok((
+            solution,
+            BackendReport {
+                requested: backend,
+                used: Backend::Cpu,
+                device: None,
+                fallback,
+                #[cfg(feature = "gpu")]
+                gpu: None,
+            },
+        ))
+    };
+    if backend == Backend::Cpu {
+        return cpu(None);
+    }
+    #[cfg(feature = "gpu")]
+    {
+        let context = match super::GpuContext::shared() {
+            Ok(c) => c,
+            Err(e) if backend == Backend::Auto => return cpu(Some(e.to_string())),
+            Err(e) => return Err(e),
+        };
+        let out = super::solve(context, system, warm_start, options)?;
+        Ok((
+            out.solution,
+            BackendReport {
+                requested: backend,
+                used: Backend::Gpu,
+                device: Some(context.device_name().to_owned()),
+                fallback: None,
+                gpu: Some(out.stats),
+            },
+        ))
+    }
+    #[cfg(not(feature = "gpu"))]
+    {
+        match backend {
+            Backend::Auto => cpu(Some(GpuError::NotBuilt.to_string())),
+            _ => Err(GpuError::NotBuilt),
+        }
+    }
+}

@@ -1,0 +1,68 @@
+//! The GPU backend (wgpu, WGSL compute kernels in `shaders/`): the TransCut assembly, the
+//! three-channel PCG and the radiance query on the device, each the twin of a CPU path that is
+//! always available.
+//!
+//! - [`Backend`] (`TRANSCUT_BACKEND=cpu|gpu|auto`) and [`solve_on`]: run a diffusion solve on
+//!   the chosen backend; `Auto` falls back to the CPU when no adapter exists and says so in
+//!   the [`BackendReport`].
+//! - [`GpuContext`]: a headless device (adapter choice: discrete > integrated > virtual > CPU
+//!   device such as Mesa's lavapipe; `WGPU_BACKEND`, `TRANSCUT_GPU_ADAPTER` narrow it), the
+//!   compiled kernels and a buffer pool reused across solves.
+//! - [`solve`] / [`GpuSolver`]: M φ = b on the device — assembly there for TransCut systems
+//!   (`tet_geometry.wgsl` eq. 10 per tet, `assemble.wgsl` eqs. 10, 13, 14 gathered per row),
+//!   Jacobi-preconditioned CG in f32 entirely on the device, inside an f64 iterative refinement
+//!   on the host so the result meets the same f64 tolerance as [`crate::diffusion::solve`]
+//!   (see [`pcg`](mod@pcg)).
+//! - [`assemble`], [`spmv_dot`], [`dot`], [`surface_radiance`] (eq. 3): single kernels with
+//!   CPU twins, compared in `core/tests/gpu*.rs`.
+//!
+//! Kernels ([`Kernel`]) are one WGSL file each with `shaders/common.wgsl` prepended, embedded
+//! with `include_str!` and validated by naga in the tests. Without the `gpu` cargo feature only
+//! [`Backend`] and [`solve_on`] exist (the GPU then reports [`GpuError::NotBuilt`]).
+//!
+//! # Example
+//!
+//! ```no_run
+//! use transcut::gpu::{self, Backend};
+//! # fn demo(system: &transcut::diffusion::DiffusionSystem) -> Result<(), transcut::gpu::GpuError> {
+//! let backend = Backend::from_env_or(Backend::Auto)?;
+//! let (solution, report) = gpu::solve_on(backend, system, None, &Default::default())?;
+//! println!("solved on {:?} ({:?}), fallback: {:?}", report.used, report.device, report.fallback);
+//! # let _ = solution; Ok(()) }
+//! ```
+
+mod backend;
+mod error;
+
+pub use backend::{solve as solve_on, Backend, BackendReport, BACKEND_ENV};
+pub use error::GpuError;
+
+#[cfg(feature = "gpu")]
+mod context;
+#[cfg(feature = "gpu")]
+mod layout;
+#[cfg(feature = "gpu")]
+mod matrix;
+#[cfg(feature = "gpu")]
+mod ops;
+#[cfg(feature = "gpu")]
+pub mod pcg;
+#[cfg(feature = "gpu")]
+mod pool;
+#[cfg(feature = "gpu")]
+mod radiance;
+#[cfg(feature = "gpu")]
+pub mod shaders;
+
+#[cfg(feature = "gpu")]
+pub use context::{GpuContext, ADAPTER_ENV};
+#[cfg(feature = "gpu")]
+pub use matrix::assemble;
+#[cfg(feature = "gpu")]
+pub use ops::{dot, spmv_dot};
+#[cfg(feature = "gpu")]
+pub use pcg::{solve, GpuSolution, GpuSolver, GpuStats};
+#[cfg(feature = "gpu")]
+pub use radiance::surface_radiance;
+#[cfg(feature = "gpu")]
+pub use shaders::Kernel;

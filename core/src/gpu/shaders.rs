@@ -1,0 +1,118 @@
+//! The WGSL kernels of `shaders/` (one file per kernel, plus `common.wgsl` prepended to each),
+//! embedded with `include_str!`. Every kernel is validated by naga in `core/tests/gpu_shaders.rs`.
+
+/// The declarations shared by every kernel (`shaders/common.wgsl`): the `Params` uniform, the
+/// PCG `Scalars`, the 2D-grid index helpers and the workgroup tree reduction.
+pub const COMMON: &str = include_str!("../../../shaders/common.wgsl");
+
+/// A compute kernel (one file of `shaders/`, entry point `main`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[non_exhaustive]
+pub enum Kernel {
+    /// Per-tet volume and cotangent edge coefficients (TransCut eq. 10).
+    TetGeometry,
+    /// Row-wise gather of the matrix values (TransCut eqs. 10, 13, 14).
+    Assemble,
+    /// s = D^-½ from the assembled diagonal.
+    JacobiDiag,
+    /// Â = S A S.
+    JacobiScale,
+    /// q = A p fused with partial sums of pᵀq.
+    SpmvDot,
+    /// Partial sums of aᵀb.
+    Dot,
+    /// Sum of partial sums.
+    ReduceSum,
+    /// α = ρ / pᵀÂp.
+    ReduceAlpha,
+    /// β, ρ, ‖r‖², stopping test.
+    ReduceBeta,
+    /// ρ and ‖r‖² after a (re)start.
+    ReduceRestart,
+    /// Start of a scaled PCG solve.
+    CgInit,
+    /// y += α p, r̂ −= α q with partial norms.
+    CgUpdate,
+    /// p = r̂ + β p.
+    CgDirection,
+    /// Residual replacement r̂ = b̂ − Â y.
+    CgResidual,
+    /// d = S y.
+    CgUnscale,
+    /// TransCut eq. 3 along the normal.
+    Radiance,
+}
+
+impl Kernel {
+    /// Every kernel.
+    pub const ALL: [Kernel; 16] = [
+        Kernel::TetGeometry,
+        Kernel::Assemble,
+        Kernel::JacobiDiag,
+        Kernel::JacobiScale,
+        Kernel::SpmvDot,
+        Kernel::Dot,
+        Kernel::ReduceSum,
+        Kernel::ReduceAlpha,
+        Kernel::ReduceBeta,
+        Kernel::ReduceRestart,
+        Kernel::CgInit,
+        Kernel::CgUpdate,
+        Kernel::CgDirection,
+        Kernel::CgResidual,
+        Kernel::CgUnscale,
+        Kernel::Radiance,
+    ];
+
+    /// The file name in `shaders/`.
+    #[must_use]
+    pub fn file(self) -> &'static str {
+        match self {
+            Kernel::TetGeometry => "tet_geometry.wgsl",
+            Kernel::Assemble => "assemble.wgsl",
+            Kernel::JacobiDiag => "jacobi_diag.wgsl",
+            Kernel::JacobiScale => "jacobi_scale.wgsl",
+            Kernel::SpmvDot => "spmv_dot.wgsl",
+            Kernel::Dot => "dot.wgsl",
+            Kernel::ReduceSum => "reduce_sum.wgsl",
+            Kernel::ReduceAlpha => "reduce_alpha.wgsl",
+            Kernel::ReduceBeta => "reduce_beta.wgsl",
+            Kernel::ReduceRestart => "reduce_restart.wgsl",
+            Kernel::CgInit => "cg_init.wgsl",
+            Kernel::CgUpdate => "cg_update.wgsl",
+            Kernel::CgDirection => "cg_direction.wgsl",
+            Kernel::CgResidual => "cg_residual.wgsl",
+            Kernel::CgUnscale => "cg_unscale.wgsl",
+            Kernel::Radiance => "radiance.wgsl",
+        }
+    }
+
+    /// The kernel's own file, without the common declarations.
+    #[must_use]
+    pub fn body(self) -> &'static str {
+        match self {
+            Kernel::TetGeometry => include_str!("../../../shaders/tet_geometry.wgsl"),
+            Kernel::Assemble => include_str!("../../../shaders/assemble.wgsl"),
+            Kernel::JacobiDiag => include_str!("../../../shaders/jacobi_diag.wgsl"),
+            Kernel::JacobiScale => include_str!("../../../shaders/jacobi_scale.wgsl"),
+            Kernel::SpmvDot => include_str!("../../../shaders/spmv_dot.wgsl"),
+            Kernel::Dot => include_str!("../../../shaders/dot.wgsl"),
+            Kernel::ReduceSum => include_str!("../../../shaders/reduce_sum.wgsl"),
+            Kernel::ReduceAlpha => include_str!("../../../shaders/reduce_alpha.wgsl"),
+            Kernel::ReduceBeta => include_str!("../../../shaders/reduce_beta.wgsl"),
+            Kernel::ReduceRestart => include_str!("../../../shaders/reduce_restart.wgsl"),
+            Kernel::CgInit => include_str!("../../../shaders/cg_init.wgsl"),
+            Kernel::CgUpdate => include_str!("../../../shaders/cg_update.wgsl"),
+            Kernel::CgDirection => include_str!("../../../shaders/cg_direction.wgsl"),
+            Kernel::CgResidual => include_str!("../../../shaders/cg_residual.wgsl"),
+            Kernel::CgUnscale => include_str!("../../../shaders/cg_unscale.wgsl"),
+            Kernel::Radiance => include_str!("../../../shaders/radiance.wgsl"),
+        }
+    }
+
+    /// The complete module source: `common.wgsl` followed by the kernel's file.
+    #[must_use]
+    pub fn source(self) -> String {
+        format!("{COMMON}\n{}", self.body())
+    }
+}

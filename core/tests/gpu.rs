@@ -1,0 +1,348 @@
+//! The GPU path against its CPU twin (issue 7): assembly entry by entry, SpMV and dot products,
+//! the full solve within 1e-4 relative RMS of the CPU f64 solution on every shared mesh, an
+//! exact small case against a dense direct solve, the radiance query, backend choice and errors.
+//!
+//! These tests need a GPU adapter; scripts/test.sh installs Mesa's lavapipe (software Vulkan) so
+//! one exists everywhere. Without an adapter they FAIL with a message; `TRANSCUT_GPU_TESTS=skip`
+//! skips them, loudly.
+#![cfg(feature = "gpu")]
+
+use std::sync::{Mutex, OnceLock};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use transcut::diffusion::{assemble, assemble_consistent, solve, surface_radiance, DiffusionSystem};
+use transcut::gpu::{self, Backend, GpuContext, GpuError};
+use transcut::mesh::{self, TetMesh};
+use transcut::mesher::{tetrahedralize, MesherOptions};
+use transcut::optics::Medium;
+use transcut::sparse::SolveOptions;
+use transcut::DVec3;
+
+/// The device, or `None` (after a loud message) when `TRANSCUT_GPU_TESTS=skip`.
+fn device() -> Option<&'static GpuContext> {
+    if std::env::var("TRANSCUT_GPU_TESTS").is_ok_and(|v| v == "skip") {
+        eprintln!("\n**** TRANSCUT_GPU_TESTS=skip: GPU TEST SKIPPED, THE GPU PATH IS NOT TESTED ****\n");
+        return None;
+    }
+    match GpuContext::shared() {
+        Ok(c) => Some(c),
+        Err(e) => panic!(
+            "the GPU tests need a GPU adapter: {e}\nRun scripts/install-lavapipe.sh (Mesa's software Vulkan), \
+             or set TRANSCUT_GPU_TESTS=skip to skip these tests explicitly."
+        ),
+    }
+}
+
+/// The shared meshes, tetrahedralised at about `TETS` tets and scaled to 60 mm across.
+const TETS: usize = 25_000;
+
+fn shared_meshes() -> &'static [(String, TetMesh, f64)] {
+    static MESHES: OnceLock<Vec<(String, TetMesh, f64)>> = OnceLock::new();
+    MESHES.get_or_init(|| {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes");
+        let mut files: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap_or_else(|e| panic!("the shared meshes are expected in {}: {e}", dir.display()))
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "obj" || x == "ply"))
+            .collect();
+        files.sort();
+        assert!(files.len() >= 8, "expected the 8 shared meshes in {}", dir.display());
+        files
+            .iter()
+            .map(|path| {
+                let surface = mesh::load(path).unwrap();
+                let tets = tetrahedralize(&surface, &MesherOptions::with_tets(TETS)).unwrap();
+                let (lo, hi) = tets.positions().iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+                    (lo.min(*p), hi.max(*p))
+                });
+                let scale = 60.0 / (hi - lo).length();
+                (path.file_stem().unwrap().to_string_lossy().into_owned(), tets, scale)
+            })
+            .collect()
+    })
+}
+
+/// A directional light plus ambient, different per channel: q per boundary vertex.
+fn lit(system: &mut DiffusionSystem) {
+    let light = DVec3::new(0.3, 0.8, 0.5).normalize();
+    let q: Vec<[f64; 3]> = system
+        .boundary()
+        .normal
+        .iter()
+        .map(|n| {
+            let d = n.dot(light).max(0.0);
+            [2.0 * d + 0.05, 1.5 * d + 0.1, 1.0 * d + 0.2]
+        })
+        .collect();
+    system.set_source(&q).unwrap();
+}
+
+fn system_for(mesh: &TetMesh, scale: f64, preset: &str) -> DiffusionSystem {
+    let mut s = assemble(mesh, &[Medium::preset(preset).unwrap()], scale).unwrap();
+    lit(&mut s);
+    s
+}
+
+/// √(Σ|a − b|² / Σ|b|²) per channel.
+fn rel_rms(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
+    [0, 1, 2].map(|c| {
+        let num: f64 = a.iter().zip(b).map(|(x, y)| (x[c] - y[c]).powi(2)).sum();
+        let den: f64 = b.iter().map(|y| y[c] * y[c]).sum();
+        (num / den).sqrt()
+    })
+}
+
+/// Serialises the tests on the one device (lavapipe uses every core).
+fn lock() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: Mutex<()> = Mutex::new(());
+    LOCK.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+#[test]
+fn gpu_assembly_matches_the_cpu_matrix_entry_by_entry() {
+    let _g = lock();
+    let Some(ctx) = device() else { return };
+    for (name, mesh, scale) in shared_meshes() {
+        let cpu = system_for(mesh, *scale, "marble");
+        let gpu_m = gpu::assemble(ctx, &cpu).unwrap();
+        let a = cpu.matrix();
+        let p = a.pattern();
+        let diag = a.diagonal();
+        let mut worst = 0.0f64;
+        let mut worst_diag = 0.0f64;
+        for i in 0..a.n() {
+            for k in p.row_ptr()[i]..p.row_ptr()[i + 1] {
+                let j = p.col_idx()[k] as usize;
+                for c in 0..3 {
+                    let (x, y) = (gpu_m.values()[k][c], a.values()[k][c]);
+                    // f32 geometry: relative to the larger diagonal of the entry's rows.
+                    let e = (x - y).abs() / diag[i][c].max(diag[j][c]);
+                    worst = worst.max(e);
+                    if i == j {
+                        worst_diag = worst_diag.max((x - y).abs() / y.abs());
+                    }
+                }
+            }
+        }
+        eprintln!("{name}: {} rows, worst |ΔM_ij|/max(M_ii, M_jj) = {worst:.2e}, worst diagonal {worst_diag:.2e}", a.n());
+        assert!(worst < 2e-5, "{name}: GPU assembly differs from the CPU's by {worst:e} (relative to the diagonal)");
+        assert!(worst_diag < 2e-5, "{name}: GPU diagonal differs by {worst_diag:e}");
+        // Symmetric bit for bit, as on the CPU (each row gathers its tets in the same order).
+        for i in 0..a.n() {
+            for k in p.row_ptr()[i]..p.row_ptr()[i + 1] {
+                let j = p.col_idx()[k] as usize;
+                assert_eq!(gpu_m.get(i, j), gpu_m.get(j, i), "{name}: GPU matrix not symmetric at ({i}, {j})");
+            }
+        }
+    }
+}
+
+#[test]
+fn gpu_spmv_and_dot_match_the_cpu() {
+    let _g = lock();
+    let Some(ctx) = device() else { return };
+    let (name, mesh, scale) = &shared_meshes()[0];
+    let sys = system_for(mesh, *scale, "skin1");
+    let a = sys.matrix();
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let x: Vec<[f64; 3]> = (0..a.n()).map(|_| [rng.random_range(-1.0..1.0), rng.random_range(0.0..2.0), rng.random_range(-3.0..1.0)]).collect();
+    let y_cpu = a.mul_vec(&x).unwrap();
+    let (y_gpu, xax) = gpu::spmv_dot(ctx, a, &x).unwrap();
+    let scale_row: Vec<[f64; 3]> = (0..a.n())
+        .map(|i| {
+            let (s, e) = (a.pattern().row_ptr()[i], a.pattern().row_ptr()[i + 1]);
+            [0, 1, 2].map(|c| (s..e).map(|k| (a.values()[k][c] * x[a.pattern().col_idx()[k] as usize][c]).abs()).sum::<f64>())
+        })
+        .collect();
+    for i in 0..a.n() {
+        for c in 0..3 {
+            assert!(
+                (y_gpu[i][c] - y_cpu[i][c]).abs() <= 1e-6 * scale_row[i][c] + 1e-30,
+                "{name}: row {i} channel {c}: {} vs {}",
+                y_gpu[i][c],
+                y_cpu[i][c]
+            );
+        }
+    }
+    let xax_cpu = transcut::sparse::dot3(&x, &y_cpu);
+    let abs_sum: [f64; 3] = [0, 1, 2].map(|c| x.iter().zip(&scale_row).map(|(xi, s)| xi[c].abs() * s[c]).sum());
+    for c in 0..3 {
+        assert!((xax[c] - xax_cpu[c]).abs() <= 1e-5 * abs_sum[c], "xᵀAx channel {c}: {} vs {}", xax[c], xax_cpu[c]);
+    }
+    // Dot products at sizes around the workgroup size and the 2D grid, against f64 sums.
+    for n in [1usize, 255, 256, 257, 1000, 65_537, 300_001] {
+        let a: Vec<[f64; 3]> = (0..n).map(|_| [rng.random_range(0.0..1.0), rng.random_range(-1.0..1.0), 1.0]).collect();
+        let b: Vec<[f64; 3]> = (0..n).map(|_| [rng.random_range(0.0..1.0), rng.random_range(-1.0..1.0), 1.0]).collect();
+        let g = gpu::dot(ctx, &a, &b).unwrap();
+        let c = transcut::sparse::dot3(&a, &b);
+        let abs: [f64; 3] = [0, 1, 2].map(|ch| a.iter().zip(&b).map(|(x, y)| (x[ch] * y[ch]).abs()).sum());
+        for ch in 0..3 {
+            assert!((g[ch] - c[ch]).abs() <= 1e-6 * abs[ch], "dot n = {n} channel {ch}: {} vs {}", g[ch], c[ch]);
+        }
+        assert_eq!(g[2], n as f64, "a sum of n ones is exact in f32 up to 2^24");
+    }
+    assert!(matches!(gpu::dot(ctx, &[[1.0; 3]], &[]), Err(GpuError::Diffusion(_))));
+}
+
+#[test]
+fn gpu_solve_matches_the_cpu_f64_solution_on_every_shared_mesh() {
+    let _g = lock();
+    let Some(ctx) = device() else { return };
+    for (k, (name, mesh, scale)) in shared_meshes().iter().enumerate() {
+        // Media from the clearest (ketchup-like marble) to the most absorbing across meshes.
+        let preset = ["marble", "skin1", "ketchup", "wholemilk", "apple", "marble", "skin2", "potato"][k % 8];
+        let sys = system_for(mesh, *scale, preset);
+        for tol in [1e-6, 1e-9] {
+            let options = SolveOptions::default().with_tolerance(tol);
+            let cpu = solve(&sys, None, &SolveOptions::default().with_tolerance(1e-12)).unwrap();
+            let g = gpu::solve(ctx, &sys, None, &options).unwrap();
+            let err = rel_rms(&g.solution.phi, &cpu.phi);
+            eprintln!(
+                "{name} ({preset}, {} vertices, tol {tol:e}): rel RMS vs CPU f64 {:.2e} {:.2e} {:.2e}, residual {:.1e} {:.1e} {:.1e}, iterations {:?}, rounds {}",
+                sys.vertex_count(),
+                err[0],
+                err[1],
+                err[2],
+                g.solution.stats.relative_residual[0],
+                g.solution.stats.relative_residual[1],
+                g.solution.stats.relative_residual[2],
+                g.solution.stats.iterations,
+                g.stats.rounds
+            );
+            assert!(g.solution.stats.converged);
+            assert!(g.stats.assembled_on_device);
+            assert!(g.solution.stats.relative_residual.iter().all(|&r| r <= tol), "{name}: {:?}", g.solution.stats);
+            assert!(err.iter().all(|&e| e < 1e-4), "{name} ({preset}, tol {tol:e}): GPU vs CPU relative RMS {err:?}");
+            // The residual is the true f64 one: recompute it.
+            let r = sys.matrix().mul_vec(&g.solution.phi).unwrap();
+            let bn = transcut::sparse::norm3(sys.rhs());
+            let rn = transcut::sparse::norm3(&r.iter().zip(sys.rhs()).map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]]).collect::<Vec<_>>());
+            for c in 0..3 {
+                assert!((rn[c] / bn[c] - g.solution.stats.relative_residual[c]).abs() <= 1e-3 * tol);
+            }
+        }
+    }
+}
+
+#[test]
+fn gpu_solve_is_exact_on_a_small_system_against_a_dense_direct_solve() {
+    let _g = lock();
+    let Some(ctx) = device() else { return };
+    // A 3×3×3-cell cube of Kuhn-split cells, 64 vertices, lit from one side.
+    let m = 3;
+    let id = |x: usize, y: usize, z: usize| (x + (m + 1) * (y + (m + 1) * z)) as u32;
+    let mut positions = Vec::new();
+    for z in 0..=m {
+        for y in 0..=m {
+            for x in 0..=m {
+                positions.push(DVec3::new(x as f64, y as f64, z as f64));
+            }
+        }
+    }
+    let mut tets = Vec::new();
+    for z in 0..m {
+        for y in 0..m {
+            for x in 0..m {
+                let c = |d: usize| id(x + (d & 1), y + ((d >> 1) & 1), z + ((d >> 2) & 1));
+                for t in [[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 5, 7], [0, 4, 6, 7]] {
+                    tets.push(t.map(c));
+                }
+            }
+        }
+    }
+    let mesh = TetMesh::new(positions, tets, vec![]).unwrap();
+    for consistent in [false, true] {
+        let media = [Medium::preset("skin1").unwrap()];
+        let mut sys = if consistent { assemble_consistent(&mesh, &media, 2.0) } else { assemble(&mesh, &media, 2.0) }.unwrap();
+        lit(&mut sys);
+        let g = gpu::solve(ctx, &sys, None, &SolveOptions::default().with_tolerance(1e-13)).unwrap();
+        assert_eq!(g.stats.assembled_on_device, !consistent);
+        for c in 0..3 {
+            let dense = sys.matrix().to_dense(c);
+            let rhs = nalgebra::DVector::from_iterator(sys.vertex_count(), sys.rhs().iter().map(|b| b[c]));
+            let exact = dense.lu().solve(&rhs).unwrap();
+            let err = (0..sys.vertex_count()).map(|i| (g.solution.phi[i][c] - exact[i]).powi(2)).sum::<f64>().sqrt() / exact.norm();
+            assert!(err < 1e-10, "consistent = {consistent}, channel {c}: relative error {err:e} against LU");
+        }
+    }
+}
+
+#[test]
+fn gpu_radiance_matches_the_cpu() {
+    let _g = lock();
+    let Some(ctx) = device() else { return };
+    let (_, mesh, scale) = &shared_meshes()[1];
+    let sys = system_for(mesh, *scale, "marble");
+    let phi = solve(&sys, None, &SolveOptions::default()).unwrap().phi;
+    let cpu = surface_radiance(&sys, &phi).unwrap();
+    let gpu_lo = gpu::surface_radiance(ctx, &sys, &phi).unwrap();
+    assert_eq!(gpu_lo.len(), cpu.len());
+    let err = rel_rms(&gpu_lo, &cpu);
+    assert!(err.iter().all(|&e| e < 1e-6), "{err:?}");
+    let mut bad = phi.clone();
+    bad[sys.boundary().ids[3] as usize][1] = f64::NAN;
+    assert!(matches!(gpu::surface_radiance(ctx, &sys, &bad), Err(GpuError::Diffusion(_))));
+    assert!(matches!(gpu::surface_radiance(ctx, &sys, &phi[1..]), Err(GpuError::Diffusion(_))));
+}
+
+#[test]
+fn buffers_are_reused_warm_starts_and_errors_match_the_cpu() {
+    let _g = lock();
+    let Some(ctx) = device() else { return };
+    let (_, mesh, scale) = &shared_meshes()[2];
+    let mut sys = system_for(mesh, *scale, "ketchup");
+    let options = SolveOptions::default();
+    let first = gpu::solve(ctx, &sys, None, &options).unwrap();
+    let created = ctx.buffers_created();
+    let again = gpu::solve(ctx, &sys, None, &options).unwrap();
+    assert_eq!(ctx.buffers_created(), created, "a second solve of the same size allocates nothing");
+    assert_eq!(again.solution.phi, first.solution.phi, "the GPU solve is deterministic");
+    // Warm start from the solution: nothing to do.
+    let warm = gpu::solve(ctx, &sys, Some(&first.solution.phi), &options).unwrap();
+    assert_eq!(warm.stats.rounds, 0);
+    assert_eq!(warm.solution.stats.iterations, [0; 3]);
+    // Relighting on a resident solver: a dark channel is solved as zero, like the CPU.
+    let solver = gpu::GpuSolver::new(ctx, &sys).unwrap();
+    let q: Vec<[f64; 3]> = sys.source().iter().map(|q| [q[0], 0.0, 2.0 * q[2]]).collect();
+    sys.set_source(&q).unwrap();
+    let relit = solver.solve(&sys, Some(&first.solution.phi), &options).unwrap();
+    let cpu = solve(&sys, None, &options.with_tolerance(1e-12)).unwrap();
+    assert!(relit.solution.phi.iter().all(|p| p[1] == 0.0));
+    let err = rel_rms(&relit.solution.phi, &cpu.phi);
+    assert!(err[0] < 1e-4 && err[2] < 1e-4, "{err:?}");
+    // Errors as on the CPU.
+    let short = vec![[0.0; 3]; 3];
+    assert!(matches!(gpu::solve(ctx, &sys, Some(&short), &options), Err(GpuError::Diffusion(_))));
+    let mut nan = first.solution.phi.clone();
+    nan[5][0] = f64::INFINITY;
+    let e = gpu::solve(ctx, &sys, Some(&nan), &options).unwrap_err();
+    assert!(e.to_string().contains("initial guess"), "{e}");
+    let e = gpu::solve(ctx, &sys, None, &options.with_max_iterations(3)).unwrap_err();
+    assert!(e.to_string().contains("converge"), "{e}");
+}
+
+#[test]
+fn backend_choice_reports_what_ran() {
+    let _g = lock();
+    assert_eq!("GPU".parse::<Backend>().unwrap(), Backend::Gpu);
+    assert_eq!(" cpu ".parse::<Backend>().unwrap(), Backend::Cpu);
+    assert_eq!("auto".parse::<Backend>().unwrap(), Backend::Auto);
+    let e = "cuda".parse::<Backend>().unwrap_err();
+    assert!(e.to_string().contains("cuda") && e.to_string().contains("cpu, gpu, auto"), "{e}");
+    let Some(ctx) = device() else { return };
+    let (_, mesh, scale) = &shared_meshes()[3];
+    let sys = system_for(mesh, *scale, "skin2");
+    let options = SolveOptions::default();
+    let (cpu, report) = gpu::solve_on(Backend::Cpu, &sys, None, &options).unwrap();
+    assert_eq!((report.used, report.device.clone(), report.fallback.clone()), (Backend::Cpu, None, None));
+    for backend in [Backend::Gpu, Backend::Auto] {
+        let (sol, report) = gpu::solve_on(backend, &sys, None, &options).unwrap();
+        assert_eq!(report.used, Backend::Gpu);
+        assert_eq!(report.requested, backend);
+        assert_eq!(report.device.as_deref(), Some(ctx.device_name()));
+        assert!(report.fallback.is_none());
+        assert!(report.gpu.is_some());
+        assert!(rel_rms(&sol.phi, &cpu.phi).iter().all(|&e| e < 1e-4));
+    }
+}

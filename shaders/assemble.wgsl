@@ -1,0 +1,80 @@
+// TransCut eqs. 10, 13 and 14, one invocation per matrix row i (a gather: no atomics, every row
+// sums its own tets in increasing tet order, so M is exactly symmetric and deterministic). For
+// every tet t around i and every other vertex j of t, the tet's edge weight
+// w_ijt = −κ_t c_ij (eq. 10) goes to M_ij as 4 w_ijt (eq. 14) and to M_ii as −4 w_ijt;
+// V_t μ_t goes to M_ii (eq. 13, lumped absorption), and 2S_i/(3A) on boundary vertices.
+// CPU twin: diffusion::assembly::fill_transcut.
+
+struct Row {
+    value_start: u32,  // first nonzero of the row
+    value_end: u32,
+    inc_start: u32,    // the row's tets: incidences[inc_start..inc_end]
+    inc_end: u32,
+    diag: u32,         // position of the diagonal nonzero
+    boundary: f32,     // 2S_i/(3A) on boundary vertices, 0 inside
+    pad0: u32,
+    pad1: u32,
+}
+
+// One tet around the row's vertex: the tet, the vertex's local index in it, and the value slots
+// (relative to the row start) of the other three local vertices, increasing.
+struct Incidence {
+    tet: u32,
+    local: u32,
+    s0: u32,
+    s1: u32,
+    s2: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> rows: array<Row>;
+@group(0) @binding(2) var<storage, read> incidences: array<Incidence>;
+@group(0) @binding(3) var<storage, read> geometry: array<f32>;
+@group(0) @binding(4) var<storage, read> media: array<vec4<f32>>; // per material: κ, μ
+@group(0) @binding(5) var<storage, read_write> values: array<f32>;
+
+// Index of edge ab (a ≠ b) in the order 01, 02, 03, 12, 13, 23.
+fn edge_index(a: u32, b: u32) -> u32 {
+    let lo = min(a, b);
+    let hi = max(a, b);
+    return lo * (5u - lo) / 2u + hi - 1u;
+}
+
+@compute @workgroup_size(256)
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+        @builtin(local_invocation_index) lid: u32) {
+    let i = flat_index(wg, nwg, lid);
+    if (i >= params.n) {
+        return;
+    }
+    let row = rows[i];
+    for (var k = row.value_start; k < row.value_end; k = k + 1u) {
+        values[3u * k] = 0.0;
+        values[3u * k + 1u] = 0.0;
+        values[3u * k + 2u] = 0.0;
+    }
+    var d = vec3<f32>(0.0);
+    for (var m = row.inc_start; m < row.inc_end; m = m + 1u) {
+        let inc = incidences[m];
+        let base = 8u * inc.tet;
+        let material = bitcast<u32>(geometry[base + 7u]);
+        let kappa = media[2u * material].xyz;
+        let mu = media[2u * material + 1u].xyz;
+        var slots = array<u32, 3>(inc.s0, inc.s1, inc.s2);
+        for (var k = 0u; k < 3u; k = k + 1u) {
+            let b = k + select(0u, 1u, k >= inc.local); // k-th other local vertex
+            let coef = geometry[base + 1u + edge_index(inc.local, b)];
+            let w4 = -4.0 * kappa * coef;
+            let pos = 3u * (row.value_start + slots[k]);
+            values[pos] = values[pos] + w4.x;
+            values[pos + 1u] = values[pos + 1u] + w4.y;
+            values[pos + 2u] = values[pos + 2u] + w4.z;
+            d = d - w4;
+        }
+        d = d + geometry[base] * mu;
+    }
+    d = d + vec3<f32>(row.boundary);
+    values[3u * row.diag] = d.x;
+    values[3u * row.diag + 1u] = d.y;
+    values[3u * row.diag + 2u] = d.z;
+}
