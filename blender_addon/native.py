@@ -44,7 +44,6 @@ from ctypes import (
     c_char_p,
     c_double,
     c_float,
-    c_int,
     c_int32,
     c_size_t,
     c_uint32,
@@ -88,6 +87,7 @@ TC_IO_ERROR = 9
 TC_CANCELLED = 10
 TC_NOT_BAKED = 11
 TC_INTERNAL_ERROR = 12
+TC_BUSY = 13
 
 STATUS_NAMES = {
     TC_OK: "TC_OK",
@@ -103,6 +103,7 @@ STATUS_NAMES = {
     TC_CANCELLED: "TC_CANCELLED",
     TC_NOT_BAKED: "TC_NOT_BAKED",
     TC_INTERNAL_ERROR: "TC_INTERNAL_ERROR",
+    TC_BUSY: "TC_BUSY",
 }
 
 TC_METHOD_TRANSCUT = 0
@@ -197,8 +198,8 @@ _REQUIRED = {
     "tc_scene_add_sun": (c_int32, [_ScenePtr, _d3, _d3, c_double]),
     "tc_scene_add_point": (c_int32, [_ScenePtr, _d3, _d3]),
     "tc_scene_add_spot": (c_int32, [_ScenePtr, _d3, _d3, _d3, c_double, c_double]),
-    "tc_scene_add_rect": (c_int32, [_ScenePtr, _d3, _d3, _d3, _d3, c_int]),
-    "tc_scene_add_disc": (c_int32, [_ScenePtr, _d3, _d3, c_double, _d3, c_int]),
+    "tc_scene_add_rect": (c_int32, [_ScenePtr, _d3, _d3, _d3, _d3, c_int32]),
+    "tc_scene_add_disc": (c_int32, [_ScenePtr, _d3, _d3, c_double, _d3, c_int32]),
     "tc_scene_add_environment": (c_int32, [_ScenePtr, _d3]),
     "tc_scene_add_environment_image": (c_int32, [_ScenePtr, _f, c_size_t, c_size_t, c_double]),
     "tc_bake_options_default": (None, [POINTER(TcBakeOptions)]),

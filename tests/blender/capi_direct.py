@@ -9,7 +9,7 @@ layout in the add-on shows up as a mismatch).
 from __future__ import annotations
 
 import ctypes
-from ctypes import POINTER, Structure, c_char_p, c_double, c_float, c_int, c_int32, c_size_t, c_uint32, c_uint64, c_void_p
+from ctypes import POINTER, Structure, c_char_p, c_double, c_float, c_int32, c_size_t, c_uint32, c_uint64, c_void_p
 
 import numpy as np
 
@@ -57,7 +57,7 @@ class Direct:
         c.tc_object_set_medium_artist.argtypes = [c_void_p, c_uint32, POINTER(Artist)]
         c.tc_scene_add_sun.argtypes = [c_void_p, PD, PD, c_double]
         c.tc_scene_add_point.argtypes = [c_void_p, PD, PD]
-        c.tc_scene_add_rect.argtypes = [c_void_p, PD, PD, PD, PD, c_int]
+        c.tc_scene_add_rect.argtypes = [c_void_p, PD, PD, PD, PD, c_int32]
         c.tc_scene_add_environment.argtypes = [c_void_p, PD]
         c.tc_bake_options_default.argtypes = [POINTER(Options)]
         c.tc_bake_options_default.restype = None
