@@ -27,6 +27,14 @@
 //! medium = "marble"         # a preset (`transcut bake --medium help`), or a table:
 //! # medium = { sigma_a = [0.0021, 0.0041, 0.0071], sigma_s = [2.19, 2.62, 3.00], eta = 1.3, g = 0 }  (mm⁻¹)
 //! # medium = { albedo = [0.8, 0.6, 0.5], radius = [1.0, 0.5, 0.3], scale = 1, ior = 1.4, g = 0 }  (artist)
+//! # heterogeneous (each `medium` inside is again a preset name or a table as above):
+//! # medium = { layers = [{ depth_mm = 1.5, medium = "skin1" }, { medium = "skin2" }], blend_mm = 0.3 }
+//! #   layers from the surface in; each ends at depth_mm below the surface (the last one: nowhere)
+//! # medium = { base = "marble", vein = { sigma_a = [...], sigma_s = [...], eta = 1.5 }, seed = 7,
+//! #            period = 10, direction = [1, 0, 0], turbulence = 4, noise_scale = 10, octaves = 5,
+//! #            sharpness = 3 }   marble veins, in the mesh's own units (they move with the object)
+//! # medium = { voxels = "block.tcvox", eta = 1.3, g = 0 }   a voxel grid file (core/src/volume/VOXEL_FORMAT.md)
+//! #   placed in the mesh's own units, relative to the scene file
 //! mm_per_unit = 1           # millimetres per scene unit (default 1)
 //! fit_size_mm = 60          # optional: centre the mesh and scale it to this bounding-box diagonal
 //! scale = 1.0               # optional uniform scale (not with fit_size_mm)
@@ -56,7 +64,8 @@ use serde::Deserialize;
 use transcut::light::{Environment, EquirectMap, Light};
 use transcut::mesh::TriMesh;
 use transcut::optics::{ArtistParams, Medium};
-use transcut::scene::Object;
+use transcut::scene::{MediumSource, Object, Shape};
+use transcut::volume::{Layers, VeinParams, Veins, VoxelGrid};
 use glam::DMat4;
 use transcut::DVec3;
 
@@ -241,10 +250,10 @@ fn object(spec: &ObjectSpec, base: &Path) -> anyhow::Result<Object> {
     if !(spec.mm_per_unit.is_finite() && spec.mm_per_unit > 0.0) {
         bail!("mm_per_unit must be a positive number, got {}", spec.mm_per_unit);
     }
-    let medium = medium(&spec.medium, spec.mm_per_unit).context("medium")?;
+    let medium = object_medium(&spec.medium, spec.mm_per_unit, base).context("medium")?;
     let transform = transform(spec, &mesh)?;
     let name = spec.name.clone().unwrap_or_else(|| spec.mesh.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned()));
-    let mut object = Object::new(name, mesh, medium, spec.mm_per_unit);
+    let mut object = Object::with_shape(name, Shape::Surface(mesh), medium, spec.mm_per_unit);
     object.transform = transform;
     Ok(object)
 }
@@ -277,6 +286,81 @@ fn transform(spec: &ObjectSpec, mesh: &TriMesh) -> anyhow::Result<DMat4> {
         bail!("the transform is not finite");
     }
     Ok(m)
+}
+
+/// An object's medium: homogeneous ([`medium`]), or layered, veined or from a voxel file (see
+/// the module documentation), told apart by the keys `layers`, `base` and `voxels`.
+pub fn object_medium(value: &toml::Value, mm_per_unit: f64, base_dir: &Path) -> anyhow::Result<MediumSource> {
+    let Some(table) = value.as_table() else { return medium(value, mm_per_unit).map(MediumSource::Homogeneous) };
+    let check_keys = |what: &str, known: &[&str]| -> anyhow::Result<()> {
+        match table.keys().find(|k| !known.contains(&k.as_str())) {
+            Some(k) => bail!("unknown key '{k}' in the {what} medium (its keys: {})", known.join(", ")),
+            None => Ok(()),
+        }
+    };
+    let number = |key: &str, default: f64| -> anyhow::Result<f64> {
+        match table.get(key) {
+            None => Ok(default),
+            Some(toml::Value::Float(v)) => Ok(*v),
+            Some(toml::Value::Integer(v)) => Ok(*v as f64),
+            Some(other) => bail!("'{key}' must be a number, got {}", other.type_str()),
+        }
+    };
+    let inner = |key: &str| -> anyhow::Result<Medium> {
+        let v = table.get(key).ok_or_else(|| anyhow!("missing key '{key}'"))?;
+        medium(v, mm_per_unit).with_context(|| format!("'{key}'"))
+    };
+    if let Some(layers) = table.get("layers") {
+        check_keys("layered", &["layers", "blend_mm"])?;
+        let list = layers.as_array().ok_or_else(|| anyhow!("'layers' must be an array of tables"))?;
+        let mut parsed = Vec::with_capacity(list.len());
+        for (i, layer) in list.iter().enumerate() {
+            let layer = layer.as_table().ok_or_else(|| anyhow!("layer {}: expected a table", i + 1))?;
+            if let Some(k) = layer.keys().find(|k| !["depth_mm", "medium"].contains(&k.as_str())) {
+                bail!("layer {}: unknown key '{k}' (its keys: depth_mm, medium)", i + 1);
+            }
+            let depth = match layer.get("depth_mm") {
+                None if i + 1 == list.len() => f64::INFINITY,
+                None => bail!("layer {}: missing key 'depth_mm' (only the innermost layer may omit it)", i + 1),
+                Some(v) => v.as_float().or_else(|| v.as_integer().map(|x| x as f64)).ok_or_else(|| anyhow!("layer {}: 'depth_mm' must be a number", i + 1))?,
+            };
+            let m = layer.get("medium").ok_or_else(|| anyhow!("layer {}: missing key 'medium'", i + 1))?;
+            parsed.push((depth, medium(m, mm_per_unit).with_context(|| format!("layer {}", i + 1))?));
+        }
+        return Ok(MediumSource::Layers(Layers::new(&parsed, number("blend_mm", 0.0)?).map_err(|e| anyhow!("{e}"))?));
+    }
+    if table.contains_key("base") {
+        check_keys("veined", &["base", "vein", "seed", "period", "direction", "turbulence", "noise_scale", "octaves", "sharpness"])?;
+        let d = VeinParams::default();
+        let direction = match table.get("direction") {
+            None => d.direction,
+            Some(v) => DVec3::from(<[f64; 3]>::deserialize(v.clone()).map_err(|_| anyhow!("'direction' must be [x, y, z]"))?),
+        };
+        let integer = |key: &str, default: i64| -> anyhow::Result<i64> {
+            match table.get(key) {
+                None => Ok(default),
+                Some(v) => v.as_integer().filter(|x| *x >= 0).ok_or_else(|| anyhow!("'{key}' must be a non-negative integer")),
+            }
+        };
+        let params = VeinParams {
+            direction,
+            period: number("period", d.period)?,
+            turbulence: number("turbulence", d.turbulence)?,
+            noise_scale: number("noise_scale", d.noise_scale)?,
+            octaves: u32::try_from(integer("octaves", i64::from(d.octaves))?).map_err(|_| anyhow!("'octaves' is too large"))?,
+            sharpness: number("sharpness", d.sharpness)?,
+        };
+        let veins = Veins::new(inner("base")?, inner("vein")?, integer("seed", 0)? as u64, params).map_err(|e| anyhow!("{e}"))?;
+        return Ok(MediumSource::Veins(veins));
+    }
+    if let Some(file) = table.get("voxels") {
+        check_keys("voxel", &["voxels", "eta", "g"])?;
+        let file = file.as_str().ok_or_else(|| anyhow!("'voxels' must be a file name"))?;
+        let path = base_dir.join(file);
+        let grid = VoxelGrid::read(&path).map_err(|e| anyhow!("{e}"))?;
+        return Ok(MediumSource::Voxels { grid, eta: number("eta", 1.3)?, g: number("g", 0.0)? });
+    }
+    medium(value, mm_per_unit).map(MediumSource::Homogeneous)
 }
 
 /// A medium from a preset name or a table of coefficients or artist parameters.
@@ -446,5 +530,31 @@ mod tests {
         assert!(medium(&v["m"], 1.0).unwrap_err().to_string().contains("'colour'"));
         let v: toml::Value = toml::from_str("m = \"plutonium\"").unwrap();
         assert!(medium(&v["m"], 1.0).is_err());
+    }
+
+    #[test]
+    fn heterogeneous_media_from_tables() {
+        let parse = |text: &str| {
+            let v: toml::Value = toml::from_str(text).unwrap();
+            object_medium(&v["m"], 1.0, Path::new("."))
+        };
+        let layered = parse("m = { layers = [{ depth_mm = 1.5, medium = \"skin1\" }, { medium = \"skin2\" }], blend_mm = 0.3 }").unwrap();
+        assert!(matches!(layered, MediumSource::Layers(_)));
+        let veined = parse("m = { base = \"marble\", vein = { sigma_a = 0.05, sigma_s = 2, eta = 1.5 }, seed = 3, period = 8 }").unwrap();
+        assert!(matches!(veined, MediumSource::Veins(_)));
+        assert!(matches!(parse("m = \"marble\"").unwrap(), MediumSource::Homogeneous(_)));
+        let err = |text: &str| format!("{:#}", parse(text).unwrap_err());
+        let e = err("m = { layers = [{ medium = \"skin1\" }, { medium = \"skin2\" }] }");
+        assert!(e.contains("layer 1: missing key 'depth_mm'"), "{e}");
+        let e = err("m = { layers = [{ depth_mm = 1, medium = \"skin1\", colour = 1 }] }");
+        assert!(e.contains("layer 1: unknown key 'colour'"), "{e}");
+        let e = err("m = { base = \"marble\", vein = \"skin1\" }");
+        assert!(e.contains("eta"), "marble (1.5) and skin1 (1.3) differ in eta: {e}");
+        let e = err("m = { base = \"marble\", vein = \"marble\", octaves = -1 }");
+        assert!(e.contains("'octaves'"), "{e}");
+        let e = err("m = { voxels = \"missing.tcvox\" }");
+        assert!(e.contains("missing.tcvox"), "{e}");
+        let e = err("m = { voxels = \"a.tcvox\", sigma_a = 1 }");
+        assert!(e.contains("unknown key 'sigma_a' in the voxel medium"), "{e}");
     }
 }

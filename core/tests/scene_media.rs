@@ -113,15 +113,17 @@ fn object_space_veins_move_with_the_object() {
     let m = marble();
     let vein = Medium { sigma_a: [0.08, 0.1, 0.12], ..m };
     let veins = Veins::new(m, vein, 3, VeinParams { period: 4.0, ..VeinParams::default() }).unwrap();
-    let at_origin = bake_one(sphere_object(MediumSource::Veins(veins.clone())));
-    let mut moved = sphere_object(MediumSource::Veins(veins));
+    // One tet mesh, placed at the origin and translated, so only the medium can differ.
+    let mesh = bake_one(sphere_object(m.into())).objects.swap_remove(0).tet_mesh;
+    let at_origin = bake_one(Object::from_tets("veined", mesh.clone(), MediumSource::Veins(veins.clone()), 1.0));
+    let mut moved = Object::from_tets("veined", mesh.clone(), MediumSource::Veins(veins), 1.0);
     moved.transform = DMat4::from_translation(DVec3::new(7.25, -3.5, 11.0));
     let moved = bake_one(moved);
     // A sun is invariant under translation, so the veins (and the radiance) must travel along.
     let d = max_relative_difference(&moved.objects[0].radiance, &at_origin.objects[0].radiance);
     assert!(d < 1e-6, "translated veined sphere: {d:e}");
     // And the veins are really there: the radiance differs from plain marble.
-    let plain = bake_one(sphere_object(m.into()));
+    let plain = bake_one(Object::from_tets("plain", mesh, m.into(), 1.0));
     assert!(max_relative_difference(&at_origin.objects[0].radiance, &plain.objects[0].radiance) > 0.05);
 }
 
