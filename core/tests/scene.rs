@@ -3,35 +3,11 @@
 
 use glam::{DMat4, DVec3};
 use transcut::light::{Environment, Light};
-use transcut::mesh::TriMesh;
 use transcut::optics::{f_ext, Medium, UniformSphere};
 use transcut::scene::{bake, BakeOptions, Object, Scene, SceneError};
 
-/// A closed UV sphere (radius `r`, centred at the origin) as the user's mesh.
-fn sphere(r: f64, nu: usize, nv: usize) -> TriMesh {
-    let mut positions = vec![DVec3::new(0.0, 0.0, r)];
-    for j in 1..nv {
-        let th = std::f64::consts::PI * j as f64 / nv as f64;
-        for i in 0..nu {
-            let ph = std::f64::consts::TAU * i as f64 / nu as f64;
-            positions.push(r * DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()));
-        }
-    }
-    positions.push(DVec3::new(0.0, 0.0, -r));
-    let ring = |j: usize, i: usize| (1 + (j - 1) * nu + i % nu) as u32;
-    let south = (positions.len() - 1) as u32;
-    let mut faces = Vec::new();
-    for i in 0..nu {
-        faces.push(vec![0, ring(1, i), ring(1, i + 1)]);
-        faces.push(vec![south, ring(nv - 1, i + 1), ring(nv - 1, i)]);
-    }
-    for j in 1..nv - 1 {
-        for i in 0..nu {
-            faces.push(vec![ring(j, i), ring(j + 1, i), ring(j + 1, i + 1), ring(j, i + 1)]);
-        }
-    }
-    TriMesh::from_polygons(positions, &faces, &Default::default()).unwrap()
-}
+mod common;
+use common::uv_sphere;
 
 fn marble_eta_13() -> Medium {
     Medium::new([0.0021, 0.0041, 0.0071], [2.19, 2.62, 3.00], 1.3, 0.0).unwrap()
@@ -42,8 +18,9 @@ fn marble_eta_13() -> Medium {
 #[test]
 fn uniform_sphere_under_a_constant_sky_matches_the_closed_form() {
     let medium = marble_eta_13();
+    let mesh = uv_sphere(10.0, 192, 96);
     let scene = Scene {
-        objects: vec![Object::new("sphere", sphere(10.0, 192, 96), medium, 1.0)],
+        objects: vec![Object::new("sphere", mesh.clone(), medium, 1.0)],
         lights: vec![Light::Environment(Environment::Constant([1.0; 3]))],
     };
     let result = bake(&scene, &BakeOptions { tets: 60_000, ..Default::default() }).unwrap();
@@ -63,7 +40,7 @@ fn uniform_sphere_under_a_constant_sky_matches_the_closed_form() {
 
 #[test]
 fn the_lit_side_is_brighter_and_results_follow_the_users_vertex_order() {
-    let mesh = sphere(20.0, 64, 32);
+    let mesh = uv_sphere(20.0, 64, 32);
     let sun = Light::Directional { direction: DVec3::new(0.0, 0.0, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 };
     let scene = Scene {
         objects: vec![Object::new("ball", mesh.clone(), Medium::preset("skin1").unwrap(), 1.0)],
@@ -87,7 +64,7 @@ fn the_lit_side_is_brighter_and_results_follow_the_users_vertex_order() {
 
 #[test]
 fn bad_scenes_are_rejected_with_the_culprit_named() {
-    let ball = Object::new("ball", sphere(5.0, 16, 8), Medium::preset("marble").unwrap(), 1.0);
+    let ball = Object::new("ball", uv_sphere(5.0, 16, 8), Medium::preset("marble").unwrap(), 1.0);
     let err = bake(&Scene::default(), &BakeOptions::default()).unwrap_err();
     assert!(matches!(err, SceneError::NoObjects));
     let mut bad = ball.clone();
