@@ -216,6 +216,12 @@ _OPTIONAL = {
     "tc_scene_add_tet_mesh": (c_int32, [_ScenePtr, _f, c_size_t, _u32, c_size_t, _u32, _u32]),
     "tc_medium_from_artist": (c_int32, [POINTER(TcArtistMedium), c_double, POINTER(TcMedium)]),
     "tc_object_set_media_table": (c_int32, [_ScenePtr, c_uint32, POINTER(TcMedium), c_size_t]),
+    "tc_object_set_media_per_tet": (c_int32, [_ScenePtr, c_uint32, _f, _f, c_size_t, c_double, c_double]),
+    "tc_object_set_medium_voxels": (
+        c_int32,
+        [_ScenePtr, c_uint32, _u32, _d3, _d3, _f, c_size_t, c_double, c_double],
+    ),
+    "tc_object_set_medium_voxel_file": (c_int32, [_ScenePtr, c_uint32, c_char_p, c_double, c_double]),
     "tc_scene_add_environment_file": (c_int32, [_ScenePtr, c_char_p, c_double]),
     "tc_scene_clear_lights": (c_int32, [_ScenePtr]),
     "tc_object_stats": (c_int32, [_ScenePtr, c_uint32, POINTER(TcBakeStats)]),
@@ -494,6 +500,59 @@ class Scene:
         m = TcArtistMedium(_vec3(albedo, "albedo"), _vec3(radius, "radius"), float(scale), float(ior), float(anisotropy))
         self._check(
             self._c.tc_object_set_medium_artist(self._h(), obj, ctypes.byref(m)), "tc_object_set_medium_artist"
+        )
+
+    def set_media_table(self, obj: int, media) -> None:
+        """One medium per material id of a tet mesh: ``media`` is a list of
+        ``(sigma_a, sigma_s_prime, eta, g)`` (``tc_object_set_media_table``)."""
+        table = (TcMedium * len(media))()
+        for i, (sa, ss, eta, g) in enumerate(media):
+            table[i] = TcMedium(_vec3(sa, "sigma_a"), _vec3(ss, "sigma_s_prime"), float(eta), float(g))
+        self._check(
+            self.lib.function("tc_object_set_media_table")(self._h(), obj, table, len(media)),
+            "tc_object_set_media_table",
+        )
+
+    def set_media_per_tet(self, obj: int, sigma_a, sigma_s_prime, eta: float, g: float = 0.0) -> None:
+        """Coefficients per tet of a tet mesh: ``sigma_a``, ``sigma_s_prime`` (tet_count, 3) mm⁻¹."""
+        sa = np.ascontiguousarray(sigma_a, dtype=np.float32).reshape(-1, 3)
+        ss = np.ascontiguousarray(sigma_s_prime, dtype=np.float32).reshape(-1, 3)
+        if sa.shape != ss.shape:
+            raise ValueError(f"sigma_a {sa.shape} and sigma_s_prime {ss.shape} differ in shape")
+        self._check(
+            self.lib.function("tc_object_set_media_per_tet")(
+                self._h(), obj, sa.ctypes.data_as(_f), ss.ctypes.data_as(_f), sa.shape[0], float(eta), float(g)
+            ),
+            "tc_object_set_media_per_tet",
+        )
+
+    def set_medium_voxels(self, obj: int, origin, voxel_size, data, eta: float, g: float = 0.0) -> None:
+        """A voxel grid in object space: ``data`` (nz, ny, nx, 6) = σa RGB then σ′s RGB (mm⁻¹),
+        x fastest in memory; ``origin`` is the corner of voxel 0, ``voxel_size`` per axis."""
+        grid = np.ascontiguousarray(data, dtype=np.float32)
+        if grid.ndim != 4 or grid.shape[3] != 6:
+            raise ValueError(f"voxel data must be (nz, ny, nx, 6), got {grid.shape}")
+        dims = (c_uint32 * 3)(grid.shape[2], grid.shape[1], grid.shape[0])
+        self._check(
+            self.lib.function("tc_object_set_medium_voxels")(
+                self._h(),
+                obj,
+                dims,
+                _vec3(origin, "origin"),
+                _vec3(voxel_size, "voxel_size"),
+                grid.reshape(-1).ctypes.data_as(_f),
+                grid.size,
+                float(eta),
+                float(g),
+            ),
+            "tc_object_set_medium_voxels",
+        )
+
+    def set_medium_voxel_file(self, obj: int, path: str, eta: float, g: float = 0.0) -> None:
+        """A voxel grid read from a TCVOX1 file (``tc_object_set_medium_voxel_file``)."""
+        self._check(
+            self.lib.function("tc_object_set_medium_voxel_file")(self._h(), obj, os.fsencode(path), float(eta), float(g)),
+            "tc_object_set_medium_voxel_file",
         )
 
     # -- lights ----------------------------------------------------------------------------
