@@ -16,7 +16,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         return;
     }
     let si = sdiag[i].xyz;
-    for (var k = row_ptr[i]; k < row_ptr[i + 1u]; k = k + 1u) {
+    let end = row_ptr[i + 1u];
+    for (var k = row_ptr[i]; k < end; k = k + 1u) {
         let a = vec3<f32>(vals[3u * k], vals[3u * k + 1u], vals[3u * k + 2u]);
         let v = si * a * sdiag[col_idx[k]].xyz;
         scaled[3u * k] = v.x;

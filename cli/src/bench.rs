@@ -19,6 +19,9 @@ pub enum Suite {
     /// Bake a mesh (60 mm across, marble, one sun) at several sizes: meshing, assembly, light,
     /// solve (iterations), total and peak memory.
     Bake,
+    /// The diffusion solve alone (60 mm, marble, one sun) on the CPU and on the `--backend`
+    /// (GPU: upload, assembly, solve with read-back), their agreement and the device name.
+    Solve,
 }
 
 /// Arguments of `transcut bench`.
@@ -36,6 +39,9 @@ pub struct BenchArgs {
     /// Runs per size; the median is reported.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub runs: u32,
+    /// Backend of the `solve` suite: cpu, gpu (fails without an adapter) or auto.
+    #[arg(long, default_value = "auto")]
+    pub backend: transcut::gpu::Backend,
 }
 
 #[derive(Serialize)]
@@ -58,10 +64,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     match args.suite {
         Suite::Mesh => bench_mesh(args),
         Suite::Bake => bench_bake(args),
+        Suite::Solve => crate::bench_solve::run(args),
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
     if n % 2 == 1 {

@@ -2,6 +2,7 @@
 
 mod bake_cmd;
 mod bench;
+mod bench_solve;
 mod mesh_cmd;
 mod progress;
 mod render_cmd;
