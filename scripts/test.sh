@@ -21,3 +21,9 @@ bash scripts/install-lavapipe.sh
 # real sizes (up to 1M tets).
 cargo test --workspace --all-targets --locked
 cargo test --workspace --doc --locked
+
+# --- C ABI (issue 4) ---------------------------------------------------------------------------
+# libtranscut.so / .a built by cargo, include/transcut.h compiled as C99 and C++17, and the C
+# program tests/c/marble_sphere.c run under valgrind against both (tests/c/run.sh installs gcc,
+# g++, pkg-config and valgrind when missing). The Rust ABI tests (capi/tests) ran above.
+bash tests/c/run.sh

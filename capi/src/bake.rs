@@ -1,0 +1,308 @@
+//! Baking: options, the progress callback, and reading results back.
+
+use std::ffi::{c_char, c_void, CString};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+
+use transcut_core::light::SourceOptions;
+use transcut_core::scene::{bake_with, BakeOptions, SceneError};
+use transcut_core::Progress;
+
+use super::guard::{run, Failure};
+use super::handle::{with_scene, ObjectResult, TcScene};
+use super::ptr;
+use super::status::{
+    TcStatus, TC_BUFFER_TOO_SHORT, TC_CANCELLED, TC_INVALID_ARGUMENT, TC_MESHING_FAILED, TC_SOLVE_FAILED,
+};
+
+/// The TransCut finite-element diffusion solver on a tetrahedral mesh (the only method so far).
+pub const TC_METHOD_TRANSCUT: u32 = 0;
+
+/// How to bake. Fill it with `tc_bake_options_default` (which also sets `size`), then change
+/// fields. `size` lets later versions append fields: a library reads only the fields that it
+/// and the caller both know.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcBakeOptions {
+    /// `sizeof(TcBakeOptions)`, set by `tc_bake_options_default`.
+    pub size: u32,
+    /// `TC_METHOD_TRANSCUT`.
+    pub method: u32,
+    /// Target number of tetrahedra per surface object (default 200 000).
+    pub tets: u64,
+    /// Relative residual ‖b − Mφ‖/‖b‖ at which the solver stops, in (0, 1) (default 1e-6).
+    pub tolerance: f64,
+    /// Iteration cap of the solver, ≥ 1 (default 10 000).
+    pub max_iterations: u32,
+    /// Worker threads; 0 = one per core (default).
+    pub threads: u32,
+    /// Non-zero: objects shadow themselves and each other (default 1).
+    pub shadows: u32,
+    /// Samples per point for area lights and suns with a non-zero diameter (default 64).
+    pub area_samples: u32,
+    /// Samples per point for shadowed environments (default 256).
+    pub environment_samples: u32,
+}
+
+/// Statistics of one object's last bake (`tc_object_stats`). The caller sets `size` to
+/// `sizeof(TcBakeStats)` before the call.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcBakeStats {
+    /// Set by the caller to `sizeof(TcBakeStats)`; the library writes the fields it knows that
+    /// fit, and sets `size` to the number of bytes it wrote.
+    pub size: u32,
+    /// Tetrahedra solved on.
+    pub tets: u64,
+    /// Vertices of the tet mesh.
+    pub vertices: u64,
+    /// Solver iterations per channel (R, G, B).
+    pub iterations: [u32; 3],
+    /// Wall time of meshing, in milliseconds.
+    pub meshing_ms: f64,
+    /// Wall time of the assembly of the diffusion system.
+    pub assembly_ms: f64,
+    /// Wall time of the light transmitted into the surface (with shadows).
+    pub source_ms: f64,
+    /// Wall time of the solve and radiance evaluation.
+    pub solve_ms: f64,
+    /// Wall time of the whole object.
+    pub total_ms: f64,
+    /// Surface vertices whose diffusion radiance came out negative and was clamped to 0 (very
+    /// absorbing media on coarse meshes).
+    pub clamped_vertices: u64,
+}
+
+/// Progress callback: `stage` is a short UTF-8 description (valid during the call only),
+/// `fraction` in [0, 1] the part of the whole bake done (never decreasing from one call to the
+/// next). Return 0 to continue, non-zero to
+/// cancel the bake (`tc_scene_bake` then returns `TC_CANCELLED` soon after). It is called from
+/// the baking thread or a worker thread, never from two threads at once, and not again after
+/// it asked to cancel. It must not call functions on the scene being baked (they return
+/// `TC_BUSY`).
+pub type TcProgressFn = Option<unsafe extern "C" fn(user: *mut c_void, stage: *const c_char, fraction: f64) -> i32>;
+
+fn default_options() -> TcBakeOptions {
+    let core = BakeOptions::default();
+    let source = SourceOptions::default();
+    TcBakeOptions {
+        size: std::mem::size_of::<TcBakeOptions>() as u32,
+        method: TC_METHOD_TRANSCUT,
+        tets: core.tets as u64,
+        tolerance: core.tolerance,
+        max_iterations: u32::try_from(core.max_iterations).unwrap_or(u32::MAX),
+        threads: u32::try_from(core.threads).unwrap_or(0),
+        shadows: u32::from(core.shadows),
+        area_samples: u32::try_from(source.area_samples).unwrap_or(u32::MAX),
+        environment_samples: u32::try_from(source.environment_samples).unwrap_or(u32::MAX),
+    }
+}
+
+/// Fills `*options` with the defaults and sets `options->size`. Does nothing when `options` is
+/// NULL.
+#[no_mangle]
+pub unsafe extern "C" fn tc_bake_options_default(options: *mut TcBakeOptions) {
+    let _ = run("tc_bake_options_default", || {
+        if options.is_null() {
+            return Ok(());
+        }
+        check_not_null!(options);
+        // SAFETY: checked; the caller's contract.
+        unsafe { ptr::write(options, default_options()) };
+        Ok(())
+    });
+}
+
+/// The caller's options (NULL = defaults), checked and converted.
+///
+/// # Safety
+/// A non-NULL `options` must point to at least `options->size` readable bytes.
+unsafe fn read_options(options: *const TcBakeOptions) -> Result<BakeOptions, Failure> {
+    let o = if options.is_null() {
+        default_options()
+    } else {
+        check_not_null!(options);
+        // SAFETY: the caller's contract; `size` is the first field.
+        let size = unsafe { options.cast::<u32>().read() } as usize;
+        let ours = std::mem::size_of::<TcBakeOptions>();
+        if size < ours {
+            return Err(Failure::invalid(format!(
+                "options->size = {size}, expected sizeof(TcBakeOptions) = {ours} (fill the struct with tc_bake_options_default)"
+            )));
+        }
+        // SAFETY: at least `ours` bytes are readable (size ≥ ours); later fields are ignored.
+        unsafe { options.read() }
+    };
+    if o.method != TC_METHOD_TRANSCUT {
+        return Err(Failure::invalid(format!("options->method = {}: unknown method (TC_METHOD_TRANSCUT = 0)", o.method)));
+    }
+    let source =
+        SourceOptions { area_samples: o.area_samples as usize, environment_samples: o.environment_samples as usize, ..SourceOptions::default() };
+    Ok(BakeOptions {
+        tets: usize::try_from(o.tets).map_err(|_| Failure::invalid(format!("options->tets = {} is too large", o.tets)))?,
+        tolerance: o.tolerance,
+        max_iterations: o.max_iterations as usize,
+        threads: o.threads as usize,
+        source,
+        shadows: o.shadows != 0,
+    })
+}
+
+/// The status of a failed bake.
+fn bake_failure(e: &SceneError) -> Failure {
+    let status = match e {
+        SceneError::Cancelled(_) => TC_CANCELLED,
+        SceneError::Mesher { .. } => TC_MESHING_FAILED,
+        SceneError::Diffusion { .. } => TC_SOLVE_FAILED,
+        SceneError::NoObjects | SceneError::InvalidOptions(_) | SceneError::InvalidObject { .. } | SceneError::Light(_) => {
+            TC_INVALID_ARGUMENT
+        }
+        _ => TC_SOLVE_FAILED,
+    };
+    Failure::new(status, e.to_string())
+}
+
+/// The caller's callback, made callable from the core's (possibly parallel) progress reports:
+/// one call at a time, none after a cancel.
+struct Callback {
+    function: unsafe extern "C" fn(*mut c_void, *const c_char, f64) -> i32,
+    user: *mut c_void,
+    /// Held during a call; holds the largest fraction reported so far.
+    lock: Mutex<f64>,
+    cancelled: AtomicBool,
+}
+
+// SAFETY: the user pointer is only passed back to the caller's function, under the lock; the
+// header tells the caller the callback may run on a worker thread.
+unsafe impl Sync for Callback {}
+
+impl Callback {
+    fn report(&self, stage: &str, fraction: f64) -> bool {
+        if self.cancelled.load(Ordering::Acquire) {
+            return false;
+        }
+        let mut done = self.lock.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if self.cancelled.load(Ordering::Acquire) {
+            return false;
+        }
+        // The stages' own fractions can step back (a stage restarting a sub-step); a caller's
+        // progress bar should not.
+        *done = done.max(fraction);
+        let stage = CString::new(stage.replace('\0', "?")).unwrap_or_default();
+        // SAFETY: the caller's function and pointer, as the header documents.
+        let keep_going = unsafe { (self.function)(self.user, stage.as_ptr(), *done) } == 0;
+        if !keep_going {
+            self.cancelled.store(true, Ordering::Release);
+        }
+        keep_going
+    }
+}
+
+/// Bakes every object: meshes surfaces into tetrahedra, computes the light transmitted into
+/// them (shadowed by all objects), solves the diffusion system and keeps the radiance leaving
+/// each vertex along its normal, Lo(x, n), linear RGB, in the units of the lights (a sun of
+/// irradiance E on a white Lambertian plane would give E/π). Read it with `tc_object_radiance`
+/// and `tc_object_stats`.
+///
+/// `options` may be NULL for the defaults. `progress` may be NULL; otherwise it is called with
+/// `user` as the bake goes (see `TcProgressFn`); a non-zero return cancels the bake, which then
+/// returns `TC_CANCELLED`. A failed or cancelled bake keeps the results of the previous
+/// successful bake, if the scene has not changed since; the scene stays usable either way.
+///
+/// Errors: `TC_INVALID_ARGUMENT` (no objects, options out of range, an invalid object or
+/// light, naming it), `TC_MESHING_FAILED`, `TC_SOLVE_FAILED`, `TC_CANCELLED`.
+#[no_mangle]
+pub unsafe extern "C" fn tc_scene_bake(
+    scene: *mut TcScene,
+    options: *const TcBakeOptions,
+    progress: TcProgressFn,
+    user: *mut c_void,
+) -> TcStatus {
+    run("tc_scene_bake", || {
+        // SAFETY: the caller's contract.
+        let options = unsafe { read_options(options)? };
+        let callback = progress.map(|function| Callback { function, user, lock: Mutex::new(0.0), cancelled: AtomicBool::new(false) });
+        let report = |stage: &str, fraction: f64| callback.as_ref().is_none_or(|c| c.report(stage, fraction));
+        // SAFETY: the caller's contract.
+        unsafe {
+            with_scene(scene, |s| {
+                let baked = bake_with(&s.scene, &options, Progress::new(&report)).map_err(|e| bake_failure(&e))?;
+                let results = baked.objects.into_iter().map(|o| ObjectResult { radiance: o.radiance, stats: o.stats }).collect();
+                s.results = Some(results);
+                Ok(())
+            })
+        }
+    })
+}
+
+/// Copies an object's baked radiance into `out_rgb`: 3 floats (linear R, G, B) per vertex, in
+/// the order the vertices were given (`tc_object_vertex_count` of them). `out_len` is the
+/// length of `out_rgb` in floats and must be at least 3 × the vertex count
+/// (`TC_BUFFER_TOO_SHORT` otherwise, naming both). `TC_NOT_BAKED` before a successful bake or
+/// after the scene changed. On failure nothing is written.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_radiance(scene: *const TcScene, object: u32, out_rgb: *mut f32, out_len: usize) -> TcStatus {
+    run("tc_object_radiance", || {
+        check_not_null!(out_rgb);
+        // SAFETY: the caller's contract.
+        unsafe {
+            with_scene(scene, |s| {
+                let result = s.result(object)?;
+                let needed = 3 * result.radiance.len();
+                if out_len < needed {
+                    return Err(Failure::new(
+                        TC_BUFFER_TOO_SHORT,
+                        format!("out_len = {out_len} floats, but object {object} needs {needed} (3 per vertex)"),
+                    ));
+                }
+                // SAFETY: checked pointer, `out_len ≥ needed` floats writable (caller's contract).
+                let out = std::slice::from_raw_parts_mut(out_rgb, needed);
+                for (o, l) in out.chunks_exact_mut(3).zip(&result.radiance) {
+                    o[0] = l[0] as f32;
+                    o[1] = l[1] as f32;
+                    o[2] = l[2] as f32;
+                }
+                Ok(())
+            })
+        }
+    })
+}
+
+/// Writes an object's statistics of the last bake into `*out`. Set `out->size =
+/// sizeof(TcBakeStats)` first; on return it holds the number of bytes written. `TC_NOT_BAKED`
+/// before a successful bake or after the scene changed.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_stats(scene: *const TcScene, object: u32, out: *mut TcBakeStats) -> TcStatus {
+    run("tc_object_stats", || {
+        check_not_null!(out);
+        // SAFETY: checked; `size` is the first field.
+        let size = unsafe { out.cast::<u32>().read() } as usize;
+        let ours = std::mem::size_of::<TcBakeStats>();
+        if size < ours {
+            return Err(Failure::invalid(format!("out->size = {size}, expected sizeof(TcBakeStats) = {ours}")));
+        }
+        // SAFETY: the caller's contract.
+        let stats = unsafe {
+            with_scene(scene, |s| {
+                let st = &s.result(object)?.stats;
+                let count = |n: usize| n as u64;
+                let iterations = st.iterations.map(|i| u32::try_from(i).unwrap_or(u32::MAX));
+                Ok(TcBakeStats {
+                    size: ours as u32,
+                    tets: count(st.tets),
+                    vertices: count(st.vertices),
+                    iterations,
+                    meshing_ms: st.meshing_ms,
+                    assembly_ms: st.assembly_ms,
+                    source_ms: st.source_ms,
+                    solve_ms: st.solve_ms,
+                    total_ms: st.total_ms,
+                    clamped_vertices: count(st.clamped_vertices),
+                })
+            })?
+        };
+        // SAFETY: checked above.
+        unsafe { ptr::write(out, stats) };
+        Ok(())
+    })
+}

@@ -1,0 +1,148 @@
+//! The opaque `TcScene` handle: a core [`Scene`] plus the results of its last bake, guarded so
+//! that one call at a time uses it.
+//!
+//! A handle is a `Box::into_raw` pointer from `tc_scene_create`, freed by `tc_scene_destroy`.
+//! Every call that takes a scene goes through [`with_scene`]: it checks the pointer (NULL, a
+//! magic number that catches pointers to something else), then claims the scene's `busy` flag
+//! for the duration of the call. The flag turns what would be a data race in the caller (two
+//! threads on one scene, or a progress callback calling back into the scene it is baking) into
+//! `TC_BUSY` instead of undefined behaviour: the state lives in an `UnsafeCell` that is only
+//! borrowed mutably while the flag is held.
+
+use std::cell::UnsafeCell;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use transcut_core::scene::{ObjectStats, Scene};
+
+use super::guard::Failure;
+use super::status::{TC_BUSY, TC_INVALID_HANDLE, TC_NOT_BAKED, TC_NULL_POINTER};
+
+/// Marks a live `TcScene` ("TCSCENE\0" as little-endian bytes); zeroed when it is destroyed.
+pub(crate) const MAGIC: u64 = u64::from_le_bytes(*b"TCSCENE\0");
+
+/// A scene: objects (each a mesh, a medium, a transform), lights, and the results of the last
+/// bake. Created by `tc_scene_create`, freed by `tc_scene_destroy`. Opaque: only pointers to it
+/// are used. A scene may move between threads but serves one call at a time (`TC_BUSY`).
+pub struct TcScene {
+    magic: u64,
+    busy: AtomicBool,
+    state: UnsafeCell<SceneState>,
+}
+
+/// What a scene holds.
+#[derive(Default)]
+pub(crate) struct SceneState {
+    pub scene: Scene,
+    /// The last successful bake, one entry per object; `None` before a bake or after a change.
+    pub results: Option<Vec<ObjectResult>>,
+}
+
+/// One object's result.
+pub(crate) struct ObjectResult {
+    /// Lo(x, n) per output vertex, linear RGB.
+    pub radiance: Vec<[f64; 3]>,
+    pub stats: ObjectStats,
+}
+
+impl SceneState {
+    /// Discards the results: they no longer describe the scene.
+    pub(crate) fn changed(&mut self) {
+        self.results = None;
+    }
+
+    /// Index `object` checked against the object count.
+    pub(crate) fn object_index(&self, object: u32) -> Result<usize, Failure> {
+        let n = self.scene.objects.len();
+        let i = object as usize;
+        if i < n {
+            Ok(i)
+        } else {
+            Err(Failure::new(TC_INVALID_HANDLE, format!("object {object} does not exist (the scene has {n} objects)")))
+        }
+    }
+
+    /// The result of object `object` (checked).
+    pub(crate) fn result(&self, object: u32) -> Result<&ObjectResult, Failure> {
+        let i = self.object_index(object)?;
+        match &self.results {
+            Some(results) => Ok(&results[i]),
+            None => Err(Failure::new(
+                TC_NOT_BAKED,
+                "the scene has no results: call tc_scene_bake first (any change to the scene discards them)",
+            )),
+        }
+    }
+}
+
+impl TcScene {
+    pub(crate) fn new() -> Self {
+        Self { magic: MAGIC, busy: AtomicBool::new(false), state: UnsafeCell::new(SceneState::default()) }
+    }
+}
+
+/// Releases the busy flag when a call ends, also when it panics.
+struct Claim<'a>(&'a AtomicBool);
+
+impl Drop for Claim<'_> {
+    fn drop(&mut self) {
+        self.0.store(false, Ordering::Release);
+    }
+}
+
+/// Checks `scene` and claims it for the call.
+///
+/// # Safety
+/// `scene` must be NULL or a pointer from `tc_scene_create` that has not been destroyed.
+unsafe fn claim<'a>(scene: *const TcScene) -> Result<(&'a TcScene, Claim<'a>), Failure> {
+    if scene.is_null() {
+        return Err(Failure::new(TC_NULL_POINTER, "`scene` is NULL"));
+    }
+    if !scene.is_aligned() {
+        return Err(Failure::new(TC_INVALID_HANDLE, "`scene` is not a TcScene (misaligned pointer)"));
+    }
+    // SAFETY: a live handle (caller's contract). Only `magic` (never written while live) and the
+    // atomic are read through this shared reference; the state is reached through the cell.
+    let s = unsafe { &*scene };
+    if s.magic != MAGIC {
+        return Err(Failure::new(TC_INVALID_HANDLE, "`scene` is not a TcScene created by tc_scene_create"));
+    }
+    if s.busy.compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed).is_err() {
+        return Err(Failure::new(
+            TC_BUSY,
+            "the scene is in use by another call (from another thread, or this is a call from inside its own progress callback)",
+        ));
+    }
+    Ok((s, Claim(&s.busy)))
+}
+
+/// Runs `f` on the scene's state with the scene claimed.
+///
+/// # Safety
+/// As [`claim`].
+pub(crate) unsafe fn with_scene<R>(
+    scene: *const TcScene,
+    f: impl FnOnce(&mut SceneState) -> Result<R, Failure>,
+) -> Result<R, Failure> {
+    // SAFETY: forwarded.
+    let (s, _claim) = unsafe { claim(scene)? };
+    // SAFETY: the busy flag is held, so no other reference to the state exists.
+    f(unsafe { &mut *s.state.get() })
+}
+
+/// Frees a scene unless a call is using it.
+///
+/// # Safety
+/// As [`claim`]; `scene` must not be used afterwards.
+pub(crate) unsafe fn destroy(scene: *mut TcScene) -> Result<(), Failure> {
+    // SAFETY: forwarded.
+    let (_, claim) = unsafe { claim(scene)? };
+    std::mem::forget(claim); // the flag stays set until the memory is gone
+    // SAFETY: from Box::into_raw in tc_scene_create, claimed, so no call is using it.
+    let mut boxed = unsafe { Box::from_raw(scene) };
+    // A volatile store, so that it is not optimised away before the free: a later call with this
+    // dangling pointer (undefined behaviour all the same) then most likely fails the magic check.
+    // SAFETY: a valid, exclusive reference.
+    unsafe { std::ptr::write_volatile(&mut boxed.magic, 0) };
+    drop(boxed);
+    Ok(())
+}

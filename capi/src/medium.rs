@@ -1,0 +1,161 @@
+//! Media: presets, coefficients, artist parameters (homogeneous objects).
+
+use std::ffi::c_char;
+
+use transcut_core::optics::{ArtistParams, Medium, OpticsError};
+use transcut_core::scene::MediumSource;
+
+use super::guard::{run, Failure};
+use super::handle::{with_scene, SceneState, TcScene};
+use super::ptr;
+use super::status::{TcStatus, TC_NOT_FOUND};
+
+/// A homogeneous medium. Coefficients per RGB channel in mm⁻¹ (whatever the scene unit; see
+/// `tc_object_set_scale`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcMedium {
+    /// Absorption coefficient σa (mm⁻¹), ≥ 0.
+    pub sigma_a: [f64; 3],
+    /// Reduced scattering coefficient σ′s = (1 − g) σs (mm⁻¹), ≥ 0; σa + σ′s > 0.
+    pub sigma_s_prime: [f64; 3],
+    /// Refractive index relative to air, in [1, 4).
+    pub eta: f64,
+    /// Scattering anisotropy (Henyey–Greenstein g), in (−1, 1).
+    pub g: f64,
+}
+
+/// A medium as an artist sets it (Blender's Principled BSDF subsurface inputs), converted to
+/// σa and σ′s by inverting the dipole's total diffuse reflectance: a thick slab reflects
+/// `albedo` of the diffuse light entering it, and `radius × scale` is the reduced mean free
+/// path 1/σ′t.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcArtistMedium {
+    /// Subsurface colour per channel, each in (0, 1).
+    pub albedo: [f64; 3],
+    /// Subsurface radius per channel, in scene units, > 0.
+    pub radius: [f64; 3],
+    /// Multiplier of `radius`, > 0.
+    pub scale: f64,
+    /// Refractive index, in [1, 4).
+    pub ior: f64,
+    /// Scattering anisotropy g, in (−1, 1).
+    pub anisotropy: f64,
+}
+
+impl From<Medium> for TcMedium {
+    fn from(m: Medium) -> Self {
+        Self { sigma_a: m.sigma_a, sigma_s_prime: m.sigma_s_prime, eta: m.eta, g: m.g }
+    }
+}
+
+/// `TC_INVALID_ARGUMENT` with the optics error's message (which names field, channel, value).
+fn invalid(what: &str, e: &OpticsError) -> Failure {
+    Failure::invalid(format!("{what}: {e}"))
+}
+
+/// A validated core medium from the caller's struct.
+pub(crate) fn medium_from(m: &TcMedium, what: &str) -> Result<Medium, Failure> {
+    Medium::new(m.sigma_a, m.sigma_s_prime, m.eta, m.g).map_err(|e| invalid(what, &e))
+}
+
+/// A preset by name; `TC_NOT_FOUND` listing the valid names.
+fn preset(name: &str) -> Result<Medium, Failure> {
+    Medium::preset(name).map_err(|e| match e {
+        OpticsError::UnknownPreset { .. } => Failure::new(TC_NOT_FOUND, e.to_string()),
+        e => Failure::invalid(e.to_string()),
+    })
+}
+
+/// Artist parameters to a medium, at `mm_per_unit` millimetres per scene unit.
+fn artist_medium(a: &TcArtistMedium, mm_per_unit: f64) -> Result<Medium, Failure> {
+    let params =
+        ArtistParams { albedo: a.albedo, radius: a.radius, scale: a.scale, mm_per_unit, eta: a.ior, g: a.anisotropy };
+    params.to_medium().map_err(|e| invalid("artist medium", &e))
+}
+
+/// Replaces object `object`'s medium by a homogeneous one.
+fn set_homogeneous(state: &mut SceneState, object: u32, medium: Medium) -> Result<(), Failure> {
+    super::scene::set_medium(state, object, MediumSource::Homogeneous(medium))
+}
+
+/// Writes the named preset medium into `*out`. Names (case-insensitive): apple, chicken1,
+/// chicken2, cream, ketchup, marble, potato, skimmilk, skin1, skin2, wholemilk (measured by
+/// Jensen et al. 2001, g = 0) and jade. `TC_NOT_FOUND` (listing the valid names) for any other
+/// name; `*out` is then unchanged.
+#[no_mangle]
+pub unsafe extern "C" fn tc_medium_preset(name: *const c_char, out: *mut TcMedium) -> TcStatus {
+    run("tc_medium_preset", || {
+        check_not_null!(out);
+        // SAFETY: the caller's contract.
+        let medium = preset(unsafe { ptr::utf8(name, "name")? })?;
+        // SAFETY: checked above.
+        unsafe { ptr::write(out, medium.into()) };
+        Ok(())
+    })
+}
+
+/// Converts artist parameters to coefficients in `*out`, for a scene of `mm_per_unit`
+/// millimetres per unit (the radius is in scene units). `TC_INVALID_ARGUMENT` naming the field
+/// and channel that are out of range; `*out` is then unchanged.
+#[no_mangle]
+pub unsafe extern "C" fn tc_medium_from_artist(artist: *const TcArtistMedium, mm_per_unit: f64, out: *mut TcMedium) -> TcStatus {
+    run("tc_medium_from_artist", || {
+        check_not_null!(artist, out);
+        // SAFETY: checked; the caller's contract.
+        let medium = artist_medium(unsafe { &*artist }, mm_per_unit)?;
+        // SAFETY: checked above.
+        unsafe { ptr::write(out, medium.into()) };
+        Ok(())
+    })
+}
+
+/// Fills an object with a homogeneous medium. `TC_INVALID_ARGUMENT` naming the field (and
+/// channel) when a value is out of range (see `TcMedium`); the object is then unchanged.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_set_medium(scene: *mut TcScene, object: u32, medium: *const TcMedium) -> TcStatus {
+    run("tc_object_set_medium", || {
+        check_not_null!(medium);
+        // SAFETY: checked; the caller's contract.
+        let m = medium_from(unsafe { &*medium }, "medium")?;
+        // SAFETY: the caller's contract.
+        unsafe { with_scene(scene, |s| set_homogeneous(s, object, m)) }
+    })
+}
+
+/// Fills an object with a named preset (see `tc_medium_preset`); `TC_NOT_FOUND` for an unknown
+/// name.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_set_medium_preset(scene: *mut TcScene, object: u32, name: *const c_char) -> TcStatus {
+    run("tc_object_set_medium_preset", || {
+        // SAFETY: the caller's contract.
+        let m = preset(unsafe { ptr::utf8(name, "name")? })?;
+        // SAFETY: the caller's contract.
+        unsafe { with_scene(scene, |s| set_homogeneous(s, object, m)) }
+    })
+}
+
+/// Fills an object with a medium given by artist parameters. The radius is in scene units and
+/// converted with the object's millimetres per unit at the time of this call, so call
+/// `tc_object_set_scale` first.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_set_medium_artist(
+    scene: *mut TcScene,
+    object: u32,
+    artist: *const TcArtistMedium,
+) -> TcStatus {
+    run("tc_object_set_medium_artist", || {
+        check_not_null!(artist);
+        // SAFETY: checked; the caller's contract.
+        let artist = unsafe { *artist };
+        // SAFETY: the caller's contract.
+        unsafe {
+            with_scene(scene, |s| {
+                let i = s.object_index(object)?;
+                let m = artist_medium(&artist, s.scene.objects[i].mm_per_unit)?;
+                set_homogeneous(s, object, m)
+            })
+        }
+    })
+}

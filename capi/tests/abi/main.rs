@@ -1,0 +1,16 @@
+//! The C ABI called the way a foreign program calls it: raw pointers, status codes, the
+//! thread-local message, caller-owned buffers. The ABI sources are compiled into this test as
+//! the module `abi` (the library itself is only a cdylib/staticlib); nothing here uses Rust
+//! types of the library other than its `#[repr(C)]` structs and `extern "C"` functions.
+
+#[allow(dead_code, unused_imports)]
+#[path = "../../src/lib.rs"]
+mod abi;
+
+mod common;
+
+mod bake;
+mod concurrency;
+mod misuse;
+mod objects;
+mod tets;

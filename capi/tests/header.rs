@@ -1,0 +1,160 @@
+//! `include/transcut.h` is generated from the ABI sources by cbindgen and committed; this test
+//! generates it afresh and fails when the committed file differs. Run with `TRANSCUT_BLESS=1` to
+//! rewrite the committed header instead.
+//!
+//! On top of `capi/cbindgen.toml` the generator adds what only the build knows: the version
+//! macros (from Cargo.toml) and, at the end, compile-time checks that the C compiler lays out
+//! every struct exactly as Rust does (`sizeof` and `offsetof` of every field, the values taken
+//! from this build), so a header/library mismatch fails to compile instead of corrupting memory.
+
+#[allow(dead_code, unused_imports)]
+#[path = "../src/lib.rs"]
+mod abi;
+
+use std::fmt::Write as _;
+use std::mem::{offset_of, size_of};
+use std::path::{Path, PathBuf};
+
+use abi::{TcArtistMedium, TcBakeOptions, TcBakeStats, TcMedium};
+
+fn crate_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn header_path() -> PathBuf {
+    crate_dir().join("../include/transcut.h")
+}
+
+/// Version macros and portable helpers, placed right after the includes.
+fn prelude() -> String {
+    let (major, minor, patch) =
+        (env!("CARGO_PKG_VERSION_MAJOR"), env!("CARGO_PKG_VERSION_MINOR"), env!("CARGO_PKG_VERSION_PATCH"));
+    format!(
+        "\n/** The version of the library this header was generated for (compare with tc_version()). */\n\
+         #define TRANSCUT_VERSION_MAJOR {major}\n\
+         #define TRANSCUT_VERSION_MINOR {minor}\n\
+         #define TRANSCUT_VERSION_PATCH {patch}\n\
+         #define TRANSCUT_VERSION ((TRANSCUT_VERSION_MAJOR << 16) | (TRANSCUT_VERSION_MINOR << 8) | TRANSCUT_VERSION_PATCH)\n\
+         #define TRANSCUT_VERSION_STRING \"{major}.{minor}.{patch}\"\n"
+    )
+}
+
+/// `(struct, size, [(field, offset)])` of every struct of the ABI.
+fn layouts() -> Vec<(&'static str, usize, Vec<(&'static str, usize)>)> {
+    macro_rules! layout {
+        ($t:ident { $($f:ident),+ $(,)? }) => {
+            (stringify!($t), size_of::<$t>(), vec![$((stringify!($f), offset_of!($t, $f))),+])
+        };
+    }
+    vec![
+        layout!(TcMedium { sigma_a, sigma_s_prime, eta, g }),
+        layout!(TcArtistMedium { albedo, radius, scale, ior, anisotropy }),
+        layout!(TcBakeOptions {
+            size,
+            method,
+            tets,
+            tolerance,
+            max_iterations,
+            threads,
+            shadows,
+            area_samples,
+            environment_samples
+        }),
+        layout!(TcBakeStats {
+            size,
+            tets,
+            vertices,
+            iterations,
+            meshing_ms,
+            assembly_ms,
+            source_ms,
+            solve_ms,
+            total_ms,
+            clamped_vertices
+        }),
+    ]
+}
+
+/// Compile-time layout checks (C99 has no `_Static_assert`: a negative array size fails).
+fn trailer() -> String {
+    let mut s = String::from(
+        "\n/* Layout checks: sizes and field offsets of the library's build (64-bit targets). */\n\
+         #ifdef __cplusplus\n\
+         #define TC_LAYOUT_CHECK(name, cond) static_assert(cond, #name)\n\
+         #else\n\
+         #define TC_LAYOUT_CHECK(name, cond) typedef char tc_layout_check_##name[(cond) ? 1 : -1]\n\
+         #endif\n",
+    );
+    for (name, size, fields) in layouts() {
+        writeln!(s, "TC_LAYOUT_CHECK({name}__sizeof, sizeof({name}) == {size});").unwrap();
+        for (field, offset) in fields {
+            writeln!(s, "TC_LAYOUT_CHECK({name}_{field}, offsetof({name}, {field}) == {offset});").unwrap();
+        }
+    }
+    s.push_str("#undef TC_LAYOUT_CHECK\n");
+    s
+}
+
+fn generate() -> String {
+    let config = cbindgen::Config::from_file(crate_dir().join("cbindgen.toml")).expect("capi/cbindgen.toml");
+    let bindings = cbindgen::Builder::new()
+        .with_config(config)
+        .with_src(crate_dir().join("src/lib.rs"))
+        .with_after_include(prelude())
+        .with_trailer(trailer())
+        .generate()
+        .expect("cbindgen generates the header");
+    let mut out = Vec::new();
+    bindings.write(&mut out);
+    String::from_utf8(out).expect("UTF-8 header")
+}
+
+#[test]
+fn committed_header_is_current() {
+    let fresh = generate();
+    let path = header_path();
+    if std::env::var_os("TRANSCUT_BLESS").is_some() {
+        std::fs::write(&path, &fresh).expect("write include/transcut.h");
+        return;
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    if committed != fresh {
+        let line = committed.lines().zip(fresh.lines()).position(|(a, b)| a != b).map_or(
+            format!("(lengths {} and {} lines)", committed.lines().count(), fresh.lines().count()),
+            |i| format!("first difference at line {}", i + 1),
+        );
+        panic!(
+            "{} is stale {line}; regenerate it with: TRANSCUT_BLESS=1 cargo test -p transcut-capi --test header",
+            display(&path)
+        );
+    }
+}
+
+/// Every exported function (except the test hook) is declared, and the header says what it is.
+#[test]
+fn header_declares_the_whole_api() {
+    let header = generate();
+    assert!(header.contains("DO NOT EDIT"));
+    assert!(header.contains("#define TRANSCUT_VERSION_MAJOR"));
+    assert!(!header.contains("tc_debug_panic"), "the test hook stays out of the header");
+    let sources: String = std::fs::read_dir(crate_dir().join("src"))
+        .unwrap()
+        .map(|e| std::fs::read_to_string(e.unwrap().path()).unwrap())
+        .collect();
+    let mut count = 0;
+    for line in sources.lines() {
+        let Some(rest) = line.split("extern \"C\" fn ").nth(1) else { continue };
+        let name = rest.split('(').next().unwrap();
+        if name == "tc_debug_panic" {
+            continue;
+        }
+        count += 1;
+        let declared = header.contains(&format!(" {name}(")) || header.contains(&format!("*{name}("));
+        assert!(declared, "{name} is not declared in the header");
+    }
+    assert!(count >= 30, "found only {count} exported functions");
+}
+
+fn display(p: &Path) -> String {
+    p.canonicalize().unwrap_or_else(|_| p.to_owned()).display().to_string()
+}
