@@ -53,11 +53,13 @@
 pub mod assembly;
 mod error;
 pub mod fem;
+pub mod multires;
 pub mod solve;
 mod structure;
 
 pub use assembly::{assemble, rhs, Discretization, DiffusionSystem};
 pub use error::DiffusionError;
 pub use fem::assemble_consistent;
+pub use multires::{Method, MultiresSolver};
 pub use solve::{energy_balance, solve, solve_with, surface_fluence, surface_radiance, EnergyBalance, Solution};
 pub use structure::BoundaryVertices;

@@ -69,6 +69,7 @@
 mod bicgstab;
 mod csr;
 mod error;
+pub mod hierarchy;
 mod mm;
 mod ops;
 mod pcg;

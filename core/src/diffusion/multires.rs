@@ -1,0 +1,160 @@
+//! The multiresolution solvers of TransCut §4 on a [`DiffusionSystem`]: the hierarchy is built
+//! once per mesh from the matrix pattern and the vertex positions (mm), the coarse operators
+//! once per set of media, and every solve may warm-start from a previous φ.
+//!
+//! Three methods ([`Method`]), all reaching the same answer (level-0 residual
+//! `‖b − Mφ‖/‖b‖ ≤ tolerance`):
+//! - [`Method::Pcg`]: the single-level baseline, mixed-precision Jacobi PCG ([`super::solve`]);
+//! - [`Method::Cascade`]: the paper's coarse-to-fine cascade (BiCGSTAB on the eq.-17 coarse
+//!   systems, CG at level 0, each level started from the interpolated coarser solution);
+//! - [`Method::MultigridPcg`]: CG preconditioned by a V-cycle on the same hierarchy (Galerkin
+//!   coarse operators).
+//!
+//! Measurements (bunny, 500k tets; `transcut bench multires`) are in the crate's module
+//! documentation of [`crate::sparse::hierarchy`] and the project notes.
+
+use std::sync::Arc;
+
+use super::assembly::DiffusionSystem;
+use super::error::DiffusionError;
+use super::solve::Solution;
+use crate::sparse::hierarchy::{mg_pcg, Cascade, CascadeOptions, Hierarchy, HierarchyOptions, Multigrid, MultigridOptions};
+use crate::sparse::{pcg, Preconditioner, PreconditionerKind, SolveOptions};
+
+/// Which solver a [`MultiresSolver`] runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Method {
+    /// Single-level Jacobi PCG (mixed precision).
+    #[default]
+    Pcg,
+    /// TransCut §4.2: coarse-to-fine BiCGSTAB cascade, CG at level 0.
+    Cascade,
+    /// CG preconditioned by a Galerkin multigrid V-cycle on the TransCut hierarchy.
+    MultigridPcg,
+}
+
+/// The hierarchy of a system's mesh (TransCut §4.1) built from its pattern and positions.
+///
+/// # Errors
+/// [`DiffusionError::Sparse`] from [`Hierarchy::build`].
+pub fn hierarchy(system: &DiffusionSystem, options: &HierarchyOptions) -> Result<Hierarchy, DiffusionError> {
+    Ok(Hierarchy::build(system.pattern(), &system.structure().positions_mm, options)?)
+}
+
+#[derive(Debug, Clone)]
+enum Prepared {
+    Pcg(Preconditioner),
+    Cascade(Cascade),
+    Multigrid(Multigrid),
+}
+
+/// A solver prepared for one system's matrix: the hierarchy (kept while the mesh is the same)
+/// and the method's matrix-dependent parts (rebuilt by [`MultiresSolver::update_matrix`] after
+/// [`DiffusionSystem::set_media`]; a new source needs nothing).
+#[derive(Debug, Clone)]
+pub struct MultiresSolver {
+    hierarchy: Arc<Hierarchy>,
+    method: Method,
+    prepared: Prepared,
+}
+
+impl MultiresSolver {
+    /// Builds the hierarchy of `system` (unless `method` is [`Method::Pcg`], which needs none)
+    /// and prepares `method` for its matrix.
+    ///
+    /// # Errors
+    /// [`DiffusionError::Sparse`] from the hierarchy or the coarse operators.
+    pub fn new(system: &DiffusionSystem, method: Method, options: &HierarchyOptions) -> Result<Self, DiffusionError> {
+        let h = if method == Method::Pcg {
+            Hierarchy::build(system.pattern(), &system.structure().positions_mm, &HierarchyOptions { max_levels: 1, ..*options })?
+        } else {
+            hierarchy(system, options)?
+        };
+        Self::with_hierarchy(system, Arc::new(h), method)
+    }
+
+    /// Prepares `method` for `system` on a ready hierarchy of its mesh.
+    ///
+    /// # Errors
+    /// [`DiffusionError::LengthMismatch`] if the hierarchy belongs to another mesh;
+    /// [`DiffusionError::Sparse`] from the coarse operators.
+    pub fn with_hierarchy(system: &DiffusionSystem, hierarchy: Arc<Hierarchy>, method: Method) -> Result<Self, DiffusionError> {
+        if hierarchy.level(0).graph.n() != system.vertex_count() {
+            return Err(DiffusionError::LengthMismatch {
+                what: "hierarchy level 0 (one vertex per mesh vertex)",
+                expected: system.vertex_count(),
+                found: hierarchy.level(0).graph.n(),
+            });
+        }
+        let prepared = prepare(system, &hierarchy, method)?;
+        Ok(Self { hierarchy, method, prepared })
+    }
+
+    /// Rebuilds the matrix-dependent parts after the media changed (the hierarchy is kept).
+    ///
+    /// # Errors
+    /// As [`Self::with_hierarchy`].
+    pub fn update_matrix(&mut self, system: &DiffusionSystem) -> Result<(), DiffusionError> {
+        self.prepared = prepare(system, &self.hierarchy, self.method)?;
+        Ok(())
+    }
+
+    /// The hierarchy.
+    #[must_use]
+    pub fn hierarchy(&self) -> &Arc<Hierarchy> {
+        &self.hierarchy
+    }
+
+    /// The method.
+    #[must_use]
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    /// Solves `M φ = b` of `system` (the one this solver was prepared for), from `warm_start`
+    /// (a previous φ) or cold.
+    ///
+    /// # Errors
+    /// [`DiffusionError::LengthMismatch`] for a warm start of the wrong length;
+    /// [`DiffusionError::NotConverged`] when a channel misses the tolerance;
+    /// [`DiffusionError::Sparse`] for the solvers' own errors.
+    pub fn solve(
+        &self,
+        system: &DiffusionSystem,
+        warm_start: Option<&[[f64; 3]]>,
+        options: &SolveOptions<'_>,
+    ) -> Result<Solution, DiffusionError> {
+        let n = system.vertex_count();
+        let mut phi = match warm_start {
+            Some(x) if x.len() != n => {
+                return Err(DiffusionError::LengthMismatch { what: "warm start (one entry per vertex)", expected: n, found: x.len() })
+            }
+            Some(x) => x.to_vec(),
+            None => vec![[0.0; 3]; n],
+        };
+        let (a, b) = (system.matrix(), system.rhs());
+        let stats = match &self.prepared {
+            Prepared::Pcg(p) => pcg(a, b, &mut phi, p, options)?,
+            Prepared::Cascade(c) => c.solve(a, b, &mut phi, warm_start.is_some(), options)?.fine,
+            Prepared::Multigrid(m) => mg_pcg(a, b, &mut phi, m, options)?,
+        };
+        if !stats.converged {
+            return Err(DiffusionError::NotConverged {
+                iterations: stats.iterations,
+                residual: stats.relative_residual,
+                tolerance: options.tolerance,
+            });
+        }
+        Ok(Solution { phi, stats })
+    }
+}
+
+fn prepare(system: &DiffusionSystem, h: &Arc<Hierarchy>, method: Method) -> Result<Prepared, DiffusionError> {
+    let a = system.matrix();
+    Ok(match method {
+        Method::Pcg => Prepared::Pcg(Preconditioner::new(a, PreconditionerKind::Jacobi)?),
+        Method::Cascade => Prepared::Cascade(Cascade::new(Arc::clone(h), a, CascadeOptions::default())?),
+        Method::MultigridPcg => Prepared::Multigrid(Multigrid::new(Arc::clone(h), a, MultigridOptions::default())?),
+    })
+}
