@@ -129,7 +129,7 @@ pub unsafe extern "C" fn tc_scene_add_mesh(
         // SAFETY: as above.
         let indices = unsafe { ptr::slice(indices, index_count, "indices")? };
         let xyz: Vec<[f32; 3]> = positions.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
-        if index_count % 3 != 0 {
+        if !index_count.is_multiple_of(3) {
             return Err(Failure::new(TC_INVALID_MESH, format!("index_count = {index_count} is not a multiple of 3")));
         }
         let mesh = TriMesh::from_triangles(&xyz, indices).map_err(|e| mesh_failure(&e))?;
@@ -264,7 +264,7 @@ pub unsafe extern "C" fn tc_object_set_transform(scene: *mut TcScene, object: u3
             )));
         }
         let det = t.determinant();
-        if !(det.abs() > 1e-300) {
+        if det.abs() <= 1e-300 {
             return Err(Failure::invalid(format!("`matrix` is singular (determinant {det:e})")));
         }
         // SAFETY: the caller's contract.

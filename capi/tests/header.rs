@@ -39,8 +39,11 @@ fn prelude() -> String {
     )
 }
 
-/// `(struct, size, [(field, offset)])` of every struct of the ABI.
-fn layouts() -> Vec<(&'static str, usize, Vec<(&'static str, usize)>)> {
+/// A struct's name, size and `(field, offset)` list.
+type Layout = (&'static str, usize, Vec<(&'static str, usize)>);
+
+/// The layout of every struct of the ABI.
+fn layouts() -> Vec<Layout> {
     macro_rules! layout {
         ($t:ident { $($f:ident),+ $(,)? }) => {
             (stringify!($t), size_of::<$t>(), vec![$((stringify!($f), offset_of!($t, $f))),+])

@@ -108,9 +108,9 @@ fn invalid_meshes_are_rejected_without_changing_the_scene() {
     fails(add_raw(&good.positions, &out_of_range), TC_INVALID_MESH, &["vertex 4", "4 vertices"]);
     fails(add_raw(&good.positions, &good.indices[..11]), TC_INVALID_MESH, &["multiple of 3"]);
     fails(add_raw(&[], &[]), TC_INVALID_MESH, &["empty"]);
-    // A float array that is not 4-byte aligned.
-    let bytes = vec![0u8; 4 * 12 + 1];
-    let misaligned = bytes[1..].as_ptr().cast::<f32>();
+    // A float array that is not 4-byte aligned: one byte into an array of u32.
+    let words = [0u32; 13];
+    let misaligned = words.as_ptr().cast::<u8>().wrapping_add(1).cast::<f32>();
     let mut object = 42u32;
     // SAFETY: 48 readable bytes at `misaligned`; the library must refuse before reading them.
     let status = unsafe { tc_scene_add_mesh(s, misaligned, 4, good.indices.as_ptr(), 12, &mut object) };
