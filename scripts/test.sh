@@ -27,3 +27,7 @@ cargo test --workspace --doc --locked
 # program tests/c/marble_sphere.c run under valgrind against both (tests/c/run.sh installs gcc,
 # g++, pkg-config and valgrind when missing). The Rust ABI tests (capi/tests) ran above.
 bash tests/c/run.sh
+
+# The Blender add-on (tests/blender): creates .venv with bpy 4.5 from PyPI (and the Debian
+# libraries it needs), builds the C ABI library, runs the bpy tests headless with pytest.
+bash tests/blender/run.sh

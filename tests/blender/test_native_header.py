@@ -1,0 +1,152 @@
+"""native.py mirrors include/transcut.h: every function it binds is declared there with the same
+parameter and return types, the structs have the same fields in the same order, and the status
+codes have the same values. Needs no library and no Blender; reads the committed header.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+import os
+import re
+from pathlib import Path
+
+import pytest
+from conftest import ADDON_SRC, REPO
+
+HEADER = Path(os.environ.get("TRANSCUT_HEADER", REPO / "include" / "transcut.h"))
+
+
+def load_native():
+    spec = importlib.util.spec_from_file_location("transcut_native_under_test", ADDON_SRC / "native.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+native = load_native()
+
+
+def header_text() -> str:
+    if not HEADER.is_file():
+        pytest.fail(f"{HEADER} is missing (the C ABI's generated header is committed)")
+    text = HEADER.read_text()
+    text = re.sub(r"/\*.*?\*/", "", text, flags=re.S)
+    return re.sub(r"//[^\n]*", "", text)
+
+
+def c_type(decl: str) -> str:
+    """A parameter or return declaration without its name, normalised ('const struct TcMedium *')."""
+    decl = " ".join(decl.replace("*", " * ").split())
+    return decl.replace("* *", "**")
+
+
+def strip_name(param: str) -> str:
+    param = param.strip()
+    m = re.match(r"^(.*?)([A-Za-z_][A-Za-z_0-9]*)(\s*\[\s*\d+\s*\])?$", param)
+    assert m, param
+    base, _, array = m.groups()
+    return c_type(base + (" *" if array else ""))
+
+
+def declarations() -> dict:
+    """name → (return type, [parameter types]) for every function in the header."""
+    out = {}
+    pattern = re.compile(r"([A-Za-z_][A-Za-z_0-9 \*]*?)\b(tc_[a-z_0-9]+)\s*\(([^)]*)\)\s*;")
+    for ret, name, params in pattern.findall(header_text()):
+        params = params.strip()
+        plist = [] if params in ("", "void") else [strip_name(p) for p in params.split(",")]
+        out[name] = (c_type(ret), plist)
+    return out
+
+
+def ctypes_name(t) -> str:
+    """The C spelling a ctypes type stands for (constness dropped on both sides)."""
+    if t is None:
+        return "void"
+    simple = {
+        ctypes.c_int32: "int32_t",
+        ctypes.c_uint32: "uint32_t",
+        ctypes.c_uint64: "uint64_t",
+        ctypes.c_size_t: "size_t",
+        ctypes.c_double: "double",
+        ctypes.c_float: "float",
+        ctypes.c_char_p: "char *",
+        ctypes.c_void_p: "void *",
+    }
+    if t in simple:
+        return simple[t]
+    if t is native.TcProgressFn:
+        return "TcProgressFn"
+    if t is native._ScenePtr:
+        return "struct TcScene *"
+    if hasattr(t, "_type_") and isinstance(t._type_, type):
+        inner = t._type_
+        if inner is native._ScenePtr:
+            return "struct TcScene **"
+        if issubclass(inner, ctypes.Structure):
+            return f"struct {inner.__name__} *"
+        return ctypes_name(inner) + " *"
+    raise AssertionError(f"no C spelling for {t}")
+
+
+def normalise(c: str) -> str:
+    c = c.replace("const ", "").replace("TcStatus", "int32_t")
+    if ctypes.c_size_t is ctypes.c_uint64:  # one ctypes type for both on LP64 platforms
+        c = c.replace("size_t", "uint64_t")
+    return " ".join(c.split()).replace(" *", " *").replace("struct TcScene*", "struct TcScene *")
+
+
+def test_every_bound_function_matches_the_header():
+    decls = declarations()
+    assert "tc_scene_bake" in decls, "header parse failed"
+    for name, (restype, argtypes) in {**native._REQUIRED, **native._OPTIONAL}.items():
+        if name not in decls and name in native._OPTIONAL:
+            continue  # optional: not in this header version
+        assert name in decls, f"{name} is bound by native.py but not declared in transcut.h"
+        ret, params = decls[name]
+        assert normalise(ret) == normalise(ctypes_name(restype)), f"{name}: returns {ret}"
+        got = [normalise(ctypes_name(a)) for a in argtypes]
+        want = [normalise(p) for p in params]
+        assert got == want, f"{name}: header ({', '.join(want)}) vs native.py ({', '.join(got)})"
+
+
+def header_struct(name: str) -> list:
+    m = re.search(r"typedef struct %s \{(.*?)\} %s;" % (name, name), header_text(), flags=re.S)
+    assert m, f"struct {name} not in the header"
+    fields = []
+    for line in m.group(1).split(";"):
+        line = " ".join(line.split())
+        if not line:
+            continue
+        fm = re.match(r"^(.*?)\s+([A-Za-z_0-9]+)(\[(\d+)\])?$", line)
+        assert fm, line
+        ctype, fname, _, count = fm.groups()
+        fields.append((fname, ctype, int(count) if count else None))
+    return fields
+
+
+@pytest.mark.parametrize("struct", [native.TcMedium, native.TcArtistMedium, native.TcBakeOptions, native.TcBakeStats])
+def test_structs_match_the_header(struct):
+    want = header_struct(struct.__name__)
+    got = []
+    for fname, ftype in struct._fields_:
+        if issubclass(ftype, ctypes.Array):
+            got.append((fname, normalise(ctypes_name(ftype._type_)), ftype._length_))
+        else:
+            got.append((fname, normalise(ctypes_name(ftype)), None))
+    assert got == [(f, normalise(t), n) for f, t, n in want]
+
+
+def test_status_codes_match_the_header():
+    defines = dict((k, int(v)) for k, v in re.findall(r"#define (TC_[A-Z_]+) (\d+)", header_text()))
+    for value, name in native.STATUS_NAMES.items():
+        assert defines.get(name) == value, name
+    codes = {k: v for k, v in defines.items() if k not in ("TC_METHOD_TRANSCUT",) and not k.startswith("TC_LAYOUT")}
+    assert set(codes) <= set(native.STATUS_NAMES.values()) | {"TC_METHOD_TRANSCUT"}, set(codes) - set(native.STATUS_NAMES.values())
+
+
+def test_native_binds_every_header_function():
+    bound = set(native._REQUIRED) | set(native._OPTIONAL)
+    missing = {n for n in declarations() if not n.startswith("tc_debug_")} - bound
+    assert not missing, f"declared in transcut.h but not mirrored by native.py: {sorted(missing)}"
