@@ -22,6 +22,9 @@ pub enum Suite {
     /// The diffusion solve alone (60 mm, marble, one sun) on the CPU and on the `--backend`
     /// (GPU: upload, assembly, solve with read-back), their agreement and the device name.
     Solve,
+    /// TransCut Fig. 7: relative error against time for single-level PCG, the multiresolution
+    /// cascade and multigrid-preconditioned CG, and the warm start after moving the sun 5°.
+    Multires,
 }
 
 /// Arguments of `transcut bench`.
@@ -65,6 +68,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Suite::Mesh => bench_mesh(args),
         Suite::Bake => bench_bake(args),
         Suite::Solve => crate::bench_solve::run(args),
+        Suite::Multires => crate::bench_multires::run(args),
     }
 }
 

@@ -2,6 +2,7 @@
 
 mod bake_cmd;
 mod bench;
+mod bench_multires;
 mod bench_solve;
 mod mesh_cmd;
 mod progress;

@@ -1,0 +1,235 @@
+//! `transcut bench multires`: TransCut Fig. 7 — relative error against time with and without
+//! the multiresolution scheme — plus the warm start after moving the sun by 5°.
+//!
+//! On each size: the bunny (60 mm, marble, an unshadowed sun from (0, 1, 1), as `bench solve`)
+//! is assembled; a reference φ* is solved to 1e-12. For each method (single-level Jacobi PCG,
+//! the paper's cascade, multigrid-preconditioned CG) the setup (hierarchy and coarse
+//! operators, or the Jacobi preconditioner) is timed, then cold solves to the tolerances
+//! 10^(−k/2), k = 2..12, each giving one point (solve ms, ‖φ − φ*‖/‖φ*‖, worst channel) of the
+//! error–time curve; runs are interleaved method by method and the medians reported, so ratios
+//! between methods are measured back to back. Time to 1% is the fastest tolerance whose error
+//! is ≤ 1%.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::Context;
+use serde::Serialize;
+use transcut::diffusion::multires::hierarchy;
+use transcut::diffusion::{assemble, DiffusionSystem, Method, MultiresSolver};
+use transcut::mesh;
+use transcut::mesher::{tetrahedralize, MesherOptions};
+use transcut::optics::Medium;
+use transcut::sparse::hierarchy::HierarchyOptions;
+use transcut::sparse::SolveOptions;
+use transcut::DVec3;
+
+use crate::bench::BenchArgs;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+#[derive(Serialize)]
+struct CurvePoint {
+    tolerance: f64,
+    median_solve_ms: f64,
+    iterations: [usize; 3],
+    relative_error: f64,
+}
+
+#[derive(Serialize)]
+struct MethodEntry {
+    method: String,
+    median_setup_ms: f64,
+    setup_runs_ms: Vec<f64>,
+    median_solve_1e6_ms: f64,
+    solve_1e6_runs_ms: Vec<f64>,
+    iterations_1e6: [usize; 3],
+    error_1e6: f64,
+    time_to_1pct_ms: Option<f64>,
+    curve: Vec<CurvePoint>,
+    warm_start_5deg: WarmEntry,
+}
+
+#[derive(Serialize)]
+struct WarmEntry {
+    cold_iterations: [usize; 3],
+    warm_iterations: [usize; 3],
+    median_cold_ms: f64,
+    median_warm_ms: f64,
+}
+
+#[derive(Serialize)]
+struct SizeEntry {
+    target_tets: usize,
+    tets: usize,
+    vertices: usize,
+    levels: Vec<usize>,
+    median_hierarchy_ms: f64,
+    methods: Vec<MethodEntry>,
+    time_to_1pct_ratio_cascade_vs_pcg: Option<f64>,
+    time_to_1pct_ratio_mg_vs_pcg: Option<f64>,
+    solve_1e6_ratio_cascade_vs_pcg: f64,
+    solve_1e6_ratio_mg_vs_pcg: f64,
+}
+
+fn light(system: &mut DiffusionSystem, dir: DVec3) -> anyhow::Result<()> {
+    let l = dir.normalize();
+    let q: Vec<[f64; 3]> = system.boundary().normal.iter().map(|n| [3.0 * n.dot(l).max(0.0); 3]).collect();
+    system.set_source(&q)?;
+    Ok(())
+}
+
+fn rel_error(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    (0..3)
+        .map(|c| {
+            let num: f64 = a.iter().zip(b).map(|(x, y)| (x[c] - y[c]).powi(2)).sum();
+            let den: f64 = b.iter().map(|y| y[c] * y[c]).sum();
+            (num / den.max(f64::MIN_POSITIVE)).sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+const METHODS: [(Method, &str); 3] =
+    [(Method::Pcg, "pcg"), (Method::Cascade, "cascade"), (Method::MultigridPcg, "mg_pcg")];
+
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
+    let (lo, hi) = input.bounds();
+    let mm_per_unit = 60.0 / (hi - lo).max_element();
+    let medium = Medium::preset("marble")?;
+    let sun = DVec3::new(0.0, 1.0, 1.0).normalize();
+    let rot = 5f64.to_radians();
+    let sun5 = DVec3::new(sun.z * rot.sin(), sun.y, sun.z * rot.cos());
+    let tolerances: Vec<f64> = (2..=12).map(|k| 10f64.powf(-(k as f64) / 2.0)).collect();
+    let runs = args.runs as usize;
+    let mut entries = Vec::new();
+    for &target in &args.tets {
+        let tet_mesh = tetrahedralize(&input, &MesherOptions::with_tets(target))?;
+        let mut system = assemble(&tet_mesh, &[medium], mm_per_unit)?;
+        light(&mut system, sun)?;
+        let reference = MultiresSolver::new(&system, Method::Pcg, &HierarchyOptions::default())?
+            .solve(&system, None, &SolveOptions::default().with_tolerance(1e-12))?;
+        let mut hierarchy_ms = Vec::new();
+        let mut h = None;
+        for _ in 0..runs {
+            let t = Instant::now();
+            h = Some(Arc::new(hierarchy(&system, &HierarchyOptions::default())?));
+            hierarchy_ms.push(ms(t));
+        }
+        let h = h.context("at least one run")?;
+        // Interleaved runs: per run, every method back to back.
+        let mut setup = vec![Vec::new(); 3];
+        let mut solve6 = vec![Vec::new(); 3];
+        let mut its6 = vec![[0; 3]; 3];
+        let mut err6 = vec![0.0; 3];
+        let mut curve_ms = vec![vec![Vec::new(); tolerances.len()]; 3];
+        let mut curve_its = vec![vec![[0; 3]; tolerances.len()]; 3];
+        let mut curve_err = vec![vec![0.0; tolerances.len()]; 3];
+        let mut warm_cold_ms = vec![Vec::new(); 3];
+        let mut warm_ms = vec![Vec::new(); 3];
+        let mut warm_its = vec![([0; 3], [0; 3]); 3];
+        for _ in 0..runs {
+            for (m, &(method, _)) in METHODS.iter().enumerate() {
+                light(&mut system, sun)?;
+                let t = Instant::now();
+                let solver = if method == Method::Pcg {
+                    MultiresSolver::new(&system, method, &HierarchyOptions::default())?
+                } else {
+                    // The hierarchy is timed with the setup (its own median is reported too).
+                    let hh = Arc::new(hierarchy(&system, &HierarchyOptions::default())?);
+                    MultiresSolver::with_hierarchy(&system, hh, method)?
+                };
+                setup[m].push(ms(t));
+                let t = Instant::now();
+                let sol = solver.solve(&system, None, &SolveOptions::default())?;
+                solve6[m].push(ms(t));
+                its6[m] = sol.stats.iterations;
+                err6[m] = rel_error(&sol.phi, &reference.phi);
+                for (k, &tol) in tolerances.iter().enumerate() {
+                    let t = Instant::now();
+                    let s = solver.solve(&system, None, &SolveOptions::default().with_tolerance(tol))?;
+                    curve_ms[m][k].push(ms(t));
+                    curve_its[m][k] = s.stats.iterations;
+                    curve_err[m][k] = rel_error(&s.phi, &reference.phi);
+                }
+                light(&mut system, sun5)?;
+                let t = Instant::now();
+                let cold = solver.solve(&system, None, &SolveOptions::default())?;
+                warm_cold_ms[m].push(ms(t));
+                let t = Instant::now();
+                let warm = solver.solve(&system, Some(&sol.phi), &SolveOptions::default())?;
+                warm_ms[m].push(ms(t));
+                warm_its[m] = (cold.stats.iterations, warm.stats.iterations);
+            }
+        }
+        let mut methods = Vec::new();
+        for (m, &(_, name)) in METHODS.iter().enumerate() {
+            let curve: Vec<CurvePoint> = tolerances
+                .iter()
+                .enumerate()
+                .map(|(k, &tolerance)| CurvePoint {
+                    tolerance,
+                    median_solve_ms: median(curve_ms[m][k].clone()),
+                    iterations: curve_its[m][k],
+                    relative_error: curve_err[m][k],
+                })
+                .collect();
+            let time_to_1pct = curve.iter().filter(|p| p.relative_error <= 0.01).map(|p| p.median_solve_ms).reduce(f64::min);
+            methods.push(MethodEntry {
+                method: name.to_owned(),
+                median_setup_ms: median(setup[m].clone()),
+                setup_runs_ms: setup[m].clone(),
+                median_solve_1e6_ms: median(solve6[m].clone()),
+                solve_1e6_runs_ms: solve6[m].clone(),
+                iterations_1e6: its6[m],
+                error_1e6: err6[m],
+                time_to_1pct_ms: time_to_1pct,
+                curve,
+                warm_start_5deg: WarmEntry {
+                    cold_iterations: warm_its[m].0,
+                    warm_iterations: warm_its[m].1,
+                    median_cold_ms: median(warm_cold_ms[m].clone()),
+                    median_warm_ms: median(warm_ms[m].clone()),
+                },
+            });
+        }
+        let ratio = |a: Option<f64>, b: Option<f64>| Some(a? / b?);
+        entries.push(SizeEntry {
+            target_tets: target,
+            tets: tet_mesh.tets().len(),
+            vertices: system.vertex_count(),
+            levels: h.vertex_counts(),
+            median_hierarchy_ms: median(hierarchy_ms),
+            time_to_1pct_ratio_cascade_vs_pcg: ratio(methods[1].time_to_1pct_ms, methods[0].time_to_1pct_ms),
+            time_to_1pct_ratio_mg_vs_pcg: ratio(methods[2].time_to_1pct_ms, methods[0].time_to_1pct_ms),
+            solve_1e6_ratio_cascade_vs_pcg: methods[1].median_solve_1e6_ms / methods[0].median_solve_1e6_ms,
+            solve_1e6_ratio_mg_vs_pcg: methods[2].median_solve_1e6_ms / methods[0].median_solve_1e6_ms,
+            methods,
+        });
+    }
+    let report = serde_json::json!({
+        "suite": "multires",
+        "input": args.input.display().to_string(),
+        "mm_per_unit": mm_per_unit,
+        "medium": "marble",
+        "threads": rayon::current_num_threads(),
+        "error": "max over channels of ||phi - phi*|| / ||phi*||, phi* solved to 1e-12",
+        "entries": entries,
+    });
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}
