@@ -20,7 +20,9 @@ pub enum Backend {
     Cpu,
     /// The GPU path (wgpu); an error if no adapter exists.
     Gpu,
-    /// The GPU when an adapter exists, else the CPU (the report says why).
+    /// The GPU when a hardware adapter exists, else the CPU (the report says why). A software
+    /// adapter (Mesa's lavapipe, device type CPU) is not used by `Auto`: it is many times slower
+    /// than the CPU path; [`Backend::Gpu`] still runs on it.
     #[default]
     Auto,
 }
@@ -86,8 +88,8 @@ pub struct BackendReport {
 
 /// Solves the diffusion system on `backend`: [`Backend::Cpu`] is [`diffusion::solve`];
 /// [`Backend::Gpu`] is [`super::solve`] on the process-wide device ([`super::GpuContext::shared`]);
-/// [`Backend::Auto`] tries the GPU and, if no device can be had, solves on the CPU and says so
-/// in [`BackendReport::fallback`]. Errors of the solve itself (not converged, bad warm start)
+/// [`Backend::Auto`] tries the GPU and, if no device can be had or the only one is a software
+/// rasteriser (lavapipe), solves on the CPU and says so in [`BackendReport::fallback`]. Errors of the solve itself (not converged, bad warm start)
 /// are returned as they are, never hidden by a fallback.
 ///
 /// # Errors
@@ -124,6 +126,13 @@ pub fn solve(
             Err(e) if backend == Backend::Auto => return cpu(Some(e.to_string())),
             Err(e) => return Err(e),
         };
+        if backend == Backend::Auto && context.is_software() {
+            return cpu(Some(format!(
+                "the only GPU adapter is a software one ({}), slower than the CPU path; \
+                 TRANSCUT_BACKEND=gpu uses it anyway",
+                context.device_name()
+            )));
+        }
         let out = super::solve(context, system, warm_start, options)?;
         Ok((
             out.solution,

@@ -147,6 +147,13 @@ impl GpuContext {
         &self.info
     }
 
+    /// Whether the adapter is a software rasteriser running on the CPU (e.g. Mesa's lavapipe,
+    /// "llvmpipe"): correct, but slower than the CPU path.
+    #[must_use]
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// Number of device buffers the pool has created (buffers are reused across solves).
     #[must_use]
     pub fn buffers_created(&self) -> u64 {

@@ -3,8 +3,8 @@
 //! always available.
 //!
 //! - [`Backend`] (`TRANSCUT_BACKEND=cpu|gpu|auto`) and [`solve_on`]: run a diffusion solve on
-//!   the chosen backend; `Auto` falls back to the CPU when no adapter exists and says so in
-//!   the [`BackendReport`].
+//!   the chosen backend; `Auto` falls back to the CPU when no adapter exists or the only one is
+//!   a software rasteriser (lavapipe), and says so in the [`BackendReport`].
 //! - [`GpuContext`]: a headless device (adapter choice: discrete > integrated > virtual > CPU
 //!   device such as Mesa's lavapipe; `WGPU_BACKEND`, `TRANSCUT_GPU_ADAPTER` narrow it), the
 //!   compiled kernels and a buffer pool reused across solves.

@@ -234,7 +234,7 @@ impl<'c> GpuSolver<'c> {
             let mut s0 = Scalars::default();
             for c in 0..3 {
                 if need[c] {
-                    let inner = (0.5 * options.tolerance * bn[c] / rn[c]).max(INNER_TOLERANCE).min(0.5);
+                    let inner = (0.5 * options.tolerance * bn[c] / rn[c]).clamp(INNER_TOLERANCE, 0.5);
                     s0.running[c] = 1.0;
                     s0.tol2[c] = ((inner * rn[c]).powi(2)) as f32;
                 } else {
@@ -265,7 +265,7 @@ impl<'c> GpuSolver<'c> {
                         dispatch(&mut pass, ctx, Kernel::ReduceAlpha, &bind_alpha, single);
                         dispatch(&mut pass, ctx, Kernel::CgUpdate, &bind_update, m.grid);
                         dispatch(&mut pass, ctx, Kernel::ReduceBeta, &bind_beta, single);
-                        if k % REPLACE_EVERY == 0 {
+                        if k.is_multiple_of(REPLACE_EVERY) {
                             dispatch(&mut pass, ctx, Kernel::CgResidual, &bind_residual, m.grid);
                             dispatch(&mut pass, ctx, Kernel::ReduceRestart, &bind_restart, single);
                         }

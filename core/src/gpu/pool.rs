@@ -99,7 +99,7 @@ mod tests {
     fn size_classes_cover_the_request_with_little_waste() {
         for bytes in [0u64, 1, 255, 256, 257, 1000, 4096, 4097, 1 << 20, (1 << 20) + 1, 123_456_789] {
             let c = size_class(bytes);
-            assert!(c >= bytes.max(256) && c % 16 == 0, "{bytes} -> {c}");
+            assert!(c >= bytes.max(256) && c.is_multiple_of(16), "{bytes} -> {c}");
             assert!(c as f64 <= bytes.max(256) as f64 * 1.125 + 16.0, "{bytes} -> {c}");
         }
         assert_eq!(size_class(1000), size_class(1010));
