@@ -113,7 +113,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let medium = Medium::preset("marble")?;
     let sun = DVec3::new(0.0, 1.0, 1.0).normalize();
     let rot = 5f64.to_radians();
-    let sun5 = DVec3::new(sun.z * rot.sin(), sun.y, sun.z * rot.cos());
+    // 5° about the x axis (the sun lies in the yz plane).
+    let sun5 = DVec3::new(sun.x, sun.y * rot.cos() - sun.z * rot.sin(), sun.y * rot.sin() + sun.z * rot.cos());
     let tolerances: Vec<f64> = (2..=12).map(|k| 10f64.powf(-(k as f64) / 2.0)).collect();
     let runs = args.runs as usize;
     let mut entries = Vec::new();
