@@ -12,6 +12,7 @@ run.sh), which turns a missing library into a failure.
 from __future__ import annotations
 
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -50,6 +51,7 @@ def extension_repo():
     repo = prefs.extensions.repos.new(name="transcut dev", module=REPO_MODULE, custom_directory=tmp, source="USER")
     yield repo
     prefs.extensions.repos.remove(repo)
+    shutil.rmtree(tmp, ignore_errors=True)
 
 
 def enable():

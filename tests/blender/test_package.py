@@ -13,6 +13,7 @@ import hashlib
 import os
 import subprocess
 import sys
+import tempfile
 import tomllib
 import zipfile
 from pathlib import Path
@@ -36,12 +37,19 @@ def run(args, **kw):
 
 
 @pytest.fixture(scope="module")
-def packages(tmp_path_factory):
+def packages():
     require_library()
-    out = tmp_path_factory.mktemp("dist")
-    lines = run([sys.executable, str(REPO / "scripts" / "package-addon.py"), "--lib", library_path(), "--out", str(out)])
-    wheel, ext = (Path(p) for p in lines.split())
-    return wheel, ext
+    # Removed at the end (not kept by pytest): each holds copies of the shared library.
+    with tempfile.TemporaryDirectory(prefix="transcut-dist-") as out:
+        lines = run([sys.executable, str(REPO / "scripts" / "package-addon.py"), "--lib", library_path(), "--out", out])
+        wheel, ext = (Path(p) for p in lines.split())
+        yield wheel, ext
+
+
+@pytest.fixture
+def tmp_path():
+    with tempfile.TemporaryDirectory(prefix="transcut-pkg-test-") as d:
+        yield Path(d)
 
 
 def test_wheel_layout_and_record(packages):
