@@ -145,6 +145,7 @@ unsafe fn read_options(options: *const TcBakeOptions) -> Result<BakeOptions, Fai
         threads: o.threads as usize,
         source,
         shadows: o.shadows != 0,
+        backend: None,
     })
 }
 

@@ -49,6 +49,10 @@ pub struct BakeArgs {
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Where the solve runs: cpu, gpu (an error without a GPU) or auto (a hardware GPU when
+    /// there is one, else the CPU). Default: the TRANSCUT_BACKEND environment variable, else auto.
+    #[arg(long)]
+    pub backend: Option<transcut::gpu::Backend>,
     /// Output: .ply (the mesh with float red, green, blue per vertex), .npy (float32 N×3) or
     /// .raw (float32 RGB, N×3, little-endian). Rows follow the input's vertex order.
     #[arg(short, long)]
@@ -78,7 +82,13 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
     }
     let name = args.input.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned());
     let scene = Scene { objects: vec![Object::new(name, input.clone(), medium, args.scale)], lights };
-    let options = BakeOptions { tets: args.tets as usize, tolerance: args.tolerance, threads: args.threads, ..BakeOptions::default() };
+    let options = BakeOptions {
+        tets: args.tets as usize,
+        tolerance: args.tolerance,
+        threads: args.threads,
+        backend: args.backend,
+        ..BakeOptions::default()
+    };
     let bar = StageBar::new(args.json);
     let callback = |stage: &str, f: f64| bar.update(stage, f);
     let result = bake_with(&scene, &options, Progress::new(&callback));
@@ -108,6 +118,11 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
             "time {:.0} ms (mesh {:.0}, assembly {:.0}, light {:.0}, solve {:.0})",
             baked.total_ms, s.meshing_ms, s.assembly_ms, s.source_ms, s.solve_ms
         );
+        match (&s.device, &s.backend_fallback) {
+            (Some(device), _) => println!("solved on the GPU: {device}"),
+            (None, Some(why)) => println!("solved on the CPU ({why})"),
+            (None, None) => println!("solved on the CPU"),
+        }
         if s.clamped_vertices > 0 {
             println!("note: {} surface vertices had a negative diffusion radiance, clamped to 0", s.clamped_vertices);
         }

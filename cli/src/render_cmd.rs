@@ -43,6 +43,9 @@ pub struct RenderArgs {
     /// Worker threads for the bake (0 = all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Where the solve runs: cpu, gpu or auto (default: TRANSCUT_BACKEND, else auto).
+    #[arg(long)]
+    pub backend: Option<transcut::gpu::Backend>,
     /// Print statistics as JSON on stdout (no progress bar).
     #[arg(long)]
     pub json: bool,
@@ -68,6 +71,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         tets: args.tets.or(file.bake.tets).map_or(defaults.tets, |t| t as usize),
         tolerance: file.bake.tolerance.unwrap_or(defaults.tolerance),
         threads: args.threads,
+        backend: args.backend,
         ..defaults
     };
     let scene = Scene { objects: loaded.objects, lights: loaded.lights };

@@ -4,13 +4,14 @@ use std::time::Instant;
 
 use super::{Object, Scene, Shape};
 use crate::diffusion::{self, DiffusionError};
+use crate::gpu::{self, Backend, GpuError};
 use crate::light::{self, LightError, SourceOptions};
 use crate::mesh::{TetMesh, TetMeshError, TriangleBvh};
 use crate::mesher::{self, MesherError, MesherOptions, MesherStats};
 use crate::optics::Medium;
 use crate::volume::VolumeError;
 use crate::progress::{Cancelled, Progress};
-use crate::sparse::SolveOptions;
+use crate::sparse::{SolveOptions, SparseError};
 
 /// How to bake.
 #[derive(Debug, Clone, PartialEq)]
@@ -27,11 +28,15 @@ pub struct BakeOptions {
     pub source: SourceOptions,
     /// Whether objects shadow themselves and each other.
     pub shadows: bool,
+    /// Where the solve runs; `None`: as `TRANSCUT_BACKEND` says (cpu, gpu, auto), else
+    /// [`Backend::Auto`] (the GPU when a hardware adapter exists, else the CPU; the statistics
+    /// say which ran and why).
+    pub backend: Option<Backend>,
 }
 
 impl Default for BakeOptions {
     fn default() -> Self {
-        Self { tets: 200_000, tolerance: 1e-6, max_iterations: 10_000, threads: 0, source: SourceOptions::default(), shadows: true }
+        Self { tets: 200_000, tolerance: 1e-6, max_iterations: 10_000, threads: 0, source: SourceOptions::default(), shadows: true, backend: None }
     }
 }
 
@@ -75,6 +80,14 @@ pub enum SceneError {
         #[source]
         source: DiffusionError,
     },
+    /// The GPU was required (`Backend::Gpu`) and could not be used, or failed.
+    #[error("object {index} ({name}): GPU backend: {source}")]
+    Gpu {
+        index: usize,
+        name: String,
+        #[source]
+        source: GpuError,
+    },
     /// Cancelled through the progress callback.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
@@ -97,6 +110,12 @@ pub struct ObjectStats {
     pub source_ms: f64,
     pub solve_ms: f64,
     pub total_ms: f64,
+    /// The backend the solve ran on (`cpu` or `gpu`).
+    pub backend: Backend,
+    /// The GPU adapter's name when the GPU ran.
+    pub device: Option<String>,
+    /// Why `auto` solved on the CPU, when it did.
+    pub backend_fallback: Option<String>,
     /// The mesher's own statistics (`None` for an object given as a ready tet mesh).
     pub meshing: Option<MesherStats>,
 }
@@ -141,6 +160,11 @@ pub fn bake(scene: &Scene, options: &BakeOptions) -> Result<Bake, SceneError> {
 /// As [`bake`], plus [`SceneError::Cancelled`].
 pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<Bake, SceneError> {
     validate(scene, options)?;
+    let backend = match options.backend {
+        Some(b) => b,
+        None => Backend::from_env_or(Backend::Auto).map_err(|e| SceneError::InvalidOptions(e.to_string()))?,
+    };
+    let options = &BakeOptions { backend: Some(backend), ..options.clone() };
     if options.threads > 0 {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(options.threads)
@@ -225,8 +249,19 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
         stage("solve", 0.8)?;
 
         let t = Instant::now();
-        let solve_options = SolveOptions { tolerance: options.tolerance, max_iterations: options.max_iterations, ..SolveOptions::default() };
-        let solution = diffusion::solve(&system, None, &solve_options).map_err(diffusion_error)?;
+        // Progress through the solve: the residual's way from 1 down to the tolerance, in decades.
+        let decades = -options.tolerance.log10();
+        let monitor = |_: usize, residual: [f64; 3]| {
+            let worst = residual.iter().fold(0.0f64, |m, &r| m.max(r)).max(options.tolerance);
+            stage("solve", 0.8 + 0.19 * (-worst.log10() / decades).clamp(0.0, 1.0)).is_ok()
+        };
+        let solve_options = SolveOptions { tolerance: options.tolerance, max_iterations: options.max_iterations, ..SolveOptions::default() }
+            .with_monitor(&monitor);
+        let (solution, report) = gpu::solve_on(options.backend.unwrap_or_default(), &system, None, &solve_options).map_err(|e| match e {
+            GpuError::Diffusion(DiffusionError::Sparse(SparseError::Cancelled { .. })) => SceneError::Cancelled(Cancelled),
+            GpuError::Diffusion(source) => diffusion_error(source),
+            source => SceneError::Gpu { index, name: name(), source },
+        })?;
         let lo = diffusion::surface_radiance(&system, &solution.phi).map_err(diffusion_error)?;
         let solve_ms = ms(t);
 
@@ -255,6 +290,9 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
             source_ms,
             solve_ms,
             total_ms: ms(t0),
+            backend: report.used,
+            device: report.device,
+            backend_fallback: report.fallback,
             meshing,
         };
         objects.push(ObjectBake { radiance, tet_mesh, media, eta, fluence: solution.phi, stats });
