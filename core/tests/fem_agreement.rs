@@ -8,7 +8,15 @@
 //! (0, −1, −1), irradiance 3), self-shadowed by the bunny's own surface. Both systems get the
 //! same per-vertex source q and are solved to a relative residual of 1e-9.
 //!
-//! # The measure
+//! # The measures
+//!
+//! **Over the whole surface**, with no vertex left out: the relative L2 difference per channel,
+//! √(Σ S_i (Lo_TC,i − Lo_FEM,i)² / Σ S_i Lo_FEM,i²) over every boundary vertex (the usual
+//! "relative RMS error" of two renderings of one field). Asserted < 3% for both media. Measured
+//! at 508k tets: homogeneous (1.46, 1.61, 1.73)%, veins (1.81, 2.04, 2.36)%.
+//!
+//! **Vertex by vertex**, the stricter measure below, which weighs a dim vertex's relative
+//! difference as much as a bright one's:
 //!
 //! Per channel c, d_i = Lo_TC,i / Lo_FEM,i − 1 with Lo(x, n) of ARCHITECTURE.md, and
 //! RMS = √(Σ S_i d_i² / Σ S_i) over a set of boundary vertices, S_i the vertex's boundary area
@@ -81,6 +89,8 @@ struct Agreement {
     mean: [f64; 3],
     /// Largest |Lo_TC/Lo_FEM − 1|.
     max: [f64; 3],
+    /// The relative L2 difference √(Σ S_i (Lo_TC − Lo_FEM)² / Σ S_i Lo_FEM²).
+    l2: [f64; 3],
 }
 
 impl Agreement {
@@ -89,10 +99,13 @@ impl Agreement {
         let mut a = Agreement::default();
         for c in 0..3 {
             let (mut w, mut n) = (0.0, 0);
+            let (mut diff2, mut ref2) = (0.0, 0.0);
             for k in 0..tc.len() {
                 if !counted(k, c) {
                     continue;
                 }
+                diff2 += area[k] * (tc[k][c] - fem[k][c]).powi(2);
+                ref2 += area[k] * fem[k][c].powi(2);
                 let d = tc[k][c] / fem[k][c] - 1.0;
                 w += area[k];
                 n += 1;
@@ -101,6 +114,7 @@ impl Agreement {
                 a.max[c] = a.max[c].max(d.abs());
             }
             a.rms[c] = (a.rms[c] / w).sqrt();
+            a.l2[c] = (diff2 / ref2).sqrt();
             a.mean[c] /= w;
             a.vertices = a.vertices.max(n);
         }
@@ -123,7 +137,7 @@ fn radiance(system: &mut DiffusionSystem, q: &[[f64; 3]]) -> (Vec<[f64; 3]>, [us
 
 /// Assembles and solves both discretisations of `mesh` with `media`, and returns the agreement
 /// on the lit vertices and on all of them.
-fn compare(name: &str, mesh: &TetMesh, media: &[Medium], mm_per_unit: f64, occluder: &TriangleBvh) -> (Agreement, Agreement) {
+fn compare(name: &str, mesh: &TetMesh, media: &[Medium], mm_per_unit: f64, occluder: &TriangleBvh) -> (Agreement, Agreement, Agreement) {
     let t = Instant::now();
     let mut tc = assemble(mesh, media, mm_per_unit).unwrap();
     let assembly_tc = t.elapsed().as_secs_f64();
@@ -156,8 +170,9 @@ fn compare(name: &str, mesh: &TetMesh, media: &[Medium], mm_per_unit: f64, occlu
     eprintln!("  lit interior: RMS {}, mean {}, max {}", percent(interior.rms), percent(interior.mean), percent(interior.max));
     eprintln!("  all lit:      RMS {}, mean {}, max {}", percent(lit.rms), percent(lit.mean), percent(lit.max));
     eprintln!("  all:          RMS {}, mean {}, max {}", percent(all.rms), percent(all.mean), percent(all.max));
+    eprintln!("  relative L2 over every boundary vertex: {}", percent(all.l2));
     assert!(interior.vertices > b.len() / 4, "{name}: only {} of {} vertices in the lit interior", interior.vertices, b.len());
-    (interior, lit)
+    (interior, lit, all)
 }
 
 /// Per boundary vertex (in `ids` order) and channel: q > 0 at the vertex and at every vertex
@@ -191,7 +206,7 @@ fn transcut_and_consistent_fem_agree_on_the_bunny_with_marble_veins() {
     let occluder = TriangleBvh::new(corners);
 
     let marble = Medium::preset("marble").unwrap();
-    let (homogeneous, homogeneous_lit) = compare("homogeneous marble", &mesh, &[marble], mm_per_unit, &occluder);
+    let (homogeneous, homogeneous_lit, homogeneous_all) = compare("homogeneous marble", &mesh, &[marble], mm_per_unit, &occluder);
 
     // Veins 12 mm apart, bent by turbulence at a 20 mm scale: 20–30× the absorption of the
     // marble and less scattering.
@@ -210,9 +225,12 @@ fn transcut_and_consistent_fem_agree_on_the_bunny_with_marble_veins() {
     let (lo_a, hi_a) = blue_a.iter().fold((f64::INFINITY, 0.0f64), |(l, h), &x| (l.min(x), h.max(x)));
     eprintln!("veins: {} media, blue σa in [{lo_a:.4}, {hi_a:.4}] mm⁻¹", media.len());
     assert!(media.len() > 1000 && hi_a > 10.0 * lo_a, "{} media, σa [{lo_a}, {hi_a}]", media.len());
-    let (veined, _) = compare("marble with veins", &mesh, &media, mm_per_unit, &occluder);
+    let (veined, _, veined_all) = compare("marble with veins", &mesh, &media, mm_per_unit, &occluder);
 
     for c in 0..3 {
+        // The field as a whole, no vertex left out: the relative L2 difference.
+        assert!(veined_all.l2[c] < 0.03, "veins, channel {c}: relative L2 {}", percent(veined_all.l2));
+        assert!(homogeneous_all.l2[c] < 0.03, "homogeneous, channel {c}: relative L2 {}", percent(homogeneous_all.l2));
         assert!(veined.rms[c] < 0.03, "veins, channel {c}: RMS over the lit interior {}", percent(veined.rms));
         assert!(homogeneous.rms[c] < 0.03, "homogeneous, channel {c}: RMS over the lit interior {}", percent(homogeneous.rms));
         assert!(homogeneous_lit.rms[c] < 0.03, "homogeneous, channel {c}: RMS over all lit vertices {}", percent(homogeneous_lit.rms));
