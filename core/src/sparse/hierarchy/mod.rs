@@ -18,23 +18,26 @@
 //!
 //! # Measured (bunny, 60 mm, marble, one sun; 507 851 tets, 93 481 vertices)
 //!
-//! `transcut bench multires --tets 500000 --runs 3`, release build, 2 cores under a load of
-//! 10–12 (other builds), methods interleaved run by run; medians of 3:
+//! `transcut bench multires --tets 500000 --runs 3`, release build, 2 shared cores, methods
+//! interleaved run by run, medians of 3. Two runs of the whole benchmark: A under a load of
+//! 10–12 (other builds), B under 2.5–5 (the 5° rotation exact in B only):
 //!
-//! | method  | setup ms | solve to 1e-6 ms | iterations R/G/B | time to 1% error ms |
-//! |---------|----------|------------------|------------------|---------------------|
-//! | PCG (Jacobi, mixed) | 91 | 888 | 125/107/86 | 504 |
-//! | cascade (§4.2)      | 1158 (hierarchy 1156) | 703 | 105/90/75 (level 0) | 319 |
-//! | MG-PCG              | 12 071 | 1320 | 10/10/10 | 415 |
+//! | method (run)  | setup ms | solve to 1e-6 ms | iterations R/G/B | time to 1% error ms |
+//! |---------------|----------|------------------|------------------|---------------------|
+//! | PCG (A / B)     | 91 / 35 | 888 / 658 | 125/107/86 (level 0) | 504 / 281 |
+//! | cascade (A / B) | 1158 / 1094 | 703 / 732 | 105/90/75 (level 0) | 319 / 294 |
+//! | MG-PCG (A / B)  | 12 071 / 6520 | 1320 / 1033 | 10/10/10 | 415 / 327 |
 //!
-//! Levels 93 481 → 32 941 → 9 476 → 2 425 → 540. Ratios against PCG: the cascade solves to 1%
-//! in 0.63× and to 1e-6 in 0.79× of PCG's time, MG-PCG in 0.82× and 1.49×; the 5° warm start
-//! takes 100/83/67 iterations against 125/106/86 cold for PCG (and the cascade, whose warm
-//! start is level-0 PCG) and 8 against 10 for MG-PCG. Neither multiresolution method wins
-//! clearly once its setup is counted (the hierarchy alone costs more than a PCG solve; the
-//! Galerkin operators fill in at the coarse levels, which makes MG-PCG's setup and V-cycle
-//! expensive), so single-level PCG stays the default of [`crate::diffusion::solve`]; the
-//! cascade pays off when one hierarchy serves many solves (relighting).
+//! Levels 93 481 → 32 941 → 9 476 → 2 425 → 540; the hierarchy takes 0.7–1.2 s. Ratios
+//! against PCG, time to 1% error: cascade 0.63 (A) / 1.05 (B), MG-PCG 0.82 / 1.16; to 1e-6:
+//! cascade 0.79 / 1.11, MG-PCG 1.49 / 1.57 (single solves varied 2–4× under the load, so only
+//! MG-PCG's loss at 1e-6 is outside the noise). The error at tolerance 1e-6 is 2e-6 for PCG and
+//! the cascade, 1e-7 for MG-PCG (‖φ − φ*‖/‖φ*‖). Warm start after moving the sun 5° (B):
+//! 99/83/69 iterations against 125/107/86 cold for PCG (and the cascade, whose warm start is
+//! level-0 PCG), 9/9/8 against 10 for MG-PCG. Neither multiresolution method wins clearly,
+//! and both lose once their setup is counted (the hierarchy alone costs more than a PCG solve;
+//! the Galerkin operators fill in at the coarse levels, which makes MG-PCG's setup and V-cycle
+//! expensive), so single-level PCG stays the default of [`crate::diffusion::solve`].
 
 mod cascade;
 pub mod codes;
