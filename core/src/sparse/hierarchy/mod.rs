@@ -4,9 +4,9 @@
 //! * [`Hierarchy`] (§4.1): progressively coarser graphs `G^l = (P^l, E^l)` of the mesh's vertex
 //!   graph. `P^{l+1}` is an independent set of `P^l` chosen in parallel rounds with hashed
 //!   random codes ([`codes`]), enhanced until no edge connection is lost, and `E^{l+1}` links
-//!   vertices that were two-ring neighbours ([`edges`]). Each level carries the interpolation
+//!   vertices that were two-ring neighbours (`edges.rs`). Each level carries the interpolation
 //!   `P` of eq. 16 with 1/edge-length weights ([`Prolongation`]).
-//! * [`substituted`] (eq. 17) and [`galerkin`] (`Pᵀ M P`): coarse operators ([`coarse`]).
+//! * [`substituted`] (eq. 17) and [`galerkin`] (`Pᵀ M P`): coarse operators (`coarse.rs`).
 //! * [`Cascade`] (§4.2): the paper's coarse-to-fine solver — BiCGSTAB on the (nonsymmetric)
 //!   eq.-17 systems from the coarsest level up, each level started from the interpolated
 //!   coarser solution, CG at level 0.
