@@ -16,7 +16,7 @@ use crate::sparse::CsrPattern;
 /// The PCG-RXS-M-XS 32-bit hash ("pcg_hash") recommended for GPU random numbers by Jarzynski
 /// and Olano, *Hash Functions for GPU Rendering*, JCGT 9(3), 2020: one step of the PCG LCG
 /// (multiplier 747796405, increment 2891336453) followed by the RXS-M-XS output permutation.
-/// A bijection on `u32`; the stand-in for the hash of TransCut's reference [30].
+/// A bijection on `u32`; the stand-in for the hash of TransCut's reference \[30\].
 #[must_use]
 pub fn pcg_hash(input: u32) -> u32 {
     let state = input.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);

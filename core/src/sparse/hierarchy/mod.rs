@@ -37,7 +37,7 @@
 //! level-0 PCG), 9/9/8 against 10 for MG-PCG. Neither multiresolution method wins clearly,
 //! and both lose once their setup is counted (the hierarchy alone costs more than a PCG solve;
 //! the Galerkin operators fill in at the coarse levels, which makes MG-PCG's setup and V-cycle
-//! expensive), so single-level PCG stays the default of [`crate::diffusion::solve`].
+//! expensive), so single-level PCG stays the default of [`crate::diffusion::solve()`].
 
 mod cascade;
 pub mod codes;
