@@ -147,3 +147,21 @@ fn misused_media_are_named() {
     let bad = Medium { sigma_a: [-1.0, 0.0, 0.0], ..m };
     expect_invalid(sphere_object(MediumSource::Table(vec![m, bad])), "material table entry 1");
 }
+
+#[test]
+fn bake_progress_never_goes_back_and_ends_at_one() {
+    use std::sync::Mutex;
+    let seen = Mutex::new(Vec::new());
+    let callback = |_: &str, f: f64| {
+        seen.lock().unwrap().push(f);
+        true
+    };
+    let scene = Scene { objects: vec![sphere_object(marble().into())], lights: vec![sun()] };
+    transcut::scene::bake_with(&scene, &options(), transcut::Progress::new(&callback)).unwrap();
+    let seen = seen.into_inner().unwrap();
+    assert!(seen.len() > 10, "{} reports", seen.len());
+    assert!(seen.windows(2).all(|w| w[1] >= w[0]), "{seen:?}");
+    assert_eq!(*seen.last().unwrap(), 1.0);
+    // Meshing takes the first 60%, and its stages spread over it.
+    assert!(seen.iter().any(|&f| f > 0.2 && f < 0.5), "{seen:?}");
+}

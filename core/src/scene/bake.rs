@@ -1,5 +1,6 @@
 //! Baking a scene: every object meshed, lit, solved and sampled at its user's vertices.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use super::{Object, Scene, Shape};
@@ -154,7 +155,10 @@ pub fn bake(scene: &Scene, options: &BakeOptions) -> Result<Bake, SceneError> {
     bake_with(scene, options, Progress::none())
 }
 
-/// [`bake`] with progress reporting and cancellation.
+/// [`bake`] with progress reporting and cancellation: stages named `"<object>: <stage>"`,
+/// fractions of the whole bake that never decrease and end at 1; the callback returning
+/// `false` cancels at the next check (during meshing, between stages, or at a solver
+/// iteration).
 ///
 /// # Errors
 /// As [`bake`], plus [`SceneError::Cancelled`].
@@ -220,10 +224,16 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
         TriangleBvh::new(corners)
     });
     let mut objects = Vec::with_capacity(scene.objects.len());
+    let furthest = AtomicU64::new(0f64.to_bits());
     for (index, (object, surface)) in scene.objects.iter().zip(&world).enumerate() {
         let name = || object.name.clone();
         let t0 = Instant::now();
-        let stage = |s: &str, f: f64| progress.report(&format!("{}: {s}", object.name), (index as f64 + f) / n);
+        // Reported fractions never decrease (a second mesher pass, a CG residual going up).
+        let stage = |s: &str, f: f64| {
+            let f = ((index as f64 + f) / n).clamp(0.0, 1.0);
+            let furthest = f64::from_bits(furthest.fetch_max(f.to_bits(), Ordering::Relaxed));
+            progress.report(&format!("{}: {s}", object.name), f.max(furthest))
+        };
         let (mut tet_mesh, meshing) = world_tets(object, surface, options, &stage).map_err(|e| e.at(index, name()))?;
         let meshing_ms = ms(t0);
         stage("assembly", 0.6)?;
@@ -317,6 +327,20 @@ impl TetsError {
     }
 }
 
+/// How far the meshing is when mesher stage `stage` is `f` done: the stages' shares of the time
+/// measured on the shared meshes (winding numbers about half, stencils a quarter).
+fn mesher_fraction(stage: &str, f: f64) -> f64 {
+    let (start, end) = match stage {
+        "winding numbers" => (0.0, 0.5),
+        "cut points" => (0.5, 0.6),
+        "warping" => (0.6, 0.65),
+        "stencils" => (0.65, 0.9),
+        "topology" => (0.9, 0.95),
+        _ => (0.95, 1.0),
+    };
+    start + (end - start) * f.clamp(0.0, 1.0)
+}
+
 /// The object's tets in world space: its surface meshed (progress 0 → 0.6 of the object), or its
 /// ready tet mesh transformed.
 fn world_tets(
@@ -327,7 +351,8 @@ fn world_tets(
 ) -> Result<(TetMesh, Option<MesherStats>), TetsError> {
     match &object.shape {
         Shape::Surface(_) => {
-            let mesh_progress = |s: &str, f: f64| stage(s, 0.6 * f).is_ok();
+            // The mesher reports each of its stages from 0 to 1: one fraction of the meshing.
+            let mesh_progress = |s: &str, f: f64| stage(s, 0.6 * mesher_fraction(s, f)).is_ok();
             let meshed = mesher::tetrahedralize_with(surface, &MesherOptions::with_tets(options.tets), Progress::new(&mesh_progress))
                 .map_err(TetsError::Mesher)?;
             Ok((meshed.mesh, Some(meshed.stats)))
