@@ -4,7 +4,7 @@
 //!
 //! Three methods ([`Method`]), all reaching the same answer (level-0 residual
 //! `‖b − Mφ‖/‖b‖ ≤ tolerance`):
-//! - [`Method::Pcg`]: the single-level baseline, mixed-precision Jacobi PCG ([`super::solve`]);
+//! - [`Method::Pcg`]: the single-level baseline, mixed-precision Jacobi PCG ([`super::solve()`]);
 //! - [`Method::Cascade`]: the paper's coarse-to-fine cascade (BiCGSTAB on the eq.-17 coarse
 //!   systems, CG at level 0, each level started from the interpolated coarser solution);
 //! - [`Method::MultigridPcg`]: CG preconditioned by a V-cycle on the same hierarchy (Galerkin
