@@ -30,4 +30,5 @@ bash tests/c/run.sh
 
 # The Blender add-on (tests/blender): creates .venv with bpy 4.5 from PyPI (and the Debian
 # libraries it needs), builds the C ABI library, runs the bpy tests headless with pytest.
-bash tests/blender/run.sh
+# It calls the library tests/c/run.sh has just built (test profile, target/debug).
+TRANSCUT_LIB="${TRANSCUT_LIB:-$(cd "${CARGO_TARGET_DIR:-target}/debug" && pwd)/libtranscut.so}" bash tests/blender/run.sh
