@@ -5,7 +5,7 @@ use glam::{DMat4, DVec3};
 
 use crate::mesh::{MeshError, TetMesh, TriMesh};
 use crate::optics::Medium;
-use crate::volume::{Layers, PerTetMedia, TableLayout, TetSampling, Veins, VolumeError, VoxelGrid};
+use crate::volume::{check_object, Layers, PerTetMedia, TableLayout, TetSampling, Veins, VolumeError, VoxelGrid};
 
 /// The geometry of an object, in object space (scene units).
 #[derive(Debug, Clone)]
@@ -94,15 +94,7 @@ impl MediumSource {
                                           use a voxel grid or a procedural field with a surface"
                     .into()),
             },
-            Self::Voxels { eta, g, .. } => {
-                if !(*eta >= 1.0 && *eta < 4.0) {
-                    return Err(format!("voxel medium: eta must lie in [1, 4), got {eta}"));
-                }
-                if !(*g > -1.0 && *g < 1.0) {
-                    return Err(format!("voxel medium: g must lie in (-1, 1), got {g}"));
-                }
-                Ok(())
-            }
+            Self::Voxels { eta, g, .. } => check_object(*eta, *g).map_err(|e| format!("voxel medium: {e}")),
             Self::Layers(_) | Self::Veins(_) => Ok(()),
         }
     }

@@ -82,6 +82,7 @@ pub use error::{VolumeError, VOXEL_CHANNEL_NAMES};
 pub use field::{Coefficients, MediumField, TetSampling};
 pub use layers::{Layer, LayeredField, Layers};
 pub use noise::PerlinNoise;
+pub(crate) use per_tet::check_object;
 pub use per_tet::{MaterialTable, PerTetMedia, TableLayout};
 pub use veins::{VeinParams, Veins};
 pub use voxel::VoxelGrid;
