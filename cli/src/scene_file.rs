@@ -298,14 +298,7 @@ pub fn object_medium(value: &toml::Value, mm_per_unit: f64, base_dir: &Path) -> 
             None => Ok(()),
         }
     };
-    let number = |key: &str, default: f64| -> anyhow::Result<f64> {
-        match table.get(key) {
-            None => Ok(default),
-            Some(toml::Value::Float(v)) => Ok(*v),
-            Some(toml::Value::Integer(v)) => Ok(*v as f64),
-            Some(other) => bail!("'{key}' must be a number, got {}", other.type_str()),
-        }
-    };
+    let number = |key: &str, default: f64| table_number(table, key, Some(default));
     let inner = |key: &str| -> anyhow::Result<Medium> {
         let v = table.get(key).ok_or_else(|| anyhow!("missing key '{key}'"))?;
         medium(v, mm_per_unit).with_context(|| format!("'{key}'"))
@@ -322,7 +315,7 @@ pub fn object_medium(value: &toml::Value, mm_per_unit: f64, base_dir: &Path) -> 
             let depth = match layer.get("depth_mm") {
                 None if i + 1 == list.len() => f64::INFINITY,
                 None => bail!("layer {}: missing key 'depth_mm' (only the innermost layer may omit it)", i + 1),
-                Some(v) => v.as_float().or_else(|| v.as_integer().map(|x| x as f64)).ok_or_else(|| anyhow!("layer {}: 'depth_mm' must be a number", i + 1))?,
+                Some(_) => table_number(layer, "depth_mm", None).with_context(|| format!("layer {}", i + 1))?,
             };
             let m = layer.get("medium").ok_or_else(|| anyhow!("layer {}: missing key 'medium'", i + 1))?;
             parsed.push((depth, medium(m, mm_per_unit).with_context(|| format!("layer {}", i + 1))?));
@@ -363,6 +356,16 @@ pub fn object_medium(value: &toml::Value, mm_per_unit: f64, base_dir: &Path) -> 
     medium(value, mm_per_unit).map(MediumSource::Homogeneous)
 }
 
+/// The number under `key` (an integer is read as a float), or `default` when the key is absent.
+fn table_number(table: &toml::Table, key: &str, default: Option<f64>) -> anyhow::Result<f64> {
+    match table.get(key) {
+        None => default.ok_or_else(|| anyhow!("missing key '{key}'")),
+        Some(toml::Value::Float(v)) => Ok(*v),
+        Some(toml::Value::Integer(v)) => Ok(*v as f64),
+        Some(other) => bail!("'{key}' must be a number, got {}", other.type_str()),
+    }
+}
+
 /// A medium from a preset name or a table of coefficients or artist parameters.
 pub fn medium(value: &toml::Value, mm_per_unit: f64) -> anyhow::Result<Medium> {
     let table = match value {
@@ -370,14 +373,7 @@ pub fn medium(value: &toml::Value, mm_per_unit: f64) -> anyhow::Result<Medium> {
         toml::Value::Table(t) => t,
         other => bail!("expected a preset name or a table, got {}", other.type_str()),
     };
-    let number = |key: &str, default: Option<f64>| -> anyhow::Result<f64> {
-        match table.get(key) {
-            None => default.ok_or_else(|| anyhow!("missing key '{key}'")),
-            Some(toml::Value::Float(v)) => Ok(*v),
-            Some(toml::Value::Integer(v)) => Ok(*v as f64),
-            Some(other) => bail!("'{key}' must be a number, got {}", other.type_str()),
-        }
-    };
+    let number = |key: &str, default: Option<f64>| table_number(table, key, default);
     let rgb = |key: &str| -> anyhow::Result<[f64; 3]> {
         match table.get(key) {
             None => bail!("missing key '{key}'"),
