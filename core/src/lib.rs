@@ -17,6 +17,7 @@ pub mod sparse;
 pub mod diffusion;
 pub mod volume;
 pub mod scene;
+pub mod edit;
 pub mod render;
 pub mod gpu;
 

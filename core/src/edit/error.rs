@@ -1,0 +1,52 @@
+//! Why an edit failed. Every failed edit leaves the editor exactly as it was.
+
+/// Why an edit (relight, material edit, paint, cut, split, fracture, move, recombine) failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum EditError {
+    /// A cutter (plane, stroke or solid) is degenerate or not finite.
+    #[error("invalid cutter: {0}")]
+    InvalidCutter(String),
+    /// A paint stroke or a swept cut stroke is invalid.
+    #[error("invalid stroke: {0}")]
+    InvalidStroke(String),
+    /// A material-edit region is invalid (a mask of the wrong length, a negative radius…).
+    #[error("invalid region: {0}")]
+    InvalidRegion(String),
+    /// An edit option is out of range.
+    #[error("invalid edit option: {0}")]
+    InvalidOptions(String),
+    /// The cut would remove every tetrahedron that is left.
+    #[error("the cut removes every tetrahedron of piece {piece}")]
+    NothingLeft { piece: usize },
+    /// A piece index is out of range.
+    #[error("piece {index} does not exist (there are {count})")]
+    NoSuchPiece { index: usize, count: usize },
+    /// A piece transform is not a rotation plus a translation.
+    #[error("piece transform is not rigid: {0}")]
+    NotRigid(String),
+    /// A medium is invalid.
+    #[error("medium: {0}")]
+    Medium(#[from] crate::optics::OpticsError),
+    /// Per-tet media could not be built.
+    #[error("volume: {0}")]
+    Volume(#[from] crate::volume::VolumeError),
+    /// A tet mesh produced by the edit is invalid.
+    #[error("tet mesh: {0}")]
+    Mesh(#[from] crate::mesh::TetMeshError),
+    /// A light is invalid or the source could not be computed.
+    #[error("lights: {0}")]
+    Light(#[from] crate::light::LightError),
+    /// Assembly or solve failed.
+    #[error("diffusion: {0}")]
+    Diffusion(#[from] crate::diffusion::DiffusionError),
+    /// The GPU was required and failed.
+    #[error("GPU backend: {0}")]
+    Gpu(#[from] crate::gpu::GpuError),
+    /// Meshing or baking the starting object failed.
+    #[error("scene: {0}")]
+    Scene(#[from] crate::scene::SceneError),
+    /// Cancelled through the progress callback.
+    #[error(transparent)]
+    Cancelled(#[from] crate::progress::Cancelled),
+}
