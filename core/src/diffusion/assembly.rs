@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use super::error::DiffusionError;
 use super::fem;
-use super::structure::{fill_rows, BoundaryVertices, Structure, EDGE_INDEX, INTERIOR, OTHERS};
+use super::structure::{fill_rows, fill_selected_rows, BoundaryVertices, Structure, EDGE_INDEX, INTERIOR, OTHERS};
 use crate::mesh::TetMesh;
 use crate::optics::{BoundaryTerms, Medium};
 use crate::sparse::{CsrMatrix3, CsrPattern};
@@ -150,6 +150,44 @@ impl DiffusionSystem {
         Ok(())
     }
 
+    /// Refills only the matrix rows of the vertices of `tets` for the new media table `media`
+    /// (painting, TransCut §5.2: "we only update the rows corresponding to the vertices of
+    /// tetrahedra that are affected"). Returns the number of rows refilled.
+    ///
+    /// `media` is the whole new table (indexed by the mesh's material ids, as in
+    /// [`DiffusionSystem::set_media`]); it may differ from the current one only in media used by
+    /// the listed tets (with [`crate::volume::TableLayout::PerTet`] ids, exactly the listed
+    /// tets' entries), and must keep the surface's η (the boundary terms of every boundary row
+    /// and b depend on it). Each refilled row sums its tets in the same order as a full fill,
+    /// so the matrix is bit-identical to [`DiffusionSystem::set_media`] with the same table.
+    /// On error the system is unchanged.
+    ///
+    /// # Errors
+    /// [`DiffusionError::TetOutOfRange`] for a tet id that does not exist;
+    /// [`DiffusionError::MaterialOutOfRange`], [`DiffusionError::InvalidMedium`],
+    /// [`DiffusionError::MixedRefractiveIndex`] as in [`assemble`];
+    /// [`DiffusionError::RefractiveIndexChanged`] when the surface η differs from the current
+    /// one; [`DiffusionError::UnlistedMediaChange`] naming a tet whose medium changed but which
+    /// is not listed.
+    pub fn update_media_rows(&mut self, media: &[Medium], tets: &[u32]) -> Result<usize, DiffusionError> {
+        let s = &*self.structure;
+        let rows = s.rows_of_tets(tets)?;
+        check_materials(&s.materials, media)?;
+        let (coefficients, terms) = prepare_media(s, media)?;
+        if terms != self.terms {
+            return Err(DiffusionError::RefractiveIndexChanged { old: self.terms.eta, new: terms.eta });
+        }
+        check_listed(s, &self.media, media, tets)?;
+        let discretization = self.discretization;
+        let row_ptr = s.pattern.row_ptr();
+        fill_selected_rows(self.matrix.values_mut(), row_ptr, &rows, |i, row| match discretization {
+            Discretization::TransCut => transcut_row(s, &coefficients, &terms, i, row),
+            Discretization::ConsistentFem => fem::consistent_row(s, &coefficients, &terms, i, row),
+        });
+        self.media = media.to_vec();
+        Ok(rows.len())
+    }
+
     /// Sets the transmitted source q (one entry per boundary vertex, in the order of
     /// [`DiffusionSystem::boundary`], per channel) and recomputes b ([`rhs`]). On error the
     /// system is unchanged.
@@ -236,6 +274,21 @@ fn check_materials(materials: &[u32], media: &[Medium]) -> Result<(), DiffusionE
     Ok(())
 }
 
+/// Every tet whose medium differs between `old` and `new` (bitwise, or by a table that grew)
+/// must be in `tets`.
+fn check_listed(s: &Structure, old: &[Medium], new: &[Medium], tets: &[u32]) -> Result<(), DiffusionError> {
+    let changed: Vec<bool> = new.par_iter().enumerate().map(|(m, x)| old.get(m) != Some(x)).collect();
+    let mut listed = vec![false; s.tets.len()];
+    for &t in tets {
+        listed[t as usize] = true;
+    }
+    let unlisted = s.materials.par_iter().enumerate().position_first(|(t, &m)| changed[m as usize] && !listed[t]);
+    match unlisted {
+        Some(tet) => Err(DiffusionError::UnlistedMediaChange { tet, material: s.materials[tet] }),
+        None => Ok(()),
+    }
+}
+
 /// Validates the media, derives κ and μ per material and the boundary constants of the one η of
 /// the surface media.
 pub(crate) fn prepare_media(
@@ -278,43 +331,48 @@ fn fill_matrix(
     }
 }
 
-/// TransCut eqs. 10, 13 and 14, row by row: for every tet t around vertex i and every other
+/// TransCut eqs. 10, 13 and 14, row by row ([`transcut_row`] for every row).
+pub(crate) fn fill_transcut(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, values: &mut [[f64; 3]]) {
+    fill_rows(values, s.pattern.row_ptr(), |i, row| transcut_row(s, c, terms, i, row));
+}
+
+/// Row `i` of TransCut eqs. 10, 13 and 14: for every tet t around vertex i and every other
 /// vertex j of t, the tet's part of the edge weight w_ijt = −(1/6)κ_t|kl| cot θ_kl (eq. 10) goes
 /// to M_ij as 4w_ijt (eq. 14) and to M_ii as −4w_ijt; V_t μ_t goes to M_ii (eq. 13, lumped
-/// absorption), and on boundary vertices 2S_i/(3A) ([`BoundaryTerms::matrix_diagonal`]).
-pub(crate) fn fill_transcut(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, values: &mut [[f64; 3]]) {
+/// absorption), and on boundary vertices 2S_i/(3A) ([`BoundaryTerms::matrix_diagonal`]). The
+/// tets are summed in increasing order, so a row refilled alone ([`DiffusionSystem::update_media_rows`])
+/// is bit-identical to the same row of a full fill.
+pub(crate) fn transcut_row(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, i: usize, row: &mut [[f64; 3]]) {
     let row_ptr = s.pattern.row_ptr();
     let diag = s.pattern.diagonal_positions();
-    fill_rows(values, row_ptr, |i, row| {
-        row.fill([0.0; 3]);
-        let mut d = [0.0; 3];
-        for inc in s.tets_of(i) {
-            let t = inc.tet as usize;
-            let m = s.materials[t] as usize;
-            let (kappa, mu) = (c.kappa[m], c.mu[m]);
-            let a = inc.local as usize;
-            for (k, &b) in OTHERS[a].iter().enumerate() {
-                let coef = s.edge_coef[t][EDGE_INDEX[a][b]];
-                let v = &mut row[inc.slots[k] as usize];
-                for ch in 0..3 {
-                    let w4 = -4.0 * kappa[ch] * coef;
-                    v[ch] += w4;
-                    d[ch] -= w4;
-                }
-            }
+    row.fill([0.0; 3]);
+    let mut d = [0.0; 3];
+    for inc in s.tets_of(i) {
+        let t = inc.tet as usize;
+        let m = s.materials[t] as usize;
+        let (kappa, mu) = (c.kappa[m], c.mu[m]);
+        let a = inc.local as usize;
+        for (k, &b) in OTHERS[a].iter().enumerate() {
+            let coef = s.edge_coef[t][EDGE_INDEX[a][b]];
+            let v = &mut row[inc.slots[k] as usize];
             for ch in 0..3 {
-                d[ch] += s.volume[t] * mu[ch];
+                let w4 = -4.0 * kappa[ch] * coef;
+                v[ch] += w4;
+                d[ch] -= w4;
             }
         }
-        let b = s.boundary_index[i];
-        if b != INTERIOR {
-            let x = terms.matrix_diagonal(s.boundary.area_mm2[b as usize]);
-            for dc in &mut d {
-                *dc += x;
-            }
+        for ch in 0..3 {
+            d[ch] += s.volume[t] * mu[ch];
         }
-        row[diag[i] - row_ptr[i]] = d;
-    });
+    }
+    let b = s.boundary_index[i];
+    if b != INTERIOR {
+        let x = terms.matrix_diagonal(s.boundary.area_mm2[b as usize]);
+        for dc in &mut d {
+            *dc += x;
+        }
+    }
+    row[diag[i] - row_ptr[i]] = d;
 }
 
 /// TransCut eq. 12: b_i = 8 S_i q_i / (3A(1 − Fdr)) on boundary vertices
@@ -545,6 +603,61 @@ pub(crate) mod tests {
         assert_eq!(sys.matrix().values(), fresh.matrix().values());
         // η changed from 1.5 to 1.3: b follows.
         assert_eq!(sys.rhs(), fresh.rhs());
+    }
+
+    #[test]
+    fn row_local_refill_equals_a_full_refill_and_counts_its_rows() {
+        let mut mesh = cube_mesh(4, 1.0);
+        let nt = mesh.tet_count();
+        mesh.set_materials((0..nt as u32).collect()).unwrap();
+        let base: Vec<Medium> = (0..nt).map(|t| Medium { sigma_a: [0.01 + 1e-4 * t as f64; 3], ..marble() }).collect();
+        for discretization in [Discretization::TransCut, Discretization::ConsistentFem] {
+            let mut sys = DiffusionSystem::new(&mesh, &base, 1.7, discretization).unwrap();
+            // Paint a few scattered tets (and one twice in the list).
+            let painted = [3u32, 40, 41, 200, 3, 377];
+            let mut media = base.clone();
+            for &t in &painted {
+                media[t as usize] = Medium { sigma_a: [0.3, 0.2, 0.1], sigma_s_prime: [1.5, 2.0, 2.5], ..marble() };
+            }
+            let rows = sys.update_media_rows(&media, &painted).unwrap();
+            let mut full = DiffusionSystem::new(&mesh, &base, 1.7, discretization).unwrap();
+            full.set_media(&media).unwrap();
+            assert_eq!(sys.matrix().values(), full.matrix().values(), "{discretization:?}");
+            assert_eq!(sys.media(), full.media());
+            // The count, from the tets directly.
+            let mut verts: Vec<u32> = painted.iter().flat_map(|&t| mesh.tets()[t as usize]).collect();
+            verts.sort_unstable();
+            verts.dedup();
+            assert_eq!(rows, verts.len());
+            assert!(rows < mesh.vertex_count() / 2);
+            // Rows that were not listed really were not touched: a stale matrix stays stale.
+            let mut stale = DiffusionSystem::new(&mesh, &base, 1.7, discretization).unwrap();
+            let before = stale.matrix().values().to_vec();
+            assert_eq!(stale.update_media_rows(&base, &[]).unwrap(), 0);
+            assert_eq!(stale.matrix().values(), &before[..]);
+        }
+    }
+
+    #[test]
+    fn row_local_refill_rejects_bad_input_and_leaves_the_system_unchanged() {
+        let mut mesh = cube_mesh(2, 1.0);
+        let nt = mesh.tet_count();
+        mesh.set_materials((0..nt as u32).collect()).unwrap();
+        let base = vec![marble(); nt];
+        let mut sys = assemble(&mesh, &base, 1.0).unwrap();
+        let before = sys.clone();
+        let mut media = base.clone();
+        media[5].sigma_a = [0.5; 3];
+        assert!(matches!(sys.update_media_rows(&media, &[nt as u32]), Err(DiffusionError::TetOutOfRange { tet, count }) if tet == nt && count == nt));
+        assert!(matches!(sys.update_media_rows(&media, &[4]), Err(DiffusionError::UnlistedMediaChange { tet: 5, material: 5 })));
+        assert!(matches!(sys.update_media_rows(&media[..3], &[5]), Err(DiffusionError::MaterialOutOfRange { tet: 3, .. })));
+        let eta: Vec<Medium> = base.iter().map(|m| Medium { eta: 1.3, ..*m }).collect();
+        let all: Vec<u32> = (0..nt as u32).collect();
+        assert!(matches!(sys.update_media_rows(&eta, &all), Err(DiffusionError::RefractiveIndexChanged { .. })));
+        media[5].sigma_a = [f64::NAN; 3];
+        assert!(matches!(sys.update_media_rows(&media, &[5]), Err(DiffusionError::InvalidMedium { index: 5, .. })));
+        assert_eq!(sys.matrix().values(), before.matrix().values());
+        assert_eq!(sys.media(), before.media());
     }
 
     #[test]

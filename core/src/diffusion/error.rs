@@ -119,6 +119,38 @@ pub enum DiffusionError {
         /// The tolerance asked for.
         tolerance: f64,
     },
+    /// A row-local refill ([`super::DiffusionSystem::update_media_rows`]) would change the
+    /// refractive index at the surface, which changes the boundary terms of every boundary row
+    /// and the right-hand side: use [`super::DiffusionSystem::set_media`].
+    #[error(
+        "the media change the refractive index at the surface from {old} to {new}: a row-local \
+         refill cannot change the boundary terms (refill the whole matrix)"
+    )]
+    RefractiveIndexChanged {
+        /// The η the system holds.
+        old: f64,
+        /// The η of the new media.
+        new: f64,
+    },
+    /// A tet index given to a row-local refill is out of range.
+    #[error("tet {tet} does not exist (the mesh has {count} tets)")]
+    TetOutOfRange {
+        /// The index given.
+        tet: usize,
+        /// Number of tets.
+        count: usize,
+    },
+    /// A row-local refill was given media that also change a tet it was not told about.
+    #[error(
+        "the new media change material {material} of tet {tet}, which is not in the list of \
+         changed tets (its rows would not be refilled)"
+    )]
+    UnlistedMediaChange {
+        /// A tet whose medium changed but is not listed.
+        tet: usize,
+        /// Its material id.
+        material: u32,
+    },
     /// The sparse layer failed (pattern building, preconditioner, PCG breakdown, …).
     #[error(transparent)]
     Sparse(#[from] SparseError),

@@ -50,48 +50,51 @@ pub fn assemble_consistent(
 /// Fills 4(K + C + B/(2A)) row by row (each row sums its tets, then its boundary triangles, in
 /// increasing order, so the matrix is bit-for-bit symmetric).
 pub(crate) fn fill_consistent(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, values: &mut [[f64; 3]]) {
+    fill_rows(values, s.pattern.row_ptr(), |i, row| consistent_row(s, c, terms, i, row));
+}
+
+/// Row `i` of 4(K + C + B/(2A)) (see [`fill_consistent`]).
+pub(crate) fn consistent_row(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, i: usize, row: &mut [[f64; 3]]) {
     let row_ptr = s.pattern.row_ptr();
     let diag = s.pattern.diagonal_positions();
-    fill_rows(values, row_ptr, |i, row| {
-        row.fill([0.0; 3]);
-        let d = diag[i] - row_ptr[i];
-        for inc in s.tets_of(i) {
-            let t = inc.tet as usize;
-            let m = s.materials[t] as usize;
-            let (kappa, mu) = (c.kappa[m], c.mu[m]);
-            let tet = s.tets[t];
-            let g = hat_gradients(tet.map(|v| s.positions_mm[v as usize]));
-            let v = s.volume[t];
-            let a = inc.local as usize;
-            for (k, &b) in OTHERS[a].iter().enumerate() {
-                let stiffness = v * g[a].dot(g[b]);
-                let x = &mut row[inc.slots[k] as usize];
-                for ch in 0..3 {
-                    x[ch] += 4.0 * (kappa[ch] * stiffness + mu[ch] * v / 20.0);
-                }
-            }
-            let stiffness = v * g[a].dot(g[a]);
+    row.fill([0.0; 3]);
+    let d = diag[i] - row_ptr[i];
+    for inc in s.tets_of(i) {
+        let t = inc.tet as usize;
+        let m = s.materials[t] as usize;
+        let (kappa, mu) = (c.kappa[m], c.mu[m]);
+        let tet = s.tets[t];
+        let g = hat_gradients(tet.map(|v| s.positions_mm[v as usize]));
+        let v = s.volume[t];
+        let a = inc.local as usize;
+        for (k, &b) in OTHERS[a].iter().enumerate() {
+            let stiffness = v * g[a].dot(g[b]);
+            let x = &mut row[inc.slots[k] as usize];
             for ch in 0..3 {
-                row[d][ch] += 4.0 * (kappa[ch] * stiffness + mu[ch] * v / 10.0);
+                x[ch] += 4.0 * (kappa[ch] * stiffness + mu[ch] * v / 20.0);
             }
         }
-        let b = s.boundary_index[i];
-        if b != INTERIOR {
-            for f in s.faces_of(b as usize) {
-                let area = s.face_area[f.face as usize];
-                // 4 · area (1 + δ_ij)/12 / (2A).
-                let (on, off) = (area / (3.0 * terms.a), area / (6.0 * terms.a));
-                for x in &mut row[d] {
-                    *x += on;
-                }
-                for &slot in &f.slots {
-                    for x in &mut row[slot as usize] {
-                        *x += off;
-                    }
+        let stiffness = v * g[a].dot(g[a]);
+        for ch in 0..3 {
+            row[d][ch] += 4.0 * (kappa[ch] * stiffness + mu[ch] * v / 10.0);
+        }
+    }
+    let b = s.boundary_index[i];
+    if b != INTERIOR {
+        for f in s.faces_of(b as usize) {
+            let area = s.face_area[f.face as usize];
+            // 4 · area (1 + δ_ij)/12 / (2A).
+            let (on, off) = (area / (3.0 * terms.a), area / (6.0 * terms.a));
+            for x in &mut row[d] {
+                *x += on;
+            }
+            for &slot in &f.slots {
+                for x in &mut row[slot as usize] {
+                    *x += off;
                 }
             }
         }
-    });
+    }
 }
 
 /// The consistent boundary load b_i = 4 Σ_j B_ij Q_j/(2A) = (2/A) Σ_{f ∋ i} area_f (Q_i/6 +

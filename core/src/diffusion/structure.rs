@@ -352,6 +352,50 @@ pub(crate) fn fill_rows<T: Send>(
     });
 }
 
+/// Fills only the rows `rows` (increasing, no repeats) of `values` (laid out by `row_ptr`), in
+/// parallel: `f(row, row_values)` once for each listed row. The other rows are untouched.
+///
+/// # Panics
+/// If `rows` is not strictly increasing or names a row out of range (callers build it so).
+pub(crate) fn fill_selected_rows<T: Send>(
+    values: &mut [T],
+    row_ptr: &[usize],
+    rows: &[u32],
+    f: impl Fn(usize, &mut [T]) + Sync,
+) {
+    let mut slices: Vec<(usize, &mut [T])> = Vec::with_capacity(rows.len());
+    let mut rest = values;
+    let mut consumed = 0;
+    for &r in rows {
+        let r = r as usize;
+        let (_, tail) = std::mem::take(&mut rest).split_at_mut(row_ptr[r] - consumed);
+        let (row, tail) = tail.split_at_mut(row_ptr[r + 1] - row_ptr[r]);
+        slices.push((r, row));
+        rest = tail;
+        consumed = row_ptr[r + 1];
+    }
+    slices.into_par_iter().with_min_len(ROW_BLOCK / 8).for_each(|(r, row)| f(r, row));
+}
+
+impl Structure {
+    /// The vertices of `tets` (the matrix rows their media write to), increasing, no repeats.
+    ///
+    /// # Errors
+    /// [`DiffusionError::TetOutOfRange`] naming the first tet id that does not exist.
+    pub(crate) fn rows_of_tets(&self, tets: &[u32]) -> Result<Vec<u32>, DiffusionError> {
+        if let Some(&t) = tets.iter().find(|&&t| t as usize >= self.tets.len()) {
+            return Err(DiffusionError::TetOutOfRange { tet: t as usize, count: self.tets.len() });
+        }
+        let mut hit = vec![false; self.n()];
+        for &t in tets {
+            for v in self.tets[t as usize] {
+                hit[v as usize] = true;
+            }
+        }
+        Ok((0..self.n() as u32).filter(|&v| hit[v as usize]).collect())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
