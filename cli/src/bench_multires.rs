@@ -8,7 +8,9 @@
 //! 10^(−k/2), k = 2..12, each giving one point (solve ms, ‖φ − φ*‖/‖φ*‖, worst channel) of the
 //! error–time curve; runs are interleaved method by method and the medians reported, so ratios
 //! between methods are measured back to back. Time to 1% is the fastest tolerance whose error
-//! is ≤ 1%.
+//! is ≤ 1%; the ratio of the faster multiresolution method's to single-level PCG's is the
+//! issue's Fig. 7 figure (goal ≤ 0.5). [`fig7`] does this on one system; `bench edit` reuses it
+//! with a reference solved to 1e-10.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -68,21 +70,36 @@ struct WarmEntry {
     median_warm_ms: f64,
 }
 
+/// TransCut Fig. 7 on one assembled system: the hierarchy, every method's setup, solve, curve
+/// and warm start, and the time-to-1% ratios.
+#[derive(Serialize)]
+pub(crate) struct Fig7 {
+    /// Vertices per level of the hierarchy (level 0 first).
+    levels: Vec<usize>,
+    median_hierarchy_ms: f64,
+    /// Tolerance of the reference solve φ*.
+    reference_tolerance: f64,
+    methods: Vec<MethodEntry>,
+    time_to_1pct_ratio_cascade_vs_pcg: Option<f64>,
+    time_to_1pct_ratio_mg_vs_pcg: Option<f64>,
+    /// The faster multiresolution method's time to 1% over the best single-level solver's
+    /// (Jacobi PCG, the only single-level method): the goal is ≤ 0.5.
+    pub(crate) time_to_1pct_ratio_best_multires_vs_best_single_level: Option<f64>,
+    solve_1e6_ratio_cascade_vs_pcg: f64,
+    solve_1e6_ratio_mg_vs_pcg: f64,
+}
+
 #[derive(Serialize)]
 struct SizeEntry {
     target_tets: usize,
     tets: usize,
     vertices: usize,
-    levels: Vec<usize>,
-    median_hierarchy_ms: f64,
-    methods: Vec<MethodEntry>,
-    time_to_1pct_ratio_cascade_vs_pcg: Option<f64>,
-    time_to_1pct_ratio_mg_vs_pcg: Option<f64>,
-    solve_1e6_ratio_cascade_vs_pcg: f64,
-    solve_1e6_ratio_mg_vs_pcg: f64,
+    #[serde(flatten)]
+    fig7: Fig7,
 }
 
-fn light(system: &mut DiffusionSystem, dir: DVec3) -> anyhow::Result<()> {
+/// An unshadowed sun from `dir` (towards the light), irradiance 3: q = 3 max(n·l, 0).
+pub(crate) fn light(system: &mut DiffusionSystem, dir: DVec3) -> anyhow::Result<()> {
     let l = dir.normalize();
     let q: Vec<[f64; 3]> = system.boundary().normal.iter().map(|n| [3.0 * n.dot(l).max(0.0); 3]).collect();
     system.set_source(&q)?;
@@ -112,115 +129,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mm_per_unit = 60.0 / (hi - lo).max_element();
     let medium = Medium::preset("marble")?;
     let sun = DVec3::new(0.0, 1.0, 1.0).normalize();
-    let rot = 5f64.to_radians();
-    // 5° about the x axis (the sun lies in the yz plane).
-    let sun5 = DVec3::new(sun.x, sun.y * rot.cos() - sun.z * rot.sin(), sun.y * rot.sin() + sun.z * rot.cos());
-    let tolerances: Vec<f64> = (2..=12).map(|k| 10f64.powf(-(k as f64) / 2.0)).collect();
-    let runs = args.runs as usize;
     let mut entries = Vec::new();
     for &target in &args.tets {
         let tet_mesh = tetrahedralize(&input, &MesherOptions::with_tets(target))?;
         let mut system = assemble(&tet_mesh, &[medium], mm_per_unit)?;
-        light(&mut system, sun)?;
-        let reference = MultiresSolver::new(&system, Method::Pcg, &HierarchyOptions::default())?
-            .solve(&system, None, &SolveOptions::default().with_tolerance(1e-12))?;
-        let mut hierarchy_ms = Vec::new();
-        let mut h = None;
-        for _ in 0..runs {
-            let t = Instant::now();
-            h = Some(Arc::new(hierarchy(&system, &HierarchyOptions::default())?));
-            hierarchy_ms.push(ms(t));
-        }
-        let h = h.context("at least one run")?;
-        // Interleaved runs: per run, every method back to back.
-        let mut setup = vec![Vec::new(); 3];
-        let mut solve6 = vec![Vec::new(); 3];
-        let mut its6 = vec![[0; 3]; 3];
-        let mut err6 = vec![0.0; 3];
-        let mut curve_ms = vec![vec![Vec::new(); tolerances.len()]; 3];
-        let mut curve_its = vec![vec![[0; 3]; tolerances.len()]; 3];
-        let mut curve_err = vec![vec![0.0; tolerances.len()]; 3];
-        let mut warm_cold_ms = vec![Vec::new(); 3];
-        let mut warm_ms = vec![Vec::new(); 3];
-        let mut warm_its = vec![([0; 3], [0; 3]); 3];
-        for _ in 0..runs {
-            for (m, &(method, _)) in METHODS.iter().enumerate() {
-                light(&mut system, sun)?;
-                let t = Instant::now();
-                let solver = if method == Method::Pcg {
-                    MultiresSolver::new(&system, method, &HierarchyOptions::default())?
-                } else {
-                    // The hierarchy is timed with the setup (its own median is reported too).
-                    let hh = Arc::new(hierarchy(&system, &HierarchyOptions::default())?);
-                    MultiresSolver::with_hierarchy(&system, hh, method)?
-                };
-                setup[m].push(ms(t));
-                let t = Instant::now();
-                let sol = solver.solve(&system, None, &SolveOptions::default())?;
-                solve6[m].push(ms(t));
-                its6[m] = sol.stats.iterations;
-                err6[m] = rel_error(&sol.phi, &reference.phi);
-                for (k, &tol) in tolerances.iter().enumerate() {
-                    let t = Instant::now();
-                    let s = solver.solve(&system, None, &SolveOptions::default().with_tolerance(tol))?;
-                    curve_ms[m][k].push(ms(t));
-                    curve_its[m][k] = s.stats.iterations;
-                    curve_err[m][k] = rel_error(&s.phi, &reference.phi);
-                }
-                light(&mut system, sun5)?;
-                let t = Instant::now();
-                let cold = solver.solve(&system, None, &SolveOptions::default())?;
-                warm_cold_ms[m].push(ms(t));
-                let t = Instant::now();
-                let warm = solver.solve(&system, Some(&sol.phi), &SolveOptions::default())?;
-                warm_ms[m].push(ms(t));
-                warm_its[m] = (cold.stats.iterations, warm.stats.iterations);
-            }
-        }
-        let mut methods = Vec::new();
-        for (m, &(_, name)) in METHODS.iter().enumerate() {
-            let curve: Vec<CurvePoint> = tolerances
-                .iter()
-                .enumerate()
-                .map(|(k, &tolerance)| CurvePoint {
-                    tolerance,
-                    median_solve_ms: median(curve_ms[m][k].clone()),
-                    iterations: curve_its[m][k],
-                    relative_error: curve_err[m][k],
-                })
-                .collect();
-            let time_to_1pct = curve.iter().filter(|p| p.relative_error <= 0.01).map(|p| p.median_solve_ms).reduce(f64::min);
-            methods.push(MethodEntry {
-                method: name.to_owned(),
-                median_setup_ms: median(setup[m].clone()),
-                setup_runs_ms: setup[m].clone(),
-                median_solve_1e6_ms: median(solve6[m].clone()),
-                solve_1e6_runs_ms: solve6[m].clone(),
-                iterations_1e6: its6[m],
-                error_1e6: err6[m],
-                time_to_1pct_ms: time_to_1pct,
-                curve,
-                warm_start_5deg: WarmEntry {
-                    cold_iterations: warm_its[m].0,
-                    warm_iterations: warm_its[m].1,
-                    median_cold_ms: median(warm_cold_ms[m].clone()),
-                    median_warm_ms: median(warm_ms[m].clone()),
-                },
-            });
-        }
-        let ratio = |a: Option<f64>, b: Option<f64>| Some(a? / b?);
-        entries.push(SizeEntry {
-            target_tets: target,
-            tets: tet_mesh.tets().len(),
-            vertices: system.vertex_count(),
-            levels: h.vertex_counts(),
-            median_hierarchy_ms: median(hierarchy_ms),
-            time_to_1pct_ratio_cascade_vs_pcg: ratio(methods[1].time_to_1pct_ms, methods[0].time_to_1pct_ms),
-            time_to_1pct_ratio_mg_vs_pcg: ratio(methods[2].time_to_1pct_ms, methods[0].time_to_1pct_ms),
-            solve_1e6_ratio_cascade_vs_pcg: methods[1].median_solve_1e6_ms / methods[0].median_solve_1e6_ms,
-            solve_1e6_ratio_mg_vs_pcg: methods[2].median_solve_1e6_ms / methods[0].median_solve_1e6_ms,
-            methods,
-        });
+        let fig7 = fig7(&mut system, sun, args.runs as usize, 1e-12)?;
+        entries.push(SizeEntry { target_tets: target, tets: tet_mesh.tets().len(), vertices: system.vertex_count(), fig7 });
     }
     let report = serde_json::json!({
         "suite": "multires",
@@ -233,4 +147,121 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     });
     println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())
+}
+
+/// `sun` rotated by `degrees` about the x axis.
+pub(crate) fn rotate_about_x(sun: DVec3, degrees: f64) -> DVec3 {
+    let rot = degrees.to_radians();
+    DVec3::new(sun.x, sun.y * rot.cos() - sun.z * rot.sin(), sun.y * rot.sin() + sun.z * rot.cos())
+}
+
+/// Fig. 7 on `system` lit by an unshadowed sun from `sun` ([`light`]): a reference solved to
+/// `reference_tolerance`, then per run every method back to back (setup, a 1e-6 solve, the
+/// error–time curve over the tolerances 10^(−k/2), k = 2..12, and the cold and warm solves after
+/// the sun moves 5° about x); medians over `runs`. Leaves `system` lit by the moved sun.
+pub(crate) fn fig7(system: &mut DiffusionSystem, sun: DVec3, runs: usize, reference_tolerance: f64) -> anyhow::Result<Fig7> {
+    // 5° about the x axis (the sun lies in the yz plane).
+    let sun5 = rotate_about_x(sun, 5.0);
+    let tolerances: Vec<f64> = (2..=12).map(|k| 10f64.powf(-(k as f64) / 2.0)).collect();
+    let runs = runs.max(1);
+    light(system, sun)?;
+    let reference = MultiresSolver::new(system, Method::Pcg, &HierarchyOptions::default())?
+        .solve(system, None, &SolveOptions::default().with_tolerance(reference_tolerance))?;
+    let mut hierarchy_ms = Vec::new();
+    let mut h = None;
+    for _ in 0..runs {
+        let t = Instant::now();
+        h = Some(Arc::new(hierarchy(system, &HierarchyOptions::default())?));
+        hierarchy_ms.push(ms(t));
+    }
+    let h = h.context("at least one run")?;
+    // Interleaved runs: per run, every method back to back.
+    let mut setup = vec![Vec::new(); 3];
+    let mut solve6 = vec![Vec::new(); 3];
+    let mut its6 = vec![[0; 3]; 3];
+    let mut err6 = vec![0.0; 3];
+    let mut curve_ms = vec![vec![Vec::new(); tolerances.len()]; 3];
+    let mut curve_its = vec![vec![[0; 3]; tolerances.len()]; 3];
+    let mut curve_err = vec![vec![0.0; tolerances.len()]; 3];
+    let mut warm_cold_ms = vec![Vec::new(); 3];
+    let mut warm_ms = vec![Vec::new(); 3];
+    let mut warm_its = vec![([0; 3], [0; 3]); 3];
+    for _ in 0..runs {
+        for (m, &(method, _)) in METHODS.iter().enumerate() {
+            light(system, sun)?;
+            let t = Instant::now();
+            let solver = if method == Method::Pcg {
+                MultiresSolver::new(system, method, &HierarchyOptions::default())?
+            } else {
+                // The hierarchy is timed with the setup (its own median is reported too).
+                let hh = Arc::new(hierarchy(system, &HierarchyOptions::default())?);
+                MultiresSolver::with_hierarchy(system, hh, method)?
+            };
+            setup[m].push(ms(t));
+            let t = Instant::now();
+            let sol = solver.solve(system, None, &SolveOptions::default())?;
+            solve6[m].push(ms(t));
+            its6[m] = sol.stats.iterations;
+            err6[m] = rel_error(&sol.phi, &reference.phi);
+            for (k, &tol) in tolerances.iter().enumerate() {
+                let t = Instant::now();
+                let s = solver.solve(system, None, &SolveOptions::default().with_tolerance(tol))?;
+                curve_ms[m][k].push(ms(t));
+                curve_its[m][k] = s.stats.iterations;
+                curve_err[m][k] = rel_error(&s.phi, &reference.phi);
+            }
+            light(system, sun5)?;
+            let t = Instant::now();
+            let cold = solver.solve(system, None, &SolveOptions::default())?;
+            warm_cold_ms[m].push(ms(t));
+            let t = Instant::now();
+            let warm = solver.solve(system, Some(&sol.phi), &SolveOptions::default())?;
+            warm_ms[m].push(ms(t));
+            warm_its[m] = (cold.stats.iterations, warm.stats.iterations);
+        }
+    }
+    let mut methods = Vec::new();
+    for (m, &(_, name)) in METHODS.iter().enumerate() {
+        let curve: Vec<CurvePoint> = tolerances
+            .iter()
+            .enumerate()
+            .map(|(k, &tolerance)| CurvePoint {
+                tolerance,
+                median_solve_ms: median(curve_ms[m][k].clone()),
+                iterations: curve_its[m][k],
+                relative_error: curve_err[m][k],
+            })
+            .collect();
+        let time_to_1pct = curve.iter().filter(|p| p.relative_error <= 0.01).map(|p| p.median_solve_ms).reduce(f64::min);
+        methods.push(MethodEntry {
+            method: name.to_owned(),
+            median_setup_ms: median(setup[m].clone()),
+            setup_runs_ms: setup[m].clone(),
+            median_solve_1e6_ms: median(solve6[m].clone()),
+            solve_1e6_runs_ms: solve6[m].clone(),
+            iterations_1e6: its6[m],
+            error_1e6: err6[m],
+            time_to_1pct_ms: time_to_1pct,
+            curve,
+            warm_start_5deg: WarmEntry {
+                cold_iterations: warm_its[m].0,
+                warm_iterations: warm_its[m].1,
+                median_cold_ms: median(warm_cold_ms[m].clone()),
+                median_warm_ms: median(warm_ms[m].clone()),
+            },
+        });
+    }
+    let ratio = |a: Option<f64>, b: Option<f64>| Some(a? / b?);
+    let best_multires = [methods[1].time_to_1pct_ms, methods[2].time_to_1pct_ms].into_iter().flatten().reduce(f64::min);
+    Ok(Fig7 {
+        levels: h.vertex_counts(),
+        median_hierarchy_ms: median(hierarchy_ms),
+        reference_tolerance,
+        time_to_1pct_ratio_cascade_vs_pcg: ratio(methods[1].time_to_1pct_ms, methods[0].time_to_1pct_ms),
+        time_to_1pct_ratio_mg_vs_pcg: ratio(methods[2].time_to_1pct_ms, methods[0].time_to_1pct_ms),
+        time_to_1pct_ratio_best_multires_vs_best_single_level: ratio(best_multires, methods[0].time_to_1pct_ms),
+        solve_1e6_ratio_cascade_vs_pcg: methods[1].median_solve_1e6_ms / methods[0].median_solve_1e6_ms,
+        solve_1e6_ratio_mg_vs_pcg: methods[2].median_solve_1e6_ms / methods[0].median_solve_1e6_ms,
+        methods,
+    })
 }
