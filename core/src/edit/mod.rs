@@ -1,10 +1,415 @@
 //! Interactive editing of a baked object (TransCut §5): relight, edit or paint the medium, cut,
 //! split, fracture, move and recombine pieces; every update warm-starts from the last solution.
+//!
+//! # Data model
+//!
+//! An [`Editor`] starts from one bake of one scene object ([`Editor::new`] bakes it,
+//! [`Editor::from_bake`] takes a finished [`crate::scene::ObjectBake`]). It keeps:
+//!
+//! - the **original tet mesh** as baked (world space at bake time = the *rest* space of every
+//!   piece), and the **medium per ORIGINAL tet** (a [`crate::volume::PerTetMedia`]). Material
+//!   edits and paint (TransCut §5.2) change this table, also for tets that a cut has removed,
+//!   so a later recombine or a region defined on the original object sees them. Regions and
+//!   paint strokes are evaluated on the original tets' centroids at rest placement; depths are
+//!   measured below the ORIGINAL surface;
+//! - the **pieces** ([`Piece`]): each a rest-space tet mesh whose tets carry their original ids,
+//!   a rigid transform rest → world, its own diffusion system (TransCut eqs. 10–14, assembled
+//!   with the per-tet table of its tets: material id = local tet index), its solver
+//!   ([`crate::diffusion::MultiresSolver`], the §4 hierarchy built once per piece mesh) and its
+//!   last fluence φ and radiance Lo per tet-mesh vertex.
+//!
+//! # Updates
+//!
+//! - [`Editor::relight`]: q is recomputed at every piece's world-space boundary points, with
+//!   shadows from all pieces' world surfaces; the matrices do not change;
+//! - [`Editor::edit_medium`] and [`Editor::paint`]: the per-tet table changes, and only the
+//!   matrix rows of the vertices of the affected tets are refilled
+//!   ([`crate::diffusion::DiffusionSystem::update_media_rows`], TransCut §5.2); the solver's
+//!   matrix-dependent parts are rebuilt on its hierarchy;
+//! - cuts, splits, fracture, moves and recombination rebuild the affected pieces' meshes,
+//!   systems and hierarchies (TransCut §5.1) and re-light every piece (the shadows change).
+//!
+//! Every solve is **warm-started** from the previous φ (TransCut §4.2; after a cut φ is carried
+//! over through the kept vertices). Every method returns [`UpdateStats`] with the stage timings.
+//!
+//! **A failed call leaves the editor exactly as it was**: the new state (pieces, media) is built
+//! aside and swapped in only when everything, including the solves, succeeded.
+//!
+//! Shadows come from the pieces' tet-mesh boundaries; a bake of a surface object shadows with the
+//! user's surface instead, so with shadows on the first update may differ from the bake by the
+//! difference of the two occluders (with shadows off it does not).
 
 pub mod cut;
 mod error;
 pub mod paint;
+mod piece;
 pub mod pieces;
 pub mod region;
 
+use std::time::Instant;
+
+use glam::{DMat4, DVec3};
+use rayon::prelude::*;
+
 pub use error::EditError;
+pub use paint::PaintStroke;
+pub use piece::Piece;
+pub use region::{MediumEdit, MediumOp, Region};
+
+use crate::diffusion::{Method, MultiresSolver};
+use crate::gpu::Backend;
+use crate::light::{self, Light, SourceOptions};
+use crate::mesh::TetMesh;
+use crate::progress::Progress;
+use crate::scene::{self, BakeOptions, Object, ObjectBake, Scene};
+use crate::volume::{Coefficients, PerTetMedia};
+use piece::{ms, SolveSetup, Timings};
+
+/// How the editor solves and lights.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EditOptions {
+    /// Target tetrahedra when [`Editor::new`] meshes a surface (as [`BakeOptions::tets`]).
+    pub tets: usize,
+    /// Relative residual at which every solve stops (as [`BakeOptions::tolerance`]).
+    pub tolerance: f64,
+    /// Iteration cap of every solve.
+    pub max_iterations: usize,
+    /// The solver of the updates (default [`Method::Pcg`]).
+    pub method: Method,
+    /// Where [`Method::Pcg`] solves run (as [`BakeOptions::backend`]; `None`: `TRANSCUT_BACKEND`,
+    /// else auto). The multiresolution methods run on the CPU.
+    pub backend: Option<Backend>,
+    /// Sampling of area and environment lights and shadow rays.
+    pub source: SourceOptions,
+    /// Whether pieces shadow themselves and each other.
+    pub shadows: bool,
+    /// Distance (scene units, world space) within which boundary faces of two pieces count as
+    /// touching in [`Editor::recombine`].
+    pub weld_tolerance: f64,
+}
+
+impl Default for EditOptions {
+    fn default() -> Self {
+        let bake = BakeOptions::default();
+        Self {
+            tets: bake.tets,
+            tolerance: bake.tolerance,
+            max_iterations: bake.max_iterations,
+            method: Method::Pcg,
+            backend: None,
+            source: bake.source,
+            shadows: bake.shadows,
+            weld_tolerance: 1e-6,
+        }
+    }
+}
+
+impl EditOptions {
+    fn validate(&self) -> Result<(), EditError> {
+        let bad = |s: String| Err(EditError::InvalidOptions(s));
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return bad(format!("tolerance {}: must lie in (0, 1)", self.tolerance));
+        }
+        if self.max_iterations == 0 {
+            return bad("max_iterations must be at least 1".into());
+        }
+        if self.tets == 0 {
+            return bad("tets must be at least 1".into());
+        }
+        if !(self.weld_tolerance.is_finite() && self.weld_tolerance >= 0.0) {
+            return bad(format!("weld_tolerance {}: must be finite and >= 0", self.weld_tolerance));
+        }
+        Ok(())
+    }
+
+    fn bake_options(&self) -> BakeOptions {
+        BakeOptions {
+            tets: self.tets,
+            tolerance: self.tolerance,
+            max_iterations: self.max_iterations,
+            threads: 0,
+            source: self.source,
+            shadows: self.shadows,
+            backend: self.backend,
+        }
+    }
+}
+
+/// What one update did.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct UpdateStats {
+    /// Pieces re-solved.
+    pub pieces_solved: usize,
+    /// Solver iterations per channel, summed over the pieces solved.
+    pub iterations: [usize; 3],
+    /// Matrix rows refilled by a paint or medium edit (0 for relight).
+    pub rows_rebuilt: usize,
+    /// Original tets whose medium changed (paint, medium edit) or tets of rebuilt pieces.
+    pub tets_changed: usize,
+    /// Transmitted source q (lights and shadows).
+    pub source_ms: f64,
+    /// Matrix assembly or row refill.
+    pub assembly_ms: f64,
+    /// Solver preparation: hierarchy (new meshes) and matrix-dependent operators.
+    pub hierarchy_ms: f64,
+    pub solve_ms: f64,
+    pub total_ms: f64,
+}
+
+impl UpdateStats {
+    fn new(t: &Timings, rows_rebuilt: usize, tets_changed: usize, start: Instant) -> Self {
+        Self {
+            pieces_solved: t.pieces_solved,
+            iterations: t.iterations,
+            rows_rebuilt,
+            tets_changed,
+            source_ms: t.source_ms,
+            assembly_ms: t.assembly_ms,
+            hierarchy_ms: t.hierarchy_ms,
+            solve_ms: t.solve_ms,
+            total_ms: ms(start),
+        }
+    }
+}
+
+/// An object being edited: the original mesh and its per-tet media, the pieces, the lights.
+/// See the module documentation for the data model.
+#[derive(Debug, Clone)]
+pub struct Editor {
+    original: TetMesh,
+    centroids: Vec<DVec3>,
+    media: PerTetMedia,
+    pieces: Vec<Piece>,
+    lights: Vec<Light>,
+    options: EditOptions,
+    setup: SolveSetup,
+    /// Whether the one piece is still the whole original mesh (no cut, split or weld).
+    uncut: bool,
+    /// Whether the bake returned radiance at the user's surface vertices (through the original
+    /// mesh's surface map) rather than at every tet-mesh vertex.
+    user_surface: bool,
+}
+
+impl Editor {
+    /// Meshes (if a surface) and bakes `object` under `lights` once ([`scene::bake_with`]); the
+    /// starting state.
+    ///
+    /// # Errors
+    /// [`EditError::InvalidOptions`]; [`EditError::Scene`] from the bake; those of
+    /// [`Editor::from_bake`].
+    pub fn new(object: &Object, lights: &[Light], options: &EditOptions) -> Result<Self, EditError> {
+        Self::with_progress(object, lights, options, Progress::none())
+    }
+
+    /// [`Editor::new`] with progress reporting and cancellation of the bake.
+    ///
+    /// # Errors
+    /// As [`Editor::new`], plus [`EditError::Cancelled`].
+    pub fn with_progress(
+        object: &Object,
+        lights: &[Light],
+        options: &EditOptions,
+        progress: Progress,
+    ) -> Result<Self, EditError> {
+        options.validate()?;
+        let scene = Scene { objects: vec![object.clone()], lights: lights.to_vec() };
+        let bake = scene::bake_with(&scene, &options.bake_options(), progress).map_err(|e| match e {
+            scene::SceneError::Cancelled(c) => EditError::Cancelled(c),
+            other => EditError::Scene(other),
+        })?;
+        Self::from_bake(&bake.objects[0], object.mm_per_unit, lights, options)
+    }
+
+    /// From a finished bake of a scene object: the original mesh is the bake's world-space tet
+    /// mesh, its media become one entry per tet. The solve starts from the bake's φ: when the
+    /// editor's source equals the bake's (e.g. shadows off), it takes no iteration.
+    ///
+    /// # Errors
+    /// [`EditError::InvalidOptions`] for bad options or a bake whose fluence does not match its
+    /// mesh; [`EditError::Volume`] for media that disagree on η at the surface;
+    /// [`EditError::Light`], [`EditError::Diffusion`], [`EditError::Gpu`] from the first solve.
+    pub fn from_bake(bake: &ObjectBake, mm_per_unit: f64, lights: &[Light], options: &EditOptions) -> Result<Self, EditError> {
+        options.validate()?;
+        light::validate_lights(lights)?;
+        let original = bake.tet_mesh.clone();
+        if bake.fluence.len() != original.vertex_count() {
+            return Err(EditError::InvalidOptions(format!(
+                "the bake has {} fluence values for {} tet-mesh vertices",
+                bake.fluence.len(),
+                original.vertex_count()
+            )));
+        }
+        let media = PerTetMedia::from_materials(&original, &bake.media)?;
+        let map = original.surface_map().len();
+        let user_surface = map > 0 && bake.radiance.len() == map;
+        let backend = match options.backend {
+            Some(b) => b,
+            None => Backend::from_env_or(Backend::Auto)?,
+        };
+        let setup = SolveSetup {
+            tolerance: options.tolerance,
+            max_iterations: options.max_iterations,
+            method: options.method,
+            backend,
+            mm_per_unit,
+        };
+        let centroids = centroids(&original);
+        let mut timings = Timings::default();
+        let all: Vec<u32> = (0..original.tet_count() as u32).collect();
+        let piece =
+            piece::build(original.clone(), all, DMat4::IDENTITY, &media, &setup, Some(bake.fluence.clone()), &mut timings)?;
+        let mut pieces = vec![piece];
+        piece::light_all(&mut pieces, lights, &options.source, options.shadows, &mut timings)?;
+        piece::solve(&mut pieces[0], &setup, &mut timings)?;
+        Ok(Self { original, centroids, media, pieces, lights: lights.to_vec(), options: options.clone(), setup, uncut: true, user_surface })
+    }
+
+    /// The pieces (one until a split or fracture).
+    #[must_use]
+    pub fn pieces(&self) -> &[Piece] {
+        &self.pieces
+    }
+
+    /// The current lights.
+    #[must_use]
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &EditOptions {
+        &self.options
+    }
+
+    /// The original tet mesh (rest space).
+    #[must_use]
+    pub fn original_mesh(&self) -> &TetMesh {
+        &self.original
+    }
+
+    /// The medium per ORIGINAL tet.
+    #[must_use]
+    pub fn media(&self) -> &PerTetMedia {
+        &self.media
+    }
+
+    /// Radiance at the user's vertices while the object is uncut and unmoved, in the order the
+    /// bake returned it (through the original mesh's surface map for a surface object; per
+    /// tet-mesh vertex for an object given as a tet mesh), else `None`.
+    #[must_use]
+    pub fn user_radiance(&self) -> Option<Vec<[f64; 3]>> {
+        let p = match self.pieces.as_slice() {
+            [p] if self.uncut && p.transform == DMat4::IDENTITY => p,
+            _ => return None,
+        };
+        Some(if self.user_surface {
+            self.original.sample_at_user_vertices(&p.radiance)
+        } else {
+            p.radiance.clone()
+        })
+    }
+
+    /// New lights: q recomputed on every piece (matrices unchanged), every piece re-solved from
+    /// its last φ.
+    ///
+    /// # Errors
+    /// [`EditError::Light`] for an invalid light; [`EditError::Diffusion`] / [`EditError::Gpu`]
+    /// from a solve. The editor is unchanged on error.
+    pub fn relight(&mut self, lights: &[Light]) -> Result<UpdateStats, EditError> {
+        let start = Instant::now();
+        light::validate_lights(lights)?;
+        let mut timings = Timings::default();
+        let mut pieces = self.pieces.clone();
+        piece::light_all(&mut pieces, lights, &self.options.source, self.options.shadows, &mut timings)?;
+        for p in &mut pieces {
+            piece::solve(p, &self.setup, &mut timings)?;
+        }
+        self.pieces = pieces;
+        self.lights = lights.to_vec();
+        Ok(UpdateStats::new(&timings, 0, 0, start))
+    }
+
+    /// Applies a material edit to the original tets of its region ([`Region::select`]) and
+    /// re-solves the pieces that hold any of them.
+    ///
+    /// # Errors
+    /// [`EditError::InvalidRegion`], [`EditError::InvalidOptions`] (an operation that does not
+    /// fit the object), [`EditError::Medium`], [`EditError::Volume`] (a result that is not a
+    /// valid medium, naming the tet); solve errors. The editor is unchanged on error.
+    pub fn edit_medium(&mut self, edit: &MediumEdit) -> Result<UpdateStats, EditError> {
+        let start = Instant::now();
+        edit.op.validate(self.media.eta(), self.media.g())?;
+        let tets = edit.region.select(&self.original, &self.centroids, self.setup.mm_per_unit)?;
+        let changes = region::changes(&self.media, &tets, &edit.op)?;
+        self.apply_changes(&changes, start)
+    }
+
+    /// Paints a stroke (TransCut §5.2): blends its medium into the original tets near it
+    /// ([`PaintStroke::changes`]), refills only the matrix rows of their vertices and re-solves
+    /// the pieces that hold any of them from their last φ.
+    ///
+    /// # Errors
+    /// [`EditError::InvalidStroke`]; solve errors. The editor is unchanged on error.
+    pub fn paint(&mut self, stroke: &PaintStroke) -> Result<UpdateStats, EditError> {
+        let start = Instant::now();
+        stroke.validate(self.media.eta(), self.media.g())?;
+        let changes = stroke.changes(&self.media, &self.centroids);
+        self.apply_changes(&changes, start)
+    }
+
+    /// Sets the new coefficients of original tets, refills the rows of their vertices in the
+    /// pieces that hold them, re-solves those pieces, and swaps the new state in.
+    fn apply_changes(&mut self, changes: &[(u32, Coefficients)], start: Instant) -> Result<UpdateStats, EditError> {
+        let mut media = self.media.clone();
+        for &(t, c) in changes {
+            media.set(t as usize, c)?;
+        }
+        let located = self.locate();
+        let mut per_piece: Vec<Vec<u32>> = vec![Vec::new(); self.pieces.len()];
+        for &(t, _) in changes {
+            if let Some((p, local)) = located[t as usize] {
+                per_piece[p as usize].push(local);
+            }
+        }
+        let mut timings = Timings::default();
+        let mut rows = 0;
+        let mut updated = Vec::new();
+        for (index, locals) in per_piece.iter().enumerate().filter(|(_, l)| !l.is_empty()) {
+            let mut p = self.pieces[index].clone();
+            let t = Instant::now();
+            let mut table = p.system.media().to_vec();
+            for &l in locals {
+                table[l as usize] = media.medium(p.original_tets[l as usize] as usize);
+            }
+            rows += p.system.update_media_rows(&table, locals)?;
+            timings.assembly_ms += ms(t);
+            let t = Instant::now();
+            p.solver = MultiresSolver::with_hierarchy(&p.system, p.solver.hierarchy().clone(), self.setup.method)?;
+            timings.hierarchy_ms += ms(t);
+            piece::solve(&mut p, &self.setup, &mut timings)?;
+            updated.push((index, p));
+        }
+        self.media = media;
+        for (index, p) in updated {
+            self.pieces[index] = p;
+        }
+        Ok(UpdateStats::new(&timings, rows, changes.len(), start))
+    }
+
+    /// Per original tet: (piece, local tet) holding it, or `None` once it was cut away.
+    fn locate(&self) -> Vec<Option<(u32, u32)>> {
+        let mut out = vec![None; self.original.tet_count()];
+        for (p, piece) in self.pieces.iter().enumerate() {
+            for (l, &t) in piece.original_tets.iter().enumerate() {
+                out[t as usize] = Some((p as u32, l as u32));
+            }
+        }
+        out
+    }
+}
+
+/// Centroids of a mesh's tets.
+fn centroids(mesh: &TetMesh) -> Vec<DVec3> {
+    (0..mesh.tet_count()).into_par_iter().map(|t| mesh.tet_positions(t).iter().sum::<DVec3>() / 4.0).collect()
+}

@@ -1,0 +1,249 @@
+//! One connected piece of an edited object: its rest-space tet mesh, the ids of its tets in the
+//! original mesh, its rigid placement, its diffusion system and solver, and its last solution.
+//! The functions here build, light and solve one piece; [`super::Editor`] composes them.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::{DMat3, DMat4, DVec3};
+use rayon::prelude::*;
+
+use super::error::EditError;
+use crate::diffusion::{self, DiffusionError, DiffusionSystem, Method, MultiresSolver, Solution};
+use crate::gpu::{self, Backend, GpuError};
+use crate::light::{self, Light, SourceOptions};
+use crate::mesh::{TetMesh, TriMesh, TriangleBvh};
+use crate::optics::Medium;
+use crate::sparse::hierarchy::HierarchyOptions;
+use crate::sparse::SolveOptions;
+use crate::volume::PerTetMedia;
+
+/// One connected piece: its tets (with ids in the original mesh), rest-space mesh, rigid
+/// transform rest → world, system, solver state and current results.
+#[derive(Debug, Clone)]
+pub struct Piece {
+    pub(crate) mesh: Arc<TetMesh>,
+    pub(crate) original_tets: Arc<[u32]>,
+    pub(crate) transform: DMat4,
+    pub(crate) system: DiffusionSystem,
+    pub(crate) solver: MultiresSolver,
+    pub(crate) fluence: Vec<[f64; 3]>,
+    pub(crate) radiance: Vec<[f64; 3]>,
+}
+
+impl Piece {
+    /// The tet mesh in rest space (where the object was baked). Its material ids are the local
+    /// tet indices: tet t's medium is the original tet `original_tets()[t]`'s.
+    #[must_use]
+    pub fn mesh(&self) -> &TetMesh {
+        &self.mesh
+    }
+
+    /// Per tet of [`Self::mesh`]: its id in the ORIGINAL (uncut) mesh.
+    #[must_use]
+    pub fn original_tets(&self) -> &[u32] {
+        &self.original_tets
+    }
+
+    /// The rigid transform rest → world.
+    #[must_use]
+    pub fn transform(&self) -> DMat4 {
+        self.transform
+    }
+
+    /// The fluence φ per tet-mesh vertex.
+    #[must_use]
+    pub fn fluence(&self) -> &[[f64; 3]] {
+        &self.fluence
+    }
+
+    /// Lo(x, n) per tet-mesh vertex (0 inside, clamped ≥ 0), as a bake returns it.
+    #[must_use]
+    pub fn radiance(&self) -> &[[f64; 3]] {
+        &self.radiance
+    }
+
+    /// The diffusion system (matrix, source, right-hand side) of the piece.
+    #[must_use]
+    pub fn system(&self) -> &DiffusionSystem {
+        &self.system
+    }
+
+    /// The boundary triangles in WORLD space; its user vertices are the tet-mesh vertices
+    /// (interior ones unreferenced), so [`Self::radiance`] indexes it directly.
+    ///
+    /// # Panics
+    /// Never for a piece built by the editor (its boundary has triangles of non-zero area).
+    #[must_use]
+    pub fn surface(&self) -> TriMesh {
+        let m = self.transform;
+        let positions: Vec<[f64; 3]> =
+            self.mesh.positions().iter().map(|&p| m.transform_point3(p).to_array()).collect();
+        let indices: Vec<u32> = self.mesh.boundary_faces().iter().flat_map(|f| f.vertices).collect();
+        TriMesh::from_triangles(&positions, &indices).expect("a tet mesh's boundary has triangles of non-zero area")
+    }
+
+    /// The boundary vertices (in [`DiffusionSystem::boundary`] order) and their outward
+    /// normals (rotated, normalised by [`light::transmitted_source`]), in world space.
+    fn world_boundary(&self) -> (Vec<DVec3>, Vec<DVec3>) {
+        let b = self.system.boundary();
+        let m = self.transform;
+        let rotation = DMat3::from_mat4(m);
+        let points = b.ids.par_iter().map(|&v| m.transform_point3(self.mesh.positions()[v as usize])).collect();
+        let normals = b.normal.par_iter().map(|&n| rotation * n).collect();
+        (points, normals)
+    }
+
+    /// The world-space boundary triangles, for shadows.
+    fn world_triangles(&self) -> Vec<[DVec3; 3]> {
+        let m = self.transform;
+        let p = self.mesh.positions();
+        self.mesh.boundary_faces().iter().map(|f| f.vertices.map(|v| m.transform_point3(p[v as usize]))).collect()
+    }
+}
+
+/// Times of one update's stages (ms), summed over pieces.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Timings {
+    pub source_ms: f64,
+    pub assembly_ms: f64,
+    pub hierarchy_ms: f64,
+    pub solve_ms: f64,
+    pub iterations: [usize; 3],
+    pub pieces_solved: usize,
+}
+
+/// How pieces are solved: the editor's options, resolved.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SolveSetup {
+    pub tolerance: f64,
+    pub max_iterations: usize,
+    pub method: Method,
+    pub backend: Backend,
+    pub mm_per_unit: f64,
+}
+
+/// The media table of a piece: per local tet, the medium of its original tet
+/// ([`crate::volume::TableLayout::PerTet`]-style: material id = local tet index).
+pub(crate) fn local_table(media: &PerTetMedia, original_tets: &[u32]) -> Vec<Medium> {
+    original_tets.par_iter().map(|&t| media.medium(t as usize)).collect()
+}
+
+/// Builds a piece (not yet lit or solved: φ = `warm`, radiance 0) from its rest-space mesh:
+/// material ids set to the local tet indices, the system assembled with the original tets'
+/// media (TransCut eqs. 10–14), the solver's hierarchy built (§4.1).
+///
+/// # Errors
+/// [`EditError::Mesh`] for a mesh whose ids cannot be set; [`EditError::Diffusion`] from the
+/// assembly or the hierarchy; [`EditError::InvalidOptions`] for a warm start of the wrong length.
+pub(crate) fn build(
+    mut mesh: TetMesh,
+    original_tets: Vec<u32>,
+    transform: DMat4,
+    media: &PerTetMedia,
+    setup: &SolveSetup,
+    warm: Option<Vec<[f64; 3]>>,
+    timings: &mut Timings,
+) -> Result<Piece, EditError> {
+    let t = Instant::now();
+    mesh.set_materials((0..mesh.tet_count() as u32).collect())?;
+    let table = local_table(media, &original_tets);
+    let system = diffusion::assemble(&mesh, &table, setup.mm_per_unit)?;
+    timings.assembly_ms += ms(t);
+    let t = Instant::now();
+    let solver = MultiresSolver::new(&system, setup.method, &HierarchyOptions::default())?;
+    timings.hierarchy_ms += ms(t);
+    let n = mesh.vertex_count();
+    let fluence = match warm {
+        Some(w) if w.len() != n => {
+            return Err(EditError::InvalidOptions(format!("warm start has {} entries for {n} vertices", w.len())))
+        }
+        Some(w) => w,
+        None => vec![[0.0; 3]; n],
+    };
+    Ok(Piece {
+        mesh: Arc::new(mesh),
+        original_tets: original_tets.into(),
+        transform,
+        system,
+        solver,
+        fluence,
+        radiance: vec![[0.0; 3]; n],
+    })
+}
+
+/// The occluder of every piece's world-space boundary (for shadows), `None` without shadows.
+pub(crate) fn occluder(pieces: &[Piece], shadows: bool) -> Option<TriangleBvh> {
+    shadows.then(|| TriangleBvh::new(pieces.iter().flat_map(Piece::world_triangles).collect()))
+}
+
+/// Recomputes every piece's transmitted source q (eq. 12's q) at its world-space boundary
+/// points under `lights`, shadowed by all pieces when `shadows`.
+///
+/// # Errors
+/// [`EditError::Light`] from the source; [`EditError::Diffusion`] for an invalid q.
+pub(crate) fn light_all(
+    pieces: &mut [Piece],
+    lights: &[Light],
+    source: &SourceOptions,
+    shadows: bool,
+    timings: &mut Timings,
+) -> Result<(), EditError> {
+    let t = Instant::now();
+    let occluder = occluder(pieces, shadows);
+    for piece in pieces.iter_mut() {
+        let (points, normals) = piece.world_boundary();
+        let eta = piece.system.boundary_terms().eta;
+        let q = light::transmitted_source(lights, &points, &normals, eta, occluder.as_ref(), source)?;
+        piece.system.set_source(&q)?;
+    }
+    timings.source_ms += ms(t);
+    Ok(())
+}
+
+/// Solves a piece from its current φ (warm start) and updates its radiance: with
+/// [`Method::Pcg`] on a backend other than the CPU through [`gpu::solve_on`], otherwise with
+/// the piece's [`MultiresSolver`].
+///
+/// # Errors
+/// [`EditError::Diffusion`] (not converged, …); [`EditError::Gpu`] when the GPU was required
+/// and failed.
+pub(crate) fn solve(piece: &mut Piece, setup: &SolveSetup, timings: &mut Timings) -> Result<(), EditError> {
+    let t = Instant::now();
+    let options =
+        SolveOptions { tolerance: setup.tolerance, max_iterations: setup.max_iterations, ..SolveOptions::default() };
+    let warm = Some(piece.fluence.as_slice());
+    let solution: Solution = if setup.method == Method::Pcg && setup.backend != Backend::Cpu {
+        gpu::solve_on(setup.backend, &piece.system, warm, &options)
+            .map_err(|e| match e {
+                GpuError::Diffusion(d) => EditError::Diffusion(d),
+                other => EditError::Gpu(other),
+            })?
+            .0
+    } else {
+        piece.solver.solve(&piece.system, warm, &options)?
+    };
+    piece.radiance = per_vertex_radiance(&piece.system, &solution.phi)?;
+    piece.fluence = solution.phi;
+    timings.solve_ms += ms(t);
+    for (sum, i) in timings.iterations.iter_mut().zip(solution.stats.iterations) {
+        *sum += i;
+    }
+    timings.pieces_solved += 1;
+    Ok(())
+}
+
+/// Lo(x, n) per tet-mesh vertex: eq. 3 on the boundary ([`diffusion::surface_radiance`]),
+/// clamped ≥ 0 as a bake does, 0 inside.
+fn per_vertex_radiance(system: &DiffusionSystem, phi: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, DiffusionError> {
+    let lo = diffusion::surface_radiance(system, phi)?;
+    let mut out = vec![[0.0; 3]; system.vertex_count()];
+    for (&v, l) in system.boundary().ids.iter().zip(&lo) {
+        out[v as usize] = l.map(|x| x.max(0.0));
+    }
+    Ok(out)
+}
+
+pub(crate) fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}

@@ -1,0 +1,192 @@
+//! The editor (`transcut::edit`, issue 6 items 3–7) against from-scratch bakes: relighting,
+//! material edits and painting give the solution of a fresh assembly and solve; failed edits
+//! change nothing; warm starts save iterations.
+
+use glam::{DMat3, DMat4, DVec3};
+use transcut::diffusion::Method;
+use transcut::edit::{EditError, EditOptions, Editor, MediumEdit, MediumOp, PaintStroke, Region};
+use transcut::gpu::Backend;
+use transcut::light::Light;
+use transcut::mesh::TetMesh;
+use transcut::mesher::{tetrahedralize, MesherOptions};
+use transcut::optics::Medium;
+use transcut::scene::{bake, BakeOptions, MediumSource, Object, Scene};
+use transcut::volume::{Coefficients, PerTetMedia};
+
+mod common;
+use common::uv_sphere;
+
+/// Tight enough that two solutions of the same system agree far below the asserted 1e-6.
+const TOLERANCE: f64 = 1e-11;
+
+fn marble() -> Medium {
+    Medium::preset("marble").unwrap()
+}
+
+/// A ball of radius 10 (1 unit = 1 mm), about 4k tets.
+fn ball() -> TetMesh {
+    tetrahedralize(&uv_sphere(10.0, 24, 12), &MesherOptions::with_tets(4_000)).unwrap()
+}
+
+fn options() -> EditOptions {
+    EditOptions { tolerance: TOLERANCE, shadows: false, backend: Some(Backend::Cpu), ..EditOptions::default() }
+}
+
+fn bake_options() -> BakeOptions {
+    BakeOptions { tolerance: TOLERANCE, shadows: false, backend: Some(Backend::Cpu), ..BakeOptions::default() }
+}
+
+/// The sun straight down, turned by `degrees` about the x axis.
+fn sun(degrees: f64) -> Light {
+    let d = DMat3::from_rotation_x(degrees.to_radians()) * DVec3::new(0.0, 0.0, -1.0);
+    Light::Directional { direction: d, irradiance: [2.0, 1.5, 1.0], angular_diameter_deg: 0.0 }
+}
+
+/// A fresh bake of `mesh` filled with `medium` under `lights`: radiance per tet-mesh vertex.
+fn fresh(mesh: &TetMesh, medium: MediumSource, lights: &[Light]) -> (Vec<[f64; 3]>, usize) {
+    let scene = Scene { objects: vec![Object::from_tets("ref", mesh.clone(), medium, 1.0)], lights: lights.to_vec() };
+    let b = bake(&scene, &bake_options()).unwrap();
+    let o = &b.objects[0];
+    (o.radiance.clone(), o.stats.iterations.iter().sum())
+}
+
+/// max |a − b| / max |b| over every vertex and channel.
+fn relative_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = b.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    assert!(scale > 0.0);
+    a.iter().flatten().zip(b.iter().flatten()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max) / scale
+}
+
+fn editor(mesh: &TetMesh, medium: MediumSource, lights: &[Light]) -> Editor {
+    Editor::new(&Object::from_tets("ball", mesh.clone(), medium, 1.0), lights, &options()).unwrap()
+}
+
+#[test]
+fn relight_equals_a_fresh_bake_and_a_warm_start_saves_iterations() {
+    let mesh = ball();
+    let mut ed = editor(&mesh, marble().into(), &[sun(0.0)]);
+    let stats = ed.relight(&[sun(5.0)]).unwrap();
+    let (reference, cold_iterations) = fresh(&mesh, marble().into(), &[sun(5.0)]);
+    let got = ed.user_radiance().unwrap();
+    let diff = relative_difference(&got, &reference);
+    let warm: usize = stats.iterations.iter().sum();
+    eprintln!("relight: relative difference {diff:.2e}; iterations warm {warm} vs cold {cold_iterations}; {stats:?}");
+    assert!(diff < 1e-6, "{diff}");
+    assert_eq!((stats.pieces_solved, stats.rows_rebuilt), (1, 0));
+    assert!(warm < cold_iterations, "warm {warm} vs cold {cold_iterations}");
+    assert_eq!(ed.lights(), &[sun(5.0)]);
+}
+
+#[test]
+fn a_whole_object_medium_edit_equals_baking_with_that_medium() {
+    let mesh = ball();
+    let lights = [sun(30.0)];
+    let mut ed = editor(&mesh, marble().into(), &lights);
+    let jade = Medium { sigma_a: [0.02, 0.005, 0.03], sigma_s_prime: [1.0, 1.3, 0.8], ..marble() };
+    let stats = ed.edit_medium(&MediumEdit { region: Region::All, op: MediumOp::Assign(jade) }).unwrap();
+    assert_eq!(stats.rows_rebuilt, mesh.vertex_count());
+    assert_eq!(stats.tets_changed, mesh.tet_count());
+    let (reference, _) = fresh(&mesh, jade.into(), &lights);
+    let diff = relative_difference(&ed.user_radiance().unwrap(), &reference);
+    eprintln!("assign: relative difference {diff:.2e}");
+    assert!(diff < 1e-6, "{diff}");
+
+    // Scaling σa by 2 inside a sphere equals a per-tet bake with those tets doubled.
+    let region = Region::Sphere { center: DVec3::new(0.0, 0.0, 8.0), radius: 4.0 };
+    let op = MediumOp::Scale { sigma_a: [2.0; 3], sigma_s: [1.0; 3] };
+    let stats = ed.edit_medium(&MediumEdit { region, op }).unwrap();
+    let mut expect = PerTetMedia::uniform(&mesh, &jade).unwrap();
+    let mut touched = 0;
+    for t in 0..mesh.tet_count() {
+        let c = mesh.tet_positions(t).iter().sum::<DVec3>() / 4.0;
+        if c.distance(DVec3::new(0.0, 0.0, 8.0)) <= 4.0 {
+            let j = Coefficients::from(&jade);
+            expect.set(t, Coefficients::new(j.sigma_a.map(|x| 2.0 * x), j.sigma_s_prime)).unwrap();
+            touched += 1;
+        }
+    }
+    assert_eq!(stats.tets_changed, touched);
+    assert!(touched > 10 && touched < mesh.tet_count() / 4, "{touched}");
+    assert_eq!(ed.media(), &expect);
+    let (reference, _) = fresh(&mesh, MediumSource::PerTet(expect), &lights);
+    let diff = relative_difference(&ed.user_radiance().unwrap(), &reference);
+    assert!(diff < 1e-6, "{diff}");
+}
+
+#[test]
+fn paint_rebuilds_only_the_rows_of_touched_tets_and_equals_a_fresh_per_tet_solve() {
+    let mesh = ball();
+    let lights = [sun(10.0)];
+    let mut ed = editor(&mesh, marble().into(), &lights);
+    let red = Medium { sigma_a: [0.001, 0.2, 0.3], sigma_s_prime: [3.0, 1.0, 1.0], ..marble() };
+    let points: Vec<DVec3> = (0..8).map(|k| 10.0 * DVec3::new(1.0, 0.1 * k as f64, 0.05 * k as f64).normalize()).collect();
+    let stroke = PaintStroke { points: points.clone(), radius: 1.5, medium: red, strength: 0.9 };
+    let stats = ed.paint(&stroke).unwrap();
+
+    // The touched tets, their vertices and the painted media, computed here independently.
+    let mut painted = PerTetMedia::uniform(&mesh, &marble()).unwrap();
+    let mut rows = vec![false; mesh.vertex_count()];
+    let mut touched = 0;
+    for t in 0..mesh.tet_count() {
+        let c = mesh.tet_positions(t).iter().sum::<DVec3>() / 4.0;
+        let d = points.iter().map(|p| p.distance(c)).fold(f64::INFINITY, f64::min);
+        let w = 0.9 * (-d * d / (2.0 * 1.5 * 1.5)).exp();
+        if w >= 1e-3 {
+            touched += 1;
+            painted.set(t, Coefficients::from(&marble()).lerp(&Coefficients::from(&red), w)).unwrap();
+            for v in mesh.tets()[t] {
+                rows[v as usize] = true;
+            }
+        }
+    }
+    let rows = rows.iter().filter(|&&r| r).count();
+    eprintln!("paint: {touched} tets, {rows} of {} rows; {stats:?}", mesh.vertex_count());
+    assert_eq!(stats.tets_changed, touched);
+    assert_eq!(stats.rows_rebuilt, rows);
+    assert!(rows > 20 && rows < mesh.vertex_count() / 3, "{rows}");
+    assert_eq!(ed.media(), &painted);
+    let (reference, _) = fresh(&mesh, MediumSource::PerTet(painted), &lights);
+    let diff = relative_difference(&ed.user_radiance().unwrap(), &reference);
+    eprintln!("paint: relative difference {diff:.2e}");
+    assert!(diff < 1e-5, "{diff}");
+}
+
+#[test]
+fn failed_edits_return_the_named_error_and_change_nothing() {
+    let mesh = ball();
+    let mut ed = editor(&mesh, marble().into(), &[sun(0.0)]);
+    let before = ed.user_radiance().unwrap();
+    let media = ed.media().clone();
+    let stroke = PaintStroke { points: vec![DVec3::new(10.0, 0.0, 0.0)], radius: 1.0, medium: marble(), strength: 1.0 };
+    let nan = PaintStroke { points: vec![DVec3::new(f64::NAN, 0.0, 0.0)], ..stroke.clone() };
+    assert!(matches!(ed.paint(&nan), Err(EditError::InvalidStroke(_))));
+    let negative = PaintStroke { radius: -1.0, ..stroke.clone() };
+    assert!(matches!(ed.paint(&negative), Err(EditError::InvalidStroke(_))));
+    let other_eta = PaintStroke { medium: Medium { eta: 1.2, ..marble() }, ..stroke };
+    assert!(matches!(ed.paint(&other_eta), Err(EditError::InvalidStroke(_))));
+    let mask = MediumEdit { region: Region::Mask(vec![true; mesh.tet_count() - 1]), op: MediumOp::Assign(marble()) };
+    assert!(matches!(ed.edit_medium(&mask), Err(EditError::InvalidRegion(_))));
+    let negative_result = MediumEdit { region: Region::All, op: MediumOp::Add { sigma_a: [-1.0; 3], sigma_s: [0.0; 3] } };
+    assert!(matches!(ed.edit_medium(&negative_result), Err(EditError::Volume(_))));
+    let bad_light = Light::Point { position: DVec3::new(f64::NAN, 0.0, 0.0), intensity: [1.0; 3] };
+    assert!(matches!(ed.relight(&[bad_light]), Err(EditError::Light(_))));
+    // A solve that cannot converge in one iteration fails after the matrix was refilled: the
+    // refilled copy is dropped.
+    let object = Object::from_tets("ball", mesh.clone(), marble().into(), 1.0);
+    let baked = bake(&Scene { objects: vec![object], lights: vec![sun(0.0)] }, &bake_options()).unwrap();
+    // The bake's φ already solves the editor's system: no iteration needed to start.
+    let one = EditOptions { max_iterations: 1, method: Method::Pcg, ..options() };
+    let mut strict = Editor::from_bake(&baked.objects[0], 1.0, &[sun(0.0)], &one).unwrap();
+    let radiance = strict.user_radiance().unwrap();
+    assert!(relative_difference(&radiance, &baked.objects[0].radiance) < 1e-12);
+    let triple = MediumEdit { region: Region::All, op: MediumOp::Scale { sigma_a: [3.0; 3], sigma_s: [1.0; 3] } };
+    let e = strict.edit_medium(&triple);
+    assert!(matches!(e, Err(EditError::Diffusion(_))), "{e:?}");
+    assert_eq!(strict.user_radiance().unwrap(), radiance);
+    assert_eq!(strict.pieces()[0].system().media()[0], marble());
+    assert_eq!(ed.user_radiance().unwrap(), before);
+    assert_eq!(ed.media(), &media);
+    assert_eq!(ed.lights(), &[sun(0.0)]);
+    assert_eq!(ed.pieces()[0].transform(), DMat4::IDENTITY);
+}
