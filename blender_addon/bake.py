@@ -58,14 +58,24 @@ def build_scene(lib: native.Library, job: BakeJob) -> tuple:
         raise
 
 
-def run_job(lib: native.Library, job: BakeJob, progress: Optional[Callable[[str, float], bool]] = None) -> list:
+def run_job(
+    lib: native.Library,
+    job: BakeJob,
+    progress: Optional[Callable[[str, float], bool]] = None,
+    backends: Optional[list] = None,
+) -> list:
     """Bakes the job; returns one float32 (vertex_count, 3) radiance array per mesh.
 
-    Raises :class:`native.TranscutError` (``TC_CANCELLED`` after a cancel) or :class:`BakeError`.
+    When ``backends`` is a list, one :class:`BackendInfo` per mesh is appended to it (where its
+    solve ran). Raises :class:`native.TranscutError` (``TC_CANCELLED`` after a cancel, or
+    ``TC_GPU_UNAVAILABLE`` when the GPU backend was asked for and there is none) or
+    :class:`BakeError`.
     """
     scene, indices = build_scene(lib, job)
     try:
         scene.bake(progress=progress, **job.options)
+        if backends is not None:
+            backends.extend(backend_info(scene, idx) for idx in indices)
         results = []
         for mesh, idx in zip(job.meshes, indices):
             rgb = scene.radiance(idx)
@@ -80,6 +90,37 @@ def run_job(lib: native.Library, job: BakeJob, progress: Optional[Callable[[str,
         scene.close()
 
 
+@dataclass
+class BackendInfo:
+    """Where one object's solve ran: ``"cpu"`` or ``"gpu"``, the GPU's name, why auto chose the CPU."""
+
+    backend: str
+    device: str = ""
+    fallback: str = ""
+
+
+def backend_info(scene: native.Scene, idx: int) -> BackendInfo:
+    """The backend of object ``idx`` after a bake (``"cpu"`` when the library cannot say)."""
+    lib = scene.lib
+    if not (lib.has("tc_object_device") and lib.has("tc_object_backend_fallback")):
+        return BackendInfo("cpu")
+    used = scene.stats(idx).get("backend_used", native.TC_BACKEND_CPU)
+    backend = "gpu" if used == native.TC_BACKEND_GPU else "cpu"
+    return BackendInfo(backend, scene.device(idx), scene.backend_fallback(idx))
+
+
+def backend_summary(backends: list) -> str:
+    """One line for the user: where the solves ran."""
+    if not backends:
+        return "backend unknown"
+    gpus = sorted({b.device for b in backends if b.backend == "gpu"})
+    falls = sorted({b.fallback for b in backends if b.fallback})
+    if gpus and len(gpus) == 1 and all(b.backend == "gpu" for b in backends):
+        return f"GPU: {gpus[0]}"
+    text = "CPU" if not gpus else f"CPU and GPU ({', '.join(gpus)})"
+    return text + (f"; {falls[0]}" if falls else "")
+
+
 class BakeRunner:
     """Runs :func:`run_job` on a worker thread; progress and cancel cross threads under a lock."""
 
@@ -91,6 +132,7 @@ class BakeRunner:
         self.stage = ""
         self.fraction = 0.0
         self.results: Optional[list] = None
+        self.backends: list = []
         self.error: Optional[BaseException] = None
         self._thread: Optional[threading.Thread] = None
 
@@ -117,7 +159,7 @@ class BakeRunner:
 
     def _run(self) -> None:
         try:
-            self.results = run_job(self.lib, self.job, self.progress)
+            self.results = run_job(self.lib, self.job, self.progress, self.backends)
         except BaseException as exc:  # reported by the main thread
             self.error = exc
 

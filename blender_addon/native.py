@@ -88,6 +88,7 @@ TC_CANCELLED = 10
 TC_NOT_BAKED = 11
 TC_INTERNAL_ERROR = 12
 TC_BUSY = 13
+TC_GPU_UNAVAILABLE = 14
 
 STATUS_NAMES = {
     TC_OK: "TC_OK",
@@ -104,9 +105,19 @@ STATUS_NAMES = {
     TC_NOT_BAKED: "TC_NOT_BAKED",
     TC_INTERNAL_ERROR: "TC_INTERNAL_ERROR",
     TC_BUSY: "TC_BUSY",
+    TC_GPU_UNAVAILABLE: "TC_GPU_UNAVAILABLE",
 }
 
 TC_METHOD_TRANSCUT = 0
+
+# TcBakeOptions.backend: where the diffusion solve runs; TcBakeStats.backend_used: 1 or 2.
+TC_BACKEND_DEFAULT = 0  # TRANSCUT_BACKEND (cpu, gpu, auto), else auto
+TC_BACKEND_CPU = 1
+TC_BACKEND_GPU = 2  # TC_GPU_UNAVAILABLE when no adapter can be used
+TC_BACKEND_AUTO = 3  # a hardware GPU if there is one, else the CPU (tc_object_backend_fallback says why)
+
+#: ``backend`` option names accepted by :meth:`Scene.bake` (besides the integer values).
+BACKENDS = {"default": TC_BACKEND_DEFAULT, "cpu": TC_BACKEND_CPU, "gpu": TC_BACKEND_GPU, "auto": TC_BACKEND_AUTO}
 
 
 class TcMedium(Structure):
@@ -145,6 +156,7 @@ class TcBakeOptions(Structure):
         ("shadows", c_uint32),
         ("area_samples", c_uint32),
         ("environment_samples", c_uint32),
+        ("backend", c_uint32),
     ]
 
 
@@ -162,6 +174,7 @@ class TcBakeStats(Structure):
         ("solve_ms", c_double),
         ("total_ms", c_double),
         ("clamped_vertices", c_uint64),
+        ("backend_used", c_uint32),
     ]
 
 
@@ -225,6 +238,8 @@ _OPTIONAL = {
     "tc_scene_add_environment_file": (c_int32, [_ScenePtr, c_char_p, c_double]),
     "tc_scene_clear_lights": (c_int32, [_ScenePtr]),
     "tc_object_stats": (c_int32, [_ScenePtr, c_uint32, POINTER(TcBakeStats)]),
+    "tc_object_device": (c_int32, [_ScenePtr, c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
+    "tc_object_backend_fallback": (c_int32, [_ScenePtr, c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
 }
 
 
@@ -651,7 +666,9 @@ class Scene:
 
         ``options`` are :class:`TcBakeOptions` field names (``tets``, ``tolerance``,
         ``max_iterations``, ``threads``, ``shadows``, ``area_samples``,
-        ``environment_samples``); unset fields keep the library's defaults.
+        ``environment_samples``, ``backend``); unset fields keep the library's defaults.
+        ``backend`` is a ``TC_BACKEND_*`` value or one of the names in :data:`BACKENDS`
+        (any case).
         ``progress(stage, fraction)`` may be called from several threads; returning True
         cancels (the call then raises :class:`TranscutError` with ``TC_CANCELLED``). An
         exception raised by ``progress`` cancels too and is re-raised here.
@@ -661,6 +678,10 @@ class Scene:
         for key, value in options.items():
             if key not in names:
                 raise TypeError(f"unknown bake option {key!r} (known: {', '.join(sorted(names))})")
+            if key == "backend" and isinstance(value, str):
+                if value.lower() not in BACKENDS:
+                    raise ValueError(f"unknown backend {value!r} (known: {', '.join(BACKENDS)})")
+                value = BACKENDS[value.lower()]
             current = getattr(opts, key)
             setattr(opts, key, float(value) if isinstance(current, float) else int(value))
         errors = []
@@ -696,3 +717,19 @@ class Scene:
         out = {name: getattr(st, name) for name, _ in TcBakeStats._fields_ if name != "size"}
         out["iterations"] = list(st.iterations)
         return out
+
+    def _object_text(self, name: str, obj: int) -> str:
+        fn = self.lib.function(name)
+        needed = c_size_t()
+        self._check(fn(self._h(), obj, None, 0, ctypes.byref(needed)), name)
+        buf = ctypes.create_string_buffer(needed.value)
+        self._check(fn(self._h(), obj, buf, needed.value, None), name)
+        return buf.value.decode("utf-8", "replace")
+
+    def device(self, obj: int) -> str:
+        """The GPU adapter that solved the object in the last bake ('' when the CPU did)."""
+        return self._object_text("tc_object_device", obj)
+
+    def backend_fallback(self, obj: int) -> str:
+        """Why the ``auto`` backend solved the object on the CPU ('' when it did not)."""
+        return self._object_text("tc_object_backend_fallback", obj)

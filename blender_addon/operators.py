@@ -25,7 +25,12 @@ def prepare(context) -> bake.BakeJob:
     if not lights:
         raise BakeError("the scene has no lights (and the world is black); add a light to bake")
     settings = context.scene.transcut
-    options = dict(tets=settings.tets, tolerance=settings.tolerance, shadows=1 if settings.shadows else 0)
+    options = dict(
+        tets=settings.tets,
+        tolerance=settings.tolerance,
+        shadows=1 if settings.shadows else 0,
+        backend=settings.backend.lower(),
+    )
     return bake.BakeJob(meshes, lights, options, settings.attribute_name, warnings)
 
 
@@ -67,7 +72,8 @@ class OBJECT_OT_transcut_bake(bpy.types.Operator):
         total = sum(m.vertex_count for m in runner.job.meshes)
         self.report(
             {"INFO"},
-            f"baked {len(runner.job.meshes)} object(s), {total} vertices, into '{runner.job.attribute_name}'",
+            f"baked {len(runner.job.meshes)} object(s), {total} vertices, into '{runner.job.attribute_name}'"
+            f" ({bake.backend_summary(runner.backends)})",
         )
         return {"FINISHED"}
 

@@ -51,6 +51,16 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         description="Objects shadow the lights (each other and themselves)",
         default=True,
     )
+    backend: EnumProperty(
+        name="Backend",
+        description="Where the diffusion solve runs",
+        items=(
+            ("AUTO", "Auto", "The GPU when a hardware GPU exists, else the CPU (a software Vulkan device is not used)"),
+            ("CPU", "CPU", "The CPU (always available)"),
+            ("GPU", "GPU", "The GPU, also a software device such as lavapipe; the bake fails when there is none"),
+        ),
+        default="AUTO",
+    )
     apply_modifiers: BoolProperty(
         name="Apply Modifiers",
         description=(

@@ -26,6 +26,7 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
         col.prop(settings, "tets")
         col.prop(settings, "tolerance")
         col.prop(settings, "shadows")
+        col.prop(settings, "backend")
         col.prop(settings, "apply_modifiers")
 
         obj = context.object

@@ -49,6 +49,33 @@
 #define TC_METHOD_TRANSCUT 0
 
 /**
+ * `TcBakeOptions.backend`: as the environment variable `TRANSCUT_BACKEND` says (`cpu`, `gpu`,
+ * `auto`; an unknown value fails the bake with `TC_INVALID_ARGUMENT`), `TC_BACKEND_AUTO` when
+ * it is unset or empty. The default.
+ */
+#define TC_BACKEND_DEFAULT 0
+
+/**
+ * `TcBakeOptions.backend`: solve on the CPU (always available).
+ */
+#define TC_BACKEND_CPU 1
+
+/**
+ * `TcBakeOptions.backend`: solve on the GPU (wgpu: Vulkan, Metal or DX12), also on a software
+ * adapter such as Mesa's lavapipe; `tc_scene_bake` returns `TC_GPU_UNAVAILABLE` when no
+ * adapter can be used. `TRANSCUT_GPU_ADAPTER=substring` restricts the adapters to those whose
+ * name contains it.
+ */
+#define TC_BACKEND_GPU 2
+
+/**
+ * `TcBakeOptions.backend`: the GPU when a hardware adapter exists, else the CPU (a software
+ * adapter is slower than the CPU path and is not used); `tc_object_backend_fallback` says why
+ * the CPU ran.
+ */
+#define TC_BACKEND_AUTO 3
+
+/**
  * A scene: objects (each a mesh, a medium, a transform), lights, and the results of the last
  * bake. Created by `tc_scene_create`, freed by `tc_scene_destroy`. Opaque: only pointers to it
  * are used. A scene may move between threads but serves one call at a time (`TC_BUSY`).
@@ -97,6 +124,14 @@ typedef struct TcBakeOptions {
    * Samples per point for shadowed environments (default 256).
    */
   uint32_t environment_samples;
+  /**
+   * Where the diffusion solve runs: `TC_BACKEND_DEFAULT` (default), `TC_BACKEND_CPU`,
+   * `TC_BACKEND_GPU` or `TC_BACKEND_AUTO`; another value fails with `TC_INVALID_ARGUMENT`.
+   * (This field occupies what was the struct's tail padding before it existed, so
+   * `sizeof(TcBakeOptions)` is still 48: fill the struct with `tc_bake_options_default`.)
+   * `tc_object_stats` says which backend ran (`TcBakeStats.backend_used`).
+   */
+  uint32_t backend;
 } TcBakeOptions;
 
 /**
@@ -166,6 +201,13 @@ typedef struct TcBakeStats {
    * absorbing media on coarse meshes).
    */
   uint64_t clamped_vertices;
+  /**
+   * Where the solve ran: `TC_BACKEND_CPU` (1) or `TC_BACKEND_GPU` (2). See
+   * `tc_object_device` for the GPU's name and `tc_object_backend_fallback` for why
+   * `TC_BACKEND_AUTO` chose the CPU. (Appended: a caller passing the older size, 88, gets the
+   * fields before this one and `size` = 88.)
+   */
+  uint32_t backend_used;
 } TcBakeStats;
 
 /**
@@ -294,6 +336,14 @@ typedef struct TcArtistMedium {
  */
 #define TC_BUSY 13
 
+/**
+ * The GPU was required (`TC_BACKEND_GPU`, or `TRANSCUT_BACKEND=gpu` with `TC_BACKEND_DEFAULT`)
+ * and could not be used: no adapter (no Vulkan/Metal/DX12 driver), the device could not be
+ * created, the library was built without GPU support, or the device failed during the solve.
+ * The message says which; `TC_BACKEND_AUTO` falls back to the CPU instead.
+ */
+#define TC_GPU_UNAVAILABLE 14
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -317,7 +367,9 @@ void tc_bake_options_default(struct TcBakeOptions *options);
  * successful bake, if the scene has not changed since; the scene stays usable either way.
  *
  * Errors: `TC_INVALID_ARGUMENT` (no objects, options out of range, an invalid object or
- * light, naming it), `TC_MESHING_FAILED`, `TC_SOLVE_FAILED`, `TC_CANCELLED`.
+ * light, naming it; an unknown `TRANSCUT_BACKEND` value), `TC_MESHING_FAILED`,
+ * `TC_SOLVE_FAILED`, `TC_CANCELLED`, `TC_GPU_UNAVAILABLE` (the GPU was required and cannot be
+ * used).
  */
 TcStatus tc_scene_bake(struct TcScene *scene,
                        const struct TcBakeOptions *options,
@@ -338,10 +390,38 @@ TcStatus tc_object_radiance(const struct TcScene *scene,
 
 /**
  * Writes an object's statistics of the last bake into `*out`. Set `out->size =
- * sizeof(TcBakeStats)` first; on return it holds the number of bytes written. `TC_NOT_BAKED`
- * before a successful bake or after the scene changed.
+ * sizeof(TcBakeStats)` first; on return it holds the number of bytes written: all of the
+ * struct, or the first 88 bytes (the fields before `backend_used`) for a caller built against
+ * that older struct, whose `size` is 88. A smaller size is `TC_INVALID_ARGUMENT`.
+ * `TC_NOT_BAKED` before a successful bake or after the scene changed.
  */
 TcStatus tc_object_stats(const struct TcScene *scene, uint32_t object, struct TcBakeStats *out);
+
+/**
+ * Copies the name of the GPU adapter that solved `object` in the last bake into `out` as a
+ * NUL-terminated UTF-8 string (e.g. "NVIDIA GeForce RTX 4090", "llvmpipe (LLVM 15.0.6, 256
+ * bits)"), or the empty string when the CPU solved it. `out_len` is the size of `out` in bytes;
+ * `*out_needed` (`out_needed` may be NULL) receives the size the text needs, NUL included. Pass
+ * `out` = NULL and `out_len` = 0 to ask for the size only. `TC_BUFFER_TOO_SHORT` (naming the
+ * size needed) when the text does not fit; `TC_NOT_BAKED` before a successful bake. On failure
+ * nothing is written.
+ */
+TcStatus tc_object_device(const struct TcScene *scene,
+                          uint32_t object,
+                          char *out,
+                          size_t out_len,
+                          size_t *out_needed);
+
+/**
+ * Copies why `TC_BACKEND_AUTO` (or `TRANSCUT_BACKEND=auto`) solved `object` on the CPU in the
+ * last bake (e.g. no GPU adapter, or only a software one), as `tc_object_device` copies its
+ * text; the empty string when the GPU ran or the CPU was asked for.
+ */
+TcStatus tc_object_backend_fallback(const struct TcScene *scene,
+                                    uint32_t object,
+                                    char *out,
+                                    size_t out_len,
+                                    size_t *out_needed);
 
 /**
  * The message of the last call on this thread that failed, as UTF-8; the empty string when
@@ -696,7 +776,8 @@ TC_LAYOUT_CHECK(TcBakeOptions_threads, offsetof(TcBakeOptions, threads) == 28);
 TC_LAYOUT_CHECK(TcBakeOptions_shadows, offsetof(TcBakeOptions, shadows) == 32);
 TC_LAYOUT_CHECK(TcBakeOptions_area_samples, offsetof(TcBakeOptions, area_samples) == 36);
 TC_LAYOUT_CHECK(TcBakeOptions_environment_samples, offsetof(TcBakeOptions, environment_samples) == 40);
-TC_LAYOUT_CHECK(TcBakeStats__sizeof, sizeof(TcBakeStats) == 88);
+TC_LAYOUT_CHECK(TcBakeOptions_backend, offsetof(TcBakeOptions, backend) == 44);
+TC_LAYOUT_CHECK(TcBakeStats__sizeof, sizeof(TcBakeStats) == 96);
 TC_LAYOUT_CHECK(TcBakeStats_size, offsetof(TcBakeStats, size) == 0);
 TC_LAYOUT_CHECK(TcBakeStats_tets, offsetof(TcBakeStats, tets) == 8);
 TC_LAYOUT_CHECK(TcBakeStats_vertices, offsetof(TcBakeStats, vertices) == 16);
@@ -707,4 +788,5 @@ TC_LAYOUT_CHECK(TcBakeStats_source_ms, offsetof(TcBakeStats, source_ms) == 56);
 TC_LAYOUT_CHECK(TcBakeStats_solve_ms, offsetof(TcBakeStats, solve_ms) == 64);
 TC_LAYOUT_CHECK(TcBakeStats_total_ms, offsetof(TcBakeStats, total_ms) == 72);
 TC_LAYOUT_CHECK(TcBakeStats_clamped_vertices, offsetof(TcBakeStats, clamped_vertices) == 80);
+TC_LAYOUT_CHECK(TcBakeStats_backend_used, offsetof(TcBakeStats, backend_used) == 88);
 #undef TC_LAYOUT_CHECK

@@ -4,6 +4,7 @@ use std::ffi::{c_char, c_void, CString};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
+use transcut_core::gpu::Backend;
 use transcut_core::light::SourceOptions;
 use transcut_core::scene::{bake_with, BakeOptions, SceneError};
 use transcut_core::Progress;
@@ -12,11 +13,28 @@ use super::guard::{run, Failure};
 use super::handle::{with_scene, ObjectResult, TcScene};
 use super::ptr;
 use super::status::{
-    TcStatus, TC_BUFFER_TOO_SHORT, TC_CANCELLED, TC_INVALID_ARGUMENT, TC_MESHING_FAILED, TC_SOLVE_FAILED,
+    TcStatus, TC_BUFFER_TOO_SHORT, TC_CANCELLED, TC_GPU_UNAVAILABLE, TC_INVALID_ARGUMENT, TC_MESHING_FAILED,
+    TC_SOLVE_FAILED,
 };
 
 /// The TransCut finite-element diffusion solver on a tetrahedral mesh (the only method so far).
 pub const TC_METHOD_TRANSCUT: u32 = 0;
+
+/// `TcBakeOptions.backend`: as the environment variable `TRANSCUT_BACKEND` says (`cpu`, `gpu`,
+/// `auto`; an unknown value fails the bake with `TC_INVALID_ARGUMENT`), `TC_BACKEND_AUTO` when
+/// it is unset or empty. The default.
+pub const TC_BACKEND_DEFAULT: u32 = 0;
+/// `TcBakeOptions.backend`: solve on the CPU (always available).
+pub const TC_BACKEND_CPU: u32 = 1;
+/// `TcBakeOptions.backend`: solve on the GPU (wgpu: Vulkan, Metal or DX12), also on a software
+/// adapter such as Mesa's lavapipe; `tc_scene_bake` returns `TC_GPU_UNAVAILABLE` when no
+/// adapter can be used. `TRANSCUT_GPU_ADAPTER=substring` restricts the adapters to those whose
+/// name contains it.
+pub const TC_BACKEND_GPU: u32 = 2;
+/// `TcBakeOptions.backend`: the GPU when a hardware adapter exists, else the CPU (a software
+/// adapter is slower than the CPU path and is not used); `tc_object_backend_fallback` says why
+/// the CPU ran.
+pub const TC_BACKEND_AUTO: u32 = 3;
 
 /// How to bake. Fill it with `tc_bake_options_default` (which also sets `size`), then change
 /// fields. `size` lets later versions append fields: a library reads only the fields that it
@@ -42,6 +60,12 @@ pub struct TcBakeOptions {
     pub area_samples: u32,
     /// Samples per point for shadowed environments (default 256).
     pub environment_samples: u32,
+    /// Where the diffusion solve runs: `TC_BACKEND_DEFAULT` (default), `TC_BACKEND_CPU`,
+    /// `TC_BACKEND_GPU` or `TC_BACKEND_AUTO`; another value fails with `TC_INVALID_ARGUMENT`.
+    /// (This field occupies what was the struct's tail padding before it existed, so
+    /// `sizeof(TcBakeOptions)` is still 48: fill the struct with `tc_bake_options_default`.)
+    /// `tc_object_stats` says which backend ran (`TcBakeStats.backend_used`).
+    pub backend: u32,
 }
 
 /// Statistics of one object's last bake (`tc_object_stats`). The caller sets `size` to
@@ -71,7 +95,16 @@ pub struct TcBakeStats {
     /// Surface vertices whose diffusion radiance came out negative and was clamped to 0 (very
     /// absorbing media on coarse meshes).
     pub clamped_vertices: u64,
+    /// Where the solve ran: `TC_BACKEND_CPU` (1) or `TC_BACKEND_GPU` (2). See
+    /// `tc_object_device` for the GPU's name and `tc_object_backend_fallback` for why
+    /// `TC_BACKEND_AUTO` chose the CPU. (Appended: a caller passing the older size, 88, gets the
+    /// fields before this one and `size` = 88.)
+    pub backend_used: u32,
 }
+
+/// The size of `TcBakeStats` before `backend_used` was appended: callers built against it
+/// still get the fields they know.
+const BAKE_STATS_SIZE_V1: usize = std::mem::offset_of!(TcBakeStats, backend_used);
 
 /// Progress callback: `stage` is a short UTF-8 description (valid during the call only),
 /// `fraction` in [0, 1] the part of the whole bake done (never decreasing from one call to the
@@ -95,6 +128,28 @@ fn default_options() -> TcBakeOptions {
         shadows: u32::from(core.shadows),
         area_samples: u32::try_from(source.area_samples).unwrap_or(u32::MAX),
         environment_samples: u32::try_from(source.environment_samples).unwrap_or(u32::MAX),
+        backend: TC_BACKEND_DEFAULT,
+    }
+}
+
+/// The core's backend choice for `TcBakeOptions.backend` (`None`: the environment decides).
+pub(crate) fn backend_from(value: u32, what: &str) -> Result<Option<Backend>, Failure> {
+    match value {
+        TC_BACKEND_DEFAULT => Ok(None),
+        TC_BACKEND_CPU => Ok(Some(Backend::Cpu)),
+        TC_BACKEND_GPU => Ok(Some(Backend::Gpu)),
+        TC_BACKEND_AUTO => Ok(Some(Backend::Auto)),
+        other => Err(Failure::invalid(format!(
+            "{what} = {other}: unknown backend (TC_BACKEND_DEFAULT = 0, TC_BACKEND_CPU = 1, TC_BACKEND_GPU = 2, TC_BACKEND_AUTO = 3)"
+        ))),
+    }
+}
+
+/// `TC_BACKEND_CPU` or `TC_BACKEND_GPU` for the backend that ran.
+pub(crate) fn backend_used(b: Backend) -> u32 {
+    match b {
+        Backend::Gpu => TC_BACKEND_GPU,
+        Backend::Cpu | Backend::Auto => TC_BACKEND_CPU,
     }
 }
 
@@ -145,7 +200,7 @@ unsafe fn read_options(options: *const TcBakeOptions) -> Result<BakeOptions, Fai
         threads: o.threads as usize,
         source,
         shadows: o.shadows != 0,
-        backend: None,
+        backend: backend_from(o.backend, "options->backend")?,
     })
 }
 
@@ -155,6 +210,7 @@ fn bake_failure(e: &SceneError) -> Failure {
         SceneError::Cancelled(_) => TC_CANCELLED,
         SceneError::Mesher { .. } => TC_MESHING_FAILED,
         SceneError::Diffusion { .. } => TC_SOLVE_FAILED,
+        SceneError::Gpu { .. } => TC_GPU_UNAVAILABLE,
         SceneError::NoObjects | SceneError::InvalidOptions(_) | SceneError::InvalidObject { .. } | SceneError::Light(_) => {
             TC_INVALID_ARGUMENT
         }
@@ -211,7 +267,9 @@ impl Callback {
 /// successful bake, if the scene has not changed since; the scene stays usable either way.
 ///
 /// Errors: `TC_INVALID_ARGUMENT` (no objects, options out of range, an invalid object or
-/// light, naming it), `TC_MESHING_FAILED`, `TC_SOLVE_FAILED`, `TC_CANCELLED`.
+/// light, naming it; an unknown `TRANSCUT_BACKEND` value), `TC_MESHING_FAILED`,
+/// `TC_SOLVE_FAILED`, `TC_CANCELLED`, `TC_GPU_UNAVAILABLE` (the GPU was required and cannot be
+/// used).
 #[no_mangle]
 pub unsafe extern "C" fn tc_scene_bake(
     scene: *mut TcScene,
@@ -270,8 +328,10 @@ pub unsafe extern "C" fn tc_object_radiance(scene: *const TcScene, object: u32, 
 }
 
 /// Writes an object's statistics of the last bake into `*out`. Set `out->size =
-/// sizeof(TcBakeStats)` first; on return it holds the number of bytes written. `TC_NOT_BAKED`
-/// before a successful bake or after the scene changed.
+/// sizeof(TcBakeStats)` first; on return it holds the number of bytes written: all of the
+/// struct, or the first 88 bytes (the fields before `backend_used`) for a caller built against
+/// that older struct, whose `size` is 88. A smaller size is `TC_INVALID_ARGUMENT`.
+/// `TC_NOT_BAKED` before a successful bake or after the scene changed.
 #[no_mangle]
 pub unsafe extern "C" fn tc_object_stats(scene: *const TcScene, object: u32, out: *mut TcBakeStats) -> TcStatus {
     run("tc_object_stats", || {
@@ -279,9 +339,10 @@ pub unsafe extern "C" fn tc_object_stats(scene: *const TcScene, object: u32, out
         // SAFETY: checked; `size` is the first field.
         let size = unsafe { out.cast::<u32>().read() } as usize;
         let ours = std::mem::size_of::<TcBakeStats>();
-        if size < ours {
+        if size < BAKE_STATS_SIZE_V1 {
             return Err(Failure::invalid(format!("out->size = {size}, expected sizeof(TcBakeStats) = {ours}")));
         }
+        let written = if size >= ours { ours } else { BAKE_STATS_SIZE_V1 };
         // SAFETY: the caller's contract.
         let stats = unsafe {
             with_scene(scene, |s| {
@@ -289,7 +350,7 @@ pub unsafe extern "C" fn tc_object_stats(scene: *const TcScene, object: u32, out
                 let count = |n: usize| n as u64;
                 let iterations = st.iterations.map(|i| u32::try_from(i).unwrap_or(u32::MAX));
                 Ok(TcBakeStats {
-                    size: ours as u32,
+                    size: written as u32,
                     tets: count(st.tets),
                     vertices: count(st.vertices),
                     iterations,
@@ -299,11 +360,103 @@ pub unsafe extern "C" fn tc_object_stats(scene: *const TcScene, object: u32, out
                     solve_ms: st.solve_ms,
                     total_ms: st.total_ms,
                     clamped_vertices: count(st.clamped_vertices),
+                    backend_used: backend_used(st.backend),
                 })
             })?
         };
-        // SAFETY: checked above.
-        unsafe { ptr::write(out, stats) };
+        // SAFETY: checked above; the caller's struct has at least `written` bytes (its `size`).
+        // A byte copy of a prefix (padding bytes included) of a fully built value.
+        unsafe { std::ptr::copy_nonoverlapping((&raw const stats).cast::<u8>(), out.cast::<u8>(), written) };
         Ok(())
+    })
+}
+
+/// Copies `text` and its NUL into the caller's `out[0..out_len]` and its size (bytes with the
+/// NUL) into `*out_needed` (when not NULL). `out` may be NULL when `out_len` is 0: only the size
+/// is returned. Nothing is written on failure.
+///
+/// # Safety
+/// `out` NULL or `out_len` writable bytes; `out_needed` NULL or writable.
+unsafe fn copy_text(text: &str, out: *mut c_char, out_len: usize, out_needed: *mut usize) -> Result<(), Failure> {
+    if !out_needed.is_null() && !out_needed.is_aligned() {
+        return Err(Failure::invalid("`out_needed` is not aligned for its type"));
+    }
+    let needed = text.len() + 1;
+    if out.is_null() {
+        if out_len != 0 {
+            return Err(Failure::new(super::status::TC_NULL_POINTER, format!("`out` is NULL but out_len is {out_len}")));
+        }
+    } else if out_len < needed {
+        return Err(Failure::new(
+            TC_BUFFER_TOO_SHORT,
+            format!("out_len = {out_len} bytes, but the text needs {needed} (with its NUL)"),
+        ));
+    } else {
+        // SAFETY: `needed ≤ out_len` writable bytes (caller's contract); the text has no NUL
+        // (the core's strings come from Rust, a NUL would only truncate it for C).
+        unsafe {
+            std::ptr::copy_nonoverlapping(text.as_ptr(), out.cast::<u8>(), text.len());
+            out.add(text.len()).write(0);
+        }
+    }
+    if !out_needed.is_null() {
+        // SAFETY: checked above.
+        unsafe { ptr::write(out_needed, needed) };
+    }
+    Ok(())
+}
+
+/// Which text of an object's stats to copy.
+unsafe fn object_text(
+    scene: *const TcScene,
+    object: u32,
+    out: *mut c_char,
+    out_len: usize,
+    out_needed: *mut usize,
+    pick: impl FnOnce(&transcut_core::scene::ObjectStats) -> String,
+) -> Result<(), Failure> {
+    // SAFETY: the caller's contract.
+    let text = unsafe { with_scene(scene, |s| Ok(pick(&s.result(object)?.stats)))? };
+    // SAFETY: the caller's contract.
+    unsafe { copy_text(&text, out, out_len, out_needed) }
+}
+
+/// Copies the name of the GPU adapter that solved `object` in the last bake into `out` as a
+/// NUL-terminated UTF-8 string (e.g. "NVIDIA GeForce RTX 4090", "llvmpipe (LLVM 15.0.6, 256
+/// bits)"), or the empty string when the CPU solved it. `out_len` is the size of `out` in bytes;
+/// `*out_needed` (`out_needed` may be NULL) receives the size the text needs, NUL included. Pass
+/// `out` = NULL and `out_len` = 0 to ask for the size only. `TC_BUFFER_TOO_SHORT` (naming the
+/// size needed) when the text does not fit; `TC_NOT_BAKED` before a successful bake. On failure
+/// nothing is written.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_device(
+    scene: *const TcScene,
+    object: u32,
+    out: *mut c_char,
+    out_len: usize,
+    out_needed: *mut usize,
+) -> TcStatus {
+    run("tc_object_device", || {
+        // SAFETY: the caller's contract.
+        unsafe { object_text(scene, object, out, out_len, out_needed, |st| st.device.clone().unwrap_or_default()) }
+    })
+}
+
+/// Copies why `TC_BACKEND_AUTO` (or `TRANSCUT_BACKEND=auto`) solved `object` on the CPU in the
+/// last bake (e.g. no GPU adapter, or only a software one), as `tc_object_device` copies its
+/// text; the empty string when the GPU ran or the CPU was asked for.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_backend_fallback(
+    scene: *const TcScene,
+    object: u32,
+    out: *mut c_char,
+    out_len: usize,
+    out_needed: *mut usize,
+) -> TcStatus {
+    run("tc_object_backend_fallback", || {
+        // SAFETY: the caller's contract.
+        unsafe {
+            object_text(scene, object, out, out_len, out_needed, |st| st.backend_fallback.clone().unwrap_or_default())
+        }
     })
 }

@@ -44,6 +44,11 @@ pub const TC_INTERNAL_ERROR: TcStatus = TcStatus(12);
 /// The scene is in use by another call that has not returned: from another thread, or a call
 /// on the same scene from inside its progress callback. A `TcScene` serves one call at a time.
 pub const TC_BUSY: TcStatus = TcStatus(13);
+/// The GPU was required (`TC_BACKEND_GPU`, or `TRANSCUT_BACKEND=gpu` with `TC_BACKEND_DEFAULT`)
+/// and could not be used: no adapter (no Vulkan/Metal/DX12 driver), the device could not be
+/// created, the library was built without GPU support, or the device failed during the solve.
+/// The message says which; `TC_BACKEND_AUTO` falls back to the CPU instead.
+pub const TC_GPU_UNAVAILABLE: TcStatus = TcStatus(14);
 
 impl TcStatus {
     /// The constant's name, e.g. `"TC_NULL_POINTER"`, or `"unknown status"`.
@@ -64,6 +69,7 @@ impl TcStatus {
             11 => c"TC_NOT_BAKED",
             12 => c"TC_INTERNAL_ERROR",
             13 => c"TC_BUSY",
+            14 => c"TC_GPU_UNAVAILABLE",
             _ => c"unknown status",
         }
     }

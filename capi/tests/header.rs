@@ -61,7 +61,8 @@ fn layouts() -> Vec<Layout> {
             threads,
             shadows,
             area_samples,
-            environment_samples
+            environment_samples,
+            backend
         }),
         layout!(TcBakeStats {
             size,
@@ -73,7 +74,8 @@ fn layouts() -> Vec<Layout> {
             source_ms,
             solve_ms,
             total_ms,
-            clamped_vertices
+            clamped_vertices,
+            backend_used
         }),
     ]
 }

@@ -6,6 +6,7 @@ Bakes are small (15k tets, a 32×16 UV sphere) so the whole file runs in well un
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -431,6 +432,51 @@ def test_progress_reported_and_cancel_changes_nothing(scene, addon):
     assert snapshot() == before
 
 
+def test_backend_setting_reaches_the_library(scene, addon):
+    """Scene > TransCut > Backend is passed to the bake: CPU solves on the CPU; GPU on the
+    adapter there is (lavapipe without a GPU; TRANSCUT_GPU_TESTS=skip skips that part, loudly)
+    and agrees with the CPU; Auto agrees too and says where it ran. The operator's report names
+    the backend."""
+    require_library()
+    obj = add_sphere()
+    add_light("SUN", rotation=(math.radians(30), 0.0, 0.0), energy=3.0)
+    select_only(obj)
+    ctx = bpy.context
+    lib = addon.library.get(ctx)
+    settings = ctx.scene.transcut
+    assert settings.backend == "AUTO"
+
+    def run(backend):
+        settings.backend = backend
+        job = addon.operators.prepare(ctx)
+        assert job.options["backend"] == backend.lower()
+        infos = []
+        (rgb,) = addon.bake.run_job(lib, job, None, infos)
+        return rgb, infos[0]
+
+    cpu, info = run("CPU")
+    assert (info.backend, info.device, info.fallback) == ("cpu", "", "")
+    scale = float(np.abs(cpu).max())
+    auto, info = run("AUTO")
+    if info.backend == "cpu":
+        assert info.fallback, "auto on the CPU says why"
+        np.testing.assert_array_equal(auto, cpu)
+    else:
+        assert info.device and not info.fallback
+        np.testing.assert_allclose(auto, cpu, rtol=0, atol=1e-5 * scale)
+    if os.environ.get("TRANSCUT_GPU_TESTS") == "skip":
+        print("\n**** TRANSCUT_GPU_TESTS=skip: THE ADD-ON'S GPU BACKEND IS NOT TESTED ****\n")
+    else:
+        gpu, info = run("GPU")
+        assert info.backend == "gpu" and info.device and not info.fallback, info
+        np.testing.assert_allclose(gpu, cpu, rtol=0, atol=1e-5 * scale)
+        assert addon.bake.backend_summary([info]) == f"GPU: {info.device}"
+    settings.backend = "CPU"
+    assert bake() == {"FINISHED"}
+    np.testing.assert_array_equal(check_attribute(obj, len(obj.data.vertices)), cpu)
+    assert addon.bake.backend_summary([addon.bake.BackendInfo("cpu")]) == "CPU"
+
+
 # -- media sources and world textures --------------------------------------------------------
 
 
@@ -559,7 +605,7 @@ def test_panels_draw(scene, addon):
         fake = type("P", (), {"layout": RecordingLayout(log)})()
         panel_cls.draw(fake, bpy.context)
         assert ("operator", "object.transcut_bake") in log
-        assert ("prop", "tets") in log and ("prop", "attribute_name") in log
+        assert ("prop", "tets") in log and ("prop", "attribute_name") in log and ("prop", "backend") in log
         if source == "COEFFICIENTS":
             assert ("prop", "sigma_s_prime") in log
 

@@ -262,8 +262,14 @@ int main(void) {
     TcBakeOptions options;
     tc_bake_options_default(&options);
     CHECK(options.size == sizeof options, "options size");
+    CHECK(options.backend == TC_BACKEND_DEFAULT, "default backend");
     options.tets = 12000;
     options.shadows = 0; /* the exact (unsampled) constant-sky source */
+    options.backend = 9; /* no such backend: refused, naming the field */
+    CHECK(tc_scene_bake(scene, &options, NULL, NULL) == TC_INVALID_ARGUMENT &&
+              strstr(tc_last_error_message(), "options->backend = 9") != NULL,
+          "unknown backend: %s", tc_last_error_message());
+    options.backend = TC_BACKEND_CPU; /* valgrind and a GPU driver do not mix */
     Progress progress = {0, 0, 0.0, 1};
     OK(tc_scene_bake(scene, &options, on_progress, &progress));
     CHECK(progress.calls > 3 && progress.monotone && progress.last_fraction == 1.0,
@@ -280,6 +286,15 @@ int main(void) {
     OK(tc_object_stats(scene, ball, &stats));
     CHECK(stats.tets > 6000 && stats.tets < 24000 && stats.iterations[0] > 0 && stats.total_ms > 0.0,
           "stats: %llu tets, %u iterations", (unsigned long long)stats.tets, stats.iterations[0]);
+    CHECK(stats.size == sizeof stats && stats.backend_used == TC_BACKEND_CPU, "backend used %u", stats.backend_used);
+    size_t needed = 0;
+    char device[8] = "xxxxxxx";
+    OK(tc_object_device(scene, ball, NULL, 0, &needed));
+    CHECK(needed == 1, "the CPU ran: empty device name (%zu bytes)", needed);
+    OK(tc_object_device(scene, ball, device, sizeof device, NULL));
+    CHECK(device[0] == '\0', "empty device name");
+    OK(tc_object_backend_fallback(scene, ball, device, sizeof device, &needed));
+    CHECK(device[0] == '\0' && needed == 1, "no fallback when the CPU was asked for");
 
     /* Against the closed form at R = 20 mm. Two errors separate the bake from it: the surface
      * is the inscribed polyhedron (faces of this 4-times subdivided icosahedron lie at most

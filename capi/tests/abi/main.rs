@@ -9,6 +9,7 @@ mod abi;
 
 mod common;
 
+mod backend;
 mod bake;
 mod concurrency;
 mod misuse;
