@@ -200,11 +200,11 @@ mod tests {
         assert_eq!(Region::All.select(&m, &c, 1.0).unwrap(), vec![0, 1, 2, 3, 4, 5]);
         let mask = vec![true, false, false, true, false, true];
         assert_eq!(Region::Mask(mask).select(&m, &c, 1.0).unwrap(), vec![0, 3, 5]);
-        // Centroids are permutations of (1/4, 1/2, 3/4); tets 0 (x=3/4,y=1/2,z=1/4)…
+        // Centroids are permutations of (1/4, 1/2, 3/4).
         let near_x = Region::Sphere { center: DVec3::new(1.0, 0.5, 0.5), radius: 0.45 };
         let picked = near_x.select(&m, &c, 1.0).unwrap();
-        for t in 0..6 {
-            assert_eq!(picked.contains(&(t as u32)), c[t].distance(DVec3::new(1.0, 0.5, 0.5)) <= 0.45);
+        for (t, centroid) in c.iter().enumerate() {
+            assert_eq!(picked.contains(&(t as u32)), centroid.distance(DVec3::new(1.0, 0.5, 0.5)) <= 0.45);
         }
         assert!(!picked.is_empty() && picked.len() < 6);
         // Every centroid is 1/4 unit deep: 1 mm at 4 mm per unit.
