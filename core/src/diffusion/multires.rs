@@ -112,6 +112,33 @@ impl MultiresSolver {
         self.method
     }
 
+    /// The multigrid of [`Method::MultigridPcg`] (`None` for the other methods), e.g. for
+    /// [`crate::gpu::GpuSolver::with_multigrid`].
+    #[must_use]
+    pub fn multigrid(&self) -> Option<&Multigrid> {
+        match &self.prepared {
+            Prepared::Multigrid(m) => Some(m),
+            _ => None,
+        }
+    }
+
+    /// [`Self::solve`] on `backend`: [`Method::Pcg`] and [`Method::MultigridPcg`] run on the GPU
+    /// when it is chosen (the V-cycle on the device, see [`crate::gpu::GpuSolver::with_multigrid`]);
+    /// [`Method::Cascade`] runs on the CPU ([`crate::gpu::BackendReport::fallback`] says so under
+    /// `Auto`; `Gpu` is an error). See [`crate::gpu::solve_multires_on`].
+    ///
+    /// # Errors
+    /// Those of [`crate::gpu::solve_multires_on`].
+    pub fn solve_on(
+        &self,
+        backend: crate::gpu::Backend,
+        system: &DiffusionSystem,
+        warm_start: Option<&[[f64; 3]]>,
+        options: &SolveOptions<'_>,
+    ) -> Result<(Solution, crate::gpu::BackendReport), crate::gpu::GpuError> {
+        crate::gpu::solve_multires_on(backend, self, system, warm_start, options)
+    }
+
     /// Solves `M φ = b` of `system` (the one this solver was prepared for), from `warm_start`
     /// (a previous φ) or cold.
     ///

@@ -5,7 +5,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use super::error::GpuError;
-use crate::diffusion::{self, DiffusionSystem, Solution};
+use crate::diffusion::{self, DiffusionSystem, Method, MultiresSolver, Solution};
 use crate::sparse::SolveOptions;
 
 /// The environment variable that chooses the backend when the caller does not.
@@ -150,6 +150,83 @@ pub fn solve(
         match backend {
             Backend::Auto => cpu(Some(GpuError::NotBuilt.to_string())),
             _ => Err(GpuError::NotBuilt),
+        }
+    }
+}
+
+/// [`MultiresSolver::solve`] on `backend`, like [`solve`]: [`Method::Pcg`] is [`solve`];
+/// [`Method::MultigridPcg`] runs CG preconditioned by the solver's V-cycle on the device
+/// ([`super::GpuSolver::with_multigrid`]: smoothing, restriction, prolongation and the coarsest
+/// solve as kernels, the hierarchy and Galerkin operators of the solver uploaded once per call)
+/// on the GPU, [`MultiresSolver::solve`] on the CPU; [`Method::Cascade`] has no GPU path: `Auto`
+/// runs it on the CPU and says so, `Gpu` is an error. `Auto` skips a software adapter as
+/// [`solve`] does.
+///
+/// # Errors
+/// As [`solve`]; [`GpuError::Unsupported`] for the cascade on [`Backend::Gpu`].
+pub fn solve_multires(
+    backend: Backend,
+    solver: &MultiresSolver,
+    system: &DiffusionSystem,
+    warm_start: Option<&[[f64; 3]]>,
+    options: &SolveOptions<'_>,
+) -> Result<(Solution, BackendReport), GpuError> {
+    let cpu = |fallback: Option<String>| -> Result<(Solution, BackendReport), GpuError> {
+        let solution = solver.solve(system, warm_start, options)?;
+        Ok((
+            solution,
+            BackendReport {
+                requested: backend,
+                used: Backend::Cpu,
+                device: None,
+                fallback,
+                #[cfg(feature = "gpu")]
+                gpu: None,
+            },
+        ))
+    };
+    match (backend, solver.method()) {
+        (Backend::Cpu, _) => cpu(None),
+        (_, Method::Pcg) => solve(backend, system, warm_start, options),
+        (Backend::Auto, Method::Cascade) => cpu(Some("the multiresolution cascade runs on the CPU only".into())),
+        (_, Method::Cascade) => Err(GpuError::Unsupported {
+            what: "the multiresolution cascade on the GPU (Method::MultigridPcg and Method::Pcg run there)",
+        }),
+        (_, Method::MultigridPcg) => {
+            #[cfg(feature = "gpu")]
+            {
+                let context = match super::GpuContext::shared() {
+                    Ok(c) => c,
+                    Err(e) if backend == Backend::Auto => return cpu(Some(e.to_string())),
+                    Err(e) => return Err(e),
+                };
+                if backend == Backend::Auto && context.is_software() {
+                    return cpu(Some(format!(
+                        "the only GPU adapter is a software one ({}), slower than the CPU path; \
+                         TRANSCUT_BACKEND=gpu uses it anyway",
+                        context.device_name()
+                    )));
+                }
+                let mg = solver.multigrid().ok_or(GpuError::Unsupported { what: "a multigrid solver without its multigrid" })?;
+                let out = super::GpuSolver::with_multigrid(context, system, mg)?.solve(system, warm_start, options)?;
+                Ok((
+                    out.solution,
+                    BackendReport {
+                        requested: backend,
+                        used: Backend::Gpu,
+                        device: Some(context.device_name().to_owned()),
+                        fallback: None,
+                        gpu: Some(out.stats),
+                    },
+                ))
+            }
+            #[cfg(not(feature = "gpu"))]
+            {
+                match backend {
+                    Backend::Auto => cpu(Some(GpuError::NotBuilt.to_string())),
+                    _ => Err(GpuError::NotBuilt),
+                }
+            }
         }
     }
 }

@@ -13,8 +13,13 @@
 //!   Jacobi-preconditioned CG in f32 entirely on the device, inside an f64 iterative refinement
 //!   on the host so the result meets the same f64 tolerance as [`crate::diffusion::solve`]
 //!   (see [`pcg`](mod@pcg)).
-//! - [`assemble`], [`spmv_dot`], [`dot`], [`surface_radiance`] (eq. 3): single kernels with
-//!   CPU twins, compared in `core/tests/gpu*.rs`.
+//! - [`GpuSolver::with_multigrid`] / [`solve_multires_on`]: the same refinement around CG
+//!   preconditioned by the multigrid V-cycle of [`crate::sparse::hierarchy`] on the device
+//!   (Chebyshev–Jacobi smoothing, restriction `Pᵀ`, prolongation `P` of TransCut eq. 16, the
+//!   coarsest solve as kernels; `core/src/gpu/multigrid.rs`).
+//! - [`assemble`], [`spmv_dot`], [`dot`], [`surface_radiance`] (eq. 3), [`restrict`],
+//!   [`prolong_add`], [`vcycle`]: single kernels (or one V-cycle) with CPU twins, compared in
+//!   `core/tests/gpu*.rs`.
 //!
 //! Kernels ([`Kernel`]) are one WGSL file each with `shaders/common.wgsl` prepended, embedded
 //! with `include_str!` and validated by naga in the tests. Without the `gpu` cargo feature only
@@ -34,7 +39,7 @@
 mod backend;
 mod error;
 
-pub use backend::{solve as solve_on, Backend, BackendReport, BACKEND_ENV};
+pub use backend::{solve as solve_on, solve_multires as solve_multires_on, Backend, BackendReport, BACKEND_ENV};
 pub use error::GpuError;
 
 #[cfg(feature = "gpu")]
@@ -43,6 +48,8 @@ mod context;
 mod layout;
 #[cfg(feature = "gpu")]
 mod matrix;
+#[cfg(feature = "gpu")]
+mod multigrid;
 #[cfg(feature = "gpu")]
 mod ops;
 #[cfg(feature = "gpu")]
@@ -58,6 +65,8 @@ pub mod shaders;
 pub use context::{GpuContext, ADAPTER_ENV};
 #[cfg(feature = "gpu")]
 pub use matrix::assemble;
+#[cfg(feature = "gpu")]
+pub use multigrid::{prolong_add, restrict, vcycle};
 #[cfg(feature = "gpu")]
 pub use ops::{dot, spmv_dot};
 #[cfg(feature = "gpu")]

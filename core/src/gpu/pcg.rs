@@ -19,6 +19,15 @@
 //! device (to a relative [`INNER_TOLERANCE`] or what the tolerance needs) and sets x += d
 //! (Wilkinson's iterative refinement, as in Buttari et al. 2007 and Göddeke et al. 2007 for FEM
 //! on GPUs). Each round gains about five digits, so a 1e-6 solve takes two rounds.
+//!
+//! **Multigrid preconditioning** ([`GpuSolver::with_multigrid`]). The inner solve is then CG on
+//! the unscaled system preconditioned by one V-cycle of a [`Multigrid`] per iteration, all on
+//! the device (see `multigrid.rs`): the Jacobi kernels run with S = 1, and an iteration is
+//! `spmv_dot`, `reduce_alpha`, `cg_update` (and `cg_residual` every [`REPLACE_EVERY`]),
+//! `mg_reduce_norm` (‖r‖², stopping test), the V-cycle z = B r, `dot` and `mg_reduce_rz`
+//! (β = rᵀz/ρ), `cg_direction` with z. Iterations are about ten times dearer and ten times fewer,
+//! so the scalars are read back every [`MG_CHECK_EVERY`] iterations. The outer refinement is
+//! the same.
 
 use std::time::Instant;
 
@@ -28,12 +37,18 @@ use super::context::{dispatch, GpuContext};
 use super::error::GpuError;
 use super::layout::{from_vec4, to_vec4, Scalars};
 use super::matrix::DeviceMatrix;
+use super::multigrid::DeviceMultigrid;
 use super::shaders::Kernel;
 use crate::diffusion::{DiffusionError, DiffusionSystem, Solution};
+use crate::sparse::hierarchy::Multigrid;
 use crate::sparse::{SolveOptions, SolveStats, SparseError};
 
 /// Iterations between two read-backs of the scalars (convergence checks).
 pub const CHECK_EVERY: usize = 16;
+/// Iterations between two read-backs with the multigrid preconditioner (a V-cycle costs about
+/// ten SpMVs and MG-PCG converges in about ten iterations, so fewer wasted iterations matter
+/// more than fewer read-backs).
+pub const MG_CHECK_EVERY: usize = 4;
 /// Iterations between two residual replacements on the device.
 pub const REPLACE_EVERY: usize = 64;
 /// The relative residual an inner f32 solve aims at (well above f32's floor).
@@ -68,6 +83,8 @@ pub struct GpuStats {
     pub readbacks: usize,
     /// Iterations dispatched on the device (the per-channel counts are in the solve stats).
     pub dispatched_iterations: usize,
+    /// Levels of the multigrid preconditioner on the device; 0 for Jacobi PCG.
+    pub multigrid_levels: usize,
 }
 
 /// A GPU solve: the solution (with the same [`SolveStats`] as the CPU path) and what the GPU did.
@@ -85,11 +102,17 @@ pub struct GpuSolution {
 pub struct GpuSolver<'c> {
     ctx: &'c GpuContext,
     matrix: DeviceMatrix<'c>,
+    /// The V-cycle preconditioner; `None`: Jacobi.
+    multigrid: Option<DeviceMultigrid<'c>>,
 }
 
 impl std::fmt::Debug for GpuSolver<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("GpuSolver").field("n", &self.matrix.n).field("nnz", &self.matrix.nnz).finish()
+        f.debug_struct("GpuSolver")
+            .field("n", &self.matrix.n)
+            .field("nnz", &self.matrix.nnz)
+            .field("multigrid_levels", &self.multigrid.as_ref().map_or(0, DeviceMultigrid::levels))
+            .finish()
     }
 }
 
@@ -116,7 +139,31 @@ impl<'c> GpuSolver<'c> {
     /// # Errors
     /// Device errors ([`GpuError::Device`], [`GpuError::TooLarge`]).
     pub fn new(ctx: &'c GpuContext, system: &DiffusionSystem) -> Result<GpuSolver<'c>, GpuError> {
-        Ok(GpuSolver { ctx, matrix: DeviceMatrix::from_system(ctx, system)? })
+        Ok(GpuSolver { ctx, matrix: DeviceMatrix::from_system(ctx, system)?, multigrid: None })
+    }
+
+    /// Like [`GpuSolver::new`], with CG preconditioned by a V-cycle of `mg` (built on the CPU for
+    /// the system's matrix, e.g. by [`crate::diffusion::MultiresSolver`] with
+    /// [`crate::diffusion::Method::MultigridPcg`]) on the device instead of Jacobi: the twin of
+    /// [`crate::sparse::hierarchy::mg_pcg`] inside the same f64 refinement.
+    ///
+    /// # Errors
+    /// [`GpuError::Diffusion`] with [`DiffusionError::LengthMismatch`] when `mg` was built for
+    /// another mesh; device errors.
+    pub fn with_multigrid(ctx: &'c GpuContext, system: &DiffusionSystem, mg: &Multigrid) -> Result<GpuSolver<'c>, GpuError> {
+        let levels0 = mg.hierarchy().level(0).graph.n();
+        if levels0 != system.vertex_count() {
+            return Err(DiffusionError::LengthMismatch {
+                what: "multigrid level 0 (one vertex per mesh vertex)",
+                expected: system.vertex_count(),
+                found: levels0,
+            }
+            .into());
+        }
+        let matrix = DeviceMatrix::from_system(ctx, system)?;
+        let multigrid = DeviceMultigrid::new(ctx, mg)?;
+        debug_assert_eq!(multigrid.n(), matrix.n);
+        Ok(GpuSolver { ctx, matrix, multigrid: Some(multigrid) })
     }
 
     /// Solves for the current right-hand side of `system`, which must be the system this solver
@@ -176,13 +223,14 @@ impl<'c> GpuSolver<'c> {
         let mut stats = GpuStats {
             device: ctx.device_name().to_owned(),
             assembled_on_device: m.assembled_on_device,
-            upload_ms: 1e3 * m.upload_s,
+            upload_ms: 1e3 * (m.upload_s + self.multigrid.as_ref().map_or(0.0, |g| g.upload_s)),
             assembly_ms: 1e3 * m.assembly_s,
             solve_ms: 0.0,
             host_residual_ms: 0.0,
             rounds: 0,
             readbacks: 0,
             dispatched_iterations: 0,
+            multigrid_levels: self.multigrid.as_ref().map_or(0, DeviceMultigrid::levels),
         };
         let vec_bytes = 16 * n as u64;
         let f = ctx.storage(vec_bytes, "refinement residual")?;
@@ -194,19 +242,41 @@ impl<'c> GpuSolver<'c> {
         let out = ctx.storage(vec_bytes, "correction")?;
         let partials = ctx.storage(32 * u64::from(m.n_groups), "partial sums")?;
         let scalars = ctx.storage(std::mem::size_of::<Scalars>() as u64, "scalars")?;
-        let bind_init = ctx.bind(Kernel::CgInit, &[&m.params, &f, &m.sdiag, &bhat, &r, &p, &y, &partials]);
+        // Jacobi: the scaled system (Â, S). Multigrid: the unscaled one (M, S = 1), with z = B r.
+        let mg = self.multigrid.as_ref();
+        let sdiag: &wgpu::Buffer = mg.map_or(&m.sdiag, |g| &g.ones);
+        let op: &wgpu::Buffer = if mg.is_some() { &m.values } else { &m.scaled };
+        let plan = mg.map(|g| g.plan(ctx, m, &r));
+        let z: &wgpu::Buffer = plan.as_ref().map_or(&r, |pl| pl.output);
+        let check_every = if mg.is_some() { MG_CHECK_EVERY } else { CHECK_EVERY };
+        let bind_init = ctx.bind(Kernel::CgInit, &[&m.params, &f, sdiag, &bhat, &r, &p, &y, &partials]);
         let bind_restart = ctx.bind(Kernel::ReduceRestart, &[&m.params, &partials, &scalars]);
-        let bind_spmv = ctx.bind(Kernel::SpmvDot, &[&m.params, &m.row_ptr, &m.col_idx, &m.scaled, &p, &q, &partials]);
+        let bind_spmv = ctx.bind(Kernel::SpmvDot, &[&m.params, &m.row_ptr, &m.col_idx, op, &p, &q, &partials]);
         let bind_alpha = ctx.bind(Kernel::ReduceAlpha, &[&m.params, &partials, &scalars]);
-        let bind_update = ctx.bind(Kernel::CgUpdate, &[&m.params, &scalars, &y, &r, &p, &q, &m.sdiag, &partials]);
+        let bind_update = ctx.bind(Kernel::CgUpdate, &[&m.params, &scalars, &y, &r, &p, &q, sdiag, &partials]);
         let bind_beta = ctx.bind(Kernel::ReduceBeta, &[&m.params, &partials, &scalars]);
-        let bind_direction = ctx.bind(Kernel::CgDirection, &[&m.params, &scalars, &r, &p]);
-        let bind_residual = ctx.bind(
-            Kernel::CgResidual,
-            &[&m.params, &m.row_ptr, &m.col_idx, &m.scaled, &bhat, &y, &m.sdiag, &r, &partials],
-        );
-        let bind_unscale = ctx.bind(Kernel::CgUnscale, &[&m.params, &m.sdiag, &y, &out]);
+        let bind_direction = ctx.bind(Kernel::CgDirection, &[&m.params, &scalars, z, &p]);
+        let bind_residual =
+            ctx.bind(Kernel::CgResidual, &[&m.params, &m.row_ptr, &m.col_idx, op, &bhat, &y, sdiag, &r, &partials]);
+        let bind_unscale = ctx.bind(Kernel::CgUnscale, &[&m.params, sdiag, &y, &out]);
+        // MG-PCG only: ‖r‖² and the stopping test; rᵀz; β, ρ.
+        let mg_binds = mg.map(|_| {
+            (
+                ctx.bind(Kernel::MgReduceNorm, &[&m.params, &partials, &scalars]),
+                ctx.bind(Kernel::Dot, &[&m.params, &r, z, &partials]),
+                ctx.bind(Kernel::MgReduceRz, &[&m.params, &partials, &scalars]),
+            )
+        });
         let single = (1, 1);
+        // MG-PCG once r is known: z = B r, ρ = rᵀz and β, p = z + β p.
+        let precondition = |pass: &mut wgpu::ComputePass<'_>| {
+            if let (Some(pl), Some((_, bind_rz_dot, bind_rz))) = (&plan, &mg_binds) {
+                pl.record(pass, ctx);
+                dispatch(pass, ctx, Kernel::Dot, bind_rz_dot, m.grid);
+                dispatch(pass, ctx, Kernel::MgReduceRz, bind_rz, single);
+                dispatch(pass, ctx, Kernel::CgDirection, &bind_direction, m.grid);
+            }
+        };
 
         let mut iterations = [0usize; 3];
         let mut res = vec![[0.0; 3]; n];
@@ -249,6 +319,13 @@ impl<'c> GpuSolver<'c> {
                 dispatch(&mut pass, ctx, Kernel::CgInit, &bind_init, m.grid);
                 dispatch(&mut pass, ctx, Kernel::ReduceRestart, &bind_restart, single);
             }
+            if mg.is_some() {
+                // p = 0, so the first p = z + β p is z.
+                encoder.clear_buffer(&p, 0, None);
+                let mut pass =
+                    encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("mg-pcg start"), timestamp_writes: None });
+                precondition(&mut pass);
+            }
             ctx.submit_wait(encoder, "PCG start")?;
             let round_start = iterations;
             let mut best = [f64::INFINITY; 3];
@@ -259,11 +336,19 @@ impl<'c> GpuSolver<'c> {
                 {
                     let mut pass =
                         encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("cg iterations"), timestamp_writes: None });
-                    for _ in 0..CHECK_EVERY {
+                    for _ in 0..check_every {
                         k += 1;
                         dispatch(&mut pass, ctx, Kernel::SpmvDot, &bind_spmv, m.grid);
                         dispatch(&mut pass, ctx, Kernel::ReduceAlpha, &bind_alpha, single);
                         dispatch(&mut pass, ctx, Kernel::CgUpdate, &bind_update, m.grid);
+                        if let Some((bind_norm, _, _)) = &mg_binds {
+                            if k.is_multiple_of(REPLACE_EVERY) {
+                                dispatch(&mut pass, ctx, Kernel::CgResidual, &bind_residual, m.grid);
+                            }
+                            dispatch(&mut pass, ctx, Kernel::MgReduceNorm, bind_norm, single);
+                            precondition(&mut pass);
+                            continue;
+                        }
                         dispatch(&mut pass, ctx, Kernel::ReduceBeta, &bind_beta, single);
                         if k.is_multiple_of(REPLACE_EVERY) {
                             dispatch(&mut pass, ctx, Kernel::CgResidual, &bind_residual, m.grid);
@@ -272,7 +357,7 @@ impl<'c> GpuSolver<'c> {
                         dispatch(&mut pass, ctx, Kernel::CgDirection, &bind_direction, m.grid);
                     }
                 }
-                stats.dispatched_iterations += CHECK_EVERY;
+                stats.dispatched_iterations += check_every;
                 let bytes = ctx.read_back(encoder, &scalars, std::mem::size_of::<Scalars>() as u64, "PCG iterations")?;
                 stats.readbacks += 1;
                 let sc: Scalars = bytemuck::pod_read_unaligned(&bytes);
@@ -281,10 +366,14 @@ impl<'c> GpuSolver<'c> {
                 }
                 if let Some(c) = (0..3).find(|&c| sc.breakdown[c] != 0) {
                     return Err(sparse(SparseError::Breakdown {
-                        method: "GPU PCG",
+                        method: if mg.is_some() { "GPU MG-PCG" } else { "GPU PCG" },
                         channel: c,
                         iteration: iterations[c],
-                        reason: "pᵀÂp ≤ 0 or not finite: the matrix is not positive definite in f32".into(),
+                        reason: if mg.is_some() {
+                            "pᵀMp or rᵀBr ≤ 0 or not finite: the matrix or the V-cycle is not positive definite in f32".into()
+                        } else {
+                            "pᵀÂp ≤ 0 or not finite: the matrix is not positive definite in f32".into()
+                        },
                     }));
                 }
                 let estimate = [0, 1, 2].map(|c| {

@@ -41,11 +41,25 @@ pub enum Kernel {
     CgUnscale,
     /// TransCut eq. 3 along the normal.
     Radiance,
+    /// Multigrid: one Chebyshev–Jacobi smoothing step.
+    MgSmooth,
+    /// Multigrid: res = r − A z.
+    MgResidual,
+    /// Multigrid: r_c = Pᵀ r_f.
+    MgRestrict,
+    /// Multigrid: x_f += P e_c (TransCut eq. 16).
+    MgProlong,
+    /// Multigrid: z = A_c⁻¹ r at the coarsest level.
+    MgCoarse,
+    /// MG-PCG: ‖r‖², iteration count, stopping test.
+    MgReduceNorm,
+    /// MG-PCG: β and ρ from rᵀz.
+    MgReduceRz,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 16] = [
+    pub const ALL: [Kernel; 23] = [
         Kernel::TetGeometry,
         Kernel::Assemble,
         Kernel::JacobiDiag,
@@ -62,6 +76,13 @@ impl Kernel {
         Kernel::CgResidual,
         Kernel::CgUnscale,
         Kernel::Radiance,
+        Kernel::MgSmooth,
+        Kernel::MgResidual,
+        Kernel::MgRestrict,
+        Kernel::MgProlong,
+        Kernel::MgCoarse,
+        Kernel::MgReduceNorm,
+        Kernel::MgReduceRz,
     ];
 
     /// The file name in `shaders/`.
@@ -84,6 +105,13 @@ impl Kernel {
             Kernel::CgResidual => "cg_residual.wgsl",
             Kernel::CgUnscale => "cg_unscale.wgsl",
             Kernel::Radiance => "radiance.wgsl",
+            Kernel::MgSmooth => "mg_smooth.wgsl",
+            Kernel::MgResidual => "mg_residual.wgsl",
+            Kernel::MgRestrict => "mg_restrict.wgsl",
+            Kernel::MgProlong => "mg_prolong.wgsl",
+            Kernel::MgCoarse => "mg_coarse.wgsl",
+            Kernel::MgReduceNorm => "mg_reduce_norm.wgsl",
+            Kernel::MgReduceRz => "mg_reduce_rz.wgsl",
         }
     }
 
@@ -107,6 +135,13 @@ impl Kernel {
             Kernel::CgResidual => include_str!("../../../shaders/cg_residual.wgsl"),
             Kernel::CgUnscale => include_str!("../../../shaders/cg_unscale.wgsl"),
             Kernel::Radiance => include_str!("../../../shaders/radiance.wgsl"),
+            Kernel::MgSmooth => include_str!("../../../shaders/mg_smooth.wgsl"),
+            Kernel::MgResidual => include_str!("../../../shaders/mg_residual.wgsl"),
+            Kernel::MgRestrict => include_str!("../../../shaders/mg_restrict.wgsl"),
+            Kernel::MgProlong => include_str!("../../../shaders/mg_prolong.wgsl"),
+            Kernel::MgCoarse => include_str!("../../../shaders/mg_coarse.wgsl"),
+            Kernel::MgReduceNorm => include_str!("../../../shaders/mg_reduce_norm.wgsl"),
+            Kernel::MgReduceRz => include_str!("../../../shaders/mg_reduce_rz.wgsl"),
         }
     }
 

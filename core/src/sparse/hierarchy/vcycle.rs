@@ -208,6 +208,50 @@ impl Multigrid {
         &self.operators[l - 1]
     }
 
+    /// The hierarchy the V-cycle runs on.
+    #[must_use]
+    pub fn hierarchy(&self) -> &Arc<Hierarchy> {
+        &self.hierarchy
+    }
+
+    /// The options it was built with.
+    #[must_use]
+    pub fn options(&self) -> MultigridOptions {
+        self.options
+    }
+
+    /// The smoother of level `l` (below the coarsest): `D⁻¹` of the level's operator and the
+    /// `λmax` estimate of `D⁻¹A` (×1.1), for the GPU twin of the V-cycle.
+    pub(crate) fn smoother(&self, l: usize) -> (&[[f64; 3]], [f64; 3]) {
+        (&self.smoothers[l].inv_diag, self.smoothers[l].lambda_max)
+    }
+
+    /// `A_c⁻¹` of the coarsest level per channel (dense, from its Cholesky factor, exactly
+    /// symmetrised), `None` for a one-level hierarchy; for the GPU twin of the coarse solve.
+    pub(crate) fn coarsest_inverse(&self) -> Option<[DMatrix<f64>; 3]> {
+        self.coarsest.as_ref().map(|f| {
+            [0, 1, 2].map(|c| {
+                let inv = f[c].inverse();
+                (&inv + inv.transpose()) * 0.5
+            })
+        })
+    }
+
+    /// One V-cycle `z = B r` (the preconditioner of [`mg_pcg`]) on level 0 with matrix `a`.
+    ///
+    /// # Errors
+    /// [`SparseError::DimensionMismatch`] unless `a`, `r` and `z` have the level-0 size.
+    pub fn vcycle(&self, a: &CsrMatrix3, r: &[[f64; 3]], z: &mut [[f64; 3]]) -> Result<(), SparseError> {
+        let n = self.hierarchy.level(0).graph.n();
+        for (what, len) in [("matrix rows", a.n()), ("residual length", r.len()), ("output length", z.len())] {
+            if len != n {
+                return Err(SparseError::DimensionMismatch { what, expected: n, found: len });
+            }
+        }
+        self.apply(a, r, z);
+        Ok(())
+    }
+
     /// One V-cycle `z = B r` on level 0 with matrix `a`.
     fn apply(&self, a: &CsrMatrix3, r: &[[f64; 3]], z: &mut [[f64; 3]]) {
         self.cycle(0, a, r, z);
