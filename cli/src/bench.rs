@@ -25,6 +25,10 @@ pub enum Suite {
     /// TransCut Fig. 7: relative error against time for single-level PCG, the multiresolution
     /// cascade and multigrid-preconditioned CG, and the warm start after moving the sun 5°.
     Multires,
+    /// Interactive edits (TransCut §5) on the bunny: the cold bake, a relight after moving the
+    /// sun 5° (warm start against a cold solve of the same system), a paint stroke, and the
+    /// Fig. 7 curve with its time-to-1% ratio.
+    Edit,
 }
 
 /// Arguments of `transcut bench`.
@@ -69,6 +73,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Suite::Bake => bench_bake(args),
         Suite::Solve => crate::bench_solve::run(args),
         Suite::Multires => crate::bench_multires::run(args),
+        Suite::Edit => crate::bench_edit::run(args),
     }
 }
 

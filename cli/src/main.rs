@@ -1,12 +1,15 @@
 //! `transcut`: mesh, bake, render and benchmark translucent objects from the shell.
 
 mod bake_cmd;
+mod edit_apply;
 mod bench;
 mod bench_multires;
+mod bench_edit;
 mod bench_solve;
 mod mesh_cmd;
 mod progress;
 mod render_cmd;
+mod scene_edits;
 mod scene_file;
 mod spec;
 

@@ -1,6 +1,7 @@
 //! `transcut render`: bake a TOML scene (see [`crate::scene_file`]) and render it to PNG or EXR.
 //!
-//! Every object is baked (tetrahedralised, lit, solved), then drawn by the core's rasteriser
+//! Every object is baked (tetrahedralised, lit, solved), the scene's `[[edit]]` list applied in
+//! order ([`crate::edit_apply`]: relight, medium edits, paint, each warm-started), then every piece of every object drawn by the core's rasteriser
 //! (`transcut::render`) with its per-vertex radiance Lo(x, n) seen through the Fresnel boundary,
 //! GGX highlights of the sun, point and spot lights, the mean radiance of the environment
 //! reflected, and an optional grey ground plane. `.png` is tone-mapped (ACES) sRGB with alpha =
@@ -13,9 +14,11 @@ use anyhow::{bail, Context};
 use clap::Args;
 use transcut::light::{Environment, Light};
 use transcut::render::{render, Camera, GroundPlane, RenderObject, RenderOptions, RenderScene, SamplePattern, SpecularLight};
-use transcut::scene::{bake_with, BakeOptions, Object, Scene};
+use transcut::edit::EditOptions;
+use transcut::scene::{bake_with, BakeOptions, Scene};
 use transcut::{DVec3, Progress};
 
+use crate::edit_apply;
 use crate::progress::StageBar;
 use crate::scene_file;
 
@@ -83,28 +86,66 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     bar.finish();
     let baked = result.with_context(|| format!("baking {}", args.scene.display()))?;
 
+    let t_edit = Instant::now();
+    let edited = if loaded.edits.is_empty() {
+        None
+    } else {
+        let edit_options = EditOptions {
+            tolerance: options.tolerance,
+            max_iterations: options.max_iterations,
+            backend: options.backend,
+            source: options.source,
+            shadows: options.shadows,
+            ..EditOptions::default()
+        };
+        let apply = || {
+            edit_apply::apply(&loaded.edits, &scene.objects, &baked.objects, &scene.lights, &edit_options, |r| {
+                if !args.json {
+                    let s = &r.stats;
+                    eprintln!(
+                        "edit {} ({}) {}: {} piece{}, iterations {:?}, {:.0} ms",
+                        r.edit,
+                        r.kind,
+                        r.object,
+                        r.pieces,
+                        if r.pieces == 1 { "" } else { "s" },
+                        s.iterations,
+                        s.total_ms
+                    );
+                }
+            })
+        };
+        let result = if args.threads == 0 {
+            apply()
+        } else {
+            rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?.install(apply)
+        };
+        Some(result.with_context(|| format!("editing {}", args.scene.display()))?)
+    };
+    let edit_ms = t_edit.elapsed().as_secs_f64() * 1e3;
+
     let t_render = Instant::now();
-    // World-space meshes over their welded vertices, with the radiance of their user vertices.
-    let world = scene.objects.iter().map(Object::world_surface).collect::<Result<Vec<_>, _>>()?;
-    let radiance: Vec<Vec<[f64; 3]>> = world
+    // World-space meshes over their welded vertices with the radiance of those vertices, and
+    // the object's η: an edited object's pieces, else the baked surface.
+    let mut meshes: Vec<(transcut::mesh::TriMesh, Vec<[f64; 3]>, f64)> = Vec::new();
+    for (i, (object, b)) in scene.objects.iter().zip(&baked.objects).enumerate() {
+        if let Some(editor) = edited.as_ref().and_then(|e| e.editors[i].as_ref()) {
+            meshes.extend(edit_apply::piece_meshes(editor).into_iter().map(|(m, r)| (m, r, b.eta)));
+            continue;
+        }
+        let mesh = object.world_surface()?;
+        let mut r = vec![[0.0; 3]; mesh.positions().len()];
+        for (user, &internal) in mesh.user_to_internal().iter().enumerate() {
+            r[internal as usize] = b.radiance[user];
+        }
+        meshes.push((mesh, r, b.eta));
+    }
+    let objects: Vec<RenderObject<'_>> = meshes
         .iter()
-        .zip(&baked.objects)
-        .map(|(mesh, b)| {
-            let mut r = vec![[0.0; 3]; mesh.positions().len()];
-            for (user, &internal) in mesh.user_to_internal().iter().enumerate() {
-                r[internal as usize] = b.radiance[user];
-            }
-            r
-        })
-        .collect();
-    let objects: Vec<RenderObject<'_>> = world
-        .iter()
-        .zip(&radiance)
-        .zip(&baked.objects)
-        .map(|((mesh, r), b)| RenderObject { positions: mesh.positions(), triangles: mesh.triangles(), radiance: r, normals: None, eta: b.eta })
+        .map(|(mesh, r, eta)| RenderObject { positions: mesh.positions(), triangles: mesh.triangles(), radiance: r, normals: None, eta: *eta })
         .collect();
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for mesh in &world {
+    for (mesh, _, _) in &meshes {
         let (a, b) = mesh.bounds();
         lo = lo.min(a);
         hi = hi.max(b);
@@ -113,7 +154,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let r = &file.render;
     let mut specular = Vec::new();
     let mut environment = [0.0; 3];
-    for light in &scene.lights {
+    let lights = edited.as_ref().map_or(&scene.lights, |e| &e.lights);
+    for light in lights {
         match light {
             Light::Directional { direction, irradiance, .. } => {
                 specular.push(SpecularLight { direction_to_light: -*direction, irradiance: *irradiance });
@@ -137,14 +179,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let up = DVec3::from(camera_spec.up);
     let render_scene = RenderScene {
-        camera: Camera {
-            position: DVec3::from(camera_spec.position),
-            target: DVec3::from(camera_spec.target),
-            up,
-            vertical_fov_deg: camera_spec.fov_deg,
-            width: camera_spec.width,
-            height: camera_spec.height,
-        },
+        camera: camera(&camera_spec),
         objects,
         lights: specular,
         environment: (environment != [0.0; 3]).then_some(environment),
@@ -177,10 +212,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "height": camera_spec.height,
             "load_ms": load_ms,
             "bake_ms": baked.total_ms,
+            "edit_ms": edit_ms,
             "render_ms": render_ms,
             "save_ms": save_ms,
             "total_ms": total_ms,
             "objects": scene.objects.iter().zip(&baked.objects).map(|(o, b)| serde_json::json!({"name": o.name, "stats": b.stats})).collect::<Vec<_>>(),
+            "edits": edited.as_ref().map_or(&[][..], |e| &e.reports[..]),
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -189,16 +226,29 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             println!("{}: {} tets, solve iterations {:?}, {:.0} ms", o.name, s.tets, s.iterations, s.total_ms);
         }
         println!(
-            "{}: {}×{} in {:.0} ms (load {:.0}, bake {:.0}, render {:.0}, save {:.0})",
+            "{}: {}×{} in {:.0} ms (load {:.0}, bake {:.0}, edits {:.0}, render {:.0}, save {:.0})",
             args.output.display(),
             camera_spec.width,
             camera_spec.height,
             total_ms,
             load_ms,
             baked.total_ms,
+            edit_ms,
             render_ms,
             save_ms
         );
     }
     Ok(())
+}
+
+/// The render camera of a `[camera]` table.
+fn camera(spec: &scene_file::CameraSpec) -> Camera {
+    Camera {
+        position: DVec3::from(spec.position),
+        target: DVec3::from(spec.target),
+        up: DVec3::from(spec.up),
+        vertical_fov_deg: spec.fov_deg,
+        width: spec.width,
+        height: spec.height,
+    }
 }

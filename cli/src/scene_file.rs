@@ -45,6 +45,11 @@
 //! kind = "sun"              # sun | point | spot | env | rect | disc
 //! dir = [0, 0, -1]          # the direction the light travels
 //! irradiance = 3            # a number or [r, g, b]
+//!
+//! [[edit]]                  # zero or more, applied in order after the bake (every kind
+//! kind = "cut_plane"        # and key: `crate::scene_edits`)
+//! point = [0, 0, 0]
+//! normal = [0, 0, 1]
 //! ```
 //!
 //! Light keys per kind: `sun`: `dir`, `irradiance`, `angle_deg`; `point`: `pos`, `intensity`;
@@ -67,6 +72,8 @@ use transcut::optics::{ArtistParams, Medium};
 use transcut::scene::{MediumSource, Object, Shape};
 use transcut::volume::{Layers, VeinParams, Veins, VoxelGrid};
 use glam::DMat4;
+
+use crate::scene_edits::EditStep;
 use transcut::DVec3;
 
 /// A colour: one number for grey or three for RGB.
@@ -185,6 +192,9 @@ pub struct SceneFile {
     pub objects: Vec<ObjectSpec>,
     #[serde(default, rename = "light")]
     pub lights: Vec<LightSpec>,
+    /// `[[edit]]` tables, checked by [`crate::scene_edits::resolve`] (so errors name the edit).
+    #[serde(default, rename = "edit")]
+    pub edits: Vec<toml::Table>,
 }
 
 /// A scene file read and resolved: objects with their meshes and media, lights.
@@ -192,6 +202,8 @@ pub struct LoadedScene {
     pub file: SceneFile,
     pub objects: Vec<Object>,
     pub lights: Vec<Light>,
+    /// The `[[edit]]` list, in file order.
+    pub edits: Vec<EditStep>,
 }
 
 impl SceneFile {
@@ -238,7 +250,10 @@ fn resolve(file: SceneFile, path: &Path) -> anyhow::Result<LoadedScene> {
     if lights.is_empty() {
         lights.push(Light::Environment(Environment::Constant([1.0; 3])));
     }
-    Ok(LoadedScene { file, objects, lights })
+    let names: Vec<String> = objects.iter().map(|o| o.name.clone()).collect();
+    let mm_per_unit: Vec<f64> = objects.iter().map(|o| o.mm_per_unit).collect();
+    let edits = crate::scene_edits::resolve(&file.edits, &names, &mm_per_unit, base)?;
+    Ok(LoadedScene { file, objects, lights, edits })
 }
 
 fn object(spec: &ObjectSpec, base: &Path) -> anyhow::Result<Object> {
@@ -405,7 +420,7 @@ pub fn medium(value: &toml::Value, mm_per_unit: f64) -> anyhow::Result<Medium> {
 }
 
 impl LightSpec {
-    fn to_light(&self, base: &Path) -> anyhow::Result<Light> {
+    pub(crate) fn to_light(&self, base: &Path) -> anyhow::Result<Light> {
         let kind = self.kind.to_ascii_lowercase();
         let allowed: &[&str] = match kind.as_str() {
             "sun" | "directional" => &["dir", "irradiance", "angle_deg"],

@@ -1,0 +1,227 @@
+//! `transcut bench edit`: the interactive edits of TransCut §5 and the Fig. 7 curve on one mesh.
+//!
+//! The input (default the Stanford bunny) is scaled to 60 mm, marble, lit by one sun from
+//! (0, 1, 1) (irradiance 3, with shadows, as `transcut bake`), tetrahedralised once per size.
+//! Per run, back to back:
+//! - **cold bake**: `scene::bake` of the tet mesh (assembly, source, cold PCG solve);
+//! - **relight**: an [`Editor`] started from that bake relights after the sun moved 5° about x
+//!   (warm start from the previous fluence) against a cold bake under the moved sun (the same
+//!   system solved from zero): iterations, their ratio (issue 6 goal ≤ 1/3) and times;
+//! - **paint**: a stroke of 8 points across the front of the surface, Gaussian radius 2 mm, of
+//!   an absorbing marble-like ink (rows rebuilt, tets changed, ms).
+//! Medians over `--runs`. Then Fig. 7 ([`crate::bench_multires::fig7`]) on the same tet mesh
+//! (unshadowed sun, the reference solved to 1e-10): relative error against time for PCG, the
+//! cascade and MG-PCG, the time to 1% and its ratio to the best single-level solver.
+
+use std::time::Instant;
+
+use anyhow::Context;
+use serde::Serialize;
+use transcut::diffusion::assemble;
+use transcut::edit::{EditOptions, Editor, PaintStroke, UpdateStats};
+use transcut::gpu::Backend;
+use transcut::light::Light;
+use transcut::mesh;
+use transcut::mesher::{tetrahedralize, MesherOptions};
+use transcut::optics::Medium;
+use transcut::scene::{bake, BakeOptions, MediumSource, Object, ObjectStats, Scene};
+use transcut::DVec3;
+
+use crate::bench::{median, BenchArgs};
+use crate::bench_multires::{fig7, rotate_about_x, Fig7};
+
+/// A bake's solve, medians over runs.
+#[derive(Serialize)]
+struct ColdEntry {
+    iterations: [usize; 3],
+    median_solve_ms: f64,
+    median_source_ms: f64,
+    median_assembly_ms: f64,
+    solve_runs_ms: Vec<f64>,
+}
+
+/// One kind of edit, medians over runs, with the last run's full statistics.
+#[derive(Serialize)]
+struct EditEntry {
+    median_total_ms: f64,
+    median_solve_ms: f64,
+    total_runs_ms: Vec<f64>,
+    last: UpdateStats,
+}
+
+#[derive(Serialize)]
+struct RelightEntry {
+    /// The cold bake under the moved sun (the same system, solved from zero).
+    cold: ColdEntry,
+    /// The editor's relight (warm start).
+    warm: EditEntry,
+    /// Σ warm iterations / Σ cold iterations over the channels (goal ≤ 1/3).
+    iteration_ratio: f64,
+    /// Warm solve ms / cold solve ms (medians).
+    solve_time_ratio: f64,
+    /// max over channels ‖φ_warm − φ_cold‖ / ‖φ_cold‖ (both solved to the same tolerance).
+    relative_difference_vs_cold: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct PaintEntry {
+    points: usize,
+    radius_mm: f64,
+    #[serde(flatten)]
+    edit: EditEntry,
+}
+
+#[derive(Serialize)]
+struct SizeEntry {
+    target_tets: usize,
+    tets: usize,
+    vertices: usize,
+    meshing_ms: f64,
+    cold_bake: ColdEntry,
+    median_editor_setup_ms: f64,
+    relight_5deg: RelightEntry,
+    paint: PaintEntry,
+    fig7: Fig7,
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+fn cold_entry(stats: &[ObjectStats]) -> anyhow::Result<ColdEntry> {
+    let last = stats.last().context("at least one run")?;
+    let pick = |f: fn(&ObjectStats) -> f64| median(stats.iter().map(f).collect());
+    Ok(ColdEntry {
+        iterations: last.iterations,
+        median_solve_ms: pick(|s| s.solve_ms),
+        median_source_ms: pick(|s| s.source_ms),
+        median_assembly_ms: pick(|s| s.assembly_ms),
+        solve_runs_ms: stats.iter().map(|s| s.solve_ms).collect(),
+    })
+}
+
+fn edit_entry(stats: Vec<UpdateStats>) -> anyhow::Result<EditEntry> {
+    Ok(EditEntry {
+        median_total_ms: median(stats.iter().map(|s| s.total_ms).collect()),
+        median_solve_ms: median(stats.iter().map(|s| s.solve_ms).collect()),
+        total_runs_ms: stats.iter().map(|s| s.total_ms).collect(),
+        last: stats.last().context("at least one run")?.clone(),
+    })
+}
+
+fn sun_light(towards: DVec3) -> Light {
+    Light::Directional { direction: -towards, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }
+}
+
+fn relative_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> Option<f64> {
+    (a.len() == b.len()).then(|| {
+        (0..3)
+            .map(|c| {
+                let num: f64 = a.iter().zip(b).map(|(x, y)| (x[c] - y[c]).powi(2)).sum();
+                let den: f64 = b.iter().map(|y| y[c] * y[c]).sum();
+                (num / den.max(f64::MIN_POSITIVE)).sqrt()
+            })
+            .fold(0.0, f64::max)
+    })
+}
+
+/// Eight surface vertices across the front (+z) of `positions`' bounds at mid height: for each
+/// of 8 points spaced over the middle 40% of the x extent just in front of the bounds, the
+/// closest vertex.
+fn stroke_points(positions: &[DVec3]) -> Vec<DVec3> {
+    let (lo, hi) = positions.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let c = 0.5 * (lo + hi);
+    (0..8)
+        .map(|k| {
+            let x = lo.x + (hi.x - lo.x) * (0.3 + 0.4 * k as f64 / 7.0);
+            let target = DVec3::new(x, c.y, hi.z + 0.1 * (hi.z - lo.z));
+            positions.iter().copied().min_by(|a, b| a.distance_squared(target).total_cmp(&b.distance_squared(target))).unwrap_or(target)
+        })
+        .collect()
+}
+
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
+    let (lo, hi) = input.bounds();
+    let mm_per_unit = 60.0 / (hi - lo).max_element();
+    let marble = Medium::preset("marble")?;
+    let ink = Medium::new([0.5, 0.8, 1.2], marble.sigma_s_prime, marble.eta, marble.g)?;
+    let sun = DVec3::new(0.0, 1.0, 1.0).normalize();
+    let sun5 = rotate_about_x(sun, 5.0);
+    let bake_options = BakeOptions { backend: Some(Backend::Cpu), ..BakeOptions::default() };
+    let edit_options = EditOptions {
+        tolerance: bake_options.tolerance,
+        max_iterations: bake_options.max_iterations,
+        backend: Some(Backend::Cpu),
+        source: bake_options.source,
+        shadows: bake_options.shadows,
+        ..EditOptions::default()
+    };
+    let radius_mm = 2.0;
+    let runs = args.runs as usize;
+    let mut entries = Vec::new();
+    for &target in &args.tets {
+        let t = Instant::now();
+        let tet_mesh = tetrahedralize(&input, &MesherOptions::with_tets(target))?;
+        let meshing_ms = ms(t);
+        let object = Object::from_tets("bench", tet_mesh.clone(), MediumSource::Homogeneous(marble), mm_per_unit);
+        let scene = |towards: DVec3| Scene { objects: vec![object.clone()], lights: vec![sun_light(towards)] };
+        let (mut cold, mut cold5, mut setup) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut relight, mut paint) = (Vec::new(), Vec::new());
+        let mut difference = None;
+        let mut points = Vec::new();
+        for _ in 0..runs {
+            let baked = bake(&scene(sun), &bake_options)?;
+            cold.push(baked.objects[0].stats.clone());
+            let baked5 = bake(&scene(sun5), &bake_options)?;
+            cold5.push(baked5.objects[0].stats.clone());
+
+            let t = Instant::now();
+            let mut editor = Editor::from_bake(&baked.objects[0], mm_per_unit, &[sun_light(sun)], &edit_options)?;
+            setup.push(ms(t));
+            relight.push(editor.relight(&[sun_light(sun5)])?);
+            difference = relative_difference(editor.pieces()[0].fluence(), &baked5.objects[0].fluence);
+
+            let surface = editor.pieces()[0].surface();
+            points = stroke_points(surface.positions());
+            let stroke = PaintStroke { points: points.clone(), radius: radius_mm / mm_per_unit, medium: ink, strength: 1.0 };
+            paint.push(editor.paint(&stroke)?);
+        }
+        let cold_bake = cold_entry(&cold)?;
+        let cold5 = cold_entry(&cold5)?;
+        let warm = edit_entry(relight)?;
+        let sum = |v: [usize; 3]| v.iter().sum::<usize>() as f64;
+        let relight_5deg = RelightEntry {
+            iteration_ratio: sum(warm.last.iterations) / sum(cold5.iterations).max(1.0),
+            solve_time_ratio: warm.median_solve_ms / cold5.median_solve_ms,
+            relative_difference_vs_cold: difference,
+            cold: cold5,
+            warm,
+        };
+        let mut system = assemble(&tet_mesh, &[marble], mm_per_unit)?;
+        let fig7 = fig7(&mut system, sun, runs, 1e-10)?;
+        entries.push(SizeEntry {
+            target_tets: target,
+            tets: tet_mesh.tets().len(),
+            vertices: tet_mesh.positions().len(),
+            meshing_ms,
+            cold_bake,
+            median_editor_setup_ms: median(setup),
+            relight_5deg,
+            paint: PaintEntry { points: points.len(), radius_mm, edit: edit_entry(paint)? },
+            fig7,
+        });
+    }
+    let report = serde_json::json!({
+        "suite": "edit",
+        "input": args.input.display().to_string(),
+        "mm_per_unit": mm_per_unit,
+        "medium": "marble",
+        "threads": rayon::current_num_threads(),
+        "runs": runs,
+        "fig7_error": "max over channels of ||phi - phi*|| / ||phi*||, phi* solved to 1e-10",
+        "entries": entries,
+    });
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}

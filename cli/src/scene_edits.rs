@@ -1,0 +1,381 @@
+//! The `[[edit]]` list of a scene file: edits applied in order after the bake, before rendering
+//! (relight, medium edits, paint; TransCut §5).
+//!
+//! ```toml
+//! [[edit]]
+//! kind = "paint"            # relight | medium | paint
+//! object = "bunny"          # the object's name (default: the only object; not for relight)
+//! points = [[0, 20, 5], [5, 21, 4]]   # scene units (world space)
+//! radius = 3
+//! medium = "jade"
+//! ```
+//!
+//! Keys per kind (coordinates in scene units, world space, where the object was baked;
+//! colours and coefficients a number or [r, g, b]):
+//! - `relight`: `lights` = a list of light tables, as `[[light]]` (an empty list: the white
+//!   sky); replaces the scene's lights for every object and for the highlights.
+//! - `medium`: `region` = `"all"` (default) | `{ kind = "sphere", center, radius }` |
+//!   `{ kind = "depth", min_mm, max_mm }` (tets whose centroid lies that deep below the
+//!   original surface); and exactly one of `assign` = a medium (a preset name or a table as for
+//!   `[[object]]`), `scale = { sigma_a, sigma_s }` (factors, default 1) or
+//!   `add = { sigma_a, sigma_s }` (mm⁻¹, default 0).
+//! - `paint`: `points` (a list of [x, y, z] on the surface), `radius` (the Gaussian's σ),
+//!   `medium` (a preset name or a table), `strength` (in (0, 1], default 1).
+//!
+//! Every error names the edit (1-based, with its kind) and the key.
+
+use anyhow::{anyhow, bail, Context};
+use serde::Deserialize;
+use transcut::light::{Environment, Light};
+use transcut::optics::Medium;
+use transcut::DVec3;
+
+use crate::scene_file::{self, LightSpec, Rgb};
+
+/// Where a medium edit applies.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RegionSpec {
+    All,
+    Sphere { center: DVec3, radius: f64 },
+    Depth { min_mm: f64, max_mm: f64 },
+}
+
+/// What a medium edit does.
+#[derive(Debug, Clone, PartialEq)]
+pub enum OpSpec {
+    Assign(Medium),
+    Scale { sigma_a: [f64; 3], sigma_s: [f64; 3] },
+    Add { sigma_a: [f64; 3], sigma_s: [f64; 3] },
+}
+
+/// One parsed edit.
+#[derive(Debug, Clone)]
+pub enum EditKind {
+    Relight(Vec<Light>),
+    Medium { region: RegionSpec, op: OpSpec },
+    Paint { points: Vec<DVec3>, radius: f64, medium: Medium, strength: f64 },
+}
+
+/// One `[[edit]]`, resolved: its 1-based position, kind name, target object and parameters.
+#[derive(Debug, Clone)]
+pub struct EditStep {
+    /// 1-based position in the file.
+    pub index: usize,
+    /// The `kind` as written (lower case).
+    pub kind_name: String,
+    /// Index of the object it edits (`None` for relight, which applies to every object).
+    pub object: Option<usize>,
+    pub kind: EditKind,
+}
+
+const KINDS: &[&str] = &["relight", "medium", "paint"];
+
+/// Parses and checks every `[[edit]]` table. `names` and `mm_per_unit` are the objects' names
+/// and millimetres per scene unit (artist media depend on it).
+///
+/// # Errors
+/// The first bad edit, naming its index, kind and key.
+pub fn resolve(tables: &[toml::Table], names: &[String], mm_per_unit: &[f64], base: &std::path::Path) -> anyhow::Result<Vec<EditStep>> {
+    tables
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let kind = t.get("kind").and_then(toml::Value::as_str).map(str::to_ascii_lowercase);
+            let label = match &kind {
+                Some(k) => format!("edit {} (kind = \"{k}\")", i + 1),
+                None => format!("edit {}", i + 1),
+            };
+            step(i + 1, kind, t, names, mm_per_unit, base).with_context(|| label)
+        })
+        .collect()
+}
+
+fn step(index: usize, kind: Option<String>, t: &toml::Table, names: &[String], mm_per_unit: &[f64], base: &std::path::Path) -> anyhow::Result<EditStep> {
+    let kind = match (kind, t.get("kind")) {
+        (Some(k), _) => k,
+        (None, None) => bail!("missing key 'kind' ({})", KINDS.join(", ")),
+        (None, Some(v)) => bail!("'kind' must be a string, got {}", v.type_str()),
+    };
+    let allowed: &[&str] = match kind.as_str() {
+        "relight" => &["lights"],
+        "medium" => &["region", "assign", "scale", "add"],
+        "paint" => &["points", "radius", "medium", "strength"],
+        other => bail!("unknown edit kind '{other}' ({})", KINDS.join(", ")),
+    };
+    if let Some(k) = t.keys().find(|k| !(k.as_str() == "kind" || k.as_str() == "object" || allowed.contains(&k.as_str()))) {
+        let keys = if allowed.is_empty() { "only object".to_string() } else { format!("object, {}", allowed.join(", ")) };
+        bail!("unknown key '{k}' for this kind of edit (its keys: {keys})");
+    }
+    let object = if kind == "relight" {
+        if t.contains_key("object") {
+            bail!("key 'object' does not apply to relight: the lights belong to the scene and every object is relit");
+        }
+        None
+    } else {
+        Some(object_index(t, names)?)
+    };
+    let mm = object.map_or(1.0, |o| mm_per_unit[o]);
+    let kind_value = match kind.as_str() {
+        "relight" => {
+            let list = t.get("lights").ok_or_else(|| anyhow!("missing key 'lights' (a list of light tables as [[light]])"))?;
+            let list = list.as_array().ok_or_else(|| anyhow!("'lights' must be a list of light tables"))?;
+            let mut lights = Vec::with_capacity(list.len());
+            for (i, v) in list.iter().enumerate() {
+                let spec = LightSpec::deserialize(v.clone()).map_err(|e| anyhow!("'lights' entry {}: {}", i + 1, e.to_string().trim_end()))?;
+                let light = spec.to_light(base).with_context(|| format!("'lights' entry {} (kind = \"{}\")", i + 1, spec.kind))?;
+                light.validate(i).map_err(|e| anyhow!("'lights' entry {} (kind = \"{}\"): {e}", i + 1, spec.kind))?;
+                lights.push(light);
+            }
+            if lights.is_empty() {
+                lights.push(Light::Environment(Environment::Constant([1.0; 3])));
+            }
+            EditKind::Relight(lights)
+        }
+        "medium" => {
+            let region = match t.get("region") {
+                None => RegionSpec::All,
+                Some(v) => region(v).context("'region'")?,
+            };
+            let ops: Vec<&str> = ["assign", "scale", "add"].into_iter().filter(|k| t.contains_key(*k)).collect();
+            let op = match ops.as_slice() {
+                ["assign"] => OpSpec::Assign(scene_file::medium(&t["assign"], mm).context("'assign'")?),
+                ["scale"] => {
+                    let (sigma_a, sigma_s) = coefficients(&t["scale"], 1.0).context("'scale'")?;
+                    if sigma_a.iter().chain(&sigma_s).any(|&f| f < 0.0) {
+                        bail!("'scale': the factors must not be negative");
+                    }
+                    OpSpec::Scale { sigma_a, sigma_s }
+                }
+                ["add"] => {
+                    let (sigma_a, sigma_s) = coefficients(&t["add"], 0.0).context("'add'")?;
+                    OpSpec::Add { sigma_a, sigma_s }
+                }
+                [] => bail!("missing the operation: give one of 'assign', 'scale', 'add'"),
+                more => bail!("give one of 'assign', 'scale', 'add', not {}", more.join(" and ")),
+            };
+            EditKind::Medium { region, op }
+        }
+        _ => {
+            let points = vec3_list(t, "points")?;
+            if points.is_empty() {
+                bail!("'points' must hold at least one point");
+            }
+            let radius = positive(t, "radius")?;
+            let medium = scene_file::medium(t.get("medium").ok_or_else(|| anyhow!("missing key 'medium'"))?, mm).context("'medium'")?;
+            let strength = match t.get("strength") {
+                None => 1.0,
+                Some(_) => number(t, "strength")?,
+            };
+            if !(strength > 0.0 && strength <= 1.0) {
+                bail!("'strength' must lie in (0, 1], got {strength}");
+            }
+            EditKind::Paint { points, radius, medium, strength }
+        }
+    };
+    Ok(EditStep { index, kind_name: kind, object, kind: kind_value })
+}
+
+fn object_index(t: &toml::Table, names: &[String]) -> anyhow::Result<usize> {
+    match t.get("object") {
+        None if names.len() == 1 => Ok(0),
+        None => bail!("missing key 'object': the scene has {} objects ({})", names.len(), names.join(", ")),
+        Some(v) => {
+            let name = v.as_str().ok_or_else(|| anyhow!("'object' must be an object's name"))?;
+            let mut found = names.iter().enumerate().filter(|(_, n)| *n == name).map(|(i, _)| i);
+            match (found.next(), found.next()) {
+                (Some(i), None) => Ok(i),
+                (Some(_), Some(_)) => bail!("'object': several objects are named '{name}' (give them distinct names)"),
+                (None, _) => bail!("'object': no object named '{name}' (the objects: {})", names.join(", ")),
+            }
+        }
+    }
+}
+
+fn number(t: &toml::Table, key: &str) -> anyhow::Result<f64> {
+    let v = match t.get(key) {
+        None => bail!("missing key '{key}'"),
+        Some(toml::Value::Float(v)) => *v,
+        Some(toml::Value::Integer(v)) => *v as f64,
+        Some(other) => bail!("'{key}' must be a number, got {}", other.type_str()),
+    };
+    if !v.is_finite() {
+        bail!("'{key}' must be finite, got {v}");
+    }
+    Ok(v)
+}
+
+fn positive(t: &toml::Table, key: &str) -> anyhow::Result<f64> {
+    let v = number(t, key)?;
+    if v <= 0.0 {
+        bail!("'{key}' must be positive, got {v}");
+    }
+    Ok(v)
+}
+
+fn vec3(t: &toml::Table, key: &str) -> anyhow::Result<DVec3> {
+    let v = t.get(key).ok_or_else(|| anyhow!("missing key '{key}'"))?;
+    let a = <[f64; 3]>::deserialize(v.clone()).map_err(|_| anyhow!("'{key}' must be [x, y, z]"))?;
+    if !a.iter().all(|x| x.is_finite()) {
+        bail!("'{key}' must be finite");
+    }
+    Ok(DVec3::from(a))
+}
+
+fn vec3_list(t: &toml::Table, key: &str) -> anyhow::Result<Vec<DVec3>> {
+    let v = t.get(key).ok_or_else(|| anyhow!("missing key '{key}'"))?;
+    let list = <Vec<[f64; 3]>>::deserialize(v.clone()).map_err(|_| anyhow!("'{key}' must be a list of [x, y, z]"))?;
+    if let Some(k) = list.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
+        bail!("'{key}' point {} is not finite", k + 1);
+    }
+    Ok(list.into_iter().map(DVec3::from).collect())
+}
+
+fn region(v: &toml::Value) -> anyhow::Result<RegionSpec> {
+    if let Some(s) = v.as_str() {
+        return if s.eq_ignore_ascii_case("all") { Ok(RegionSpec::All) } else { bail!("expected \"all\" or a table with kind = \"sphere\" or \"depth\", got '{s}'") };
+    }
+    let t = v.as_table().ok_or_else(|| anyhow!("expected \"all\" or a table, got {}", v.type_str()))?;
+    let kind = t.get("kind").and_then(toml::Value::as_str).ok_or_else(|| anyhow!("missing key 'kind' (all, sphere, depth)"))?;
+    let (allowed, region): (&[&str], _) = match kind.to_ascii_lowercase().as_str() {
+        "all" => (&[], RegionSpec::All),
+        "sphere" => (&["center", "radius"], RegionSpec::Sphere { center: vec3(t, "center")?, radius: positive(t, "radius")? }),
+        "depth" => {
+            let (min_mm, max_mm) = (number(t, "min_mm")?, number(t, "max_mm")?);
+            if !(min_mm >= 0.0 && max_mm > min_mm) {
+                bail!("need 0 ≤ min_mm < max_mm, got min_mm = {min_mm}, max_mm = {max_mm}");
+            }
+            (&["min_mm", "max_mm"], RegionSpec::Depth { min_mm, max_mm })
+        }
+        other => bail!("unknown region kind '{other}' (all, sphere, depth)"),
+    };
+    if let Some(k) = t.keys().find(|k| !(k.as_str() == "kind" || allowed.contains(&k.as_str()))) {
+        bail!("unknown key '{k}' in a {kind} region");
+    }
+    Ok(region)
+}
+
+/// `{ sigma_a, sigma_s }`, each a number or [r, g, b], `default` where absent.
+fn coefficients(v: &toml::Value, default: f64) -> anyhow::Result<([f64; 3], [f64; 3])> {
+    let t = v.as_table().ok_or_else(|| anyhow!("expected a table {{ sigma_a = .., sigma_s = .. }}"))?;
+    if let Some(k) = t.keys().find(|k| !["sigma_a", "sigma_s"].contains(&k.as_str())) {
+        bail!("unknown key '{k}' (its keys: sigma_a, sigma_s)");
+    }
+    let rgb = |key: &str| -> anyhow::Result<[f64; 3]> {
+        match t.get(key) {
+            None => Ok([default; 3]),
+            Some(v) => {
+                let c = Rgb::deserialize(v.clone()).map(Rgb::get).map_err(|_| anyhow!("'{key}' must be a number or [r, g, b]"))?;
+                if c.iter().all(|x| x.is_finite()) {
+                    Ok(c)
+                } else {
+                    bail!("'{key}' must be finite")
+                }
+            }
+        }
+    };
+    Ok((rgb("sigma_a")?, rgb("sigma_s")?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str, names: &[&str]) -> anyhow::Result<Vec<EditStep>> {
+        #[derive(Deserialize)]
+        struct F {
+            edit: Vec<toml::Table>,
+        }
+        let f: F = toml::from_str(text).unwrap();
+        let names: Vec<String> = names.iter().map(|s| s.to_string()).collect();
+        let mm = vec![1.0; names.len()];
+        resolve(&f.edit, &names, &mm, std::path::Path::new("."))
+    }
+
+    fn err(text: &str, names: &[&str]) -> String {
+        format!("{:#}", parse(text, names).unwrap_err())
+    }
+
+    #[test]
+    fn every_kind_parses() {
+        let text = r#"
+[[edit]]
+kind = "relight"
+lights = [{ kind = "sun", dir = [0, 0, -1], irradiance = 2 }]
+[[edit]]
+kind = "medium"
+object = "b"
+region = { kind = "sphere", center = [1, 2, 3], radius = 4 }
+scale = { sigma_a = [2, 2, 2] }
+[[edit]]
+kind = "medium"
+object = "b"
+region = { kind = "depth", min_mm = 0, max_mm = 1.5 }
+assign = "marble"
+[[edit]]
+kind = "paint"
+object = "a"
+points = [[0, 0, 0], [1, 0, 0]]
+radius = 2
+medium = { sigma_a = 0.5, sigma_s = 2, eta = 1.5 }
+strength = 0.5
+[[edit]]
+kind = "medium"
+object = "a"
+add = { sigma_s = 0.25 }
+"#;
+        let steps = parse(text, &["a", "b"]).unwrap();
+        assert_eq!(steps.len(), 5);
+        assert_eq!(steps.iter().map(|s| s.index).collect::<Vec<_>>(), (1..=5).collect::<Vec<_>>());
+        assert!(matches!(&steps[0].kind, EditKind::Relight(l) if l.len() == 1) && steps[0].object.is_none());
+        assert!(matches!(&steps[1].kind, EditKind::Medium { region: RegionSpec::Sphere { radius, .. }, op: OpSpec::Scale { sigma_a: [2.0, 2.0, 2.0], sigma_s: [1.0, 1.0, 1.0] } } if *radius == 4.0));
+        assert_eq!(steps[1].object, Some(1));
+        assert!(matches!(&steps[2].kind, EditKind::Medium { region: RegionSpec::Depth { min_mm, max_mm }, op: OpSpec::Assign(m) } if *min_mm == 0.0 && *max_mm == 1.5 && m.eta == 1.5));
+        assert!(matches!(&steps[3].kind, EditKind::Paint { points, radius, strength, medium } if points.len() == 2 && *radius == 2.0 && *strength == 0.5 && medium.sigma_a == [0.5; 3]));
+        assert!(matches!(&steps[4].kind, EditKind::Medium { region: RegionSpec::All, op: OpSpec::Add { sigma_a: [0.0, 0.0, 0.0], sigma_s: [0.25, 0.25, 0.25] } }));
+        assert_eq!(steps[4].object, Some(0));
+    }
+
+    #[test]
+    fn the_only_object_is_the_default() {
+        let steps = parse("[[edit]]\nkind = \"medium\"\nassign = \"jade\"\n", &["bunny"]).unwrap();
+        assert_eq!(steps[0].object, Some(0));
+        assert!(matches!(steps[0].kind, EditKind::Medium { region: RegionSpec::All, .. }));
+    }
+
+    #[test]
+    fn errors_name_the_edit_and_the_key() {
+        let ok = "[[edit]]\nkind = \"medium\"\nassign = \"marble\"\n";
+        let e = err(&format!("{ok}[[edit]]\nkind = \"paint\"\npoints = [[0,0,0]]\nradius = 1\n"), &["a"]);
+        assert!(e.contains("edit 2 (kind = \"paint\")") && e.contains("'medium'"), "{e}");
+        let e = err(&format!("{ok}{ok}[[edit]]\nkind = \"paint\"\npoints = [[0,0,0]]\nradius = -1\nmedium = \"marble\"\n"), &["a"]);
+        assert!(e.contains("edit 3 (kind = \"paint\")") && e.contains("'radius' must be positive"), "{e}");
+        let e = err("[[edit]]\nkind = \"paint\"\npoints = [[0,0,0]]\nradius = 1\nmedium = \"marble\"\nnormal = [0,0,1]\n", &["a"]);
+        assert!(e.contains("edit 1") && e.contains("unknown key 'normal'"), "{e}");
+        let e = err("[[edit]]\nkind = \"explode\"\n", &["a"]);
+        assert!(e.contains("edit 1") && e.contains("unknown edit kind 'explode'"), "{e}");
+        let e = err("[[edit]]\nobject = \"a\"\n", &["a"]);
+        assert!(e.contains("edit 1") && e.contains("missing key 'kind'"), "{e}");
+        let e = err(ok, &["a", "b"]);
+        assert!(e.contains("missing key 'object'") && e.contains("a, b"), "{e}");
+        let e = err("[[edit]]\nkind = \"medium\"\nobject = \"c\"\nassign = \"marble\"\n", &["a", "b"]);
+        assert!(e.contains("no object named 'c'"), "{e}");
+        let e = err("[[edit]]\nkind = \"medium\"\nscale = { sigma_a = 2 }\nadd = { sigma_a = 1 }\n", &["a"]);
+        assert!(e.contains("not scale and add"), "{e}");
+        let e = err("[[edit]]\nkind = \"medium\"\n", &["a"]);
+        assert!(e.contains("give one of 'assign', 'scale', 'add'"), "{e}");
+        let e = err("[[edit]]\nkind = \"medium\"\nregion = { kind = \"sphere\", center = [0,0,0] }\nscale = { sigma_a = 2 }\n", &["a"]);
+        assert!(e.contains("'region'") && e.contains("'radius'"), "{e}");
+        let e = err("[[edit]]\nkind = \"medium\"\nregion = { kind = \"depth\", min_mm = 2, max_mm = 1 }\nscale = { sigma_a = 2 }\n", &["a"]);
+        assert!(e.contains("'region'") && e.contains("min_mm < max_mm"), "{e}");
+        let e = err("[[edit]]\nkind = \"medium\"\nscale = { sigma_a = -2 }\n", &["a"]);
+        assert!(e.contains("'scale'") && e.contains("negative"), "{e}");
+        let e = err("[[edit]]\nkind = \"medium\"\nassign = \"plutonium\"\n", &["a"]);
+        assert!(e.contains("'assign'") && e.contains("plutonium"), "{e}");
+        let e = err("[[edit]]\nkind = \"relight\"\nobject = \"a\"\nlights = []\n", &["a"]);
+        assert!(e.contains("'object' does not apply to relight"), "{e}");
+        let e = err("[[edit]]\nkind = \"relight\"\nlights = [{ kind = \"sun\", dir = [0,0,-1] }]\n", &["a"]);
+        assert!(e.contains("'lights' entry 1") && e.contains("irradiance"), "{e}");
+        let e = err("[[edit]]\nkind = \"paint\"\npoints = [[0,0,0]]\nradius = 1\nmedium = \"marble\"\nstrength = 2\n", &["a"]);
+        assert!(e.contains("'strength' must lie in (0, 1]"), "{e}");
+    }
+}

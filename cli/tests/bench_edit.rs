@@ -1,0 +1,83 @@
+//! `transcut bench edit` on a small bunny: every field is there and the numbers agree with each
+//! other (no timings are asserted).
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn bunny() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes/stanford-bunny.obj")
+}
+
+fn sum(v: &serde_json::Value) -> u64 {
+    let a = v.as_array().unwrap_or_else(|| panic!("not an array: {v}"));
+    assert_eq!(a.len(), 3, "{v}");
+    a.iter().map(|x| x.as_u64().unwrap()).sum()
+}
+
+fn positive(v: &serde_json::Value, what: &str) -> f64 {
+    let x = v.as_f64().unwrap_or_else(|| panic!("{what}: not a number: {v}"));
+    assert!(x.is_finite() && x > 0.0, "{what} = {x}");
+    x
+}
+
+#[test]
+fn bench_edit_reports_every_edit_consistently() {
+    let out = Command::new(env!("CARGO_BIN_EXE_transcut"))
+        .args(["bench", "edit", "--tets", "5000", "--runs", "1", "--input"])
+        .arg(bunny())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["suite"], "edit");
+    let entries = json["entries"].as_array().unwrap();
+    assert_eq!(entries.len(), 1);
+    let e = &entries[0];
+    let tets = e["tets"].as_u64().unwrap();
+    assert!((4_000..=6_000).contains(&tets), "{tets}");
+
+    // Cold bake and the relight after the sun moved 5°.
+    assert!(sum(&e["cold_bake"]["iterations"]) > 0);
+    positive(&e["cold_bake"]["median_solve_ms"], "cold solve ms");
+    let relight = &e["relight_5deg"];
+    let cold = sum(&relight["cold"]["iterations"]);
+    let warm = sum(&relight["warm"]["last"]["iterations"]);
+    assert!(cold > 0 && warm > 0, "cold {cold}, warm {warm}");
+    assert!(warm <= cold, "a warm start took more iterations ({warm}) than a cold solve ({cold})");
+    let ratio = relight["iteration_ratio"].as_f64().unwrap();
+    assert!((ratio - warm as f64 / cold as f64).abs() < 1e-12, "{ratio}");
+    assert_eq!(relight["warm"]["last"]["rows_rebuilt"], 0, "a relight rebuilds no rows");
+    // Both solves reach the same solution (tolerance 1e-6 on the residual).
+    let diff = relight["relative_difference_vs_cold"].as_f64().unwrap();
+    assert!(diff < 1e-3, "warm vs cold relative difference {diff}");
+
+    // Paint: some rows rebuilt, fewer than all, and the solve ran.
+    let vertices = e["vertices"].as_u64().unwrap();
+    let paint = &e["paint"];
+    let rows = paint["last"]["rows_rebuilt"].as_u64().unwrap();
+    assert!(rows > 0 && rows < vertices, "rows rebuilt {rows} of {vertices}");
+    assert!(paint["last"]["tets_changed"].as_u64().unwrap() > 0);
+    assert!(sum(&paint["last"]["iterations"]) > 0);
+    positive(&paint["median_total_ms"], "paint ms");
+
+    // Fig. 7: three methods, curves whose error falls as the tolerance tightens, and a time to
+    // 1% for each (the 1e-6 solve is far below 1%).
+    let fig7 = &e["fig7"];
+    assert_eq!(fig7["reference_tolerance"].as_f64().unwrap(), 1e-10);
+    let methods = fig7["methods"].as_array().unwrap();
+    let names: Vec<&str> = methods.iter().map(|m| m["method"].as_str().unwrap()).collect();
+    assert_eq!(names, ["pcg", "cascade", "mg_pcg"]);
+    for m in methods {
+        let curve = m["curve"].as_array().unwrap();
+        assert_eq!(curve.len(), 11);
+        let first = curve[0]["relative_error"].as_f64().unwrap();
+        let last = curve[10]["relative_error"].as_f64().unwrap();
+        assert!(last < first && last < 1e-3, "{}: error {first} -> {last}", m["method"]);
+        assert!(m["error_1e6"].as_f64().unwrap() < 0.01);
+        positive(&m["time_to_1pct_ms"], "time to 1%");
+    }
+    let best = fig7["time_to_1pct_ratio_best_multires_vs_best_single_level"].as_f64().unwrap();
+    let cascade = fig7["time_to_1pct_ratio_cascade_vs_pcg"].as_f64().unwrap();
+    let mg = fig7["time_to_1pct_ratio_mg_vs_pcg"].as_f64().unwrap();
+    assert!((best - cascade.min(mg)).abs() < 1e-12, "{best} vs {cascade}, {mg}");
+}
