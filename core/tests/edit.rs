@@ -4,7 +4,7 @@
 
 use glam::{DMat3, DMat4, DVec3};
 use transcut::diffusion::Method;
-use transcut::edit::{EditError, EditOptions, Editor, MediumEdit, MediumOp, PaintStroke, Region};
+use transcut::edit::{Cutter, EditError, EditOptions, Editor, MediumEdit, MediumOp, PaintStroke, Region};
 use transcut::gpu::Backend;
 use transcut::light::Light;
 use transcut::mesh::TetMesh;
@@ -189,4 +189,142 @@ fn failed_edits_return_the_named_error_and_change_nothing() {
     assert_eq!(ed.media(), &media);
     assert_eq!(ed.lights(), &[sun(0.0)]);
     assert_eq!(ed.pieces()[0].transform(), DMat4::IDENTITY);
+}
+
+#[test]
+fn updates_on_the_gpu_path_match_the_cpu() {
+    // Backend::Auto with PCG solves on a hardware GPU when there is one (else on the CPU, and
+    // this compares the CPU with itself).
+    let mesh = ball();
+    let object = Object::from_tets("ball", mesh.clone(), marble().into(), 1.0);
+    let run = |backend| {
+        let o = EditOptions { tolerance: 1e-8, backend: Some(backend), ..options() };
+        let mut ed = Editor::new(&object, &[sun(0.0)], &o).unwrap();
+        ed.relight(&[sun(5.0)]).unwrap();
+        let red = Medium { sigma_a: [0.001, 0.2, 0.3], ..marble() };
+        ed.paint(&PaintStroke { points: vec![DVec3::new(10.0, 0.0, 0.0)], radius: 2.0, medium: red, strength: 1.0 }).unwrap();
+        ed.user_radiance().unwrap()
+    };
+    let diff = relative_difference(&run(Backend::Auto), &run(Backend::Cpu));
+    eprintln!("auto vs cpu: relative difference {diff:.2e}");
+    assert!(diff < 1e-5, "{diff}");
+}
+
+/// Radiance per vertex keyed by the vertex's exact position.
+fn by_position(mesh: &TetMesh, values: &[[f64; 3]]) -> std::collections::HashMap<[u64; 3], [f64; 3]> {
+    mesh.positions().iter().zip(values).map(|(p, v)| (p.to_array().map(f64::to_bits), *v)).collect()
+}
+
+#[test]
+fn a_plane_cut_equals_a_fresh_solve_on_the_cut_mesh() {
+    let mesh = ball();
+    let lights = [sun(20.0)];
+    let mut ed = editor(&mesh, marble().into(), &lights);
+    let plane = Cutter::Plane { point: DVec3::new(0.0, 0.0, 3.0), normal: DVec3::new(0.2, 0.0, 1.0) };
+    let stats = ed.cut(&plane).unwrap();
+    let cut = stats.cut.clone().unwrap();
+    eprintln!("cut: {stats:?}");
+    assert_eq!(ed.pieces().len(), 1);
+    let piece = &ed.pieces()[0];
+    assert_eq!(cut.removed_tets, mesh.tet_count() - piece.mesh().tet_count());
+    assert!(cut.removed_tets > mesh.tet_count() / 10, "{cut:?}");
+    assert!(ed.user_radiance().is_none());
+    // Every kept tet keeps its original id, and nothing above the plane is left.
+    assert_eq!(piece.original_tets().len(), piece.mesh().tet_count());
+    let normal = DVec3::new(0.2, 0.0, 1.0).normalize();
+    let above = piece.mesh().positions().iter().map(|p| (*p - DVec3::new(0.0, 0.0, 3.0)).dot(normal)).fold(f64::MIN, f64::max);
+    assert!(above <= cut.max_cut_distance + 1e-12, "{above} vs {}", cut.max_cut_distance);
+    let (reference, _) = fresh(piece.mesh(), marble().into(), &lights);
+    let diff = relative_difference(piece.radiance(), &reference);
+    eprintln!("cut: relative difference {diff:.2e}");
+    assert!(diff < 1e-6, "{diff}");
+    // Paint still reaches the original tets, including removed ones.
+    let removed = (0..mesh.tet_count() as u32).find(|t| !piece.original_tets().contains(t)).unwrap();
+    let c = mesh.tet_positions(removed as usize).iter().sum::<DVec3>() / 4.0;
+    let stroke = PaintStroke { points: vec![c], radius: 0.01, medium: Medium { sigma_a: [0.5; 3], ..marble() }, strength: 1.0 };
+    let s = ed.paint(&stroke).unwrap();
+    assert_eq!((s.tets_changed, s.rows_rebuilt, s.pieces_solved), (1, 0, 0));
+    assert_eq!(ed.media().coefficients()[removed as usize].sigma_a, [0.5; 3]);
+}
+
+#[test]
+fn split_move_apart_move_back_and_recombine_give_the_uncut_solution() {
+    let mesh = ball();
+    let lights = [sun(40.0)];
+    let mut ed = editor(&mesh, marble().into(), &lights);
+    let uncut = by_position(&mesh, ed.pieces()[0].radiance());
+    let plane = Cutter::Plane { point: DVec3::ZERO, normal: DVec3::new(1.0, 0.3, 0.0) };
+    ed.split(&plane).unwrap();
+    assert_eq!(ed.pieces().len(), 2);
+    let tets: usize = ed.pieces().iter().map(|p| p.mesh().tet_count()).sum();
+    assert_eq!(tets, mesh.tet_count());
+    // Two halves, each solved with its own boundary: the cut faces now take light in.
+    let away = DMat4::from_rotation_translation(glam::DQuat::from_rotation_z(0.3), DVec3::new(30.0, 0.0, 0.0));
+    let moved = ed.set_piece_transform(1, away).unwrap();
+    assert_eq!(moved.pieces_solved, 2);
+    assert_eq!(ed.pieces()[1].transform(), away);
+    // Nothing touches while apart.
+    assert_eq!(ed.recombine().unwrap().pieces_solved, 0);
+    assert_eq!(ed.pieces().len(), 2);
+    ed.set_piece_transform(1, DMat4::IDENTITY).unwrap();
+    ed.recombine().unwrap();
+    assert_eq!(ed.pieces().len(), 1);
+    let p = &ed.pieces()[0];
+    assert_eq!((p.mesh().tet_count(), p.mesh().vertex_count()), (mesh.tet_count(), mesh.vertex_count()));
+    let back = by_position(p.mesh(), p.radiance());
+    let scale = uncut.values().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    let worst = uncut.iter().map(|(k, a)| (0..3).map(|c| (a[c] - back[k][c]).abs()).fold(0.0, f64::max)).fold(0.0, f64::max);
+    eprintln!("recombined: max difference {:.2e} of {scale:.3}", worst / scale);
+    assert!(worst < 1e-6 * scale, "{worst}");
+}
+
+#[test]
+fn fracture_of_two_disjoint_balls_gives_two_pieces_each_equal_to_the_ball_alone() {
+    let a = ball();
+    let offset = DVec3::new(30.0, 0.0, 0.0);
+    let b = a.clone().map_positions(move |p| p + offset).unwrap();
+    let n = a.vertex_count() as u32;
+    let positions: Vec<DVec3> = a.positions().iter().chain(b.positions()).copied().collect();
+    let tets: Vec<[u32; 4]> = a.tets().iter().copied().chain(b.tets().iter().map(|t| t.map(|v| v + n))).collect();
+    let both = TetMesh::new(positions, tets, vec![]).unwrap();
+    let lights = [sun(15.0)];
+    let mut ed = editor(&both, marble().into(), &lights);
+    let stats = ed.fracture().unwrap();
+    assert_eq!(ed.pieces().len(), 2);
+    assert_eq!(stats.pieces_solved, 2);
+    for (piece, alone) in ed.pieces().iter().zip([&a, &b]) {
+        assert_eq!(piece.mesh().positions(), alone.positions());
+        let (reference, _) = fresh(alone, marble().into(), &lights);
+        let diff = relative_difference(piece.radiance(), &reference);
+        assert!(diff < 1e-6, "{diff}");
+    }
+    // A second fracture finds nothing to split.
+    assert_eq!(ed.fracture().unwrap().tets_changed, 0);
+    // A cut that removes the second ball entirely leaves the first as it was.
+    let first = ed.pieces()[0].radiance().to_vec();
+    let s = ed.cut(&Cutter::Plane { point: DVec3::new(15.0, 0.0, 0.0), normal: DVec3::X }).unwrap();
+    assert_eq!(ed.pieces().len(), 1);
+    assert_eq!(s.cut.unwrap().removed_tets, b.tet_count());
+    assert_eq!(ed.pieces()[0].mesh().positions(), a.positions());
+    assert!(relative_difference(ed.pieces()[0].radiance(), &first) < 1e-9);
+}
+
+#[test]
+fn failed_topology_edits_return_the_named_error_and_change_nothing() {
+    let mesh = ball();
+    let mut ed = editor(&mesh, marble().into(), &[sun(0.0)]);
+    let before = ed.pieces()[0].radiance().to_vec();
+    let e = ed.set_piece_transform(3, DMat4::IDENTITY).unwrap_err();
+    assert!(matches!(e, EditError::NoSuchPiece { index: 3, count: 1 }), "{e}");
+    let e = ed.set_piece_transform(0, DMat4::from_scale(DVec3::splat(2.0))).unwrap_err();
+    assert!(matches!(e, EditError::NotRigid(_)), "{e}");
+    let e = ed.cut(&Cutter::Plane { point: DVec3::ZERO, normal: DVec3::ZERO }).unwrap_err();
+    assert!(matches!(e, EditError::InvalidCutter(_)), "{e}");
+    // Everything removed: an error, not an empty editor.
+    let e = ed.cut(&Cutter::Plane { point: DVec3::new(0.0, 0.0, -20.0), normal: DVec3::Z }).unwrap_err();
+    assert!(matches!(e, EditError::NothingLeft { .. }), "{e}");
+    assert_eq!(ed.pieces().len(), 1);
+    assert_eq!(ed.pieces()[0].mesh().tet_count(), mesh.tet_count());
+    assert_eq!(ed.pieces()[0].radiance(), &before[..]);
+    assert!(ed.user_radiance().is_some());
 }

@@ -28,6 +28,11 @@
 //!   matrix-dependent parts are rebuilt on its hierarchy;
 //! - cuts, splits, fracture, moves and recombination rebuild the affected pieces' meshes,
 //!   systems and hierarchies (TransCut §5.1) and re-light every piece (the shadows change).
+//!   [`Editor::cut`] deletes the cutter's positive side and snaps the cut surface onto it
+//!   ([`cut::cut`]); [`Editor::split`] partitions the tets by the side of their centroid and
+//!   moves nothing, so the parts fit together exactly and [`Editor::recombine`] restores them;
+//!   [`Editor::fracture`] separates connected components; pieces move rigidly
+//!   ([`Editor::set_piece_transform`]) and each is solved with its own boundary.
 //!
 //! Every solve is **warm-started** from the previous φ (TransCut §4.2; after a cut φ is carried
 //! over through the kept vertices). Every method returns [`UpdateStats`] with the stage timings.
@@ -45,12 +50,14 @@ pub mod paint;
 mod piece;
 pub mod pieces;
 pub mod region;
+mod topology;
 
 use std::time::Instant;
 
 use glam::{DMat4, DVec3};
 use rayon::prelude::*;
 
+pub use cut::{CutOptions, CutResult, CutStats, Cutter, SweptStroke};
 pub use error::EditError;
 pub use paint::PaintStroke;
 pub use piece::Piece;
@@ -83,6 +90,8 @@ pub struct EditOptions {
     pub source: SourceOptions,
     /// Whether pieces shadow themselves and each other.
     pub shadows: bool,
+    /// How [`Editor::cut`] relaxes the cut surface and which quality bound it keeps.
+    pub cut: CutOptions,
     /// Distance (scene units, world space) within which boundary faces of two pieces count as
     /// touching in [`Editor::recombine`].
     pub weld_tolerance: f64,
@@ -99,6 +108,7 @@ impl Default for EditOptions {
             backend: None,
             source: bake.source,
             shadows: bake.shadows,
+            cut: CutOptions::default(),
             weld_tolerance: 1e-6,
         }
     }
@@ -116,10 +126,10 @@ impl EditOptions {
         if self.tets == 0 {
             return bad("tets must be at least 1".into());
         }
-        if !(self.weld_tolerance.is_finite() && self.weld_tolerance >= 0.0) {
-            return bad(format!("weld_tolerance {}: must be finite and >= 0", self.weld_tolerance));
+        if !(self.weld_tolerance.is_finite() && self.weld_tolerance > 0.0) {
+            return bad(format!("weld_tolerance {}: must be finite and > 0", self.weld_tolerance));
         }
-        Ok(())
+        self.cut.validate()
     }
 
     fn bake_options(&self) -> BakeOptions {
@@ -154,6 +164,8 @@ pub struct UpdateStats {
     pub hierarchy_ms: f64,
     pub solve_ms: f64,
     pub total_ms: f64,
+    /// What a cut did (summed over the pieces cut), for [`Editor::cut`].
+    pub cut: Option<CutStats>,
 }
 
 impl UpdateStats {
@@ -168,6 +180,7 @@ impl UpdateStats {
             hierarchy_ms: t.hierarchy_ms,
             solve_ms: t.solve_ms,
             total_ms: ms(start),
+            cut: None,
         }
     }
 }

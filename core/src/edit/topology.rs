@@ -1,0 +1,314 @@
+//! The editor's topology edits (TransCut §5.1 and issue 6 item 6): cut, split, fracture, move
+//! and recombine pieces. Each rebuilds the affected pieces (mesh, per-tet media table, system,
+//! hierarchy; φ carried over through the kept vertices as the warm start), re-lights every piece
+//! (the shadows change with any piece) and re-solves; the new pieces are swapped in only when all
+//! of that succeeded.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use glam::{DMat3, DMat4, DVec3};
+
+use super::cut::{self, CutResult, CutStats, Cutter, SweptStroke};
+use super::error::EditError;
+use super::piece::{self, Piece, Timings};
+use super::pieces;
+use super::{Editor, UpdateStats};
+use crate::mesh::TetMesh;
+
+/// A piece to build: rest-space mesh, original tet ids, transform and warm start.
+struct Plan {
+    mesh: TetMesh,
+    original_tets: Vec<u32>,
+    transform: DMat4,
+    warm: Vec<[f64; 3]>,
+}
+
+/// What a cut does to one piece.
+enum Outcome {
+    /// Nothing removed or moved.
+    Keep,
+    /// Every tet removed: the piece disappears.
+    Remove,
+    /// Rebuilt from the cut mesh.
+    Rebuild(Plan),
+}
+
+impl Editor {
+    /// Removes the cutter's positive side (world space) from every piece (TransCut §5.1, by
+    /// [`cut::cut`]): a piece entirely removed disappears; the others get a new mesh, system
+    /// and hierarchy, and every piece is re-lit and re-solved from its last φ.
+    ///
+    /// # Errors
+    /// [`EditError::InvalidCutter`] / [`EditError::InvalidStroke`] / [`EditError::InvalidOptions`]
+    /// from the cut; [`EditError::NothingLeft`] when nothing at all would remain; assembly and
+    /// solve errors. The editor is unchanged on error.
+    pub fn cut(&mut self, cutter: &Cutter) -> Result<UpdateStats, EditError> {
+        let start = Instant::now();
+        cutter.validate()?;
+        let mut timings = Timings::default();
+        let mut outcomes = Vec::with_capacity(self.pieces.len());
+        let mut stats: Option<CutStats> = None;
+        for p in &self.pieces {
+            let local = cutter_in_rest_space(cutter, &p.transform)?;
+            match cut::cut(&p.mesh, &p.original_tets, &local, &self.options.cut) {
+                Ok(r) if r.stats.removed_tets == 0 && r.stats.moved_vertices == 0 => {
+                    stats = Some(merge(stats, &r.stats));
+                    outcomes.push(Outcome::Keep);
+                }
+                Ok(r) => {
+                    stats = Some(merge(stats, &r.stats));
+                    outcomes.push(Outcome::Rebuild(plan_of_cut(r, p)));
+                }
+                Err(EditError::NothingLeft { .. }) => {
+                    stats = Some(merge(stats, &removed_stats(p)));
+                    outcomes.push(Outcome::Remove);
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        if outcomes.iter().all(|o| matches!(o, Outcome::Remove)) {
+            return Err(EditError::NothingLeft { piece: self.pieces.len().saturating_sub(1) });
+        }
+        let mut next = Vec::with_capacity(self.pieces.len());
+        let mut changed = 0;
+        for (p, outcome) in self.pieces.iter().zip(outcomes) {
+            match outcome {
+                Outcome::Keep => next.push(p.clone()),
+                Outcome::Remove => changed += p.mesh.tet_count(),
+                Outcome::Rebuild(plan) => {
+                    changed += plan.original_tets.len();
+                    next.push(self.build(plan, &mut timings)?);
+                }
+            }
+        }
+        let mut out = self.commit(next, &mut timings, changed, start)?;
+        out.cut = stats;
+        Ok(out)
+    }
+
+    /// Splits every piece along the cutter into the tets whose centroid lies on its positive
+    /// side and the others, keeping BOTH as separate pieces (same transform). Every tet is kept
+    /// and no vertex moves, so the pieces fit together exactly again and [`Editor::recombine`]
+    /// restores the piece they came from. (For a smooth cut surface, cut with the cutter and its
+    /// [`Cutter::flipped`] twin instead.) A piece entirely on one side stays as it is.
+    ///
+    /// # Errors
+    /// [`EditError::InvalidCutter`] / [`EditError::InvalidStroke`]; assembly and solve errors.
+    /// The editor is unchanged on error.
+    pub fn split(&mut self, cutter: &Cutter) -> Result<UpdateStats, EditError> {
+        let start = Instant::now();
+        cutter.validate()?;
+        let mut timings = Timings::default();
+        let mut next = Vec::new();
+        let mut changed = 0;
+        for p in &self.pieces {
+            let local = cutter_in_rest_space(cutter, &p.transform)?;
+            let (positive, negative): (Vec<u32>, Vec<u32>) = (0..p.mesh.tet_count() as u32)
+                .partition(|&t| local.signed_distance(centroid(&p.mesh, t as usize)) > 0.0);
+            if positive.is_empty() || negative.is_empty() {
+                next.push(p.clone());
+                continue;
+            }
+            for side in [negative, positive] {
+                let plan = plan_of_subset(p, &side)?;
+                changed += plan.original_tets.len();
+                next.push(self.build(plan, &mut timings)?);
+            }
+        }
+        self.commit(next, &mut timings, changed, start)
+    }
+
+    /// Splits every piece into its connected components ([`pieces::connected_components`]),
+    /// each a piece of its own with the same transform, solved with its own boundary.
+    ///
+    /// # Errors
+    /// Assembly and solve errors. The editor is unchanged on error.
+    pub fn fracture(&mut self) -> Result<UpdateStats, EditError> {
+        let start = Instant::now();
+        let mut timings = Timings::default();
+        let mut next = Vec::new();
+        let mut changed = 0;
+        for p in &self.pieces {
+            let components = pieces::connected_components(&p.mesh);
+            if components.len() < 2 {
+                next.push(p.clone());
+                continue;
+            }
+            for tets in components {
+                let plan = plan_of_subset(p, &tets)?;
+                changed += plan.original_tets.len();
+                next.push(self.build(plan, &mut timings)?);
+            }
+        }
+        self.commit(next, &mut timings, changed, start)
+    }
+
+    /// Places piece `piece` with the rigid transform `transform` (rest → world). Its matrix does
+    /// not change; every piece is re-lit (its own source and the shadows move) and re-solved.
+    ///
+    /// # Errors
+    /// [`EditError::NoSuchPiece`]; [`EditError::NotRigid`] ([`pieces::check_rigid`]); light and
+    /// solve errors. The editor is unchanged on error.
+    pub fn set_piece_transform(&mut self, piece: usize, transform: DMat4) -> Result<UpdateStats, EditError> {
+        let start = Instant::now();
+        if piece >= self.pieces.len() {
+            return Err(EditError::NoSuchPiece { index: piece, count: self.pieces.len() });
+        }
+        pieces::check_rigid(&transform)?;
+        let mut next = self.pieces.clone();
+        next[piece].transform = transform;
+        let mut timings = Timings::default();
+        self.commit(next, &mut timings, 0, start)
+    }
+
+    /// Welds pieces whose boundaries touch again ([`pieces::weld`], within
+    /// `options.weld_tolerance` in world space), repeatedly, until no two pieces touch. A welded
+    /// piece lives in the rest space and transform of the first of the two.
+    ///
+    /// # Errors
+    /// [`EditError::InvalidOptions`] for a zero weld tolerance; [`EditError::Mesh`] when welded
+    /// faces would make an invalid mesh; assembly and solve errors. The editor is unchanged on
+    /// error.
+    pub fn recombine(&mut self) -> Result<UpdateStats, EditError> {
+        let start = Instant::now();
+        let mut timings = Timings::default();
+        let mut next = self.pieces.clone();
+        let mut changed = 0;
+        'search: loop {
+            for i in 0..next.len() {
+                for j in i + 1..next.len() {
+                    if let Some(plan) = weld_pair(&next[i], &next[j], self.options.weld_tolerance)? {
+                        changed += plan.original_tets.len();
+                        let merged = self.build(plan, &mut timings)?;
+                        next.remove(j);
+                        next[i] = merged;
+                        continue 'search;
+                    }
+                }
+            }
+            break;
+        }
+        if next.len() == self.pieces.len() {
+            return Ok(UpdateStats::new(&timings, 0, 0, start));
+        }
+        self.commit(next, &mut timings, changed, start)
+    }
+
+    /// Builds a planned piece with the editor's media and solver setup.
+    fn build(&self, plan: Plan, timings: &mut Timings) -> Result<Piece, EditError> {
+        piece::build(plan.mesh, plan.original_tets, plan.transform, &self.media, &self.setup, Some(plan.warm), timings)
+    }
+
+    /// Re-lights and re-solves `next` (every piece: the shadows depend on all), then swaps it in.
+    fn commit(&mut self, mut next: Vec<Piece>, timings: &mut Timings, changed: usize, start: Instant) -> Result<UpdateStats, EditError> {
+        piece::light_all(&mut next, &self.lights, &self.options.source, self.options.shadows, timings)?;
+        for p in &mut next {
+            piece::solve(p, &self.setup, timings)?;
+        }
+        let rebuilt = changed > 0;
+        self.pieces = next;
+        if rebuilt {
+            self.uncut = false;
+        }
+        Ok(UpdateStats::new(timings, 0, changed, start))
+    }
+}
+
+/// The cutter in a piece's rest space (the cutter itself when the transform is the identity, so
+/// nothing is rounded).
+fn cutter_in_rest_space(cutter: &Cutter, transform: &DMat4) -> Result<Cutter, EditError> {
+    if *transform == DMat4::IDENTITY {
+        return Ok(cutter.clone());
+    }
+    let inverse = transform.inverse();
+    let rotation = DMat3::from_mat4(inverse);
+    Ok(match cutter {
+        Cutter::Plane { point, normal } => {
+            Cutter::Plane { point: inverse.transform_point3(*point), normal: rotation * *normal }
+        }
+        Cutter::Stroke(s) => Cutter::Stroke(SweptStroke::new(
+            s.origins().iter().map(|&o| inverse.transform_point3(o)).collect(),
+            s.directions().iter().map(|&d| rotation * d).collect(),
+        )?),
+        Cutter::Solid(mesh) => Cutter::Solid(mesh.transformed(&inverse)),
+    })
+}
+
+/// The plan of a cut piece: its φ carried over through the kept vertices.
+fn plan_of_cut(r: CutResult, p: &Piece) -> Plan {
+    let warm = r.kept_vertex.iter().map(|&v| p.fluence[v as usize]).collect();
+    Plan { mesh: r.mesh, original_tets: r.original_tet, transform: p.transform, warm }
+}
+
+/// The statistics of a piece removed entirely.
+fn removed_stats(p: &Piece) -> CutStats {
+    CutStats {
+        removed_tets: p.mesh.tet_count(),
+        removed_vertices: p.mesh.vertex_count(),
+        moved_vertices: 0,
+        cut_surface_vertices: 0,
+        max_cut_distance: 0.0,
+        min_dihedral_degrees: f64::INFINITY,
+        bound_degrees: f64::INFINITY,
+    }
+}
+
+/// Cut statistics summed over pieces (worst angle and largest distance over all).
+fn merge(a: Option<CutStats>, b: &CutStats) -> CutStats {
+    match a {
+        None => b.clone(),
+        Some(a) => CutStats {
+            removed_tets: a.removed_tets + b.removed_tets,
+            removed_vertices: a.removed_vertices + b.removed_vertices,
+            moved_vertices: a.moved_vertices + b.moved_vertices,
+            cut_surface_vertices: a.cut_surface_vertices + b.cut_surface_vertices,
+            max_cut_distance: a.max_cut_distance.max(b.max_cut_distance),
+            min_dihedral_degrees: a.min_dihedral_degrees.min(b.min_dihedral_degrees),
+            bound_degrees: a.bound_degrees.min(b.bound_degrees),
+        },
+    }
+}
+
+/// The plan of the sub-piece made of `tets` (local ids): [`pieces::extract`] compacts the
+/// vertices in increasing old id, so φ is carried over through the sorted used vertices.
+fn plan_of_subset(p: &Piece, tets: &[u32]) -> Result<Plan, EditError> {
+    let (mesh, original_tets) = pieces::extract(&p.mesh, &p.original_tets, tets)?;
+    let mut used: Vec<u32> = tets.iter().flat_map(|&t| p.mesh.tets()[t as usize]).collect();
+    used.sort_unstable();
+    used.dedup();
+    let warm = used.iter().map(|&v| p.fluence[v as usize]).collect();
+    Ok(Plan { mesh, original_tets, transform: p.transform, warm })
+}
+
+/// Welds `b` onto `a` in `a`'s rest space if they touch; φ carried over from both (b's
+/// unmerged vertices found by their exact positions in a's rest space).
+fn weld_pair(a: &Piece, b: &Piece, tolerance: f64) -> Result<Option<Plan>, EditError> {
+    let b_mesh = if a.transform == b.transform {
+        b.mesh.as_ref().clone()
+    } else {
+        let m = a.transform.inverse() * b.transform;
+        b.mesh.as_ref().clone().map_positions(move |p| m.transform_point3(p))?
+    };
+    let Some((mesh, original_tets)) = pieces::weld(&a.mesh, &a.original_tets, &b_mesh, &b.original_tets, tolerance)? else {
+        return Ok(None);
+    };
+    let key = |p: DVec3| p.to_array().map(f64::to_bits);
+    let b_index: HashMap<[u64; 3], usize> = b_mesh.positions().iter().enumerate().map(|(i, &p)| (key(p), i)).collect();
+    let n_a = a.mesh.vertex_count();
+    let warm = (0..mesh.vertex_count())
+        .map(|v| {
+            if v < n_a {
+                a.fluence[v]
+            } else {
+                b_index.get(&key(mesh.positions()[v])).map_or([0.0; 3], |&i| b.fluence[i])
+            }
+        })
+        .collect();
+    Ok(Some(Plan { mesh, original_tets, transform: a.transform, warm }))
+}
+
+/// The centroid of tet `t`.
+fn centroid(mesh: &TetMesh, t: usize) -> DVec3 {
+    mesh.tet_positions(t).iter().sum::<DVec3>() / 4.0
+}
