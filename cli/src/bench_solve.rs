@@ -1,16 +1,19 @@
 //! `transcut bench solve`: the diffusion solve on the CPU and on the chosen backend (GPU:
 //! upload, assembly on the device, solve with read-back) on one mesh, timed in one process so
 //! the ratio is meaningful, with the GPU's device name and its agreement with the CPU solution.
+//! On the GPU both Jacobi PCG and multigrid-preconditioned CG (the V-cycle on the device, its
+//! hierarchy and Galerkin operators built on the CPU once per mesh, timed apart) are run.
 
 use std::time::Instant;
 
 use anyhow::Context;
 use serde::Serialize;
-use transcut::diffusion::{assemble, solve, DiffusionSystem};
+use transcut::diffusion::{assemble, solve, DiffusionSystem, Method, MultiresSolver, Solution};
 use transcut::gpu::Backend;
 use transcut::mesh;
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
+use transcut::sparse::hierarchy::{HierarchyOptions, Multigrid};
 use transcut::sparse::SolveOptions;
 
 use crate::bench::{BenchArgs, median};
@@ -31,6 +34,19 @@ struct GpuEntry {
 }
 
 #[derive(Serialize)]
+struct GpuMultigridEntry {
+    /// The hierarchy, Galerkin operators, smoothers and coarsest factor on the CPU (once per
+    /// mesh and media; not in the device times).
+    cpu_setup_ms: f64,
+    levels: Vec<usize>,
+    /// CPU MG-PCG iterations for comparison with the device's.
+    cpu_mg_pcg_iterations: [usize; 3],
+    /// Upload (matrix, operators, transfers, coarsest inverse), assembly and MG-PCG solve on the
+    /// device; `speedup_vs_cpu` against the CPU's Jacobi PCG assembly + solve.
+    device: GpuEntry,
+}
+
+#[derive(Serialize)]
 struct SolveEntry {
     target_tets: usize,
     tets: usize,
@@ -40,6 +56,7 @@ struct SolveEntry {
     cpu_median_solve_ms: f64,
     cpu_iterations: [usize; 3],
     gpu: Option<GpuEntry>,
+    gpu_multigrid: Option<GpuMultigridEntry>,
     gpu_fallback: Option<String>,
 }
 
@@ -60,6 +77,48 @@ fn rel_rms(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
         } else {
             0.0
         }
+    })
+}
+
+/// `runs` device solves of `system` (Jacobi PCG, or MG-PCG with `mg`), medians.
+fn gpu_entry(
+    ctx: &transcut::gpu::GpuContext,
+    system: &DiffusionSystem,
+    mg: Option<&Multigrid>,
+    runs: u32,
+    cpu: &Solution,
+    cpu_ms: f64,
+    options: &SolveOptions<'_>,
+) -> anyhow::Result<GpuEntry> {
+    let (mut up, mut asm, mut sol, mut total) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut last = None;
+    for _ in 0..runs {
+        let start = Instant::now();
+        let solver = match mg {
+            Some(mg) => transcut::gpu::GpuSolver::with_multigrid(ctx, system, mg)?,
+            None => transcut::gpu::GpuSolver::new(ctx, system)?,
+        };
+        let g = solver.solve(system, None, options)?;
+        total.push(1e3 * start.elapsed().as_secs_f64());
+        up.push(g.stats.upload_ms);
+        asm.push(g.stats.assembly_ms);
+        sol.push(g.stats.solve_ms);
+        last = Some(g);
+    }
+    let g = last.context("at least one run")?;
+    let total_ms = median(total);
+    Ok(GpuEntry {
+        device: g.stats.device.clone(),
+        median_upload_ms: median(up),
+        median_assembly_ms: median(asm),
+        median_solve_ms: median(sol),
+        median_total_ms: total_ms,
+        iterations: g.solution.stats.iterations,
+        rounds: g.stats.rounds,
+        readbacks: g.stats.readbacks,
+        relative_residual: g.solution.stats.relative_residual,
+        relative_rms_vs_cpu: rel_rms(&g.solution.phi, &cpu.phi),
+        speedup_vs_cpu: cpu_ms / total_ms,
     })
 }
 
@@ -95,38 +154,23 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         let cpu = cpu.context("at least one run")?;
         let system = system.context("at least one run")?;
         let cpu_ms = median(assembly.clone()) + median(solves.clone());
-        let (gpu, gpu_fallback) = match &context {
-            Err(reason) => (None, Some(reason.clone())),
+        let (gpu, gpu_multigrid, gpu_fallback) = match &context {
+            Err(reason) => (None, None, Some(reason.clone())),
             Ok(ctx) => {
-                let (mut up, mut asm, mut sol, mut total) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-                let mut last = None;
-                for _ in 0..args.runs {
-                    let start = Instant::now();
-                    let g = transcut::gpu::solve(ctx, &system, None, &options)?;
-                    total.push(1e3 * start.elapsed().as_secs_f64());
-                    up.push(g.stats.upload_ms);
-                    asm.push(g.stats.assembly_ms);
-                    sol.push(g.stats.solve_ms);
-                    last = Some(g);
-                }
-                let g = last.context("at least one run")?;
-                let total_ms = median(total.clone());
-                (
-                    Some(GpuEntry {
-                        device: g.stats.device.clone(),
-                        median_upload_ms: median(up),
-                        median_assembly_ms: median(asm),
-                        median_solve_ms: median(sol),
-                        median_total_ms: total_ms,
-                        iterations: g.solution.stats.iterations,
-                        rounds: g.stats.rounds,
-                        readbacks: g.stats.readbacks,
-                        relative_residual: g.solution.stats.relative_residual,
-                        relative_rms_vs_cpu: rel_rms(&g.solution.phi, &cpu.phi),
-                        speedup_vs_cpu: cpu_ms / total_ms,
-                    }),
-                    None,
-                )
+                let jacobi = gpu_entry(ctx, &system, None, args.runs, &cpu, cpu_ms, &options)?;
+                let start = Instant::now();
+                let multires = MultiresSolver::new(&system, Method::MultigridPcg, &HierarchyOptions::default())?;
+                let cpu_setup_ms = 1e3 * start.elapsed().as_secs_f64();
+                let mg = multires.multigrid().context("a multigrid solver has its multigrid")?;
+                let cpu_mg = multires.solve(&system, None, &options)?;
+                let device = gpu_entry(ctx, &system, Some(mg), args.runs, &cpu, cpu_ms, &options)?;
+                let entry = GpuMultigridEntry {
+                    cpu_setup_ms,
+                    levels: multires.hierarchy().vertex_counts(),
+                    cpu_mg_pcg_iterations: cpu_mg.stats.iterations,
+                    device,
+                };
+                (Some(jacobi), Some(entry), None)
             }
         };
         entries.push(SolveEntry {
@@ -138,6 +182,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             cpu_median_solve_ms: median(solves),
             cpu_iterations: cpu.stats.iterations,
             gpu,
+            gpu_multigrid,
             gpu_fallback,
         });
     }
@@ -150,7 +195,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "tolerance": options.tolerance,
         "threads": rayon::current_num_threads(),
         "notes": "cpu assembly includes the mesh structure (pattern, incidences), which the GPU path reuses from it; \
-                  gpu total = upload + assembly on the device + solve (iterations, read-backs, host f64 residual checks)",
+                  gpu total = upload + assembly on the device + solve (iterations, read-backs, host f64 residual checks); \
+                  gpu_multigrid: MG-PCG with the V-cycle on the device, its CPU setup (hierarchy, Galerkin operators) apart",
         "entries": entries,
     });
     println!("{}", serde_json::to_string_pretty(&report)?);
