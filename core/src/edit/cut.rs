@@ -712,3 +712,51 @@ fn ring_is_valid(ring: &[u32], tets: &[[u32; 4]], pos: &[DVec3], v: usize, p: DV
         tet_volume(corners) > min_volume && min_dihedral(corners) >= bound
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bent_orthographic_stroke_signs_both_legs_and_the_corner() {
+        // Looking along −z, drawn right along +x then up along +y: an "L" whose left side is the
+        // upper-left region {y > 0 and x < 1}.
+        let d = DVec3::new(0.0, 0.0, -1.0);
+        let o = [DVec3::new(-1.0, 0.0, 5.0), DVec3::new(1.0, 0.0, 5.0), DVec3::new(1.0, 2.0, 5.0)];
+        let c = Cutter::Stroke(SweptStroke::new(o.to_vec(), vec![d; 3]).unwrap());
+        let at = |x: f64, y: f64| c.signed_distance(DVec3::new(x, y, 0.0));
+        assert!((at(0.0, 0.5) - 0.5).abs() < 1e-12);
+        assert!((at(0.0, -0.5) + 0.5).abs() < 1e-12);
+        assert!((at(0.5, 1.0) - 0.5).abs() < 1e-12);
+        assert!((at(1.5, 1.0) + 0.5).abs() < 1e-12);
+        // Beyond the corner (x > 1, y < 0) the nearest point is the shared ray; the point is right
+        // of both legs, so kept (signed by the edge pseudo-normal), at the distance to that ray.
+        assert!((at(1.3, -0.4) + 0.5).abs() < 1e-12);
+        // Extended ends: far left along the first leg, far up along the last.
+        assert!((at(-10.0, 0.25) - 0.25).abs() < 1e-12);
+        assert!((at(1.75, 10.0) + 0.75).abs() < 1e-12);
+        assert!((c.closest_point(DVec3::new(1.3, -0.4, 0.0)) - DVec3::new(1.0, 0.0, 0.0)).length() < 1e-12);
+        assert!((c.flipped().signed_distance(DVec3::new(0.5, 1.0, 0.0)) + 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn invalid_cutters_and_strokes_name_the_problem() {
+        let bad = Cutter::Plane { point: DVec3::ZERO, normal: DVec3::ZERO };
+        assert!(matches!(bad.validate(), Err(EditError::InvalidCutter(m)) if m.contains("normal")));
+        let nan = Cutter::Plane { point: DVec3::new(f64::NAN, 0.0, 0.0), normal: DVec3::Z };
+        assert!(matches!(nan.validate(), Err(EditError::InvalidCutter(m)) if m.contains("point")));
+        let d = DVec3::NEG_Z;
+        let err = |r: Result<SweptStroke, EditError>| match r {
+            Err(EditError::InvalidStroke(m)) => m,
+            other => panic!("{other:?}"),
+        };
+        assert!(err(SweptStroke::new(vec![DVec3::ZERO], vec![d])).contains("at least 2"));
+        assert!(err(SweptStroke::new(vec![DVec3::ZERO; 2], vec![d])).contains("directions"));
+        assert!(err(SweptStroke::new(vec![DVec3::ZERO, DVec3::X], vec![d, DVec3::ZERO])).contains("direction 1"));
+        assert!(err(SweptStroke::new(vec![DVec3::ZERO, DVec3::Z], vec![d, d])).contains("span no quad"));
+        assert!(err(SweptStroke::new(vec![DVec3::ZERO, DVec3::X], vec![d, DVec3::new(0.0, 1.0, -1.0)])).contains("skew"));
+        assert!(err(SweptStroke::perspective(DVec3::ZERO, vec![d, 2.0 * d])).contains("span no quad"));
+        let opts = CutOptions { min_dihedral_degrees: f64::NAN, ..CutOptions::default() };
+        assert!(matches!(opts.validate(), Err(EditError::InvalidOptions(_))));
+    }
+}
