@@ -48,6 +48,7 @@ from ctypes import (
     c_size_t,
     c_uint32,
     c_uint64,
+    c_uint8,
     c_void_p,
 )
 from typing import Callable, Optional, Sequence
@@ -63,7 +64,9 @@ __all__ = [
     "TcArtistMedium",
     "TcBakeOptions",
     "TcBakeStats",
+    "TcEditStats",
     "TcMedium",
+    "TcMediumEdit",
     "TranscutError",
     "library_candidates",
     "library_file_name",
@@ -89,6 +92,7 @@ TC_NOT_BAKED = 11
 TC_INTERNAL_ERROR = 12
 TC_BUSY = 13
 TC_GPU_UNAVAILABLE = 14
+TC_NOTHING_LEFT = 15
 
 STATUS_NAMES = {
     TC_OK: "TC_OK",
@@ -106,6 +110,7 @@ STATUS_NAMES = {
     TC_INTERNAL_ERROR: "TC_INTERNAL_ERROR",
     TC_BUSY: "TC_BUSY",
     TC_GPU_UNAVAILABLE: "TC_GPU_UNAVAILABLE",
+    TC_NOTHING_LEFT: "TC_NOTHING_LEFT",
 }
 
 TC_METHOD_TRANSCUT = 0
@@ -118,6 +123,15 @@ TC_BACKEND_AUTO = 3  # a hardware GPU if there is one, else the CPU (tc_object_b
 
 #: ``backend`` option names accepted by :meth:`Scene.bake` (besides the integer values).
 BACKENDS = {"default": TC_BACKEND_DEFAULT, "cpu": TC_BACKEND_CPU, "gpu": TC_BACKEND_GPU, "auto": TC_BACKEND_AUTO}
+
+# TcMediumEdit.region and .op (tc_object_edit_medium).
+TC_REGION_ALL = 0
+TC_REGION_SPHERE = 1
+TC_REGION_DEPTH = 2
+TC_REGION_MASK = 3
+TC_MEDIUM_ASSIGN = 0
+TC_MEDIUM_SCALE = 1
+TC_MEDIUM_ADD = 2
 
 
 class TcMedium(Structure):
@@ -175,6 +189,49 @@ class TcBakeStats(Structure):
         ("total_ms", c_double),
         ("clamped_vertices", c_uint64),
         ("backend_used", c_uint32),
+    ]
+
+
+class TcMediumEdit(Structure):
+    """``TcMediumEdit`` (``tc_object_edit_medium``; set ``size``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("region", c_uint32),
+        ("center", c_double * 3),
+        ("radius", c_double),
+        ("min_mm", c_double),
+        ("max_mm", c_double),
+        ("mask", POINTER(c_uint8)),
+        ("mask_len", c_size_t),
+        ("op", c_uint32),
+        ("sigma_a", c_double * 3),
+        ("sigma_s_prime", c_double * 3),
+    ]
+
+
+class TcEditStats(Structure):
+    """``TcEditStats`` (``tc_object_edit_stats``; the caller sets ``size``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("pieces_solved", c_uint32),
+        ("iterations", c_uint32 * 3),
+        ("cut", c_uint32),
+        ("rows_rebuilt", c_uint64),
+        ("tets_changed", c_uint64),
+        ("source_ms", c_double),
+        ("assembly_ms", c_double),
+        ("hierarchy_ms", c_double),
+        ("solve_ms", c_double),
+        ("total_ms", c_double),
+        ("cut_removed_tets", c_uint64),
+        ("cut_removed_vertices", c_uint64),
+        ("cut_moved_vertices", c_uint64),
+        ("cut_surface_vertices", c_uint64),
+        ("cut_max_distance", c_double),
+        ("cut_min_dihedral_degrees", c_double),
+        ("cut_bound_degrees", c_double),
     ]
 
 
@@ -240,6 +297,22 @@ _OPTIONAL = {
     "tc_object_stats": (c_int32, [_ScenePtr, c_uint32, POINTER(TcBakeStats)]),
     "tc_object_device": (c_int32, [_ScenePtr, c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
     "tc_object_backend_fallback": (c_int32, [_ScenePtr, c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
+    # Editing (after a bake).
+    "tc_scene_relight": (c_int32, [_ScenePtr, TcProgressFn, c_void_p]),
+    "tc_object_tet_count": (c_int32, [_ScenePtr, c_uint32, POINTER(c_size_t)]),
+    "tc_object_edit_medium": (c_int32, [_ScenePtr, c_uint32, POINTER(TcMediumEdit)]),
+    "tc_object_paint": (c_int32, [_ScenePtr, c_uint32, _d3, c_size_t, c_double, POINTER(TcMedium), c_double]),
+    "tc_object_cut_plane": (c_int32, [_ScenePtr, c_uint32, _d3, _d3, c_int32]),
+    "tc_object_cut_stroke": (c_int32, [_ScenePtr, c_uint32, _d3, _d3, c_size_t, c_int32]),
+    "tc_object_cut_mesh": (c_int32, [_ScenePtr, c_uint32, _f, c_size_t, _u32, c_size_t, c_int32]),
+    "tc_object_fracture": (c_int32, [_ScenePtr, c_uint32, _u32]),
+    "tc_object_recombine": (c_int32, [_ScenePtr, c_uint32, _u32]),
+    "tc_object_piece_count": (c_int32, [_ScenePtr, c_uint32, _u32]),
+    "tc_object_set_piece_transform": (c_int32, [_ScenePtr, c_uint32, c_uint32, _d3]),
+    "tc_object_piece_transform": (c_int32, [_ScenePtr, c_uint32, c_uint32, _d3]),
+    "tc_object_piece_sizes": (c_int32, [_ScenePtr, c_uint32, c_uint32, POINTER(c_size_t), POINTER(c_size_t)]),
+    "tc_object_piece_mesh": (c_int32, [_ScenePtr, c_uint32, c_uint32, _f, c_size_t, _u32, c_size_t, _f, c_size_t]),
+    "tc_object_edit_stats": (c_int32, [_ScenePtr, c_uint32, POINTER(TcEditStats)]),
 }
 
 
@@ -733,3 +806,66 @@ class Scene:
     def backend_fallback(self, obj: int) -> str:
         """Why the ``auto`` backend solved the object on the CPU ('' when it did not)."""
         return self._object_text("tc_object_backend_fallback", obj)
+
+    # -- editing (after a bake) ------------------------------------------------------------
+
+    def _call(self, name: str, *args) -> None:
+        self._check(self.lib.function(name)(self._h(), *args), name)
+
+    def relight(self) -> None:
+        """Re-solves every object for the scene's current lights (``tc_scene_relight``)."""
+        self._call("tc_scene_relight", TcProgressFn(), None)
+
+    def cut_plane(self, obj: int, point, normal, keep_both: bool = False) -> None:
+        """Removes the side ``normal`` points into (``tc_object_cut_plane``); keep_both splits."""
+        self._call("tc_object_cut_plane", obj, _vec3(point, "point"), _vec3(normal, "normal"), 1 if keep_both else 0)
+
+    def cut_mesh(self, obj: int, positions, triangles, keep_both: bool = False) -> None:
+        """Removes what lies inside a closed mesh, world space (``tc_object_cut_mesh``)."""
+        pos = np.ascontiguousarray(positions, dtype=np.float32).reshape(-1)
+        tri = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1)
+        self._call(
+            "tc_object_cut_mesh", obj, pos.ctypes.data_as(_f), pos.size // 3, tri.ctypes.data_as(_u32), tri.size,
+            1 if keep_both else 0,
+        )
+
+    def paint(self, obj: int, points, radius: float, medium: TcMedium, strength: float = 1.0) -> None:
+        """Paints ``medium`` along a 3D stroke (``tc_object_paint``)."""
+        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1)
+        self._call(
+            "tc_object_paint", obj, pts.ctypes.data_as(_d3), pts.size // 3, float(radius), ctypes.byref(medium),
+            float(strength),
+        )
+
+    def piece_count(self, obj: int) -> int:
+        """``tc_object_piece_count``."""
+        out = c_uint32()
+        self._call("tc_object_piece_count", obj, ctypes.byref(out))
+        return out.value
+
+    def set_piece_transform(self, obj: int, piece: int, matrix) -> None:
+        """Places a piece rigidly (4 × 4, row-major like ``Matrix``; sent column-major)."""
+        m = np.ascontiguousarray(np.asarray(matrix, dtype=np.float64).reshape(4, 4).T).reshape(-1)
+        self._call("tc_object_set_piece_transform", obj, piece, m.ctypes.data_as(_d3))
+
+    def piece_mesh(self, obj: int, piece: int) -> tuple:
+        """A piece's surface: float32 positions (n, 3), uint32 triangles (m, 3), float32 radiance (n, 3)."""
+        nv, nt = c_size_t(), c_size_t()
+        self._call("tc_object_piece_sizes", obj, piece, ctypes.byref(nv), ctypes.byref(nt))
+        pos = np.empty((nv.value, 3), np.float32)
+        tri = np.empty((nt.value, 3), np.uint32)
+        rgb = np.empty((nv.value, 3), np.float32)
+        self._call(
+            "tc_object_piece_mesh", obj, piece, pos.ctypes.data_as(_f), pos.size, tri.ctypes.data_as(_u32), tri.size,
+            rgb.ctypes.data_as(_f), rgb.size,
+        )
+        return pos, tri, rgb
+
+    def edit_stats(self, obj: int) -> dict:
+        """``tc_object_edit_stats`` as a dict."""
+        st = TcEditStats()
+        st.size = ctypes.sizeof(TcEditStats)
+        self._call("tc_object_edit_stats", obj, ctypes.byref(st))
+        out = {name: getattr(st, name) for name, _ in TcEditStats._fields_ if name != "size"}
+        out["iterations"] = list(st.iterations)
+        return out

@@ -76,6 +76,47 @@
 #define TC_BACKEND_AUTO 3
 
 /**
+ * `TcMediumEdit.region`: every tet of the object.
+ */
+#define TC_REGION_ALL 0
+
+/**
+ * `TcMediumEdit.region`: the tets whose centroid lies in the sphere `center`, `radius` (world
+ * space at the placement the object was baked in, scene units).
+ */
+#define TC_REGION_SPHERE 1
+
+/**
+ * `TcMediumEdit.region`: the tets whose centroid lies between `min_mm` and `max_mm` (inclusive)
+ * below the object's surface as baked (distance to the closest surface triangle, millimetres).
+ */
+#define TC_REGION_DEPTH 2
+
+/**
+ * `TcMediumEdit.region`: the tets `t` with `mask[t] != 0`, one byte per tetrahedron of the
+ * object as baked (`mask_len` = `tc_object_tet_count`), also tets a cut has removed.
+ */
+#define TC_REGION_MASK 3
+
+/**
+ * `TcMediumEdit.op`: σa and σ′s become `sigma_a`, `sigma_s_prime` (mm⁻¹); η and g stay the
+ * object's.
+ */
+#define TC_MEDIUM_ASSIGN 0
+
+/**
+ * `TcMediumEdit.op`: σa and σ′s are multiplied by `sigma_a`, `sigma_s_prime` per channel
+ * (finite, ≥ 0; the result must stay a valid medium).
+ */
+#define TC_MEDIUM_SCALE 1
+
+/**
+ * `TcMediumEdit.op`: `sigma_a`, `sigma_s_prime` (mm⁻¹, finite, may be negative) are added per
+ * channel; the result must stay a valid medium.
+ */
+#define TC_MEDIUM_ADD 2
+
+/**
  * A scene: objects (each a mesh, a medium, a transform), lights, and the results of the last
  * bake. Created by `tc_scene_create`, freed by `tc_scene_destroy`. Opaque: only pointers to it
  * are used. A scene may move between threads but serves one call at a time (`TC_BUSY`).
@@ -211,6 +252,58 @@ typedef struct TcBakeStats {
 } TcBakeStats;
 
 /**
+ * A material edit for `tc_object_edit_medium`: an operation (`op`) applied to the tetrahedra of
+ * a region (`region`); only the fields of the chosen region and operation are read. Set `size`
+ * to `sizeof(TcMediumEdit)`.
+ */
+typedef struct TcMediumEdit {
+  /**
+   * `sizeof(TcMediumEdit)`.
+   */
+  uint32_t size;
+  /**
+   * `TC_REGION_ALL`, `TC_REGION_SPHERE`, `TC_REGION_DEPTH` or `TC_REGION_MASK`.
+   */
+  uint32_t region;
+  /**
+   * `TC_REGION_SPHERE`: the centre (world space at the bake's placement, scene units).
+   */
+  double center[3];
+  /**
+   * `TC_REGION_SPHERE`: the radius, scene units, finite and ≥ 0.
+   */
+  double radius;
+  /**
+   * `TC_REGION_DEPTH`: the depth range below the surface, millimetres (0 ≤ min ≤ max).
+   */
+  double min_mm;
+  /**
+   * `TC_REGION_DEPTH`: see `min_mm`.
+   */
+  double max_mm;
+  /**
+   * `TC_REGION_MASK`: one byte per tetrahedron of the baked object, non-zero = selected.
+   */
+  const uint8_t *mask;
+  /**
+   * `TC_REGION_MASK`: the length of `mask` (= `tc_object_tet_count`).
+   */
+  size_t mask_len;
+  /**
+   * `TC_MEDIUM_ASSIGN`, `TC_MEDIUM_SCALE` or `TC_MEDIUM_ADD`.
+   */
+  uint32_t op;
+  /**
+   * New values (mm⁻¹), factors or increments of σa per channel, as `op` says.
+   */
+  double sigma_a[3];
+  /**
+   * New values (mm⁻¹), factors or increments of σ′s per channel, as `op` says.
+   */
+  double sigma_s_prime[3];
+} TcMediumEdit;
+
+/**
  * A homogeneous medium. Coefficients per RGB channel in mm⁻¹ (whatever the scene unit; see
  * `tc_object_set_scale`).
  */
@@ -232,6 +325,85 @@ typedef struct TcMedium {
    */
   double g;
 } TcMedium;
+
+/**
+ * What the last update of one object did (`tc_object_edit_stats`). The caller sets `size` to
+ * `sizeof(TcEditStats)` before the call; the library sets it to the number of bytes written.
+ */
+typedef struct TcEditStats {
+  /**
+   * `sizeof(TcEditStats)`.
+   */
+  uint32_t size;
+  /**
+   * Pieces re-solved.
+   */
+  uint32_t pieces_solved;
+  /**
+   * Solver iterations per channel (R, G, B), summed over the pieces solved.
+   */
+  uint32_t iterations[3];
+  /**
+   * 1 when the update was a cut or split (the `cut_*` fields are set), else 0.
+   */
+  uint32_t cut;
+  /**
+   * Matrix rows refilled by a paint or material edit (0 for a relight).
+   */
+  uint64_t rows_rebuilt;
+  /**
+   * Tetrahedra whose medium changed, or tetrahedra of rebuilt pieces.
+   */
+  uint64_t tets_changed;
+  /**
+   * Wall time of the light transmitted into the pieces (with shadows), milliseconds.
+   */
+  double source_ms;
+  /**
+   * Wall time of matrix assembly or row refill.
+   */
+  double assembly_ms;
+  /**
+   * Wall time of the solver's preparation (multiresolution hierarchy, operators).
+   */
+  double hierarchy_ms;
+  /**
+   * Wall time of the solves.
+   */
+  double solve_ms;
+  /**
+   * Wall time of the whole update.
+   */
+  double total_ms;
+  /**
+   * Cut: tetrahedra deleted.
+   */
+  uint64_t cut_removed_tets;
+  /**
+   * Cut: vertices deleted.
+   */
+  uint64_t cut_removed_vertices;
+  /**
+   * Cut: kept vertices whose position changed (relaxed onto the cut surface).
+   */
+  uint64_t cut_moved_vertices;
+  /**
+   * Cut: kept vertices snapped onto the cut surface.
+   */
+  uint64_t cut_surface_vertices;
+  /**
+   * Cut: the largest distance of those vertices from the cutter (scene units).
+   */
+  double cut_max_distance;
+  /**
+   * Cut: the worst minimum dihedral angle of any tetrahedron after the cut, degrees.
+   */
+  double cut_min_dihedral_degrees;
+  /**
+   * Cut: the dihedral-angle bound the cut enforced, degrees.
+   */
+  double cut_bound_degrees;
+} TcEditStats;
 
 /**
  * A medium as an artist sets it (Blender's Principled BSDF subsurface inputs), converted to
@@ -344,6 +516,11 @@ typedef struct TcArtistMedium {
  */
 #define TC_GPU_UNAVAILABLE 14
 
+/**
+ * A cut would remove every tetrahedron of the object; nothing changed.
+ */
+#define TC_NOTHING_LEFT 15
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -365,6 +542,12 @@ void tc_bake_options_default(struct TcBakeOptions *options);
  * `user` as the bake goes (see `TcProgressFn`); a non-zero return cancels the bake, which then
  * returns `TC_CANCELLED`. A failed or cancelled bake keeps the results of the previous
  * successful bake, if the scene has not changed since; the scene stays usable either way.
+ *
+ * A successful bake also starts an editing session: every object can then be relit
+ * (`tc_scene_relight`), edited (`tc_object_edit_medium`, `tc_object_paint`), cut
+ * (`tc_object_cut_*`), fractured and its pieces moved, each update warm-started from the last
+ * solution. Changing an object (mesh, medium, transform, scale) ends the session; changing the
+ * lights does not (see `tc_scene_relight`).
  *
  * Errors: `TC_INVALID_ARGUMENT` (no objects, options out of range, an invalid object or
  * light, naming it; an unknown `TRANSCUT_BACKEND` value), `TC_MESHING_FAILED`,
@@ -422,6 +605,195 @@ TcStatus tc_object_backend_fallback(const struct TcScene *scene,
                                     char *out,
                                     size_t out_len,
                                     size_t *out_needed);
+
+/**
+ * Re-solves every object for the scene's CURRENT lights (after `tc_scene_clear_lights` /
+ * `tc_scene_add_*`), warm-started from its last solution, without meshing or assembling again:
+ * the interactive counterpart of `tc_scene_bake` after a change of lights. The matrices, media,
+ * cuts and pieces stay; afterwards `tc_object_radiance` returns the new radiance (of objects
+ * not cut or moved) and `tc_object_edit_stats` what each object's update did.
+ *
+ * Each object is lit by the scene's lights with its own shadows (the pieces of that object);
+ * unlike `tc_scene_bake`, other objects cast no shadows on it. `progress` (nullable) is called
+ * with `user` as objects finish, as for `tc_scene_bake`; a non-zero return cancels
+ * (`TC_CANCELLED`). On any failure no object changes.
+ *
+ * Errors: `TC_NOT_BAKED` before a bake (or after a change other than lights), `TC_INVALID_ARGUMENT`
+ * (an invalid light), `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`, `TC_CANCELLED`.
+ */
+TcStatus tc_scene_relight(struct TcScene *scene, TcProgressFn progress, void *user);
+
+/**
+ * The number of tetrahedra of the object as baked, in `*out` (the length of a
+ * `TC_REGION_MASK` mask; cuts do not change it). `TC_NOT_BAKED` before a bake.
+ */
+TcStatus tc_object_tet_count(const struct TcScene *scene, uint32_t object, size_t *out);
+
+/**
+ * Changes the medium of an object's tetrahedra inside a region (`TcMediumEdit`), then re-solves
+ * the pieces that hold any of them, warm-started; only the matrix rows of the affected
+ * vertices are rebuilt (TransCut §5.2). Regions are evaluated on the object as baked (also
+ * parts a cut removed, so a later recombine sees them).
+ *
+ * Errors: `TC_NOT_BAKED`, `TC_INVALID_ARGUMENT` (unknown region or operation, a mask of the
+ * wrong length, a negative radius, a result that is not a valid medium: the message names the
+ * field or tetrahedron), `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`. Nothing changes on failure.
+ */
+TcStatus tc_object_edit_medium(struct TcScene *scene,
+                               uint32_t object,
+                               const struct TcMediumEdit *edit);
+
+/**
+ * Paints a medium along a 3D stroke (TransCut §5.2): `points_xyz` holds `point_count` points
+ * (x, y, z; world space at the bake's placement, e.g. on the surface or a cross-section);
+ * every tetrahedron whose centroid lies at distance d from the closest point gets the weight
+ * w = strength · exp(−d² / (2 radius²)) and its σa, σ′s become (1 − w)·old + w·medium
+ * (w < 1e-3: untouched). `radius` in scene units (> 0), `strength` in [0, 1]; `medium` must
+ * have the object's η and g. Only the matrix rows of the affected vertices are rebuilt; the
+ * solve warm-starts.
+ *
+ * Errors: `TC_NOT_BAKED`, `TC_NULL_POINTER`, `TC_INVALID_ARGUMENT` (naming the fault: no
+ * points, a non-finite point, radius, strength, an invalid medium or one whose η or g differs
+ * from the object's), `TC_SOLVE_FAILED`. Nothing changes on failure.
+ */
+TcStatus tc_object_paint(struct TcScene *scene,
+                         uint32_t object,
+                         const double *points_xyz,
+                         size_t point_count,
+                         double radius,
+                         const struct TcMedium *medium,
+                         double strength);
+
+/**
+ * Cuts an object by the plane through `point` with normal `normal` (world space, scene units;
+ * the normal need not be unit length): the half-space the normal points into is removed
+ * (TransCut §5.1) — tetrahedra there are deleted, vertices left without a tetrahedron removed,
+ * kept vertices near the cut relaxed onto the plane as far as the quality bound allows (see
+ * `TcEditStats.cut_*`), and every piece's topology, hierarchy and matrix rebuilt and re-solved.
+ * With `keep_both` = 1 nothing is removed: every piece is split in two along the plane (pieces
+ * numbered as the core orders them). Applies to every piece of the object, where it is now.
+ *
+ * Errors: `TC_NOT_BAKED`, `TC_NULL_POINTER`, `TC_INVALID_ARGUMENT` (non-finite numbers, a zero
+ * normal, `keep_both` not 0 or 1), `TC_NOTHING_LEFT` (the cut would remove everything),
+ * `TC_SOLVE_FAILED`. Nothing changes on failure.
+ */
+TcStatus tc_object_cut_plane(struct TcScene *scene,
+                             uint32_t object,
+                             const double *point,
+                             const double *normal,
+                             int32_t keep_both);
+
+/**
+ * Cuts an object by a stroke drawn on screen and swept along the camera rays (TransCut §5.1):
+ * ray k starts at `origins_xyz[3k..3k+3]` and goes along `directions_xyz[3k..3k+3]` (world
+ * space; `ray_count` ≥ 2 rays; a perspective camera repeats its eye as every origin, an
+ * orthographic one repeats its direction). Consecutive rays span the cut surface, extended
+ * beyond the first and last ray so it separates space; the side to the LEFT of the stroke as
+ * seen along the rays (direction × (next point − point)) is removed, or with `keep_both` = 1
+ * both sides are kept as separate pieces. Otherwise as `tc_object_cut_plane`.
+ */
+TcStatus tc_object_cut_stroke(struct TcScene *scene,
+                              uint32_t object,
+                              const double *origins_xyz,
+                              const double *directions_xyz,
+                              size_t ray_count,
+                              int32_t keep_both);
+
+/**
+ * Cuts an object with a closed triangle mesh (world space, scene units; the layout of
+ * `tc_scene_add_mesh`: 3 floats per vertex, `index_count` indices, 3 per triangle,
+ * counter-clockwise seen from outside): what lies inside the cutter is removed, or with
+ * `keep_both` = 1 kept as separate pieces. Otherwise as `tc_object_cut_plane`;
+ * `TC_INVALID_MESH` for an invalid cutter mesh.
+ */
+TcStatus tc_object_cut_mesh(struct TcScene *scene,
+                            uint32_t object,
+                            const float *positions,
+                            size_t vertex_count,
+                            const uint32_t *indices,
+                            size_t index_count,
+                            int32_t keep_both);
+
+/**
+ * Splits every piece of an object into its connected components (after cuts), each solved with
+ * its own boundary; the new piece count goes to `*out_piece_count` (nullable).
+ * Errors: `TC_NOT_BAKED`, `TC_SOLVE_FAILED`; nothing changes on failure.
+ */
+TcStatus tc_object_fracture(struct TcScene *scene, uint32_t object, uint32_t *out_piece_count);
+
+/**
+ * Welds the pieces of an object whose boundaries touch again (faces coinciding within 1e-6
+ * scene units, where the pieces are now) into one piece each and re-solves them; the new
+ * piece count goes to `*out_piece_count` (nullable). Errors as `tc_object_fracture`.
+ */
+TcStatus tc_object_recombine(struct TcScene *scene, uint32_t object, uint32_t *out_piece_count);
+
+/**
+ * The number of pieces of an edited object, in `*out` (1 until a split or fracture).
+ * `TC_NOT_BAKED` before the object's first edit (or `tc_scene_relight`).
+ */
+TcStatus tc_object_piece_count(const struct TcScene *scene, uint32_t object, uint32_t *out);
+
+/**
+ * Places piece `piece` of an object: `matrix` (16 doubles, column-major, like
+ * `tc_object_set_transform`) maps the piece from where the object was baked to where it is
+ * now; it must be rigid (a rotation and a translation: orthonormal within 1e-9, determinant
+ * +1, last row 0 0 0 1 — hence doubles). Every piece is re-lit (shadows change) and re-solved.
+ * Errors: `TC_NOT_BAKED`, `TC_NULL_POINTER`, `TC_INVALID_HANDLE` (no such piece),
+ * `TC_INVALID_ARGUMENT` (not rigid, naming why), `TC_SOLVE_FAILED`; nothing changes on failure.
+ */
+TcStatus tc_object_set_piece_transform(struct TcScene *scene,
+                                       uint32_t object,
+                                       uint32_t piece,
+                                       const double *matrix);
+
+/**
+ * The placement of piece `piece` (16 doubles, column-major, from where the object was baked
+ * to where the piece is now) into `out_matrix`.
+ */
+TcStatus tc_object_piece_transform(const struct TcScene *scene,
+                                   uint32_t object,
+                                   uint32_t piece,
+                                   double *out_matrix);
+
+/**
+ * The sizes of piece `piece`'s surface mesh: `*out_vertex_count` vertices and
+ * `*out_triangle_count` triangles (buffers for `tc_object_piece_mesh` need 3 of each).
+ */
+TcStatus tc_object_piece_sizes(const struct TcScene *scene,
+                               uint32_t object,
+                               uint32_t piece,
+                               size_t *out_vertex_count,
+                               size_t *out_triangle_count);
+
+/**
+ * Copies piece `piece`'s surface into the caller's buffers: `positions` (3 floats per vertex,
+ * world space where the piece is now, scene units), `triangles` (3 vertex indices per
+ * triangle, counter-clockwise seen from outside: the boundary faces of the piece's tet mesh,
+ * cut surfaces included) and `radiance` (3 floats per vertex, linear RGB, Lo(x, n) as
+ * `tc_object_radiance`). The vertices are the boundary vertices of the piece's tet mesh in
+ * increasing index order. Each `*_len` is the buffer's length in elements and must be at least
+ * 3 × the count from `tc_object_piece_sizes` (`TC_BUFFER_TOO_SHORT` naming it); on failure
+ * nothing is written.
+ */
+TcStatus tc_object_piece_mesh(const struct TcScene *scene,
+                              uint32_t object,
+                              uint32_t piece,
+                              float *positions,
+                              size_t positions_len,
+                              uint32_t *triangles,
+                              size_t triangles_len,
+                              float *radiance,
+                              size_t radiance_len);
+
+/**
+ * What the last update of an object did (relight, material edit, paint, cut, fracture, move,
+ * recombine), into `*out`. Set `out->size = sizeof(TcEditStats)` first; it is set to the
+ * number of bytes written. `TC_NOT_BAKED` before the object's first update.
+ */
+TcStatus tc_object_edit_stats(const struct TcScene *scene,
+                              uint32_t object,
+                              struct TcEditStats *out);
 
 /**
  * The message of the last call on this thread that failed, as UTF-8; the empty string when
@@ -789,4 +1161,35 @@ TC_LAYOUT_CHECK(TcBakeStats_solve_ms, offsetof(TcBakeStats, solve_ms) == 64);
 TC_LAYOUT_CHECK(TcBakeStats_total_ms, offsetof(TcBakeStats, total_ms) == 72);
 TC_LAYOUT_CHECK(TcBakeStats_clamped_vertices, offsetof(TcBakeStats, clamped_vertices) == 80);
 TC_LAYOUT_CHECK(TcBakeStats_backend_used, offsetof(TcBakeStats, backend_used) == 88);
+TC_LAYOUT_CHECK(TcMediumEdit__sizeof, sizeof(TcMediumEdit) == 128);
+TC_LAYOUT_CHECK(TcMediumEdit_size, offsetof(TcMediumEdit, size) == 0);
+TC_LAYOUT_CHECK(TcMediumEdit_region, offsetof(TcMediumEdit, region) == 4);
+TC_LAYOUT_CHECK(TcMediumEdit_center, offsetof(TcMediumEdit, center) == 8);
+TC_LAYOUT_CHECK(TcMediumEdit_radius, offsetof(TcMediumEdit, radius) == 32);
+TC_LAYOUT_CHECK(TcMediumEdit_min_mm, offsetof(TcMediumEdit, min_mm) == 40);
+TC_LAYOUT_CHECK(TcMediumEdit_max_mm, offsetof(TcMediumEdit, max_mm) == 48);
+TC_LAYOUT_CHECK(TcMediumEdit_mask, offsetof(TcMediumEdit, mask) == 56);
+TC_LAYOUT_CHECK(TcMediumEdit_mask_len, offsetof(TcMediumEdit, mask_len) == 64);
+TC_LAYOUT_CHECK(TcMediumEdit_op, offsetof(TcMediumEdit, op) == 72);
+TC_LAYOUT_CHECK(TcMediumEdit_sigma_a, offsetof(TcMediumEdit, sigma_a) == 80);
+TC_LAYOUT_CHECK(TcMediumEdit_sigma_s_prime, offsetof(TcMediumEdit, sigma_s_prime) == 104);
+TC_LAYOUT_CHECK(TcEditStats__sizeof, sizeof(TcEditStats) == 136);
+TC_LAYOUT_CHECK(TcEditStats_size, offsetof(TcEditStats, size) == 0);
+TC_LAYOUT_CHECK(TcEditStats_pieces_solved, offsetof(TcEditStats, pieces_solved) == 4);
+TC_LAYOUT_CHECK(TcEditStats_iterations, offsetof(TcEditStats, iterations) == 8);
+TC_LAYOUT_CHECK(TcEditStats_cut, offsetof(TcEditStats, cut) == 20);
+TC_LAYOUT_CHECK(TcEditStats_rows_rebuilt, offsetof(TcEditStats, rows_rebuilt) == 24);
+TC_LAYOUT_CHECK(TcEditStats_tets_changed, offsetof(TcEditStats, tets_changed) == 32);
+TC_LAYOUT_CHECK(TcEditStats_source_ms, offsetof(TcEditStats, source_ms) == 40);
+TC_LAYOUT_CHECK(TcEditStats_assembly_ms, offsetof(TcEditStats, assembly_ms) == 48);
+TC_LAYOUT_CHECK(TcEditStats_hierarchy_ms, offsetof(TcEditStats, hierarchy_ms) == 56);
+TC_LAYOUT_CHECK(TcEditStats_solve_ms, offsetof(TcEditStats, solve_ms) == 64);
+TC_LAYOUT_CHECK(TcEditStats_total_ms, offsetof(TcEditStats, total_ms) == 72);
+TC_LAYOUT_CHECK(TcEditStats_cut_removed_tets, offsetof(TcEditStats, cut_removed_tets) == 80);
+TC_LAYOUT_CHECK(TcEditStats_cut_removed_vertices, offsetof(TcEditStats, cut_removed_vertices) == 88);
+TC_LAYOUT_CHECK(TcEditStats_cut_moved_vertices, offsetof(TcEditStats, cut_moved_vertices) == 96);
+TC_LAYOUT_CHECK(TcEditStats_cut_surface_vertices, offsetof(TcEditStats, cut_surface_vertices) == 104);
+TC_LAYOUT_CHECK(TcEditStats_cut_max_distance, offsetof(TcEditStats, cut_max_distance) == 112);
+TC_LAYOUT_CHECK(TcEditStats_cut_min_dihedral_degrees, offsetof(TcEditStats, cut_min_dihedral_degrees) == 120);
+TC_LAYOUT_CHECK(TcEditStats_cut_bound_degrees, offsetof(TcEditStats, cut_bound_degrees) == 128);
 #undef TC_LAYOUT_CHECK

@@ -9,6 +9,7 @@ use transcut_core::light::SourceOptions;
 use transcut_core::scene::{bake_with, BakeOptions, SceneError};
 use transcut_core::Progress;
 
+use super::edit::EditSession;
 use super::guard::{run, Failure};
 use super::handle::{with_scene, ObjectResult, TcScene};
 use super::ptr;
@@ -205,7 +206,7 @@ unsafe fn read_options(options: *const TcBakeOptions) -> Result<BakeOptions, Fai
 }
 
 /// The status of a failed bake.
-fn bake_failure(e: &SceneError) -> Failure {
+pub(crate) fn bake_failure(e: &SceneError) -> Failure {
     let status = match e {
         SceneError::Cancelled(_) => TC_CANCELLED,
         SceneError::Mesher { .. } => TC_MESHING_FAILED,
@@ -221,7 +222,7 @@ fn bake_failure(e: &SceneError) -> Failure {
 
 /// The caller's callback, made callable from the core's (possibly parallel) progress reports:
 /// one call at a time, none after a cancel.
-struct Callback {
+pub(crate) struct Callback {
     function: unsafe extern "C" fn(*mut c_void, *const c_char, f64) -> i32,
     user: *mut c_void,
     /// Held during a call; holds the largest fraction reported so far.
@@ -234,7 +235,12 @@ struct Callback {
 unsafe impl Sync for Callback {}
 
 impl Callback {
-    fn report(&self, stage: &str, fraction: f64) -> bool {
+    /// The caller's function, if any, wrapped.
+    pub(crate) fn new(progress: TcProgressFn, user: *mut c_void) -> Option<Self> {
+        progress.map(|function| Callback { function, user, lock: Mutex::new(0.0), cancelled: AtomicBool::new(false) })
+    }
+
+    pub(crate) fn report(&self, stage: &str, fraction: f64) -> bool {
         if self.cancelled.load(Ordering::Acquire) {
             return false;
         }
@@ -266,6 +272,12 @@ impl Callback {
 /// returns `TC_CANCELLED`. A failed or cancelled bake keeps the results of the previous
 /// successful bake, if the scene has not changed since; the scene stays usable either way.
 ///
+/// A successful bake also starts an editing session: every object can then be relit
+/// (`tc_scene_relight`), edited (`tc_object_edit_medium`, `tc_object_paint`), cut
+/// (`tc_object_cut_*`), fractured and its pieces moved, each update warm-started from the last
+/// solution. Changing an object (mesh, medium, transform, scale) ends the session; changing the
+/// lights does not (see `tc_scene_relight`).
+///
 /// Errors: `TC_INVALID_ARGUMENT` (no objects, options out of range, an invalid object or
 /// light, naming it; an unknown `TRANSCUT_BACKEND` value), `TC_MESHING_FAILED`,
 /// `TC_SOLVE_FAILED`, `TC_CANCELLED`, `TC_GPU_UNAVAILABLE` (the GPU was required and cannot be
@@ -280,14 +292,16 @@ pub unsafe extern "C" fn tc_scene_bake(
     run("tc_scene_bake", || {
         // SAFETY: the caller's contract.
         let options = unsafe { read_options(options)? };
-        let callback = progress.map(|function| Callback { function, user, lock: Mutex::new(0.0), cancelled: AtomicBool::new(false) });
+        let callback = Callback::new(progress, user);
         let report = |stage: &str, fraction: f64| callback.as_ref().is_none_or(|c| c.report(stage, fraction));
         // SAFETY: the caller's contract.
         unsafe {
             with_scene(scene, |s| {
                 let baked = bake_with(&s.scene, &options, Progress::new(&report)).map_err(|e| bake_failure(&e))?;
-                let results = baked.objects.into_iter().map(|o| ObjectResult { radiance: o.radiance, stats: o.stats }).collect();
+                let results =
+                    baked.objects.iter().map(|o| ObjectResult { radiance: Some(o.radiance.clone()), stats: o.stats.clone() }).collect();
                 s.results = Some(results);
+                s.session = Some(EditSession::new(&s.scene, baked.objects, &options));
                 Ok(())
             })
         }
@@ -306,8 +320,8 @@ pub unsafe extern "C" fn tc_object_radiance(scene: *const TcScene, object: u32, 
         // SAFETY: the caller's contract.
         unsafe {
             with_scene(scene, |s| {
-                let result = s.result(object)?;
-                let needed = 3 * result.radiance.len();
+                let radiance = s.radiance(object)?;
+                let needed = 3 * radiance.len();
                 if out_len < needed {
                     return Err(Failure::new(
                         TC_BUFFER_TOO_SHORT,
@@ -316,7 +330,7 @@ pub unsafe extern "C" fn tc_object_radiance(scene: *const TcScene, object: u32, 
                 }
                 // SAFETY: checked pointer, `out_len ≥ needed` floats writable (caller's contract).
                 let out = std::slice::from_raw_parts_mut(out_rgb, needed);
-                for (o, l) in out.chunks_exact_mut(3).zip(&result.radiance) {
+                for (o, l) in out.chunks_exact_mut(3).zip(radiance) {
                     o[0] = l[0] as f32;
                     o[1] = l[1] as f32;
                     o[2] = l[2] as f32;

@@ -14,6 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use transcut_core::scene::{ObjectStats, Scene};
 
+use super::edit::EditSession;
 use super::guard::Failure;
 use super::status::{TC_BUSY, TC_INVALID_HANDLE, TC_NOT_BAKED, TC_NULL_POINTER};
 
@@ -33,20 +34,33 @@ pub struct TcScene {
 #[derive(Default)]
 pub(crate) struct SceneState {
     pub scene: Scene,
-    /// The last successful bake, one entry per object; `None` before a bake or after a change.
+    /// The last successful bake (or relight), one entry per object; `None` before a bake or
+    /// after a change.
     pub results: Option<Vec<ObjectResult>>,
+    /// What edits start from: each object's bake and editor, and the lights they were solved
+    /// under. Kept when only the lights change (`tc_scene_relight` applies them); `None` before
+    /// a bake or after any other change.
+    pub session: Option<EditSession>,
 }
 
 /// One object's result.
 pub(crate) struct ObjectResult {
-    /// Lo(x, n) per output vertex, linear RGB.
-    pub radiance: Vec<[f64; 3]>,
+    /// Lo(x, n) per output vertex, linear RGB; `None` once an edit cut the object or moved a
+    /// piece (its radiance then lives on the pieces).
+    pub radiance: Option<Vec<[f64; 3]>>,
     pub stats: ObjectStats,
 }
 
 impl SceneState {
-    /// Discards the results: they no longer describe the scene.
+    /// Discards the results and the editing session: they no longer describe the scene.
     pub(crate) fn changed(&mut self) {
+        self.results = None;
+        self.session = None;
+    }
+
+    /// Discards the results after a change of lights; edits go on under the lights of the last
+    /// bake or relight until `tc_scene_relight`.
+    pub(crate) fn lights_changed(&mut self) {
         self.results = None;
     }
 
@@ -68,9 +82,23 @@ impl SceneState {
             Some(results) => Ok(&results[i]),
             None => Err(Failure::new(
                 TC_NOT_BAKED,
-                "the scene has no results: call tc_scene_bake first (any change to the scene discards them)",
+                "the scene has no results: call tc_scene_bake first (any change to the scene discards them; \
+                 after a change of lights, tc_scene_relight also brings them back)",
             )),
         }
+    }
+
+    /// The radiance at the user's vertices of object `object` (checked).
+    pub(crate) fn radiance(&self, object: u32) -> Result<&[[f64; 3]], Failure> {
+        self.result(object)?.radiance.as_deref().ok_or_else(|| {
+            Failure::new(
+                TC_NOT_BAKED,
+                format!(
+                    "object {object} was cut, split or had a piece moved: its radiance is per piece \
+                     (tc_object_piece_count, tc_object_piece_mesh)"
+                ),
+            )
+        })
     }
 }
 

@@ -25,6 +25,7 @@
 #[macro_use]
 mod guard;
 mod bake;
+mod edit;
 mod error;
 mod handle;
 mod light;
@@ -37,6 +38,7 @@ mod version;
 mod volume;
 
 pub use bake::*;
+pub use edit::*;
 pub use error::*;
 pub use handle::TcScene;
 pub use light::*;

@@ -25,7 +25,7 @@ unsafe fn add(scene: *mut TcScene, light: Light) -> Result<(), Failure> {
         with_scene(scene, |s| {
             light.validate(s.scene.lights.len()).map_err(|e| Failure::invalid(e.to_string()))?;
             s.scene.lights.push(light);
-            s.changed();
+            s.lights_changed();
             Ok(())
         })
     }
@@ -201,7 +201,7 @@ pub unsafe extern "C" fn tc_scene_clear_lights(scene: *mut TcScene) -> TcStatus 
         unsafe {
             with_scene(scene, |s| {
                 s.scene.lights.clear();
-                s.changed();
+                s.lights_changed();
                 Ok(())
             })
         }

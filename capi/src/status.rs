@@ -49,6 +49,8 @@ pub const TC_BUSY: TcStatus = TcStatus(13);
 /// created, the library was built without GPU support, or the device failed during the solve.
 /// The message says which; `TC_BACKEND_AUTO` falls back to the CPU instead.
 pub const TC_GPU_UNAVAILABLE: TcStatus = TcStatus(14);
+/// A cut would remove every tetrahedron of the object; nothing changed.
+pub const TC_NOTHING_LEFT: TcStatus = TcStatus(15);
 
 impl TcStatus {
     /// The constant's name, e.g. `"TC_NULL_POINTER"`, or `"unknown status"`.
@@ -70,6 +72,7 @@ impl TcStatus {
             12 => c"TC_INTERNAL_ERROR",
             13 => c"TC_BUSY",
             14 => c"TC_GPU_UNAVAILABLE",
+            15 => c"TC_NOTHING_LEFT",
             _ => c"unknown status",
         }
     }

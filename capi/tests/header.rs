@@ -15,7 +15,7 @@ use std::fmt::Write as _;
 use std::mem::{offset_of, size_of};
 use std::path::{Path, PathBuf};
 
-use abi::{TcArtistMedium, TcBakeOptions, TcBakeStats, TcMedium};
+use abi::{TcArtistMedium, TcBakeOptions, TcBakeStats, TcEditStats, TcMedium, TcMediumEdit};
 
 fn crate_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -76,6 +76,27 @@ fn layouts() -> Vec<Layout> {
             total_ms,
             clamped_vertices,
             backend_used
+        }),
+        layout!(TcMediumEdit { size, region, center, radius, min_mm, max_mm, mask, mask_len, op, sigma_a, sigma_s_prime }),
+        layout!(TcEditStats {
+            size,
+            pieces_solved,
+            iterations,
+            cut,
+            rows_rebuilt,
+            tets_changed,
+            source_ms,
+            assembly_ms,
+            hierarchy_ms,
+            solve_ms,
+            total_ms,
+            cut_removed_tets,
+            cut_removed_vertices,
+            cut_moved_vertices,
+            cut_surface_vertices,
+            cut_max_distance,
+            cut_min_dihedral_degrees,
+            cut_bound_degrees
         }),
     ]
 }

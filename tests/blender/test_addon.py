@@ -477,6 +477,43 @@ def test_backend_setting_reaches_the_library(scene, addon):
     assert addon.bake.backend_summary([addon.bake.BackendInfo("cpu")]) == "CPU"
 
 
+def test_native_editing_bindings(addon):
+    """native.py's editing calls reach the library: bake, cut by a plane, read the piece,
+    split, move a piece, relight; errors carry their status."""
+    require_library()
+    native = addon.native
+    lib = native.load()
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12, radius=10.0)
+    obj = bpy.context.active_object
+    pos, tri, _, _ = evaluated_arrays(obj)
+    bpy.data.objects.remove(obj)
+    with lib.scene() as s:
+        i = s.add_mesh(pos, tri)
+        s.add_sun((0.0, 0.0, -1.0), (3.0, 3.0, 3.0))
+        s.bake(tets=2000, shadows=0, backend="cpu")
+        with pytest.raises(native.TranscutError) as err:
+            s.cut_plane(i, (0.0, 0.0, -50.0), (0.0, 0.0, 1.0))
+        assert err.value.status == native.TC_NOTHING_LEFT
+        s.cut_plane(i, (0.0, 0.0, 4.0), (0.0, 0.0, 1.0))
+        assert s.edit_stats(i)["cut"] == 1 and s.piece_count(i) == 1
+        p, t, rgb = s.piece_mesh(i, 0)
+        assert p.shape == rgb.shape and t.shape[1] == 3 and t.max() < len(p)
+        assert p[:, 2].max() <= 4.0 + s.edit_stats(i)["cut_max_distance"] + 1e-4
+        assert np.all(np.isfinite(rgb)) and rgb.max() > 0.0
+        s.cut_plane(i, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), keep_both=True)
+        assert s.piece_count(i) == 2
+        lift = np.eye(4)
+        lift[2, 3] = 5.0  # row-major, like Blender's Matrix
+        p1, _, _ = s.piece_mesh(i, 1)
+        s.set_piece_transform(i, 1, lift)
+        moved, _, _ = s.piece_mesh(i, 1)
+        np.testing.assert_allclose(moved[:, 2], p1[:, 2] + 5.0, atol=1e-5)
+        s.clear_lights()
+        s.add_environment((1.0, 1.0, 1.0))
+        s.relight()
+        assert s.edit_stats(i)["pieces_solved"] == 2
+
+
 # -- media sources and world textures --------------------------------------------------------
 
 

@@ -68,6 +68,7 @@ def ctypes_name(t) -> str:
         ctypes.c_int32: "int32_t",
         ctypes.c_uint32: "uint32_t",
         ctypes.c_uint64: "uint64_t",
+        ctypes.c_uint8: "uint8_t",
         ctypes.c_size_t: "size_t",
         ctypes.c_double: "double",
         ctypes.c_float: "float",
@@ -116,7 +117,7 @@ def header_struct(name: str) -> list:
     assert m, f"struct {name} not in the header"
     fields = []
     for line in m.group(1).split(";"):
-        line = " ".join(line.split())
+        line = " ".join(line.replace("*", " * ").split())
         if not line:
             continue
         fm = re.match(r"^(.*?)\s+([A-Za-z_0-9]+)(\[(\d+)\])?$", line)
@@ -126,7 +127,10 @@ def header_struct(name: str) -> list:
     return fields
 
 
-@pytest.mark.parametrize("struct", [native.TcMedium, native.TcArtistMedium, native.TcBakeOptions, native.TcBakeStats])
+@pytest.mark.parametrize(
+    "struct",
+    [native.TcMedium, native.TcArtistMedium, native.TcBakeOptions, native.TcBakeStats, native.TcMediumEdit, native.TcEditStats],
+)
 def test_structs_match_the_header(struct):
     want = header_struct(struct.__name__)
     got = []

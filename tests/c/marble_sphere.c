@@ -11,6 +11,9 @@
  *    again afterwards.
  * 3. Misuse: NULL pointers, a short buffer (left untouched), an unknown preset, results before
  *    a bake, an internal panic (TC_INTERNAL_ERROR, not an abort), destroying twice.
+ * 4. Editing (check_editing): a small marble ball is baked, relit by a new sun (equal to a fresh
+ *    bake under that sun), cut by a plane (the piece's surface lies below the plane, its
+ *    radiance is read into caller buffers, a short buffer is refused untouched) and relit again.
  *
  * Exit status 0 when every check passes. Run under valgrind by tests/c/run.sh.
  */
@@ -219,6 +222,106 @@ static void check_misuse(void) {
     tc_scene_destroy(NULL);
 }
 
+/* Bakes a radius-10 mm marble icosphere (level 2) under a sun travelling along `sun`, without
+ * shadows, on the CPU; returns the scene. */
+static TcScene *small_ball(const Mesh *m, const double sun[3]) {
+    TcScene *scene = NULL;
+    uint32_t ball;
+    OK(tc_scene_create(&scene));
+    OK(tc_scene_add_mesh(scene, m->positions, m->vertex_count, m->indices, 3 * m->triangle_count, &ball));
+    OK(tc_scene_add_sun(scene, sun, (const double[3]){3.0, 2.5, 2.0}, 0.0));
+    TcBakeOptions options;
+    tc_bake_options_default(&options);
+    options.tets = 1500;
+    options.shadows = 0;
+    options.tolerance = 1e-9;
+    options.backend = TC_BACKEND_CPU;
+    OK(tc_scene_bake(scene, &options, NULL, NULL));
+    return scene;
+}
+
+static double max_abs(const float *v, size_t n) {
+    double m = 0.0;
+    for (size_t i = 0; i < n; i++) m = fabs(v[i]) > m ? fabs(v[i]) : m;
+    return m;
+}
+
+static void check_editing(void) {
+    Mesh m = icosphere(10.0f, 2);
+    const double sun_a[3] = {0.0, 0.0, -1.0}, sun_b[3] = {0.7, 0.0, -0.7};
+    TcScene *scene = small_ball(&m, sun_a);
+    size_t n = m.vertex_count;
+    float *lo = malloc(3 * n * sizeof(float)), *fresh_lo = malloc(3 * n * sizeof(float));
+
+    /* Relight: new lights, then tc_scene_relight; equal to a fresh bake under the new sun. */
+    OK(tc_scene_clear_lights(scene));
+    OK(tc_scene_add_sun(scene, sun_b, (const double[3]){3.0, 2.5, 2.0}, 0.0));
+    CHECK(tc_object_radiance(scene, 0, lo, 3 * n) == TC_NOT_BAKED, "no results between new lights and relight");
+    OK(tc_scene_relight(scene, NULL, NULL));
+    OK(tc_object_radiance(scene, 0, lo, 3 * n));
+    TcScene *fresh = small_ball(&m, sun_b);
+    OK(tc_object_radiance(fresh, 0, fresh_lo, 3 * n));
+    tc_scene_destroy(&fresh);
+    double worst = 0.0, scale = max_abs(fresh_lo, 3 * n);
+    for (size_t i = 0; i < 3 * n; i++) worst = fmax(worst, fabs(lo[i] - fresh_lo[i]) / scale);
+    printf("relight vs fresh bake: largest difference %.2e (relative)\n", worst);
+    CHECK(worst < 1e-5, "relight vs fresh bake %.3e", worst);
+    TcEditStats stats;
+    stats.size = sizeof stats;
+    OK(tc_object_edit_stats(scene, 0, &stats));
+    CHECK(stats.pieces_solved == 1 && stats.rows_rebuilt == 0 && stats.cut == 0 && stats.iterations[0] > 0,
+          "relight stats");
+
+    /* Cut away z > 3 mm. */
+    CHECK(tc_object_cut_plane(scene, 0, (const double[3]){0, 0, -50}, (const double[3]){0, 0, 1}, 0) ==
+              TC_NOTHING_LEFT, "a cut removing everything: %s", tc_last_error_message());
+    CHECK(tc_object_cut_plane(scene, 0, NULL, (const double[3]){0, 0, 1}, 0) == TC_NULL_POINTER, "NULL point");
+    OK(tc_object_cut_plane(scene, 0, (const double[3]){0, 0, 3}, (const double[3]){0, 0, 1}, 0));
+    OK(tc_object_edit_stats(scene, 0, &stats));
+    CHECK(stats.cut == 1 && stats.cut_removed_tets > 0 && stats.cut_min_dihedral_degrees >= stats.cut_bound_degrees,
+          "cut stats: %llu tets removed, worst dihedral %.2f >= bound %.2f", (unsigned long long)stats.cut_removed_tets,
+          stats.cut_min_dihedral_degrees, stats.cut_bound_degrees);
+    CHECK(tc_object_radiance(scene, 0, lo, 3 * n) == TC_NOT_BAKED, "a cut object's radiance is per piece");
+    uint32_t pieces = 0;
+    OK(tc_object_piece_count(scene, 0, &pieces));
+    CHECK(pieces == 1, "%u pieces", pieces);
+
+    /* Relight the cut ball under the first sun, then read its piece. */
+    OK(tc_scene_clear_lights(scene));
+    OK(tc_scene_add_sun(scene, sun_a, (const double[3]){3.0, 2.5, 2.0}, 0.0));
+    OK(tc_scene_relight(scene, NULL, NULL));
+    size_t nv = 0, nt = 0;
+    OK(tc_object_piece_sizes(scene, 0, 0, &nv, &nt));
+    float *pos = malloc(3 * nv * sizeof(float)), *rgb = malloc(3 * nv * sizeof(float));
+    uint32_t *tri = malloc(3 * nt * sizeof(uint32_t));
+    for (size_t i = 0; i < 3 * nv; i++) rgb[i] = -7.0f;
+    CHECK(tc_object_piece_mesh(scene, 0, 0, pos, 3 * nv, tri, 3 * nt, rgb, 3 * nv - 1) == TC_BUFFER_TOO_SHORT,
+          "short radiance buffer");
+    for (size_t i = 0; i < 3 * nv; i++) CHECK(rgb[i] == -7.0f, "buffer touched at %zu", i);
+    OK(tc_object_piece_mesh(scene, 0, 0, pos, 3 * nv, tri, 3 * nt, rgb, 3 * nv));
+    float top = -1e30f;
+    int lit_cap = 0;
+    for (size_t v = 0; v < nv; v++) {
+        top = pos[3 * v + 2] > top ? pos[3 * v + 2] : top;
+        for (int c = 0; c < 3; c++) CHECK(isfinite(rgb[3 * v + c]) && rgb[3 * v + c] >= 0.0f, "finite radiance");
+        if (pos[3 * v + 2] > 2.999f && rgb[3 * v] > 0.1f) lit_cap++;
+    }
+    for (size_t i = 0; i < 3 * nt; i++) CHECK(tri[i] < nv, "triangle index %u", tri[i]);
+    printf("cut at z = 3: %zu vertices, %zu triangles, highest z %.5f, %d lit vertices on the cut face\n", nv, nt,
+           top, lit_cap);
+    CHECK(top <= 3.0f + (float)stats.cut_max_distance + 1e-4f && top > 2.99f, "the cut face lies on the plane");
+    CHECK(lit_cap > 0, "the sun lights the new cut face");
+
+    tc_scene_destroy(&scene);
+    free(pos);
+    free(rgb);
+    free(tri);
+    free(lo);
+    free(fresh_lo);
+    free(m.positions);
+    free(m.indices);
+}
+
 int main(void) {
     /* Version: header and library agree. */
     CHECK(tc_version() == TRANSCUT_VERSION, "tc_version %u vs header %u", tc_version(), (unsigned)TRANSCUT_VERSION);
@@ -349,6 +452,8 @@ int main(void) {
     free(rgb);
     free(mesh.positions);
     free(mesh.indices);
+
+    check_editing();
     if (failures) {
         fprintf(stderr, "%d check(s) failed\n", failures);
         return 1;

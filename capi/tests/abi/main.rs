@@ -12,6 +12,7 @@ mod common;
 mod backend;
 mod bake;
 mod concurrency;
+mod edit;
 mod misuse;
 mod objects;
 mod tets;
