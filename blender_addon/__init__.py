@@ -7,14 +7,16 @@ point attribute. See ARCHITECTURE.md, "The Blender add-on", and the modules:
 - ``preferences``: registered first and always; shows where the native library was looked for;
 - ``properties``: ``Scene.transcut`` (bake settings) and ``Object.transcut`` (medium);
 - ``operators``: ``object.transcut_bake`` (modal with progress and ESC, or synchronous);
+- ``edit_ops``: ``transcut.cut_with_object`` and ``transcut.paint_medium`` (bake, then cut or
+  paint through ``edit_native``);
 - ``ui``: the sidebar tab; ``native``: the ctypes mirror of ``include/transcut.h``;
 - ``mesh_export`` / ``lights``: Blender data and units → library arrays; ``bake``: run and write.
 """
 
-from . import library, operators, preferences, properties, ui
+from . import edit_ops, library, operators, preferences, properties, ui
 
 # Preferences first, so the add-on can always show why the library did not load.
-_modules = (preferences, properties, operators, ui)
+_modules = (preferences, properties, operators, edit_ops, ui)
 
 
 def register():

@@ -6,6 +6,7 @@ from __future__ import annotations
 import bpy
 
 from . import library
+from .edit_ops import TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium
 from .operators import OBJECT_OT_transcut_bake
 from .preferences import draw_library_status
 
@@ -45,6 +46,9 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
                 box.label(text="Principled BSDF subsurface inputs")
 
         layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
+        row = layout.row(align=True)
+        row.operator(TRANSCUT_OT_cut_with_object.bl_idname, icon="MOD_BOOLEAN")
+        row.operator(TRANSCUT_OT_paint_medium.bl_idname, icon="BRUSH_DATA")
         if library.state.lib is None:
             draw_library_status(layout)
 

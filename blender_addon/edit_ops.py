@@ -1,0 +1,507 @@
+"""Editing operators: ``bpy.ops.transcut.cut_with_object()`` and ``bpy.ops.transcut.paint_medium()``.
+
+Both bake the selected objects exactly as ``object.transcut_bake`` does (the same gathering of
+meshes, media, lights and settings; :mod:`bake`), apply the edit in the library
+(:mod:`edit_native`), and write the result:
+
+- **Cut with Object**: the ACTIVE object is the cutter, the other selected meshes are cut. A flat
+  cutter (every vertex on one plane, e.g. Blender's Plane) cuts by its plane: the side its face
+  normal points into (the Plane's local +Z) is removed; "Flip" removes the other side. Any other
+  mesh is a solid cutter (closed, world space): its inside is removed. "Keep Both Sides" removes
+  nothing and keeps each side as a piece; the library splits the tetrahedra by the side of their
+  centroid (so the pieces fit back together exactly), so a split boundary is within about one
+  tetrahedron of the cutter rather than relaxed onto it. Each piece becomes a NEW mesh object "<object>.cut"
+  (Blender numbers further ones ".cut.001", …) in the original's collections, its vertices in
+  world space (identity matrix), its radiance in the bake's colour attribute, with the
+  original's materials and TransCut medium settings so it can be baked again. The original is
+  hidden (viewport and render), not deleted; the cutter is left as it is.
+- **Paint Medium**: the ACTIVE object is a curve: its evaluated shape (world space, resampled
+  to at most a quarter of the radius between points) is the stroke; the selected meshes get
+  the chosen medium (a preset's or the given σa, σ′s; each object keeps its own η and g) blended
+  in with a Gaussian of the given radius and strength, and their colour attribute is rewritten
+  with the re-solved radiance.
+
+Run from the UI (``invoke``) an edit is modal like the bake: the library works on a thread, the
+progress shows in the cursor and status bar, ESC cancels (through the bake's progress callback;
+the cut or paint call itself finishes once started). From a script or in background mode
+(``execute``) it runs on the main thread between ``progress_begin`` and ``progress_end``.
+Nothing in Blender changes unless every object was edited; errors are reported (ERROR, with the
+library's message), never raised. Both operators register with undo.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import bpy
+import numpy as np
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty
+
+from . import bake, edit_native, library
+from .lights import scene_lights, world_lights
+from .mesh_export import BakeError, gather
+from .properties import PRESET_NAMES
+
+
+def prepare_job(context, objects: list) -> bake.BakeJob:
+    """The bake job for ``objects``, gathered as ``operators.prepare`` does for the selection."""
+    warnings: list = []
+    meshes = gather(context, warnings, objects=objects)
+    depsgraph = context.evaluated_depsgraph_get()
+    lights = scene_lights(depsgraph, warnings) + world_lights(context.scene.world, warnings)
+    if not lights:
+        raise BakeError("the scene has no lights (and the world is black); add a light to bake")
+    settings = context.scene.transcut
+    options = dict(
+        tets=settings.tets,
+        tolerance=settings.tolerance,
+        shadows=1 if settings.shadows else 0,
+        backend=settings.backend.lower(),
+    )
+    return bake.BakeJob(meshes, lights, options, settings.attribute_name, warnings)
+
+
+def world_mesh(obj, depsgraph) -> tuple:
+    """The evaluated mesh of ``obj`` in world space: float64 positions (n, 3), uint32
+    triangles (m, 3), float64 face normals (m, 3) (world space, unit)."""
+    ob_eval = obj.evaluated_get(depsgraph)
+    me = ob_eval.to_mesh()
+    try:
+        n = len(me.vertices)
+        co = np.empty(n * 3, np.float32)
+        me.vertices.foreach_get("co", co)
+        me.calc_loop_triangles()
+        tri = np.empty(len(me.loop_triangles) * 3, np.uint32)
+        me.loop_triangles.foreach_get("vertices", tri)
+        nrm = np.empty(len(me.loop_triangles) * 3, np.float32)
+        me.loop_triangles.foreach_get("normal", nrm)
+    finally:
+        ob_eval.to_mesh_clear()
+    m = np.array([list(r) for r in obj.matrix_world], np.float64)
+    pos = co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+    with np.errstate(all="ignore"):
+        normals = nrm.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(m[:3, :3])  # (M⁻¹)ᵀ n, row-wise
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return pos, tri.reshape(-1, 3), normals
+
+
+def _check_finite_matrix(obj) -> None:
+    m = np.array([list(r) for r in obj.matrix_world], np.float64)
+    if not np.all(np.isfinite(m)):
+        raise BakeError(f"'{obj.name}' has a non-finite transform (location, rotation or scale)")
+    if abs(np.linalg.det(m[:3, :3])) < 1e-12:
+        raise BakeError(f"'{obj.name}' has zero scale")
+
+
+def cutter_edit(cutter, depsgraph, keep_both: bool, flip: bool):
+    """The library cut a cutter object stands for: a :class:`edit_native.PlaneCut` when its
+    vertices lie on one plane (the side its face normal points into removed; ``flip``: the
+    other), else a :class:`edit_native.MeshCut` (its inside removed)."""
+    if cutter.type != "MESH":
+        raise BakeError(
+            f"the cutter '{cutter.name}' is a {cutter.type.lower()}; the cutter (the active object) must be "
+            "a mesh: a plane, or a closed mesh"
+        )
+    _check_finite_matrix(cutter)
+    pos, tri, normals = world_mesh(cutter, depsgraph)
+    if len(tri) == 0:
+        raise BakeError(f"the cutter '{cutter.name}' has no faces")
+    if not np.all(np.isfinite(pos)):
+        raise BakeError(f"the cutter '{cutter.name}' has non-finite vertex coordinates")
+    if edit_native.is_planar(pos):
+        point, normal = edit_native.plane_of_points(pos, normals, flip)
+        return edit_native.PlaneCut(point, normal, keep_both)
+    return edit_native.MeshCut(pos.astype(np.float32), tri, keep_both)
+
+
+def stroke_points(curve, depsgraph, spacing: float) -> np.ndarray:
+    """The evaluated curve in world space as points at most ``spacing`` apart (every edge of its
+    evaluated polyline resampled; the order does not matter to a paint)."""
+    ob_eval = curve.evaluated_get(depsgraph)
+    me = ob_eval.to_mesh()
+    try:
+        co = np.empty(len(me.vertices) * 3, np.float32)
+        me.vertices.foreach_get("co", co)
+        edges = np.empty(len(me.edges) * 2, np.int64)
+        me.edges.foreach_get("vertices", edges)
+    finally:
+        ob_eval.to_mesh_clear()
+    m = np.array([list(r) for r in curve.matrix_world], np.float64)
+    pos = co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+    edges = edges.reshape(-1, 2)
+    if len(edges) == 0:
+        return pos
+    parts = [edit_native.resample_polyline(pos[[a, b]], spacing) for a, b in edges]
+    return np.unique(np.concatenate(parts), axis=0)
+
+
+def write_pieces(context, job: bake.BakeJob, run: edit_native.EditRun) -> list:
+    """One new mesh object per piece (world space), the originals hidden; returns the new objects.
+
+    Checks first (the originals still exist), then creates everything.
+    """
+    originals = []
+    for mesh_job in job.meshes:
+        obj = bpy.data.objects.get(mesh_job.object_name)
+        if obj is None:
+            raise BakeError(f"'{mesh_job.object_name}' was removed during the cut")
+        originals.append(obj)
+    for res in run.results:
+        for piece in res.pieces:
+            if not (np.all(np.isfinite(piece.positions)) and np.all(np.isfinite(piece.radiance))):
+                raise BakeError(f"'{res.object_name}': the library returned non-finite values")
+    name = job.attribute_name
+    created = []
+    for obj, res in zip(originals, run.results):
+        for piece in res.pieces:
+            mesh = bpy.data.meshes.new(f"{obj.name}.cut")
+            mesh.from_pydata(piece.positions.tolist(), [], piece.triangles.tolist())
+            mesh.validate(clean_customdata=False)
+            for mat in obj.data.materials:
+                mesh.materials.append(mat)
+            attr = mesh.color_attributes.new(name, "FLOAT_COLOR", "POINT")
+            rgba = np.ones((len(mesh.vertices), 4), np.float32)
+            rgba[:, :3] = piece.radiance
+            attr.data.foreach_set("color", rgba.reshape(-1))
+            mesh.color_attributes.active_color = attr
+            mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
+            mesh.update()
+            new = bpy.data.objects.new(mesh.name, mesh)
+            for coll in obj.users_collection:
+                coll.objects.link(new)
+            for key in ("medium_source", "preset", "sigma_a", "sigma_s_prime", "eta", "g"):
+                setattr(new.transcut, key, getattr(obj.transcut, key))
+            # What the cut guaranteed (custom property "transcut_cut"; distances in scene units).
+            st = res.stats
+            new["transcut_cut"] = {
+                "source": obj.name,
+                "removed_tets": int(st.get("cut_removed_tets", 0)),
+                "max_distance": float(st.get("cut_max_distance", 0.0)),
+                "min_dihedral_degrees": float(st.get("cut_min_dihedral_degrees", 0.0)),
+                "bound_degrees": float(st.get("cut_bound_degrees", 0.0)),
+            }
+            created.append(new)
+        obj.hide_set(True)
+        obj.hide_render = True
+        obj.select_set(False)
+    for o in context.selected_objects:
+        o.select_set(False)
+    for new in created:
+        new.select_set(True)
+    if created:
+        context.view_layer.objects.active = created[0]
+    return created
+
+
+class _EditOperator:
+    """What both editing operators share: the bake operator's run (execute on the main thread;
+    invoke modal with a worker thread, a progress timer and ESC), results written by
+    :meth:`_write`."""
+
+    bl_options = {"REGISTER", "UNDO"}
+    _runner = None
+    _timer = None
+    what = "edit"
+
+    @classmethod
+    def poll(cls, context):
+        # Only mode and library: a wrong selection gets a message saying what to select.
+        if context.mode != "OBJECT":
+            cls.poll_message_set("works in Object Mode")
+            return False
+        if library.state.lib is None:
+            cls.poll_message_set("libtranscut is not loaded (see the add-on preferences)")
+            return False
+        return True
+
+    def _runner_for(self, context):
+        """(EditRunner) or None after reporting why not."""
+        raise NotImplementedError
+
+    def _write(self, context, runner) -> str:
+        raise NotImplementedError
+
+    def _start(self, context):
+        try:
+            runner = self._runner_for(context)
+        except Exception as exc:  # BakeError, LibraryNotFound, TranscutError
+            self.report({"ERROR"}, bake.error_message(exc))
+            return None
+        for w in runner.job.warnings:
+            self.report({"WARNING"}, w)
+        return runner
+
+    def _finish(self, context, runner) -> set:
+        summary = ""
+        if runner.error is None:
+            try:
+                summary = self._write(context, runner)
+            except Exception as exc:
+                runner.error = exc
+        if runner.error is not None:
+            err = runner.error
+            if isinstance(err, edit_native.native.TranscutError) and err.status == edit_native.native.TC_CANCELLED:
+                self.report({"ERROR"}, f"{self.what} cancelled; nothing was changed")
+            else:
+                self.report({"ERROR"}, bake.error_message(err))
+            return {"CANCELLED"}
+        self.report({"INFO"}, summary)
+        return {"FINISHED"}
+
+    def execute(self, context):
+        runner = self._start(context)
+        if runner is None:
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, 100)
+        record = runner.progress
+        main = threading.main_thread()
+
+        def progress(stage: str, fraction: float) -> bool:
+            # The library reports from its worker threads too; only the main thread may touch wm.
+            if threading.current_thread() is main:
+                wm.progress_update(int(min(max(fraction, 0.0), 1.0) * 100))
+            return record(stage, fraction)
+
+        runner.progress = progress
+        try:
+            runner.run_here()
+            wm.progress_update(100)
+        finally:
+            wm.progress_end()
+        return self._finish(context, runner)
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        runner = self._start(context)
+        if runner is None:
+            return {"CANCELLED"}
+        self._runner = runner
+        wm = context.window_manager
+        wm.progress_begin(0, 100)
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.modal_handler_add(self)
+        runner.start()
+        return {"RUNNING_MODAL"}
+
+    def _end_ui(self, context) -> None:
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
+
+    def modal(self, context, event):
+        runner = self._runner
+        if event.type == "ESC" and event.value == "PRESS":
+            runner.cancel()
+        if event.type == "TIMER":
+            stage, fraction = runner.snapshot()
+            context.window_manager.progress_update(int(fraction * 100))
+            if context.workspace is not None:
+                note = "cancelling…" if runner.cancelled else "ESC to cancel"
+                context.workspace.status_text_set(f"TransCut {self.what}: {stage} {fraction * 100:.0f}% ({note})")
+            if runner.done():
+                self._end_ui(context)
+                return self._finish(context, runner)
+        return {"RUNNING_MODAL"}
+
+    def cancel(self, context):
+        if self._runner is not None:
+            self._runner.cancel()
+            self._runner.wait()
+        self._end_ui(context)
+
+
+def _targets(context, active, what: str) -> list:
+    targets = [o for o in context.selected_objects if o != active and o.type == "MESH"]
+    if not targets:
+        raise BakeError(f"select the mesh object(s) to {what} as well as the active {('cutter' if what == 'cut' else 'curve')}")
+    return targets
+
+
+class TRANSCUT_OT_cut_with_object(_EditOperator, bpy.types.Operator):
+    """Cut the selected translucent meshes with the active object (a plane: the side its normal points to is removed; a closed mesh: its inside), baking the result into new objects"""
+
+    bl_idname = "transcut.cut_with_object"
+    bl_label = "Cut with Object"
+    what = "cut"
+
+    keep_both: BoolProperty(
+        name="Keep Both Sides",
+        description="Remove nothing: split along the cutter and make each side its own object",
+        default=False,
+    )
+    flip: BoolProperty(
+        name="Flip",
+        description="Plane cutter: remove the side opposite its normal (local −Z of a Plane) instead",
+        default=False,
+    )
+
+    def _runner_for(self, context):
+        cutter = context.active_object
+        if cutter is None:
+            raise BakeError(
+                "no cutter: make the cutter (a plane or a closed mesh) the active object and also select the objects to cut"
+            )
+        depsgraph = context.evaluated_depsgraph_get()
+        edit = cutter_edit(cutter, depsgraph, self.keep_both, self.flip)
+        targets = _targets(context, cutter, "cut")
+        lib = library.get(context)
+        edit_native.require(lib, edit_native.CUT_FUNCTIONS, "Cut with Object")
+        for t in targets:
+            _check_finite_matrix(t)
+        job = prepare_job(context, targets)
+        return edit_native.EditRunner(lib, job, edit)
+
+    def _write(self, context, runner) -> str:
+        run = runner.results
+        created = write_pieces(context, runner.job, run)
+        parts = []
+        for res in run.results:
+            st = res.stats
+            if runner.edit.keep_both:
+                parts.append(f"'{res.object_name}' split into {len(res.pieces)} piece(s), cut {res.edit_ms:.0f} ms")
+                continue
+            parts.append(
+                f"'{res.object_name}' → {len(res.pieces)} piece(s), {st.get('cut_removed_tets', 0)} tets removed, "
+                f"cut surface within {st.get('cut_max_distance', 0.0):.3g} of the cutter, min dihedral "
+                f"{st.get('cut_min_dihedral_degrees', 0.0):.1f}° (bound {st.get('cut_bound_degrees', 0.0):.1f}°), "
+                f"cut {res.edit_ms:.0f} ms"
+            )
+        return f"cut: {len(created)} new object(s); " + "; ".join(parts) + f"; bake {run.bake_ms:.0f} ms"
+
+
+class TRANSCUT_OT_paint_medium(_EditOperator, bpy.types.Operator):
+    """Paint a medium into the selected baked meshes along the active curve and re-bake their colour attribute"""
+
+    bl_idname = "transcut.paint_medium"
+    bl_label = "Paint Medium"
+    what = "paint"
+
+    radius: FloatProperty(
+        name="Radius",
+        description="Gaussian radius of the stroke's influence, scene units",
+        default=0.1,
+        min=1e-6,
+        soft_max=10.0,
+        subtype="DISTANCE",
+    )
+    strength: FloatProperty(
+        name="Strength",
+        description="Weight of the painted medium on the stroke (0: nothing, 1: replaced)",
+        default=1.0,
+        min=0.0,
+        max=1.0,
+        subtype="FACTOR",
+    )
+    medium_source: EnumProperty(
+        name="Medium",
+        description="The medium to paint (its η and g are each object's own)",
+        items=(
+            ("PRESET", "Preset", "A measured material"),
+            ("COEFFICIENTS", "Coefficients", "Absorption and reduced scattering coefficients in 1/mm"),
+        ),
+        default="PRESET",
+    )
+    preset: EnumProperty(
+        name="Preset",
+        items=tuple((n, n.capitalize(), f"Measured '{n}'") for n in PRESET_NAMES),
+        default="ketchup",
+    )
+    sigma_a: FloatVectorProperty(
+        name="Absorption",
+        description="Absorption coefficient σa per RGB channel, 1/mm",
+        size=3,
+        min=0.0,
+        default=(0.5, 0.5, 0.5),
+        precision=5,
+    )
+    sigma_s_prime: FloatVectorProperty(
+        name="Reduced Scattering",
+        description="Reduced scattering coefficient σ′s per RGB channel, 1/mm",
+        size=3,
+        min=0.0,
+        default=(2.0, 2.0, 2.0),
+        precision=4,
+    )
+
+    def draw(self, _context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "radius")
+        layout.prop(self, "strength")
+        layout.prop(self, "medium_source")
+        if self.medium_source == "PRESET":
+            layout.prop(self, "preset")
+        else:
+            layout.prop(self, "sigma_a")
+            layout.prop(self, "sigma_s_prime")
+
+    def _paint_coefficients(self, lib) -> tuple:
+        if self.medium_source == "PRESET":
+            m = lib.medium_preset(self.preset)
+            return tuple(m.sigma_a), tuple(m.sigma_s_prime)
+        values = (*self.sigma_a, *self.sigma_s_prime, self.radius, self.strength)
+        if not all(np.isfinite(values)):
+            raise BakeError("the paint's coefficients, radius and strength must be finite")
+        return tuple(self.sigma_a), tuple(self.sigma_s_prime)
+
+    def _runner_for(self, context):
+        curve = context.active_object
+        if curve is None or curve.type != "CURVE":
+            what = "nothing is active" if curve is None else f"'{curve.name}' is a {curve.type.lower()}"
+            raise BakeError(f"the stroke must be a curve object, made active ({what}); also select the meshes to paint")
+        if not (np.isfinite(self.radius) and np.isfinite(self.strength)):
+            raise BakeError("the paint's radius and strength must be finite")
+        _check_finite_matrix(curve)
+        depsgraph = context.evaluated_depsgraph_get()
+        points = stroke_points(curve, depsgraph, self.radius / 4.0)
+        if len(points) == 0:
+            raise BakeError(f"the curve '{curve.name}' has no points")
+        if not np.all(np.isfinite(points)):
+            raise BakeError(f"the curve '{curve.name}' has non-finite points")
+        targets = _targets(context, curve, "paint")
+        lib = library.get(context)
+        edit_native.require(lib, edit_native.PAINT_FUNCTIONS, "Paint Medium")
+        sigma_a, sigma_s_prime = self._paint_coefficients(lib)
+        job = prepare_job(context, targets)
+        media = [edit_native.medium_coefficients(lib, m.medium, m.mm_per_unit) for m in job.meshes]
+        edit = edit_native.Paint(points, self.radius, sigma_a, sigma_s_prime, self.strength)
+        return edit_native.EditRunner(lib, job, edit, media)
+
+    def _write(self, context, runner) -> str:
+        run = runner.results
+        bake.write_results(context, runner.job, [r.radiance for r in run.results])
+        parts = [
+            f"'{r.object_name}': {r.stats.get('tets_changed', 0)} tets painted, {r.stats.get('rows_rebuilt', 0)} rows "
+            f"rebuilt, paint {r.edit_ms:.0f} ms"
+            for r in run.results
+        ]
+        return (
+            f"painted {len(run.results)} object(s) into '{runner.job.attribute_name}' "
+            f"({len(runner.edit.points)} stroke points); " + "; ".join(parts) + f"; bake {run.bake_ms:.0f} ms"
+        )
+
+
+def menu_func(self, _context):
+    self.layout.operator(TRANSCUT_OT_cut_with_object.bl_idname, icon="MOD_BOOLEAN")
+    self.layout.operator(TRANSCUT_OT_paint_medium.bl_idname, icon="BRUSH_DATA")
+
+
+classes = (TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.VIEW3D_MT_object.append(menu_func)
+
+
+def unregister():
+    bpy.types.VIEW3D_MT_object.remove(menu_func)
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)
