@@ -436,3 +436,37 @@ def test_cut_object_rebakes_close_to_the_cut(lit_sphere, addon):
     rms = math.sqrt(float(np.mean((fresh - written) ** 2))) / math.sqrt(float(np.mean(fresh**2)))
     print(f"cut vs fresh bake of the cut object: relative RMS {rms:.3f}")
     assert rms < 0.1, rms
+
+
+def test_relight_with_progress_equals_a_fresh_bake(scene, addon):
+    """edit_native.relight (tc_scene_relight with a progress callback): after the lights change,
+    the warm-started re-solve equals a bake under the new lights; a cancel changes nothing."""
+    require_library()
+    native, en = addon.native, addon.edit_native
+    lib = addon.library.get(bpy.context)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12, radius=10.0)
+    pos, tri, _, _ = evaluated_arrays(bpy.context.active_object)
+    options = dict(tets=4000, tolerance=1e-9, shadows=0, backend="cpu")
+    with lib.scene() as s:
+        i = s.add_mesh(pos, tri)
+        s.set_medium_preset(i, "marble")
+        s.add_sun((0.0, 0.0, -1.0), (3.0, 3.0, 3.0))
+        s.bake(**options)
+        s.clear_lights()
+        s.add_sun((1.0, 0.0, 0.0), (2.0, 2.0, 2.0))
+        seen = []
+        en.relight(s, lambda stage, f: seen.append(f) and False)
+        relit = s.radiance(i)
+        assert seen and all(0.0 <= f <= 1.0 for f in seen)
+        s.clear_lights()
+        s.add_sun((0.0, 1.0, 0.0), (1.0, 1.0, 1.0))
+        with pytest.raises(native.TranscutError) as err:
+            en.relight(s, lambda stage, f: True)
+        assert err.value.status == native.TC_CANCELLED
+    with lib.scene() as s:
+        i = s.add_mesh(pos, tri)
+        s.set_medium_preset(i, "marble")
+        s.add_sun((1.0, 0.0, 0.0), (2.0, 2.0, 2.0))
+        s.bake(**options)
+        fresh = s.radiance(i)
+    np.testing.assert_allclose(relit, fresh, rtol=1e-5, atol=1e-7 * float(fresh.max()))
