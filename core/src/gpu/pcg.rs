@@ -69,7 +69,8 @@ pub struct GpuStats {
     /// Whether the matrix was assembled on the device (TransCut) or uploaded (other
     /// discretisations).
     pub assembled_on_device: bool,
-    /// Uploading the mesh structure (or matrix) to the device.
+    /// Uploading the mesh structure (or matrix) to the device, and with a multigrid
+    /// preconditioner its operators, transfers and coarsest inverse.
     pub upload_ms: f64,
     /// Assembly on the device (per-tet geometry, gather, Jacobi scaling).
     pub assembly_ms: f64,
