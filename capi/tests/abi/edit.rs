@@ -346,7 +346,7 @@ fn bad_edits_are_refused_naming_the_argument_and_change_nothing() {
         let mut ink = TcMedium { sigma_a: [1.0; 3], sigma_s_prime: [1.0; 3], eta: 1.9, g: 0.0 };
         let stroke = [10.0, 0.0, 0.0];
         fails(tc_object_paint(s, 0, stroke.as_ptr(), 1, 1.0, &ink, 1.0), TC_INVALID_ARGUMENT, &["eta"]);
-        ink.eta = 1.3;
+        ink.eta = 1.5; // marble's: the remaining failures are the other arguments'
         fails(tc_object_paint(s, 0, ptr::null(), 1, 1.0, &ink, 1.0), TC_NULL_POINTER, &["points_xyz"]);
         fails(tc_object_paint(s, 0, stroke.as_ptr(), 1, -1.0, &ink, 1.0), TC_INVALID_ARGUMENT, &["radius"]);
         fails(tc_object_paint(s, 0, stroke.as_ptr(), 1, 1.0, ptr::null(), 1.0), TC_NULL_POINTER, &["medium"]);
@@ -385,5 +385,58 @@ fn bad_edits_are_refused_naming_the_argument_and_change_nothing() {
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_set_medium_preset(s, 0, cstr(c"skin1")) }, "medium");
     fails(unsafe { tc_object_piece_count(s, 0, &mut n) }, TC_NOT_BAKED, &["tc_scene_bake"]);
+    destroy(s);
+}
+
+/// Progress reports of a relight: (calls so far, cancel at this call, fractions).
+struct Relight {
+    calls: u32,
+    cancel_at: u32,
+    fractions: Vec<f64>,
+}
+
+unsafe extern "C" fn on_relight(user: *mut std::ffi::c_void, _stage: *const std::ffi::c_char, fraction: f64) -> i32 {
+    // SAFETY: `user` is the `Relight` passed to tc_scene_relight.
+    let r = unsafe { &mut *user.cast::<Relight>() };
+    r.calls += 1;
+    r.fractions.push(fraction);
+    i32::from(r.cancel_at != 0 && r.calls >= r.cancel_at)
+}
+
+/// A relight reports progress up to 1; cancelled (at the first or the last report) it returns
+/// TC_CANCELLED and changes nothing: the objects keep their last update (a paint here) and
+/// results stay NOT_BAKED until a relight succeeds.
+#[test]
+fn relight_progress_and_cancel_change_nothing() {
+    let mesh = Mesh::uv_sphere(10.0, 24, 12);
+    let s = baked(&mesh, [0.0, 0.0, -1.0]);
+    let ink = TcMedium { sigma_a: [1.0, 1.0, 0.01], sigma_s_prime: [2.0; 3], eta: 1.5, g: 0.0 }; // marble: eta 1.5
+    // SAFETY: valid pointers.
+    ok(unsafe { tc_object_paint(s, 0, [10.0, 0.0, 0.0].as_ptr(), 1, 2.0, &ink, 1.0) }, "paint");
+    let painted = edit_stats(s, 0);
+    assert!(painted.rows_rebuilt > 0);
+    // SAFETY: valid pointers.
+    unsafe {
+        ok(tc_scene_clear_lights(s), "clear");
+        ok(tc_scene_add_environment(s, [0.5; 3].as_ptr()), "sky");
+    }
+    for cancel_at in [1, 2] {
+        let mut r = Relight { calls: 0, cancel_at, fractions: Vec::new() };
+        // SAFETY: valid pointers; `r` outlives the call.
+        let status = unsafe { tc_scene_relight(s, Some(on_relight), (&raw mut r).cast()) };
+        fails(status, TC_CANCELLED, &["nothing changed"]);
+        assert_eq!(r.calls, cancel_at);
+        assert_eq!(edit_stats(s, 0), painted, "a cancelled relight changed the object");
+        let mut out = vec![0f32; 3 * mesh.vertex_count()];
+        // SAFETY: valid pointers.
+        fails(unsafe { tc_object_radiance(s, 0, out.as_mut_ptr(), out.len()) }, TC_NOT_BAKED, &[]);
+    }
+    let mut r = Relight { calls: 0, cancel_at: 0, fractions: Vec::new() };
+    // SAFETY: as above.
+    ok(unsafe { tc_scene_relight(s, Some(on_relight), (&raw mut r).cast()) }, "relight");
+    assert_eq!(r.fractions, [0.0, 1.0]);
+    let st = edit_stats(s, 0);
+    assert_eq!(st.rows_rebuilt, 0);
+    assert!(radiance(s, 0).iter().all(|x| x.is_finite() && *x > 0.0), "lit by the sky everywhere");
     destroy(s);
 }
