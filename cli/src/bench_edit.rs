@@ -8,7 +8,9 @@
 //!   (warm start from the previous fluence) against a cold bake under the moved sun (the same
 //!   system solved from zero): iterations, their ratio (issue 6 goal ≤ 1/3) and times;
 //! - **paint**: a stroke of 8 points across the front of the surface, Gaussian radius 2 mm, of
-//!   an absorbing marble-like ink (rows rebuilt, tets changed, ms).
+//!   an absorbing marble-like ink (rows rebuilt, tets changed, ms);
+//! - **cut**: a plane through the centre of the bounds removing the back half (rebuild of the
+//!   topology, hierarchy and matrix and the solve included, ms).
 //! Medians over `--runs`. Then Fig. 7 ([`crate::bench_multires::fig7`]) on the same tet mesh
 //! (unshadowed sun, the reference solved to 1e-10): relative error against time for PCG, the
 //! cascade and MG-PCG, the time to 1% and its ratio to the best single-level solver.
@@ -18,6 +20,7 @@ use std::time::Instant;
 use anyhow::Context;
 use serde::Serialize;
 use transcut::diffusion::assemble;
+use transcut::edit::cut::Cutter;
 use transcut::edit::{EditOptions, Editor, PaintStroke, UpdateStats};
 use transcut::gpu::Backend;
 use transcut::light::Light;
@@ -81,6 +84,7 @@ struct SizeEntry {
     median_editor_setup_ms: f64,
     relight_5deg: RelightEntry,
     paint: PaintEntry,
+    cut_plane: EditEntry,
     fig7: Fig7,
 }
 
@@ -167,7 +171,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         let object = Object::from_tets("bench", tet_mesh.clone(), MediumSource::Homogeneous(marble), mm_per_unit);
         let scene = |towards: DVec3| Scene { objects: vec![object.clone()], lights: vec![sun_light(towards)] };
         let (mut cold, mut cold5, mut setup) = (Vec::new(), Vec::new(), Vec::new());
-        let (mut relight, mut paint) = (Vec::new(), Vec::new());
+        let (mut relight, mut paint, mut cut) = (Vec::new(), Vec::new(), Vec::new());
         let mut difference = None;
         let mut points = Vec::new();
         for _ in 0..runs {
@@ -186,6 +190,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             points = stroke_points(surface.positions());
             let stroke = PaintStroke { points: points.clone(), radius: radius_mm / mm_per_unit, medium: ink, strength: 1.0 };
             paint.push(editor.paint(&stroke)?);
+
+            let c = 0.5 * (lo + hi);
+            cut.push(editor.cut(&Cutter::Plane { point: c, normal: DVec3::new(0.0, 0.0, -1.0) })?);
         }
         let cold_bake = cold_entry(&cold)?;
         let cold5 = cold_entry(&cold5)?;
@@ -209,6 +216,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             median_editor_setup_ms: median(setup),
             relight_5deg,
             paint: PaintEntry { points: points.len(), radius_mm, edit: edit_entry(paint)? },
+            cut_plane: edit_entry(cut)?,
             fig7,
         });
     }

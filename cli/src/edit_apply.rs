@@ -7,13 +7,17 @@
 //! solves its own object: shadows cast by the other objects of the scene are not seen by edits.
 
 use anyhow::{anyhow, Context};
+use glam::DMat4;
 use serde::Serialize;
+use transcut::edit::cut::{Cutter, SweptStroke};
 use transcut::edit::{EditOptions, Editor, MediumEdit, MediumOp, PaintStroke, Region, UpdateStats};
 use transcut::light::Light;
 use transcut::mesh::TriMesh;
+use transcut::render::Camera;
 use transcut::scene::{Object, ObjectBake};
+use transcut::DVec3;
 
-use crate::scene_edits::{EditKind, EditStep, OpSpec, RegionSpec};
+use crate::scene_edits::{EditKind, EditStep, Keep, OpSpec, RegionSpec};
 
 /// What one edit did to one object (a relight gives one per object).
 #[derive(Debug, Clone, Serialize)]
@@ -35,7 +39,7 @@ pub struct Edited {
     pub reports: Vec<EditReport>,
 }
 
-/// Runs `steps` in order.
+/// Runs `steps` in order. `camera` is the scene file's camera (cut strokes are in its pixels).
 /// `each` is called after every edit with its report.
 ///
 /// # Errors
@@ -45,6 +49,7 @@ pub fn apply(
     objects: &[Object],
     baked: &[ObjectBake],
     lights: &[Light],
+    camera: &Camera,
     options: &EditOptions,
     mut each: impl FnMut(&EditReport),
 ) -> anyhow::Result<Edited> {
@@ -67,7 +72,7 @@ pub fn apply(
         };
         for o in targets {
             let editor = editors[o].as_mut().ok_or_else(|| anyhow!("internal: object {} has no editor", o + 1))?;
-            let stats = run(editor, &step.kind).with_context(|| format!("{}: object {} ({})", label(), o + 1, objects[o].name))?;
+            let stats = run(editor, &step.kind, camera).with_context(|| format!("{}: object {} ({})", label(), o + 1, objects[o].name))?;
             let report = EditReport { edit: step.index, kind: step.kind_name.clone(), object: objects[o].name.clone(), pieces: editor.pieces().len(), stats };
             each(&report);
             reports.push(report);
@@ -80,7 +85,7 @@ pub fn apply(
 }
 
 /// One edit on one editor.
-fn run(editor: &mut Editor, kind: &EditKind) -> anyhow::Result<UpdateStats> {
+fn run(editor: &mut Editor, kind: &EditKind, camera: &Camera) -> anyhow::Result<UpdateStats> {
     Ok(match kind {
         EditKind::Relight(lights) => editor.relight(lights)?,
         EditKind::Medium { region, op } => {
@@ -99,7 +104,58 @@ fn run(editor: &mut Editor, kind: &EditKind) -> anyhow::Result<UpdateStats> {
         EditKind::Paint { points, radius, medium, strength } => {
             editor.paint(&PaintStroke { points: points.clone(), radius: *radius, medium: *medium, strength: *strength })?
         }
+        EditKind::CutPlane { point, normal, keep } => {
+            // The core's plane removes the side its normal points into; the file's normal points
+            // to the side that is kept.
+            let n = normal.normalize();
+            let cutter = Cutter::Plane { point: *point, normal: if *keep == Keep::Back { n } else { -n } };
+            if *keep == Keep::Both {
+                editor.split(&cutter)?
+            } else {
+                editor.cut(&cutter)?
+            }
+        }
+        EditKind::CutStroke { pixels, keep } => {
+            let cutter = Cutter::Stroke(stroke(camera, pixels)?);
+            match keep {
+                Keep::Both => editor.split(&cutter)?,
+                Keep::Left => editor.cut(&cutter.flipped())?,
+                _ => editor.cut(&cutter)?,
+            }
+        }
+        EditKind::Fracture => editor.fracture()?,
+        EditKind::MovePiece { piece, translate, axis, angle_deg, pivot } => {
+            let count = editor.pieces().len();
+            let current = editor.pieces().get(*piece).ok_or_else(|| anyhow!("'piece': piece {piece} does not exist (there are {count})"))?;
+            let transform = current.transform();
+            let pivot = pivot.unwrap_or_else(|| centroid(current.mesh().positions(), transform));
+            let rotation = match axis {
+                Some(a) => DMat4::from_axis_angle(a.normalize(), angle_deg.to_radians()),
+                None => DMat4::IDENTITY,
+            };
+            let moved = DMat4::from_translation(*translate + pivot) * rotation * DMat4::from_translation(-pivot) * transform;
+            editor.set_piece_transform(*piece, moved)?
+        }
+        EditKind::Recombine => editor.recombine()?,
     })
+}
+
+/// The stroke's pixels swept along the rays of `camera` (TransCut §5.1). The core's stroke
+/// removes the left of the drawing direction as seen in the image (a stroke drawn left to right
+/// removes what is above it, as in the paper): keep = "right" is the core's stroke as is.
+fn stroke(camera: &Camera, pixels: &[[f64; 2]]) -> anyhow::Result<SweptStroke> {
+    let directions = pixels
+        .iter()
+        .enumerate()
+        .map(|(k, p)| camera.ray_direction(p[0], p[1]).map_err(|e| anyhow!("'stroke' point {}: {e}", k + 1)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    SweptStroke::perspective(camera.position, directions).context("'stroke'")
+}
+
+/// Mean of `positions` placed by `transform`.
+fn centroid(positions: &[DVec3], transform: DMat4) -> DVec3 {
+    let sum: DVec3 = positions.iter().map(|&p| transform.transform_point3(p)).sum();
+    sum / positions.len().max(1) as f64
 }
 
 /// Every piece of `editor` as a world-space surface with the radiance of its vertices.

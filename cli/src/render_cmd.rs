@@ -1,7 +1,8 @@
 //! `transcut render`: bake a TOML scene (see [`crate::scene_file`]) and render it to PNG or EXR.
 //!
 //! Every object is baked (tetrahedralised, lit, solved), the scene's `[[edit]]` list applied in
-//! order ([`crate::edit_apply`]: relight, medium edits, paint, each warm-started), then every piece of every object drawn by the core's rasteriser
+//! order ([`crate::edit_apply`]: relight, medium edits, paint, cuts, fracture, moved and
+//! recombined pieces, each warm-started), then every piece of every object drawn by the core's rasteriser
 //! (`transcut::render`) with its per-vertex radiance Lo(x, n) seen through the Fresnel boundary,
 //! GGX highlights of the sun, point and spot lights, the mean radiance of the environment
 //! reflected, and an optional grey ground plane. `.png` is tone-mapped (ACES) sRGB with alpha =
@@ -86,6 +87,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     bar.finish();
     let baked = result.with_context(|| format!("baking {}", args.scene.display()))?;
 
+    // The file's camera (before --width/--height): cut strokes are in its pixels.
+    let file_camera = camera(&file.camera);
     let t_edit = Instant::now();
     let edited = if loaded.edits.is_empty() {
         None
@@ -99,7 +102,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             ..EditOptions::default()
         };
         let apply = || {
-            edit_apply::apply(&loaded.edits, &scene.objects, &baked.objects, &scene.lights, &edit_options, |r| {
+            edit_apply::apply(&loaded.edits, &scene.objects, &baked.objects, &scene.lights, &file_camera, &edit_options, |r| {
                 if !args.json {
                     let s = &r.stats;
                     eprintln!(

@@ -1,13 +1,14 @@
 //! The `[[edit]]` list of a scene file: edits applied in order after the bake, before rendering
-//! (relight, medium edits, paint; TransCut §5).
+//! (relight, medium edits, paint, cuts, fracture, moving and recombining pieces; TransCut §5).
 //!
 //! ```toml
 //! [[edit]]
-//! kind = "paint"            # relight | medium | paint
+//! kind = "cut_plane"        # relight | medium | paint | cut_plane | cut_stroke | fracture
+//!                           # | move_piece | recombine
 //! object = "bunny"          # the object's name (default: the only object; not for relight)
-//! points = [[0, 20, 5], [5, 21, 4]]   # scene units (world space)
-//! radius = 3
-//! medium = "jade"
+//! point = [0, 0, 0]         # scene units (world space)
+//! normal = [0, 0, 1]        # points to the side that is kept
+//! keep = "front"            # front (default) | back | both (split into two pieces)
 //! ```
 //!
 //! Keys per kind (coordinates in scene units, world space, where the object was baked;
@@ -21,6 +22,17 @@
 //!   `add = { sigma_a, sigma_s }` (mm⁻¹, default 0).
 //! - `paint`: `points` (a list of [x, y, z] on the surface), `radius` (the Gaussian's σ),
 //!   `medium` (a preset name or a table), `strength` (in (0, 1], default 1).
+//! - `cut_plane`: `point`, `normal`, `keep` as above.
+//! - `cut_stroke`: `stroke` = a list of ≥ 2 [u, v] pixel positions in the image of the scene's
+//!   `[camera]` (as written in the file: `--width`/`--height` do not move the cut), swept along
+//!   the camera's rays; `keep` = `"right"` (default: TransCut deletes the left) | `"left"` |
+//!   `"both"`: the side of the stroke, as seen in the image while following it from its first
+//!   point to its last (left of a stroke drawn left to right is above it).
+//! - `fracture`: none (every piece splits into its connected parts).
+//! - `move_piece`: `piece` (0-based index, in the editor's order), `translate` ([x, y, z],
+//!   default 0), `axis` and `angle_deg` (a rotation about `axis` through `pivot`, default the
+//!   piece's centroid); the rotation is applied first.
+//! - `recombine`: none (pieces whose faces touch again are welded).
 //!
 //! Every error names the edit (1-based, with its kind) and the key.
 
@@ -31,6 +43,21 @@ use transcut::optics::Medium;
 use transcut::DVec3;
 
 use crate::scene_file::{self, LightSpec, Rgb};
+
+/// Which side of a cut stays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Keep {
+    /// Plane: the side the normal points to.
+    Front,
+    /// Plane: the other side.
+    Back,
+    /// Stroke: left of the stroke in the image, following it from first to last point.
+    Left,
+    /// Stroke: right of it.
+    Right,
+    /// Both sides, as separate pieces.
+    Both,
+}
 
 /// Where a medium edit applies.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,6 +81,11 @@ pub enum EditKind {
     Relight(Vec<Light>),
     Medium { region: RegionSpec, op: OpSpec },
     Paint { points: Vec<DVec3>, radius: f64, medium: Medium, strength: f64 },
+    CutPlane { point: DVec3, normal: DVec3, keep: Keep },
+    CutStroke { pixels: Vec<[f64; 2]>, keep: Keep },
+    Fracture,
+    MovePiece { piece: usize, translate: DVec3, axis: Option<DVec3>, angle_deg: f64, pivot: Option<DVec3> },
+    Recombine,
 }
 
 /// One `[[edit]]`, resolved: its 1-based position, kind name, target object and parameters.
@@ -68,7 +100,7 @@ pub struct EditStep {
     pub kind: EditKind,
 }
 
-const KINDS: &[&str] = &["relight", "medium", "paint"];
+const KINDS: &[&str] = &["relight", "medium", "paint", "cut_plane", "cut_stroke", "fracture", "move_piece", "recombine"];
 
 /// Parses and checks every `[[edit]]` table. `names` and `mm_per_unit` are the objects' names
 /// and millimetres per scene unit (artist media depend on it).
@@ -100,6 +132,10 @@ fn step(index: usize, kind: Option<String>, t: &toml::Table, names: &[String], m
         "relight" => &["lights"],
         "medium" => &["region", "assign", "scale", "add"],
         "paint" => &["points", "radius", "medium", "strength"],
+        "cut_plane" => &["point", "normal", "keep"],
+        "cut_stroke" => &["stroke", "keep"],
+        "fracture" | "recombine" => &[],
+        "move_piece" => &["piece", "translate", "axis", "angle_deg", "pivot"],
         other => bail!("unknown edit kind '{other}' ({})", KINDS.join(", ")),
     };
     if let Some(k) = t.keys().find(|k| !(k.as_str() == "kind" || k.as_str() == "object" || allowed.contains(&k.as_str()))) {
@@ -155,7 +191,7 @@ fn step(index: usize, kind: Option<String>, t: &toml::Table, names: &[String], m
             };
             EditKind::Medium { region, op }
         }
-        _ => {
+        "paint" => {
             let points = vec3_list(t, "points")?;
             if points.is_empty() {
                 bail!("'points' must hold at least one point");
@@ -170,6 +206,45 @@ fn step(index: usize, kind: Option<String>, t: &toml::Table, names: &[String], m
                 bail!("'strength' must lie in (0, 1], got {strength}");
             }
             EditKind::Paint { points, radius, medium, strength }
+        }
+        "cut_plane" => {
+            let point = vec3(t, "point")?;
+            let normal = vec3(t, "normal")?;
+            if normal.length_squared() == 0.0 {
+                bail!("'normal' must not be zero");
+            }
+            let keep = keep(t, &[("front", Keep::Front), ("back", Keep::Back), ("both", Keep::Both)])?;
+            EditKind::CutPlane { point, normal, keep }
+        }
+        "cut_stroke" => {
+            let v = t.get("stroke").ok_or_else(|| anyhow!("missing key 'stroke' (a list of [u, v] pixel positions)"))?;
+            let pixels = <Vec<[f64; 2]>>::deserialize(v.clone()).map_err(|_| anyhow!("'stroke' must be a list of [u, v] pixel positions"))?;
+            if pixels.len() < 2 {
+                bail!("'stroke' must hold at least 2 points, got {}", pixels.len());
+            }
+            if let Some(k) = pixels.iter().position(|p| !(p[0].is_finite() && p[1].is_finite())) {
+                bail!("'stroke' point {} is not finite", k + 1);
+            }
+            let keep = keep(t, &[("right", Keep::Right), ("left", Keep::Left), ("both", Keep::Both)])?;
+            EditKind::CutStroke { pixels, keep }
+        }
+        "fracture" => EditKind::Fracture,
+        "recombine" => EditKind::Recombine,
+        _ => {
+            let piece = match t.get("piece") {
+                None => bail!("missing key 'piece' (a 0-based piece index)"),
+                Some(v) => v.as_integer().and_then(|p| usize::try_from(p).ok()).ok_or_else(|| anyhow!("'piece' must be a non-negative integer"))?,
+            };
+            let translate = if t.contains_key("translate") { vec3(t, "translate")? } else { DVec3::ZERO };
+            let axis = if t.contains_key("axis") { Some(vec3(t, "axis")?) } else { None };
+            let angle_deg = if t.contains_key("angle_deg") { number(t, "angle_deg")? } else { 0.0 };
+            match axis {
+                Some(a) if a.length_squared() == 0.0 => bail!("'axis' must not be zero"),
+                None if angle_deg != 0.0 => bail!("'angle_deg' needs 'axis'"),
+                _ => {}
+            }
+            let pivot = if t.contains_key("pivot") { Some(vec3(t, "pivot")?) } else { None };
+            EditKind::MovePiece { piece, translate, axis, angle_deg, pivot }
         }
     };
     Ok(EditStep { index, kind_name: kind, object, kind: kind_value })
@@ -228,6 +303,21 @@ fn vec3_list(t: &toml::Table, key: &str) -> anyhow::Result<Vec<DVec3>> {
         bail!("'{key}' point {} is not finite", k + 1);
     }
     Ok(list.into_iter().map(DVec3::from).collect())
+}
+
+fn keep(t: &toml::Table, options: &[(&str, Keep)]) -> anyhow::Result<Keep> {
+    match t.get("keep") {
+        None => Ok(options[0].1),
+        Some(v) => {
+            let names: Vec<&str> = options.iter().map(|o| o.0).collect();
+            let s = v.as_str().ok_or_else(|| anyhow!("'keep' must be one of {}", names.join(", ")))?;
+            options
+                .iter()
+                .find(|o| o.0.eq_ignore_ascii_case(s))
+                .map(|o| o.1)
+                .ok_or_else(|| anyhow!("'keep' must be one of {}, got '{s}'", names.join(", ")))
+        }
+    }
 }
 
 fn region(v: &toml::Value) -> anyhow::Result<RegionSpec> {
@@ -319,58 +409,94 @@ radius = 2
 medium = { sigma_a = 0.5, sigma_s = 2, eta = 1.5 }
 strength = 0.5
 [[edit]]
+kind = "cut_plane"
+object = "a"
+point = [0, 0, 0]
+normal = [0, 0, 2]
+keep = "both"
+[[edit]]
+kind = "cut_stroke"
+object = "a"
+stroke = [[10, 20], [30.5, 40]]
+[[edit]]
+kind = "fracture"
+object = "a"
+[[edit]]
+kind = "move_piece"
+object = "a"
+piece = 1
+translate = [0, 5, 0]
+axis = [0, 1, 0]
+angle_deg = 30
+[[edit]]
+kind = "recombine"
+object = "a"
+[[edit]]
 kind = "medium"
 object = "a"
 add = { sigma_s = 0.25 }
 "#;
         let steps = parse(text, &["a", "b"]).unwrap();
-        assert_eq!(steps.len(), 5);
-        assert_eq!(steps.iter().map(|s| s.index).collect::<Vec<_>>(), (1..=5).collect::<Vec<_>>());
+        assert_eq!(steps.len(), 10);
+        assert_eq!(steps.iter().map(|s| s.index).collect::<Vec<_>>(), (1..=10).collect::<Vec<_>>());
         assert!(matches!(&steps[0].kind, EditKind::Relight(l) if l.len() == 1) && steps[0].object.is_none());
         assert!(matches!(&steps[1].kind, EditKind::Medium { region: RegionSpec::Sphere { radius, .. }, op: OpSpec::Scale { sigma_a: [2.0, 2.0, 2.0], sigma_s: [1.0, 1.0, 1.0] } } if *radius == 4.0));
         assert_eq!(steps[1].object, Some(1));
         assert!(matches!(&steps[2].kind, EditKind::Medium { region: RegionSpec::Depth { min_mm, max_mm }, op: OpSpec::Assign(m) } if *min_mm == 0.0 && *max_mm == 1.5 && m.eta == 1.5));
         assert!(matches!(&steps[3].kind, EditKind::Paint { points, radius, strength, medium } if points.len() == 2 && *radius == 2.0 && *strength == 0.5 && medium.sigma_a == [0.5; 3]));
-        assert!(matches!(&steps[4].kind, EditKind::Medium { region: RegionSpec::All, op: OpSpec::Add { sigma_a: [0.0, 0.0, 0.0], sigma_s: [0.25, 0.25, 0.25] } }));
-        assert_eq!(steps[4].object, Some(0));
+        assert!(matches!(&steps[4].kind, EditKind::CutPlane { keep: Keep::Both, normal, .. } if *normal == DVec3::new(0.0, 0.0, 2.0)));
+        assert!(matches!(&steps[5].kind, EditKind::CutStroke { keep: Keep::Right, pixels } if pixels[1] == [30.5, 40.0]));
+        assert!(matches!(steps[6].kind, EditKind::Fracture));
+        assert!(matches!(&steps[7].kind, EditKind::MovePiece { piece: 1, angle_deg, axis: Some(_), pivot: None, .. } if *angle_deg == 30.0));
+        assert!(matches!(steps[8].kind, EditKind::Recombine));
+        assert!(matches!(&steps[9].kind, EditKind::Medium { region: RegionSpec::All, op: OpSpec::Add { sigma_a: [0.0, 0.0, 0.0], sigma_s: [0.25, 0.25, 0.25] } }));
     }
 
     #[test]
     fn the_only_object_is_the_default() {
-        let steps = parse("[[edit]]\nkind = \"medium\"\nassign = \"jade\"\n", &["bunny"]).unwrap();
+        let steps = parse("[[edit]]\nkind = \"fracture\"\n", &["bunny"]).unwrap();
         assert_eq!(steps[0].object, Some(0));
-        assert!(matches!(steps[0].kind, EditKind::Medium { region: RegionSpec::All, .. }));
+        let steps = parse("[[edit]]\nkind = \"cut_plane\"\npoint = [0,0,0]\nnormal = [1,0,0]\n", &["bunny"]).unwrap();
+        assert!(matches!(steps[0].kind, EditKind::CutPlane { keep: Keep::Front, .. }));
     }
 
     #[test]
     fn errors_name_the_edit_and_the_key() {
-        let ok = "[[edit]]\nkind = \"medium\"\nassign = \"marble\"\n";
-        let e = err(&format!("{ok}[[edit]]\nkind = \"paint\"\npoints = [[0,0,0]]\nradius = 1\n"), &["a"]);
-        assert!(e.contains("edit 2 (kind = \"paint\")") && e.contains("'medium'"), "{e}");
+        let ok = "[[edit]]\nkind = \"fracture\"\n";
+        let e = err(&format!("{ok}[[edit]]\nkind = \"cut_plane\"\npoint = [0,0,0]\n"), &["a"]);
+        assert!(e.contains("edit 2 (kind = \"cut_plane\")") && e.contains("'normal'"), "{e}");
         let e = err(&format!("{ok}{ok}[[edit]]\nkind = \"paint\"\npoints = [[0,0,0]]\nradius = -1\nmedium = \"marble\"\n"), &["a"]);
         assert!(e.contains("edit 3 (kind = \"paint\")") && e.contains("'radius' must be positive"), "{e}");
-        let e = err("[[edit]]\nkind = \"paint\"\npoints = [[0,0,0]]\nradius = 1\nmedium = \"marble\"\nnormal = [0,0,1]\n", &["a"]);
-        assert!(e.contains("edit 1") && e.contains("unknown key 'normal'"), "{e}");
+        let e = err("[[edit]]\nkind = \"cut_plane\"\npoint = [0,0,0]\nnormal = [0,0,1]\nradius = 2\n", &["a"]);
+        assert!(e.contains("edit 1") && e.contains("unknown key 'radius'"), "{e}");
         let e = err("[[edit]]\nkind = \"explode\"\n", &["a"]);
         assert!(e.contains("edit 1") && e.contains("unknown edit kind 'explode'"), "{e}");
         let e = err("[[edit]]\nobject = \"a\"\n", &["a"]);
         assert!(e.contains("edit 1") && e.contains("missing key 'kind'"), "{e}");
-        let e = err(ok, &["a", "b"]);
+        let e = err("[[edit]]\nkind = \"fracture\"\n", &["a", "b"]);
         assert!(e.contains("missing key 'object'") && e.contains("a, b"), "{e}");
-        let e = err("[[edit]]\nkind = \"medium\"\nobject = \"c\"\nassign = \"marble\"\n", &["a", "b"]);
+        let e = err("[[edit]]\nkind = \"fracture\"\nobject = \"c\"\n", &["a", "b"]);
         assert!(e.contains("no object named 'c'"), "{e}");
         let e = err("[[edit]]\nkind = \"medium\"\nscale = { sigma_a = 2 }\nadd = { sigma_a = 1 }\n", &["a"]);
         assert!(e.contains("not scale and add"), "{e}");
-        let e = err("[[edit]]\nkind = \"medium\"\n", &["a"]);
-        assert!(e.contains("give one of 'assign', 'scale', 'add'"), "{e}");
         let e = err("[[edit]]\nkind = \"medium\"\nregion = { kind = \"sphere\", center = [0,0,0] }\nscale = { sigma_a = 2 }\n", &["a"]);
         assert!(e.contains("'region'") && e.contains("'radius'"), "{e}");
+        let e = err("[[edit]]\nkind = \"medium\"\nobject = \"a\"\n", &["a"]);
+        assert!(e.contains("give one of 'assign', 'scale', 'add'"), "{e}");
         let e = err("[[edit]]\nkind = \"medium\"\nregion = { kind = \"depth\", min_mm = 2, max_mm = 1 }\nscale = { sigma_a = 2 }\n", &["a"]);
         assert!(e.contains("'region'") && e.contains("min_mm < max_mm"), "{e}");
         let e = err("[[edit]]\nkind = \"medium\"\nscale = { sigma_a = -2 }\n", &["a"]);
         assert!(e.contains("'scale'") && e.contains("negative"), "{e}");
         let e = err("[[edit]]\nkind = \"medium\"\nassign = \"plutonium\"\n", &["a"]);
         assert!(e.contains("'assign'") && e.contains("plutonium"), "{e}");
+        let e = err("[[edit]]\nkind = \"cut_stroke\"\nstroke = [[1, 2]]\n", &["a"]);
+        assert!(e.contains("at least 2 points"), "{e}");
+        let e = err("[[edit]]\nkind = \"cut_plane\"\npoint = [0,0,0]\nnormal = [0,0,1]\nkeep = \"left\"\n", &["a"]);
+        assert!(e.contains("'keep' must be one of front, back, both"), "{e}");
+        let e = err("[[edit]]\nkind = \"move_piece\"\npiece = -1\n", &["a"]);
+        assert!(e.contains("'piece' must be a non-negative integer"), "{e}");
+        let e = err("[[edit]]\nkind = \"move_piece\"\npiece = 0\nangle_deg = 10\n", &["a"]);
+        assert!(e.contains("'angle_deg' needs 'axis'"), "{e}");
         let e = err("[[edit]]\nkind = \"relight\"\nobject = \"a\"\nlights = []\n", &["a"]);
         assert!(e.contains("'object' does not apply to relight"), "{e}");
         let e = err("[[edit]]\nkind = \"relight\"\nlights = [{ kind = \"sun\", dir = [0,0,-1] }]\n", &["a"]);

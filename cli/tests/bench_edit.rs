@@ -60,6 +60,15 @@ fn bench_edit_reports_every_edit_consistently() {
     assert!(sum(&paint["last"]["iterations"]) > 0);
     positive(&paint["median_total_ms"], "paint ms");
 
+    // Cut: tets removed, the solve ran, and the statistics are there.
+    let cut = &e["cut_plane"];
+    let stats = &cut["last"]["cut"];
+    let removed = stats["removed_tets"].as_u64().unwrap();
+    assert!(removed > 0 && removed < tets, "removed {removed} of {tets}");
+    assert!(stats["min_dihedral_degrees"].as_f64().unwrap() >= stats["bound_degrees"].as_f64().unwrap());
+    assert!(sum(&cut["last"]["iterations"]) > 0);
+    positive(&cut["median_total_ms"], "cut ms");
+
     // Fig. 7: three methods, curves whose error falls as the tolerance tightens, and a time to
     // 1% for each (the 1e-6 solve is far below 1%).
     let fig7 = &e["fig7"];

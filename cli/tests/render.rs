@@ -66,7 +66,7 @@ fn bunny_is_brighter_on_the_lit_side() {
 
 #[test]
 fn other_examples_render() {
-    for name in ["spot_skin_backlit", "suzanne_jade_hdr", "layered_block", "jade_block_paint"] {
+    for name in ["spot_skin_backlit", "suzanne_jade_hdr", "layered_block", "bunny_cut", "jade_block_paint"] {
         check_png(&render_example(name, "png"));
     }
 }
@@ -164,6 +164,11 @@ fn mean_luminance(img: &image::RgbaImage) -> f64 {
 
 #[test]
 fn edit_examples_differ_from_their_unedited_scenes() {
+    // The cut removes the front of the bunny: fewer object pixels.
+    let cut = check_png(&render_example("bunny_cut", "png"));
+    let whole = render_scene(&unedited("bunny_cut"), "bunny_cut_unedited");
+    let (a, b) = (coverage(&cut), coverage(&whole));
+    assert!(a < b * 95 / 100 && a > b / 5, "cut bunny covers {a} pixels, whole bunny {b}");
     // The painted ink absorbs: a darker block, with the same outline.
     let painted = check_png(&render_example("jade_block_paint", "png"));
     let clean = render_scene(&unedited("jade_block_paint"), "jade_block_unedited");
@@ -175,17 +180,52 @@ fn edit_examples_differ_from_their_unedited_scenes() {
     assert!(dark < light * 0.98, "painted {dark:.1} vs clean {light:.1}");
 }
 
+/// A horizontal stroke across the middle of the image, drawn left to right, swept along the
+/// camera's rays is the plane y = 0 through the eye: keep = "left" keeps the upper half of the
+/// bunny, "right" the lower half.
+#[test]
+fn cut_stroke_keeps_the_side_it_names() {
+    let bunny = examples().join("../../shared/data/meshes/stanford-bunny.obj");
+    let scene = |keep: &str| {
+        format!(
+            "[camera]\nposition = [0, 0, 150]\ntarget = [0, 0, 0]\nfov_deg = 30\nwidth = 96\nheight = 72\n[render]\nground = false\n\
+             [[object]]\nmesh = \"{}\"\nmedium = \"marble\"\nfit_size_mm = 60\n[[light]]\nkind = \"sun\"\ndir = [0, 0, -1]\nirradiance = 3\n\
+             [[edit]]\nkind = \"cut_stroke\"\nstroke = [[-10, 36], [50, 36], [106, 36]]\nkeep = \"{keep}\"\n",
+            bunny.display()
+        )
+    };
+    // Pixel rows 34..38 around the stroke are left out: the cut face is seen edge-on there, and
+    // the kept tets reach the cut surface only within the snapping tolerance.
+    let halves = |img: &image::RgbaImage| {
+        let upper = img.enumerate_pixels().filter(|(_, y, p)| *y < 34 && p[3] > 0).count();
+        let lower = img.enumerate_pixels().filter(|(_, y, p)| *y >= 38 && p[3] > 0).count();
+        (upper, lower)
+    };
+    let left = render_scene(&write_scene("stroke_left.toml", &scene("left")), "stroke_left");
+    let (upper, lower) = halves(&left);
+    assert!(upper > 100 && lower * 10 < upper, "keep = left: {upper} pixels above the stroke, {lower} below");
+    let right = render_scene(&write_scene("stroke_right.toml", &scene("right")), "stroke_right");
+    let (upper, lower) = halves(&right);
+    assert!(lower > 100 && upper * 10 < lower, "keep = right: {upper} pixels above the stroke, {lower} below");
+}
+
 #[test]
 fn edit_errors_name_the_edit_and_key() {
     let block = examples().join("box.obj");
     let object = format!("[[object]]\nmesh = \"{}\"\nname = \"block\"\nmedium = \"jade\"\nfit_size_mm = 80\n", block.display());
-    let medium = "[[edit]]\nkind = \"medium\"\nscale = { sigma_a = 2 }\n";
-    expect_error("edit_missing_key.toml", &format!("{HEAD}{object}{medium}[[edit]]\nkind = \"paint\"\npoints = [[0, 16.33, 0]]\nmedium = \"jade\"\n"), &["edit 2", "paint", "'radius'"]);
-    expect_error("edit_bad_object.toml", &format!("{HEAD}{object}[[edit]]\nkind = \"medium\"\nobject = \"bunny\"\nassign = \"jade\"\n"), &["edit 1", "no object named 'bunny'", "block"]);
+    let fracture = "[[edit]]\nkind = \"fracture\"\n";
+    expect_error("edit_missing_key.toml", &format!("{HEAD}{object}{fracture}[[edit]]\nkind = \"cut_plane\"\npoint = [0, 0, 0]\n"), &["edit 2", "cut_plane", "'normal'"]);
+    expect_error("edit_bad_object.toml", &format!("{HEAD}{object}[[edit]]\nkind = \"fracture\"\nobject = \"bunny\"\n"), &["edit 1", "no object named 'bunny'", "block"]);
     // Caught by the core when the edit runs: a paint medium whose η differs from the object's.
     expect_error(
         "edit_paint_eta.toml",
         &format!("{HEAD}{object}[[edit]]\nkind = \"paint\"\npoints = [[0, 16.33, 0]]\nradius = 3\nmedium = \"marble\"\n"),
         &["edit 1", "paint"],
+    );
+    // Everything removed.
+    expect_error(
+        "edit_cut_all.toml",
+        &format!("{HEAD}{object}[[edit]]\nkind = \"cut_plane\"\npoint = [0, 100, 0]\nnormal = [0, 1, 0]\n"),
+        &["edit 1", "cut_plane"],
     );
 }
