@@ -175,7 +175,9 @@ def test_plane_cut_makes_a_new_object_on_the_kept_side(lit_sphere, addon):
     cap = np.abs(wp[:, 0]) <= tol
     assert cap.sum() >= 8  # a cut surface on the plane
     r = np.linalg.norm(wp, axis=1)
-    assert r.max() <= 1.0 + tol, r.max()  # rim vertices slide along the tangent plane: at most tol out
+    # Rim vertices slide along the surface's tangent plane onto the cut, so they may bulge out
+    # by (slide)²/2: under 1% for this sphere's 0.2-unit edges.
+    assert r.max() <= 1.01, r.max()
     assert len(tri) > 0 and tri.max() < len(wp)
     # Radiance: finite, non-negative, lit from above; medium and material carried over.
     check_lit_top_brighter(new)
