@@ -38,6 +38,7 @@ BAKE_SHARE = 0.8
 #: The C functions an edit needs (a library without them cannot cut or paint).
 CUT_FUNCTIONS = (
     "tc_object_cut_plane",
+    "tc_object_fracture",
     "tc_object_cut_mesh",
     "tc_object_piece_count",
     "tc_object_piece_sizes",
@@ -73,9 +74,15 @@ class PlaneCut:
     point: tuple
     normal: tuple
     keep_both: bool = False
+    separate: bool = False  # then: every connected part its own piece (tc_object_fracture)
 
-    def apply(self, scene: native.Scene, idx: int) -> None:
+    def apply(self, scene: native.Scene, idx: int) -> dict:
+        """Cuts (then fractures); returns the cut's ``tc_object_edit_stats``."""
         scene.cut_plane(idx, self.point, self.normal, self.keep_both)
+        stats = scene.edit_stats(idx)
+        if self.separate:
+            fracture(scene, idx)
+        return stats
 
 
 @dataclass
@@ -86,9 +93,15 @@ class MeshCut:
     positions: np.ndarray  # float32 (n, 3), world space
     triangles: np.ndarray  # uint32 (m, 3)
     keep_both: bool = False
+    separate: bool = False  # then: every connected part its own piece (tc_object_fracture)
 
-    def apply(self, scene: native.Scene, idx: int) -> None:
+    def apply(self, scene: native.Scene, idx: int) -> dict:
+        """Cuts (then fractures); returns the cut's ``tc_object_edit_stats``."""
         scene.cut_mesh(idx, self.positions, self.triangles, self.keep_both)
+        stats = scene.edit_stats(idx)
+        if self.separate:
+            fracture(scene, idx)
+        return stats
 
 
 @dataclass
@@ -103,11 +116,13 @@ class Paint:
     sigma_s_prime: tuple
     strength: float = 1.0
 
-    def apply(self, scene: native.Scene, idx: int, eta: float, g: float) -> None:
+    def apply(self, scene: native.Scene, idx: int, eta: float, g: float) -> dict:
+        """Paints; returns the paint's ``tc_object_edit_stats``."""
         medium = native.TcMedium(
             native._vec3(self.sigma_a, "sigma_a"), native._vec3(self.sigma_s_prime, "sigma_s_prime"), eta, g
         )
         scene.paint(idx, self.points, self.radius, medium, self.strength)
+        return scene.edit_stats(idx)
 
 
 # -- results ---------------------------------------------------------------------------------
@@ -194,6 +209,16 @@ def medium_coefficients(lib: native.Library, spec: MediumSpec, mm_per_unit: floa
         )
         return out
     raise BakeError(f"{spec.source}: no coefficients for a medium set by {spec.method}")
+
+
+def fracture(scene: native.Scene, idx: int) -> int:
+    """Splits every piece of an edited object into its connected components
+    (``tc_object_fracture``); returns the new piece count."""
+    out = ctypes.c_uint32()
+    scene.lib.check(
+        scene.lib.function("tc_object_fracture")(scene._h(), idx, ctypes.byref(out)), "tc_object_fracture"
+    )
+    return int(out.value)
 
 
 def read_pieces(scene: native.Scene, idx: int) -> list:
@@ -283,15 +308,11 @@ def run_edit(
             baked = scene.radiance(idx)
             start = time.perf_counter()
             try:
-                if is_paint:
-                    edit.apply(scene, idx, media[k].eta, media[k].g)
-                else:
-                    edit.apply(scene, idx)
+                stats = edit.apply(scene, idx, media[k].eta, media[k].g) if is_paint else edit.apply(scene, idx)
             except native.TranscutError as exc:
                 exc.message = f"'{name}': {exc.message or exc.status_name}"
                 raise
-            result = EditResult(name, baked=baked, edit_ms=(time.perf_counter() - start) * 1e3)
-            result.stats = scene.edit_stats(idx)
+            result = EditResult(name, baked=baked, stats=stats, edit_ms=(time.perf_counter() - start) * 1e3)
             if is_paint:
                 result.radiance = scene.radiance(idx)
             else:

@@ -10,7 +10,8 @@ meshes, media, lights and settings; :mod:`bake`), apply the edit in the library
   mesh is a solid cutter (closed, world space): its inside is removed. "Keep Both Sides" removes
   nothing and keeps each side as a piece; the library splits the tetrahedra by the side of their
   centroid (so the pieces fit back together exactly), so a split boundary is within about one
-  tetrahedron of the cutter rather than relaxed onto it. Each piece becomes a NEW mesh object "<object>.cut"
+  tetrahedron of the cutter rather than relaxed onto it. "Separate Parts" then splits every
+  piece into its connected parts (the library's fracture), one object each. Each piece becomes a NEW mesh object "<object>.cut"
   (Blender numbers further ones ".cut.001", …) in the original's collections, its vertices in
   world space (identity matrix), its radiance in the bake's colour attribute, with the
   original's materials and TransCut medium settings so it can be baked again. The original is
@@ -93,7 +94,7 @@ def _check_finite_matrix(obj) -> None:
         raise BakeError(f"'{obj.name}' has zero scale")
 
 
-def cutter_edit(cutter, depsgraph, keep_both: bool, flip: bool):
+def cutter_edit(cutter, depsgraph, keep_both: bool, flip: bool, separate: bool = False):
     """The library cut a cutter object stands for: a :class:`edit_native.PlaneCut` when its
     vertices lie on one plane (the side its face normal points into removed; ``flip``: the
     other), else a :class:`edit_native.MeshCut` (its inside removed)."""
@@ -110,8 +111,8 @@ def cutter_edit(cutter, depsgraph, keep_both: bool, flip: bool):
         raise BakeError(f"the cutter '{cutter.name}' has non-finite vertex coordinates")
     if edit_native.is_planar(pos):
         point, normal = edit_native.plane_of_points(pos, normals, flip)
-        return edit_native.PlaneCut(point, normal, keep_both)
-    return edit_native.MeshCut(pos.astype(np.float32), tri, keep_both)
+        return edit_native.PlaneCut(point, normal, keep_both, separate)
+    return edit_native.MeshCut(pos.astype(np.float32), tri, keep_both, separate)
 
 
 def stroke_points(curve, depsgraph, spacing: float) -> np.ndarray:
@@ -335,6 +336,11 @@ class TRANSCUT_OT_cut_with_object(_EditOperator, bpy.types.Operator):
         description="Remove nothing: split along the cutter and make each side its own object",
         default=False,
     )
+    separate: BoolProperty(
+        name="Separate Parts",
+        description="Make every connected part left by the cut its own object (a fracture), not one object per side",
+        default=False,
+    )
     flip: BoolProperty(
         name="Flip",
         description="Plane cutter: remove the side opposite its normal (local −Z of a Plane) instead",
@@ -348,7 +354,7 @@ class TRANSCUT_OT_cut_with_object(_EditOperator, bpy.types.Operator):
                 "no cutter: make the cutter (a plane or a closed mesh) the active object and also select the objects to cut"
             )
         depsgraph = context.evaluated_depsgraph_get()
-        edit = cutter_edit(cutter, depsgraph, self.keep_both, self.flip)
+        edit = cutter_edit(cutter, depsgraph, self.keep_both, self.flip, self.separate)
         targets = _targets(context, cutter, "cut")
         lib = library.get(context)
         edit_native.require(lib, edit_native.CUT_FUNCTIONS, "Cut with Object")

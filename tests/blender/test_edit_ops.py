@@ -472,3 +472,32 @@ def test_relight_with_progress_equals_a_fresh_bake(scene, addon):
         s.bake(**options)
         fresh = s.radiance(i)
     np.testing.assert_allclose(relit, fresh, rtol=1e-5, atol=1e-7 * float(fresh.max()))
+
+
+def test_separate_parts_makes_one_object_per_connected_part(lit_sphere, addon):
+    """A slab cutter through the middle leaves two caps: one object, or with Separate Parts two
+    (tc_object_fracture), each on its own side of the slab."""
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 0.0), scale=(0.3, 3.0, 3.0))  # |x| < 0.15
+    slab = bpy.context.active_object
+    select_only(slab, lit_sphere)
+    assert cut() == {"FINISHED"}
+    (whole,) = cut_objects()
+    wp, _ = world_vertices(whole)
+    assert wp[:, 0].min() < -0.9 and wp[:, 0].max() > 0.9
+    bpy.data.objects.remove(whole)
+    lit_sphere.hide_set(False)
+    select_only(slab, lit_sphere)
+    assert cut(separate=True) == {"FINISHED"}
+    parts = cut_objects()
+    assert len(parts) == 2
+    signs = []
+    for o in parts:
+        assert o[CUT]["removed_tets"] > 0  # the cut's statistics, not the fracture's
+        tol = o[CUT]["max_distance"] + 1e-5
+        wp, _ = world_vertices(o)
+        check_radiance(o)
+        if wp[:, 0].max() <= -0.15 + tol:
+            signs.append(-1)
+        elif wp[:, 0].min() >= 0.15 - tol:
+            signs.append(1)
+    assert sorted(signs) == [-1, 1]
