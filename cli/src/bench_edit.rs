@@ -11,6 +11,7 @@
 //!   an absorbing marble-like ink (rows rebuilt, tets changed, ms);
 //! - **cut**: a plane through the centre of the bounds removing the back half (rebuild of the
 //!   topology, hierarchy and matrix and the solve included, ms).
+//!
 //! Medians over `--runs`. Then Fig. 7 ([`crate::bench_multires::fig7`]) on the same tet mesh
 //! (unshadowed sun, the reference solved to 1e-10): relative error against time for PCG, the
 //! cascade and MG-PCG, the time to 1% and its ratio to the best single-level solver.

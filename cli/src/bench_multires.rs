@@ -178,8 +178,8 @@ pub(crate) fn fig7(system: &mut DiffusionSystem, sun: DVec3, runs: usize, refere
     // Interleaved runs: per run, every method back to back.
     let mut setup = vec![Vec::new(); 3];
     let mut solve6 = vec![Vec::new(); 3];
-    let mut its6 = vec![[0; 3]; 3];
-    let mut err6 = vec![0.0; 3];
+    let mut its6 = [[0; 3]; 3];
+    let mut err6 = [0.0; 3];
     let mut curve_ms = vec![vec![Vec::new(); tolerances.len()]; 3];
     let mut curve_its = vec![vec![[0; 3]; tolerances.len()]; 3];
     let mut curve_err = vec![vec![0.0; tolerances.len()]; 3];

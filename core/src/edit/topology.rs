@@ -31,7 +31,7 @@ enum Outcome {
     /// Every tet removed: the piece disappears.
     Remove,
     /// Rebuilt from the cut mesh.
-    Rebuild(Plan),
+    Rebuild(Box<Plan>),
 }
 
 impl Editor {
@@ -58,7 +58,7 @@ impl Editor {
                 }
                 Ok(r) => {
                     stats = Some(merge(stats, &r.stats));
-                    outcomes.push(Outcome::Rebuild(plan_of_cut(r, p)));
+                    outcomes.push(Outcome::Rebuild(Box::new(plan_of_cut(r, p))));
                 }
                 Err(EditError::NothingLeft { .. }) => {
                     stats = Some(merge(stats, &removed_stats(p)));
@@ -78,7 +78,7 @@ impl Editor {
                 Outcome::Remove => changed += p.mesh.tet_count(),
                 Outcome::Rebuild(plan) => {
                     changed += plan.original_tets.len();
-                    next.push(self.build(plan, &mut timings)?);
+                    next.push(self.build(*plan, &mut timings)?);
                 }
             }
         }
