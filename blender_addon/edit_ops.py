@@ -11,11 +11,13 @@ meshes, media, lights and settings; :mod:`bake`), apply the edit in the library
   nothing and keeps each side as a piece; the library splits the tetrahedra by the side of their
   centroid (so the pieces fit back together exactly), so a split boundary is within about one
   tetrahedron of the cutter rather than relaxed onto it. "Separate Parts" then splits every
-  piece into its connected parts (the library's fracture), one object each. Each piece becomes a NEW mesh object "<object>.cut"
-  (Blender numbers further ones ".cut.001", …) in the original's collections, its vertices in
-  world space (identity matrix), its radiance in the bake's colour attribute, with the
-  original's materials and TransCut medium settings so it can be baked again. The original is
-  hidden (viewport and render), not deleted; the cutter is left as it is.
+  piece into its connected parts (the library's fracture). Each piece becomes a NEW mesh object
+  "<object>.cut" (Blender numbers further ones ".cut.001", …) in the original's collections, its
+  vertices in world space (identity matrix), its radiance in the bake's colour attribute, with
+  the original's materials and TransCut medium settings so it can be baked again, and what the
+  cut guaranteed in the custom property "transcut_cut" (tets removed, the largest distance of
+  the snapped vertices from the cutter, the worst and the enforced minimum dihedral angle). The
+  original is hidden (viewport and render), not deleted; the cutter is left as it is.
 - **Paint Medium**: the ACTIVE object is a curve: its evaluated shape (world space, resampled
   to at most a quarter of the radius between points) is the stroke; the selected meshes get
   the chosen medium (a preset's or the given σa, σ′s; each object keeps its own η and g) blended
@@ -27,7 +29,9 @@ progress shows in the cursor and status bar, ESC cancels (through the bake's pro
 the cut or paint call itself finishes once started). From a script or in background mode
 (``execute``) it runs on the main thread between ``progress_begin`` and ``progress_end``.
 Nothing in Blender changes unless every object was edited; errors are reported (ERROR, with the
-library's message), never raised. Both operators register with undo.
+library's message; a script sees them as bpy's RuntimeError), never left to escape as Python
+exceptions. Both operators register with undo. ``poll`` checks only Object Mode and the loaded
+library, so a wrong selection gets a message saying what to select instead of a greyed button.
 """
 
 from __future__ import annotations
