@@ -45,7 +45,8 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProp
 from . import bake, edit_native, library
 from .lights import scene_lights, world_lights
 from .mesh_export import BakeError, gather
-from .properties import PRESET_NAMES
+from .operators import RunnerModal
+from .properties import PRESET_ITEMS
 
 
 def prepare_job(context, objects: list) -> bake.BakeJob:
@@ -198,14 +199,15 @@ def write_pieces(context, job: bake.BakeJob, run: edit_native.EditRun) -> list:
     return created
 
 
-class _EditOperator:
-    """What both editing operators share: the bake operator's run (execute on the main thread;
-    invoke modal with a worker thread, a progress timer and ESC), results written by
-    :meth:`_write`."""
+class _EditOperator(RunnerModal):
+    """What both editing operators share: the bake operator's modal run (:class:`RunnerModal`),
+    with ``execute`` showing progress on the main thread.
+
+    A subclass defines ``_runner_for(context)`` (the :class:`edit_native.EditRunner` for the
+    selection; it raises ``BakeError`` with what to select) and ``_write(context, runner)``
+    (writes the results into Blender and returns the report's summary)."""
 
     bl_options = {"REGISTER", "UNDO"}
-    _runner = None
-    _timer = None
     what = "edit"
 
     @classmethod
@@ -218,13 +220,6 @@ class _EditOperator:
             cls.poll_message_set("libtranscut is not loaded (see the add-on preferences)")
             return False
         return True
-
-    def _runner_for(self, context):
-        """(EditRunner) or None after reporting why not."""
-        raise NotImplementedError
-
-    def _write(self, context, runner) -> str:
-        raise NotImplementedError
 
     def _start(self, context):
         try:
@@ -276,49 +271,8 @@ class _EditOperator:
             wm.progress_end()
         return self._finish(context, runner)
 
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        runner = self._start(context)
-        if runner is None:
-            return {"CANCELLED"}
-        self._runner = runner
-        wm = context.window_manager
-        wm.progress_begin(0, 100)
-        self._timer = wm.event_timer_add(0.1, window=context.window)
-        wm.modal_handler_add(self)
-        runner.start()
-        return {"RUNNING_MODAL"}
-
-    def _end_ui(self, context) -> None:
-        wm = context.window_manager
-        if self._timer is not None:
-            wm.event_timer_remove(self._timer)
-            self._timer = None
-        wm.progress_end()
-        if context.workspace is not None:
-            context.workspace.status_text_set(None)
-
-    def modal(self, context, event):
-        runner = self._runner
-        if event.type == "ESC" and event.value == "PRESS":
-            runner.cancel()
-        if event.type == "TIMER":
-            stage, fraction = runner.snapshot()
-            context.window_manager.progress_update(int(fraction * 100))
-            if context.workspace is not None:
-                note = "cancelling…" if runner.cancelled else "ESC to cancel"
-                context.workspace.status_text_set(f"TransCut {self.what}: {stage} {fraction * 100:.0f}% ({note})")
-            if runner.done():
-                self._end_ui(context)
-                return self._finish(context, runner)
-        return {"RUNNING_MODAL"}
-
-    def cancel(self, context):
-        if self._runner is not None:
-            self._runner.cancel()
-            self._runner.wait()
-        self._end_ui(context)
+    def _status_prefix(self) -> str:
+        return f"TransCut {self.what}"
 
 
 def _targets(context, active, what: str) -> list:
@@ -419,7 +373,7 @@ class TRANSCUT_OT_paint_medium(_EditOperator, bpy.types.Operator):
     )
     preset: EnumProperty(
         name="Preset",
-        items=tuple((n, n.capitalize(), f"Measured '{n}'") for n in PRESET_NAMES),
+        items=PRESET_ITEMS,
         default="ketchup",
     )
     sigma_a: FloatVectorProperty(

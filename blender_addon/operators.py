@@ -34,15 +34,73 @@ def prepare(context) -> bake.BakeJob:
     return bake.BakeJob(meshes, lights, options, settings.attribute_name, warnings)
 
 
-class OBJECT_OT_transcut_bake(bpy.types.Operator):
+class RunnerModal:
+    """The modal run the bake and the editing operators share: ``invoke`` (background mode:
+    ``execute``) starts the runner made by ``_start`` on a worker thread with a progress timer;
+    ``modal`` shows the progress in the status bar, ESC cancels, and the run ends through
+    ``_finish``; ``cancel`` stops the library when Blender closes the operator. A subclass
+    defines ``execute``, ``_start(context)`` (the runner, or None after reporting why not) and
+    ``_finish(context, runner)`` (the operator's result), and may override ``_status_prefix``."""
+
+    _runner = None
+    _timer = None
+
+    def _status_prefix(self) -> str:
+        return "TransCut"
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        runner = self._start(context)
+        if runner is None:
+            return {"CANCELLED"}
+        self._runner = runner
+        wm = context.window_manager
+        wm.progress_begin(0, 100)
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.modal_handler_add(self)
+        runner.start()
+        return {"RUNNING_MODAL"}
+
+    def _end_ui(self, context) -> None:
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
+
+    def modal(self, context, event):
+        runner = self._runner
+        if event.type == "ESC" and event.value == "PRESS":
+            runner.cancel()
+        if event.type == "TIMER":
+            stage, fraction = runner.snapshot()
+            context.window_manager.progress_update(int(fraction * 100))
+            if context.workspace is not None:
+                note = "cancelling…" if runner.cancelled else "ESC to cancel"
+                context.workspace.status_text_set(f"{self._status_prefix()}: {stage} {fraction * 100:.0f}% ({note})")
+            if runner.done():
+                self._end_ui(context)
+                return self._finish(context, runner)
+        # The scene must not change under the library: swallow everything else.
+        return {"RUNNING_MODAL"}
+
+    def cancel(self, context):
+        # Blender is closing the operator (e.g. the window closed): stop the library, wait.
+        if self._runner is not None:
+            self._runner.cancel()
+            self._runner.wait()
+        self._end_ui(context)
+
+
+class OBJECT_OT_transcut_bake(RunnerModal, bpy.types.Operator):
     """Bake subsurface scattering of the selected meshes into a colour attribute"""
 
     bl_idname = "object.transcut_bake"
     bl_label = "Bake Subsurface (TransCut)"
     bl_options = {"REGISTER", "UNDO"}
-
-    _runner = None
-    _timer = None
 
     @classmethod
     def poll(cls, context):
@@ -83,53 +141,6 @@ class OBJECT_OT_transcut_bake(bpy.types.Operator):
             return {"CANCELLED"}
         runner.run_here()
         return self._finish(context, runner)
-
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        runner = self._start(context)
-        if runner is None:
-            return {"CANCELLED"}
-        self._runner = runner
-        wm = context.window_manager
-        wm.progress_begin(0, 100)
-        self._timer = wm.event_timer_add(0.1, window=context.window)
-        wm.modal_handler_add(self)
-        runner.start()
-        return {"RUNNING_MODAL"}
-
-    def _end_ui(self, context) -> None:
-        wm = context.window_manager
-        if self._timer is not None:
-            wm.event_timer_remove(self._timer)
-            self._timer = None
-        wm.progress_end()
-        if context.workspace is not None:
-            context.workspace.status_text_set(None)
-
-    def modal(self, context, event):
-        runner = self._runner
-        if event.type == "ESC" and event.value == "PRESS":
-            runner.cancel()
-        if event.type == "TIMER":
-            stage, fraction = runner.snapshot()
-            context.window_manager.progress_update(int(fraction * 100))
-            if context.workspace is not None:
-                note = "cancelling…" if runner.cancelled else "ESC to cancel"
-                context.workspace.status_text_set(f"TransCut: {stage} {fraction * 100:.0f}% ({note})")
-            if runner.done():
-                self._end_ui(context)
-                return self._finish(context, runner)
-        # The scene must not change under the bake: swallow everything else.
-        return {"RUNNING_MODAL"}
-
-    def cancel(self, context):
-        # Blender is closing the operator (e.g. the window closed): stop the library, wait.
-        if self._runner is not None:
-            self._runner.cancel()
-            self._runner.wait()
-        self._end_ui(context)
-
 
 def menu_func(self, _context):
     self.layout.separator()

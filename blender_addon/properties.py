@@ -23,6 +23,8 @@ PRESET_NAMES = (
     "wholemilk",
     "jade",
 )
+#: The preset menu's items (name, label, description).
+PRESET_ITEMS = tuple((n, n.capitalize(), f"Measured '{n}'") for n in PRESET_NAMES)
 
 
 class TranscutSceneSettings(bpy.types.PropertyGroup):
@@ -85,7 +87,7 @@ class TranscutObjectSettings(bpy.types.PropertyGroup):
     )
     preset: EnumProperty(
         name="Preset",
-        items=tuple((n, n.capitalize(), f"Measured '{n}'") for n in PRESET_NAMES),
+        items=PRESET_ITEMS,
         default="marble",
     )
     sigma_a: FloatVectorProperty(
