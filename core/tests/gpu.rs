@@ -8,32 +8,19 @@
 #![cfg(feature = "gpu")]
 #![allow(clippy::needless_range_loop)] // per-channel loops read clearer with indices
 
-use std::sync::{Mutex, OnceLock};
+use std::sync::OnceLock;
+
+mod gpu_common;
+use gpu_common::{device, lit, lock, rel_rms, scaled_tets, shared_mesh_dir, system_for};
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use transcut::diffusion::{assemble, assemble_consistent, solve, surface_radiance, DiffusionSystem};
-use transcut::gpu::{self, Backend, GpuContext, GpuError};
-use transcut::mesh::{self, TetMesh};
-use transcut::mesher::{tetrahedralize, MesherOptions};
+use transcut::diffusion::{assemble, assemble_consistent, solve, surface_radiance};
+use transcut::gpu::{self, Backend, GpuError};
+use transcut::mesh::TetMesh;
 use transcut::optics::Medium;
 use transcut::sparse::SolveOptions;
 use transcut::DVec3;
-
-/// The device, or `None` (after a loud message) when `TRANSCUT_GPU_TESTS=skip`.
-fn device() -> Option<&'static GpuContext> {
-    if std::env::var("TRANSCUT_GPU_TESTS").is_ok_and(|v| v == "skip") {
-        eprintln!("\n**** TRANSCUT_GPU_TESTS=skip: GPU TEST SKIPPED, THE GPU PATH IS NOT TESTED ****\n");
-        return None;
-    }
-    match GpuContext::shared() {
-        Ok(c) => Some(c),
-        Err(e) => panic!(
-            "the GPU tests need a GPU adapter: {e}\nRun scripts/install-lavapipe.sh (Mesa's software Vulkan), \
-             or set TRANSCUT_GPU_TESTS=skip to skip these tests explicitly."
-        ),
-    }
-}
 
 /// The shared meshes, tetrahedralised at about `TETS` tets and scaled to 60 mm across.
 const TETS: usize = 25_000;
@@ -41,7 +28,7 @@ const TETS: usize = 25_000;
 fn shared_meshes() -> &'static [(String, TetMesh, f64)] {
     static MESHES: OnceLock<Vec<(String, TetMesh, f64)>> = OnceLock::new();
     MESHES.get_or_init(|| {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes");
+        let dir = shared_mesh_dir();
         let mut files: Vec<_> = std::fs::read_dir(&dir)
             .unwrap_or_else(|e| panic!("the shared meshes are expected in {}: {e}", dir.display()))
             .map(|e| e.unwrap().path())
@@ -49,55 +36,8 @@ fn shared_meshes() -> &'static [(String, TetMesh, f64)] {
             .collect();
         files.sort();
         assert!(files.len() >= 8, "expected the 8 shared meshes in {}", dir.display());
-        files
-            .iter()
-            .map(|path| {
-                let surface = mesh::load(path).unwrap();
-                let tets = tetrahedralize(&surface, &MesherOptions::with_tets(TETS)).unwrap();
-                let (lo, hi) = tets.positions().iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-                    (lo.min(*p), hi.max(*p))
-                });
-                let scale = 60.0 / (hi - lo).length();
-                (path.file_stem().unwrap().to_string_lossy().into_owned(), tets, scale)
-            })
-            .collect()
+        files.iter().map(|path| scaled_tets(path, TETS)).collect()
     })
-}
-
-/// A directional light plus ambient, different per channel: q per boundary vertex.
-fn lit(system: &mut DiffusionSystem) {
-    let light = DVec3::new(0.3, 0.8, 0.5).normalize();
-    let q: Vec<[f64; 3]> = system
-        .boundary()
-        .normal
-        .iter()
-        .map(|n| {
-            let d = n.dot(light).max(0.0);
-            [2.0 * d + 0.05, 1.5 * d + 0.1, 1.0 * d + 0.2]
-        })
-        .collect();
-    system.set_source(&q).unwrap();
-}
-
-fn system_for(mesh: &TetMesh, scale: f64, preset: &str) -> DiffusionSystem {
-    let mut s = assemble(mesh, &[Medium::preset(preset).unwrap()], scale).unwrap();
-    lit(&mut s);
-    s
-}
-
-/// √(Σ|a − b|² / Σ|b|²) per channel.
-fn rel_rms(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
-    [0, 1, 2].map(|c| {
-        let num: f64 = a.iter().zip(b).map(|(x, y)| (x[c] - y[c]).powi(2)).sum();
-        let den: f64 = b.iter().map(|y| y[c] * y[c]).sum();
-        (num / den).sqrt()
-    })
-}
-
-/// Serialises the tests on the one device (lavapipe uses every core).
-fn lock() -> std::sync::MutexGuard<'static, ()> {
-    static LOCK: Mutex<()> = Mutex::new(());
-    LOCK.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 #[test]

@@ -9,85 +9,27 @@
 #![cfg(feature = "gpu")]
 #![allow(clippy::needless_range_loop)] // per-channel loops read clearer with indices
 
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, OnceLock};
+
+mod gpu_common;
+use gpu_common::{device, lock, rel_rms, scaled_tets, shared_mesh_dir, system_for};
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use transcut::diffusion::multires::hierarchy;
-use transcut::diffusion::{assemble, solve, DiffusionSystem, Method, MultiresSolver};
-use transcut::gpu::{self, Backend, GpuContext, GpuError, GpuSolver};
-use transcut::mesh::{self, TetMesh};
-use transcut::mesher::{tetrahedralize, MesherOptions};
-use transcut::optics::Medium;
+use transcut::diffusion::{solve, Method, MultiresSolver};
+use transcut::gpu::{self, Backend, GpuError, GpuSolver};
+use transcut::mesh::TetMesh;
 use transcut::sparse::hierarchy::{HierarchyOptions, Multigrid, MultigridOptions};
 use transcut::sparse::SolveOptions;
 use transcut::DVec3;
-
-/// The device, or `None` (after a loud message) when `TRANSCUT_GPU_TESTS=skip`.
-fn device() -> Option<&'static GpuContext> {
-    if std::env::var("TRANSCUT_GPU_TESTS").is_ok_and(|v| v == "skip") {
-        eprintln!("\n**** TRANSCUT_GPU_TESTS=skip: GPU TEST SKIPPED, THE GPU PATH IS NOT TESTED ****\n");
-        return None;
-    }
-    match GpuContext::shared() {
-        Ok(c) => Some(c),
-        Err(e) => panic!(
-            "the GPU tests need a GPU adapter: {e}\nRun scripts/install-lavapipe.sh (Mesa's software Vulkan), \
-             or set TRANSCUT_GPU_TESTS=skip to skip these tests explicitly."
-        ),
-    }
-}
-
-/// Serialises the tests on the one device (lavapipe uses every core).
-fn lock() -> std::sync::MutexGuard<'static, ()> {
-    static LOCK: Mutex<()> = Mutex::new(());
-    LOCK.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
-}
 
 /// Three shared meshes at about 15k tets, scaled to 60 mm across (4 levels: ~3000 → … → < 600).
 fn meshes() -> &'static [(String, TetMesh, f64)] {
     static MESHES: OnceLock<Vec<(String, TetMesh, f64)>> = OnceLock::new();
     MESHES.get_or_init(|| {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes");
-        ["stanford-bunny.obj", "spot.obj", "fandisk.obj"]
-            .iter()
-            .map(|name| {
-                let path = dir.join(name);
-                let surface = mesh::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-                let tets = tetrahedralize(&surface, &MesherOptions::with_tets(15_000)).unwrap();
-                let (lo, hi) = tets
-                    .positions()
-                    .iter()
-                    .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-                ((*name).to_owned(), tets, 60.0 / (hi - lo).length())
-            })
-            .collect()
-    })
-}
-
-/// A directional light plus ambient, different per channel.
-fn system_for(mesh: &TetMesh, scale: f64, preset: &str) -> DiffusionSystem {
-    let mut s = assemble(mesh, &[Medium::preset(preset).unwrap()], scale).unwrap();
-    let light = DVec3::new(0.3, 0.8, 0.5).normalize();
-    let q: Vec<[f64; 3]> = s
-        .boundary()
-        .normal
-        .iter()
-        .map(|n| {
-            let d = n.dot(light).max(0.0);
-            [2.0 * d + 0.05, 1.5 * d + 0.1, 1.0 * d + 0.2]
-        })
-        .collect();
-    s.set_source(&q).unwrap();
-    s
-}
-
-/// √(Σ|a − b|² / Σ|b|²) per channel.
-fn rel_rms(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
-    [0, 1, 2].map(|c| {
-        let num: f64 = a.iter().zip(b).map(|(x, y)| (x[c] - y[c]).powi(2)).sum();
-        let den: f64 = b.iter().map(|y| y[c] * y[c]).sum();
-        (num / den).sqrt()
+        let dir = shared_mesh_dir();
+        ["stanford-bunny.obj", "spot.obj", "fandisk.obj"].iter().map(|name| scaled_tets(&dir.join(name), 15_000)).collect()
     })
 }
 
