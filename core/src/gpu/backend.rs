@@ -102,20 +102,36 @@ pub fn solve(
     warm_start: Option<&[[f64; 3]]>,
     options: &SolveOptions<'_>,
 ) -> Result<(Solution, BackendReport), GpuError> {
-    let cpu = |fallback: Option<String>| -> Result<(Solution, BackendReport), GpuError> {
-        let solution = diffusion::solve(system, warm_start, options)?;
-        Ok((
-            solution,
-            BackendReport {
-                requested: backend,
-                used: Backend::Cpu,
-                device: None,
-                fallback,
-                #[cfg(feature = "gpu")]
-                gpu: None,
-            },
-        ))
-    };
+    on_backend(
+        backend,
+        || Ok(diffusion::solve(system, warm_start, options)?),
+        #[cfg(feature = "gpu")]
+        |context| super::solve(context, system, warm_start, options),
+    )
+}
+
+/// The report of a solve that ran on the CPU.
+fn cpu_report(requested: Backend, fallback: Option<String>) -> BackendReport {
+    BackendReport {
+        requested,
+        used: Backend::Cpu,
+        device: None,
+        fallback,
+        #[cfg(feature = "gpu")]
+        gpu: None,
+    }
+}
+
+/// Where a solve runs, shared by [`solve`] and [`solve_multires`]: `on_cpu` for
+/// [`Backend::Cpu`], `on_gpu` on the process-wide device for [`Backend::Gpu`]; for
+/// [`Backend::Auto`] the device unless none can be had or the only one is a software
+/// rasteriser, then `on_cpu` with the reason in [`BackendReport::fallback`].
+fn on_backend(
+    backend: Backend,
+    on_cpu: impl FnOnce() -> Result<Solution, GpuError>,
+    #[cfg(feature = "gpu")] on_gpu: impl FnOnce(&super::GpuContext) -> Result<super::GpuSolution, GpuError>,
+) -> Result<(Solution, BackendReport), GpuError> {
+    let cpu = |fallback: Option<String>| Ok((on_cpu()?, cpu_report(backend, fallback)));
     if backend == Backend::Cpu {
         return cpu(None);
     }
@@ -133,7 +149,7 @@ pub fn solve(
                 context.device_name()
             )));
         }
-        let out = super::solve(context, system, warm_start, options)?;
+        let out = on_gpu(context)?;
         Ok((
             out.solution,
             BackendReport {
@@ -171,62 +187,24 @@ pub fn solve_multires(
     warm_start: Option<&[[f64; 3]]>,
     options: &SolveOptions<'_>,
 ) -> Result<(Solution, BackendReport), GpuError> {
-    let cpu = |fallback: Option<String>| -> Result<(Solution, BackendReport), GpuError> {
-        let solution = solver.solve(system, warm_start, options)?;
-        Ok((
-            solution,
-            BackendReport {
-                requested: backend,
-                used: Backend::Cpu,
-                device: None,
-                fallback,
-                #[cfg(feature = "gpu")]
-                gpu: None,
-            },
-        ))
-    };
+    let on_cpu = || Ok(solver.solve(system, warm_start, options)?);
     match (backend, solver.method()) {
-        (Backend::Cpu, _) => cpu(None),
+        (Backend::Cpu, _) => Ok((on_cpu()?, cpu_report(backend, None))),
         (_, Method::Pcg) => solve(backend, system, warm_start, options),
-        (Backend::Auto, Method::Cascade) => cpu(Some("the multiresolution cascade runs on the CPU only".into())),
+        (Backend::Auto, Method::Cascade) => {
+            Ok((on_cpu()?, cpu_report(backend, Some("the multiresolution cascade runs on the CPU only".into()))))
+        }
         (_, Method::Cascade) => Err(GpuError::Unsupported {
             what: "the multiresolution cascade on the GPU (Method::MultigridPcg and Method::Pcg run there)",
         }),
-        (_, Method::MultigridPcg) => {
+        (_, Method::MultigridPcg) => on_backend(
+            backend,
+            on_cpu,
             #[cfg(feature = "gpu")]
-            {
-                let context = match super::GpuContext::shared() {
-                    Ok(c) => c,
-                    Err(e) if backend == Backend::Auto => return cpu(Some(e.to_string())),
-                    Err(e) => return Err(e),
-                };
-                if backend == Backend::Auto && context.is_software() {
-                    return cpu(Some(format!(
-                        "the only GPU adapter is a software one ({}), slower than the CPU path; \
-                         TRANSCUT_BACKEND=gpu uses it anyway",
-                        context.device_name()
-                    )));
-                }
+            |context| {
                 let mg = solver.multigrid().ok_or(GpuError::Unsupported { what: "a multigrid solver without its multigrid" })?;
-                let out = super::GpuSolver::with_multigrid(context, system, mg)?.solve(system, warm_start, options)?;
-                Ok((
-                    out.solution,
-                    BackendReport {
-                        requested: backend,
-                        used: Backend::Gpu,
-                        device: Some(context.device_name().to_owned()),
-                        fallback: None,
-                        gpu: Some(out.stats),
-                    },
-                ))
-            }
-            #[cfg(not(feature = "gpu"))]
-            {
-                match backend {
-                    Backend::Auto => cpu(Some(GpuError::NotBuilt.to_string())),
-                    _ => Err(GpuError::NotBuilt),
-                }
-            }
-        }
+                super::GpuSolver::with_multigrid(context, system, mg)?.solve(system, warm_start, options)
+            },
+        ),
     }
 }

@@ -222,12 +222,14 @@ impl Multigrid {
 
     /// The smoother of level `l` (below the coarsest): `D⁻¹` of the level's operator and the
     /// `λmax` estimate of `D⁻¹A` (×1.1), for the GPU twin of the V-cycle.
+    #[cfg(feature = "gpu")]
     pub(crate) fn smoother(&self, l: usize) -> (&[[f64; 3]], [f64; 3]) {
         (&self.smoothers[l].inv_diag, self.smoothers[l].lambda_max)
     }
 
     /// `A_c⁻¹` of the coarsest level per channel (dense, from its Cholesky factor, exactly
     /// symmetrised), `None` for a one-level hierarchy; for the GPU twin of the coarse solve.
+    #[cfg(feature = "gpu")]
     pub(crate) fn coarsest_inverse(&self) -> Option<[DMatrix<f64>; 3]> {
         self.coarsest.as_ref().map(|f| {
             [0, 1, 2].map(|c| {
