@@ -328,3 +328,114 @@ fn failed_topology_edits_return_the_named_error_and_change_nothing() {
     assert_eq!(ed.pieces()[0].radiance(), &before[..]);
     assert!(ed.user_radiance().is_some());
 }
+
+/// Everything a failed update must leave as it was, bit for bit: per piece φ, radiance, q, b,
+/// the matrix values and its media table; and the editor's per-tet media and lights.
+fn snapshot(ed: &Editor) -> (Vec<Vec<[f64; 3]>>, PerTetMedia, Vec<Light>) {
+    let mut arrays = Vec::new();
+    for p in ed.pieces() {
+        let s = p.system();
+        arrays.extend([p.fluence(), p.radiance(), s.source(), s.rhs(), s.matrix().values()].map(<[[f64; 3]]>::to_vec));
+        arrays.push(s.media().iter().flat_map(|m| [m.sigma_a, m.sigma_s_prime, [m.eta, m.g, 0.0]]).collect());
+    }
+    (arrays, ed.media().clone(), ed.lights().to_vec())
+}
+
+#[test]
+fn a_failed_relight_or_paint_leaves_every_array_bit_identical() {
+    let mesh = ball();
+    let object = Object::from_tets("ball", mesh.clone(), marble().into(), 1.0);
+    let baked = bake(&Scene { objects: vec![object], lights: vec![sun(0.0)] }, &bake_options()).unwrap();
+    // One iteration: enough for the bake's own lights (already solved), not for a change.
+    let one = EditOptions { max_iterations: 1, ..options() };
+    let mut ed = Editor::from_bake(&baked.objects[0], 1.0, &[sun(0.0)], &one).unwrap();
+    let before = snapshot(&ed);
+    let e = ed.relight(&[sun(30.0)]);
+    assert!(matches!(e, Err(EditError::Diffusion(_))), "{e:?}");
+    assert!(snapshot(&ed) == before, "a failed relight changed the editor");
+    let red = Medium { sigma_a: [0.001, 0.2, 0.3], sigma_s_prime: [3.0, 1.0, 1.0], ..marble() };
+    let stroke = PaintStroke { points: vec![DVec3::new(10.0, 0.0, 0.0), DVec3::new(0.0, 10.0, 0.0)], radius: 2.0, medium: red, strength: 1.0 };
+    let e = ed.paint(&stroke);
+    assert!(matches!(e, Err(EditError::Diffusion(_))), "{e:?}");
+    assert!(snapshot(&ed) == before, "a failed paint changed the editor");
+    // And the editor still works from that state: the original lights need no iteration.
+    let stats = ed.relight(&[sun(0.0)]).unwrap();
+    assert_eq!(stats.iterations, [0; 3]);
+    assert!(snapshot(&ed) == before);
+}
+
+fn shadowed() -> EditOptions {
+    EditOptions { shadows: true, ..options() }
+}
+
+/// A ball at the origin and a second one `offset` away, as one tet mesh (ids of the first
+/// ball's vertices first).
+fn two_balls(offset: DVec3) -> (TetMesh, TetMesh) {
+    let a = ball();
+    let b = a.clone().map_positions(move |p| p + offset).unwrap();
+    let n = a.vertex_count() as u32;
+    let positions: Vec<DVec3> = a.positions().iter().chain(b.positions()).copied().collect();
+    let tets: Vec<[u32; 4]> = a.tets().iter().copied().chain(b.tets().iter().map(|t| t.map(|v| v + n))).collect();
+    (TetMesh::new(positions, tets, vec![]).unwrap(), a)
+}
+
+/// q at the vertex of piece `piece` farthest along +x (facing the sun of [`from_plus_x`]).
+fn q_at_plus_x(ed: &Editor, piece: usize) -> [f64; 3] {
+    let p = &ed.pieces()[piece];
+    let ids = &p.system().boundary().ids;
+    let k = (0..ids.len()).max_by(|&i, &j| {
+        let x = |k: usize| p.mesh().positions()[ids[k] as usize].x;
+        x(i).total_cmp(&x(j))
+    });
+    p.system().source()[k.unwrap()]
+}
+
+/// A sun shining along −x (light arriving from +x).
+fn from_plus_x() -> Light {
+    Light::Directional { direction: -DVec3::X, irradiance: [2.0, 1.5, 1.0], angular_diameter_deg: 0.0 }
+}
+
+#[test]
+fn relight_with_the_cached_occluder_equals_a_fresh_start_bit_for_bit() {
+    // Two balls side by side along x: with the sun low over x, the second shadows the first.
+    let (both, _) = two_balls(DVec3::new(25.0, 0.0, 4.0));
+    let object = Object::from_tets("two", both, marble().into(), 1.0);
+    let low = |deg: f64| Light::Directional {
+        direction: DMat3::from_rotation_y(deg.to_radians()) * -DVec3::X,
+        irradiance: [2.0, 1.5, 1.0],
+        angular_diameter_deg: 0.0,
+    };
+    let mut ed = Editor::new(&object, &[low(0.0)], &shadowed()).unwrap();
+    for deg in [10.0, 25.0] {
+        ed.relight(&[low(deg)]).unwrap();
+        let fresh = Editor::new(&object, &[low(deg)], &shadowed()).unwrap();
+        let (a, b) = (ed.pieces()[0].system(), fresh.pieces()[0].system());
+        assert_eq!(a.source(), b.source(), "q after relighting to {deg}°");
+        assert_eq!(a.rhs(), b.rhs());
+        // Some boundary points are in the other ball's shadow, so the occluder matters.
+        let unshadowed = Editor::new(&object, &[low(deg)], &options()).unwrap();
+        let lit = unshadowed.pieces()[0].system().source();
+        let in_shadow = a.source().iter().zip(lit).filter(|(s, l)| s[0] == 0.0 && l[0] > 0.0).count();
+        assert!(in_shadow > 10, "{in_shadow}");
+    }
+}
+
+#[test]
+fn the_occluder_follows_moves_and_cuts() {
+    // The second ball starts 60 above the first, then moves to +x of it, into the sun.
+    let (both, _) = two_balls(DVec3::new(0.0, 60.0, 0.0));
+    let mut ed = Editor::new(&Object::from_tets("two", both, marble().into(), 1.0), &[from_plus_x()], &shadowed()).unwrap();
+    ed.fracture().unwrap();
+    assert_eq!(ed.pieces().len(), 2);
+    assert!(q_at_plus_x(&ed, 0)[0] > 0.0, "lit while the other ball is away");
+    ed.set_piece_transform(1, DMat4::from_translation(DVec3::new(25.0, -60.0, 0.0))).unwrap();
+    assert_eq!(q_at_plus_x(&ed, 0), [0.0; 3], "in the moved ball's shadow");
+    ed.relight(&[from_plus_x()]).unwrap();
+    assert_eq!(q_at_plus_x(&ed, 0), [0.0; 3], "relight keeps the moved ball's shadow");
+    // Cutting the shadowing ball away lights the vertex again (also after a relight).
+    ed.cut(&Cutter::Plane { point: DVec3::new(15.0, 0.0, 0.0), normal: DVec3::X }).unwrap();
+    assert_eq!(ed.pieces().len(), 1);
+    assert!(q_at_plus_x(&ed, 0)[0] > 0.0, "lit once the shadowing ball is cut away");
+    ed.relight(&[from_plus_x()]).unwrap();
+    assert!(q_at_plus_x(&ed, 0)[0] > 0.0);
+}

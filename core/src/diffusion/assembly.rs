@@ -69,6 +69,29 @@ pub struct DiffusionSystem {
     rhs: Vec<[f64; 3]>,
 }
 
+/// What [`DiffusionSystem::update_media_entries`] overwrote: the previous media entries (in
+/// reverse order of the update) and the previous values of the refilled rows.
+#[derive(Debug)]
+pub(crate) struct MediaUndo {
+    previous: Vec<(u32, Medium)>,
+    rows: Vec<u32>,
+    old_values: Vec<[f64; 3]>,
+}
+
+impl MediaUndo {
+    /// The number of matrix rows the update refilled.
+    pub(crate) fn rows(&self) -> usize {
+        self.rows.len()
+    }
+}
+
+/// The q and b that [`DiffusionSystem::replace_source`] replaced.
+#[derive(Debug)]
+pub(crate) struct SourceState {
+    source: Vec<[f64; 3]>,
+    rhs: Vec<[f64; 3]>,
+}
+
 /// Assembles the TransCut system (eqs. 10–14) of `mesh` filled with `media`, indexed by the
 /// mesh's per-tet material ids; positions are in scene units, `mm_per_unit` millimetres each.
 /// The source starts at q = 0 (b = 0); set it with [`DiffusionSystem::set_source`].
@@ -186,6 +209,116 @@ impl DiffusionSystem {
         });
         self.media = media.to_vec();
         Ok(rows.len())
+    }
+
+    /// [`DiffusionSystem::update_media_rows`] for a few table entries, in time proportional to
+    /// what they touch rather than to the table (the editor's paint, TransCut §5.2): sets
+    /// `media[m] = medium` for each `(m, medium)` of `entries` (in order) and refills the matrix
+    /// rows of the vertices of every tet whose material is one of them. The refilled rows are
+    /// bit-identical to a full fill with the new table. Returns what it overwrote, for
+    /// [`DiffusionSystem::undo_media_entries`]. On error the system is unchanged.
+    ///
+    /// # Errors
+    /// [`DiffusionError::LengthMismatch`] for a material id outside the table;
+    /// [`DiffusionError::InvalidMedium`] naming an invalid new medium;
+    /// [`DiffusionError::RefractiveIndexChanged`] for a new medium on the surface whose η is
+    /// not the surface's.
+    pub(crate) fn update_media_entries(&mut self, entries: &[(u32, Medium)]) -> Result<MediaUndo, DiffusionError> {
+        let s = &*self.structure;
+        for &(m, medium) in entries {
+            let index = m as usize;
+            if index >= self.media.len() {
+                return Err(DiffusionError::LengthMismatch {
+                    what: "material id of a media entry (media table length)",
+                    expected: self.media.len(),
+                    found: index,
+                });
+            }
+            medium.validate().map_err(|source| DiffusionError::InvalidMedium { index, source })?;
+        }
+        let eta = self.terms.eta;
+        if let Some(&(_, medium)) =
+            entries.iter().find(|(m, medium)| medium.eta != eta && s.face_material.contains(m))
+        {
+            return Err(DiffusionError::RefractiveIndexChanged { old: eta, new: medium.eta });
+        }
+        // Nothing fails from here on.
+        let mut changed = vec![false; self.media.len()];
+        for &(m, _) in entries {
+            changed[m as usize] = true;
+        }
+        let tets: Vec<u32> = s
+            .materials
+            .par_iter()
+            .enumerate()
+            .filter_map(|(t, &m)| changed[m as usize].then_some(t as u32))
+            .collect();
+        let rows = s.rows_of_tets(&tets)?;
+        let row_ptr = s.pattern.row_ptr();
+        let values = self.matrix.values();
+        let old_values: Vec<[f64; 3]> =
+            rows.iter().flat_map(|&r| values[row_ptr[r as usize]..row_ptr[r as usize + 1]].iter().copied()).collect();
+        let mut previous: Vec<(u32, Medium)> =
+            entries.iter().map(|&(m, medium)| (m, std::mem::replace(&mut self.media[m as usize], medium))).collect();
+        previous.reverse();
+        self.refill_rows(&rows);
+        Ok(MediaUndo { previous, rows, old_values })
+    }
+
+    /// Puts back what [`DiffusionSystem::update_media_entries`] overwrote (the latest update
+    /// first, if several): the media entries and the matrix rows, bit for bit.
+    pub(crate) fn undo_media_entries(&mut self, undo: MediaUndo) {
+        for (m, medium) in undo.previous {
+            self.media[m as usize] = medium;
+        }
+        let row_ptr = self.structure.pattern.row_ptr();
+        let values = self.matrix.values_mut();
+        let mut old = undo.old_values.as_slice();
+        for &r in &undo.rows {
+            let range = row_ptr[r as usize]..row_ptr[r as usize + 1];
+            let (row, rest) = old.split_at(range.len());
+            values[range].copy_from_slice(row);
+            old = rest;
+        }
+    }
+
+    /// Refills `rows` (increasing) from the current media. κ and μ are derived only for the
+    /// materials those rows read (the tets around them), from the same [`Medium`] methods as a
+    /// full fill, so every refilled row is bit-identical to the full fill's.
+    fn refill_rows(&mut self, rows: &[u32]) {
+        let s = &*self.structure;
+        let n = self.media.len();
+        // Zero-filled (untouched pages stay unallocated); only the entries read below are set.
+        let mut c = Coefficients { kappa: vec![[0.0; 3]; n], mu: vec![[0.0; 3]; n] };
+        for &r in rows {
+            for inc in s.tets_of(r as usize) {
+                let m = s.materials[inc.tet as usize] as usize;
+                c.kappa[m] = self.media[m].diffusion_coefficient();
+                c.mu[m] = self.media[m].sigma_a;
+            }
+        }
+        let (discretization, terms) = (self.discretization, self.terms);
+        fill_selected_rows(self.matrix.values_mut(), s.pattern.row_ptr(), rows, |i, row| match discretization {
+            Discretization::TransCut => transcut_row(s, &c, &terms, i, row),
+            Discretization::ConsistentFem => fem::consistent_row(s, &c, &terms, i, row),
+        });
+    }
+
+    /// Replaces the transmitted source q (as [`DiffusionSystem::set_source`], taking `q` by
+    /// value) and returns the previous q and b, for [`DiffusionSystem::restore_source`]. On
+    /// error the system is unchanged.
+    ///
+    /// # Errors
+    /// Those of [`rhs`].
+    pub(crate) fn replace_source(&mut self, q: Vec<[f64; 3]>) -> Result<SourceState, DiffusionError> {
+        let rhs = rhs(self, &q)?;
+        Ok(SourceState { source: std::mem::replace(&mut self.source, q), rhs: std::mem::replace(&mut self.rhs, rhs) })
+    }
+
+    /// Puts back the q and b that [`DiffusionSystem::replace_source`] returned.
+    pub(crate) fn restore_source(&mut self, state: SourceState) {
+        self.source = state.source;
+        self.rhs = state.rhs;
     }
 
     /// Sets the transmitted source q (one entry per boundary vertex, in the order of
@@ -658,6 +791,74 @@ pub(crate) mod tests {
         assert!(matches!(sys.update_media_rows(&media, &[5]), Err(DiffusionError::InvalidMedium { index: 5, .. })));
         assert_eq!(sys.matrix().values(), before.matrix().values());
         assert_eq!(sys.media(), before.media());
+    }
+
+    #[test]
+    fn entry_refill_equals_a_full_refill_and_its_undo_restores_every_bit() {
+        let mut mesh = cube_mesh(4, 1.0);
+        let nt = mesh.tet_count();
+        mesh.set_materials((0..nt as u32).collect()).unwrap();
+        let base: Vec<Medium> = (0..nt).map(|t| Medium { sigma_a: [0.01 + 1e-4 * t as f64; 3], ..marble() }).collect();
+        let ink = Medium { sigma_a: [0.3, 0.2, 0.1], sigma_s_prime: [1.5, 2.0, 2.5], ..marble() };
+        for discretization in [Discretization::TransCut, Discretization::ConsistentFem] {
+            let mut sys = DiffusionSystem::new(&mesh, &base, 1.7, discretization).unwrap();
+            let before = sys.clone();
+            // Tet 3 twice: the last value wins, the undo restores the first.
+            let entries = [(3u32, marble()), (40, ink), (41, ink), (200, ink), (3, ink), (377, ink)];
+            let undo = sys.update_media_entries(&entries).unwrap();
+            let mut media = base.clone();
+            for &(t, m) in &entries {
+                media[t as usize] = m;
+            }
+            let mut full = DiffusionSystem::new(&mesh, &base, 1.7, discretization).unwrap();
+            full.set_media(&media).unwrap();
+            assert_eq!(sys.matrix().values(), full.matrix().values(), "{discretization:?}");
+            assert_eq!(sys.media(), full.media());
+            let mut rows = DiffusionSystem::new(&mesh, &base, 1.7, discretization).unwrap();
+            let tets: Vec<u32> = entries.iter().map(|e| e.0).collect();
+            assert_eq!(undo.rows(), rows.update_media_rows(&media, &tets).unwrap());
+            sys.undo_media_entries(undo);
+            assert_eq!(sys.matrix().values(), before.matrix().values());
+            assert_eq!(sys.media(), before.media());
+        }
+    }
+
+    #[test]
+    fn entry_refill_rejects_bad_entries_and_leaves_the_system_unchanged() {
+        let mut mesh = cube_mesh(2, 1.0);
+        let nt = mesh.tet_count();
+        mesh.set_materials((0..nt as u32).collect()).unwrap();
+        let mut sys = assemble(&mesh, &vec![marble(); nt], 1.0).unwrap();
+        let before = sys.clone();
+        let ink = Medium { sigma_a: [0.5; 3], ..marble() };
+        let e = sys.update_media_entries(&[(0, ink), (nt as u32, ink)]).unwrap_err();
+        assert!(matches!(e, DiffusionError::LengthMismatch { expected, found, .. } if expected == nt && found == nt), "{e}");
+        let e = sys.update_media_entries(&[(0, ink), (5, Medium { sigma_a: [f64::NAN; 3], ..marble() })]).unwrap_err();
+        assert!(matches!(e, DiffusionError::InvalidMedium { index: 5, .. }), "{e}");
+        let surface = sys.structure().face_material[0];
+        let e = sys.update_media_entries(&[(0, ink), (surface, Medium { eta: marble().eta + 0.1, ..marble() })]).unwrap_err();
+        assert!(matches!(e, DiffusionError::RefractiveIndexChanged { .. }), "{e}");
+        assert_eq!(sys.matrix().values(), before.matrix().values());
+        assert_eq!(sys.media(), before.media());
+        // No entries: nothing refilled.
+        assert_eq!(sys.update_media_entries(&[]).unwrap().rows(), 0);
+    }
+
+    #[test]
+    fn a_replaced_source_is_restored_bit_for_bit() {
+        let mesh = cube_mesh(2, 1.0);
+        let mut sys = assemble(&mesh, &[marble()], 1.0).unwrap();
+        let nb = sys.boundary().len();
+        sys.set_source(&(0..nb).map(|k| [k as f64, 1.0, 0.5]).collect::<Vec<_>>()).unwrap();
+        let before = sys.clone();
+        assert!(matches!(sys.replace_source(vec![[-1.0; 3]; nb]), Err(DiffusionError::InvalidSource { .. })));
+        assert_eq!((sys.source(), sys.rhs()), (before.source(), before.rhs()));
+        let old = sys.replace_source(vec![[2.0; 3]; nb]).unwrap();
+        let mut direct = before.clone();
+        direct.set_source(&vec![[2.0; 3]; nb]).unwrap();
+        assert_eq!((sys.source(), sys.rhs()), (direct.source(), direct.rhs()));
+        sys.restore_source(old);
+        assert_eq!((sys.source(), sys.rhs()), (before.source(), before.rhs()));
     }
 
     #[test]

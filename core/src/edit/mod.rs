@@ -37,8 +37,15 @@
 //! Every solve is **warm-started** from the previous φ (TransCut §4.2; after a cut φ is carried
 //! over through the kept vertices). Every method returns [`UpdateStats`] with the stage timings.
 //!
-//! **A failed call leaves the editor exactly as it was**: the new state (pieces, media) is built
-//! aside and swapped in only when everything, including the solves, succeeded.
+//! **A failed call leaves the editor exactly as it was**, without copying the multi-megabyte
+//! state of the pieces on the way: a relight computes every q aside, swaps it in (the previous q
+//! and b kept) and solves into fresh vectors, storing φ and radiance only when every solve
+//! succeeded and putting q and b back otherwise; a paint or medium edit refills the touched rows
+//! in place, keeping their previous values and media entries, prepares new solvers and solves
+//! aside, and restores those rows if anything failed; a move sets the transform in place and
+//! restores it on failure; cuts, splits, fractures and recombinations build new pieces aside.
+//! The shadow occluder (the pieces' world-space boundary in a BVH) is built once per placement
+//! of the pieces (bake, cut, split, fracture, move, recombine) and reused by every relight.
 //!
 //! Shadows come from the pieces' tet-mesh boundaries; a bake of a surface object shadows with the
 //! user's surface instead, so with shadows on the first update may differ from the bake by the
@@ -52,6 +59,7 @@ pub mod pieces;
 pub mod region;
 mod topology;
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use glam::{DMat4, DVec3};
@@ -63,13 +71,15 @@ pub use paint::PaintStroke;
 pub use piece::Piece;
 pub use region::{MediumEdit, MediumOp, Region};
 
+use crate::diffusion::assembly::MediaUndo;
 use crate::diffusion::{Method, MultiresSolver};
 use crate::gpu::Backend;
 use crate::light::{self, Light, SourceOptions};
-use crate::mesh::TetMesh;
+use crate::mesh::{TetMesh, TriangleBvh};
+use crate::optics::Medium;
 use crate::progress::Progress;
 use crate::scene::{self, BakeOptions, Object, ObjectBake, Scene};
-use crate::volume::{Coefficients, PerTetMedia};
+use crate::volume::{Coefficients, PerTetMedia, VolumeError};
 use piece::{ms, SolveSetup, Timings};
 
 /// How the editor solves and lights.
@@ -156,7 +166,11 @@ pub struct UpdateStats {
     pub rows_rebuilt: usize,
     /// Original tets whose medium changed (paint, medium edit) or tets of rebuilt pieces.
     pub tets_changed: usize,
-    /// Transmitted source q (lights and shadows).
+    /// Finding what a paint or medium edit touches: the region's or stroke's tets, their new
+    /// coefficients and the pieces holding them (0 for other updates).
+    pub select_ms: f64,
+    /// Transmitted source q (lights and shadows; with the shadow occluder's rebuild after a
+    /// cut, split, fracture, move or recombination).
     pub source_ms: f64,
     /// Matrix assembly or row refill.
     pub assembly_ms: f64,
@@ -175,6 +189,7 @@ impl UpdateStats {
             iterations: t.iterations,
             rows_rebuilt,
             tets_changed,
+            select_ms: t.select_ms,
             source_ms: t.source_ms,
             assembly_ms: t.assembly_ms,
             hierarchy_ms: t.hierarchy_ms,
@@ -193,6 +208,9 @@ pub struct Editor {
     centroids: Vec<DVec3>,
     media: PerTetMedia,
     pieces: Vec<Piece>,
+    /// The shadow occluder of the pieces' current placement (`None` without shadows), rebuilt
+    /// whenever a piece is rebuilt or moved and reused by every relight.
+    occluder: Option<Arc<TriangleBvh>>,
     lights: Vec<Light>,
     options: EditOptions,
     setup: SolveSetup,
@@ -272,9 +290,20 @@ impl Editor {
         let piece =
             piece::build(original.clone(), all, DMat4::IDENTITY, &media, &setup, Some(bake.fluence.clone()), &mut timings)?;
         let mut pieces = vec![piece];
-        piece::light_all(&mut pieces, lights, &options.source, options.shadows, &mut timings)?;
-        piece::solve(&mut pieces[0], &setup, &mut timings)?;
-        Ok(Self { original, centroids, media, pieces, lights: lights.to_vec(), options: options.clone(), setup, uncut: true, user_surface })
+        let occluder =
+            piece::light_and_solve(&mut pieces, lights, &options.source, options.shadows, &setup, &mut timings)?;
+        Ok(Self {
+            original,
+            centroids,
+            media,
+            pieces,
+            occluder,
+            lights: lights.to_vec(),
+            options: options.clone(),
+            setup,
+            uncut: true,
+            user_surface,
+        })
     }
 
     /// The pieces (one until a split or fracture).
@@ -333,12 +362,8 @@ impl Editor {
         let start = Instant::now();
         light::validate_lights(lights)?;
         let mut timings = Timings::default();
-        let mut pieces = self.pieces.clone();
-        piece::light_all(&mut pieces, lights, &self.options.source, self.options.shadows, &mut timings)?;
-        for p in &mut pieces {
-            piece::solve(p, &self.setup, &mut timings)?;
-        }
-        self.pieces = pieces;
+        let q = piece::sources(&self.pieces, lights, &self.options.source, self.occluder.as_deref(), &mut timings)?;
+        piece::relight_all(&mut self.pieces, q, &self.setup, &mut timings)?;
         self.lights = lights.to_vec();
         Ok(UpdateStats::new(&timings, 0, 0, start))
     }
@@ -372,42 +397,71 @@ impl Editor {
     }
 
     /// Sets the new coefficients of original tets, refills the rows of their vertices in the
-    /// pieces that hold them, re-solves those pieces, and swaps the new state in.
+    /// pieces that hold them ([`crate::diffusion::DiffusionSystem`]'s row-local refill of single
+    /// media entries), prepares those pieces' solvers for the new matrices and re-solves them.
+    /// Nothing is copied whole: the refills are undone if anything fails, and the new solvers,
+    /// φ, radiance and media are stored only once everything succeeded.
     fn apply_changes(&mut self, changes: &[(u32, Coefficients)], start: Instant) -> Result<UpdateStats, EditError> {
-        let mut media = self.media.clone();
-        for &(t, c) in changes {
-            media.set(t as usize, c)?;
-        }
+        check_changes(&self.media, changes)?;
+        let (eta, g) = (self.media.eta(), self.media.g());
+        let mut per_piece: Vec<Vec<(u32, Medium)>> = vec![Vec::new(); self.pieces.len()];
         let located = self.locate();
-        let mut per_piece: Vec<Vec<u32>> = vec![Vec::new(); self.pieces.len()];
-        for &(t, _) in changes {
+        for &(t, c) in changes {
             if let Some((p, local)) = located[t as usize] {
-                per_piece[p as usize].push(local);
+                per_piece[p as usize].push((local, c.with_eta_g(eta, g)));
             }
         }
-        let mut timings = Timings::default();
-        let mut rows = 0;
+        let mut timings = Timings { select_ms: ms(start), ..Timings::default() };
+        let mut undo = Vec::new();
         let mut updated = Vec::new();
-        for (index, locals) in per_piece.iter().enumerate().filter(|(_, l)| !l.is_empty()) {
-            let mut p = self.pieces[index].clone();
-            let t = Instant::now();
-            let mut table = p.system.media().to_vec();
-            for &l in locals {
-                table[l as usize] = media.medium(p.original_tets[l as usize] as usize);
+        let mut failure = None;
+        for (index, entries) in per_piece.iter().enumerate().filter(|(_, e)| !e.is_empty()) {
+            match self.refill_and_solve(index, entries, &mut undo, &mut timings) {
+                Ok(u) => updated.push(u),
+                Err(e) => {
+                    failure = Some(e);
+                    break;
+                }
             }
-            rows += p.system.update_media_rows(&table, locals)?;
-            timings.assembly_ms += ms(t);
-            let t = Instant::now();
-            p.solver = MultiresSolver::with_hierarchy(&p.system, p.solver.hierarchy().clone(), self.setup.method)?;
-            timings.hierarchy_ms += ms(t);
-            piece::solve(&mut p, &self.setup, &mut timings)?;
-            updated.push((index, p));
         }
-        self.media = media;
-        for (index, p) in updated {
-            self.pieces[index] = p;
+        if let Some(e) = failure {
+            for (index, u) in undo.into_iter().rev() {
+                self.pieces[index].system.undo_media_entries(u);
+            }
+            return Err(e);
+        }
+        let rows = undo.iter().map(|(_, u)| u.rows()).sum();
+        for &(t, c) in changes {
+            // Cannot fail: check_changes made the checks of PerTetMedia::set.
+            self.media.set(t as usize, c)?;
+        }
+        for (index, solver, solved) in updated {
+            let p = &mut self.pieces[index];
+            p.solver = solver;
+            solved.store(p);
         }
         Ok(UpdateStats::new(&timings, rows, changes.len(), start))
+    }
+
+    /// Refills piece `index`'s rows for `entries` (local tet, new medium) in place, pushing the
+    /// undo record onto `undo` first thing, then prepares a solver for the new matrix and
+    /// solves; the piece's solver, φ and radiance are left as they were.
+    fn refill_and_solve(
+        &mut self,
+        index: usize,
+        entries: &[(u32, Medium)],
+        undo: &mut Vec<(usize, MediaUndo)>,
+        timings: &mut Timings,
+    ) -> Result<(usize, MultiresSolver, piece::Solved), EditError> {
+        let p = &mut self.pieces[index];
+        let t = Instant::now();
+        undo.push((index, p.system.update_media_entries(entries)?));
+        timings.assembly_ms += ms(t);
+        let t = Instant::now();
+        let solver = MultiresSolver::with_hierarchy(&p.system, Arc::clone(p.solver.hierarchy()), self.setup.method)?;
+        timings.hierarchy_ms += ms(t);
+        let solved = piece::solution(&p.system, &solver, &p.fluence, &self.setup, timings)?;
+        Ok((index, solver, solved))
     }
 
     /// Per original tet: (piece, local tet) holding it, or `None` once it was cut away.
@@ -420,6 +474,18 @@ impl Editor {
         }
         out
     }
+}
+
+/// The checks [`PerTetMedia::set`] makes, for every change before any is applied.
+fn check_changes(media: &PerTetMedia, changes: &[(u32, Coefficients)]) -> Result<(), EditError> {
+    for &(t, c) in changes {
+        let tet = t as usize;
+        if tet >= media.len() {
+            return Err(VolumeError::LengthMismatch { what: "tet index (tet count)", expected: media.len(), found: tet }.into());
+        }
+        c.validate().map_err(|source| VolumeError::InvalidTetMedium { tet, source })?;
+    }
+    Ok(())
 }
 
 /// Centroids of a mesh's tets.

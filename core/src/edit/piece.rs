@@ -105,6 +105,7 @@ impl Piece {
 /// Times of one update's stages (ms), summed over pieces.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Timings {
+    pub select_ms: f64,
     pub source_ms: f64,
     pub assembly_ms: f64,
     pub hierarchy_ms: f64,
@@ -173,64 +174,150 @@ pub(crate) fn build(
 }
 
 /// The occluder of every piece's world-space boundary (for shadows), `None` without shadows.
-pub(crate) fn occluder(pieces: &[Piece], shadows: bool) -> Option<TriangleBvh> {
-    shadows.then(|| TriangleBvh::new(pieces.iter().flat_map(Piece::world_triangles).collect()))
+/// The editor builds it once per placement of its pieces (bake, cut, split, fracture, move,
+/// recombine) and reuses it for every relight.
+pub(crate) fn occluder(pieces: &[Piece], shadows: bool) -> Option<Arc<TriangleBvh>> {
+    shadows.then(|| Arc::new(TriangleBvh::new(pieces.iter().flat_map(Piece::world_triangles).collect())))
 }
 
-/// Recomputes every piece's transmitted source q (eq. 12's q) at its world-space boundary
-/// points under `lights`, shadowed by all pieces when `shadows`.
+/// Every piece's transmitted source q (eq. 12's q) at its world-space boundary points under
+/// `lights`, shadowed by `occluder` (all pieces' world boundaries, see [`occluder`]); the pieces
+/// are not changed.
 ///
 /// # Errors
-/// [`EditError::Light`] from the source; [`EditError::Diffusion`] for an invalid q.
-pub(crate) fn light_all(
+/// [`EditError::Light`] from the source.
+pub(crate) fn sources(
+    pieces: &[Piece],
+    lights: &[Light],
+    source: &SourceOptions,
+    occluder: Option<&TriangleBvh>,
+    timings: &mut Timings,
+) -> Result<Vec<Vec<[f64; 3]>>, EditError> {
+    let t = Instant::now();
+    let q = pieces
+        .iter()
+        .map(|piece| {
+            let (points, normals) = piece.world_boundary();
+            let eta = piece.system.boundary_terms().eta;
+            light::transmitted_source(lights, &points, &normals, eta, occluder, source)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    timings.source_ms += ms(t);
+    Ok(q)
+}
+
+/// Sets every piece's source to its q of `q` ([`sources`]) and solves it from its last φ; on
+/// success the pieces take the new φ and radiance. On error every piece is as before (the
+/// sources already replaced are put back; φ and radiance are only written at the end).
+///
+/// # Errors
+/// [`EditError::Diffusion`] for an invalid q; those of [`solution`].
+pub(crate) fn relight_all(
+    pieces: &mut [Piece],
+    q: Vec<Vec<[f64; 3]>>,
+    setup: &SolveSetup,
+    timings: &mut Timings,
+) -> Result<(), EditError> {
+    let mut replaced = Vec::with_capacity(pieces.len());
+    let mut solved = Vec::with_capacity(pieces.len());
+    let mut failure = None;
+    for (piece, q) in pieces.iter_mut().zip(q) {
+        match piece.system.replace_source(q) {
+            Ok(old) => replaced.push(old),
+            Err(e) => {
+                failure = Some(e.into());
+                break;
+            }
+        }
+        match solution(&piece.system, &piece.solver, &piece.fluence, setup, timings) {
+            Ok(s) => solved.push(s),
+            Err(e) => {
+                failure = Some(e);
+                break;
+            }
+        }
+    }
+    if let Some(e) = failure {
+        for (piece, old) in pieces.iter_mut().zip(replaced) {
+            piece.system.restore_source(old);
+        }
+        return Err(e);
+    }
+    for (piece, s) in pieces.iter_mut().zip(solved) {
+        s.store(piece);
+    }
+    Ok(())
+}
+
+/// Recomputes every piece's q with the occluder of their current placement ([`occluder`]) and
+/// solves them ([`relight_all`]); returns that occluder. On error every piece is as before.
+///
+/// # Errors
+/// Those of [`sources`] and [`relight_all`].
+pub(crate) fn light_and_solve(
     pieces: &mut [Piece],
     lights: &[Light],
     source: &SourceOptions,
     shadows: bool,
+    setup: &SolveSetup,
     timings: &mut Timings,
-) -> Result<(), EditError> {
+) -> Result<Option<Arc<TriangleBvh>>, EditError> {
     let t = Instant::now();
     let occluder = occluder(pieces, shadows);
-    for piece in pieces.iter_mut() {
-        let (points, normals) = piece.world_boundary();
-        let eta = piece.system.boundary_terms().eta;
-        let q = light::transmitted_source(lights, &points, &normals, eta, occluder.as_ref(), source)?;
-        piece.system.set_source(&q)?;
-    }
     timings.source_ms += ms(t);
-    Ok(())
+    let q = sources(pieces, lights, source, occluder.as_deref(), timings)?;
+    relight_all(pieces, q, setup, timings)?;
+    Ok(occluder)
 }
 
-/// Solves a piece from its current φ (warm start) and updates its radiance: with
-/// [`Method::Pcg`] on a backend other than the CPU through [`gpu::solve_on`], otherwise with
-/// the piece's [`MultiresSolver`].
+/// A solve's result for one piece, not yet stored in it.
+pub(crate) struct Solved {
+    fluence: Vec<[f64; 3]>,
+    radiance: Vec<[f64; 3]>,
+}
+
+impl Solved {
+    /// Makes this the piece's φ and radiance.
+    pub(crate) fn store(self, piece: &mut Piece) {
+        piece.fluence = self.fluence;
+        piece.radiance = self.radiance;
+    }
+}
+
+/// Solves `system` from the warm start `warm` (the piece's last φ) and derives the radiance:
+/// with [`Method::Pcg`] on a backend other than the CPU through [`gpu::solve_on`], otherwise
+/// with `solver` (prepared for `system`'s matrix).
 ///
 /// # Errors
 /// [`EditError::Diffusion`] (not converged, …); [`EditError::Gpu`] when the GPU was required
 /// and failed.
-pub(crate) fn solve(piece: &mut Piece, setup: &SolveSetup, timings: &mut Timings) -> Result<(), EditError> {
+pub(crate) fn solution(
+    system: &DiffusionSystem,
+    solver: &MultiresSolver,
+    warm: &[[f64; 3]],
+    setup: &SolveSetup,
+    timings: &mut Timings,
+) -> Result<Solved, EditError> {
     let t = Instant::now();
     let options =
         SolveOptions { tolerance: setup.tolerance, max_iterations: setup.max_iterations, ..SolveOptions::default() };
-    let warm = Some(piece.fluence.as_slice());
     let solution: Solution = if setup.method == Method::Pcg && setup.backend != Backend::Cpu {
-        gpu::solve_on(setup.backend, &piece.system, warm, &options)
+        gpu::solve_on(setup.backend, system, Some(warm), &options)
             .map_err(|e| match e {
                 GpuError::Diffusion(d) => EditError::Diffusion(d),
                 other => EditError::Gpu(other),
             })?
             .0
     } else {
-        piece.solver.solve(&piece.system, warm, &options)?
+        solver.solve(system, Some(warm), &options)?
     };
-    piece.radiance = per_vertex_radiance(&piece.system, &solution.phi)?;
-    piece.fluence = solution.phi;
+    let radiance = per_vertex_radiance(system, &solution.phi)?;
     timings.solve_ms += ms(t);
     for (sum, i) in timings.iterations.iter_mut().zip(solution.stats.iterations) {
         *sum += i;
     }
     timings.pieces_solved += 1;
-    Ok(())
+    Ok(Solved { fluence: solution.phi, radiance })
 }
 
 /// Lo(x, n) per tet-mesh vertex: eq. 3 on the boundary ([`diffusion::surface_radiance`]),

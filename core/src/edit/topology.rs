@@ -156,10 +156,21 @@ impl Editor {
             return Err(EditError::NoSuchPiece { index: piece, count: self.pieces.len() });
         }
         pieces::check_rigid(&transform)?;
-        let mut next = self.pieces.clone();
-        next[piece].transform = transform;
+        // In place (no copy of the pieces): the re-light and re-solve put everything back on
+        // error but the transform, restored here.
         let mut timings = Timings::default();
-        self.commit(next, &mut timings, 0, start)
+        let previous = std::mem::replace(&mut self.pieces[piece].transform, transform);
+        let (lights, options) = (&self.lights, &self.options);
+        match piece::light_and_solve(&mut self.pieces, lights, &options.source, options.shadows, &self.setup, &mut timings) {
+            Ok(occluder) => {
+                self.occluder = occluder;
+                Ok(UpdateStats::new(&timings, 0, 0, start))
+            }
+            Err(e) => {
+                self.pieces[piece].transform = previous;
+                Err(e)
+            }
+        }
     }
 
     /// Welds pieces whose boundaries touch again ([`pieces::weld`], within
@@ -202,12 +213,11 @@ impl Editor {
 
     /// Re-lights and re-solves `next` (every piece: the shadows depend on all), then swaps it in.
     fn commit(&mut self, mut next: Vec<Piece>, timings: &mut Timings, changed: usize, start: Instant) -> Result<UpdateStats, EditError> {
-        piece::light_all(&mut next, &self.lights, &self.options.source, self.options.shadows, timings)?;
-        for p in &mut next {
-            piece::solve(p, &self.setup, timings)?;
-        }
+        let (lights, options) = (&self.lights, &self.options);
+        let occluder = piece::light_and_solve(&mut next, lights, &options.source, options.shadows, &self.setup, timings)?;
         let rebuilt = changed > 0;
         self.pieces = next;
+        self.occluder = occluder;
         if rebuilt {
             self.uncut = false;
         }
