@@ -15,7 +15,10 @@
 //!   two mirrored sums), so CG sees a symmetric preconditioner.
 //!
 //! Both act per channel with the same `P`, rows computed in parallel, each summed in a fixed
-//! order: deterministic for any number of threads.
+//! order: deterministic for any number of threads. [`galerkin`] accumulates each coarse row's
+//! products in a dense per-task array indexed by column (every column's terms added in the
+//! fixed order of the triple loop), then orders the row's distinct columns: no sort of the
+//! products themselves.
 
 use std::sync::Arc;
 
@@ -82,44 +85,51 @@ pub fn galerkin(a: &CsrMatrix3, p: &Prolongation) -> Result<CsrMatrix3, SparseEr
     let ap = a.pattern();
     let vals = a.values();
     let m = p.n_coarse();
+    // Per task, `stamp[d] == c + 1` marks column `d` as already in row `c`'s list, at `slot[d]`.
     let rows: Vec<(Vec<u32>, Vec<[f64; 3]>)> = (0..m)
         .into_par_iter()
-        .map(|c| {
-            let mut acc: Vec<(u32, [f64; 3])> = Vec::new();
-            let (fr, fw) = p.column(c);
-            for (&u, &wu) in fr.iter().zip(fw) {
-                let u = u as usize;
-                for k in ap.row_ptr()[u]..ap.row_ptr()[u + 1] {
-                    let v = ap.col_idx()[k] as usize;
-                    let muv = vals[k];
-                    let (pc, pw) = p.row(v);
-                    for (&d, &wv) in pc.iter().zip(pw) {
-                        let s = wu * wv;
-                        acc.push((d, [muv[0] * s, muv[1] * s, muv[2] * s]));
+        .with_min_len(256)
+        .map_init(
+            || (vec![0u32; m], vec![0u32; m]),
+            |(stamp, slot), c| {
+                let mark = c as u32 + 1;
+                let mut cols: Vec<u32> = Vec::new();
+                let mut sums: Vec<[f64; 3]> = Vec::new();
+                let (fr, fw) = p.column(c);
+                for (&u, &wu) in fr.iter().zip(fw) {
+                    let u = u as usize;
+                    for k in ap.row_ptr()[u]..ap.row_ptr()[u + 1] {
+                        let v = ap.col_idx()[k] as usize;
+                        let muv = vals[k];
+                        let (pc, pw) = p.row(v);
+                        for (&d, &wv) in pc.iter().zip(pw) {
+                            let s = wu * wv;
+                            let term = [muv[0] * s, muv[1] * s, muv[2] * s];
+                            let d = d as usize;
+                            if stamp[d] == mark {
+                                let o = &mut sums[slot[d] as usize];
+                                for ch in 0..3 {
+                                    o[ch] += term[ch];
+                                }
+                            } else {
+                                stamp[d] = mark;
+                                slot[d] = cols.len() as u32;
+                                cols.push(d as u32);
+                                sums.push(term);
+                            }
+                        }
                     }
                 }
-            }
-            acc.sort_by_key(|e| e.0); // stable: equal columns keep their (fixed) order
-            let mut cols: Vec<u32> = Vec::new();
-            let mut out: Vec<[f64; 3]> = Vec::new();
-            for (d, v) in acc {
-                if cols.last() == Some(&d) {
-                    let o = out.last_mut().expect("pushed with its column");
-                    for ch in 0..3 {
-                        o[ch] += v[ch];
-                    }
-                } else {
-                    cols.push(d);
-                    out.push(v);
+                if stamp[c] != mark {
+                    cols.push(c as u32);
+                    sums.push([0.0; 3]);
                 }
-            }
-            if cols.binary_search(&(c as u32)).is_err() {
-                let pos = cols.partition_point(|&x| x < c as u32);
-                cols.insert(pos, c as u32);
-                out.insert(pos, [0.0; 3]);
-            }
-            (cols, out)
-        })
+                // Columns are distinct: order them by column.
+                let mut order: Vec<u32> = (0..cols.len() as u32).collect();
+                order.sort_unstable_by_key(|&t| cols[t as usize]);
+                (order.iter().map(|&t| cols[t as usize]).collect(), order.iter().map(|&t| sums[t as usize]).collect())
+            },
+        )
         .collect();
     let mut row_ptr = Vec::with_capacity(m + 1);
     row_ptr.push(0);
@@ -147,4 +157,93 @@ pub fn galerkin(a: &CsrMatrix3, p: &Prolongation) -> Result<CsrMatrix3, SparseEr
         })
         .collect();
     CsrMatrix3::new(pattern, sym)
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+
+    use super::*;
+    use crate::sparse::Triplet;
+
+    /// `Pᵀ M P` the plain way: every product `(column, value)` listed, stably sorted by column
+    /// and summed in list order, then symmetrised.
+    fn galerkin_by_sorting(a: &CsrMatrix3, p: &Prolongation) -> CsrMatrix3 {
+        let (ap, vals, m) = (a.pattern(), a.values(), p.n_coarse());
+        let mut trips = Vec::new();
+        for c in 0..m {
+            let mut acc: Vec<(u32, [f64; 3])> = Vec::new();
+            let (fr, fw) = p.column(c);
+            for (&u, &wu) in fr.iter().zip(fw) {
+                for k in ap.row_ptr()[u as usize]..ap.row_ptr()[u as usize + 1] {
+                    let (pc, pw) = p.row(ap.col_idx()[k] as usize);
+                    for (&d, &wv) in pc.iter().zip(pw) {
+                        let s = wu * wv;
+                        acc.push((d, vals[k].map(|x| x * s)));
+                    }
+                }
+            }
+            acc.sort_by_key(|e| e.0);
+            let mut merged: Vec<(u32, [f64; 3])> = Vec::new();
+            for (d, v) in acc {
+                match merged.last_mut() {
+                    Some(last) if last.0 == d => (0..3).for_each(|ch| last.1[ch] += v[ch]),
+                    _ => merged.push((d, v)),
+                }
+            }
+            trips.extend(merged.into_iter().map(|(d, v)| Triplet::new(c as u32, d, v)));
+        }
+        let g = CsrMatrix3::from_triplets(m, &trips).unwrap();
+        let pat = g.pattern();
+        let sym = (0..m)
+            .flat_map(|r| (pat.row_ptr()[r]..pat.row_ptr()[r + 1]).map(move |k| (r, k)))
+            .map(|(r, k)| {
+                let t = pat.position(pat.col_idx()[k] as usize, r).unwrap();
+                [0, 1, 2].map(|ch| 0.5 * (g.values()[k][ch] + g.values()[t][ch]))
+            })
+            .collect();
+        CsrMatrix3::new(Arc::clone(pat), sym).unwrap()
+    }
+
+    #[test]
+    fn galerkin_equals_the_sorted_product_bit_for_bit() {
+        // A path-and-rungs graph (a ladder 2 × 300) with uneven weights and positions.
+        let n = 600;
+        let mut edges = Vec::new();
+        for i in 0..300u32 {
+            edges.push([i, i + 300]);
+            if i + 1 < 300 {
+                edges.push([i, i + 1]);
+                edges.push([i + 300, i + 301]);
+                edges.push([i, i + 301]);
+            }
+        }
+        let graph = Arc::new(CsrPattern::from_edges(n, &edges).unwrap());
+        let positions: Vec<DVec3> =
+            (0..n).map(|i| DVec3::new((i % 300) as f64 + 0.1 * ((i * 37) % 7) as f64, (i / 300) as f64, 0.0)).collect();
+        let mut trips = Vec::new();
+        for (e, &[i, j]) in edges.iter().enumerate() {
+            let w = [1.0, 0.5, 0.25].map(|k| -k * (1.0 + ((e * 13) % 11) as f64 / 7.0));
+            trips.extend([Triplet::new(i, j, w), Triplet::new(j, i, w), Triplet::new(i, i, w.map(|t| -t)), Triplet::new(j, j, w.map(|t| -t))]);
+        }
+        for i in 0..n as u32 {
+            trips.push(Triplet::new(i, i, [0.1, 0.2, 0.3]));
+        }
+        let a = CsrMatrix3::from_triplets_with_pattern(Arc::clone(&graph), &trips).unwrap();
+        // Every other vertex of each rail retained, the rest interpolated from retained neighbours.
+        let retained: Vec<u32> = (0..n as u32).filter(|i| (i % 300) % 2 == 0).collect();
+        let p = Prolongation::new(&graph, &positions, &retained).unwrap();
+        let g = galerkin(&a, &p).unwrap();
+        let reference = galerkin_by_sorting(&a, &p);
+        assert_eq!(g.pattern().row_ptr(), reference.pattern().row_ptr());
+        assert_eq!(g.pattern().col_idx(), reference.pattern().col_idx());
+        assert_eq!(g.values(), reference.values());
+        assert!(g.is_symmetric(0.0));
+        // And the next level, from the Galerkin operator (wider rows).
+        let retained2: Vec<u32> = (0..p.n_coarse() as u32).filter(|i| i % 2 == 0).collect();
+        let graph2 = Arc::clone(g.pattern());
+        let pos2: Vec<DVec3> = retained.iter().map(|&i| positions[i as usize]).collect();
+        let p2 = Prolongation::new(&graph2, &pos2, &retained2).unwrap();
+        assert_eq!(galerkin(&g, &p2).unwrap().values(), galerkin_by_sorting(&g, &p2).values());
+    }
 }
