@@ -63,6 +63,11 @@ pub struct DiffusionSystem {
     structure: Arc<Structure>,
     discretization: Discretization,
     media: Vec<Medium>,
+    /// κ and μ of `media`, kept for row-local refills.
+    coefficients: Coefficients,
+    /// Whether tet t's material id is t ([`crate::volume::TableLayout::PerTet`]): then the tets
+    /// of a media entry are known without a scan.
+    per_tet_ids: bool,
     terms: BoundaryTerms,
     matrix: CsrMatrix3,
     source: Vec<[f64; 3]>,
@@ -143,10 +148,14 @@ impl DiffusionSystem {
         fill_matrix(&structure, discretization, &coefficients, &terms, matrix.values_mut());
         let nb = structure.boundary.len();
         let n = structure.n();
+        let per_tet_ids = structure.materials.len() == media.len()
+            && structure.materials.par_iter().enumerate().all(|(t, &m)| m as usize == t);
         Ok(DiffusionSystem {
             structure,
             discretization,
             media: media.to_vec(),
+            coefficients,
+            per_tet_ids,
             terms,
             matrix,
             source: vec![[0.0; 3]; nb],
@@ -166,6 +175,7 @@ impl DiffusionSystem {
         let (coefficients, terms) = prepare_media(&self.structure, media)?;
         fill_matrix(&self.structure, self.discretization, &coefficients, &terms, self.matrix.values_mut());
         self.media = media.to_vec();
+        self.coefficients = coefficients;
         if terms != self.terms {
             self.terms = terms;
             self.rhs = rhs(self, &self.source)?;
@@ -208,6 +218,7 @@ impl DiffusionSystem {
             Discretization::ConsistentFem => fem::consistent_row(s, &coefficients, &terms, i, row),
         });
         self.media = media.to_vec();
+        self.coefficients = coefficients;
         Ok(rows.len())
     }
 
@@ -243,23 +254,21 @@ impl DiffusionSystem {
             return Err(DiffusionError::RefractiveIndexChanged { old: eta, new: medium.eta });
         }
         // Nothing fails from here on.
-        let mut changed = vec![false; self.media.len()];
-        for &(m, _) in entries {
-            changed[m as usize] = true;
-        }
-        let tets: Vec<u32> = s
-            .materials
-            .par_iter()
-            .enumerate()
-            .filter_map(|(t, &m)| changed[m as usize].then_some(t as u32))
-            .collect();
+        let tets: Vec<u32> = if self.per_tet_ids {
+            entries.iter().map(|&(m, _)| m).collect()
+        } else {
+            let mut changed = vec![false; self.media.len()];
+            for &(m, _) in entries {
+                changed[m as usize] = true;
+            }
+            s.materials.par_iter().enumerate().filter_map(|(t, &m)| changed[m as usize].then_some(t as u32)).collect()
+        };
         let rows = s.rows_of_tets(&tets)?;
         let row_ptr = s.pattern.row_ptr();
         let values = self.matrix.values();
         let old_values: Vec<[f64; 3]> =
             rows.iter().flat_map(|&r| values[row_ptr[r as usize]..row_ptr[r as usize + 1]].iter().copied()).collect();
-        let mut previous: Vec<(u32, Medium)> =
-            entries.iter().map(|&(m, medium)| (m, std::mem::replace(&mut self.media[m as usize], medium))).collect();
+        let mut previous: Vec<(u32, Medium)> = entries.iter().map(|&(m, medium)| (m, self.set_entry(m, medium))).collect();
         previous.reverse();
         self.refill_rows(&rows);
         Ok(MediaUndo { previous, rows, old_values })
@@ -269,7 +278,7 @@ impl DiffusionSystem {
     /// first, if several): the media entries and the matrix rows, bit for bit.
     pub(crate) fn undo_media_entries(&mut self, undo: MediaUndo) {
         for (m, medium) in undo.previous {
-            self.media[m as usize] = medium;
+            self.set_entry(m, medium);
         }
         let row_ptr = self.structure.pattern.row_ptr();
         let values = self.matrix.values_mut();
@@ -282,25 +291,22 @@ impl DiffusionSystem {
         }
     }
 
-    /// Refills `rows` (increasing) from the current media. κ and μ are derived only for the
-    /// materials those rows read (the tets around them), from the same [`Medium`] methods as a
-    /// full fill, so every refilled row is bit-identical to the full fill's.
+    /// Sets media entry `m` and its κ and μ (as [`prepare_media`] derives them); returns the
+    /// previous entry.
+    fn set_entry(&mut self, m: u32, medium: Medium) -> Medium {
+        let m = m as usize;
+        self.coefficients.kappa[m] = medium.diffusion_coefficient();
+        self.coefficients.mu[m] = medium.sigma_a;
+        std::mem::replace(&mut self.media[m], medium)
+    }
+
+    /// Refills `rows` from the current κ and μ, each row bit-identical to a full fill's.
     fn refill_rows(&mut self, rows: &[u32]) {
         let s = &*self.structure;
-        let n = self.media.len();
-        // Zero-filled (untouched pages stay unallocated); only the entries read below are set.
-        let mut c = Coefficients { kappa: vec![[0.0; 3]; n], mu: vec![[0.0; 3]; n] };
-        for &r in rows {
-            for inc in s.tets_of(r as usize) {
-                let m = s.materials[inc.tet as usize] as usize;
-                c.kappa[m] = self.media[m].diffusion_coefficient();
-                c.mu[m] = self.media[m].sigma_a;
-            }
-        }
-        let (discretization, terms) = (self.discretization, self.terms);
+        let (c, discretization, terms) = (&self.coefficients, self.discretization, self.terms);
         fill_selected_rows(self.matrix.values_mut(), s.pattern.row_ptr(), rows, |i, row| match discretization {
-            Discretization::TransCut => transcut_row(s, &c, &terms, i, row),
-            Discretization::ConsistentFem => fem::consistent_row(s, &c, &terms, i, row),
+            Discretization::TransCut => transcut_row(s, c, &terms, i, row),
+            Discretization::ConsistentFem => fem::consistent_row(s, c, &terms, i, row),
         });
     }
 
@@ -820,7 +826,23 @@ pub(crate) mod tests {
             sys.undo_media_entries(undo);
             assert_eq!(sys.matrix().values(), before.matrix().values());
             assert_eq!(sys.media(), before.media());
+            // The undo also restored the kept κ and μ: a later refill starts from the base.
+            sys.update_media_entries(&[(100, ink)]).unwrap();
+            let mut media = base.clone();
+            media[100] = ink;
+            full.set_media(&media).unwrap();
+            assert_eq!(sys.matrix().values(), full.matrix().values());
         }
+        // A shared table (ids are not tet indices): an entry refills the rows of every tet using it.
+        mesh.set_materials((0..nt as u32).map(|t| t % 3).collect()).unwrap();
+        let table = [marble(), Medium { sigma_a: [0.02; 3], ..marble() }, Medium { sigma_a: [0.04; 3], ..marble() }];
+        let mut sys = assemble(&mesh, &table, 1.7).unwrap();
+        let undo = sys.update_media_entries(&[(1, ink)]).unwrap();
+        let mut full = assemble(&mesh, &table, 1.7).unwrap();
+        let tets: Vec<u32> = (0..nt as u32).filter(|t| t % 3 == 1).collect();
+        let rows = full.update_media_rows(&[table[0], ink, table[2]], &tets).unwrap();
+        assert_eq!(sys.matrix().values(), full.matrix().values());
+        assert_eq!(undo.rows(), rows);
     }
 
     #[test]

@@ -211,6 +211,9 @@ pub struct Editor {
     /// The shadow occluder of the pieces' current placement (`None` without shadows), rebuilt
     /// whenever a piece is rebuilt or moved and reused by every relight.
     occluder: Option<Arc<TriangleBvh>>,
+    /// Per original tet: (piece, local tet) holding it, or `None` once it was cut away
+    /// ([`locate`], rebuilt with the pieces).
+    located: Vec<Option<(u32, u32)>>,
     lights: Vec<Light>,
     options: EditOptions,
     setup: SolveSetup,
@@ -292,12 +295,14 @@ impl Editor {
         let mut pieces = vec![piece];
         let occluder =
             piece::light_and_solve(&mut pieces, lights, &options.source, options.shadows, &setup, &mut timings)?;
+        let located = locate(original.tet_count(), &pieces);
         Ok(Self {
             original,
             centroids,
             media,
             pieces,
             occluder,
+            located,
             lights: lights.to_vec(),
             options: options.clone(),
             setup,
@@ -405,9 +410,8 @@ impl Editor {
         check_changes(&self.media, changes)?;
         let (eta, g) = (self.media.eta(), self.media.g());
         let mut per_piece: Vec<Vec<(u32, Medium)>> = vec![Vec::new(); self.pieces.len()];
-        let located = self.locate();
         for &(t, c) in changes {
-            if let Some((p, local)) = located[t as usize] {
+            if let Some((p, local)) = self.located[t as usize] {
                 per_piece[p as usize].push((local, c.with_eta_g(eta, g)));
             }
         }
@@ -463,17 +467,6 @@ impl Editor {
         let solved = piece::solution(&p.system, &solver, &p.fluence, &self.setup, timings)?;
         Ok((index, solver, solved))
     }
-
-    /// Per original tet: (piece, local tet) holding it, or `None` once it was cut away.
-    fn locate(&self) -> Vec<Option<(u32, u32)>> {
-        let mut out = vec![None; self.original.tet_count()];
-        for (p, piece) in self.pieces.iter().enumerate() {
-            for (l, &t) in piece.original_tets.iter().enumerate() {
-                out[t as usize] = Some((p as u32, l as u32));
-            }
-        }
-        out
-    }
 }
 
 /// The checks [`PerTetMedia::set`] makes, for every change before any is applied.
@@ -486,6 +479,18 @@ fn check_changes(media: &PerTetMedia, changes: &[(u32, Coefficients)]) -> Result
         c.validate().map_err(|source| VolumeError::InvalidTetMedium { tet, source })?;
     }
     Ok(())
+}
+
+/// Per original tet (of `tet_count`): (piece, local tet) holding it, or `None` once it was cut
+/// away.
+fn locate(tet_count: usize, pieces: &[Piece]) -> Vec<Option<(u32, u32)>> {
+    let mut out = vec![None; tet_count];
+    for (p, piece) in pieces.iter().enumerate() {
+        for (l, &t) in piece.original_tets.iter().enumerate() {
+            out[t as usize] = Some((p as u32, l as u32));
+        }
+    }
+    out
 }
 
 /// Centroids of a mesh's tets.

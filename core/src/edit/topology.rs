@@ -216,6 +216,7 @@ impl Editor {
         let (lights, options) = (&self.lights, &self.options);
         let occluder = piece::light_and_solve(&mut next, lights, &options.source, options.shadows, &self.setup, timings)?;
         let rebuilt = changed > 0;
+        self.located = super::locate(self.original.tet_count(), &next);
         self.pieces = next;
         self.occluder = occluder;
         if rebuilt {
