@@ -814,9 +814,7 @@ mod tests {
     }
 
     fn with_degree(degree: usize) -> MultigridOptions {
-        let mut o = MultigridOptions::default();
-        o.smoothing_degree = degree;
-        o
+        MultigridOptions { smoothing_degree: degree, ..MultigridOptions::default() }
     }
 
     fn vcycle(mg: &Multigrid, a: &CsrMatrix3, r: &[[f64; 3]]) -> Vec<[f64; 3]> {
