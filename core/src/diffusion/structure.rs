@@ -111,37 +111,40 @@ pub(crate) struct Structure {
     pub face_inc: Vec<FaceIncidence>,
 }
 
-/// Gradients of the four barycentric (hat) functions of a tet, ∇β_a = n_a / ((p_a − p_b)·n_a)
-/// with n_a any normal of the face opposite a and b another vertex: |∇β_a| = 1/h_a and it points
-/// from that face towards p_a (TransCut §3.3: ∇β_a = S_a n_a / (3V)). Independent of the tet's
-/// orientation.
+/// Gradients of the four barycentric (hat) functions of a tet: with e_k = p_k − p_0 and
+/// det = e_1·(e_2 × e_3) (six times the signed volume), ∇β_1 = (e_2 × e_3)/det,
+/// ∇β_2 = (e_3 × e_1)/det, ∇β_3 = (e_1 × e_2)/det and ∇β_0 = −(∇β_1 + ∇β_2 + ∇β_3), so that
+/// ∇β_a·(p_b − p_0) = δ_ab − δ_0b. |∇β_a| = 1/h_a and it points from the face opposite a
+/// towards p_a (TransCut §3.3: ∇β_a = S_a n_a / (3V)). Independent of the tet's orientation
+/// (numerators and det change sign together); not finite for a flat tet.
 #[must_use]
 pub(crate) fn hat_gradients(p: [DVec3; 4]) -> [DVec3; 4] {
-    [0usize, 1, 2, 3].map(|a| {
-        let [b, c, d] = OTHERS[a];
-        let n = (p[c] - p[b]).cross(p[d] - p[b]);
-        n / (p[a] - p[b]).dot(n)
-    })
+    let (e1, e2, e3) = (p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+    let c1 = e2.cross(e3);
+    let inv = 1.0 / e1.dot(c1);
+    let (g1, g2, g3) = (c1 * inv, e3.cross(e1) * inv, e1.cross(e2) * inv);
+    [-(g1 + g2 + g3), g1, g2, g3]
 }
 
-/// The TransCut edge coefficients of one tet, in [`TET_EDGES`] order: for edge ij with other
-/// vertices k, l, c_ij = (1/6)|kl| cot θ_kl, θ_kl the interior dihedral angle at edge kl, so
-/// that the tet's part of TransCut eq. 10 is w_ijt = −κ_t c_ij.
+/// The volume V (mm³) of one tet and its TransCut edge coefficients in [`TET_EDGES`] order: for
+/// edge ij with other vertices k, l, c_ij = (1/6)|kl| cot θ_kl, θ_kl the interior dihedral angle
+/// at edge kl, so that the tet's part of TransCut eq. 10 is w_ijt = −κ_t c_ij.
 ///
-/// θ_kl is the angle between the faces opposite i and j; with ∇β pointing into the tet from
-/// those faces, cos θ_kl = −∇β_i·∇β_j / (|∇β_i||∇β_j|) and sin θ_kl = |∇β_i × ∇β_j| / (…), so
-/// cot θ_kl = −∇β_i·∇β_j / |∇β_i × ∇β_j|.
+/// Computed through the identity of TransCut §3.3, c_ij = −V ∇β_i·∇β_j (the P1 stiffness entry
+/// without κ): θ_kl is the angle between the faces opposite i and j, so cos θ_kl =
+/// −∇β_i·∇β_j / (|∇β_i||∇β_j|), and |∇β_i × ∇β_j| = |kl|/(6V) (from V = (2/3) A_i A_j sin θ_kl / |kl|),
+/// hence cot θ_kl = −6V ∇β_i·∇β_j / |kl|. One determinant, three cross products and no square
+/// root: this is the hot loop of the mesh-only part of assembly. (The tests check it against
+/// the dihedral angles of [`crate::mesh::quality`].)
 #[must_use]
-pub(crate) fn edge_coefficients(p: [DVec3; 4]) -> [f64; 6] {
+pub(crate) fn tet_geometry(p: [DVec3; 4]) -> (f64, [f64; 6]) {
     let g = hat_gradients(p);
-    TET_EDGES.map(|[i, j]| {
-        let [k, l] = other_pair(i, j);
-        let cot = -g[i].dot(g[j]) / g[i].cross(g[j]).length();
-        (p[k] - p[l]).length() * cot / 6.0
-    })
+    let v = signed_volume(p).abs();
+    (v, TET_EDGES.map(|[i, j]| -v * g[i].dot(g[j])))
 }
 
-/// The two local vertices of a tet other than `i` and `j`.
+/// The two local vertices of a tet other than `i` and `j` (for the tests' independent formulas).
+#[cfg(test)]
 pub(crate) fn other_pair(i: usize, j: usize) -> [usize; 2] {
     let mut out = [0; 2];
     let mut n = 0;
@@ -182,26 +185,21 @@ impl Structure {
         let n = mesh.vertex_count();
         let positions_mm: Vec<DVec3> = mesh.positions().par_iter().map(|&p| p * mm_per_unit).collect();
         let tets = mesh.tets().to_vec();
-        let geometry: Vec<(f64, [f64; 6])> = tets
-            .par_iter()
-            .map(|t| {
-                let p = t.map(|v| positions_mm[v as usize]);
-                (signed_volume(p).abs(), edge_coefficients(p))
-            })
-            .collect();
-        if let Some((t, (v, c))) = geometry
-            .iter()
-            .enumerate()
-            .find(|(_, (v, c))| !(v.is_finite() && *v > 0.0) || c.iter().any(|x| !x.is_finite()))
-        {
-            let (what, value) = if !(v.is_finite() && *v > 0.0) {
-                ("volume", *v)
+        let mut volume = vec![0.0; tets.len()];
+        let mut edge_coef = vec![[0.0; 6]; tets.len()];
+        (&mut volume, &mut edge_coef, &tets).into_par_iter().with_min_len(1024).for_each(|(v, c, t)| {
+            (*v, *c) = tet_geometry(t.map(|v| positions_mm[v as usize]));
+        });
+        let bad = |v: f64, c: &[f64; 6]| !(v.is_finite() && v > 0.0) || c.iter().any(|x| !x.is_finite());
+        if let Some(t) = (0..tets.len()).into_par_iter().position_first(|t| bad(volume[t], &edge_coef[t])) {
+            let (v, c) = (volume[t], edge_coef[t]);
+            let (what, value) = if !(v.is_finite() && v > 0.0) {
+                ("volume", v)
             } else {
                 ("edge weight", c.iter().copied().find(|x| !x.is_finite()).unwrap_or(f64::NAN))
             };
             return Err(DiffusionError::DegenerateTet { tet: t, what, value });
         }
-        let (volume, edge_coef): (Vec<f64>, Vec<[f64; 6]>) = geometry.into_iter().unzip();
         let pattern = Arc::new(CsrPattern::from_edges(n, mesh.edges())?);
 
         // Vertex → tets (counting sort over the tets in order: each row's list is by tet id).
@@ -223,10 +221,14 @@ impl Structure {
                 *k += 1;
             }
         }
+        // The slot of `col` in `row`: the number of the row's (sorted) columns below it, a
+        // branch-free count that vectorises (rows hold ~15 columns; a binary search
+        // mispredicts at every step). Every tet edge is a mesh edge, so `col` is in the row.
         let slot = |row: usize, col: u32| -> u32 {
-            let start = pattern.row_ptr()[row];
-            let pos = pattern.position(row, col as usize).expect("every tet edge is a mesh edge");
-            (pos - start) as u32
+            let cols = pattern.row(row);
+            let k = cols.iter().map(|&c| u32::from(c < col)).sum::<u32>();
+            debug_assert_eq!(cols[k as usize], col, "every tet edge is a mesh edge");
+            k
         };
         tet_inc.par_chunks_mut(4096).enumerate().for_each(|(c, chunk)| {
             let first = c * 4096;
@@ -421,10 +423,11 @@ mod tests {
     }
 
     #[test]
-    fn edge_coefficients_are_the_cotangent_formula_and_the_p1_stiffness() {
+    fn tet_geometry_is_the_cotangent_formula_and_the_p1_stiffness() {
         for q in sample_tets() {
             let p = if signed_volume(q) > 0.0 { q } else { [q[0], q[1], q[3], q[2]] };
-            let c = edge_coefficients(p);
+            let (vol, c) = tet_geometry(p);
+            assert!((vol - signed_volume(p)).abs() < 1e-14, "volume");
             // The mesh module's independent dihedral angles (positively oriented tets).
             let angles = dihedral_angles(p);
             let v = signed_volume(p);
@@ -438,13 +441,13 @@ mod tests {
                 assert!((c[e] + stiffness).abs() < 1e-12 * (1.0 + stiffness.abs()));
             }
             // Orientation does not matter: swapping local vertices 2 and 3 permutes the edges.
-            let s = edge_coefficients([p[0], p[1], p[3], p[2]]);
+            let s = tet_geometry([p[0], p[1], p[3], p[2]]).1;
             for (e, f) in [(0, 0), (1, 2), (2, 1), (3, 4), (4, 3), (5, 5)] {
                 assert!((s[e] - c[f]).abs() < 1e-12 * (1.0 + c[f].abs()));
             }
         }
         // One sample has an obtuse dihedral angle: a negative coefficient.
-        assert!(sample_tets().iter().any(|&p| edge_coefficients(p).iter().any(|&x| x < 0.0)));
+        assert!(sample_tets().iter().any(|&p| tet_geometry(p).1.iter().any(|&x| x < 0.0)));
     }
 
     #[test]
