@@ -63,8 +63,10 @@ pub struct DiffusionSystem {
     structure: Arc<Structure>,
     discretization: Discretization,
     media: Vec<Medium>,
-    /// κ and μ of `media`, kept for row-local refills.
-    coefficients: Coefficients,
+    /// κ and μ of `media` for row-local entry refills: derived by the first
+    /// [`DiffusionSystem::update_media_entries`], kept up to date by it from then on, dropped by
+    /// whole-table changes (so systems that are never painted do not hold them).
+    coefficients: Option<Coefficients>,
     /// Whether tet t's material id is t ([`crate::volume::TableLayout::PerTet`]): then the tets
     /// of a media entry are known without a scan.
     per_tet_ids: bool,
@@ -154,7 +156,7 @@ impl DiffusionSystem {
             structure,
             discretization,
             media: media.to_vec(),
-            coefficients,
+            coefficients: None,
             per_tet_ids,
             terms,
             matrix,
@@ -175,7 +177,7 @@ impl DiffusionSystem {
         let (coefficients, terms) = prepare_media(&self.structure, media)?;
         fill_matrix(&self.structure, self.discretization, &coefficients, &terms, self.matrix.values_mut());
         self.media = media.to_vec();
-        self.coefficients = coefficients;
+        self.coefficients = None;
         if terms != self.terms {
             self.terms = terms;
             self.rhs = rhs(self, &self.source)?;
@@ -218,7 +220,7 @@ impl DiffusionSystem {
             Discretization::ConsistentFem => fem::consistent_row(s, &coefficients, &terms, i, row),
         });
         self.media = media.to_vec();
-        self.coefficients = coefficients;
+        self.coefficients = None;
         Ok(rows.len())
     }
 
@@ -270,7 +272,18 @@ impl DiffusionSystem {
             rows.iter().flat_map(|&r| values[row_ptr[r as usize]..row_ptr[r as usize + 1]].iter().copied()).collect();
         let mut previous: Vec<(u32, Medium)> = entries.iter().map(|&(m, medium)| (m, self.set_entry(m, medium))).collect();
         previous.reverse();
-        self.refill_rows(&rows);
+        // Refill from κ and μ of the new media (derived whole once, then kept entry by entry).
+        let (s, media) = (&*self.structure, &self.media);
+        let row_ptr = s.pattern.row_ptr();
+        let c = &*self.coefficients.get_or_insert_with(|| Coefficients {
+            kappa: media.par_iter().map(Medium::diffusion_coefficient).collect(),
+            mu: media.par_iter().map(|m| m.sigma_a).collect(),
+        });
+        let (discretization, terms) = (self.discretization, self.terms);
+        fill_selected_rows(self.matrix.values_mut(), row_ptr, &rows, |i, row| match discretization {
+            Discretization::TransCut => transcut_row(s, c, &terms, i, row),
+            Discretization::ConsistentFem => fem::consistent_row(s, c, &terms, i, row),
+        });
         Ok(MediaUndo { previous, rows, old_values })
     }
 
@@ -291,23 +304,15 @@ impl DiffusionSystem {
         }
     }
 
-    /// Sets media entry `m` and its κ and μ (as [`prepare_media`] derives them); returns the
-    /// previous entry.
+    /// Sets media entry `m` and, when they are kept, its κ and μ (as [`prepare_media`] derives
+    /// them); returns the previous entry.
     fn set_entry(&mut self, m: u32, medium: Medium) -> Medium {
         let m = m as usize;
-        self.coefficients.kappa[m] = medium.diffusion_coefficient();
-        self.coefficients.mu[m] = medium.sigma_a;
+        if let Some(c) = &mut self.coefficients {
+            c.kappa[m] = medium.diffusion_coefficient();
+            c.mu[m] = medium.sigma_a;
+        }
         std::mem::replace(&mut self.media[m], medium)
-    }
-
-    /// Refills `rows` from the current κ and μ, each row bit-identical to a full fill's.
-    fn refill_rows(&mut self, rows: &[u32]) {
-        let s = &*self.structure;
-        let (c, discretization, terms) = (&self.coefficients, self.discretization, self.terms);
-        fill_selected_rows(self.matrix.values_mut(), s.pattern.row_ptr(), rows, |i, row| match discretization {
-            Discretization::TransCut => transcut_row(s, c, &terms, i, row),
-            Discretization::ConsistentFem => fem::consistent_row(s, c, &terms, i, row),
-        });
     }
 
     /// Replaces the transmitted source q (as [`DiffusionSystem::set_source`], taking `q` by
