@@ -42,34 +42,13 @@ impl Load3 for [f32; 3] {
     }
 }
 
-/// A vector entry type that the kernels can write from three `f64` channels (rounding to
-/// nearest for `f32`).
-pub(crate) trait Store3: Load3 {
-    fn store(v: [f64; 3]) -> Self;
-}
-
-impl Store3 for [f64; 3] {
-    #[inline(always)]
-    fn store(v: [f64; 3]) -> Self {
-        v
-    }
-}
-
-impl Store3 for [f32; 3] {
-    #[inline(always)]
-    #[allow(clippy::cast_possible_truncation)]
-    fn store(v: [f64; 3]) -> Self {
-        v.map(|x| x as f32)
-    }
-}
-
-/// `Σ_k vals[k] * x[cols[k]]`, channel by channel, in column order, accumulated in `f64`.
+/// `Σ_k vals[k] * x[cols[k]]`, channel by channel, in column order.
 #[inline(always)]
-pub(crate) fn row_mul<E: Load3, X: Load3>(cols: &[u32], vals: &[E], x: &[X]) -> [f64; 3] {
+pub(crate) fn row_mul<E: Load3>(cols: &[u32], vals: &[E], x: &[[f64; 3]]) -> [f64; 3] {
     let (mut a0, mut a1, mut a2) = (0.0, 0.0, 0.0);
     for (&j, v) in cols.iter().zip(vals) {
         let v = v.load();
-        let xj = x[j as usize].load();
+        let xj = x[j as usize];
         a0 += v[0] * xj[0];
         a1 += v[1] * xj[1];
         a2 += v[2] * xj[2];

@@ -25,7 +25,7 @@
 
 use rayon::prelude::*;
 
-use super::ops::{sum_partials, Store3, CHUNK};
+use super::ops::{sum_partials, CHUNK};
 use super::precond::{Chebyshev, PrecondWork, Preconditioner};
 use super::scaled::{reliable_residual, spmv_dot_raw, ScaledOperator};
 use super::{check_inputs, relative, residual, CsrMatrix3, Precision, SolveOptions, SolveStats, SparseError};
@@ -250,18 +250,17 @@ fn pcg_mixed(
     let mut iterations = [0usize; 3];
     if active.iter().any(|&t| t) {
         let mut last_true = rel;
-        // The search direction and Â p in f32: they only steer the iteration (ŷ and r̂ stay
-        // f64, and recomputed residuals correct any drift), and halve their traffic.
-        let mut p = vec![[0.0f32; 3]; n];
-        let mut q = vec![[0.0f32; 3]; n];
+        let mut p = vec![[0.0; 3]; n];
+        let mut q = vec![[0.0; 3]; n];
         let mut z = if cheb.is_some() { vec![[0.0; 3]; n] } else { Vec::new() };
         let mut work = PrecondWork::default();
-        let rho0 = match cheb {
-            None => rho_plain,
-            Some(c) => c.apply_scaled(&rh, &mut z, None, &mut work),
+        let mut rho = match cheb {
+            None => {
+                p.copy_from_slice(&rh);
+                rho_plain
+            }
+            Some(c) => c.apply_scaled(&rh, &mut p, None, &mut work),
         };
-        p_update(&mut p, if cheb.is_some() { &z } else { &rh }, [0.0; 3]);
-        let mut rho = rho0;
         check_rho(rho, active, 0)?;
         let mut it = 0;
         let mut rel_is_true = true;
@@ -378,8 +377,8 @@ fn pcg_mixed(
 fn update_scaled(
     y: &mut [[f64; 3]],
     rh: &mut [[f64; 3]],
-    p: &[[f32; 3]],
-    q: &[[f32; 3]],
+    p: &[[f64; 3]],
+    q: &[[f64; 3]],
     d: &[[f32; 3]],
     alpha: [f64; 3],
 ) -> ([f64; 3], [f64; 3]) {
@@ -395,8 +394,8 @@ fn update_scaled(
             let mut s = [0.0; 6];
             for ((((y, r), p), q), d) in y.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(d) {
                 for c in 0..3 {
-                    y[c] += alpha[c] * f64::from(p[c]);
-                    r[c] -= alpha[c] * f64::from(q[c]);
+                    y[c] += alpha[c] * p[c];
+                    r[c] -= alpha[c] * q[c];
                     let r2 = r[c] * r[c];
                     s[c] += r2 * f64::from(d[c]);
                     s[3 + c] += r2;
@@ -512,11 +511,12 @@ fn p_update_jacobi(p: &mut [[f64; 3]], r: &[[f64; 3]], dinv: &[[f64; 3]], beta: 
 }
 
 /// `p = z + β p`.
-fn p_update<V: Store3>(p: &mut [V], z: &[[f64; 3]], beta: [f64; 3]) {
+fn p_update(p: &mut [[f64; 3]], z: &[[f64; 3]], beta: [f64; 3]) {
     (p.par_chunks_mut(CHUNK), z.par_chunks(CHUNK)).into_par_iter().for_each(|(p, z)| {
         for (p, z) in p.iter_mut().zip(z) {
-            let old = p.load();
-            *p = V::store([0, 1, 2].map(|c| z[c] + beta[c] * old[c]));
+            for c in 0..3 {
+                p[c] = z[c] + beta[c] * p[c];
+            }
         }
     });
 }

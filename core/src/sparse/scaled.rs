@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use super::csr::{split_row_blocks, CsrMatrix3, CsrPattern, ROW_BLOCK};
 use super::error::SparseError;
-use super::ops::{row_mul, sum_partials, Load3, Store3, CHUNK};
+use super::ops::{row_mul, sum_partials, CHUNK};
 use super::precond::inverse_diagonal;
 
 /// `Â = S A S` in `f32`, with `S = D^-½` and `D` kept for residual norms.
@@ -115,7 +115,7 @@ impl ScaledOperator {
 
     /// `(Â x)_i`.
     #[inline]
-    pub(crate) fn row<X: Load3>(&self, i: usize, x: &[X]) -> [f64; 3] {
+    pub(crate) fn row(&self, i: usize, x: &[[f64; 3]]) -> [f64; 3] {
         let (s, e) = (self.pattern.row_ptr()[i], self.pattern.row_ptr()[i + 1]);
         let cols = &self.pattern.col_idx()[s..e];
         match &self.entries {
@@ -124,8 +124,8 @@ impl ScaledOperator {
         }
     }
 
-    /// `q = Â p`; returns `pᵀq` per channel (deterministic), with `q` as stored.
-    pub(crate) fn spmv_dot<V: Store3>(&self, p: &[V], q: &mut [V]) -> [f64; 3] {
+    /// `q = Â p`; returns `pᵀq` per channel (deterministic).
+    pub(crate) fn spmv_dot(&self, p: &[[f64; 3]], q: &mut [[f64; 3]]) -> [f64; 3] {
         match &self.entries {
             Entries::PerChannel(v) => spmv_dot_raw(&self.pattern, v, p, q),
             Entries::Proportional { g, ratio, s32 } => {
@@ -141,16 +141,16 @@ impl ScaledOperator {
 
 /// Row `i` of [`Entries::Proportional`]: `x_i + ratio ∘ s_i ∘ Σ_j g_ij (s_j ∘ x_j)`.
 #[inline(always)]
-fn proportional_row<X: Load3>(i: usize, cols: &[u32], g: &[f32], ratio: [f64; 3], s32: &[[f32; 3]], x: &[X]) -> [f64; 3] {
+fn proportional_row(i: usize, cols: &[u32], g: &[f32], ratio: [f64; 3], s32: &[[f32; 3]], x: &[[f64; 3]]) -> [f64; 3] {
     let (mut a0, mut a1, mut a2) = (0.0, 0.0, 0.0);
     for (&j, &gk) in cols.iter().zip(g) {
         let j = j as usize;
-        let (sj, xj, gk) = (s32[j], x[j].load(), f64::from(gk));
+        let (sj, xj, gk) = (s32[j], x[j], f64::from(gk));
         a0 += gk * (f64::from(sj[0]) * xj[0]);
         a1 += gk * (f64::from(sj[1]) * xj[1]);
         a2 += gk * (f64::from(sj[2]) * xj[2]);
     }
-    let (si, xi) = (s32[i], x[i].load());
+    let (si, xi) = (s32[i], x[i]);
     [
         xi[0] + ratio[0] * f64::from(si[0]) * a0,
         xi[1] + ratio[1] * f64::from(si[1]) * a1,
@@ -206,8 +206,8 @@ fn scaled_entries<T: Copy + Default + Send>(
     (out, [0, 1, 2].map(|c| m[c].min(m[3 + c])))
 }
 
-/// `q_i = row(i)` for every row; returns `pᵀq` per channel with `q` as stored (deterministic).
-fn spmv_dot_rows<V: Store3>(p: &[V], q: &mut [V], row: impl Fn(usize) -> [f64; 3] + Sync) -> [f64; 3] {
+/// `q_i = row(i)` for every row; returns `pᵀq` per channel (deterministic).
+fn spmv_dot_rows(p: &[[f64; 3]], q: &mut [[f64; 3]], row: impl Fn(usize) -> [f64; 3] + Sync) -> [f64; 3] {
     let parts: Vec<[f64; 3]> = q
         .par_chunks_mut(CHUNK)
         .enumerate()
@@ -216,11 +216,12 @@ fn spmv_dot_rows<V: Store3>(p: &[V], q: &mut [V], row: impl Fn(usize) -> [f64; 3
             let mut s = [0.0; 3];
             for (li, qi) in qc.iter_mut().enumerate() {
                 let i = r0 + li;
-                *qi = V::store(row(i));
-                let (pi, v) = (p[i].load(), qi.load());
+                let v = row(i);
+                let pi = p[i];
                 for c in 0..3 {
                     s[c] += pi[c] * v[c];
                 }
+                *qi = v;
             }
             s
         })
@@ -229,7 +230,12 @@ fn spmv_dot_rows<V: Store3>(p: &[V], q: &mut [V], row: impl Fn(usize) -> [f64; 3
 }
 
 /// `q = A p` on raw parts; returns `pᵀq` per channel (deterministic).
-pub(crate) fn spmv_dot_raw<E: Load3, V: Store3>(pat: &CsrPattern, vals: &[E], p: &[V], q: &mut [V]) -> [f64; 3] {
+pub(crate) fn spmv_dot_raw<E: super::ops::Load3>(
+    pat: &CsrPattern,
+    vals: &[E],
+    p: &[[f64; 3]],
+    q: &mut [[f64; 3]],
+) -> [f64; 3] {
     let (rp, ci) = (pat.row_ptr(), pat.col_idx());
     spmv_dot_rows(p, q, |i| row_mul(&ci[rp[i]..rp[i + 1]], &vals[rp[i]..rp[i + 1]], p))
 }
