@@ -25,9 +25,9 @@
 
 use rayon::prelude::*;
 
-use super::ops::{sum_partials, CHUNK};
+use super::ops::{row_mul, sum_partials, CHUNK};
 use super::precond::{Chebyshev, PrecondWork, Preconditioner};
-use super::scaled::{reliable_residual, spmv_dot_raw, ScaledOperator};
+use super::scaled::{reliable_residual, ScaledOperator};
 use super::{check_inputs, relative, residual, CsrMatrix3, Precision, SolveOptions, SolveStats, SparseError};
 
 /// How often the true-residual check may restart channels before giving up.
@@ -443,7 +443,29 @@ fn check_rho(rho: [f64; 3], active: [bool; 3], iteration: usize) -> Result<(), S
 
 /// `q = A p`; returns `pᵀq` per channel.
 pub(crate) fn spmv_dot(a: &CsrMatrix3, p: &[[f64; 3]], q: &mut [[f64; 3]]) -> [f64; 3] {
-    spmv_dot_raw(a.pattern(), a.values(), p, q)
+    let pat = a.pattern();
+    let vals = a.values();
+    let (rp, ci) = (pat.row_ptr(), pat.col_idx());
+    let parts: Vec<[f64; 3]> = q
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .map(|(k, qc)| {
+            let r0 = k * CHUNK;
+            let mut s = [0.0; 3];
+            for (li, qi) in qc.iter_mut().enumerate() {
+                let i = r0 + li;
+                let (s0, e0) = (rp[i], rp[i + 1]);
+                let v = row_mul(&ci[s0..e0], &vals[s0..e0], p);
+                let pi = p[i];
+                for c in 0..3 {
+                    s[c] += pi[c] * v[c];
+                }
+                *qi = v;
+            }
+            s
+        })
+        .collect();
+    sum_partials(&parts)
 }
 
 /// `x += α p`, `r −= α q`; returns `(‖r‖², rᵀD⁻¹r)`.

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use super::csr::CsrMatrix3;
 use super::error::SparseError;
 use super::scaled::ScaledOperator;
-use super::ops::{sum_partials, CHUNK};
+use super::ops::{row_mul, sum_partials, CHUNK};
 
 /// Which preconditioner to build (a plain, copyable choice for options, the CLI and the C ABI).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -178,6 +178,8 @@ impl Chebyshev {
                 *d = [0, 1, 2].map(|c| si[c] * ri[c] * inv_theta[c]);
             }
         });
+        let p = &*self.op.pattern;
+        let vals = &self.op.values;
         for step in 2..=self.degree + 1 {
             let first = step == 2;
             let last = step == self.degree + 1;
@@ -199,7 +201,8 @@ impl Chebyshev {
                     let mut dot = [0.0; 3];
                     for li in 0..dn.len() {
                         let i = r0 + li;
-                        let ad = self.op.row(i, d_old);
+                        let (s, e) = (p.row_ptr()[i], p.row_ptr()[i + 1]);
+                        let ad = row_mul(&p.col_idx()[s..e], &vals[s..e], d_old);
                         let si = sc(i);
                         let res_in = if first { [0, 1, 2].map(|c| si[c] * r[i][c]) } else { rs[li] };
                         let dold = d_old[i];
@@ -393,9 +396,7 @@ mod tests {
         let mut y = vec![[0.0; 3]; n];
         let s = &c.op.s;
         let xs: Vec<[f64; 3]> = x.iter().zip(s).map(|(x, s)| [0, 1, 2].map(|k| x[k] / s[k])).collect();
-        for (i, y) in y.iter_mut().enumerate() {
-            *y = c.op.row(i, &xs);
-        }
+        crate::sparse::csr::spmv3(&c.op.pattern, &c.op.values, &xs, &mut y);
         for (y, s) in y.iter_mut().zip(s) {
             for k in 0..3 {
                 y[k] /= s[k];
