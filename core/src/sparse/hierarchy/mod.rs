@@ -35,7 +35,8 @@
 //! | after (4 runs)  | 4229 / 4772 / 3071 / 3082 | 155 / 154 / 240 / 259, 7 | 22 / 22 / 34 / 37 | 0.27% / 0.03% | 48 / 48 / 70 / 78 | 161 / 170 / 231 / 309 | 0.30 / 0.28 / 0.30 / 0.25 |
 //!
 //! (The last two "after" runs include the sort-free Galerkin product, setup −1.5 s.) Two more
-//! runs at commit a2fe343, whose PCG keeps its search direction in `f32`, under a load of 6:
+//! runs at commit a2fe343, whose PCG then kept its search direction in `f32` (since reverted:
+//! measured slower, which flatters these two ratios), under a load of 6:
 //! MG-PCG 1% in 76 / 77 ms, PCG in 347 / 318 ms, ratio 0.22 / 0.24; 7 iterations to 1e-6 in
 //! 258 / 251 ms; setup 3115 / 3220 ms. MG-PCG now
 //! reaches 1% error in 2 iterations at 0.25–0.30 of single-level PCG's time, the goal
