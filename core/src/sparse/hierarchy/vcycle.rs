@@ -47,8 +47,9 @@ use rayon::prelude::*;
 
 use super::coarse::galerkin;
 use super::Hierarchy;
-use crate::sparse::ops::{dot3, norm3, row_mul, sum_partials, CHUNK};
+use crate::sparse::ops::{dot3, norm3, row_mul, CHUNK};
 use crate::sparse::precond::inverse_diagonal;
+use crate::sparse::pcg::{spmv_dot, update};
 use crate::sparse::{CsrMatrix3, CsrPattern, SolveOptions, SolveStats, SparseError};
 
 /// Rows per parallel task of the V-cycle kernels (fixed: per-row results do not depend on it).
@@ -298,48 +299,6 @@ fn residual(a: &CsrMatrix3, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) 
         let ax = row_mul(&p.col_idx()[s..e], &v[s..e], x);
         *ri = [0, 1, 2].map(|c| b[i][c] - ax[c]);
     });
-}
-
-/// `q = A p`, returning `pᵀq` per channel (partial sums per block of [`CHUNK`] rows, added in
-/// block order: the same value as [`dot3`] of the product).
-fn spmv_dot(a: &CsrMatrix3, p: &[[f64; 3]], q: &mut [[f64; 3]]) -> [f64; 3] {
-    let pat = a.pattern();
-    let (rp, ci, v) = (pat.row_ptr(), pat.col_idx(), a.values());
-    let parts: Vec<[f64; 3]> = q
-        .par_chunks_mut(CHUNK)
-        .enumerate()
-        .map(|(b, qc)| {
-            let mut s = [0.0; 3];
-            for (k, qi) in qc.iter_mut().enumerate() {
-                let i = b * CHUNK + k;
-                *qi = row_mul(&ci[rp[i]..rp[i + 1]], &v[rp[i]..rp[i + 1]], p);
-                for c in 0..3 {
-                    s[c] += p[i][c] * qi[c];
-                }
-            }
-            s
-        })
-        .collect();
-    sum_partials(&parts)
-}
-
-/// `x += α p`, `r −= α q`; returns `‖r‖²` per channel (blocked as [`dot3`]).
-fn update(x: &mut [[f64; 3]], r: &mut [[f64; 3]], p: &[[f64; 3]], q: &[[f64; 3]], alpha: [f64; 3]) -> [f64; 3] {
-    let parts: Vec<[f64; 3]> = (x.par_chunks_mut(CHUNK), r.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), q.par_chunks(CHUNK))
-        .into_par_iter()
-        .map(|(x, r, p, q)| {
-            let mut s = [0.0; 3];
-            for (((x, r), p), q) in x.iter_mut().zip(r.iter_mut()).zip(p).zip(q) {
-                for c in 0..3 {
-                    x[c] += alpha[c] * p[c];
-                    r[c] -= alpha[c] * q[c];
-                    s[c] += r[c] * r[c];
-                }
-            }
-            s
-        })
-        .collect();
-    sum_partials(&parts)
 }
 
 fn lambda_max(a: &CsrMatrix3, inv_diag: &[[f64; 3]]) -> [f64; 3] {
