@@ -213,12 +213,7 @@ impl DiffusionSystem {
             return Err(DiffusionError::RefractiveIndexChanged { old: self.terms.eta, new: terms.eta });
         }
         check_listed(s, &self.media, media, tets)?;
-        let discretization = self.discretization;
-        let row_ptr = s.pattern.row_ptr();
-        fill_selected_rows(self.matrix.values_mut(), row_ptr, &rows, |i, row| match discretization {
-            Discretization::TransCut => transcut_row(s, &coefficients, &terms, i, row),
-            Discretization::ConsistentFem => fem::consistent_row(s, &coefficients, &terms, i, row),
-        });
+        refill_rows(s, self.discretization, &coefficients, &terms, self.matrix.values_mut(), &rows);
         self.media = media.to_vec();
         self.coefficients = None;
         Ok(rows.len())
@@ -273,17 +268,9 @@ impl DiffusionSystem {
         let mut previous: Vec<(u32, Medium)> = entries.iter().map(|&(m, medium)| (m, self.set_entry(m, medium))).collect();
         previous.reverse();
         // Refill from κ and μ of the new media (derived whole once, then kept entry by entry).
-        let (s, media) = (&*self.structure, &self.media);
-        let row_ptr = s.pattern.row_ptr();
-        let c = &*self.coefficients.get_or_insert_with(|| Coefficients {
-            kappa: media.par_iter().map(Medium::diffusion_coefficient).collect(),
-            mu: media.par_iter().map(|m| m.sigma_a).collect(),
-        });
-        let (discretization, terms) = (self.discretization, self.terms);
-        fill_selected_rows(self.matrix.values_mut(), row_ptr, &rows, |i, row| match discretization {
-            Discretization::TransCut => transcut_row(s, c, &terms, i, row),
-            Discretization::ConsistentFem => fem::consistent_row(s, c, &terms, i, row),
-        });
+        let media = &self.media;
+        let c = &*self.coefficients.get_or_insert_with(|| Coefficients::of(media));
+        refill_rows(&self.structure, self.discretization, c, &self.terms, self.matrix.values_mut(), &rows);
         Ok(MediaUndo { previous, rows, old_values })
     }
 
@@ -454,11 +441,33 @@ pub(crate) fn prepare_media(
     }
     let terms = BoundaryTerms::new(first_eta)
         .map_err(|source| DiffusionError::InvalidMedium { index: first as usize, source })?;
-    let coefficients = Coefficients {
-        kappa: media.iter().map(Medium::diffusion_coefficient).collect(),
-        mu: media.iter().map(|m| m.sigma_a).collect(),
-    };
-    Ok((coefficients, terms))
+    Ok((Coefficients::of(media), terms))
+}
+
+impl Coefficients {
+    /// κ = 1/(3(σa + σ′s)) and μ = σa of every medium of a table.
+    fn of(media: &[Medium]) -> Self {
+        Self {
+            kappa: media.par_iter().map(Medium::diffusion_coefficient).collect(),
+            mu: media.par_iter().map(|m| m.sigma_a).collect(),
+        }
+    }
+}
+
+/// Refills the matrix rows `rows` (increasing) of the chosen discretisation, each summed as in a
+/// full fill ([`transcut_row`], [`fem::consistent_row`]).
+fn refill_rows(
+    s: &Structure,
+    discretization: Discretization,
+    c: &Coefficients,
+    terms: &BoundaryTerms,
+    values: &mut [[f64; 3]],
+    rows: &[u32],
+) {
+    fill_selected_rows(values, s.pattern.row_ptr(), rows, |i, row| match discretization {
+        Discretization::TransCut => transcut_row(s, c, terms, i, row),
+        Discretization::ConsistentFem => fem::consistent_row(s, c, terms, i, row),
+    });
 }
 
 /// Fills the matrix values of the chosen discretisation.
