@@ -79,7 +79,7 @@ use crate::mesh::{TetMesh, TriangleBvh};
 use crate::optics::Medium;
 use crate::progress::Progress;
 use crate::scene::{self, BakeOptions, Object, ObjectBake, Scene};
-use crate::volume::{Coefficients, PerTetMedia, VolumeError};
+use crate::volume::{Coefficients, PerTetMedia};
 use piece::{ms, SolveSetup, Timings};
 
 /// How the editor solves and lights.
@@ -472,11 +472,7 @@ impl Editor {
 /// The checks [`PerTetMedia::set`] makes, for every change before any is applied.
 fn check_changes(media: &PerTetMedia, changes: &[(u32, Coefficients)]) -> Result<(), EditError> {
     for &(t, c) in changes {
-        let tet = t as usize;
-        if tet >= media.len() {
-            return Err(VolumeError::LengthMismatch { what: "tet index (tet count)", expected: media.len(), found: tet }.into());
-        }
-        c.validate().map_err(|source| VolumeError::InvalidTetMedium { tet, source })?;
+        media.check(t as usize, c)?;
     }
     Ok(())
 }

@@ -221,12 +221,21 @@ impl PerTetMedia {
     /// [`VolumeError::LengthMismatch`] for a tet out of range; [`VolumeError::InvalidTetMedium`]
     /// for invalid coefficients.
     pub fn set(&mut self, tet: usize, coefficients: Coefficients) -> Result<(), VolumeError> {
+        self.check(tet, coefficients)?;
+        self.coefficients[tet] = coefficients;
+        Ok(())
+    }
+
+    /// Whether [`PerTetMedia::set`] would accept `coefficients` for `tet`, without setting
+    /// them (to check a batch of changes before applying any).
+    ///
+    /// # Errors
+    /// Those of [`PerTetMedia::set`].
+    pub fn check(&self, tet: usize, coefficients: Coefficients) -> Result<(), VolumeError> {
         if tet >= self.coefficients.len() {
             return Err(VolumeError::LengthMismatch { what: "tet index (tet count)", expected: self.len(), found: tet });
         }
-        coefficients.validate().map_err(|source| VolumeError::InvalidTetMedium { tet, source })?;
-        self.coefficients[tet] = coefficients;
-        Ok(())
+        coefficients.validate().map_err(|source| VolumeError::InvalidTetMedium { tet, source })
     }
 
     /// Replaces the object's η and g. On error nothing changes.
