@@ -86,9 +86,9 @@ pub(crate) struct MediaUndo {
 }
 
 impl MediaUndo {
-    /// The number of matrix rows the update refilled.
-    pub(crate) fn rows(&self) -> usize {
-        self.rows.len()
+    /// The refilled rows, ascending.
+    pub(crate) fn row_ids(&self) -> &[u32] {
+        &self.rows
     }
 }
 
@@ -187,7 +187,8 @@ impl DiffusionSystem {
 
     /// Refills only the matrix rows of the vertices of `tets` for the new media table `media`
     /// (painting, TransCut §5.2: "we only update the rows corresponding to the vertices of
-    /// tetrahedra that are affected"). Returns the number of rows refilled.
+    /// tetrahedra that are affected"). Returns the refilled rows, ascending (e.g. for
+    /// [`crate::diffusion::MultiresSolver::refresh_rows`]).
     ///
     /// `media` is the whole new table (indexed by the mesh's material ids, as in
     /// [`DiffusionSystem::set_media`]); it may differ from the current one only in media used by
@@ -204,7 +205,7 @@ impl DiffusionSystem {
     /// [`DiffusionError::RefractiveIndexChanged`] when the surface η differs from the current
     /// one; [`DiffusionError::UnlistedMediaChange`] naming a tet whose medium changed but which
     /// is not listed.
-    pub fn update_media_rows(&mut self, media: &[Medium], tets: &[u32]) -> Result<usize, DiffusionError> {
+    pub fn update_media_rows(&mut self, media: &[Medium], tets: &[u32]) -> Result<Vec<u32>, DiffusionError> {
         let s = &*self.structure;
         let rows = s.rows_of_tets(tets)?;
         check_materials(&s.materials, media)?;
@@ -216,7 +217,7 @@ impl DiffusionSystem {
         refill_rows(s, self.discretization, &coefficients, &terms, self.matrix.values_mut(), &rows);
         self.media = media.to_vec();
         self.coefficients = None;
-        Ok(rows.len())
+        Ok(rows)
     }
 
     /// [`DiffusionSystem::update_media_rows`] for a few table entries, in time proportional to
@@ -777,16 +778,16 @@ pub(crate) mod tests {
             full.set_media(&media).unwrap();
             assert_eq!(sys.matrix().values(), full.matrix().values(), "{discretization:?}");
             assert_eq!(sys.media(), full.media());
-            // The count, from the tets directly.
+            // The rows, from the tets directly.
             let mut verts: Vec<u32> = painted.iter().flat_map(|&t| mesh.tets()[t as usize]).collect();
             verts.sort_unstable();
             verts.dedup();
-            assert_eq!(rows, verts.len());
-            assert!(rows < mesh.vertex_count() / 2);
+            assert_eq!(rows, verts);
+            assert!(rows.len() < mesh.vertex_count() / 2);
             // Rows that were not listed really were not touched: a stale matrix stays stale.
             let mut stale = DiffusionSystem::new(&mesh, &base, 1.7, discretization).unwrap();
             let before = stale.matrix().values().to_vec();
-            assert_eq!(stale.update_media_rows(&base, &[]).unwrap(), 0);
+            assert!(stale.update_media_rows(&base, &[]).unwrap().is_empty());
             assert_eq!(stale.matrix().values(), &before[..]);
         }
     }
@@ -836,7 +837,7 @@ pub(crate) mod tests {
             assert_eq!(sys.media(), full.media());
             let mut rows = DiffusionSystem::new(&mesh, &base, 1.7, discretization).unwrap();
             let tets: Vec<u32> = entries.iter().map(|e| e.0).collect();
-            assert_eq!(undo.rows(), rows.update_media_rows(&media, &tets).unwrap());
+            assert_eq!(undo.row_ids(), rows.update_media_rows(&media, &tets).unwrap());
             sys.undo_media_entries(undo);
             assert_eq!(sys.matrix().values(), before.matrix().values());
             assert_eq!(sys.media(), before.media());
@@ -856,7 +857,7 @@ pub(crate) mod tests {
         let tets: Vec<u32> = (0..nt as u32).filter(|t| t % 3 == 1).collect();
         let rows = full.update_media_rows(&[table[0], ink, table[2]], &tets).unwrap();
         assert_eq!(sys.matrix().values(), full.matrix().values());
-        assert_eq!(undo.rows(), rows);
+        assert_eq!(undo.row_ids(), rows);
     }
 
     #[test]
@@ -877,7 +878,7 @@ pub(crate) mod tests {
         assert_eq!(sys.matrix().values(), before.matrix().values());
         assert_eq!(sys.media(), before.media());
         // No entries: nothing refilled.
-        assert_eq!(sys.update_media_entries(&[]).unwrap().rows(), 0);
+        assert!(sys.update_media_entries(&[]).unwrap().row_ids().is_empty());
     }
 
     #[test]

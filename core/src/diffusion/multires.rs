@@ -100,6 +100,23 @@ impl MultiresSolver {
         Ok(())
     }
 
+    /// Follows a change of the matrix confined to `rows` (after
+    /// [`DiffusionSystem::update_media_rows`] or a refill of single media entries) more cheaply
+    /// than [`Self::update_matrix`], with the same result: [`Method::MultigridPcg`] recomputes
+    /// only what the rows reach ([`Multigrid::refresh`]); [`Method::Pcg`] and
+    /// [`Method::Cascade`] prepare afresh (cheap, or not built row by row). On error the solver
+    /// is unchanged, except as [`Multigrid::refresh`] says for a matrix that is not SPD.
+    ///
+    /// # Errors
+    /// As [`Self::with_hierarchy`]; [`DiffusionError::Sparse`] for a row outside the matrix.
+    pub fn refresh_rows(&mut self, system: &DiffusionSystem, rows: &[u32]) -> Result<(), DiffusionError> {
+        match &mut self.prepared {
+            Prepared::Multigrid(m) => m.refresh(system.matrix(), rows)?,
+            _ => self.update_matrix(system)?,
+        }
+        Ok(())
+    }
+
     /// The hierarchy.
     #[must_use]
     pub fn hierarchy(&self) -> &Arc<Hierarchy> {

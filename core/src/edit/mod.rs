@@ -72,7 +72,7 @@ pub use piece::Piece;
 pub use region::{MediumEdit, MediumOp, Region};
 
 use crate::diffusion::assembly::MediaUndo;
-use crate::diffusion::{Method, MultiresSolver};
+use crate::diffusion::Method;
 use crate::gpu::Backend;
 use crate::light::{self, Light, SourceOptions};
 use crate::mesh::{TetMesh, TriangleBvh};
@@ -91,7 +91,8 @@ pub struct EditOptions {
     pub tolerance: f64,
     /// Iteration cap of every solve.
     pub max_iterations: usize,
-    /// The solver of the updates (default [`Method::Pcg`]).
+    /// The solver of the updates (default [`Method::MultigridPcg`], the fastest: see
+    /// [`Editor`]'s "Solver" section).
     pub method: Method,
     /// Where [`Method::Pcg`] solves run (as [`BakeOptions::backend`]; `None`: `TRANSCUT_BACKEND`,
     /// else auto). The multiresolution methods run on the CPU.
@@ -114,7 +115,7 @@ impl Default for EditOptions {
             tets: bake.tets,
             tolerance: bake.tolerance,
             max_iterations: bake.max_iterations,
-            method: Method::Pcg,
+            method: Method::MultigridPcg,
             backend: None,
             source: bake.source,
             shadows: bake.shadows,
@@ -417,11 +418,11 @@ impl Editor {
         }
         let mut timings = Timings { select_ms: ms(start), ..Timings::default() };
         let mut undo = Vec::new();
-        let mut updated = Vec::new();
+        let mut solved = Vec::new();
         let mut failure = None;
         for (index, entries) in per_piece.iter().enumerate().filter(|(_, e)| !e.is_empty()) {
             match self.refill_and_solve(index, entries, &mut undo, &mut timings) {
-                Ok(u) => updated.push(u),
+                Ok(s) => solved.push((index, s)),
                 Err(e) => {
                     failure = Some(e);
                     break;
@@ -430,42 +431,48 @@ impl Editor {
         }
         if let Some(e) = failure {
             for (index, u) in undo.into_iter().rev() {
-                self.pieces[index].system.undo_media_entries(u);
+                let p = &mut self.pieces[index];
+                let rows = u.row_ids().to_vec();
+                p.system.undo_media_entries(u);
+                // The same refresh on the restored matrix gives back the solver bit for bit.
+                p.solver
+                    .refresh_rows(&p.system, &rows)
+                    .expect("a solver refreshes on the rows of a matrix it was prepared for before");
             }
             return Err(e);
         }
-        let rows = undo.iter().map(|(_, u)| u.rows()).sum();
+        let rows = undo.iter().map(|(_, u)| u.row_ids().len()).sum();
         for &(t, c) in changes {
             // Cannot fail: check_changes made the checks of PerTetMedia::set.
             self.media.set(t as usize, c)?;
         }
-        for (index, solver, solved) in updated {
-            let p = &mut self.pieces[index];
-            p.solver = solver;
-            solved.store(p);
+        for (index, s) in solved {
+            s.store(&mut self.pieces[index]);
         }
         Ok(UpdateStats::new(&timings, rows, changes.len(), start))
     }
 
     /// Refills piece `index`'s rows for `entries` (local tet, new medium) in place, pushing the
-    /// undo record onto `undo` first thing, then prepares a solver for the new matrix and
-    /// solves; the piece's solver, φ and radiance are left as they were.
+    /// undo record onto `undo` first thing, refreshes the solver in place for the new matrix
+    /// ([`crate::diffusion::MultiresSolver::refresh_rows`]: for MG-PCG only what the rows reach) and solves; the
+    /// piece's φ and radiance are left as they were.
     fn refill_and_solve(
         &mut self,
         index: usize,
         entries: &[(u32, Medium)],
         undo: &mut Vec<(usize, MediaUndo)>,
         timings: &mut Timings,
-    ) -> Result<(usize, MultiresSolver, piece::Solved), EditError> {
+    ) -> Result<piece::Solved, EditError> {
         let p = &mut self.pieces[index];
         let t = Instant::now();
-        undo.push((index, p.system.update_media_entries(entries)?));
+        let record = p.system.update_media_entries(entries)?;
+        let rows = record.row_ids().to_vec();
+        undo.push((index, record));
         timings.assembly_ms += ms(t);
         let t = Instant::now();
-        let solver = MultiresSolver::with_hierarchy(&p.system, Arc::clone(p.solver.hierarchy()), self.setup.method)?;
+        p.solver.refresh_rows(&p.system, &rows)?;
         timings.hierarchy_ms += ms(t);
-        let solved = piece::solution(&p.system, &solver, &p.fluence, &self.setup, timings)?;
-        Ok((index, solver, solved))
+        piece::solution(&p.system, &p.solver, &p.fluence, &self.setup, timings)
     }
 }
 

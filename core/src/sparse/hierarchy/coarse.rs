@@ -76,54 +76,62 @@ fn check_sizes(a: &CsrMatrix3, p: &Prolongation) -> Result<(), SparseError> {
     Ok(())
 }
 
+/// Row `c` of `Pᵀ M P` before symmetrisation: its distinct columns in the order first reached
+/// and their sums, every column's terms added in the fixed order of the triple loop (column `c`
+/// of `P`, row `u` of `M`, row `v` of `P`); the diagonal is always listed. `stamp` and `slot`
+/// are scratch arrays of the coarse size (`stamp[d] == c + 1` marks column `d` as listed, at
+/// `slot[d]`), all zero or marked by other rows.
+fn galerkin_row(a: &CsrMatrix3, p: &Prolongation, c: usize, stamp: &mut [u32], slot: &mut [u32]) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let (ap, vals) = (a.pattern(), a.values());
+    let mark = c as u32 + 1;
+    let mut cols: Vec<u32> = Vec::new();
+    let mut sums: Vec<[f64; 3]> = Vec::new();
+    let (fr, fw) = p.column(c);
+    for (&u, &wu) in fr.iter().zip(fw) {
+        let u = u as usize;
+        for k in ap.row_ptr()[u]..ap.row_ptr()[u + 1] {
+            let v = ap.col_idx()[k] as usize;
+            let muv = vals[k];
+            let (pc, pw) = p.row(v);
+            for (&d, &wv) in pc.iter().zip(pw) {
+                let s = wu * wv;
+                let term = [muv[0] * s, muv[1] * s, muv[2] * s];
+                let d = d as usize;
+                if stamp[d] == mark {
+                    let o = &mut sums[slot[d] as usize];
+                    for ch in 0..3 {
+                        o[ch] += term[ch];
+                    }
+                } else {
+                    stamp[d] = mark;
+                    slot[d] = cols.len() as u32;
+                    cols.push(d as u32);
+                    sums.push(term);
+                }
+            }
+        }
+    }
+    if stamp[c] != mark {
+        cols.push(c as u32);
+        sums.push([0.0; 3]);
+    }
+    (cols, sums)
+}
+
 /// `Pᵀ M P`, exactly symmetrised (see the module documentation).
 ///
 /// # Errors
 /// [`SparseError::DimensionMismatch`] if `a` and `p` differ in size.
 pub fn galerkin(a: &CsrMatrix3, p: &Prolongation) -> Result<CsrMatrix3, SparseError> {
     check_sizes(a, p)?;
-    let ap = a.pattern();
-    let vals = a.values();
     let m = p.n_coarse();
-    // Per task, `stamp[d] == c + 1` marks column `d` as already in row `c`'s list, at `slot[d]`.
     let rows: Vec<(Vec<u32>, Vec<[f64; 3]>)> = (0..m)
         .into_par_iter()
         .with_min_len(256)
         .map_init(
             || (vec![0u32; m], vec![0u32; m]),
             |(stamp, slot), c| {
-                let mark = c as u32 + 1;
-                let mut cols: Vec<u32> = Vec::new();
-                let mut sums: Vec<[f64; 3]> = Vec::new();
-                let (fr, fw) = p.column(c);
-                for (&u, &wu) in fr.iter().zip(fw) {
-                    let u = u as usize;
-                    for k in ap.row_ptr()[u]..ap.row_ptr()[u + 1] {
-                        let v = ap.col_idx()[k] as usize;
-                        let muv = vals[k];
-                        let (pc, pw) = p.row(v);
-                        for (&d, &wv) in pc.iter().zip(pw) {
-                            let s = wu * wv;
-                            let term = [muv[0] * s, muv[1] * s, muv[2] * s];
-                            let d = d as usize;
-                            if stamp[d] == mark {
-                                let o = &mut sums[slot[d] as usize];
-                                for ch in 0..3 {
-                                    o[ch] += term[ch];
-                                }
-                            } else {
-                                stamp[d] = mark;
-                                slot[d] = cols.len() as u32;
-                                cols.push(d as u32);
-                                sums.push(term);
-                            }
-                        }
-                    }
-                }
-                if stamp[c] != mark {
-                    cols.push(c as u32);
-                    sums.push([0.0; 3]);
-                }
+                let (cols, sums) = galerkin_row(a, p, c, stamp, slot);
                 // Columns are distinct: order them by column.
                 let mut order: Vec<u32> = (0..cols.len() as u32).collect();
                 order.sort_unstable_by_key(|&t| cols[t as usize]);
@@ -157,6 +165,72 @@ pub fn galerkin(a: &CsrMatrix3, p: &Prolongation) -> Result<CsrMatrix3, SparseEr
         })
         .collect();
     CsrMatrix3::new(pattern, sym)
+}
+
+/// Brings `coarse = Pᵀ M_old P` ([`galerkin`] of `M` before a change) up to date after `M`
+/// (now `a`, same pattern, symmetric) changed only in the rows `fine_rows` (and therefore only in
+/// their columns): the coarse rows `c` with `P_uc ≠ 0` for a changed `u` are recomputed, every
+/// other entry of `Pᵀ M P` keeps its terms. The result equals [`galerkin`]`(a, p)` bit for bit
+/// (the recomputed rows sum in the same order; an entry between a recomputed and a kept row is
+/// the mean of two sums that did not change). Returns the recomputed coarse rows, ascending:
+/// the only rows in which the coarse operator can have changed.
+///
+/// # Errors
+/// [`SparseError::DimensionMismatch`] for mismatched sizes; [`SparseError::IndexOutOfRange`]
+/// for a row outside `a`; [`SparseError::NotInPattern`] if `coarse` is not the Galerkin
+/// operator of `a`'s pattern (then `coarse` may be partly updated).
+pub fn galerkin_rows(a: &CsrMatrix3, p: &Prolongation, coarse: &mut CsrMatrix3, fine_rows: &[u32]) -> Result<Vec<u32>, SparseError> {
+    check_sizes(a, p)?;
+    let m = p.n_coarse();
+    if coarse.n() != m {
+        return Err(SparseError::DimensionMismatch { what: "coarse operator rows", expected: m, found: coarse.n() });
+    }
+    let mut hit = vec![false; m];
+    for &u in fine_rows {
+        if u as usize >= a.n() {
+            return Err(SparseError::IndexOutOfRange { what: "changed fine row".into(), index: u64::from(u), n: a.n() });
+        }
+        for &d in p.row(u as usize).0 {
+            hit[d as usize] = true;
+        }
+    }
+    let rows: Vec<u32> = (0..m as u32).filter(|&c| hit[c as usize]).collect();
+    // The unsymmetrised sums of every recomputed row, in the coarse pattern's column order.
+    let pattern = Arc::clone(coarse.pattern());
+    let sums: Vec<Vec<[f64; 3]>> = rows
+        .par_iter()
+        .map_init(
+            || (vec![0u32; m], vec![0u32; m]),
+            |(stamp, slot), &c| {
+                let c = c as usize;
+                let (cols, sums) = galerkin_row(a, p, c, stamp, slot);
+                let row = pattern.row(c);
+                if cols.len() != row.len() {
+                    return Err(SparseError::NotInPattern { row: c, col: cols.iter().find(|d| row.binary_search(d).is_err()).map_or(c, |&d| d as usize) });
+                }
+                let mut out = vec![[0.0; 3]; row.len()];
+                for (&d, s) in cols.iter().zip(sums) {
+                    let pos = row.binary_search(&d).map_err(|_| SparseError::NotInPattern { row: c, col: d as usize })?;
+                    out[pos] = s;
+                }
+                Ok(out)
+            },
+        )
+        .collect::<Result<_, _>>()?;
+    let slot_of = |c: usize| rows.binary_search(&(c as u32)).ok();
+    let values = coarse.values_mut();
+    for (r, &c) in rows.iter().enumerate() {
+        let c = c as usize;
+        for (t, k) in (pattern.row_ptr()[c]..pattern.row_ptr()[c + 1]).enumerate() {
+            let d = pattern.col_idx()[k] as usize;
+            // Only entries between two recomputed rows can change (see above).
+            if let Some(rd) = slot_of(d) {
+                let mirror = pattern.row(d).binary_search(&(c as u32)).expect("a Galerkin pattern is symmetric");
+                values[k] = [0, 1, 2].map(|ch| 0.5 * (sums[r][t][ch] + sums[rd][mirror][ch]));
+            }
+        }
+    }
+    Ok(rows)
 }
 
 #[cfg(test)]
@@ -245,5 +319,30 @@ mod tests {
         let pos2: Vec<DVec3> = retained.iter().map(|&i| positions[i as usize]).collect();
         let p2 = Prolongation::new(&graph2, &pos2, &retained2).unwrap();
         assert_eq!(galerkin(&g, &p2).unwrap().values(), galerkin_by_sorting(&g, &p2).values());
+
+        // A symmetric change in rows 100..110 (their diagonals and the couplings among them):
+        // recomputing the coarse rows they reach gives the Galerkin operator of the new matrix.
+        let rows: Vec<u32> = (100..110).collect();
+        let mut changed = a.clone();
+        for &i in &rows {
+            for k in graph.row_ptr()[i as usize]..graph.row_ptr()[i as usize + 1] {
+                let j = graph.col_idx()[k];
+                if rows.contains(&j) {
+                    changed.values_mut()[k] = changed.values()[k].map(|x| if j == i { x + 2.5 } else { 1.7 * x });
+                }
+            }
+        }
+        let mut updated = g.clone();
+        let coarse_rows = galerkin_rows(&changed, &p, &mut updated, &rows).unwrap();
+        let fresh = galerkin(&changed, &p).unwrap();
+        assert_eq!(updated.values(), fresh.values());
+        // Only the coarse rows the changed rows interpolate to were recomputed, and they changed.
+        let mut reached: Vec<u32> = rows.iter().flat_map(|&u| p.row(u as usize).0.to_vec()).collect();
+        reached.sort_unstable();
+        reached.dedup();
+        assert_eq!(coarse_rows, reached);
+        assert!(coarse_rows.len() < p.n_coarse() / 10);
+        assert_ne!(g.values(), fresh.values());
+        assert!(matches!(galerkin_rows(&changed, &p, &mut updated, &[n as u32]), Err(SparseError::IndexOutOfRange { .. })));
     }
 }
