@@ -8,7 +8,8 @@
 //! see below):
 //!
 //! 1. pre-smooth from `z = 0` with a degree-`d` Chebyshev polynomial in `D⁻¹Ã` over
-//!    `[λmax / ratio, λmax]` (`λmax` of `D⁻¹A` from 12 power iterations, ×1.1): the first step
+//!    `[λmax / ratio, λmax]` (`λmax` the Gershgorin bound `max_i Σ_j |ã_ij| / a_ii` of the
+//!    spectrum of `D⁻¹Ã`, see [`Smoother`]): the first step
 //!    is `z = D⁻¹ r / θ` (no product), each further step `res = r − Ã z`,
 //!    `d = ρ_k ρ_{k−1} d + (2ρ_k/δ) D⁻¹ res`, `z += d` in one fused pass;
 //! 2. restrict the residual `r_c = Pᵀ (r − Ã z)`, recurse (dense Cholesky at the coarsest);
@@ -26,9 +27,9 @@
 //! V-cycle is therefore the symmetric two-sided smoother `M = q(D⁻¹Ã)D⁻¹` around a symmetric
 //! coarse correction: with `C = P B_c Pᵀ` (`B_c` the next level's cycle, symmetric by
 //! induction, the exact inverse at the coarsest), `B = 2M − MÃM + (I − MÃ) C (I − ÃM)`, a
-//! fixed symmetric linear operator, positive definite since the smoother contracts
-//! (`λmax` bounds the spectrum of `D⁻¹Ã` with a 10% margin; the `f32` rounding perturbs it by
-//! ~1e-7). Plain CG on the exact `f64` level-0 matrix stays valid ([`mg_pcg`]); `B` only
+//! fixed symmetric linear operator, positive definite since the smoother contracts (`λmax`
+//! is a true upper bound of the spectrum of `D⁻¹Ã`, computed from the rounded entries
+//! themselves). Plain CG on the exact `f64` level-0 matrix stays valid ([`mg_pcg`]); `B` only
 //! approximates `A⁻¹` less well by the rounding, far below what one V-cycle leaves anyway.
 //!
 //! **Memory.** Every vector a V-cycle and [`mg_pcg`] use lives in a workspace allocated (and
@@ -104,9 +105,18 @@ fn chebyshev_steps(lambda_max: [f64; 3], degree: usize, ratio: f64) -> Vec<Step>
     steps
 }
 
+/// The Chebyshev smoother of one level: `D⁻¹` of the level's operator `A` and the upper end
+/// `λmax` of the interval, the Gershgorin bound `max_i Σ_j |ã_ij| / a_ii` of the spectrum of
+/// `D⁻¹Ã` (`Ã` the `f32` operator the smoothing multiplies by). A true bound, so the smoother
+/// contracts and the V-cycle is SPD with no safety factor, and a per-row one, so a change of
+/// some rows updates it exactly ([`Multigrid::refresh`]). On the 500k-tet bunny it lies 15% (level
+/// 0) to 45% (level 1) above the power-iteration estimate earlier versions used (×1.1), with
+/// the same iteration counts: 6 to 1e-6 after a 5° relight, 2 to 1% error.
 #[derive(Debug, Clone)]
 struct Smoother {
     inv_diag: Vec<[f64; 3]>,
+    /// `Σ_j |ã_ij| / a_ii` per row.
+    row_bounds: Vec<[f64; 3]>,
     lambda_max: [f64; 3],
     steps: Vec<Step>,
 }
@@ -116,51 +126,64 @@ struct Smoother {
 struct Operator32 {
     pattern: Arc<CsrPattern>,
     values: Vec<[f32; 3]>,
+    /// Whether entries are symmetrised before rounding (level 0).
+    symmetrise: bool,
+}
+
+/// Entry `k` (in row `i`) of `values` rounded to `f32`, as the mean with its mirror when
+/// `symmetrise`.
+#[inline]
+fn rounded(p: &CsrPattern, values: &[[f64; 3]], symmetrise: bool, i: usize, k: usize) -> [f32; 3] {
+    let v = values;
+    let s = if symmetrise {
+        match p.position(p.col_idx()[k] as usize, i) {
+            Some(t) if t != k => [0, 1, 2].map(|c| 0.5 * (v[k][c] + v[t][c])),
+            _ => v[k],
+        }
+    } else {
+        v[k]
+    };
+    #[allow(clippy::cast_possible_truncation)]
+    s.map(|x| x as f32)
 }
 
 impl Operator32 {
-    /// `(a_ij + a_ji)/2` rounded to `f32` (an entry whose mirror is not in the pattern is rounded
-    /// as it is).
-    fn new(a: &CsrMatrix3) -> Self {
+    /// `a` rounded to `f32`; with `symmetrise`, each entry is `(a_ij + a_ji)/2` first (an entry
+    /// whose mirror is not in the pattern is rounded as it is), for a matrix that is symmetric
+    /// only up to rounding. (For an exactly symmetric one the mean is the entry itself.)
+    fn new(a: &CsrMatrix3, symmetrise: bool) -> Self {
         let p = a.pattern();
-        let v = a.values();
-        #[allow(clippy::cast_possible_truncation)]
         let values: Vec<[f32; 3]> = (0..a.n())
             .into_par_iter()
             .with_min_len(ROWS)
-            .flat_map_iter(|i| {
-                (p.row_ptr()[i]..p.row_ptr()[i + 1]).map(move |k| {
-                    let j = p.col_idx()[k] as usize;
-                    let s = match p.position(j, i) {
-                        Some(t) if t != k => [0, 1, 2].map(|c| 0.5 * (v[k][c] + v[t][c])),
-                        _ => v[k],
-                    };
-                    s.map(|x| x as f32)
-                })
-            })
+            .flat_map_iter(|i| (p.row_ptr()[i]..p.row_ptr()[i + 1]).map(move |k| rounded(p, a.values(), symmetrise, i, k)))
             .collect();
-        Self { pattern: Arc::clone(p), values }
+        Self { pattern: Arc::clone(p), values, symmetrise }
     }
 
     /// Re-rounds from `a` (this operator's pattern) the entries of `rows`, as [`Self::new`]
     /// does: after a symmetric change of `a` confined to those rows (and so to their columns),
-    /// the result equals `Operator32::new(a)` bit for bit.
+    /// the result equals `Operator32::new(a, ..)` bit for bit.
     fn refresh_rows(&mut self, a: &CsrMatrix3, rows: &[u32]) {
-        let p = &*self.pattern;
-        let v = a.values();
+        let p = Arc::clone(&self.pattern);
         for &i in rows {
             let i = i as usize;
             for k in p.row_ptr()[i]..p.row_ptr()[i + 1] {
-                let j = p.col_idx()[k] as usize;
-                let s = match p.position(j, i) {
-                    Some(t) if t != k => [0, 1, 2].map(|c| 0.5 * (v[k][c] + v[t][c])),
-                    _ => v[k],
-                };
-                #[allow(clippy::cast_possible_truncation)]
-                let rounded = s.map(|x| x as f32);
-                self.values[k] = rounded;
+                self.values[k] = rounded(&p, a.values(), self.symmetrise, i, k);
             }
         }
+    }
+
+    /// Row `i`'s Gershgorin bound `Σ_j |ã_ij| / a_ii` (`inv` = `1 / a_ii`).
+    fn row_bound(&self, i: usize, inv: [f64; 3]) -> [f64; 3] {
+        let rp = self.pattern.row_ptr();
+        let mut s = [0.0f64; 3];
+        for v in &self.values[rp[i]..rp[i + 1]] {
+            for c in 0..3 {
+                s[c] += f64::from(v[c].abs());
+            }
+        }
+        [0, 1, 2].map(|c| s[c] * inv[c])
     }
 
     /// `(Ã x)_i`.
@@ -301,16 +324,6 @@ pub struct Multigrid {
     work: WorkCell,
 }
 
-/// `y = A x` (three channels), deterministic.
-fn spmv(a: &CsrMatrix3, x: &[[f64; 3]], y: &mut [[f64; 3]]) {
-    let p = a.pattern();
-    let v = a.values();
-    y.par_iter_mut().enumerate().with_min_len(CHUNK / 4).for_each(|(i, yi)| {
-        let (s, e) = (p.row_ptr()[i], p.row_ptr()[i + 1]);
-        *yi = row_mul(&p.col_idx()[s..e], &v[s..e], x);
-    });
-}
-
 /// `r = b − A x`.
 fn residual(a: &CsrMatrix3, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) {
     let p = a.pattern();
@@ -320,24 +333,6 @@ fn residual(a: &CsrMatrix3, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) 
         let ax = row_mul(&p.col_idx()[s..e], &v[s..e], x);
         *ri = [0, 1, 2].map(|c| b[i][c] - ax[c]);
     });
-}
-
-fn lambda_max(a: &CsrMatrix3, inv_diag: &[[f64; 3]]) -> [f64; 3] {
-    let n = a.n();
-    // A fixed, non-smooth start vector.
-    let mut x: Vec<[f64; 3]> = (0..n).map(|i| [1.0 + ((i * 7919) % 13) as f64 / 13.0; 3]).collect();
-    let mut y = vec![[0.0; 3]; n];
-    let mut lambda = [0.0; 3];
-    for _ in 0..12 {
-        let xn = norm3(&x);
-        x.par_iter_mut().for_each(|v| *v = [0, 1, 2].map(|c| if xn[c] > 0.0 { v[c] / xn[c] } else { 0.0 }));
-        spmv(a, &x, &mut y);
-        y.par_iter_mut().zip(inv_diag).for_each(|(v, d)| *v = [0, 1, 2].map(|c| v[c] * d[c]));
-        // Rayleigh-like quotient in the D inner product is not needed: the norm ratio bounds it.
-        lambda = norm3(&y);
-        std::mem::swap(&mut x, &mut y);
-    }
-    lambda.map(|l| 1.1 * l)
 }
 
 /// The dense Cholesky factors of the coarsest operator `m`, per channel.
@@ -365,24 +360,31 @@ fn diagonal_rows(a: &CsrMatrix3, rows: &[u32]) -> Result<Vec<[f64; 3]>, SparseEr
         .collect()
 }
 
+/// The per-channel maximum of `bounds`.
+fn max_bound(bounds: &[[f64; 3]]) -> [f64; 3] {
+    bounds.par_iter().copied().reduce(|| [0.0; 3], |x, y| [0, 1, 2].map(|c| x[c].max(y[c])))
+}
+
 impl Smoother {
-    fn new(a: &CsrMatrix3, options: &MultigridOptions) -> Result<Self, SparseError> {
+    /// The smoother of the level whose operator is `a`, rounded to `op`.
+    fn new(a: &CsrMatrix3, op: &Operator32, options: &MultigridOptions) -> Result<Self, SparseError> {
         let inv_diag = inverse_diagonal(a)?;
-        let lambda_max = lambda_max(a, &inv_diag);
+        let row_bounds: Vec<[f64; 3]> = inv_diag.par_iter().enumerate().map(|(i, &d)| op.row_bound(i, d)).collect();
+        let lambda_max = max_bound(&row_bounds);
         let steps = chebyshev_steps(lambda_max, options.smoothing_degree, options.smoothing_ratio);
-        Ok(Self { inv_diag, lambda_max, steps })
+        Ok(Self { inv_diag, row_bounds, lambda_max, steps })
     }
 
-    /// Follows a change of `a` confined to `rows` (ascending): their inverse diagonal, then
-    /// `λmax` and the steps, equal to [`Self::new`]`(a)`'s. Unchanged on error.
-    fn refresh(&mut self, a: &CsrMatrix3, rows: &[u32], options: &MultigridOptions) -> Result<(), SparseError> {
-        let d = diagonal_rows(a, rows)?;
-        for (&i, d) in rows.iter().zip(d) {
-            self.inv_diag[i as usize] = d.map(|x| 1.0 / x);
+    /// Follows a change of `a` (already rounded into `op`) confined to `rows`, whose diagonal
+    /// `diagonal` is checked positive: equal to [`Self::new`]`(a, op)` afterwards.
+    fn refresh(&mut self, op: &Operator32, rows: &[u32], diagonal: &[[f64; 3]], options: &MultigridOptions) {
+        for (&i, d) in rows.iter().zip(diagonal) {
+            let i = i as usize;
+            self.inv_diag[i] = d.map(|x| 1.0 / x);
+            self.row_bounds[i] = op.row_bound(i, self.inv_diag[i]);
         }
-        self.lambda_max = lambda_max(a, &self.inv_diag);
+        self.lambda_max = max_bound(&self.row_bounds);
         self.steps = chebyshev_steps(self.lambda_max, options.smoothing_degree, options.smoothing_ratio);
-        Ok(())
     }
 
     /// The first step from `z = 0`: `d = D⁻¹ r / θ`, `z = d` (no product; `d` is only written
@@ -478,8 +480,10 @@ impl Multigrid {
         let mut smoothers = Vec::new();
         let mut ops32 = Vec::new();
         for l in 0..levels.saturating_sub(1) {
-            smoothers.push(Smoother::new(level_op(l), &options)?);
-            ops32.push(Operator32::new(level_op(l)));
+            // Level 0 is symmetrised before rounding; the Galerkin operators are exactly symmetric.
+            let op = Operator32::new(level_op(l), l == 0);
+            smoothers.push(Smoother::new(level_op(l), &op, &options)?);
+            ops32.push(op);
         }
         let coarsest = if levels > 1 {
             let m = &operators[levels - 2];
@@ -534,12 +538,13 @@ impl Multigrid {
         let mut changed = rows.to_vec();
         changed.sort_unstable();
         changed.dedup();
-        diagonal_rows(a, &changed)?;
         for l in 0..levels - 1 {
             let (fine, rest) = self.operators.split_at_mut(l);
             let fine = if l == 0 { a } else { &fine[l - 1] };
+            // At level 0 this is the first change made; below it cannot fail (SPD operators).
+            let diagonal = diagonal_rows(fine, &changed)?;
             self.ops32[l].refresh_rows(fine, &changed);
-            self.smoothers[l].refresh(fine, &changed, &self.options)?;
+            self.smoothers[l].refresh(&self.ops32[l], &changed, &diagonal, &self.options);
             changed = galerkin_rows(fine, self.hierarchy.prolongation(l), &mut rest[0], &changed)?;
             if changed.is_empty() {
                 return Ok(());
@@ -1103,5 +1108,27 @@ mod tests {
             assert!(result.is_err());
         }
         same(&refreshed, &fresh);
+    }
+    #[test]
+    fn smoother_bound_lies_above_the_spectrum_and_close_to_it() {
+        let (h, a) = grid_system(9, 8, 7);
+        let mg = Multigrid::new(Arc::new(h), &a, MultigridOptions::default()).unwrap();
+        for l in 0..mg.hierarchy.levels() - 1 {
+            let (op, sm) = (&mg.ops32[l], &mg.smoothers[l]);
+            let n = sm.inv_diag.len();
+            for c in 0..3 {
+                // D^-½ Ã D^-½ has the spectrum of D⁻¹Ã.
+                let mut m = DMatrix::<f64>::zeros(n, n);
+                for i in 0..n {
+                    for k in op.pattern.row_ptr()[i]..op.pattern.row_ptr()[i + 1] {
+                        let j = op.pattern.col_idx()[k] as usize;
+                        m[(i, j)] = f64::from(op.values[k][c]) * (sm.inv_diag[i][c] * sm.inv_diag[j][c]).sqrt();
+                    }
+                }
+                let top = m.symmetric_eigenvalues().max();
+                let bound = sm.lambda_max[c];
+                assert!(bound >= top && bound <= 1.6 * top, "level {l} channel {c}: bound {bound}, λmax {top}");
+            }
+        }
     }
 }
