@@ -15,10 +15,14 @@
 //!   two mirrored sums), so CG sees a symmetric preconditioner.
 //!
 //! Both act per channel with the same `P`, rows computed in parallel, each summed in a fixed
-//! order: deterministic for any number of threads. [`galerkin`] accumulates each coarse row's
-//! products in a dense per-task array indexed by column (every column's terms added in the
-//! fixed order of the triple loop), then orders the row's distinct columns: no sort of the
-//! products themselves.
+//! order: deterministic for any number of threads. [`galerkin`] works in two stages: the rows
+//! of `M P` first ([`ap_row`]), then each coarse row `c` as `Σ_u P_uc (M P)_u` over column `c`
+//! of `P` ([`galerkin_row`]); a fine row's `M P` row is computed once instead of once per coarse
+//! vertex it interpolates from (half the products of the one-stage triple loop on the bunny's
+//! levels). Each stage accumulates a row's terms in per-task arrays indexed by column (every
+//! column's terms added in a fixed order), then the row's distinct columns are ordered: no sort
+//! of the products themselves. [`galerkin_rows`] recomputes chosen coarse rows the same way,
+//! bit for bit.
 
 use std::sync::Arc;
 
@@ -76,46 +80,99 @@ fn check_sizes(a: &CsrMatrix3, p: &Prolongation) -> Result<(), SparseError> {
     Ok(())
 }
 
-/// Row `c` of `Pᵀ M P` before symmetrisation: its distinct columns in the order first reached
-/// and their sums, every column's terms added in the fixed order of the triple loop (column `c`
-/// of `P`, row `u` of `M`, row `v` of `P`); the diagonal is always listed. `stamp` and `slot`
-/// are scratch arrays of the coarse size (`stamp[d] == c + 1` marks column `d` as listed, at
-/// `slot[d]`), all zero or marked by other rows.
-fn galerkin_row(a: &CsrMatrix3, p: &Prolongation, c: usize, stamp: &mut [u32], slot: &mut [u32]) -> (Vec<u32>, Vec<[f64; 3]>) {
-    let (ap, vals) = (a.pattern(), a.values());
-    let mark = c as u32 + 1;
-    let mut cols: Vec<u32> = Vec::new();
-    let mut sums: Vec<[f64; 3]> = Vec::new();
-    let (fr, fw) = p.column(c);
-    for (&u, &wu) in fr.iter().zip(fw) {
-        let u = u as usize;
-        for k in ap.row_ptr()[u]..ap.row_ptr()[u + 1] {
-            let v = ap.col_idx()[k] as usize;
-            let muv = vals[k];
-            let (pc, pw) = p.row(v);
-            for (&d, &wv) in pc.iter().zip(pw) {
-                let s = wu * wv;
-                let term = [muv[0] * s, muv[1] * s, muv[2] * s];
-                let d = d as usize;
-                if stamp[d] == mark {
-                    let o = &mut sums[slot[d] as usize];
-                    for ch in 0..3 {
-                        o[ch] += term[ch];
-                    }
-                } else {
-                    stamp[d] = mark;
-                    slot[d] = cols.len() as u32;
-                    cols.push(d as u32);
-                    sums.push(term);
+/// Scratch of a sparse row accumulation over columns `0..m`: `stamp[d] == mark` says column `d`
+/// is listed, at `slot[d]`.
+struct Accumulator {
+    stamp: Vec<u32>,
+    slot: Vec<u32>,
+    mark: u32,
+}
+
+impl Accumulator {
+    fn new(m: usize) -> Self {
+        Self { stamp: vec![0; m], slot: vec![0; m], mark: 0 }
+    }
+
+    /// Sums `terms` per column, in the order given: the distinct columns in the order first
+    /// reached, and their sums (the first term of a column is its start value, not `0 + term`).
+    fn sum(&mut self, terms: impl Iterator<Item = (u32, [f64; 3])>) -> (Vec<u32>, Vec<[f64; 3]>) {
+        self.mark = self.mark.wrapping_add(1);
+        if self.mark == 0 {
+            self.stamp.fill(0);
+            self.mark = 1;
+        }
+        let mut cols: Vec<u32> = Vec::new();
+        let mut sums: Vec<[f64; 3]> = Vec::new();
+        for (d, term) in terms {
+            let d = d as usize;
+            if self.stamp[d] == self.mark {
+                let o = &mut sums[self.slot[d] as usize];
+                for ch in 0..3 {
+                    o[ch] += term[ch];
                 }
+            } else {
+                self.stamp[d] = self.mark;
+                self.slot[d] = cols.len() as u32;
+                cols.push(d as u32);
+                sums.push(term);
             }
         }
+        (cols, sums)
     }
-    if stamp[c] != mark {
+}
+
+/// Row `u` of `M P`: `Σ_v M_uv P_v`, over row `u` of `M` in column order and each row `v` of
+/// `P` in its order.
+fn ap_row(a: &CsrMatrix3, p: &Prolongation, u: usize, acc: &mut Accumulator) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let (ap, vals) = (a.pattern(), a.values());
+    acc.sum((ap.row_ptr()[u]..ap.row_ptr()[u + 1]).flat_map(|k| {
+        let m = vals[k];
+        let (pc, pw) = p.row(ap.col_idx()[k] as usize);
+        pc.iter().zip(pw).map(move |(&d, &w)| (d, [m[0] * w, m[1] * w, m[2] * w]))
+    }))
+}
+
+/// Row `c` of `Pᵀ (M P)` before symmetrisation, with its columns ascending: `Σ_u P_uc (M P)_u`
+/// over column `c` of `P` in its order, `ap(u)` giving row `u` of `M P`. The diagonal is always
+/// listed.
+fn galerkin_row<'r>(
+    p: &Prolongation,
+    c: usize,
+    ap: impl Fn(usize) -> (&'r [u32], &'r [[f64; 3]]),
+    acc: &mut Accumulator,
+) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let (fr, fw) = p.column(c);
+    let (mut cols, mut sums) = acc.sum(fr.iter().zip(fw).flat_map(|(&u, &w)| {
+        let (dc, dv) = ap(u as usize);
+        dc.iter().zip(dv).map(move |(&d, v)| (d, [v[0] * w, v[1] * w, v[2] * w]))
+    }));
+    if !cols.contains(&(c as u32)) {
         cols.push(c as u32);
         sums.push([0.0; 3]);
     }
-    (cols, sums)
+    // Columns are distinct: order them by column.
+    let mut order: Vec<u32> = (0..cols.len() as u32).collect();
+    order.sort_unstable_by_key(|&t| cols[t as usize]);
+    (order.iter().map(|&t| cols[t as usize]).collect(), order.iter().map(|&t| sums[t as usize]).collect())
+}
+
+/// The rows `rows` (ascending) of `M P`, flattened: `(start offsets, columns, sums)`, row `r`'s
+/// entries at `start[r]..start[r + 1]`.
+fn ap_rows(a: &CsrMatrix3, p: &Prolongation, rows: &[u32]) -> (Vec<usize>, Vec<u32>, Vec<[f64; 3]>) {
+    let m = p.n_coarse();
+    let per_task = rows.len().div_ceil(8 * rayon::current_num_threads()).max(1);
+    let parts: Vec<(Vec<u32>, Vec<[f64; 3]>)> =
+        rows.par_iter().with_min_len(per_task).map_init(|| Accumulator::new(m), |acc, &u| ap_row(a, p, u as usize, acc)).collect();
+    let mut start = Vec::with_capacity(rows.len() + 1);
+    start.push(0);
+    let total: usize = parts.iter().map(|(c, _)| c.len()).sum();
+    let (mut cols, mut sums) = (Vec::with_capacity(total), Vec::with_capacity(total));
+    for (c, v) in parts {
+        cols.extend_from_slice(&c);
+        sums.extend_from_slice(&v);
+        start.push(cols.len());
+    }
+    (start, cols, sums)
 }
 
 /// `Pᵀ M P`, exactly symmetrised (see the module documentation).
@@ -125,20 +182,15 @@ fn galerkin_row(a: &CsrMatrix3, p: &Prolongation, c: usize, stamp: &mut [u32], s
 pub fn galerkin(a: &CsrMatrix3, p: &Prolongation) -> Result<CsrMatrix3, SparseError> {
     check_sizes(a, p)?;
     let m = p.n_coarse();
+    let all: Vec<u32> = (0..a.n() as u32).collect();
+    let (start, ap_cols, ap_sums) = ap_rows(a, p, &all);
+    let ap = |u: usize| (&ap_cols[start[u]..start[u + 1]], &ap_sums[start[u]..start[u + 1]]);
     let rows: Vec<(Vec<u32>, Vec<[f64; 3]>)> = (0..m)
         .into_par_iter()
         .with_min_len(256)
-        .map_init(
-            || (vec![0u32; m], vec![0u32; m]),
-            |(stamp, slot), c| {
-                let (cols, sums) = galerkin_row(a, p, c, stamp, slot);
-                // Columns are distinct: order them by column.
-                let mut order: Vec<u32> = (0..cols.len() as u32).collect();
-                order.sort_unstable_by_key(|&t| cols[t as usize]);
-                (order.iter().map(|&t| cols[t as usize]).collect(), order.iter().map(|&t| sums[t as usize]).collect())
-            },
-        )
+        .map_init(|| Accumulator::new(m), |acc, c| galerkin_row(p, c, ap, acc))
         .collect();
+    drop((start, ap_cols, ap_sums));
     let mut row_ptr = Vec::with_capacity(m + 1);
     row_ptr.push(0);
     let mut col_idx = Vec::new();
@@ -195,40 +247,65 @@ pub fn galerkin_rows(a: &CsrMatrix3, p: &Prolongation, coarse: &mut CsrMatrix3, 
         }
     }
     let rows: Vec<u32> = (0..m as u32).filter(|&c| hit[c as usize]).collect();
+    // The rows of `M P` those coarse rows need: the fine rows of their columns of `P`.
+    let mut need = vec![false; a.n()];
+    for &c in &rows {
+        for &u in p.column(c as usize).0 {
+            need[u as usize] = true;
+        }
+    }
+    let fine: Vec<u32> = (0..a.n() as u32).filter(|&u| need[u as usize]).collect();
+    let (start, ap_cols, ap_sums) = ap_rows(a, p, &fine);
+    let ap = |u: usize| {
+        let r = fine.binary_search(&(u as u32)).expect("the fine rows of the recomputed columns");
+        (&ap_cols[start[r]..start[r + 1]], &ap_sums[start[r]..start[r + 1]])
+    };
     // The unsymmetrised sums of every recomputed row, in the coarse pattern's column order.
     let pattern = Arc::clone(coarse.pattern());
+    let per_task = rows.len().div_ceil(8 * rayon::current_num_threads()).max(1);
     let sums: Vec<Vec<[f64; 3]>> = rows
         .par_iter()
+        .with_min_len(per_task)
         .map_init(
-            || (vec![0u32; m], vec![0u32; m]),
-            |(stamp, slot), &c| {
+            || Accumulator::new(m),
+            |acc, &c| {
                 let c = c as usize;
-                let (cols, sums) = galerkin_row(a, p, c, stamp, slot);
-                let row = pattern.row(c);
-                if cols.len() != row.len() {
-                    return Err(SparseError::NotInPattern { row: c, col: cols.iter().find(|d| row.binary_search(d).is_err()).map_or(c, |&d| d as usize) });
+                let (cols, sums) = galerkin_row(p, c, ap, acc);
+                if cols != pattern.row(c) {
+                    let col = cols.iter().find(|d| pattern.row(c).binary_search(d).is_err()).map_or(c, |&d| d as usize);
+                    return Err(SparseError::NotInPattern { row: c, col });
                 }
-                let mut out = vec![[0.0; 3]; row.len()];
-                for (&d, s) in cols.iter().zip(sums) {
-                    let pos = row.binary_search(&d).map_err(|_| SparseError::NotInPattern { row: c, col: d as usize })?;
-                    out[pos] = s;
-                }
-                Ok(out)
+                Ok(sums)
             },
         )
         .collect::<Result<_, _>>()?;
-    let slot_of = |c: usize| rows.binary_search(&(c as u32)).ok();
-    let values = coarse.values_mut();
+    // Entries between two recomputed rows are the mean of their two new sums; the others keep
+    // their values (see above).
+    let mut slot = vec![u32::MAX; m];
     for (r, &c) in rows.iter().enumerate() {
-        let c = c as usize;
-        for (t, k) in (pattern.row_ptr()[c]..pattern.row_ptr()[c + 1]).enumerate() {
-            let d = pattern.col_idx()[k] as usize;
-            // Only entries between two recomputed rows can change (see above).
-            if let Some(rd) = slot_of(d) {
-                let mirror = pattern.row(d).binary_search(&(c as u32)).expect("a Galerkin pattern is symmetric");
-                values[k] = [0, 1, 2].map(|ch| 0.5 * (sums[r][t][ch] + sums[rd][mirror][ch]));
-            }
-        }
+        slot[c as usize] = r as u32;
+    }
+    let updated: Vec<Vec<(usize, [f64; 3])>> = rows
+        .par_iter()
+        .enumerate()
+        .map(|(r, &c)| {
+            let c = c as usize;
+            (pattern.row_ptr()[c]..pattern.row_ptr()[c + 1])
+                .zip(&sums[r])
+                .filter_map(|(k, own)| {
+                    let d = pattern.col_idx()[k] as usize;
+                    let rd = slot[d];
+                    (rd != u32::MAX).then(|| {
+                        let mirror = pattern.row(d).binary_search(&(c as u32)).expect("a Galerkin pattern is symmetric");
+                        (k, [0, 1, 2].map(|ch| 0.5 * (own[ch] + sums[rd as usize][mirror][ch])))
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let values = coarse.values_mut();
+    for (k, v) in updated.into_iter().flatten() {
+        values[k] = v;
     }
     Ok(rows)
 }
@@ -240,32 +317,42 @@ mod tests {
     use super::*;
     use crate::sparse::Triplet;
 
-    /// `Pᵀ M P` the plain way: every product `(column, value)` listed, stably sorted by column
-    /// and summed in list order, then symmetrised.
+    /// Sums `(column, value)` terms per column in list order (a stable sort by column).
+    fn merged(mut terms: Vec<(u32, [f64; 3])>) -> Vec<(u32, [f64; 3])> {
+        terms.sort_by_key(|e| e.0);
+        let mut out: Vec<(u32, [f64; 3])> = Vec::new();
+        for (d, v) in terms {
+            match out.last_mut() {
+                Some(last) if last.0 == d => (0..3).for_each(|ch| last.1[ch] += v[ch]),
+                _ => out.push((d, v)),
+            }
+        }
+        out
+    }
+
+    /// `Pᵀ (M P)` the plain way: every product `(column, value)` listed, stably sorted by column
+    /// and summed in list order — the rows of `M P` first, then those of `Pᵀ (M P)` — then
+    /// symmetrised.
     fn galerkin_by_sorting(a: &CsrMatrix3, p: &Prolongation) -> CsrMatrix3 {
         let (ap, vals, m) = (a.pattern(), a.values(), p.n_coarse());
+        let mp: Vec<Vec<(u32, [f64; 3])>> = (0..a.n())
+            .map(|u| {
+                let mut terms = Vec::new();
+                for k in ap.row_ptr()[u]..ap.row_ptr()[u + 1] {
+                    let (pc, pw) = p.row(ap.col_idx()[k] as usize);
+                    terms.extend(pc.iter().zip(pw).map(|(&d, &w)| (d, vals[k].map(|x| x * w))));
+                }
+                merged(terms)
+            })
+            .collect();
         let mut trips = Vec::new();
         for c in 0..m {
-            let mut acc: Vec<(u32, [f64; 3])> = Vec::new();
+            let mut terms = Vec::new();
             let (fr, fw) = p.column(c);
-            for (&u, &wu) in fr.iter().zip(fw) {
-                for k in ap.row_ptr()[u as usize]..ap.row_ptr()[u as usize + 1] {
-                    let (pc, pw) = p.row(ap.col_idx()[k] as usize);
-                    for (&d, &wv) in pc.iter().zip(pw) {
-                        let s = wu * wv;
-                        acc.push((d, vals[k].map(|x| x * s)));
-                    }
-                }
+            for (&u, &w) in fr.iter().zip(fw) {
+                terms.extend(mp[u as usize].iter().map(|&(d, v)| (d, v.map(|x| x * w))));
             }
-            acc.sort_by_key(|e| e.0);
-            let mut merged: Vec<(u32, [f64; 3])> = Vec::new();
-            for (d, v) in acc {
-                match merged.last_mut() {
-                    Some(last) if last.0 == d => (0..3).for_each(|ch| last.1[ch] += v[ch]),
-                    _ => merged.push((d, v)),
-                }
-            }
-            trips.extend(merged.into_iter().map(|(d, v)| Triplet::new(c as u32, d, v)));
+            trips.extend(merged(terms).into_iter().map(|(d, v)| Triplet::new(c as u32, d, v)));
         }
         let g = CsrMatrix3::from_triplets(m, &trips).unwrap();
         let pat = g.pattern();

@@ -342,7 +342,8 @@ fn coarse_factor(m: &CsrMatrix3) -> Result<CoarseFactor, SparseError> {
             SparseError::InvalidOption(format!("the coarsest Galerkin operator is not positive definite on channel {c}"))
         })
     };
-    Ok(CoarseFactor::new(&[factor(0)?, factor(1)?, factor(2)?]))
+    let ((f0, f1), f2) = rayon::join(|| rayon::join(|| factor(0), || factor(1)), || factor(2));
+    Ok(CoarseFactor::new(&[f0?, f1?, f2?]))
 }
 
 /// The diagonal of `a` on `rows`, checked positive (as [`inverse_diagonal`] checks it).
