@@ -22,7 +22,8 @@ use crate::sparse::hierarchy::{mg_pcg, Cascade, CascadeOptions, Hierarchy, Hiera
 use crate::sparse::{pcg, Preconditioner, PreconditionerKind, SolveOptions};
 
 /// Which solver a [`MultiresSolver`] runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
 #[non_exhaustive]
 pub enum Method {
     /// Single-level Jacobi PCG (mixed precision).
