@@ -16,12 +16,11 @@
 //!
 //! Both act per channel with the same `P`, rows computed in parallel, each summed in a fixed
 //! order: deterministic for any number of threads. [`galerkin`] works in two stages: the rows
-//! of `M P` first ([`ap_row`]), then each coarse row `c` as `Σ_u P_uc (M P)_u` over column `c`
-//! of `P` ([`galerkin_row`]); a fine row's `M P` row is computed once instead of once per coarse
-//! vertex it interpolates from (half the products of the one-stage triple loop on the bunny's
-//! levels). Each stage accumulates a row's terms in per-task arrays indexed by column (every
-//! column's terms added in a fixed order), then the row's distinct columns are ordered: no sort
-//! of the products themselves. [`galerkin_rows`] recomputes chosen coarse rows the same way,
+//! of `M P` first ([`ap_rows`]), then each coarse row `c` as `Σ_u P_uc (M P)_u` over column `c`
+//! of `P` ([`ptap_rows`]); a fine row's `M P` row is computed once instead of once per coarse
+//! vertex it interpolates from. Each stage accumulates a row's terms through per-task arrays
+//! indexed by column into per-task output blocks (every column's terms added in a fixed order),
+//! then the row's distinct columns are ordered: no sort of the products themselves. [`galerkin_rows`] recomputes chosen coarse rows the same way,
 //! bit for bit.
 
 use std::sync::Arc;
@@ -80,11 +79,52 @@ fn check_sizes(a: &CsrMatrix3, p: &Prolongation) -> Result<(), SparseError> {
     Ok(())
 }
 
+/// Sparse rows stored back to back: row `r`'s `(column, value)` entries are
+/// `entries[start[r]..start[r + 1]]`.
+struct Rows {
+    start: Vec<usize>,
+    entries: Vec<(u32, [f64; 3])>,
+}
+
+impl Rows {
+    fn row(&self, r: usize) -> &[(u32, [f64; 3])] {
+        &self.entries[self.start[r]..self.start[r + 1]]
+    }
+
+    /// Row by row, `count` rows (in parallel blocks, concatenated in order): `fill(i, acc,
+    /// out)` appends row `i`'s entries to `out` through `acc`.
+    fn build(count: usize, m: usize, fill: impl Fn(usize, &mut Accumulator, &mut Vec<(u32, [f64; 3])>) + Sync) -> Self {
+        let per_task = count.div_ceil(8 * rayon::current_num_threads()).max(1);
+        let blocks: Vec<Self> = (0..count.div_ceil(per_task))
+            .into_par_iter()
+            .map(|b| {
+                let mut acc = Accumulator::new(m);
+                let rows = b * per_task..((b + 1) * per_task).min(count);
+                let mut out = Self { start: Vec::with_capacity(rows.len()), entries: Vec::new() };
+                for i in rows {
+                    out.start.push(out.entries.len());
+                    acc.start_row();
+                    fill(i, &mut acc, &mut out.entries);
+                }
+                out
+            })
+            .collect();
+        let mut all = Self { start: Vec::with_capacity(count + 1), entries: Vec::with_capacity(blocks.iter().map(|b| b.entries.len()).sum()) };
+        for b in blocks {
+            let offset = all.entries.len();
+            all.start.extend(b.start.iter().map(|s| s + offset));
+            all.entries.extend_from_slice(&b.entries);
+        }
+        all.start.push(all.entries.len());
+        all
+    }
+}
+
 /// Scratch of a sparse row accumulation over columns `0..m`: `stamp[d] == mark` says column `d`
-/// is listed, at `slot[d]`.
+/// is in the current row, at `slot[d]` of the output.
 struct Accumulator {
     stamp: Vec<u32>,
-    slot: Vec<u32>,
+    slot: Vec<usize>,
     mark: u32,
 }
 
@@ -93,86 +133,71 @@ impl Accumulator {
         Self { stamp: vec![0; m], slot: vec![0; m], mark: 0 }
     }
 
-    /// Sums `terms` per column, in the order given: the distinct columns in the order first
-    /// reached, and their sums (the first term of a column is its start value, not `0 + term`).
-    fn sum(&mut self, terms: impl Iterator<Item = (u32, [f64; 3])>) -> (Vec<u32>, Vec<[f64; 3]>) {
+    fn start_row(&mut self) {
         self.mark = self.mark.wrapping_add(1);
         if self.mark == 0 {
             self.stamp.fill(0);
             self.mark = 1;
         }
-        let mut cols: Vec<u32> = Vec::new();
-        let mut sums: Vec<[f64; 3]> = Vec::new();
-        for (d, term) in terms {
-            let d = d as usize;
-            if self.stamp[d] == self.mark {
-                let o = &mut sums[self.slot[d] as usize];
-                for ch in 0..3 {
-                    o[ch] += term[ch];
-                }
-            } else {
-                self.stamp[d] = self.mark;
-                self.slot[d] = cols.len() as u32;
-                cols.push(d as u32);
-                sums.push(term);
+    }
+
+    /// Adds `term` to column `d` of the current row (its first term is its start value, not
+    /// `0 + term`; columns are listed in the order first reached).
+    #[inline(always)]
+    fn add(&mut self, d: u32, term: [f64; 3], out: &mut Vec<(u32, [f64; 3])>) {
+        let du = d as usize;
+        if self.stamp[du] == self.mark {
+            let o = &mut out[self.slot[du]].1;
+            o[0] += term[0];
+            o[1] += term[1];
+            o[2] += term[2];
+        } else {
+            self.stamp[du] = self.mark;
+            self.slot[du] = out.len();
+            out.push((d, term));
+        }
+    }
+
+    fn contains(&self, d: usize) -> bool {
+        self.stamp[d] == self.mark
+    }
+}
+
+/// The rows `rows` of `M P`: row `u` is `Σ_v M_uv P_v`, over row `u` of `M` in column order and
+/// each row `v` of `P` in its order.
+fn ap_rows(a: &CsrMatrix3, p: &Prolongation, rows: &[u32]) -> Rows {
+    let (ap, vals) = (a.pattern(), a.values());
+    Rows::build(rows.len(), p.n_coarse(), |r, acc, out| {
+        let u = rows[r] as usize;
+        for k in ap.row_ptr()[u]..ap.row_ptr()[u + 1] {
+            let m = vals[k];
+            let (pc, pw) = p.row(ap.col_idx()[k] as usize);
+            for (&d, &w) in pc.iter().zip(pw) {
+                acc.add(d, [m[0] * w, m[1] * w, m[2] * w], out);
             }
         }
-        (cols, sums)
-    }
+    })
 }
 
-/// Row `u` of `M P`: `Σ_v M_uv P_v`, over row `u` of `M` in column order and each row `v` of
-/// `P` in its order.
-fn ap_row(a: &CsrMatrix3, p: &Prolongation, u: usize, acc: &mut Accumulator) -> (Vec<u32>, Vec<[f64; 3]>) {
-    let (ap, vals) = (a.pattern(), a.values());
-    acc.sum((ap.row_ptr()[u]..ap.row_ptr()[u + 1]).flat_map(|k| {
-        let m = vals[k];
-        let (pc, pw) = p.row(ap.col_idx()[k] as usize);
-        pc.iter().zip(pw).map(move |(&d, &w)| (d, [m[0] * w, m[1] * w, m[2] * w]))
-    }))
-}
-
-/// Row `c` of `Pᵀ (M P)` before symmetrisation, with its columns ascending: `Σ_u P_uc (M P)_u`
-/// over column `c` of `P` in its order, `ap(u)` giving row `u` of `M P`. The diagonal is always
-/// listed.
-fn galerkin_row<'r>(
-    p: &Prolongation,
-    c: usize,
-    ap: impl Fn(usize) -> (&'r [u32], &'r [[f64; 3]]),
-    acc: &mut Accumulator,
-) -> (Vec<u32>, Vec<[f64; 3]>) {
-    let (fr, fw) = p.column(c);
-    let (mut cols, mut sums) = acc.sum(fr.iter().zip(fw).flat_map(|(&u, &w)| {
-        let (dc, dv) = ap(u as usize);
-        dc.iter().zip(dv).map(move |(&d, v)| (d, [v[0] * w, v[1] * w, v[2] * w]))
-    }));
-    if !cols.contains(&(c as u32)) {
-        cols.push(c as u32);
-        sums.push([0.0; 3]);
-    }
-    // Columns are distinct: order them by column.
-    let mut order: Vec<u32> = (0..cols.len() as u32).collect();
-    order.sort_unstable_by_key(|&t| cols[t as usize]);
-    (order.iter().map(|&t| cols[t as usize]).collect(), order.iter().map(|&t| sums[t as usize]).collect())
-}
-
-/// The rows `rows` (ascending) of `M P`, flattened: `(start offsets, columns, sums)`, row `r`'s
-/// entries at `start[r]..start[r + 1]`.
-fn ap_rows(a: &CsrMatrix3, p: &Prolongation, rows: &[u32]) -> (Vec<usize>, Vec<u32>, Vec<[f64; 3]>) {
-    let m = p.n_coarse();
-    let per_task = rows.len().div_ceil(8 * rayon::current_num_threads()).max(1);
-    let parts: Vec<(Vec<u32>, Vec<[f64; 3]>)> =
-        rows.par_iter().with_min_len(per_task).map_init(|| Accumulator::new(m), |acc, &u| ap_row(a, p, u as usize, acc)).collect();
-    let mut start = Vec::with_capacity(rows.len() + 1);
-    start.push(0);
-    let total: usize = parts.iter().map(|(c, _)| c.len()).sum();
-    let (mut cols, mut sums) = (Vec::with_capacity(total), Vec::with_capacity(total));
-    for (c, v) in parts {
-        cols.extend_from_slice(&c);
-        sums.extend_from_slice(&v);
-        start.push(cols.len());
-    }
-    (start, cols, sums)
+/// The rows `rows` of `Pᵀ (M P)` before symmetrisation, each with its columns ascending: row `c`
+/// is `Σ_u P_uc (M P)_u` over column `c` of `P` in its order, `ap(u)` giving row `u` of `M P`.
+/// The diagonal is always listed.
+fn ptap_rows<'r>(p: &Prolongation, rows: &[u32], ap: impl Fn(usize) -> &'r [(u32, [f64; 3])] + Sync) -> Rows {
+    Rows::build(rows.len(), p.n_coarse(), |r, acc, out| {
+        let c = rows[r] as usize;
+        let first = out.len();
+        let (fr, fw) = p.column(c);
+        for (&u, &w) in fr.iter().zip(fw) {
+            for &(d, v) in ap(u as usize) {
+                acc.add(d, [v[0] * w, v[1] * w, v[2] * w], out);
+            }
+        }
+        if !acc.contains(c) {
+            out.push((c as u32, [0.0; 3]));
+        }
+        // Columns are distinct: order them by column.
+        out[first..].sort_unstable_by_key(|e| e.0);
+    })
 }
 
 /// `Pᵀ M P`, exactly symmetrised (see the module documentation).
@@ -182,25 +207,11 @@ fn ap_rows(a: &CsrMatrix3, p: &Prolongation, rows: &[u32]) -> (Vec<usize>, Vec<u
 pub fn galerkin(a: &CsrMatrix3, p: &Prolongation) -> Result<CsrMatrix3, SparseError> {
     check_sizes(a, p)?;
     let m = p.n_coarse();
-    let all: Vec<u32> = (0..a.n() as u32).collect();
-    let (start, ap_cols, ap_sums) = ap_rows(a, p, &all);
-    let ap = |u: usize| (&ap_cols[start[u]..start[u + 1]], &ap_sums[start[u]..start[u + 1]]);
-    let rows: Vec<(Vec<u32>, Vec<[f64; 3]>)> = (0..m)
-        .into_par_iter()
-        .with_min_len(256)
-        .map_init(|| Accumulator::new(m), |acc, c| galerkin_row(p, c, ap, acc))
-        .collect();
-    drop((start, ap_cols, ap_sums));
-    let mut row_ptr = Vec::with_capacity(m + 1);
-    row_ptr.push(0);
-    let mut col_idx = Vec::new();
-    let mut values = Vec::new();
-    for (c, v) in rows {
-        col_idx.extend_from_slice(&c);
-        values.extend_from_slice(&v);
-        row_ptr.push(col_idx.len());
-    }
-    let pattern = Arc::new(CsrPattern::from_csr(m, row_ptr, col_idx)?);
+    let mp = ap_rows(a, p, &(0..a.n() as u32).collect::<Vec<_>>());
+    let rows = ptap_rows(p, &(0..m as u32).collect::<Vec<_>>(), |u| mp.row(u));
+    drop(mp);
+    let (col_idx, values): (Vec<u32>, Vec<[f64; 3]>) = rows.entries.into_iter().unzip();
+    let pattern = Arc::new(CsrPattern::from_csr(m, rows.start, col_idx)?);
     // Exact symmetry: the pattern is symmetric (M's is), so average mirrored entries.
     let sym: Vec<[f64; 3]> = (0..m)
         .into_par_iter()
@@ -255,30 +266,17 @@ pub fn galerkin_rows(a: &CsrMatrix3, p: &Prolongation, coarse: &mut CsrMatrix3, 
         }
     }
     let fine: Vec<u32> = (0..a.n() as u32).filter(|&u| need[u as usize]).collect();
-    let (start, ap_cols, ap_sums) = ap_rows(a, p, &fine);
-    let ap = |u: usize| {
-        let r = fine.binary_search(&(u as u32)).expect("the fine rows of the recomputed columns");
-        (&ap_cols[start[r]..start[r + 1]], &ap_sums[start[r]..start[r + 1]])
-    };
-    // The unsymmetrised sums of every recomputed row, in the coarse pattern's column order.
+    let mp = ap_rows(a, p, &fine);
+    let new_rows = ptap_rows(p, &rows, |u| mp.row(fine.binary_search(&(u as u32)).expect("the fine rows of the recomputed columns")));
     let pattern = Arc::clone(coarse.pattern());
-    let per_task = rows.len().div_ceil(8 * rayon::current_num_threads()).max(1);
-    let sums: Vec<Vec<[f64; 3]>> = rows
-        .par_iter()
-        .with_min_len(per_task)
-        .map_init(
-            || Accumulator::new(m),
-            |acc, &c| {
-                let c = c as usize;
-                let (cols, sums) = galerkin_row(p, c, ap, acc);
-                if cols != pattern.row(c) {
-                    let col = cols.iter().find(|d| pattern.row(c).binary_search(d).is_err()).map_or(c, |&d| d as usize);
-                    return Err(SparseError::NotInPattern { row: c, col });
-                }
-                Ok(sums)
-            },
-        )
-        .collect::<Result<_, _>>()?;
+    for (r, &c) in rows.iter().enumerate() {
+        let c = c as usize;
+        let row = new_rows.row(r);
+        if row.len() != pattern.row(c).len() || row.iter().zip(pattern.row(c)).any(|(e, &d)| e.0 != d) {
+            let col = row.iter().find(|e| pattern.row(c).binary_search(&e.0).is_err()).map_or(c, |e| e.0 as usize);
+            return Err(SparseError::NotInPattern { row: c, col });
+        }
+    }
     // Entries between two recomputed rows are the mean of their two new sums; the others keep
     // their values (see above).
     let mut slot = vec![u32::MAX; m];
@@ -291,13 +289,13 @@ pub fn galerkin_rows(a: &CsrMatrix3, p: &Prolongation, coarse: &mut CsrMatrix3, 
         .map(|(r, &c)| {
             let c = c as usize;
             (pattern.row_ptr()[c]..pattern.row_ptr()[c + 1])
-                .zip(&sums[r])
-                .filter_map(|(k, own)| {
+                .zip(new_rows.row(r))
+                .filter_map(|(k, &(_, own))| {
                     let d = pattern.col_idx()[k] as usize;
                     let rd = slot[d];
                     (rd != u32::MAX).then(|| {
                         let mirror = pattern.row(d).binary_search(&(c as u32)).expect("a Galerkin pattern is symmetric");
-                        (k, [0, 1, 2].map(|ch| 0.5 * (own[ch] + sums[rd as usize][mirror][ch])))
+                        (k, [0, 1, 2].map(|ch| 0.5 * (own[ch] + new_rows.row(rd as usize)[mirror].1[ch])))
                     })
                 })
                 .collect()
