@@ -364,6 +364,45 @@ fn a_failed_relight_or_paint_leaves_every_array_bit_identical() {
     assert!(snapshot(&ed) == before);
 }
 
+/// The names of the arrays [`snapshot`] takes per piece, in its order.
+const SNAPSHOT_ARRAYS: [&str; 6] = ["fluence", "radiance", "source q", "rhs b", "matrix values", "media table"];
+
+#[test]
+fn undo_relight_restores_every_array_and_the_next_relight_is_as_if_never_relit() {
+    let mut ed = editor(&ball(), marble().into(), &[sun(0.0)]);
+    ed.split(&Cutter::Plane { point: DVec3::ZERO, normal: DVec3::X }).unwrap();
+    assert_eq!(ed.pieces().len(), 2);
+    let never_relit = ed.clone();
+    let before = snapshot(&ed);
+    let (stats, undo) = ed.relight_with_undo(&[sun(30.0)]).unwrap();
+    assert_eq!(stats.pieces_solved, 2);
+    let relit = snapshot(&ed);
+    assert_eq!(relit.2, [sun(30.0)]);
+    for (k, (a, b)) in relit.0.iter().zip(&before.0).enumerate() {
+        // q, b, φ and radiance change with the light; the matrix and media do not.
+        assert_eq!(a == b, k % 6 >= 4, "piece {} {} after the relight", k / 6, SNAPSHOT_ARRAYS[k % 6]);
+    }
+    ed.undo_relight(undo);
+    let undone = snapshot(&ed);
+    assert_eq!(undone.0.len(), before.0.len());
+    for (k, (a, b)) in undone.0.iter().zip(&before.0).enumerate() {
+        assert!(a == b, "piece {} {} differs after undo_relight", k / 6, SNAPSHOT_ARRAYS[k % 6]);
+    }
+    assert!(undone.1 == before.1, "media");
+    assert_eq!(undone.2, [sun(0.0)]);
+    // Relighting from there is exactly a relight of the editor that never relit (same warm start).
+    let mut reference = never_relit;
+    let (a, b) = (ed.relight(&[sun(10.0)]).unwrap(), reference.relight(&[sun(10.0)]).unwrap());
+    assert_eq!(a.iterations, b.iterations);
+    assert!(a.iterations.iter().all(|&i| i > 0));
+    assert!(snapshot(&ed) == snapshot(&reference), "a relight after an undone one differs");
+    // An undo does not fit an editor whose pieces changed since the relight.
+    let (_, undo) = ed.relight_with_undo(&[sun(20.0)]).unwrap();
+    ed.recombine().unwrap();
+    let refused = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| ed.undo_relight(undo)));
+    assert!(refused.is_err(), "undo_relight accepted an undo of other pieces");
+}
+
 fn shadowed() -> EditOptions {
     EditOptions { shadows: true, ..options() }
 }

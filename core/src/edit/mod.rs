@@ -40,7 +40,9 @@
 //! **A failed call leaves the editor exactly as it was**, without copying the multi-megabyte
 //! state of the pieces on the way: a relight computes every q aside, swaps it in (the previous q
 //! and b kept) and solves into fresh vectors, storing φ and radiance only when every solve
-//! succeeded and putting q and b back otherwise; a paint or medium edit refills the touched rows
+//! succeeded and putting q and b back otherwise ([`Editor::relight_with_undo`] hands the
+//! replaced q, b, φ, radiance and lights back, so that a caller can undo a successful relight
+//! with [`Editor::undo_relight`]); a paint or medium edit refills the touched rows
 //! in place, keeping their previous values and media entries, prepares new solvers and solves
 //! aside, and restores those rows if anything failed; a move sets the transform in place and
 //! restores it on failure; cuts, splits, fractures and recombinations build new pieces aside.
@@ -201,6 +203,18 @@ impl UpdateStats {
     }
 }
 
+/// What [`Editor::relight_with_undo`] replaced, for [`Editor::undo_relight`]: per piece the
+/// previous transmitted source q and right-hand side b, fluence φ and radiance, and the previous
+/// lights, all moved out of the editor (no copy is made). Dropping it keeps the relight.
+#[derive(Debug)]
+#[must_use = "a relight's undo does nothing unless given to Editor::undo_relight"]
+pub struct RelightUndo {
+    pieces: Vec<piece::Replaced>,
+    /// The pieces' meshes the relight saw, to check that the undo fits the editor.
+    meshes: Vec<Arc<TetMesh>>,
+    lights: Vec<Light>,
+}
+
 /// An object being edited: the original mesh and its per-tet media, the pieces, the lights.
 /// See the module documentation for the data model.
 #[derive(Debug, Clone)]
@@ -359,19 +373,50 @@ impl Editor {
     }
 
     /// New lights: q recomputed on every piece (matrices unchanged), every piece re-solved from
-    /// its last φ.
+    /// its last φ. ([`Editor::relight_with_undo`] without the undo.)
     ///
     /// # Errors
     /// [`EditError::Light`] for an invalid light; [`EditError::Diffusion`] / [`EditError::Gpu`]
     /// from a solve. The editor is unchanged on error.
     pub fn relight(&mut self, lights: &[Light]) -> Result<UpdateStats, EditError> {
+        self.relight_with_undo(lights).map(|(stats, _)| stats)
+    }
+
+    /// [`Editor::relight`], also returning what it replaced, so that [`Editor::undo_relight`]
+    /// can put the editor back as it was before, bit for bit, without a copy of the editor
+    /// (for a caller that relights several editors and must undo them all when a later one
+    /// fails).
+    ///
+    /// # Errors
+    /// As [`Editor::relight`]; the editor is unchanged on error.
+    pub fn relight_with_undo(&mut self, lights: &[Light]) -> Result<(UpdateStats, RelightUndo), EditError> {
         let start = Instant::now();
         light::validate_lights(lights)?;
         let mut timings = Timings::default();
         let q = piece::sources(&self.pieces, lights, &self.options.source, self.occluder.as_deref(), &mut timings)?;
-        piece::relight_all(&mut self.pieces, q, &self.setup, &mut timings)?;
-        self.lights = lights.to_vec();
-        Ok(UpdateStats::new(&timings, 0, 0, start))
+        let pieces = piece::relight_all(&mut self.pieces, q, &self.setup, &mut timings)?;
+        let meshes = self.pieces.iter().map(|p| Arc::clone(&p.mesh)).collect();
+        let lights = std::mem::replace(&mut self.lights, lights.to_vec());
+        Ok((UpdateStats::new(&timings, 0, 0, start), RelightUndo { pieces, meshes, lights }))
+    }
+
+    /// Undoes the relight that returned `undo`: every piece gets back its q, b, φ and radiance,
+    /// the editor its lights, bit for bit as before that relight. `undo` must come from this
+    /// editor's last update (after another update the pieces' φ would not match their media or
+    /// meshes).
+    ///
+    /// # Panics
+    /// When the pieces are not those the relight saw (their number or meshes changed since).
+    pub fn undo_relight(&mut self, undo: RelightUndo) {
+        assert!(
+            undo.meshes.len() == self.pieces.len()
+                && undo.meshes.iter().zip(&self.pieces).all(|(m, p)| Arc::ptr_eq(m, &p.mesh)),
+            "undo_relight: the editor's pieces changed since the relight"
+        );
+        for (piece, replaced) in self.pieces.iter_mut().zip(undo.pieces) {
+            replaced.restore(piece);
+        }
+        self.lights = undo.lights;
     }
 
     /// Applies a material edit to the original tets of its region ([`Region::select`]) and

@@ -9,6 +9,7 @@ use glam::{DMat3, DMat4, DVec3};
 use rayon::prelude::*;
 
 use super::error::EditError;
+use crate::diffusion::assembly::SourceState;
 use crate::diffusion::{self, DiffusionError, DiffusionSystem, Method, MultiresSolver, Solution};
 use crate::gpu::{self, Backend, GpuError};
 use crate::light::{self, Light, SourceOptions};
@@ -207,8 +208,10 @@ pub(crate) fn sources(
 }
 
 /// Sets every piece's source to its q of `q` ([`sources`]) and solves it from its last φ; on
-/// success the pieces take the new φ and radiance. On error every piece is as before (the
-/// sources already replaced are put back; φ and radiance are only written at the end).
+/// success the pieces take the new φ and radiance, and what they held before comes back per
+/// piece (moved out, not copied; [`Replaced::restore`] puts it back). On error every piece is as
+/// before (the sources already replaced are put back; φ and radiance are only written at the
+/// end).
 ///
 /// # Errors
 /// [`EditError::Diffusion`] for an invalid q; those of [`solution`].
@@ -217,7 +220,7 @@ pub(crate) fn relight_all(
     q: Vec<Vec<[f64; 3]>>,
     setup: &SolveSetup,
     timings: &mut Timings,
-) -> Result<(), EditError> {
+) -> Result<Vec<Replaced>, EditError> {
     let mut replaced = Vec::with_capacity(pieces.len());
     let mut solved = Vec::with_capacity(pieces.len());
     let mut failure = None;
@@ -243,10 +246,28 @@ pub(crate) fn relight_all(
         }
         return Err(e);
     }
-    for (piece, s) in pieces.iter_mut().zip(solved) {
-        s.store(piece);
+    Ok(pieces
+        .iter_mut()
+        .zip(replaced.into_iter().zip(solved))
+        .map(|(piece, (source, s))| Replaced { source, solution: s.store(piece) })
+        .collect())
+}
+
+/// What [`relight_all`] replaced in one piece: its q and b, φ and radiance.
+#[derive(Debug)]
+pub(crate) struct Replaced {
+    source: SourceState,
+    solution: Solved,
+}
+
+impl Replaced {
+    /// Puts the piece's previous q, b, φ and radiance back (bit for bit; the piece must be the
+    /// one [`relight_all`] replaced them in, unchanged since).
+    pub(crate) fn restore(self, piece: &mut Piece) {
+        piece.system.restore_source(self.source);
+        // The returned vectors are the relight's, dropped.
+        self.solution.store(piece);
     }
-    Ok(())
 }
 
 /// Recomputes every piece's q with the occluder of their current placement ([`occluder`]) and
@@ -270,17 +291,21 @@ pub(crate) fn light_and_solve(
     Ok(occluder)
 }
 
-/// A solve's result for one piece, not yet stored in it.
+/// A solve's result for one piece, not yet stored in it (or, from [`Solved::store`], the one it
+/// replaced).
+#[derive(Debug)]
 pub(crate) struct Solved {
     fluence: Vec<[f64; 3]>,
     radiance: Vec<[f64; 3]>,
 }
 
 impl Solved {
-    /// Makes this the piece's φ and radiance.
-    pub(crate) fn store(self, piece: &mut Piece) {
-        piece.fluence = self.fluence;
-        piece.radiance = self.radiance;
+    /// Makes this the piece's φ and radiance; returns the ones it replaced (moved, not copied).
+    pub(crate) fn store(self, piece: &mut Piece) -> Solved {
+        Solved {
+            fluence: std::mem::replace(&mut piece.fluence, self.fluence),
+            radiance: std::mem::replace(&mut piece.radiance, self.radiance),
+        }
     }
 }
 
