@@ -4,15 +4,18 @@
 //! `tc_scene_bake` keeps every object's bake (its tet mesh, media and fluence) with the lights
 //! it was solved under (an [`EditSession`]). The first edit of an object starts its editor from
 //! that bake (`Editor::from_bake`, warm-started from the bake's fluence) with the bake's options.
-//! Every call builds its new state aside (the editor leaves itself unchanged on error; a fresh
-//! editor is kept only when the edit succeeded; a relight builds every object's editor aside and
-//! swaps them all in at the end), so a failed call changes nothing.
+//! A failed call changes nothing: the editor leaves itself unchanged on error and a fresh editor
+//! is kept only when the edit succeeded. A relight relights the objects' editors in place, one
+//! after the other, keeping each one's undo (`Editor::relight_with_undo`, no copy of an editor),
+//! and on a failure or cancellation undoes those already relit, last first.
 
 use std::ffi::c_void;
 
 use glam::{DMat4, DVec3};
 use transcut_core::edit::cut::{Cutter, SweptStroke};
-use transcut_core::edit::{EditError, EditOptions, Editor, MediumEdit, MediumOp, PaintStroke, Piece, Region, UpdateStats};
+use transcut_core::edit::{
+    EditError, EditOptions, Editor, MediumEdit, MediumOp, PaintStroke, Piece, Region, RelightUndo, UpdateStats,
+};
 use transcut_core::light::Light;
 use transcut_core::mesh::TriMesh;
 use transcut_core::optics::Medium;
@@ -172,15 +175,48 @@ impl EditSession {
     }
 }
 
+/// What `tc_scene_relight` did to one object, to undo it when a later object fails.
+enum Relit {
+    /// The object's editor was relit in place; this puts it back.
+    Existing(RelightUndo),
+    /// The object had no editor: one was made from its bake (which the slot keeps until the
+    /// relight of every object succeeded) and relit.
+    Created,
+}
+
 impl EditSlot {
-    /// The object's editor, or a new one from its bake (not stored).
-    fn editor_or_new(&self, lights: &[Light], options: &EditOptions) -> Result<std::borrow::Cow<'_, Editor>, Failure> {
-        match (&self.editor, &self.bake) {
-            (Some(e), _) => Ok(std::borrow::Cow::Borrowed(e)),
-            (None, Some(bake)) => Editor::from_bake(bake, self.mm_per_unit, lights, options)
-                .map(std::borrow::Cow::Owned)
-                .map_err(|e| edit_failure(&e)),
-            (None, None) => Err(Failure::new(super::status::TC_INTERNAL_ERROR, "an object with neither bake nor editor")),
+    /// A new editor from the object's bake (not stored), solved under `lights` (the lights the
+    /// bake was solved under).
+    fn new_editor(&self, lights: &[Light], options: &EditOptions) -> Result<Editor, Failure> {
+        let bake = self.bake.as_deref().ok_or_else(|| {
+            Failure::new(super::status::TC_INTERNAL_ERROR, "an object with neither bake nor editor")
+        })?;
+        Editor::from_bake(bake, self.mm_per_unit, lights, options).map_err(|e| edit_failure(&e))
+    }
+
+    /// Relights the object's editor in place under `lights`, or makes one from its bake (solved
+    /// under `baked`, the session's lights), relights it and stores it; the bake and the last
+    /// statistics stay. Unchanged on error; [`EditSlot::undo_relight`] undoes a success.
+    fn relight(&mut self, baked: &[Light], lights: &[Light], options: &EditOptions) -> Result<(UpdateStats, Relit), Failure> {
+        if let Some(editor) = self.editor.as_deref_mut() {
+            let (stats, undo) = editor.relight_with_undo(lights).map_err(|e| edit_failure(&e))?;
+            return Ok((stats, Relit::Existing(undo)));
+        }
+        let mut editor = self.new_editor(baked, options)?;
+        let stats = editor.relight(lights).map_err(|e| edit_failure(&e))?;
+        self.editor = Some(Box::new(editor));
+        Ok((stats, Relit::Created))
+    }
+
+    /// Undoes [`EditSlot::relight`]: the editor as before it, or no editor (the bake was kept).
+    fn undo_relight(&mut self, relit: Relit) {
+        match relit {
+            Relit::Existing(undo) => {
+                if let Some(editor) = self.editor.as_deref_mut() {
+                    editor.undo_relight(undo);
+                }
+            }
+            Relit::Created => self.editor = None,
         }
     }
 }
@@ -242,7 +278,7 @@ fn edit_object(
     let (editor, stats) = with_threads(threads, || -> Result<_, Failure> {
         let mut editor = match slot.editor.take() {
             Some(e) => e,
-            None => Box::new(slot.editor_or_new(lights, options)?.into_owned()),
+            None => Box::new(slot.new_editor(lights, options)?),
         };
         match op(&mut editor) {
             Ok(stats) => Ok((editor, stats)),
@@ -365,41 +401,62 @@ pub unsafe extern "C" fn tc_scene_relight(scene: *mut TcScene, progress: TcProgr
             with_scene(scene, |s| {
                 let lights = s.scene.lights.clone();
                 let names: Vec<String> = s.scene.objects.iter().map(|o| o.name.clone()).collect();
-                let session = s.session.as_ref().ok_or_else(not_baked)?;
-                let n = session.objects.len();
-                let cancelled = || Failure::new(TC_CANCELLED, "cancelled by the progress callback; nothing changed");
-                let updated = with_threads(session.threads, || -> Result<Vec<_>, Failure> {
-                    let mut out = Vec::with_capacity(n);
-                    for (i, slot) in session.objects.iter().enumerate() {
-                        if !report(&format!("{}: relight", names[i]), i as f64 / n as f64) {
-                            return Err(cancelled());
-                        }
-                        let mut editor = slot.editor_or_new(&session.lights, &session.options)?.into_owned();
-                        let stats = editor
-                            .relight(&lights)
-                            .map_err(|e| edit_failure(&e))
-                            .map_err(|f| Failure::new(f.status, format!("object {i} ({}): {}", names[i], f.message)))?;
-                        out.push((editor, stats));
-                    }
-                    if !report("relight: done", 1.0) {
-                        return Err(cancelled());
-                    }
-                    Ok(out)
-                })??;
-                let session = s.session.as_mut().ok_or_else(not_baked)?;
-                let mut results = Vec::with_capacity(n);
-                for (slot, (editor, stats)) in session.objects.iter_mut().zip(updated) {
-                    results.push(ObjectResult { radiance: editor.user_radiance(), stats: slot.bake_stats.clone() });
-                    slot.editor = Some(Box::new(editor));
+                let EditSession { lights: baked, options, threads, objects } = s.session.as_mut().ok_or_else(not_baked)?;
+                let stats = with_threads(*threads, || relight_objects(objects, baked, &lights, options, &names, report))??;
+                let mut results = Vec::with_capacity(objects.len());
+                for (slot, stats) in objects.iter_mut().zip(stats) {
+                    let radiance = slot.editor.as_deref().and_then(Editor::user_radiance);
+                    results.push(ObjectResult { radiance, stats: slot.bake_stats.clone() });
                     slot.bake = None;
                     slot.last = Some(stats);
                 }
-                session.lights = lights;
+                *baked = lights;
                 s.results = Some(results);
                 Ok(())
             })
         }
     })
+}
+
+/// Relights every object in place under `lights` ([`EditSlot::relight`]), reporting progress
+/// before each and once at the end; returns each object's statistics. On a failure (named after
+/// the object) or a cancellation, the objects relit so far are undone, last first, so that every
+/// object is as before.
+fn relight_objects(
+    objects: &mut [EditSlot],
+    baked: &[Light],
+    lights: &[Light],
+    options: &EditOptions,
+    names: &[String],
+    report: impl Fn(&str, f64) -> bool,
+) -> Result<Vec<UpdateStats>, Failure> {
+    let n = objects.len();
+    let cancelled = || Failure::new(TC_CANCELLED, "cancelled by the progress callback; nothing changed");
+    let mut done = Vec::with_capacity(n);
+    let mut failure = None;
+    for (i, slot) in objects.iter_mut().enumerate() {
+        if !report(&format!("{}: relight", names[i]), i as f64 / n as f64) {
+            failure = Some(cancelled());
+            break;
+        }
+        match slot.relight(baked, lights, options) {
+            Ok(r) => done.push(r),
+            Err(f) => {
+                failure = Some(Failure::new(f.status, format!("object {i} ({}): {}", names[i], f.message)));
+                break;
+            }
+        }
+    }
+    if failure.is_none() && !report("relight: done", 1.0) {
+        failure = Some(cancelled());
+    }
+    if let Some(f) = failure {
+        for (slot, (_, relit)) in objects.iter_mut().zip(done).rev() {
+            slot.undo_relight(relit);
+        }
+        return Err(f);
+    }
+    Ok(done.into_iter().map(|(stats, _)| stats).collect())
 }
 
 /// The number of tetrahedra of the object as baked, in `*out` (the length of a

@@ -440,3 +440,64 @@ fn relight_progress_and_cancel_change_nothing() {
     assert!(radiance(s, 0).iter().all(|x| x.is_finite() && *x > 0.0), "lit by the sky everywhere");
     destroy(s);
 }
+
+/// Two marble spheres baked under a sun (object 0 then painted, so it has an editor; object 1
+/// only its bake), then lit by a sky instead: the state a relight starts from.
+fn painted_and_baked_pair(mesh: &Mesh) -> *mut TcScene {
+    let s = scene();
+    let ink = TcMedium { sigma_a: [1.0, 1.0, 0.01], sigma_s_prime: [2.0; 3], eta: 1.5, g: 0.0 }; // marble: eta 1.5
+    // SAFETY: valid pointers.
+    unsafe {
+        for _ in 0..2 {
+            let ball = add(s, mesh);
+            ok(tc_object_set_medium_preset(s, ball, cstr(c"marble")), "preset");
+        }
+        ok(tc_scene_add_sun(s, [0.0, 0.0, -1.0].as_ptr(), [3.0, 2.5, 2.0].as_ptr(), 0.0), "sun");
+        ok(tc_scene_bake(s, &bake_options(), None, ptr::null_mut()), "bake");
+        ok(tc_object_paint(s, 0, [10.0, 0.0, 0.0].as_ptr(), 1, 2.0, &ink, 1.0), "paint");
+        ok(tc_scene_clear_lights(s), "clear");
+        ok(tc_scene_add_environment(s, [0.5; 3].as_ptr()), "sky");
+    }
+    s
+}
+
+/// A relight stopped after some objects were relit in place (cancelled at the second object's
+/// report, or at the final one after both) undoes them: the edited object keeps its pieces and
+/// last statistics, the object that had only its bake gets no editor; the next relight then
+/// gives exactly (bit for bit) what it gives on a scene that never saw the stopped relights.
+#[test]
+fn a_relight_stopped_after_the_first_object_changes_no_object() {
+    let mesh = Mesh::uv_sphere(10.0, 24, 12);
+    let s = painted_and_baked_pair(&mesh);
+    let painted = edit_stats(s, 0);
+    let pieces = piece(s, 0, 0);
+    for cancel_at in [2, 3] {
+        let mut r = Relight { calls: 0, cancel_at, fractions: Vec::new() };
+        // SAFETY: valid pointers; `r` outlives the call.
+        let status = unsafe { tc_scene_relight(s, Some(on_relight), (&raw mut r).cast()) };
+        fails(status, TC_CANCELLED, &["nothing changed"]);
+        assert_eq!(r.fractions, [0.0, 0.5, 1.0][..cancel_at as usize]);
+        assert_eq!(edit_stats(s, 0), painted, "cancelled at report {cancel_at}: object 0's statistics changed");
+        assert!(piece(s, 0, 0) == pieces, "cancelled at report {cancel_at}: object 0's piece changed");
+        let mut n = 0;
+        // SAFETY: valid pointers.
+        unsafe {
+            fails(tc_object_piece_count(s, 1, &mut n), TC_NOT_BAKED, &["has not been edited"]);
+            let mut out = vec![0f32; 3 * mesh.vertex_count()];
+            fails(tc_object_radiance(s, 0, out.as_mut_ptr(), out.len()), TC_NOT_BAKED, &[]);
+        }
+    }
+    let reference = painted_and_baked_pair(&mesh);
+    for scene in [s, reference] {
+        // SAFETY: valid pointers.
+        ok(unsafe { tc_scene_relight(scene, None, ptr::null_mut()) }, "relight");
+    }
+    for object in 0..2 {
+        assert!(radiance(s, object) == radiance(reference, object), "object {object} differs from the reference");
+        assert!(piece(s, object, 0) == piece(reference, object, 0), "object {object}'s piece differs from the reference");
+        assert_eq!(edit_stats(s, object).iterations, edit_stats(reference, object).iterations);
+    }
+    assert!(radiance(s, 0) != radiance(s, 1), "the paint shows");
+    destroy(s);
+    destroy(reference);
+}
