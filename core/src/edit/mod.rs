@@ -24,8 +24,8 @@
 //!   shadows from all pieces' world surfaces; the matrices do not change;
 //! - [`Editor::edit_medium`] and [`Editor::paint`]: the per-tet table changes, and only the
 //!   matrix rows of the vertices of the affected tets are refilled
-//!   ([`crate::diffusion::DiffusionSystem::update_media_rows`], TransCut §5.2); the solver's
-//!   matrix-dependent parts are rebuilt on its hierarchy;
+//!   ([`crate::diffusion::DiffusionSystem::update_media_rows`], TransCut §5.2), and the solver
+//!   follows those rows ([`crate::diffusion::MultiresSolver::refresh_rows`], see "Solver");
 //! - cuts, splits, fracture, moves and recombination rebuild the affected pieces' meshes,
 //!   systems and hierarchies (TransCut §5.1) and re-light every piece (the shadows change).
 //!   [`Editor::cut`] deletes the cutter's positive side and snaps the cut surface onto it
@@ -33,6 +33,19 @@
 //!   moves nothing, so the parts fit together exactly and [`Editor::recombine`] restores them;
 //!   [`Editor::fracture`] separates connected components; pieces move rigidly
 //!   ([`Editor::set_piece_transform`]) and each is solved with its own boundary.
+//!
+//! # Solver
+//!
+//! Updates solve with CG preconditioned by a multigrid V-cycle on the §4 hierarchy
+//! ([`Method::MultigridPcg`], the default of [`EditOptions::method`]), the fastest of the three
+//! methods for an editor's repeated solves. `transcut bench edit` on the 500k-tet bunny (2
+//! cores): a relight after a 5° sun move takes 6 iterations, about 90 ms, against about 100
+//! iterations and 160 ms for Jacobi PCG; a 6,000-row paint stroke about 170 ms (PCG: 200 ms).
+//! Its price is the build, about 1 s per piece mesh (at the editor's start and after cuts,
+//! splits, fractures and recombinations). A paint or medium edit does not rebuild it: the
+//! multigrid recomputes only what the refilled rows reach, level by level
+//! ([`crate::sparse::hierarchy::Multigrid::refresh`], about 70 ms for that stroke), with a
+//! result bit-identical to a rebuild.
 //!
 //! Every solve is **warm-started** from the previous φ (TransCut §4.2; after a cut φ is carried
 //! over through the kept vertices). Every method returns [`UpdateStats`] with the stage timings.
@@ -94,7 +107,7 @@ pub struct EditOptions {
     /// Iteration cap of every solve.
     pub max_iterations: usize,
     /// The solver of the updates (default [`Method::MultigridPcg`], the fastest: see
-    /// [`Editor`]'s "Solver" section).
+    /// the module documentation's "Solver" section).
     pub method: Method,
     /// Where [`Method::Pcg`] solves run (as [`BakeOptions::backend`]; `None`: `TRANSCUT_BACKEND`,
     /// else auto). The multiresolution methods run on the CPU.

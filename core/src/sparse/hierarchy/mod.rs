@@ -6,7 +6,8 @@
 //!   random codes ([`codes`]), enhanced until no edge connection is lost, and `E^{l+1}` links
 //!   vertices that were two-ring neighbours (`edges.rs`). Each level carries the interpolation
 //!   `P` of eq. 16 with 1/edge-length weights ([`Prolongation`]).
-//! * [`substituted`] (eq. 17) and [`galerkin`] (`Pᵀ M P`): coarse operators (`coarse.rs`).
+//! * [`substituted`] (eq. 17) and [`galerkin`] (`Pᵀ M P`, and [`galerkin_rows`] to follow a
+//!   change of some fine rows): coarse operators (`coarse.rs`).
 //! * [`Cascade`] (§4.2): the paper's coarse-to-fine solver — BiCGSTAB on the (nonsymmetric)
 //!   eq.-17 systems from the coarsest level up, each level started from the interpolated
 //!   coarser solution, CG at level 0.
@@ -79,7 +80,7 @@ use std::sync::Arc;
 use glam::DVec3;
 
 pub use cascade::{Cascade, CascadeOptions, CascadeStats};
-pub use coarse::{galerkin, substituted};
+pub use coarse::{galerkin, galerkin_rows, substituted};
 pub use interpolation::Prolongation;
 pub use vcycle::{mg_pcg, Multigrid, MultigridOptions};
 pub use edges::lost_connections;
