@@ -97,7 +97,8 @@ pub struct HierarchyOptions {
     /// multigrid factors the coarsest Galerkin operator densely (three channels, `n³/3` each),
     /// on setup and whenever a paint reaches it ([`Multigrid::refresh`]); on the 500k-tet bunny
     /// a stop at 600 left 540 vertices (27 ms per factorisation, a fifth of a refresh), a stop
-    /// at 150 one level more with 110 (0.3 ms), with the same iteration counts.
+    /// at 150 one level more with 110 (0.3 ms), with the same iteration counts (the error
+    /// after 2 MG-PCG iterations rises from 0.37% to 0.59%; 1% is still reached in 2).
     pub min_vertices: usize,
     /// Stop coarsening when a level keeps more than this fraction of the vertices of the level
     /// above (the graph no longer shrinks usefully). Default 0.8.
