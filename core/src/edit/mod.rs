@@ -56,8 +56,9 @@
 //! succeeded and putting q and b back otherwise ([`Editor::relight_with_undo`] hands the
 //! replaced q, b, φ, radiance and lights back, so that a caller can undo a successful relight
 //! with [`Editor::undo_relight`]); a paint or medium edit refills the touched rows
-//! in place, keeping their previous values and media entries, prepares new solvers and solves
-//! aside, and restores those rows if anything failed; a move sets the transform in place and
+//! in place, keeping their previous values and media entries, refreshes the solvers in place
+//! and solves aside, and if anything failed restores those rows and refreshes the solvers back
+//! (bit for bit, see "Solver"); a move sets the transform in place and
 //! restores it on failure; cuts, splits, fractures and recombinations build new pieces aside.
 //! The shadow occluder (the pieces' world-space boundary in a BVH) is built once per placement
 //! of the pieces (bake, cut, split, fracture, move, recombine) and reused by every relight.
@@ -512,8 +513,8 @@ impl Editor {
 
     /// Refills piece `index`'s rows for `entries` (local tet, new medium) in place, pushing the
     /// undo record onto `undo` first thing, refreshes the solver in place for the new matrix
-    /// ([`crate::diffusion::MultiresSolver::refresh_rows`]: for MG-PCG only what the rows reach) and solves; the
-    /// piece's φ and radiance are left as they were.
+    /// ([`crate::diffusion::MultiresSolver::refresh_rows`]: for MG-PCG only what the rows
+    /// reach) and solves; the piece's φ and radiance are left as they were.
     fn refill_and_solve(
         &mut self,
         index: usize,
