@@ -40,12 +40,17 @@ fn bench_edit_reports_every_edit_consistently() {
     assert!(sum(&e["cold_bake"]["iterations"]) > 0);
     positive(&e["cold_bake"]["median_solve_ms"], "cold solve ms");
     let relight = &e["relight_5deg"];
-    let cold = sum(&relight["cold"]["iterations"]);
+    assert_eq!(relight["method"], "multigrid_pcg", "the editor's default solver");
+    let cold_bake = sum(&relight["cold"]["iterations"]);
+    let cold = sum(&relight["cold_same_method_iterations"]);
     let warm = sum(&relight["warm"]["last"]["iterations"]);
     assert!(cold > 0 && warm > 0, "cold {cold}, warm {warm}");
     assert!(warm <= cold, "a warm start took more iterations ({warm}) than a cold solve ({cold})");
+    assert!(cold < cold_bake, "MG-PCG ({cold}) needs fewer iterations than Jacobi PCG ({cold_bake})");
     let ratio = relight["iteration_ratio"].as_f64().unwrap();
     assert!((ratio - warm as f64 / cold as f64).abs() < 1e-12, "{ratio}");
+    let ratio_bake = relight["iteration_ratio_vs_cold_bake"].as_f64().unwrap();
+    assert!((ratio_bake - warm as f64 / cold_bake as f64).abs() < 1e-12, "{ratio_bake}");
     assert_eq!(relight["warm"]["last"]["rows_rebuilt"], 0, "a relight rebuilds no rows");
     // Both solves reach the same solution (tolerance 1e-6 on the residual).
     let diff = relight["relative_difference_vs_cold"].as_f64().unwrap();
