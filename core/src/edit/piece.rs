@@ -150,7 +150,8 @@ pub(crate) fn build(
     let t = Instant::now();
     mesh.set_materials((0..mesh.tet_count() as u32).collect())?;
     let table = local_table(media, &original_tets);
-    let system = diffusion::assemble(&mesh, &table, setup.mm_per_unit)?;
+    let mut system = diffusion::assemble(&mesh, &table, setup.mm_per_unit)?;
+    system.keep_coefficients();
     timings.assembly_ms += ms(t);
     let t = Instant::now();
     let solver = MultiresSolver::new(&system, setup.method, &HierarchyOptions::default())?;
