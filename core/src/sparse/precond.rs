@@ -46,16 +46,26 @@ pub struct Jacobi {
     op: ScaledOperator,
 }
 
-pub(crate) fn inverse_diagonal(a: &CsrMatrix3) -> Result<Vec<[f64; 3]>, SparseError> {
-    let vals = a.values();
-    let dpos = a.pattern().diagonal_positions();
-    let bad = |v: &[f64; 3]| v.iter().position(|&x| !(x > 0.0 && x.is_finite()));
-    if let Some(row) = dpos.par_iter().position_first(|&k| bad(&vals[k]).is_some()) {
-        let v = vals[dpos[row]];
-        let channel = bad(&v).unwrap_or(0);
-        return Err(SparseError::NonPositiveDiagonal { row, channel, value: v[channel] });
+/// The diagonal entry of row `row` of `a`, checked positive and finite on every channel.
+///
+/// # Errors
+/// [`SparseError::NonPositiveDiagonal`] naming the first bad channel.
+pub(crate) fn positive_diagonal(a: &CsrMatrix3, row: usize) -> Result<[f64; 3], SparseError> {
+    let v = a.values()[a.pattern().diagonal_positions()[row]];
+    match (0..3).find(|&c| !(v[c] > 0.0 && v[c].is_finite())) {
+        Some(channel) => Err(SparseError::NonPositiveDiagonal { row, channel, value: v[channel] }),
+        None => Ok(v),
     }
-    Ok(dpos.par_iter().map(|&k| vals[k].map(|x| 1.0 / x)).collect())
+}
+
+/// `1 / a_ii` per row and channel; the error names the first row whose diagonal is not positive
+/// ([`positive_diagonal`]).
+pub(crate) fn inverse_diagonal(a: &CsrMatrix3) -> Result<Vec<[f64; 3]>, SparseError> {
+    if let Some(row) = (0..a.n()).into_par_iter().position_first(|i| positive_diagonal(a, i).is_err()) {
+        positive_diagonal(a, row)?;
+    }
+    let vals = a.values();
+    Ok(a.pattern().diagonal_positions().par_iter().map(|&k| vals[k].map(|x| 1.0 / x)).collect())
 }
 
 impl Jacobi {

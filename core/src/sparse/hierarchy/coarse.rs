@@ -20,8 +20,8 @@
 //! of `P` ([`ptap_rows`]); a fine row's `M P` row is computed once instead of once per coarse
 //! vertex it interpolates from. Each stage accumulates a row's terms through per-task arrays
 //! indexed by column into per-task output blocks (every column's terms added in a fixed order),
-//! then the row's distinct columns are ordered: no sort of the products themselves. [`galerkin_rows`] recomputes chosen coarse rows the same way,
-//! bit for bit.
+//! then the row's distinct columns are ordered: no sort of the products themselves.
+//! [`galerkin_rows`] recomputes chosen coarse rows the same way, bit for bit.
 
 use std::sync::Arc;
 
@@ -241,7 +241,7 @@ pub fn galerkin(a: &CsrMatrix3, p: &Prolongation) -> Result<CsrMatrix3, SparseEr
 /// # Errors
 /// [`SparseError::DimensionMismatch`] for mismatched sizes; [`SparseError::IndexOutOfRange`]
 /// for a row outside `a`; [`SparseError::NotInPattern`] if `coarse` is not the Galerkin
-/// operator of `a`'s pattern (then `coarse` may be partly updated).
+/// operator of `a`'s pattern. `coarse` is unchanged on error.
 pub fn galerkin_rows(a: &CsrMatrix3, p: &Prolongation, coarse: &mut CsrMatrix3, fine_rows: &[u32]) -> Result<Vec<u32>, SparseError> {
     check_sizes(a, p)?;
     let m = p.n_coarse();

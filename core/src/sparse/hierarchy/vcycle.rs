@@ -49,7 +49,7 @@ use rayon::prelude::*;
 use super::coarse::{galerkin, galerkin_rows};
 use super::Hierarchy;
 use crate::sparse::ops::{dot3, norm3, row_mul, CHUNK};
-use crate::sparse::precond::inverse_diagonal;
+use crate::sparse::precond::{inverse_diagonal, positive_diagonal};
 use crate::sparse::pcg::{spmv_dot, update};
 use crate::sparse::{CsrMatrix3, CsrPattern, SolveOptions, SolveStats, SparseError};
 
@@ -348,19 +348,9 @@ fn coarse_factor(m: &CsrMatrix3) -> Result<CoarseFactor, SparseError> {
     Ok(CoarseFactor::new(&[f0?, f1?, f2?]))
 }
 
-/// The diagonal of `a` on `rows`, checked positive (as [`inverse_diagonal`] checks it).
+/// The diagonal of `a` on `rows`, checked positive ([`positive_diagonal`]).
 fn diagonal_rows(a: &CsrMatrix3, rows: &[u32]) -> Result<Vec<[f64; 3]>, SparseError> {
-    let dpos = a.pattern().diagonal_positions();
-    rows.iter()
-        .map(|&i| {
-            let i = i as usize;
-            let d = a.values()[dpos[i]];
-            match (0..3).find(|&c| !(d[c] > 0.0 && d[c].is_finite())) {
-                Some(channel) => Err(SparseError::NonPositiveDiagonal { row: i, channel, value: d[channel] }),
-                None => Ok(d),
-            }
-        })
-        .collect()
+    rows.iter().map(|&i| positive_diagonal(a, i as usize)).collect()
 }
 
 /// The per-channel maximum of `bounds`.
