@@ -74,6 +74,7 @@ fn pcg_matches_dense_cholesky_for_each_preconditioner() {
             PreconditionerKind::Jacobi,
             PreconditionerKind::Chebyshev { degree: 1 },
             PreconditionerKind::Chebyshev { degree: 3 },
+            PreconditionerKind::Ssor,
         ] {
             let pc = Preconditioner::new(&a, kind).unwrap();
             for precision in [Precision::Mixed, Precision::Double] {
@@ -320,7 +321,7 @@ fn results_are_bit_identical_for_1_2_and_3_threads() {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| {
             let mut out = Vec::new();
-            for kind in [PreconditionerKind::Jacobi, PreconditionerKind::Chebyshev { degree: 2 }] {
+            for kind in [PreconditionerKind::Jacobi, PreconditionerKind::Chebyshev { degree: 2 }, PreconditionerKind::Ssor] {
                 let pc = Preconditioner::new(&a, kind).unwrap();
                 for precision in [Precision::Mixed, Precision::Double] {
                     let mut x = vec![[0.0; 3]; a.n()];
@@ -640,6 +641,7 @@ fn bench_preconditioners_on_the_86k_proxy() {
         PreconditionerKind::Chebyshev { degree: 2 },
         PreconditionerKind::Chebyshev { degree: 3 },
         PreconditionerKind::Chebyshev { degree: 4 },
+        PreconditionerKind::Ssor,
     ];
     let rounds: usize = std::env::var("ROUNDS").ok().and_then(|v| v.parse().ok()).unwrap_or(7);
     let mut pcs = Vec::new();

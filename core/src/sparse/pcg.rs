@@ -65,6 +65,12 @@ pub fn pcg(
     let (op, cheb) = match (options.precision, precond) {
         (Precision::Mixed, Preconditioner::Jacobi(j)) => (j.operator(), None),
         (Precision::Mixed, Preconditioner::Chebyshev(c)) => (c.operator(), Some(c)),
+        (Precision::Mixed, Preconditioner::Ssor(m)) => {
+            return match super::ssor::pcg_eisenstat(a, b, x, m, options, bn)? {
+                Mixed::Done(stats) => Ok(stats),
+                Mixed::Stagnated { x: x0, progress } => pcg_double(a, b, &x0, x, precond, options, bn, progress),
+            };
+        }
         _ => {
             let x0 = x.to_vec();
             return pcg_double(a, b, &x0, x, precond, options, bn, Progress::default());
@@ -80,13 +86,13 @@ pub fn pcg(
 
 /// Where a solve continues from: the iteration number and the per-channel iteration counts.
 #[derive(Debug, Clone, Copy, Default)]
-struct Progress {
-    iteration: usize,
-    iterations: [usize; 3],
+pub(super) struct Progress {
+    pub(super) iteration: usize,
+    pub(super) iterations: [usize; 3],
 }
 
 /// The outcome of the mixed-precision iteration.
-enum Mixed {
+pub(super) enum Mixed {
     Done(SolveStats),
     /// The recursive residual drifted from the true one: continue from `x` in `f64`.
     Stagnated { x: Vec<[f64; 3]>, progress: Progress },
@@ -210,15 +216,15 @@ fn pcg_double(
 /// this factor since the last recomputation.
 /// Measured on the 86k proxy: factors 0.1, 0.01 and 0.001 give the same iteration counts with
 /// 14–18, 9 and 6 recomputations per three-channel solve.
-const RELIABLE_FACTOR: f64 = 0.01;
+pub(super) const RELIABLE_FACTOR: f64 = 0.01;
 
 /// In mixed precision, a channel's residual is also recomputed after this many iterations
 /// without one (so that a drifting estimate that stalls is caught).
-const RELIABLE_PERIOD: usize = 100;
+pub(super) const RELIABLE_PERIOD: usize = 100;
 
 /// When a recomputed residual exceeds the recursive estimate by more than this factor, the
 /// `f32` operator no longer resolves the remaining residual: the solve continues in `f64`.
-const DRIFT_LIMIT: f64 = 4.0;
+pub(super) const DRIFT_LIMIT: f64 = 4.0;
 
 /// Mixed-precision PCG on the scaled system `Â ŷ = S b` (`Â = S A S` in `f32`, `x = S ŷ`), with
 /// an optional Chebyshev polynomial in `Â` as preconditioner. The residual estimate (in the
@@ -427,7 +433,7 @@ pub(crate) fn zero_channels(x: &mut [[f64; 3]], bn: [f64; 3]) {
     }
 }
 
-fn check_rho(rho: [f64; 3], active: [bool; 3], iteration: usize) -> Result<(), SparseError> {
+pub(super) fn check_rho(rho: [f64; 3], active: [bool; 3], iteration: usize) -> Result<(), SparseError> {
     for c in 0..3 {
         if active[c] && !(rho[c] > 0.0 && rho[c].is_finite()) {
             return Err(SparseError::Breakdown {

@@ -8,7 +8,9 @@
 //!   `degree`: `degree` extra matrix–vector products per application (with `f32` values), each
 //!   fused with its vector updates into one parallel pass. The interval is
 //!   `[λmax/RATIO, λmax]`, `λmax` a Gershgorin bound of `Â`, so that `p > 0` on the whole
-//!   spectrum and the preconditioner is SPD. Fully parallel, unlike SSOR or IC(0).
+//!   spectrum and the preconditioner is SPD. Fully parallel.
+//! * [`Ssor`]: symmetric SOR in a level-set ordering whose parts are swept in parallel, applied
+//!   with Eisenstat's trick (module `ssor`).
 //!
 //! Both keep the scaled operator `Â` in `f32` (16 bytes per nonzero with its column index), built
 //! in one parallel pass. Which to use, with measurements, is in the [module
@@ -20,6 +22,7 @@ use rayon::prelude::*;
 use super::csr::CsrMatrix3;
 use super::error::SparseError;
 use super::scaled::ScaledOperator;
+use super::ssor::Ssor;
 use super::ops::{row_mul, sum_partials, CHUNK};
 
 /// Which preconditioner to build (a plain, copyable choice for options, the CLI and the C ABI).
@@ -37,6 +40,12 @@ pub enum PreconditionerKind {
         /// Polynomial degree, 1 to [`Chebyshev::MAX_DEGREE`].
         degree: usize,
     },
+    /// Symmetric successive over-relaxation ([`Ssor`], ω = [`Ssor::DEFAULT_OMEGA`]) in a
+    /// level-set ordering swept in parallel, applied with Eisenstat's trick: a quarter of
+    /// Jacobi's iterations on the bunny, each costing 2–2.6 of Jacobi's, after a setup of about
+    /// 100 ms at 500k tets (measurements in [`Ssor`]). With [`crate::sparse::Precision::Double`]
+    /// it is applied as `z = M⁻¹ r` (two sweeps) in plain PCG.
+    Ssor,
 }
 
 /// Diagonal (Jacobi) preconditioner: the inverse diagonal, per channel.
@@ -258,6 +267,8 @@ pub enum Preconditioner {
     Jacobi(Jacobi),
     /// Chebyshev polynomial over Jacobi.
     Chebyshev(Chebyshev),
+    /// SSOR with Eisenstat's trick.
+    Ssor(Ssor),
 }
 
 impl Preconditioner {
@@ -271,6 +282,7 @@ impl Preconditioner {
             PreconditionerKind::Identity => Self::Identity,
             PreconditionerKind::Jacobi => Self::Jacobi(Jacobi::new(a)?),
             PreconditionerKind::Chebyshev { degree } => Self::Chebyshev(Chebyshev::new(a, degree)?),
+            PreconditionerKind::Ssor => Self::Ssor(Ssor::new(a)?),
         })
     }
 
@@ -281,6 +293,7 @@ impl Preconditioner {
             Self::Identity => PreconditionerKind::Identity,
             Self::Jacobi(_) => PreconditionerKind::Jacobi,
             Self::Chebyshev(c) => PreconditionerKind::Chebyshev { degree: c.degree },
+            Self::Ssor(_) => PreconditionerKind::Ssor,
         }
     }
 
@@ -291,6 +304,7 @@ impl Preconditioner {
             Self::Identity => None,
             Self::Jacobi(j) => Some(j.inv_diag.len()),
             Self::Chebyshev(c) => Some(c.op.s.len()),
+            Self::Ssor(s) => Some(s.n()),
         }
     }
 
@@ -313,6 +327,7 @@ impl Preconditioner {
             Self::Identity => return Ok(()),
             Self::Jacobi(j) => &j.op.pattern,
             Self::Chebyshev(c) => &c.op.pattern,
+            Self::Ssor(s) => s.pattern(),
         };
         if std::sync::Arc::ptr_eq(own, a.pattern()) || **own == **a.pattern() {
             Ok(())
@@ -358,6 +373,7 @@ impl Preconditioner {
                 sum_partials(&parts)
             }
             Self::Chebyshev(c) => c.apply_scaled(r, z, Some(&c.op.s), w),
+            Self::Ssor(s) => s.apply_dot(r, z),
         }
     }
 }
