@@ -194,7 +194,7 @@ fn multiresolution_solutions_equal_pcg_on_every_shared_mesh() {
         let sys = lit_system(&mesh, mm, DVec3::new(0.3, 1.0, 0.8));
         let reference = solve(&sys, None, &options).unwrap();
         let h = Arc::new(hierarchy(&sys, &HierarchyOptions::default()).unwrap());
-        for method in [Method::Cascade, Method::MultigridPcg] {
+        for method in [Method::Cascade, Method::MultigridPcg, Method::SsorPcg] {
             let solver = MultiresSolver::with_hierarchy(&sys, Arc::clone(&h), method).unwrap();
             let sol = solver.solve(&sys, None, &options).unwrap();
             let d = max_rel_diff(&sol.phi, &reference.phi);
@@ -232,7 +232,7 @@ fn warm_start_after_moving_the_sun_5_degrees() {
     let norm = |v: &[[f64; 3]]| v.iter().map(|x| x[0] * x[0]).sum::<f64>().sqrt();
     eprintln!("‖b₁ − b₀‖ / ‖b₁‖ = {:.3} (channel R)", norm(&db) / norm(sys.rhs()));
     let mut cold_pcg = [0; 3];
-    for method in [Method::Pcg, Method::Cascade, Method::MultigridPcg] {
+    for method in [Method::Pcg, Method::SsorPcg, Method::Cascade, Method::MultigridPcg] {
         relight(&mut sys, d0);
         let solver = MultiresSolver::new(&sys, method, &HierarchyOptions::default()).unwrap();
         let before = solver.solve(&sys, None, &options).unwrap();

@@ -2,9 +2,11 @@
 //! once per mesh from the matrix pattern and the vertex positions (mm), the coarse operators
 //! once per set of media, and every solve may warm-start from a previous φ.
 //!
-//! Three methods ([`Method`]), all reaching the same answer (level-0 residual
+//! Four methods ([`Method`]), all reaching the same answer (level-0 residual
 //! `‖b − Mφ‖/‖b‖ ≤ tolerance`):
 //! - [`Method::Pcg`]: the single-level baseline, mixed-precision Jacobi PCG ([`super::solve()`]);
+//! - [`Method::SsorPcg`]: single-level CG with the SSOR preconditioner
+//!   ([`crate::sparse::Ssor`]), the stronger single-level solver Fig. 7 is measured against;
 //! - [`Method::Cascade`]: the paper's coarse-to-fine cascade (BiCGSTAB on the eq.-17 coarse
 //!   systems, CG at level 0, each level started from the interpolated coarser solution);
 //! - [`Method::MultigridPcg`]: CG preconditioned by a V-cycle on the same hierarchy (Galerkin
@@ -33,6 +35,16 @@ pub enum Method {
     Cascade,
     /// CG preconditioned by a Galerkin multigrid V-cycle on the TransCut hierarchy.
     MultigridPcg,
+    /// Single-level CG preconditioned by SSOR ([`crate::sparse::Ssor`]; no hierarchy).
+    SsorPcg,
+}
+
+impl Method {
+    /// Whether the method works on level 0 alone (needs no hierarchy).
+    #[must_use]
+    pub fn is_single_level(self) -> bool {
+        matches!(self, Self::Pcg | Self::SsorPcg)
+    }
 }
 
 /// The hierarchy of a system's mesh (TransCut §4.1) built from its pattern and positions.
@@ -61,13 +73,14 @@ pub struct MultiresSolver {
 }
 
 impl MultiresSolver {
-    /// Builds the hierarchy of `system` (unless `method` is [`Method::Pcg`], which needs none)
+    /// Builds the hierarchy of `system` (unless `method` is single-level, [`Method::Pcg`] or
+    /// [`Method::SsorPcg`], which need none)
     /// and prepares `method` for its matrix.
     ///
     /// # Errors
     /// [`DiffusionError::Sparse`] from the hierarchy or the coarse operators.
     pub fn new(system: &DiffusionSystem, method: Method, options: &HierarchyOptions) -> Result<Self, DiffusionError> {
-        let h = if method == Method::Pcg {
+        let h = if method.is_single_level() {
             Hierarchy::build(system.pattern(), &system.structure().positions_mm, &HierarchyOptions { max_levels: 1, ..*options })?
         } else {
             hierarchy(system, options)?
@@ -104,7 +117,8 @@ impl MultiresSolver {
     /// Follows a change of the matrix confined to `rows` (after
     /// [`DiffusionSystem::update_media_rows`] or a refill of single media entries) more cheaply
     /// than [`Self::update_matrix`], with the same result: [`Method::MultigridPcg`] recomputes
-    /// only what the rows reach ([`Multigrid::refresh`]); [`Method::Pcg`] and
+    /// only what the rows reach ([`Multigrid::refresh`]); [`Method::SsorPcg`] rescales its
+    /// triangles in its kept ordering ([`crate::sparse::Ssor::refresh`]); [`Method::Pcg`] and
     /// [`Method::Cascade`] prepare afresh (cheap, or not built row by row). On error the solver
     /// is unchanged, except as [`Multigrid::refresh`] says for a matrix that is not SPD.
     ///
@@ -113,6 +127,7 @@ impl MultiresSolver {
     pub fn refresh_rows(&mut self, system: &DiffusionSystem, rows: &[u32]) -> Result<(), DiffusionError> {
         match &mut self.prepared {
             Prepared::Multigrid(m) => m.refresh(system.matrix(), rows)?,
+            Prepared::Pcg(Preconditioner::Ssor(s)) => s.refresh(system.matrix())?,
             _ => self.update_matrix(system)?,
         }
         Ok(())
@@ -201,5 +216,6 @@ fn prepare(system: &DiffusionSystem, h: &Arc<Hierarchy>, method: Method) -> Resu
         Method::Pcg => Prepared::Pcg(Preconditioner::new(a, PreconditionerKind::Jacobi)?),
         Method::Cascade => Prepared::Cascade(Cascade::new(Arc::clone(h), a, CascadeOptions::default())?),
         Method::MultigridPcg => Prepared::Multigrid(Multigrid::new(Arc::clone(h), a, MultigridOptions::default())?),
+        Method::SsorPcg => Prepared::Pcg(Preconditioner::new(a, PreconditionerKind::Ssor)?),
     })
 }

@@ -174,12 +174,12 @@ fn on_backend(
 /// [`Method::MultigridPcg`] runs CG preconditioned by the solver's V-cycle on the device
 /// ([`super::GpuSolver::with_multigrid`]: smoothing, restriction, prolongation and the coarsest
 /// solve as kernels, the hierarchy and Galerkin operators of the solver uploaded once per call)
-/// on the GPU, [`MultiresSolver::solve`] on the CPU; [`Method::Cascade`] has no GPU path: `Auto`
-/// runs it on the CPU and says so, `Gpu` is an error. `Auto` skips a software adapter as
-/// [`solve`] does.
+/// on the GPU, [`MultiresSolver::solve`] on the CPU; [`Method::Cascade`] and
+/// [`Method::SsorPcg`] have no GPU path: `Auto` runs them on the CPU and says so, `Gpu` is an
+/// error. `Auto` skips a software adapter as [`solve`] does.
 ///
 /// # Errors
-/// As [`solve`]; [`GpuError::Unsupported`] for the cascade on [`Backend::Gpu`].
+/// As [`solve`]; [`GpuError::Unsupported`] for the cascade or SSOR on [`Backend::Gpu`].
 pub fn solve_multires(
     backend: Backend,
     solver: &MultiresSolver,
@@ -196,6 +196,12 @@ pub fn solve_multires(
         }
         (_, Method::Cascade) => Err(GpuError::Unsupported {
             what: "the multiresolution cascade on the GPU (Method::MultigridPcg and Method::Pcg run there)",
+        }),
+        (Backend::Auto, Method::SsorPcg) => {
+            Ok((on_cpu()?, cpu_report(backend, Some("SSOR-preconditioned CG runs on the CPU only".into()))))
+        }
+        (_, Method::SsorPcg) => Err(GpuError::Unsupported {
+            what: "SSOR-preconditioned CG on the GPU (its sweeps are sequential within each part; Method::MultigridPcg and Method::Pcg run there)",
         }),
         (_, Method::MultigridPcg) => on_backend(
             backend,
