@@ -42,8 +42,8 @@ pub enum PreconditionerKind {
     },
     /// Symmetric successive over-relaxation ([`Ssor`], ω = [`Ssor::DEFAULT_OMEGA`]) in a
     /// level-set ordering swept in parallel, applied with Eisenstat's trick: a quarter of
-    /// Jacobi's iterations on the bunny, each costing 2–2.6 of Jacobi's, after a setup of about
-    /// 100 ms at 500k tets (measurements in [`Ssor`]). With [`crate::sparse::Precision::Double`]
+    /// Jacobi's iterations on the bunny, each costing about two of Jacobi's, after a setup of
+    /// about 90 ms at 500k tets (measurements in [`Ssor`]). With [`crate::sparse::Precision::Double`]
     /// it is applied as `z = M⁻¹ r` (two sweeps) in plain PCG.
     Ssor,
 }

@@ -28,14 +28,16 @@
 //! time, but on a badly conditioned channel, a 14³ grid with little absorption, the `f32`
 //! operator's rounding slowed CG from 54 to 69 iterations: `f64` was kept.) The residual of `Ã`
 //! is `r̃ = K S r`, `r = b − A x`. Its recursive norm, scaled to `‖r‖` at the last check, drives
-//! the iteration; the true residual is recomputed from `A` (the reported one, and the only one
-//! that can declare a channel converged) when a channel's estimate reaches 4× the tolerance,
-//! then at the tolerance, or after `RELIABLE_PERIOD` iterations without a check. One schedule
-//! serves all channels: a recomputation costs about four iterations (two sweeps through the
-//! permutation and a product in the original numbering); checking each channel on its own
-//! schedule, as the Jacobi PCG does, took 9 instead of 4 recomputations on the bunny, 40% of the
-//! solve. If a recomputed residual exceeds the estimate fourfold, the solve continues as plain
-//! PCG with the same preconditioner.
+//! the iteration; the true residual (the only one that can declare a channel converged) is
+//! recomputed when a channel's estimate reaches 4× the tolerance, then at the tolerance, or after
+//! `RELIABLE_PERIOD` iterations without a check, for every active channel at once. It is
+//! recomputed in the new numbering from the `f64` triangles (which hold `a_ij s_i s_j`): an
+//! upper sweep, one product and a lower sweep, no permutation. Checking each channel on its own
+//! schedule, in the original numbering, as the Jacobi PCG does, took 9 recomputations of 9.5 ms
+//! on the bunny, 40% of the solve. The reported residual is computed from `A` and the final `x`;
+//! if rounding makes it miss the tolerance where the scaled one met it (near the limit of
+//! `f64`), or a recomputed residual exceeds the estimate fourfold, plain PCG with the same
+//! preconditioner finishes the solve.
 //!
 //! # Measured (bunny, 60 mm, marble, one sun)
 //!
@@ -46,14 +48,17 @@
 //! numbering SSOR needs 62 (ω = 1), and block-Jacobi SSOR on row blocks of it no fewer than
 //! Jacobi (123): that numbering scatters neighbours across the whole matrix.
 //!
-//! Time (2 cores, load about 1.7, the `--export-system` matrices, medians of 2–3 runs): at 500k
-//! the SSOR solve took 178–209 ms against Jacobi's 290–310 ms, at 1M (43/36/30 against
-//! 158/134/109 iterations) 452–474 against 626–779 ms; but its setup (ordering 35–48 ms,
-//! triangles 35–55 ms, values 15–30 ms at 500k; 177–237 ms at 1M) eats the gain of a single
-//! solve, where Jacobi's setup takes 12–30 ms. An iteration costs 2.1–2.6 Jacobi iterations,
-//! not one: a sweep waits on the row just computed (taking the nearest column last cut the
-//! one-thread solve from 532 to 418 ms). So SSOR pays where one matrix is solved repeatedly,
-//! and is not the default ([`super::PreconditionerKind::Jacobi`] is).
+//! Time, `transcut bench multires --tets 500000 --runs 3` (2 cores under a load of about 1.7,
+//! medians; `/work/notes/bench_multires_500k_s6_b.json`): SSOR setup 89 ms (ordering, triangles
+//! and values; Jacobi's 22 ms), solve to 1e-6 160 ms against Jacobi's 243 ms (0.66), warm start
+//! after a 5° sun move 133 against 195 ms, time to 1% error 106 against 114 ms. A cold setup and
+//! solve together gain only ~6% at 500k (at 1M, from the exported system before the in-place
+//! residual: setup 177–237 ms, solve 452–474 against 626–779 ms). An iteration costs about two
+//! Jacobi iterations, not one: a sweep waits on the row just computed (taking the nearest column
+//! last cut a one-thread solve from 532 to 418 ms), and the fixed cost of a solve (first and
+//! last residuals, the conversions) is about 45 ms. So SSOR is not the default
+//! ([`super::PreconditionerKind::Jacobi`] is) and serves where one matrix is solved repeatedly
+//! ([`crate::diffusion::Method::SsorPcg`]), where the multigrid is still faster.
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -430,34 +435,53 @@ fn triangles(p: &CsrPattern, perm: &[u32], inv: &[u32]) -> (Triangle, Triangle) 
     (lower, upper)
 }
 
-/// Scratch vectors of [`pcg_eisenstat`], all in the new numbering except `xo` and `r`.
+/// Scratch vectors of [`pcg_eisenstat`], in the new numbering.
 struct Work {
     t: Vec<[f64; 3]>,
     u: Vec<[f64; 3]>,
-    xo: Vec<[f64; 3]>,
     r: Vec<[f64; 3]>,
 }
 
 impl Ssor {
-    /// The true residual of the iterate `ỹ`: `r = b − A S Kᵀ ỹ` in `f64` and `r̃ = K S r`,
-    /// written to the channels of `rt` selected by `replace`. Returns `(‖r‖², ‖r̃‖²)`.
+    /// The true residual of the iterate `ỹ`, all in the new numbering: `ŵ = Kᵀ ỹ`,
+    /// `r̂ = b̂ − Â ŵ` (`b̂ = S b` renumbered; `Â ŵ = ŵ + L ŵ + U ŵ` from the `f64` triangles,
+    /// which hold `a_ij s_i s_j`) and `r̃ = K r̂`, written to the channels of `rt` selected by
+    /// `replace`. Returns `(‖r‖², ‖r̃‖²)`, `r = S⁻¹ r̂` being the residual `b − A x` of
+    /// `x = S ŵ` in the original scaling.
     fn reliable_residual(
         &self,
-        a: &CsrMatrix3,
-        b: &[[f64; 3]],
+        bh: &[[f64; 3]],
         y: &[[f64; 3]],
         rt: &mut [[f64; 3]],
         replace: [bool; 3],
         w: &mut Work,
     ) -> ([f64; 3], [f64; 3]) {
-        self.to_solution(y, &mut w.t, &mut w.xo, [true; 3]);
-        let rr = super::residual(a, b, &w.xo, &mut w.r);
+        self.solve_upper(y, &mut w.t);
+        let t = &w.t;
+        let parts: Vec<[f64; 3]> = w
+            .r
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(k, rc)| {
+                let mut sum = [0.0; 3];
+                for (li, r) in rc.iter_mut().enumerate() {
+                    let i = k * CHUNK + li;
+                    let (lc, lv) = self.lower.row(i);
+                    let (uc, uv) = self.upper.row(i);
+                    let l = row_mul(lc, lv, t);
+                    let u = row_mul(uc, uv, t);
+                    for c in 0..3 {
+                        r[c] = bh[i][c] - (t[i][c] + l[c] + u[c]);
+                        let unscaled = r[c] / self.s[i][c];
+                        sum[c] += unscaled * unscaled;
+                    }
+                }
+                sum
+            })
+            .collect();
+        let rr = sum_partials(&parts);
         let r = &w.r;
-        let rtrt = self.solve_lower(
-            |i| mul3(self.s[i], r[self.perm[i] as usize]),
-            &mut w.u,
-            |_, u| [u[0] * u[0], u[1] * u[1], u[2] * u[2]],
-        );
+        let rtrt = self.solve_lower(|i| r[i], &mut w.u, |_, u| [u[0] * u[0], u[1] * u[1], u[2] * u[2]]);
         rt.par_iter_mut().zip(&w.u).for_each(|(rt, u)| {
             for c in 0..3 {
                 if replace[c] {
@@ -518,11 +542,12 @@ pub(crate) fn pcg_eisenstat(
     let n = a.n();
     let tol = options.tolerance;
     let max_it = options.max_iterations;
-    let mut w = Work { t: vec![[0.0; 3]; n], u: vec![[0.0; 3]; n], xo: vec![[0.0; 3]; n], r: vec![[0.0; 3]; n] };
+    let mut w = Work { t: vec![[0.0; 3]; n], u: vec![[0.0; 3]; n], r: vec![[0.0; 3]; n] };
+    let bh: Vec<[f64; 3]> = m.perm.par_iter().zip(&m.s).map(|(&o, s)| mul3(*s, b[o as usize])).collect();
     let nonzero = bn.map(|v| v > 0.0);
     let mut y = m.iterate_of(x, nonzero);
     let mut rt = vec![[0.0; 3]; n];
-    let (rr, mut rtrt) = m.reliable_residual(a, b, &y, &mut rt, [true; 3], &mut w);
+    let (rr, mut rtrt) = m.reliable_residual(&bh, &y, &mut rt, [true; 3], &mut w);
     let mut rel = relative(rr, bn);
     let mut active = [0, 1, 2].map(|c| nonzero[c] && rel[c] > tol);
     // Channels whose x is rewritten (the others keep the caller's bits exactly).
@@ -538,7 +563,6 @@ pub(crate) fn pcg_eisenstat(
         let mut beta = [0.0; 3];
         let shift = 1.0 - 2.0 / m.omega;
         let mut it = 0;
-        let mut rel_is_true = true;
         while it < max_it {
             it += 1;
             direction(&mut p, &rt, beta);
@@ -585,7 +609,7 @@ pub(crate) fn pcg_eisenstat(
             let recompute = active.map(|a| a && due);
             let mut fresh = new_rtrt;
             if recompute.iter().any(|&t| t) {
-                let (rr, rr_t) = m.reliable_residual(a, b, &y, &mut rt, recompute, &mut w);
+                let (rr, rr_t) = m.reliable_residual(&bh, &y, &mut rt, recompute, &mut w);
                 let t = relative(rr, bn);
                 for c in 0..3 {
                     if recompute[c] {
@@ -601,15 +625,12 @@ pub(crate) fn pcg_eisenstat(
                         last_recompute[c] = it;
                     }
                 }
-                rel_is_true = true;
                 for c in 0..3 {
                     if active[c] {
                         rel[c] = if recompute[c] { t[c] } else { est[c] };
-                        rel_is_true &= recompute[c];
                     }
                 }
             } else {
-                rel_is_true = false;
                 for c in 0..3 {
                     if active[c] {
                         rel[c] = est[c];
@@ -640,18 +661,18 @@ pub(crate) fn pcg_eisenstat(
                 }
             }
         }
-        if !rel_is_true {
-            let (rr, _) = m.reliable_residual(a, b, &y, &mut rt, [false; 3], &mut w);
-            let t = relative(rr, bn);
-            for c in 0..3 {
-                if active[c] {
-                    rel[c] = t[c];
-                }
-            }
-        }
     }
-    m.to_solution(&y, &mut w.t, x, touched);
-    Ok(Mixed::Done(make_stats(iterations, rel, tol)))
+    // The reported residual is recomputed from `A` and the final `x` (the checks above used the
+    // scaled triangles, equal up to rounding). Where rounding makes the two disagree about a
+    // channel meeting the tolerance (only near the limit of `f64`), plain PCG finishes.
+    let mut xs = x.to_vec();
+    m.to_solution(&y, &mut w.t, &mut xs, touched);
+    let rel_a = relative(super::residual(a, b, &xs, &mut w.r), bn);
+    if (0..3).any(|c| rel_a[c] > tol && rel[c] <= tol && touched[c]) {
+        return Ok(Mixed::Stagnated { x: xs, progress: Progress { iteration: iterations.into_iter().max().unwrap_or(0), iterations } });
+    }
+    x.copy_from_slice(&xs);
+    Ok(Mixed::Done(make_stats(iterations, rel_a, tol)))
 }
 
 #[cfg(test)]
