@@ -22,8 +22,9 @@ pub enum Suite {
     /// The diffusion solve alone (60 mm, marble, one sun) on the CPU and on the `--backend`
     /// (GPU: upload, assembly, solve with read-back), their agreement and the device name.
     Solve,
-    /// TransCut Fig. 7: relative error against time for single-level PCG, the multiresolution
-    /// cascade and multigrid-preconditioned CG, and the warm start after moving the sun 5°.
+    /// TransCut Fig. 7: relative error against time for the single-level solvers (Jacobi PCG,
+    /// SSOR-PCG), the multiresolution cascade and multigrid-preconditioned CG, and the warm
+    /// start after moving the sun 5°.
     Multires,
     /// Interactive edits (TransCut §5) on the bunny: the cold bake, a relight after moving the
     /// sun 5° (warm start against a cold solve of the same system), a paint stroke, and the

@@ -14,8 +14,8 @@
 //!   topology, hierarchy and matrix and the solve included, ms).
 //!
 //! Medians over `--runs`. Then Fig. 7 ([`crate::bench_multires::fig7`]) on the same tet mesh
-//! (unshadowed sun, the reference solved to 1e-10): relative error against time for PCG, the
-//! cascade and MG-PCG, the time to 1% and its ratio to the best single-level solver.
+//! (unshadowed sun, the reference solved to 1e-10): relative error against time for Jacobi
+//! PCG, SSOR-PCG, the cascade and MG-PCG, the time to 1% and its ratio to the best single-level solver.
 
 use std::time::Instant;
 

@@ -2,14 +2,14 @@
 //! the multiresolution scheme — plus the warm start after moving the sun by 5°.
 //!
 //! On each size: the bunny (60 mm, marble, an unshadowed sun from (0, 1, 1), as `bench solve`)
-//! is assembled; a reference φ* is solved to 1e-12. For each method (single-level Jacobi PCG,
-//! the paper's cascade, multigrid-preconditioned CG) the setup (hierarchy and coarse
-//! operators, or the Jacobi preconditioner) is timed, then cold solves to the tolerances
+//! is assembled; a reference φ* is solved to 1e-12. For each method (single-level Jacobi PCG
+//! and SSOR-PCG, the paper's cascade, multigrid-preconditioned CG) the setup (hierarchy and
+//! coarse operators, or the single-level preconditioner) is timed, then cold solves to the tolerances
 //! 10^(−k/2), k = 2..12, each giving one point (solve ms, ‖φ − φ*‖/‖φ*‖, worst channel) of the
 //! error–time curve; runs are interleaved method by method and the medians reported, so ratios
 //! between methods are measured back to back. Time to 1% is the fastest tolerance whose error
-//! is ≤ 1%; the ratio of the faster multiresolution method's to single-level PCG's is the
-//! issue's Fig. 7 figure (goal ≤ 0.5). [`fig7`] does this on one system; `bench edit` reuses it
+//! is ≤ 1%; the ratio of the faster multiresolution method's to the faster single-level
+//! solver's is the Fig. 7 figure (goal ≤ 0.5). [`fig7`] does this on one system; `bench edit` reuses it
 //! with a reference solved to 1e-10.
 
 use std::sync::Arc;
