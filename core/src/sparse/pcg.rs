@@ -137,20 +137,7 @@ fn pcg_double(
         while it < max_it {
             it += 1;
             let pq = spmv_dot(a, &p, &mut q);
-            let mut alpha = [0.0; 3];
-            for c in 0..3 {
-                if active[c] {
-                    if !(pq[c] > 0.0 && pq[c].is_finite()) {
-                        return Err(SparseError::Breakdown {
-                            method: "PCG",
-                            channel: c,
-                            iteration: it,
-                            reason: format!("pᵀAp = {:e} ≤ 0: the matrix is not positive definite", pq[c]),
-                        });
-                    }
-                    alpha[c] = rho[c] / pq[c];
-                }
-            }
+            let alpha = step_lengths(rho, pq, active, it)?;
             let (rr, rz) = match jacobi {
                 Some(d) => update_jacobi(&mut xw, &mut r, &p, &q, d, alpha),
                 None => (update(&mut xw, &mut r, &p, &q, alpha), [0.0; 3]),
@@ -274,20 +261,7 @@ fn pcg_mixed(
         while it < max_it {
             it += 1;
             let pq = op.spmv_dot(&p, &mut q);
-            let mut alpha = [0.0; 3];
-            for c in 0..3 {
-                if active[c] {
-                    if !(pq[c] > 0.0 && pq[c].is_finite()) {
-                        return Err(SparseError::Breakdown {
-                            method: "PCG",
-                            channel: c,
-                            iteration: it,
-                            reason: format!("pᵀAp = {:e} ≤ 0: the matrix is not positive definite", pq[c]),
-                        });
-                    }
-                    alpha[c] = rho[c] / pq[c];
-                }
-            }
+            let alpha = step_lengths(rho, pq, active, it)?;
             let (rr_est, rhrh) = update_scaled(&mut y, &mut rh, &p, &q, &op.d, alpha);
             rho_plain = rhrh;
             let est = relative(rr_est, bn);
@@ -329,19 +303,7 @@ fn pcg_mixed(
                     }
                 }
             }
-            for c in 0..3 {
-                if active[c] {
-                    iterations[c] += 1;
-                    if recompute[c] && rel[c] <= tol {
-                        active[c] = false;
-                    }
-                }
-            }
-            if let Some(m) = options.monitor {
-                if !m(it, rel) {
-                    return Err(SparseError::Cancelled { iteration: it });
-                }
-            }
+            end_iteration(it, &mut active, recompute, rel, &mut iterations, tol, options)?;
             if !active.iter().any(|&t| t) || it == max_it {
                 break;
             }
@@ -430,6 +392,57 @@ pub(crate) fn zero_channels(x: &mut [[f64; 3]], bn: [f64; 3]) {
         if bn[c] == 0.0 {
             x.par_iter_mut().for_each(|v| v[c] = 0.0);
         }
+    }
+}
+
+/// `α = ρ / pᵀAp` for the active channels (0 for the others).
+///
+/// # Errors
+/// [`SparseError::Breakdown`] naming the channel where `pᵀAp` is not positive and finite.
+pub(super) fn step_lengths(rho: [f64; 3], pq: [f64; 3], active: [bool; 3], iteration: usize) -> Result<[f64; 3], SparseError> {
+    let mut alpha = [0.0; 3];
+    for c in 0..3 {
+        if active[c] {
+            if !(pq[c] > 0.0 && pq[c].is_finite()) {
+                return Err(SparseError::Breakdown {
+                    method: "PCG",
+                    channel: c,
+                    iteration,
+                    reason: format!("pᵀAp = {:e} ≤ 0: the matrix is not positive definite", pq[c]),
+                });
+            }
+            alpha[c] = rho[c] / pq[c];
+        }
+    }
+    Ok(alpha)
+}
+
+/// Closes iteration `it` of the mixed-precision solvers: counts it for the active channels,
+/// retires those whose residual was recomputed (`recompute`) and meets the tolerance, and
+/// calls the monitor with `rel`.
+///
+/// # Errors
+/// [`SparseError::Cancelled`] when the monitor returns `false`.
+pub(super) fn end_iteration(
+    it: usize,
+    active: &mut [bool; 3],
+    recompute: [bool; 3],
+    rel: [f64; 3],
+    iterations: &mut [usize; 3],
+    tol: f64,
+    options: &SolveOptions<'_>,
+) -> Result<(), SparseError> {
+    for c in 0..3 {
+        if active[c] {
+            iterations[c] += 1;
+            if recompute[c] && rel[c] <= tol {
+                active[c] = false;
+            }
+        }
+    }
+    match options.monitor {
+        Some(m) if !m(it, rel) => Err(SparseError::Cancelled { iteration: it }),
+        _ => Ok(()),
     }
 }
 

@@ -69,7 +69,7 @@ use super::csr::{CsrMatrix3, CsrPattern};
 use super::error::SparseError;
 use super::ops::{row_mul, sum_partials, CHUNK};
 use super::ordering::sweep_ordering;
-use super::pcg::{check_rho, make_stats, Mixed, Progress, DRIFT_LIMIT, RELIABLE_PERIOD};
+use super::pcg::{check_rho, end_iteration, make_stats, step_lengths, Mixed, Progress, DRIFT_LIMIT, RELIABLE_PERIOD};
 use super::precond::inverse_diagonal;
 use super::{relative, SolveOptions};
 
@@ -579,29 +579,13 @@ pub(crate) fn pcg_eisenstat(
                     [p[0] * (t[0] + u[0]), p[1] * (t[1] + u[1]), p[2] * (t[2] + u[2])]
                 },
             );
-            let mut alpha = [0.0; 3];
-            for c in 0..3 {
-                if active[c] {
-                    if !(pq[c] > 0.0 && pq[c].is_finite()) {
-                        return Err(SparseError::Breakdown {
-                            method: "PCG",
-                            channel: c,
-                            iteration: it,
-                            reason: format!("pᵀÃp = {:e} ≤ 0: the matrix is not positive definite", pq[c]),
-                        });
-                    }
-                    alpha[c] = rtrt[c] / pq[c];
-                }
-            }
+            let alpha = step_lengths(rtrt, pq, active, it)?;
             let new_rtrt = update(&mut y, &mut rt, &p, &w.t, &w.u, alpha);
             // ‖r‖ estimated from ‖r̃‖ relative to the last recomputation.
             let est = [0, 1, 2].map(|c| if last_rtrt[c] > 0.0 { last_true[c] * (new_rtrt[c] / last_rtrt[c]).sqrt() } else { 0.0 });
-            // One schedule for all channels: a recomputation costs about four iterations here
-            // (two sweeps through the permutation and an `f64` product in the original
-            // numbering), so it is done only when a channel's estimate meets the tolerance or
-            // has gone unchecked for `RELIABLE_PERIOD` iterations, and then for every active
-            // channel.
-            // The estimate can be pessimistic (‖r‖ and ‖r̃‖ need not fall at the same rate), so
+            // One schedule for all channels (module documentation): a check when a channel's
+            // estimate meets the tolerance or has gone unchecked for `RELIABLE_PERIOD`
+            // iterations, for every active channel. The estimate can be pessimistic (‖r‖ and ‖r̃‖ need not fall at the same rate), so
             // the first check comes at `EARLY_CHECK` times the tolerance; after a check that
             // misses, the estimate restarts from the true residual and the next comes at the
             // tolerance itself.
@@ -637,19 +621,7 @@ pub(crate) fn pcg_eisenstat(
                     }
                 }
             }
-            for c in 0..3 {
-                if active[c] {
-                    iterations[c] += 1;
-                    if recompute[c] && rel[c] <= tol {
-                        active[c] = false;
-                    }
-                }
-            }
-            if let Some(mon) = options.monitor {
-                if !mon(it, rel) {
-                    return Err(SparseError::Cancelled { iteration: it });
-                }
-            }
+            end_iteration(it, &mut active, recompute, rel, &mut iterations, tol, options)?;
             if !active.iter().any(|&t| t) || it == max_it {
                 break;
             }
