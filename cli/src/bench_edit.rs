@@ -4,7 +4,7 @@
 //! (0, 1, 1) (irradiance 3, with shadows, as `transcut bake`), tetrahedralised once per size.
 //! Per run, back to back:
 //! - **cold bake**: `scene::bake` of the tet mesh (assembly, source, cold PCG solve);
-//! - **relight**: an [`Editor`] started from that bake (its default solver, MG-PCG) relights
+//! - **relight**: an [`Editor`] started from that bake (its default solver, SSOR-PCG) relights
 //!   after the sun moved 5° about x (warm start from the previous fluence): iterations and their
 //!   ratio (issue 6 goal ≤ 1/3) against a cold solve of the same system with the same method,
 //!   and times against a cold bake under the moved sun (Jacobi PCG from zero);

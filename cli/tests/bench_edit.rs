@@ -40,13 +40,13 @@ fn bench_edit_reports_every_edit_consistently() {
     assert!(sum(&e["cold_bake"]["iterations"]) > 0);
     positive(&e["cold_bake"]["median_solve_ms"], "cold solve ms");
     let relight = &e["relight_5deg"];
-    assert_eq!(relight["method"], "multigrid_pcg", "the editor's default solver");
+    assert_eq!(relight["method"], "ssor_pcg", "the editor's default solver");
     let cold_bake = sum(&relight["cold"]["iterations"]);
     let cold = sum(&relight["cold_same_method_iterations"]);
     let warm = sum(&relight["warm"]["last"]["iterations"]);
     assert!(cold > 0 && warm > 0, "cold {cold}, warm {warm}");
     assert!(warm <= cold, "a warm start took more iterations ({warm}) than a cold solve ({cold})");
-    assert!(cold < cold_bake, "MG-PCG ({cold}) needs fewer iterations than Jacobi PCG ({cold_bake})");
+    assert!(cold < cold_bake, "SSOR-PCG ({cold}) needs fewer iterations than Jacobi PCG ({cold_bake})");
     let ratio = relight["iteration_ratio"].as_f64().unwrap();
     assert!((ratio - warm as f64 / cold as f64).abs() < 1e-12, "{ratio}");
     let ratio_bake = relight["iteration_ratio_vs_cold_bake"].as_f64().unwrap();

@@ -36,16 +36,26 @@
 //!
 //! # Solver
 //!
-//! Updates solve with CG preconditioned by a multigrid V-cycle on the §4 hierarchy
-//! ([`Method::MultigridPcg`], the default of [`EditOptions::method`]), the fastest of the three
-//! methods for an editor's repeated solves. `transcut bench edit` on the 500k-tet bunny (2
-//! cores): a relight after a 5° sun move takes 6 iterations, about 90 ms, against about 100
-//! iterations and 160 ms for Jacobi PCG; a 6,000-row paint stroke about 170 ms (PCG: 200 ms).
-//! Its price is the build, about 1 s per piece mesh (at the editor's start and after cuts,
-//! splits, fractures and recombinations). A paint or medium edit does not rebuild it: the
-//! multigrid recomputes only what the refilled rows reach, level by level
-//! ([`crate::sparse::hierarchy::Multigrid::refresh`], about 70 ms for that stroke), with a
-//! result bit-identical to a rebuild.
+//! Updates solve with single-level CG preconditioned by SSOR ([`Method::SsorPcg`], the default
+//! of [`EditOptions::method`]; [`crate::sparse::Ssor`]). `transcut bench edit --tets 500000
+//! --runs 3` on the bunny (2 cores), this default against MG-PCG ([`Method::MultigridPcg`], the
+//! default until then), whole benchmarks alternated, medians of two runs each:
+//!
+//! | | SSOR-PCG | MG-PCG |
+//! |---|---|---|
+//! | editor setup | 319 / 300 ms | 1078 / 1127 ms |
+//! | relight after a 5° sun move | 106 / 114 ms (29/25/21 iterations) | 101 / 88 ms (6/6/6) |
+//! | 6,000-row paint stroke | **127 / 143 ms** (refresh 13–18 ms) | 157 / 176 ms (refresh 61–76 ms) |
+//! | plane cut, rebuild included | **523 / 591 ms** | 1091 / 1114 ms |
+//!
+//! MG-PCG needs 6 iterations where SSOR needs about 30, so a relight is 5–25% faster with it,
+//! but its setup (the §4 hierarchy and the Galerkin operators, about 1 s per piece mesh) is paid
+//! at the editor's start and after every cut, split, fracture and recombination, and a paint
+//! refreshes the coarse operators the refilled rows reach
+//! ([`crate::sparse::hierarchy::Multigrid::refresh`]). SSOR's setup is a level-set ordering of
+//! the mesh and its reordered triangles (about 90 ms); a paint only rescales the triangles
+//! ([`crate::sparse::Ssor::refresh`]). MG-PCG stays available through
+//! [`EditOptions::method`], e.g. for an editor that mostly relights.
 //!
 //! Every solve is **warm-started** from the previous φ (TransCut §4.2; after a cut φ is carried
 //! over through the kept vertices). Every method returns [`UpdateStats`] with the stage timings.
@@ -107,11 +117,12 @@ pub struct EditOptions {
     pub tolerance: f64,
     /// Iteration cap of every solve.
     pub max_iterations: usize,
-    /// The solver of the updates (default [`Method::MultigridPcg`], the fastest: see
-    /// the module documentation's "Solver" section).
+    /// The solver of the updates (default [`Method::SsorPcg`], the fastest for paints, cuts and
+    /// setup, within 5–25% of MG-PCG for relights: see the module documentation's "Solver"
+    /// section).
     pub method: Method,
     /// Where [`Method::Pcg`] solves run (as [`BakeOptions::backend`]; `None`: `TRANSCUT_BACKEND`,
-    /// else auto). The multiresolution methods run on the CPU.
+    /// else auto). The other methods run on the CPU.
     pub backend: Option<Backend>,
     /// Sampling of area and environment lights and shadow rays.
     pub source: SourceOptions,
@@ -131,7 +142,7 @@ impl Default for EditOptions {
             tets: bake.tets,
             tolerance: bake.tolerance,
             max_iterations: bake.max_iterations,
-            method: Method::MultigridPcg,
+            method: Method::SsorPcg,
             backend: None,
             source: bake.source,
             shadows: bake.shadows,
@@ -513,8 +524,8 @@ impl Editor {
 
     /// Refills piece `index`'s rows for `entries` (local tet, new medium) in place, pushing the
     /// undo record onto `undo` first thing, refreshes the solver in place for the new matrix
-    /// ([`crate::diffusion::MultiresSolver::refresh_rows`]: for MG-PCG only what the rows
-    /// reach) and solves; the piece's φ and radiance are left as they were.
+    /// ([`crate::diffusion::MultiresSolver::refresh_rows`]: SSOR rescales its triangles, MG-PCG
+    /// recomputes only what the rows reach) and solves; the piece's φ and radiance are left as they were.
     fn refill_and_solve(
         &mut self,
         index: usize,

@@ -49,7 +49,7 @@
 //! Jacobi (123): that numbering scatters neighbours across the whole matrix.
 //!
 //! Time, `transcut bench multires --tets 500000 --runs 3` (2 cores under a load of about 1.7,
-//! medians; `/work/notes/bench_multires_500k_s6_b.json`): SSOR setup 89 ms (ordering, triangles
+//! medians): SSOR setup 89 ms (ordering, triangles
 //! and values; Jacobi's 22 ms), solve to 1e-6 160 ms against Jacobi's 243 ms (0.66), warm start
 //! after a 5° sun move 133 against 195 ms, time to 1% error 106 against 114 ms. A cold setup and
 //! solve together gain only ~6% at 500k (at 1M, from the exported system before the in-place
@@ -58,7 +58,8 @@
 //! last cut a one-thread solve from 532 to 418 ms), and the fixed cost of a solve (first and
 //! last residuals, the conversions) is about 45 ms. So SSOR is not the default
 //! ([`super::PreconditionerKind::Jacobi`] is) and serves where one matrix is solved repeatedly
-//! ([`crate::diffusion::Method::SsorPcg`]), where the multigrid is still faster.
+//! ([`crate::diffusion::Method::SsorPcg`], the editor's default: its paints and cuts beat the
+//! multigrid's, whose setup is ten times longer; see [`crate::edit`]).
 
 use std::ops::Range;
 use std::sync::Arc;
