@@ -5,7 +5,7 @@
 //! vector ever mixes channels, so a channel's iterates do not depend on the other two (except
 //! through the one global decision below to finish a mixed-precision solve in `f64`).
 //!
-//! Two paths ([`Precision`]):
+//! Two paths ([`Precision`]), the mixed one with a variant for SSOR:
 //!
 //! * **Mixed** (default, Jacobi or Chebyshev): CG on `Â ŷ = S b`, `Â = S A S`, `S = D^-½`,
 //!   `x = S ŷ`, with `Â` stored in `f32`. One iteration is three parallel passes:
@@ -18,6 +18,9 @@
 //!   the recursive estimate four-fold, the `f32` operator no longer resolves what is left (a
 //!   tolerance near `f32`'s limit for the conditioning, or a badly scaled system) and the solve
 //!   continues in `f64` from the current iterate.
+//! * **Mixed with [`super::Ssor`]**: CG on the SSOR-split system with Eisenstat's trick, in
+//!   `f64` (two sweeps per iteration; see the `ssor` module), reusing this module's stopping
+//!   machinery.
 //! * **Double**: everything in `f64` on `A`: `q = A p` with `pᵀq`; `x += α p`, `r −= α q` with
 //!   `‖r‖²` and, for Jacobi, `rᵀD⁻¹r` (z is never stored); `p = z + β p`. When every channel's
 //!   recursive residual meets the tolerance, the true residual is computed once and a channel
@@ -35,7 +38,7 @@ const MAX_RESTARTS: usize = 3;
 
 /// Solves `A x = b` for the three channels by preconditioned CG, starting from the given `x`
 /// (a warm start; pass zeros for a cold one). `A` must be symmetric positive definite on every
-/// channel, and so must the preconditioner (Jacobi and Chebyshev are, for SPD `A`).
+/// channel, and so must the preconditioner (Jacobi, Chebyshev and SSOR are, for SPD `A`).
 ///
 /// A channel whose right-hand side is zero gets `x = 0` at once (0 iterations). On success `x`
 /// holds the solution, also when the iteration limit was hit (`converged == false` then); on
@@ -203,7 +206,7 @@ fn pcg_double(
 /// this factor since the last recomputation.
 /// Measured on the 86k proxy: factors 0.1, 0.01 and 0.001 give the same iteration counts with
 /// 14–18, 9 and 6 recomputations per three-channel solve.
-pub(super) const RELIABLE_FACTOR: f64 = 0.01;
+const RELIABLE_FACTOR: f64 = 0.01;
 
 /// In mixed precision, a channel's residual is also recomputed after this many iterations
 /// without one (so that a drifting estimate that stalls is caught).
