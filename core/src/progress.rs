@@ -45,6 +45,35 @@ impl<'a> Progress<'a> {
     }
 }
 
+/// Counts the items that parallel tasks finish and reports `done / total` of one stage, counting
+/// and reporting under one lock, so that the callback never sees the fraction go back (two
+/// tasks that counted in one order could otherwise report in the other).
+pub struct ProgressCounter<'p, 'a> {
+    progress: &'p Progress<'a>,
+    stage: &'static str,
+    total: usize,
+    done: std::sync::Mutex<usize>,
+}
+
+impl<'p, 'a> ProgressCounter<'p, 'a> {
+    /// A counter of `total` items of `stage`, reporting to `progress`.
+    #[must_use]
+    pub fn new(progress: &'p Progress<'a>, stage: &'static str, total: usize) -> Self {
+        Self { progress, stage, total: total.max(1), done: std::sync::Mutex::new(0) }
+    }
+
+    /// Counts `n` more items done and reports the new fraction.
+    ///
+    /// # Errors
+    /// [`Cancelled`] when the callback asked to stop.
+    pub fn add(&self, n: usize) -> Result<(), Cancelled> {
+        let mut done = self.done.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        *done += n;
+        #[allow(clippy::cast_precision_loss)]
+        self.progress.report(self.stage, *done as f64 / self.total as f64)
+    }
+}
+
 impl Default for Progress<'_> {
     fn default() -> Self {
         Self::none()
@@ -61,6 +90,23 @@ impl fmt::Debug for Progress<'_> {
 mod tests {
     use super::*;
     use std::sync::atomic::{AtomicUsize, Ordering};
+
+    #[test]
+    fn counter_reports_never_go_back_under_parallel_adds() {
+        use rayon::prelude::*;
+        let seen = std::sync::Mutex::new(Vec::new());
+        let cb = |_: &str, f: f64| {
+            seen.lock().unwrap().push(f);
+            true
+        };
+        let p = Progress::new(&cb);
+        let counter = ProgressCounter::new(&p, "items", 10_000);
+        (0..10_000).into_par_iter().for_each(|_| counter.add(1).unwrap());
+        let seen = seen.into_inner().unwrap();
+        assert_eq!(seen.len(), 10_000);
+        assert!(seen.windows(2).all(|w| w[1] > w[0]));
+        assert_eq!(*seen.last().unwrap(), 1.0);
+    }
 
     #[test]
     fn callback_can_cancel_after_some_reports() {

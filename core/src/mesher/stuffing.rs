@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use super::lattice::{edge_key, Lattice};
 use super::stencil::{fill, StencilContext, Vert};
 use super::winding::WindingNumber;
-use crate::progress::{Cancelled, Progress};
+use crate::progress::{Cancelled, Progress, ProgressCounter};
 
 /// Warping thresholds of Labelle & Shewchuk (Table 1, one-sided): a cut point closer than
 /// `α · |edge|` to a lattice vertex pulls the vertex onto it. With these the output dihedral
@@ -78,7 +78,7 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
     let mut timings = PhaseTimings::default();
     let t = std::time::Instant::now();
     // 1. Winding numbers at every lattice vertex (the dominant cost), with progress and cancel.
-    let done = AtomicUsize::new(0);
+    let done = ProgressCounter::new(progress, "winding numbers", nv);
     let cancelled = AtomicBool::new(false);
     let chunk = 4096;
     let winding: Vec<f64> = (0..nv)
@@ -89,8 +89,7 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
                 return vec![0.0; ids.len()];
             }
             let out: Vec<f64> = ids.iter().map(|&v| accurate_winding(surface, lattice.position(v as u32))).collect();
-            let d = done.fetch_add(out.len(), Ordering::Relaxed) + out.len();
-            if progress.report("winding numbers", d as f64 / nv as f64).is_err() {
+            if done.add(out.len()).is_err() {
                 cancelled.store(true, Ordering::Relaxed);
             }
             out
@@ -213,7 +212,7 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
         }
     };
     let [nx, ny, nz] = lattice.n;
-    let slabs_done = AtomicUsize::new(0);
+    let slabs_done = ProgressCounter::new(progress, "stencils", nz);
     let slabs: Vec<Vec<[u32; 4]>> = (0..nz)
         .into_par_iter()
         .map(|k| {
@@ -241,8 +240,7 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
                     });
                 }
             }
-            let d = slabs_done.fetch_add(1, Ordering::Relaxed) + 1;
-            let _ = progress.report("stencils", d as f64 / nz as f64);
+            let _ = slabs_done.add(1);
             local
         })
         .collect();

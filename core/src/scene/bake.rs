@@ -1,6 +1,5 @@
 //! Baking a scene: every object meshed, lit, solved and sampled at its user's vertices.
 
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use super::{Object, Scene, Shape};
@@ -224,15 +223,18 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
         TriangleBvh::new(corners)
     });
     let mut objects = Vec::with_capacity(scene.objects.len());
-    let furthest = AtomicU64::new(0f64.to_bits());
+    // The furthest fraction reported, held while reporting so that reports from parallel tasks
+    // reach the callback in increasing order.
+    let furthest = std::sync::Mutex::new(0.0f64);
     for (index, (object, surface)) in scene.objects.iter().zip(&world).enumerate() {
         let name = || object.name.clone();
         let t0 = Instant::now();
         // Reported fractions never decrease (a second mesher pass, a CG residual going up).
         let stage = |s: &str, f: f64| {
             let f = ((index as f64 + f) / n).clamp(0.0, 1.0);
-            let furthest = f64::from_bits(furthest.fetch_max(f.to_bits(), Ordering::Relaxed));
-            progress.report(&format!("{}: {s}", object.name), f.max(furthest))
+            let mut furthest = furthest.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            *furthest = furthest.max(f);
+            progress.report(&format!("{}: {s}", object.name), *furthest)
         };
         let (mut tet_mesh, meshing) = world_tets(object, surface, options, &stage).map_err(|e| e.at(index, name()))?;
         let meshing_ms = ms(t0);
