@@ -50,6 +50,36 @@ pub struct BenchArgs {
     /// Backend of the `solve` suite: cpu, gpu (fails without an adapter) or auto.
     #[arg(long, default_value = "auto")]
     pub backend: transcut::gpu::Backend,
+    /// Solver of the `edit` suite's updates (default: the editor's own default, SSOR-PCG).
+    #[arg(long, value_enum)]
+    pub method: Option<SolverMethod>,
+}
+
+/// A diffusion solver, as `--method` names it.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum SolverMethod {
+    /// Single-level Jacobi PCG.
+    Pcg,
+    /// Single-level SSOR-PCG.
+    SsorPcg,
+    /// The TransCut §4.2 cascade.
+    Cascade,
+    /// CG preconditioned by a V-cycle on the TransCut hierarchy.
+    MgPcg,
+    /// CG preconditioned by a V-cycle on a smoothed-aggregation hierarchy.
+    SaPcg,
+}
+
+impl From<SolverMethod> for transcut::diffusion::Method {
+    fn from(m: SolverMethod) -> Self {
+        match m {
+            SolverMethod::Pcg => Self::Pcg,
+            SolverMethod::SsorPcg => Self::SsorPcg,
+            SolverMethod::Cascade => Self::Cascade,
+            SolverMethod::MgPcg => Self::MultigridPcg,
+            SolverMethod::SaPcg => Self::AggregationPcg,
+        }
+    }
 }
 
 #[derive(Serialize)]

@@ -180,6 +180,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         shadows: bake_options.shadows,
         ..EditOptions::default()
     };
+    let edit_options = EditOptions { method: args.method.map_or(edit_options.method, Into::into), ..edit_options };
     let radius_mm = 2.0;
     let runs = args.runs as usize;
     let mut entries = Vec::new();

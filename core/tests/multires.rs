@@ -11,7 +11,7 @@ use transcut::mesh::{self, TetMesh};
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
 use transcut::sparse::hierarchy::{
-    check_invariants, codes, galerkin, lost_connections, mg_pcg, substituted, Hierarchy, HierarchyOptions, Multigrid,
+    check_invariants, codes, galerkin, lost_connections, mg_pcg, substituted, Hierarchy, HierarchyKind, HierarchyOptions, Multigrid,
     MultigridOptions,
 };
 use transcut::sparse::SolveOptions;
@@ -194,14 +194,18 @@ fn multiresolution_solutions_equal_pcg_on_every_shared_mesh() {
         let sys = lit_system(&mesh, mm, DVec3::new(0.3, 1.0, 0.8));
         let reference = solve(&sys, None, &options).unwrap();
         let h = Arc::new(hierarchy(&sys, &HierarchyOptions::default()).unwrap());
-        for method in [Method::Cascade, Method::MultigridPcg, Method::SsorPcg] {
-            let solver = MultiresSolver::with_hierarchy(&sys, Arc::clone(&h), method).unwrap();
+        for method in [Method::Cascade, Method::MultigridPcg, Method::SsorPcg, Method::AggregationPcg] {
+            let solver = if method == Method::AggregationPcg {
+                MultiresSolver::new(&sys, method, &HierarchyOptions::default()).unwrap()
+            } else {
+                MultiresSolver::with_hierarchy(&sys, Arc::clone(&h), method).unwrap()
+            };
             let sol = solver.solve(&sys, None, &options).unwrap();
             let d = max_rel_diff(&sol.phi, &reference.phi);
             eprintln!(
                 "{name}: {} vertices, levels {:?}, {method:?} iterations {:?} (PCG {:?}), difference {d:.2e}",
                 sys.vertex_count(),
-                h.vertex_counts(),
+                solver.hierarchy().vertex_counts(),
                 sol.stats.iterations,
                 reference.stats.iterations
             );
@@ -214,8 +218,8 @@ fn multiresolution_solutions_equal_pcg_on_every_shared_mesh() {
 /// iterations, but only about log(‖b‖/‖Δb‖)/log(1/tolerance) of them: the residual of the
 /// old φ for the new b is b₁ − b₀ (its size relative to b is printed), so a same-method warm
 /// start needs about 80% of a cold solve's iterations at 1e-6 (measured and printed here). The
-/// interactive path — the multigrid-preconditioned CG from the previous φ — takes at most a
-/// third of the iterations of a cold solve by the default single-level PCG.
+/// interactive path — the multigrid-preconditioned CG (on either hierarchy) from the previous
+/// φ — takes at most a third of the iterations of a cold solve by the default single-level PCG.
 #[test]
 fn warm_start_after_moving_the_sun_5_degrees() {
     let (mesh, mm) = tet_mesh("stanford-bunny.obj", 40_000);
@@ -232,7 +236,7 @@ fn warm_start_after_moving_the_sun_5_degrees() {
     let norm = |v: &[[f64; 3]]| v.iter().map(|x| x[0] * x[0]).sum::<f64>().sqrt();
     eprintln!("‖b₁ − b₀‖ / ‖b₁‖ = {:.3} (channel R)", norm(&db) / norm(sys.rhs()));
     let mut cold_pcg = [0; 3];
-    for method in [Method::Pcg, Method::SsorPcg, Method::Cascade, Method::MultigridPcg] {
+    for method in [Method::Pcg, Method::SsorPcg, Method::Cascade, Method::MultigridPcg, Method::AggregationPcg] {
         relight(&mut sys, d0);
         let solver = MultiresSolver::new(&sys, method, &HierarchyOptions::default()).unwrap();
         let before = solver.solve(&sys, None, &options).unwrap();
@@ -246,7 +250,7 @@ fn warm_start_after_moving_the_sun_5_degrees() {
         assert!(max_rel_diff(&warm.phi, &cold.phi) < 1e-4);
         match method {
             Method::Pcg => cold_pcg = cold.stats.iterations,
-            Method::MultigridPcg => {
+            Method::MultigridPcg | Method::AggregationPcg => {
                 for c in 0..3 {
                     assert!(3 * warm.stats.iterations[c] <= cold_pcg[c], "{:?} vs {cold_pcg:?}", warm.stats.iterations);
                 }
@@ -254,4 +258,41 @@ fn warm_start_after_moving_the_sun_5_degrees() {
             _ => {}
         }
     }
+}
+
+/// Smoothed aggregation: levels that shrink many-fold, a V-cycle that stays symmetric positive
+/// definite (CG converges in few iterations to PCG's answer), and hierarchies of the wrong kind
+/// refused by name.
+#[test]
+fn aggregation_hierarchy_coarsens_fast_and_kinds_are_checked() {
+    let (mesh, mm) = tet_mesh("stanford-bunny.obj", 40_000);
+    let sys = lit_system(&mesh, mm, DVec3::new(0.0, 1.0, 1.0));
+    let options = SolveOptions::default().with_tolerance(1e-8);
+    let sa = MultiresSolver::new(&sys, Method::AggregationPcg, &HierarchyOptions::default()).unwrap();
+    let h = sa.hierarchy();
+    assert_eq!(h.kind(), HierarchyKind::Aggregation);
+    let counts = h.vertex_counts();
+    eprintln!("aggregation levels {counts:?}");
+    assert!(counts.len() >= 2 && *counts.last().unwrap() <= 150, "{counts:?}");
+    for w in counts.windows(2) {
+        assert!(w[1] * 8 < w[0], "{counts:?} shrinks less than 8-fold");
+    }
+    let reference = solve(&sys, None, &options).unwrap();
+    let sol = sa.solve(&sys, None, &options).unwrap();
+    eprintln!("aggregation MG-PCG {:?} iterations, Jacobi PCG {:?}", sol.stats.iterations, reference.stats.iterations);
+    for c in 0..3 {
+        assert!(3 * sol.stats.iterations[c] <= reference.stats.iterations[c], "{:?}", sol.stats.iterations);
+    }
+    assert!(max_rel_diff(&sol.phi, &reference.phi) < 1e-6);
+    let ts = Arc::new(hierarchy(&sys, &HierarchyOptions::default()).unwrap());
+    let err = MultiresSolver::with_hierarchy(&sys, ts, Method::AggregationPcg).unwrap_err();
+    assert!(err.to_string().contains("Aggregation"), "{err}");
+    for method in [Method::Cascade, Method::MultigridPcg] {
+        let err = MultiresSolver::with_hierarchy(&sys, Arc::clone(h), method).unwrap_err();
+        assert!(err.to_string().contains("IndependentSets"), "{err}");
+    }
+    // The same aggregation hierarchy prepares again (e.g. after the media changed).
+    let again = MultiresSolver::with_hierarchy(&sys, Arc::clone(h), Method::AggregationPcg).unwrap();
+    let sol2 = again.solve(&sys, None, &options).unwrap();
+    assert_eq!(sol2.phi, sol.phi);
 }

@@ -171,7 +171,7 @@ fn on_backend(
 }
 
 /// [`MultiresSolver::solve`] on `backend`, like [`solve`]: [`Method::Pcg`] is [`solve`];
-/// [`Method::MultigridPcg`] runs CG preconditioned by the solver's V-cycle on the device
+/// [`Method::MultigridPcg`] and [`Method::AggregationPcg`] run CG preconditioned by the solver's V-cycle on the device
 /// ([`super::GpuSolver::with_multigrid`]: smoothing, restriction, prolongation and the coarsest
 /// solve as kernels, the hierarchy and Galerkin operators of the solver uploaded once per call)
 /// on the GPU, [`MultiresSolver::solve`] on the CPU; [`Method::Cascade`] and
@@ -203,7 +203,7 @@ pub fn solve_multires(
         (_, Method::SsorPcg) => Err(GpuError::Unsupported {
             what: "SSOR-preconditioned CG on the GPU (its sweeps are sequential within each part; Method::MultigridPcg and Method::Pcg run there)",
         }),
-        (_, Method::MultigridPcg) => on_backend(
+        (_, Method::MultigridPcg | Method::AggregationPcg) => on_backend(
             backend,
             on_cpu,
             #[cfg(feature = "gpu")]

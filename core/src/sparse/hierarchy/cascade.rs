@@ -14,7 +14,7 @@
 use std::sync::Arc;
 
 use super::coarse::substituted;
-use super::Hierarchy;
+use super::{Hierarchy, HierarchyKind};
 use crate::sparse::{bicgstab, pcg, CsrMatrix3, Preconditioner, PreconditionerKind, SolveOptions, SolveStats, SparseError};
 
 /// Options of the coarse levels of [`Cascade::solve`].
@@ -68,6 +68,11 @@ impl Cascade {
     pub fn new(hierarchy: Arc<Hierarchy>, a: &CsrMatrix3, options: CascadeOptions) -> Result<Self, SparseError> {
         if !(options.coarse_tolerance > 0.0 && options.coarse_tolerance.is_finite()) {
             return Err(SparseError::InvalidOption(format!("coarse tolerance {} must be positive", options.coarse_tolerance)));
+        }
+        if hierarchy.kind() != HierarchyKind::IndependentSets && hierarchy.levels() > 1 {
+            return Err(SparseError::InvalidOption(
+                "the cascade needs the TransCut hierarchy (eq. 17 injects at retained vertices), not an aggregation".into(),
+            ));
         }
         let fine = Preconditioner::new(a, PreconditionerKind::Jacobi)?;
         let mut operators: Vec<CsrMatrix3> = Vec::new();

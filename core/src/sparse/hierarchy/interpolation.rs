@@ -77,17 +77,32 @@ impl Prolongation {
                 Ok(r)
             })
             .collect();
+        let rows = rows.into_iter().collect::<Result<Vec<_>, _>>()?;
+        Ok(Self { coarse_of, retained: retained.to_vec(), ..Self::from_rows(retained.len(), rows)? })
+    }
+
+    /// `P` from its rows (`(coarse vertex, weight)`, columns increasing) with `n_coarse`
+    /// columns, for a hierarchy that retains no fine vertex (smoothed aggregation): no
+    /// vertex is retained ([`Self::retained`] is empty, [`Self::coarse_of`] always `None`).
+    ///
+    /// # Errors
+    /// [`SparseError::IndexOutOfRange`] for a column at or above `n_coarse`.
+    pub(crate) fn from_rows(n_coarse: usize, rows: Vec<Vec<(u32, f64)>>) -> Result<Self, SparseError> {
+        let n = rows.len();
         let mut row_ptr = Vec::with_capacity(n + 1);
         row_ptr.push(0);
         let (mut cols, mut weights) = (Vec::new(), Vec::new());
         for r in rows {
-            for (c, w) in r? {
+            for (c, w) in r {
+                if c as usize >= n_coarse {
+                    return Err(SparseError::IndexOutOfRange { what: "prolongation column".into(), index: u64::from(c), n: n_coarse });
+                }
                 cols.push(c);
                 weights.push(w);
             }
             row_ptr.push(cols.len());
         }
-        let m = retained.len();
+        let m = n_coarse;
         let mut counts = vec![0usize; m + 1];
         for &c in &cols {
             counts[c as usize + 1] += 1;
@@ -107,7 +122,7 @@ impl Prolongation {
                 cursor[c] += 1;
             }
         }
-        Ok(Self { n_coarse: m, row_ptr, cols, weights, t_ptr, t_rows, t_weights, coarse_of, retained: retained.to_vec() })
+        Ok(Self { n_coarse: m, row_ptr, cols, weights, t_ptr, t_rows, t_weights, coarse_of: vec![u32::MAX; n], retained: Vec::new() })
     }
 
     /// Fine vertices (rows of `P`).

@@ -68,6 +68,7 @@
 //! matrix (relighting, §5 edits that keep the matrix), and single-level PCG stays the default
 //! of [`crate::diffusion::solve()`].
 
+mod aggregation;
 mod cascade;
 pub mod codes;
 mod coarse;
@@ -79,6 +80,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+pub use aggregation::{aggregates, smoothed_prolongation};
 pub use cascade::{Cascade, CascadeOptions, CascadeStats};
 pub use coarse::{galerkin, galerkin_rows, substituted};
 pub use interpolation::Prolongation;
@@ -114,6 +116,17 @@ impl Default for HierarchyOptions {
 }
 
 impl HierarchyOptions {
+    /// Checks `max_ratio` in (0, 1] and `max_levels` at least 1.
+    fn validate(&self) -> Result<(), SparseError> {
+        if !(self.max_ratio > 0.0 && self.max_ratio <= 1.0) || self.max_levels == 0 {
+            return Err(SparseError::InvalidOption(format!(
+                "hierarchy options: max_ratio {} must be in (0, 1] and max_levels {} at least 1",
+                self.max_ratio, self.max_levels
+            )));
+        }
+        Ok(())
+    }
+
     /// Sets the seed.
     #[must_use]
     pub fn with_seed(mut self, seed: u32) -> Self {
@@ -136,16 +149,31 @@ pub struct Level {
     pub graph: Arc<CsrPattern>,
     /// Vertex positions (those of the retained fine vertices).
     pub positions: Vec<DVec3>,
-    /// For levels above 0: the size of the independent set before enhancement.
+    /// For levels above 0: the size of the independent set before enhancement (the aggregate
+    /// count of an aggregation level).
     pub independent: usize,
     /// For levels above 0: enhancement rounds that added vertices.
     pub enhancement_rounds: usize,
 }
 
-/// The multiresolution hierarchy (TransCut §4.1): levels `0..levels()`, level 0 the input
-/// graph, and the interpolation from every level `l + 1` to `l`.
+/// How the levels of a [`Hierarchy`] were made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum HierarchyKind {
+    /// TransCut §4.1 ([`Hierarchy::build`]): each level an enhanced independent set of the
+    /// level above, interpolated by eq. 16. The cascade and the V-cycle run on it.
+    IndependentSets,
+    /// Smoothed aggregation ([`Hierarchy::aggregated`]): each coarse vertex an aggregate of
+    /// fine ones. Only the V-cycle runs on it (no vertex is retained for eq. 17).
+    Aggregation,
+}
+
+/// The multiresolution hierarchy (TransCut §4.1, or the smoothed-aggregation alternative):
+/// levels `0..levels()`, level 0 the input graph, and the interpolation from every level
+/// `l + 1` to `l`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Hierarchy {
+    kind: HierarchyKind,
     levels: Vec<Level>,
     prolongations: Vec<Prolongation>,
 }
@@ -164,12 +192,7 @@ impl Hierarchy {
         if positions.len() != n {
             return Err(SparseError::DimensionMismatch { what: "positions (one per vertex)", expected: n, found: positions.len() });
         }
-        if !(options.max_ratio > 0.0 && options.max_ratio <= 1.0) || options.max_levels == 0 {
-            return Err(SparseError::InvalidOption(format!(
-                "hierarchy options: max_ratio {} must be in (0, 1] and max_levels {} at least 1",
-                options.max_ratio, options.max_levels
-            )));
-        }
+        options.validate()?;
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(SparseError::InvalidOption(format!("position of vertex {i} is not finite")));
         }
@@ -200,7 +223,13 @@ impl Hierarchy {
                 enhancement_rounds: step.enhancement_rounds,
             });
         }
-        Ok(Self { levels, prolongations })
+        Ok(Self { kind: HierarchyKind::IndependentSets, levels, prolongations })
+    }
+
+    /// How the levels were made.
+    #[must_use]
+    pub fn kind(&self) -> HierarchyKind {
+        self.kind
     }
 
     /// The number of levels (1 when the input was already small).

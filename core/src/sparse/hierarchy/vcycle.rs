@@ -43,11 +43,12 @@ use std::sync::{Arc, Mutex, TryLockError};
 
 #[cfg(feature = "gpu")]
 use nalgebra::DMatrix;
+use glam::DVec3;
 use nalgebra::{Cholesky, Dyn};
 use rayon::prelude::*;
 
 use super::coarse::{galerkin, galerkin_rows};
-use super::Hierarchy;
+use super::{Hierarchy, HierarchyOptions};
 use crate::sparse::ops::{dot3, norm3, row_mul, CHUNK};
 use crate::sparse::precond::{inverse_diagonal, positive_diagonal};
 use crate::sparse::pcg::{spmv_dot, update};
@@ -337,6 +338,17 @@ fn residual(a: &CsrMatrix3, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) 
     });
 }
 
+/// Checks the smoothing degree (1 to 16) and ratio (above 1).
+fn validate(options: &MultigridOptions) -> Result<(), SparseError> {
+    if options.smoothing_degree == 0 || options.smoothing_degree > 16 || !(options.smoothing_ratio > 1.0) {
+        return Err(SparseError::InvalidOption(format!(
+            "multigrid smoothing degree {} must be 1 to 16 and ratio {} above 1",
+            options.smoothing_degree, options.smoothing_ratio
+        )));
+    }
+    Ok(())
+}
+
 /// The dense Cholesky factors of the coarsest operator `m`, per channel.
 fn coarse_factor(m: &CsrMatrix3) -> Result<CoarseFactor, SparseError> {
     let factor = |c: usize| -> Result<Cholesky<f64, Dyn>, SparseError> {
@@ -453,22 +465,33 @@ impl Multigrid {
     /// [`SparseError::InvalidOption`] for bad options, a coarsest level above
     /// `options.max_direct`, or a coarsest operator that is not positive definite.
     pub fn new(hierarchy: Arc<Hierarchy>, a: &CsrMatrix3, options: MultigridOptions) -> Result<Self, SparseError> {
-        if options.smoothing_degree == 0 || options.smoothing_degree > 16 || !(options.smoothing_ratio > 1.0) {
-            return Err(SparseError::InvalidOption(format!(
-                "multigrid smoothing degree {} must be 1 to 16 and ratio {} above 1",
-                options.smoothing_degree, options.smoothing_ratio
-            )));
-        }
+        validate(&options)?;
         let n0 = hierarchy.level(0).graph.n();
         if a.n() != n0 {
             return Err(SparseError::DimensionMismatch { what: "multigrid matrix rows", expected: n0, found: a.n() });
         }
-        let levels = hierarchy.levels();
         let mut operators: Vec<CsrMatrix3> = Vec::new();
-        for l in 1..levels {
+        for l in 1..hierarchy.levels() {
             let g = galerkin(if l == 1 { a } else { &operators[l - 2] }, hierarchy.prolongation(l - 1))?;
             operators.push(g);
         }
+        Self::with_operators(hierarchy, a, operators, options)
+    }
+
+    /// [`Self::new`] on a smoothed-aggregation hierarchy of `a` ([`Hierarchy::aggregated`]),
+    /// whose Galerkin operators are computed once, while building it.
+    ///
+    /// # Errors
+    /// Those of [`Hierarchy::aggregated`] and [`Self::new`].
+    pub fn aggregated(a: &CsrMatrix3, positions: &[DVec3], hierarchy: &HierarchyOptions, options: MultigridOptions) -> Result<Self, SparseError> {
+        validate(&options)?;
+        let (h, operators) = Hierarchy::aggregated(a, positions, hierarchy)?;
+        Self::with_operators(Arc::new(h), a, operators, options)
+    }
+
+    /// The multigrid of `hierarchy` whose Galerkin operators are `operators` (`A^1, A^2, …`).
+    fn with_operators(hierarchy: Arc<Hierarchy>, a: &CsrMatrix3, operators: Vec<CsrMatrix3>, options: MultigridOptions) -> Result<Self, SparseError> {
+        let levels = hierarchy.levels();
         let level_op = |l: usize| if l == 0 { a } else { &operators[l - 1] };
         let mut smoothers = Vec::new();
         let mut ops32 = Vec::new();
