@@ -23,8 +23,8 @@ pub enum Suite {
     /// (GPU: upload, assembly, solve with read-back), their agreement and the device name.
     Solve,
     /// TransCut Fig. 7: relative error against time for the single-level solvers (Jacobi PCG,
-    /// SSOR-PCG), the multiresolution cascade and multigrid-preconditioned CG, and the warm
-    /// start after moving the sun 5°.
+    /// SSOR-PCG), the multiresolution cascade and multigrid-preconditioned CG (on the paper's
+    /// hierarchy and on a smoothed aggregation), and the warm start after moving the sun 5°.
     Multires,
     /// Interactive edits (TransCut §5) on the bunny: the cold bake, a relight after moving the
     /// sun 5° (warm start against a cold solve of the same system), a paint stroke, and the
@@ -50,7 +50,7 @@ pub struct BenchArgs {
     /// Backend of the `solve` suite: cpu, gpu (fails without an adapter) or auto.
     #[arg(long, default_value = "auto")]
     pub backend: transcut::gpu::Backend,
-    /// Solver of the `edit` suite's updates (default: the editor's own default, SSOR-PCG).
+    /// Solver of the `edit` suite's updates (default: the editor's own, sa-pcg).
     #[arg(long, value_enum)]
     pub method: Option<SolverMethod>,
 }

@@ -4,7 +4,8 @@
 //! (0, 1, 1) (irradiance 3, with shadows, as `transcut bake`), tetrahedralised once per size.
 //! Per run, back to back:
 //! - **cold bake**: `scene::bake` of the tet mesh (assembly, source, cold PCG solve);
-//! - **relight**: an [`Editor`] started from that bake (its default solver, SSOR-PCG) relights
+//! - **relight**: an [`Editor`] started from that bake (its default solver, aggregation
+//!   MG-PCG, or `--method`) relights
 //!   after the sun moved 5° about x (warm start from the previous fluence): iterations and their
 //!   ratio (issue 6 goal ≤ 1/3) against a cold solve of the same system with the same method,
 //!   and times against a cold bake under the moved sun (Jacobi PCG from zero);
@@ -15,7 +16,8 @@
 //!
 //! Medians over `--runs`. Then Fig. 7 ([`crate::bench_multires::fig7`]) on the same tet mesh
 //! (unshadowed sun, the reference solved to 1e-10): relative error against time for Jacobi
-//! PCG, SSOR-PCG, the cascade and MG-PCG, the time to 1% and its ratio to the best single-level solver.
+//! PCG, SSOR-PCG, the cascade and MG-PCG on the paper's hierarchy and on the aggregation, the
+//! time to 1% and its ratio to the best single-level solver.
 
 use std::time::Instant;
 

@@ -40,7 +40,7 @@ fn bench_edit_reports_every_edit_consistently() {
     assert!(sum(&e["cold_bake"]["iterations"]) > 0);
     positive(&e["cold_bake"]["median_solve_ms"], "cold solve ms");
     let relight = &e["relight_5deg"];
-    assert_eq!(relight["method"], "ssor_pcg", "the editor's default solver");
+    assert_eq!(relight["method"], "aggregation_pcg", "the editor's default solver");
     let cold_bake = sum(&relight["cold"]["iterations"]);
     let cold = sum(&relight["cold_same_method_iterations"]);
     let warm = sum(&relight["warm"]["last"]["iterations"]);

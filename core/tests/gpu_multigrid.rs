@@ -135,46 +135,49 @@ fn device_mg_pcg_matches_the_cpu_in_solution_and_iterations_and_beats_jacobi() {
         let preset = ["marble", "skin1", "ketchup"][k];
         let sys = system_for(mesh, *scale, preset);
         let reference = solve(&sys, None, &SolveOptions::default().with_tolerance(1e-12)).unwrap();
-        let solver = MultiresSolver::new(&sys, Method::MultigridPcg, &HierarchyOptions::default()).unwrap();
-        let levels = solver.hierarchy().levels();
-        let device_mg = GpuSolver::with_multigrid(ctx, &sys, solver.multigrid().unwrap()).unwrap();
-        let device_pcg = GpuSolver::new(ctx, &sys).unwrap();
-        for tol in [1e-6, 1e-9] {
-            let options = SolveOptions::default().with_tolerance(tol);
-            let cpu_mg = solver.solve(&sys, None, &options).unwrap();
-            let g = device_mg.solve(&sys, None, &options).unwrap();
-            let j = device_pcg.solve(&sys, None, &options).unwrap();
-            let err = rel_rms(&g.solution.phi, &reference.phi);
-            let (it, cpu_it, jac_it) = (g.solution.stats.iterations, cpu_mg.stats.iterations, j.solution.stats.iterations);
-            eprintln!(
-                "{name} ({preset}, {} vertices, {levels} levels, tol {tol:e}): GPU MG-PCG iterations {it:?} in {} rounds \
-                 ({} read-backs), CPU MG-PCG {cpu_it:?}, GPU Jacobi PCG {jac_it:?}; rel RMS vs CPU f64 {}",
-                sys.vertex_count(),
-                g.stats.rounds,
-                g.stats.readbacks,
-                fmt3(err),
-            );
-            assert!(g.solution.stats.converged);
-            assert_eq!(g.stats.multigrid_levels, levels);
-            assert!(g.solution.stats.relative_residual.iter().all(|&r| r <= tol), "{:?}", g.solution.stats);
-            assert!(err.iter().all(|&e| e < 1e-4), "{name}, tol {tol:e}: GPU MG-PCG vs CPU f64 relative RMS {err:?}");
-            for c in 0..3 {
-                // The f64 refinement restarts CG once (the f32 inner solve stops near 1e-5; the
-                // Krylov space is rebuilt): measured +1 iteration on the CPU's MG-PCG at 1e-6,
-                // +0 to +3 at 1e-9. Allowed: ±2, or ±20% where the CPU needs more than 10.
-                let slack = 2.max(cpu_it[c] / 5);
-                assert!(it[c].abs_diff(cpu_it[c]) <= slack, "{name} channel {c}: GPU {it:?} vs CPU {cpu_it:?}");
+        // The paper's hierarchy, then the smoothed aggregation (the same kernels, other `P`).
+        for method in [Method::MultigridPcg, Method::AggregationPcg] {
+            let solver = MultiresSolver::new(&sys, method, &HierarchyOptions::default()).unwrap();
+            let levels = solver.hierarchy().levels();
+            let device_mg = GpuSolver::with_multigrid(ctx, &sys, solver.multigrid().unwrap()).unwrap();
+            let device_pcg = GpuSolver::new(ctx, &sys).unwrap();
+            for tol in [1e-6, 1e-9] {
+                let options = SolveOptions::default().with_tolerance(tol);
+                let cpu_mg = solver.solve(&sys, None, &options).unwrap();
+                let g = device_mg.solve(&sys, None, &options).unwrap();
+                let j = device_pcg.solve(&sys, None, &options).unwrap();
+                let err = rel_rms(&g.solution.phi, &reference.phi);
+                let (it, cpu_it, jac_it) = (g.solution.stats.iterations, cpu_mg.stats.iterations, j.solution.stats.iterations);
+                eprintln!(
+                    "{name} ({preset}, {method:?}, {} vertices, {levels} levels, tol {tol:e}): GPU MG-PCG iterations {it:?} in {} rounds \
+                     ({} read-backs), CPU MG-PCG {cpu_it:?}, GPU Jacobi PCG {jac_it:?}; rel RMS vs CPU f64 {}",
+                    sys.vertex_count(),
+                    g.stats.rounds,
+                    g.stats.readbacks,
+                    fmt3(err),
+                );
+                assert!(g.solution.stats.converged);
+                assert_eq!(g.stats.multigrid_levels, levels);
+                assert!(g.solution.stats.relative_residual.iter().all(|&r| r <= tol), "{:?}", g.solution.stats);
+                assert!(err.iter().all(|&e| e < 1e-4), "{name}, tol {tol:e}: GPU MG-PCG vs CPU f64 relative RMS {err:?}");
+                for c in 0..3 {
+                    // The f64 refinement restarts CG once (the f32 inner solve stops near 1e-5; the
+                    // Krylov space is rebuilt): measured +1 iteration on the CPU's MG-PCG at 1e-6,
+                    // +0 to +3 at 1e-9. Allowed: ±2, or ±20% where the CPU needs more than 10.
+                    let slack = 2.max(cpu_it[c] / 5);
+                    assert!(it[c].abs_diff(cpu_it[c]) <= slack, "{name} channel {c}: GPU {it:?} vs CPU {cpu_it:?}");
+                }
+                // The channels iterate in lockstep until the slowest stops, so the slowest channel
+                // (the least absorbing, where Jacobi needs the most iterations) sets the cost: there
+                // the V-cycle saves at least a factor 3. (In a strongly absorbing channel the matrix
+                // is nearly diagonal and Jacobi already needs ~10 iterations, as many as MG-PCG.)
+                let worst = |v: [usize; 3]| v.into_iter().max().unwrap_or(0);
+                assert!(3 * worst(it) <= worst(jac_it), "{name}: MG-PCG {it:?} vs Jacobi PCG {jac_it:?}");
             }
-            // The channels iterate in lockstep until the slowest stops, so the slowest channel
-            // (the least absorbing, where Jacobi needs the most iterations) sets the cost: there
-            // the V-cycle saves at least a factor 3. (In a strongly absorbing channel the matrix
-            // is nearly diagonal and Jacobi already needs ~10 iterations, as many as MG-PCG.)
-            let worst = |v: [usize; 3]| v.into_iter().max().unwrap_or(0);
-            assert!(3 * worst(it) <= worst(jac_it), "{name}: MG-PCG {it:?} vs Jacobi PCG {jac_it:?}");
+            // Warm start from the answer: nothing to do.
+            let warm = device_mg.solve(&sys, Some(&reference.phi), &SolveOptions::default()).unwrap();
+            assert_eq!((warm.stats.rounds, warm.solution.stats.iterations), (0, [0; 3]));
         }
-        // Warm start from the answer: nothing to do.
-        let warm = device_mg.solve(&sys, Some(&reference.phi), &SolveOptions::default()).unwrap();
-        assert_eq!((warm.stats.rounds, warm.solution.stats.iterations), (0, [0; 3]));
     }
 }
 

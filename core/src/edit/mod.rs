@@ -36,26 +36,32 @@
 //!
 //! # Solver
 //!
-//! Updates solve with single-level CG preconditioned by SSOR ([`Method::SsorPcg`], the default
-//! of [`EditOptions::method`]; [`crate::sparse::Ssor`]). `transcut bench edit --tets 500000
-//! --runs 3` on the bunny (2 cores), this default against MG-PCG ([`Method::MultigridPcg`], the
-//! default until then), whole benchmarks alternated, medians of two runs each:
+//! Updates solve with CG preconditioned by a multigrid V-cycle on a smoothed-aggregation
+//! hierarchy ([`Method::AggregationPcg`], the default of [`EditOptions::method`];
+//! [`crate::sparse::hierarchy::Hierarchy::aggregated`]). `transcut bench edit --tets 500000
+//! --runs 3 --method sa-pcg|ssor-pcg` on the bunny (2 cores), this default against SSOR-PCG
+//! ([`Method::SsorPcg`], the default until then), whole benchmarks alternated, medians of each
+//! run:
 //!
-//! | | SSOR-PCG | MG-PCG |
+//! | | aggregation MG-PCG | SSOR-PCG |
 //! |---|---|---|
-//! | editor setup | 319 / 300 ms | 1078 / 1127 ms |
-//! | relight after a 5° sun move | 106 / 114 ms (29/25/21 iterations) | 101 / 88 ms (6/6/6) |
-//! | 6,000-row paint stroke | **127 / 143 ms** (refresh 13–18 ms) | 157 / 176 ms (refresh 61–76 ms) |
-//! | plane cut, rebuild included | **523 / 591 ms** | 1091 / 1114 ms |
+//! | editor setup | 345 / 336 ms | 316 / 267 ms |
+//! | relight after a 5° sun move | **86 / 82 ms** (12/12/11 iterations) | 120 / 92 ms (29/25/21) |
+//! | 6,000-row paint stroke | **114 / 110 ms** (refresh 11–12 ms) | 155 / 116 ms (refresh 13–15 ms) |
+//! | plane cut, rebuild included | 503 / 480 ms | 597 / 494 ms |
 //!
-//! MG-PCG needs 6 iterations where SSOR needs about 30, so a relight is 5–25% faster with it,
-//! but its setup (the §4 hierarchy and the Galerkin operators, about 1 s per piece mesh) is paid
-//! at the editor's start and after every cut, split, fracture and recombination, and a paint
-//! refreshes the coarse operators the refilled rows reach
-//! ([`crate::sparse::hierarchy::Multigrid::refresh`]). SSOR's setup is a level-set ordering of
-//! the mesh and its reordered triangles (about 90 ms); a paint only rescales the triangles
-//! ([`crate::sparse::Ssor::refresh`]). MG-PCG stays available through
-//! [`EditOptions::method`], e.g. for an editor that mostly relights.
+//! The aggregation hierarchy shrinks each level about 20-fold (93,481 → 4,253 → 85 vertices),
+//! so its coarse operators add only 12% to the level-0 matrix and a V-cycle costs about two
+//! matrix products; CG needs 12–15 iterations where SSOR needs 25–36. Its setup (aggregation,
+//! the smoothed prolongation and the Galerkin products, about 0.1 s at 500k tets) is paid at
+//! the editor's start and after every cut, split, fracture and recombination; a paint refreshes
+//! the Galerkin rows the refilled rows reach ([`crate::sparse::hierarchy::Multigrid::refresh`])
+//! and keeps the prolongation, smoothed with the matrix before the paint (still a valid
+//! V-cycle: on the bench's ink stroke CG needs 14/13/12 iterations after it against 15/14/13 on
+//! the unpainted bunny). The V-cycle on the paper's §4 hierarchy ([`Method::MultigridPcg`])
+//! needs 6 iterations but about 1 s of setup per piece mesh, and its Galerkin operators fill in
+//! to 3.4 times the level-0 matrix; it and SSOR-PCG stay available through
+//! [`EditOptions::method`].
 //!
 //! Every solve is **warm-started** from the previous φ (TransCut §4.2; after a cut φ is carried
 //! over through the kept vertices). Every method returns [`UpdateStats`] with the stage timings.
@@ -117,8 +123,8 @@ pub struct EditOptions {
     pub tolerance: f64,
     /// Iteration cap of every solve.
     pub max_iterations: usize,
-    /// The solver of the updates (default [`Method::SsorPcg`], the fastest for paints, cuts and
-    /// setup, within 5–25% of MG-PCG for relights: see the module documentation's "Solver"
+    /// The solver of the updates (default [`Method::AggregationPcg`], the fastest for relights
+    /// and paints, as fast as SSOR-PCG for cuts: see the module documentation's "Solver"
     /// section).
     pub method: Method,
     /// Where [`Method::Pcg`] solves run (as [`BakeOptions::backend`]; `None`: `TRANSCUT_BACKEND`,
@@ -142,7 +148,7 @@ impl Default for EditOptions {
             tets: bake.tets,
             tolerance: bake.tolerance,
             max_iterations: bake.max_iterations,
-            method: Method::SsorPcg,
+            method: Method::AggregationPcg,
             backend: None,
             source: bake.source,
             shadows: bake.shadows,

@@ -93,54 +93,60 @@ pub fn aggregates(graph: &CsrPattern) -> (Vec<u32>, usize) {
 ///
 /// # Errors
 /// [`SparseError::NonPositiveDiagonal`] if a diagonal entry of `S` is not positive.
-pub fn smoothed_prolongation(
-    a: &CsrMatrix3,
-    agg: &[u32],
-    count: usize,
-) -> Result<Prolongation, SparseError> {
+pub fn smoothed_prolongation(a: &CsrMatrix3, agg: &[u32], count: usize) -> Result<Prolongation, SparseError> {
+    /// Rows per parallel task.
+    const ROWS: usize = 2048;
     let p = a.pattern();
     let sum = |k: usize| a.values()[k].iter().sum::<f64>();
     let diagonal: Vec<f64> = p.diagonal_positions().iter().map(|&k| sum(k)).collect();
     if let Some(i) = diagonal.iter().position(|&d| !(d > 0.0 && d.is_finite())) {
-        return Err(SparseError::NonPositiveDiagonal {
-            row: i,
-            channel: 0,
-            value: diagonal[i],
-        });
+        return Err(SparseError::NonPositiveDiagonal { row: i, channel: 0, value: diagonal[i] });
     }
     let rho = (0..p.n())
         .into_par_iter()
-        .map(|i| {
-            (p.row_ptr()[i]..p.row_ptr()[i + 1])
-                .map(|k| sum(k).abs())
-                .sum::<f64>()
-                / diagonal[i]
-        })
+        .map(|i| (p.row_ptr()[i]..p.row_ptr()[i + 1]).map(|k| sum(k).abs()).sum::<f64>() / diagonal[i])
         .reduce(|| 0.0, f64::max);
     let damping = PROLONGATION_OMEGA / rho;
-    let rows: Vec<Vec<(u32, f64)>> = (0..p.n())
+    // Each task fills its rows' lengths, columns and weights; a row gathers its few distinct
+    // aggregates by linear search, then orders them by insertion.
+    let blocks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = (0..p.n().div_ceil(ROWS))
         .into_par_iter()
-        .map(|i| {
-            let mut row: Vec<(u32, f64)> = (p.row_ptr()[i]..p.row_ptr()[i + 1])
-                .map(|k| {
+        .map(|b| {
+            let rows = b * ROWS..((b + 1) * ROWS).min(p.n());
+            let (mut lens, mut cols, mut weights) = (Vec::with_capacity(rows.len()), Vec::new(), Vec::new());
+            let mut row: Vec<(u32, f64)> = Vec::new();
+            for i in rows {
+                row.clear();
+                for k in p.row_ptr()[i]..p.row_ptr()[i + 1] {
                     let j = p.col_idx()[k] as usize;
-                    let smoothing = -damping * sum(k) / diagonal[i];
-                    (agg[j], if j == i { 1.0 + smoothing } else { smoothing })
-                })
-                .collect();
-            row.sort_by_key(|e| e.0);
-            row.dedup_by(|next, kept| {
-                let same = next.0 == kept.0;
-                if same {
-                    kept.1 += next.1;
+                    let term = -damping * sum(k) / diagonal[i] + if j == i { 1.0 } else { 0.0 };
+                    match row.iter_mut().find(|e| e.0 == agg[j]) {
+                        Some(e) => e.1 += term,
+                        None => row.push((agg[j], term)),
+                    }
                 }
-                same
-            });
-            row.retain(|e| e.1 != 0.0);
-            row
+                row.sort_unstable_by_key(|e| e.0);
+                let before = cols.len();
+                for &(c, w) in row.iter().filter(|e| e.1 != 0.0) {
+                    cols.push(c);
+                    weights.push(w);
+                }
+                lens.push(cols.len() - before);
+            }
+            (lens, cols, weights)
         })
         .collect();
-    Prolongation::from_rows(count, rows)
+    let mut row_ptr = Vec::with_capacity(p.n() + 1);
+    row_ptr.push(0);
+    let (mut cols, mut weights) = (Vec::new(), Vec::new());
+    for (lens, c, w) in blocks {
+        for len in lens {
+            row_ptr.push(row_ptr.last().expect("starts at 0") + len);
+        }
+        cols.extend_from_slice(&c);
+        weights.extend_from_slice(&w);
+    }
+    Prolongation::from_csr(count, row_ptr, cols, weights)
 }
 
 impl Hierarchy {

@@ -77,30 +77,29 @@ impl Prolongation {
                 Ok(r)
             })
             .collect();
-        let rows = rows.into_iter().collect::<Result<Vec<_>, _>>()?;
-        Ok(Self { coarse_of, retained: retained.to_vec(), ..Self::from_rows(retained.len(), rows)? })
-    }
-
-    /// `P` from its rows (`(coarse vertex, weight)`, columns increasing) with `n_coarse`
-    /// columns, for a hierarchy that retains no fine vertex (smoothed aggregation): no
-    /// vertex is retained ([`Self::retained`] is empty, [`Self::coarse_of`] always `None`).
-    ///
-    /// # Errors
-    /// [`SparseError::IndexOutOfRange`] for a column at or above `n_coarse`.
-    pub(crate) fn from_rows(n_coarse: usize, rows: Vec<Vec<(u32, f64)>>) -> Result<Self, SparseError> {
-        let n = rows.len();
         let mut row_ptr = Vec::with_capacity(n + 1);
         row_ptr.push(0);
         let (mut cols, mut weights) = (Vec::new(), Vec::new());
         for r in rows {
-            for (c, w) in r {
-                if c as usize >= n_coarse {
-                    return Err(SparseError::IndexOutOfRange { what: "prolongation column".into(), index: u64::from(c), n: n_coarse });
-                }
+            for (c, w) in r? {
                 cols.push(c);
                 weights.push(w);
             }
             row_ptr.push(cols.len());
+        }
+        Ok(Self { coarse_of, retained: retained.to_vec(), ..Self::from_csr(retained.len(), row_ptr, cols, weights)? })
+    }
+
+    /// `P` in compressed rows (`row_ptr`, then each row's coarse `cols`, increasing, and
+    /// `weights`) with `n_coarse` columns, for a hierarchy that retains no fine vertex (smoothed
+    /// aggregation): [`Self::retained`] is empty, [`Self::coarse_of`] always `None`.
+    ///
+    /// # Errors
+    /// [`SparseError::IndexOutOfRange`] for a column at or above `n_coarse`.
+    pub(crate) fn from_csr(n_coarse: usize, row_ptr: Vec<usize>, cols: Vec<u32>, weights: Vec<f64>) -> Result<Self, SparseError> {
+        let n = row_ptr.len() - 1;
+        if let Some(&c) = cols.iter().find(|&&c| c as usize >= n_coarse) {
+            return Err(SparseError::IndexOutOfRange { what: "prolongation column".into(), index: u64::from(c), n: n_coarse });
         }
         let m = n_coarse;
         let mut counts = vec![0usize; m + 1];
