@@ -40,15 +40,15 @@
 //! hierarchy ([`Method::AggregationPcg`], the default of [`EditOptions::method`];
 //! [`crate::sparse::hierarchy::Hierarchy::aggregated`]). `transcut bench edit --tets 500000
 //! --runs 3 --method sa-pcg|ssor-pcg` on the bunny (2 cores), this default against SSOR-PCG
-//! ([`Method::SsorPcg`], the default until then), whole benchmarks alternated, medians of each
-//! run:
+//! ([`Method::SsorPcg`], the default until then), whole benchmarks alternated five times; the
+//! median over the five runs of each run's median, and their range:
 //!
 //! | | aggregation MG-PCG | SSOR-PCG |
 //! |---|---|---|
-//! | editor setup | 345 / 336 ms | 316 / 267 ms |
-//! | relight after a 5° sun move | **86 / 82 ms** (12/12/11 iterations) | 120 / 92 ms (29/25/21) |
-//! | 6,000-row paint stroke | **114 / 110 ms** (refresh 11–12 ms) | 155 / 116 ms (refresh 13–15 ms) |
-//! | plane cut, rebuild included | 503 / 480 ms | 597 / 494 ms |
+//! | editor setup | 343 ms (311–347) | 312 ms (267–331) |
+//! | relight after a 5° sun move | **90 ms** (82–96; 12/12/11 iterations) | 115 ms (92–141; 29/25/21) |
+//! | 6,000-row paint stroke | **123 ms** (110–125; refresh 11–16 ms) | 137 ms (116–166; refresh 13–18 ms) |
+//! | plane cut, rebuild included | 503 ms (480–551) | 526 ms (494–597) |
 //!
 //! The aggregation hierarchy shrinks each level about 20-fold (93,481 → 4,253 → 85 vertices),
 //! so its coarse operators add only 12% to the level-0 matrix and a V-cycle costs about two

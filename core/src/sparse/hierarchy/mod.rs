@@ -14,6 +14,10 @@
 //! * [`Multigrid`] / [`mg_pcg`]: the same `P` used as a symmetric multigrid V-cycle
 //!   (Galerkin operators, Chebyshev–Jacobi smoothing, dense Cholesky at the coarsest level) to
 //!   precondition CG.
+//! * [`Hierarchy::aggregated`] / [`Multigrid::aggregated`]: an algebraic alternative to §4.1,
+//!   smoothed aggregation (`aggregation.rs`), on which the same V-cycle runs: levels that
+//!   shrink about 20-fold (93 481 → 4 253 → 85 on the 500k-tet bunny, coarse operators adding
+//!   12% to the level-0 nonzeros), built in about 0.1 s; CG needs 15/14/13 iterations to 1e-6.
 //!
 //! Everything is deterministic for a given seed, for any number of rayon threads.
 //!
