@@ -64,10 +64,10 @@ pub fn aggregates(graph: &CsrPattern) -> (Vec<u32>, usize) {
     // order); the aggregates of pass 1 are all that exists yet, so the choice does not depend
     // on the order of this pass.
     let pass1 = agg.clone();
-    for i in 0..n {
-        if agg[i] == FREE {
+    for (i, a) in agg.iter_mut().enumerate() {
+        if *a == FREE {
             if let Some(j) = neighbours(i).find(|&j| pass1[j] != FREE) {
-                agg[i] = pass1[j];
+                *a = pass1[j];
             }
         }
     }
@@ -108,7 +108,7 @@ pub fn smoothed_prolongation(a: &CsrMatrix3, agg: &[u32], count: usize) -> Resul
         .reduce(|| 0.0, f64::max);
     let damping = PROLONGATION_OMEGA / rho;
     // Each task fills its rows' lengths, columns and weights; a row gathers its few distinct
-    // aggregates by linear search, then orders them by insertion.
+    // aggregates by linear search (in column order), then sorts them.
     let blocks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = (0..p.n().div_ceil(ROWS))
         .into_par_iter()
         .map(|b| {
