@@ -159,8 +159,7 @@ impl Operator32 {
     /// only up to rounding. (For an exactly symmetric one the mean is the entry itself.)
     fn new(a: &CsrMatrix3, symmetrise: bool) -> Self {
         let p = a.pattern();
-        // The mirrors in one pass (a search per entry took 24 of the 100 ms of an aggregation
-        // multigrid's setup at 500k tets).
+        // The mirrors in one pass rather than a search per entry.
         let mirror = if symmetrise { p.mirror_positions() } else { Vec::new() };
         let values: Vec<[f32; 3]> = (0..a.nnz())
             .into_par_iter()
