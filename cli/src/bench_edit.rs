@@ -8,7 +8,7 @@
 //!   MG-PCG, or `--method`) relights
 //!   after the sun moved 5° about x (warm start from the previous fluence): iterations and their
 //!   ratio (issue 6 goal ≤ 1/3) against a cold solve of the same system with the same method,
-//!   and times against a cold bake under the moved sun (Jacobi PCG from zero);
+//!   and times against a cold bake under the moved sun (the bake's SSOR-PCG from zero);
 //! - **paint**: a stroke of 8 points across the front of the surface, Gaussian radius 2 mm, of
 //!   an absorbing marble-like ink (rows rebuilt, tets changed, ms);
 //! - **cut**: a plane through the centre of the bounds removing the back half (rebuild of the
@@ -62,7 +62,8 @@ struct EditEntry {
 struct RelightEntry {
     /// The editor's solver.
     method: Method,
-    /// The cold bake under the moved sun (the same system, solved from zero by Jacobi PCG).
+    /// The cold bake under the moved sun (the same system, solved from zero by the bake's
+    /// SSOR-PCG).
     cold: ColdEntry,
     /// The editor's relight (warm start).
     warm: EditEntry,
@@ -70,7 +71,7 @@ struct RelightEntry {
     cold_same_method_iterations: [usize; 3],
     /// Σ warm iterations / Σ cold iterations of the same method over the channels (goal ≤ 1/3).
     iteration_ratio: f64,
-    /// Σ warm iterations / Σ cold-bake (Jacobi PCG) iterations: not a warm-start measure when
+    /// Σ warm iterations / Σ cold-bake (SSOR-PCG) iterations: not a warm-start measure when
     /// the methods differ.
     iteration_ratio_vs_cold_bake: f64,
     /// Warm solve ms / cold solve ms (medians).

@@ -42,7 +42,7 @@ struct GpuMultigridEntry {
     /// CPU MG-PCG iterations for comparison with the device's.
     cpu_mg_pcg_iterations: [usize; 3],
     /// Upload (matrix, operators, transfers, coarsest inverse), assembly and MG-PCG solve on the
-    /// device; `speedup_vs_cpu` against the CPU's Jacobi PCG assembly + solve.
+    /// device; `speedup_vs_cpu` against the CPU's assembly + solve (the bake's SSOR-PCG).
     device: GpuEntry,
 }
 

@@ -4,9 +4,10 @@
 //!
 //! Five methods ([`Method`]), all reaching the same answer (level-0 residual
 //! `‖b − Mφ‖/‖b‖ ≤ tolerance`):
-//! - [`Method::Pcg`]: the single-level baseline, mixed-precision Jacobi PCG ([`super::solve()`]);
+//! - [`Method::Pcg`]: the single-level baseline, mixed-precision Jacobi PCG (the GPU's solver);
 //! - [`Method::SsorPcg`]: single-level CG with the SSOR preconditioner
-//!   ([`crate::sparse::Ssor`]), the stronger single-level solver Fig. 7 is measured against;
+//!   ([`crate::sparse::Ssor`], as [`super::solve()`]), the stronger single-level solver Fig. 7
+//!   is measured against;
 //! - [`Method::Cascade`]: the paper's coarse-to-fine cascade (BiCGSTAB on the eq.-17 coarse
 //!   systems, CG at level 0, each level started from the interpolated coarser solution);
 //! - [`Method::MultigridPcg`]: CG preconditioned by a V-cycle on the same hierarchy (Galerkin

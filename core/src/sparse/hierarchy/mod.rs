@@ -69,8 +69,8 @@
 //! moving the sun 5° (B): 99/83/69 iterations against 125/107/86 cold for PCG (and the cascade,
 //! whose warm start is level-0 PCG). MG-PCG's setup (hierarchy and Galerkin operators, 3–6 s
 //! under load) still costs far more than a PCG solve, so it pays off for repeated solves on one
-//! matrix (relighting, §5 edits that keep the matrix), and single-level PCG stays the default
-//! of [`crate::diffusion::solve()`].
+//! matrix (relighting, §5 edits that keep the matrix), and a single-level PCG stays the solver
+//! of [`crate::diffusion::solve()`] (SSOR-preconditioned since session 7).
 
 mod aggregation;
 mod cascade;
