@@ -1,4 +1,6 @@
-//! A multigrid V-cycle on the TransCut hierarchy, used as the preconditioner of CG.
+//! A multigrid V-cycle on the TransCut hierarchy (or on a smoothed aggregation,
+//! [`Hierarchy::aggregated`], whose `P` takes the place of eq. 16's), used as the preconditioner
+//! of CG.
 //!
 //! The paper (§4.2) keeps to its one-way cascade and remarks that its interpolation could
 //! serve a full multigrid solver; this is that solver in its symmetric form. With `P` the
