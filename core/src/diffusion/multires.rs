@@ -15,7 +15,7 @@
 //! - [`Method::AggregationPcg`]: the same V-cycle on a smoothed-aggregation hierarchy built
 //!   from the matrix ([`Hierarchy::aggregated`]): levels that shrink 20-fold instead of 3-fold,
 //!   so about a seventh of the setup (121 against 796 ms at 500k tets) and a solve within 20%
-//!   of it (103 against 87 ms), with twice the iterations at a third of their cost.
+//!   of it (103 against 87 ms), with twice the iterations at about half their cost.
 //!
 //! Measurements (bunny, 500k tets; `transcut bench multires`) are in the crate's module
 //! documentation of [`crate::sparse::hierarchy`] and the project notes.
