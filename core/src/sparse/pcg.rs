@@ -275,9 +275,11 @@ fn pcg_mixed(
                         || est[c] <= RELIABLE_FACTOR * last_true[c]
                         || it - last_recompute[c] >= RELIABLE_PERIOD)
             });
+            let mut checked = est;
             if recompute.iter().any(|&t| t) {
                 let (rr, rhrh) = reliable_residual(a, b, s, &y, &mut rh, recompute);
-                let t = relative(rr, bn);
+                checked = relative(rr, bn);
+                let t = checked;
                 for c in 0..3 {
                     if recompute[c] {
                         if t[c] > tol && t[c] > DRIFT_LIMIT * est[c] {
@@ -290,23 +292,12 @@ fn pcg_mixed(
                         last_recompute[c] = it;
                     }
                 }
-                rel_is_true = true;
-                for c in 0..3 {
-                    if active[c] {
-                        rel[c] = if recompute[c] { t[c] } else { est[c] };
-                        // Channels not recomputed now still count as true only if inactive.
-                        rel_is_true &= recompute[c];
-                    }
-                }
+                // Channels not recomputed now still count as true only if inactive.
+                rel_is_true = (0..3).all(|c| !active[c] || recompute[c]);
             } else {
                 rel_is_true = false;
-                for c in 0..3 {
-                    if active[c] {
-                        rel[c] = est[c];
-                    }
-                }
             }
-            end_iteration(it, &mut active, recompute, rel, &mut iterations, tol, options)?;
+            end_iteration(it, &mut active, recompute, (checked, est), &mut rel, &mut iterations, tol, options)?;
             if !active.iter().any(|&t| t) || it == max_it {
                 break;
             }
@@ -420,23 +411,27 @@ pub(super) fn step_lengths(rho: [f64; 3], pq: [f64; 3], active: [bool; 3], itera
     Ok(alpha)
 }
 
-/// Closes iteration `it` of the mixed-precision solvers: counts it for the active channels,
-/// retires those whose residual was recomputed (`recompute`) and meets the tolerance, and
-/// calls the monitor with `rel`.
+/// Closes iteration `it` of the mixed-precision solvers: each active channel reports its
+/// relative residual in `rel` (the recomputed true one, `checked`, where `recompute` says it
+/// was recomputed, the recurrence's estimate `est` elsewhere), counts the iteration, and
+/// retires if its true residual meets the tolerance; then the monitor is called with `rel`.
 ///
 /// # Errors
 /// [`SparseError::Cancelled`] when the monitor returns `false`.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn end_iteration(
     it: usize,
     active: &mut [bool; 3],
     recompute: [bool; 3],
-    rel: [f64; 3],
+    (checked, est): ([f64; 3], [f64; 3]),
+    rel: &mut [f64; 3],
     iterations: &mut [usize; 3],
     tol: f64,
     options: &SolveOptions<'_>,
 ) -> Result<(), SparseError> {
     for c in 0..3 {
         if active[c] {
+            rel[c] = if recompute[c] { checked[c] } else { est[c] };
             iterations[c] += 1;
             if recompute[c] && rel[c] <= tol {
                 active[c] = false;
@@ -444,7 +439,7 @@ pub(super) fn end_iteration(
         }
     }
     match options.monitor {
-        Some(m) if !m(it, rel) => Err(SparseError::Cancelled { iteration: it }),
+        Some(m) if !m(it, *rel) => Err(SparseError::Cancelled { iteration: it }),
         _ => Ok(()),
     }
 }
@@ -554,8 +549,8 @@ fn p_update_jacobi(p: &mut [[f64; 3]], r: &[[f64; 3]], dinv: &[[f64; 3]], beta: 
     });
 }
 
-/// `p = z + β p`.
-fn p_update(p: &mut [[f64; 3]], z: &[[f64; 3]], beta: [f64; 3]) {
+/// `p = z + β p` (the search direction, also of SSOR's Eisenstat CG with `z = r̃`).
+pub(super) fn p_update(p: &mut [[f64; 3]], z: &[[f64; 3]], beta: [f64; 3]) {
     (p.par_chunks_mut(CHUNK), z.par_chunks(CHUNK)).into_par_iter().for_each(|(p, z)| {
         for (p, z) in p.iter_mut().zip(z) {
             for c in 0..3 {

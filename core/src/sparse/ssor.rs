@@ -70,7 +70,7 @@ use super::csr::{CsrMatrix3, CsrPattern};
 use super::error::SparseError;
 use super::ops::{row_mul, sum_partials, CHUNK};
 use super::ordering::sweep_ordering;
-use super::pcg::{check_rho, end_iteration, make_stats, step_lengths, Mixed, Progress, DRIFT_LIMIT, RELIABLE_PERIOD};
+use super::pcg::{check_rho, end_iteration, make_stats, p_update, step_lengths, Mixed, Progress, DRIFT_LIMIT, RELIABLE_PERIOD};
 use super::precond::inverse_diagonal;
 use super::{relative, SolveOptions};
 
@@ -517,17 +517,6 @@ fn update(y: &mut [[f64; 3]], rt: &mut [[f64; 3]], p: &[[f64; 3]], t: &[[f64; 3]
     sum_partials(&parts)
 }
 
-/// `p = r̃ + β p`.
-fn direction(p: &mut [[f64; 3]], rt: &[[f64; 3]], beta: [f64; 3]) {
-    (p.par_chunks_mut(CHUNK), rt.par_chunks(CHUNK)).into_par_iter().for_each(|(p, r)| {
-        for (p, r) in p.iter_mut().zip(r) {
-            for c in 0..3 {
-                p[c] = r[c] + beta[c] * p[c];
-            }
-        }
-    });
-}
-
 /// CG on `Ã ỹ = K S b` with Eisenstat's trick (module documentation), from the caller's `x`;
 /// `bn` is `‖b‖` per channel. Channels are independent, as in the Jacobi PCG: each has its own
 /// scalars and stopping test, and a converged channel stops changing.
@@ -566,7 +555,7 @@ pub(crate) fn pcg_eisenstat(
         let mut it = 0;
         while it < max_it {
             it += 1;
-            direction(&mut p, &rt, beta);
+            p_update(&mut p, &rt, beta);
             m.solve_upper(&p, &mut w.t);
             let (t, pv) = (&w.t, &p);
             let pq = m.solve_lower(
@@ -593,9 +582,11 @@ pub(crate) fn pcg_eisenstat(
             let due = (0..3).any(|c| active[c] && (est[c] <= slack[c] * tol || it - last_recompute[c] >= RELIABLE_PERIOD));
             let recompute = active.map(|a| a && due);
             let mut fresh = new_rtrt;
+            let mut checked = est;
             if recompute.iter().any(|&t| t) {
                 let (rr, rr_t) = m.reliable_residual(&bh, &y, &mut rt, recompute, &mut w);
-                let t = relative(rr, bn);
+                checked = relative(rr, bn);
+                let t = checked;
                 for c in 0..3 {
                     if recompute[c] {
                         if t[c] > tol && t[c] > DRIFT_LIMIT * est[c] {
@@ -610,19 +601,8 @@ pub(crate) fn pcg_eisenstat(
                         last_recompute[c] = it;
                     }
                 }
-                for c in 0..3 {
-                    if active[c] {
-                        rel[c] = if recompute[c] { t[c] } else { est[c] };
-                    }
-                }
-            } else {
-                for c in 0..3 {
-                    if active[c] {
-                        rel[c] = est[c];
-                    }
-                }
             }
-            end_iteration(it, &mut active, recompute, rel, &mut iterations, tol, options)?;
+            end_iteration(it, &mut active, recompute, (checked, est), &mut rel, &mut iterations, tol, options)?;
             if !active.iter().any(|&t| t) || it == max_it {
                 break;
             }
