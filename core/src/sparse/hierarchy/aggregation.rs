@@ -167,26 +167,8 @@ impl Hierarchy {
         positions: &[DVec3],
         options: &HierarchyOptions,
     ) -> Result<(Self, Vec<CsrMatrix3>), SparseError> {
-        let n = a.n();
-        if positions.len() != n {
-            return Err(SparseError::DimensionMismatch {
-                what: "positions (one per vertex)",
-                expected: n,
-                found: positions.len(),
-            });
-        }
-        options.validate()?;
-        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(SparseError::InvalidOption(format!(
-                "position of vertex {i} is not finite"
-            )));
-        }
-        let mut levels = vec![Level {
-            graph: Arc::clone(a.pattern()),
-            positions: positions.to_vec(),
-            independent: n,
-            enhancement_rounds: 0,
-        }];
+        options.check_input(a.n(), positions)?;
+        let mut levels = vec![Level::finest(a.pattern(), positions)];
         let mut prolongations = Vec::new();
         let mut operators: Vec<CsrMatrix3> = Vec::new();
         while levels.len() < options.max_levels {

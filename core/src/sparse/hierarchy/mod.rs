@@ -120,13 +120,20 @@ impl Default for HierarchyOptions {
 }
 
 impl HierarchyOptions {
-    /// Checks `max_ratio` in (0, 1] and `max_levels` at least 1.
-    fn validate(&self) -> Result<(), SparseError> {
+    /// Checks the options (`max_ratio` in (0, 1], `max_levels` at least 1) and the `positions`
+    /// of an input of `n` vertices (one each, finite).
+    fn check_input(&self, n: usize, positions: &[DVec3]) -> Result<(), SparseError> {
+        if positions.len() != n {
+            return Err(SparseError::DimensionMismatch { what: "positions (one per vertex)", expected: n, found: positions.len() });
+        }
         if !(self.max_ratio > 0.0 && self.max_ratio <= 1.0) || self.max_levels == 0 {
             return Err(SparseError::InvalidOption(format!(
                 "hierarchy options: max_ratio {} must be in (0, 1] and max_levels {} at least 1",
                 self.max_ratio, self.max_levels
             )));
+        }
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(SparseError::InvalidOption(format!("position of vertex {i} is not finite")));
         }
         Ok(())
     }
@@ -158,6 +165,13 @@ pub struct Level {
     pub independent: usize,
     /// For levels above 0: enhancement rounds that added vertices.
     pub enhancement_rounds: usize,
+}
+
+impl Level {
+    /// Level 0: the input graph and positions.
+    fn finest(graph: &Arc<CsrPattern>, positions: &[DVec3]) -> Self {
+        Self { graph: Arc::clone(graph), positions: positions.to_vec(), independent: graph.n(), enhancement_rounds: 0 }
+    }
 }
 
 /// How the levels of a [`Hierarchy`] were made.
@@ -192,18 +206,11 @@ impl Hierarchy {
     /// [`SparseError::InvalidOption`] for a non-symmetric graph, non-finite positions, or bad
     /// options.
     pub fn build(graph: &Arc<CsrPattern>, positions: &[DVec3], options: &HierarchyOptions) -> Result<Self, SparseError> {
-        let n = graph.n();
-        if positions.len() != n {
-            return Err(SparseError::DimensionMismatch { what: "positions (one per vertex)", expected: n, found: positions.len() });
-        }
-        options.validate()?;
-        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(SparseError::InvalidOption(format!("position of vertex {i} is not finite")));
-        }
+        options.check_input(graph.n(), positions)?;
         if !graph.is_structurally_symmetric() {
             return Err(SparseError::InvalidOption("the hierarchy needs a symmetric graph".into()));
         }
-        let mut levels = vec![Level { graph: Arc::clone(graph), positions: positions.to_vec(), independent: n, enhancement_rounds: 0 }];
+        let mut levels = vec![Level::finest(graph, positions)];
         let mut prolongations = Vec::new();
         while levels.len() < options.max_levels {
             let fine = levels.last().expect("level 0 exists");
