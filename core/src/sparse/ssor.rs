@@ -494,6 +494,30 @@ impl Ssor {
     }
 }
 
+impl Ssor {
+    /// [`Self::reliable_residual`] of `ỹ = 0` (all channels), equal to it bit for bit without
+    /// its sweeps and product: `r̂ = b̂` (`b̂ − Â·0` is `b̂`, each product summing to ±0), and
+    /// `r̃ = K b̂`.
+    fn residual_of_zero(&self, bh: &[[f64; 3]], rt: &mut [[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+        let parts: Vec<[f64; 3]> = bh
+            .par_chunks(CHUNK)
+            .zip(self.s.par_chunks(CHUNK))
+            .map(|(bc, sc)| {
+                let mut sum = [0.0; 3];
+                for (b, s) in bc.iter().zip(sc) {
+                    for c in 0..3 {
+                        let unscaled = b[c] / s[c];
+                        sum[c] += unscaled * unscaled;
+                    }
+                }
+                sum
+            })
+            .collect();
+        let rtrt = self.solve_lower(|i| bh[i], rt, |_, u| [u[0] * u[0], u[1] * u[1], u[2] * u[2]]);
+        (sum_partials(&parts), rtrt)
+    }
+}
+
 /// A channel's first true-residual check comes when its estimate reaches this many times the
 /// tolerance (see [`pcg_eisenstat`]).
 const EARLY_CHECK: f64 = 4.0;
@@ -535,9 +559,16 @@ pub(crate) fn pcg_eisenstat(
     let mut w = Work { t: vec![[0.0; 3]; n], u: vec![[0.0; 3]; n], r: vec![[0.0; 3]; n] };
     let bh: Vec<[f64; 3]> = m.perm.par_iter().zip(&m.s).map(|(&o, s)| mul3(*s, b[o as usize])).collect();
     let nonzero = bn.map(|v| v > 0.0);
-    let mut y = m.iterate_of(x, nonzero);
     let mut rt = vec![[0.0; 3]; n];
-    let (rr, mut rtrt) = m.reliable_residual(&bh, &y, &mut rt, [true; 3], &mut w);
+    // A cold start (`x = 0`) costs no sweep and no product: `ỹ = 0` and `r̂ = b̂`.
+    let cold = x.par_iter().all(|v| v.iter().all(|&t| t == 0.0));
+    let (mut y, (rr, mut rtrt)) = if cold {
+        (vec![[0.0; 3]; n], m.residual_of_zero(&bh, &mut rt))
+    } else {
+        let y = m.iterate_of(x, nonzero);
+        let residual = m.reliable_residual(&bh, &y, &mut rt, [true; 3], &mut w);
+        (y, residual)
+    };
     let mut rel = relative(rr, bn);
     let mut active = [0, 1, 2].map(|c| nonzero[c] && rel[c] > tol);
     // Channels whose x is rewritten (the others keep the caller's bits exactly).
@@ -764,6 +795,26 @@ mod tests {
         assert!(matches!(old.refresh(&grid(5)), Err(SparseError::PatternMismatch(_))));
         for omega in [0.0, 2.0, f64::NAN] {
             assert!(matches!(Ssor::with_omega(&a, omega), Err(SparseError::InvalidOption(_))));
+        }
+    }
+
+    #[test]
+    fn the_residual_of_a_cold_start_needs_no_product_and_is_the_same_bits() {
+        let a = grid(9);
+        let m = Ssor::new(&a).unwrap();
+        let n = a.n();
+        let b = rhs(n);
+        let bh: Vec<[f64; 3]> = m.perm.iter().zip(&m.s).map(|(&o, s)| mul3(*s, b[o as usize])).collect();
+        let mut w = Work { t: vec![[0.0; 3]; n], u: vec![[0.0; 3]; n], r: vec![[0.0; 3]; n] };
+        let (mut rt, mut rt0) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
+        let general = m.reliable_residual(&bh, &vec![[0.0; 3]; n], &mut rt, [true; 3], &mut w);
+        let cold = m.residual_of_zero(&bh, &mut rt0);
+        assert_eq!(general, cold);
+        assert_eq!(rt, rt0);
+        // ‖r‖ of x = 0 is ‖b‖.
+        let bn = crate::sparse::norm3(&b);
+        for c in 0..3 {
+            assert!((cold.0[c].sqrt() - bn[c]).abs() <= 1e-14 * bn[c]);
         }
     }
 }
