@@ -81,10 +81,10 @@ pub struct CsrPattern {
     row_ptr: Vec<usize>,
     col_idx: Vec<u32>,
     diag: Vec<usize>,
-    /// `Some(true)` where the constructor makes the pattern symmetric ([`Self::from_edges`]),
-    /// so [`Self::is_structurally_symmetric`] need not search (8 ms at 1M tets); `None`: not
-    /// known, searched on demand.
-    symmetric: Option<bool>,
+    /// Whether the constructor made the pattern symmetric ([`Self::from_edges`]), so that
+    /// [`Self::is_structurally_symmetric`] need not search (8 ms at 1M tets); otherwise it
+    /// searches on demand.
+    symmetric_by_construction: bool,
 }
 
 /// Two patterns are equal when they store the same entries (however they were built).
@@ -204,7 +204,7 @@ impl CsrPattern {
                 }
             }
         }
-        Ok(Self { n, row_ptr, col_idx, diag, symmetric: None })
+        Ok(Self { n, row_ptr, col_idx, diag, symmetric_by_construction: false })
     }
 
     fn build(n: usize, what: &str, entries: &[[u32; 2]], symmetric: bool) -> Result<Self, SparseError> {
@@ -281,7 +281,7 @@ impl CsrPattern {
             col_idx.extend_from_slice(row);
             row_ptr.push(col_idx.len());
         }
-        Ok(Self { n, row_ptr, col_idx, diag, symmetric: symmetric.then_some(true) })
+        Ok(Self { n, row_ptr, col_idx, diag, symmetric_by_construction: symmetric })
     }
 
     /// The number of rows (and columns).
@@ -337,9 +337,8 @@ impl CsrPattern {
     /// Whether `(j, i)` is stored for every stored `(i, j)`.
     #[must_use]
     pub fn is_structurally_symmetric(&self) -> bool {
-        self.symmetric.unwrap_or_else(|| {
-            (0..self.n).into_par_iter().all(|i| self.row(i).iter().all(|&j| self.position(j as usize, i).is_some()))
-        })
+        self.symmetric_by_construction
+            || (0..self.n).into_par_iter().all(|i| self.row(i).iter().all(|&j| self.position(j as usize, i).is_some()))
     }
 
     /// For every stored entry `k = (i, j)`, the position of `(j, i)` (`k` itself on the
@@ -831,7 +830,7 @@ mod tests {
         // from_edges knows its pattern is symmetric; the same arrays through from_csr are
         // searched, and the two patterns are equal.
         let searched = CsrPattern::from_csr(4, p.row_ptr().to_vec(), p.col_idx().to_vec()).unwrap();
-        assert_eq!(searched.symmetric, None);
+        assert!(!searched.symmetric_by_construction);
         assert!(searched.is_structurally_symmetric());
         assert_eq!(searched, p);
         for i in 0..4 {

@@ -498,9 +498,7 @@ impl Ssor {
         });
         (rr, rtrt)
     }
-}
 
-impl Ssor {
     /// [`Self::reliable_residual`] of `ỹ = 0` (all channels), equal to it bit for bit without
     /// its sweeps and product: `r̂ = b̂` (`b̂ − Â·0` is `b̂`, each product summing to ±0), and
     /// `r̃ = K b̂`.
@@ -766,7 +764,7 @@ mod tests {
         assert!(4 * most(&fast) <= 3 * most(&jac), "{fast:?} vs Jacobi {jac:?}");
         for c in 0..3 {
             assert!(fast.relative_residual[c] <= 1e-6);
-            // The channels that were done early went on to a smaller residual.
+            // No channel ends much above plain SSOR-PCG's residual (those done early end below).
             assert!(fast.relative_residual[c] <= plain.relative_residual[c] * 1.5, "{fast:?} vs {plain:?}");
         }
         let err = x.iter().zip(&xj).map(|(u, v)| (0..3).map(|c| (u[c] - v[c]).abs()).fold(0.0, f64::max)).fold(0.0, f64::max);
