@@ -29,7 +29,7 @@ How to run (in a virtual environment outside the repository; see /work/notes/pee
     python3 -m venv /work/peers-venv
     /work/peers-venv/bin/pip install numpy scipy pyamg
     apt-get install libsuitesparse-dev && /work/peers-venv/bin/pip install scikit-sparse
-    cargo run --release -p transcut-cli -- bake ../shared/data/meshes/stanford-bunny.obj \
+    cargo run --release -p transcut-cli -- bake assets/meshes/stanford-bunny.obj \
         --medium marble --scale <mm per unit for 60 mm> --light sun:dir=0,-1,-1,irradiance=3 \
         --tets 500000 --export-system /tmp/sys500k -o /tmp/b.ply --json
     /work/peers-venv/bin/python bench/peers.py /tmp/sys500k --runs 5

@@ -11,4 +11,4 @@ tets="${1:-500000,1000000}"
 runs="${2:-3}"
 cargo build --release --locked -p transcut-cli >&2
 exec "${CARGO_TARGET_DIR:-target}/release/transcut" bench solve --backend gpu \
-    --input ../shared/data/meshes/stanford-bunny.obj --tets "$tets" --runs "$runs"
+    --input assets/meshes/stanford-bunny.obj --tets "$tets" --runs "$runs"

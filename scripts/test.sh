@@ -8,10 +8,6 @@ if ! command -v cargo >/dev/null 2>&1; then
     echo "scripts/test.sh: cargo is required (https://rustup.rs)" >&2
     exit 1
 fi
-if [ ! -d ../shared/data/meshes ]; then
-    echo "scripts/test.sh: the shared test meshes are expected in ../shared/data/meshes" >&2
-    exit 1
-fi
 
 # The GPU tests (core/tests/gpu*.rs) need a Vulkan adapter: install Mesa's lavapipe (software
 # Vulkan, Debian mesa-vulkan-drivers) when missing, so the GPU path is tested on every machine.

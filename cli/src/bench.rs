@@ -39,7 +39,7 @@ pub struct BenchArgs {
     #[arg(value_enum, default_value = "mesh")]
     pub suite: Suite,
     /// Input surface mesh (default: the shared Stanford bunny).
-    #[arg(long, default_value = "../shared/data/meshes/stanford-bunny.obj")]
+    #[arg(long, default_value = "assets/meshes/stanford-bunny.obj")]
     pub input: PathBuf,
     /// Target tet counts, comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = [100_000usize, 500_000, 1_000_000])]

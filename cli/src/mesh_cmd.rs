@@ -14,7 +14,7 @@ use crate::progress::StageBar;
 
 /// Arguments of `transcut mesh`.
 #[derive(Args)]
-#[command(after_help = "Example:\n  transcut mesh ../shared/data/meshes/stanford-bunny.obj --tets 500000 -o bunny.vtk")]
+#[command(after_help = "Example:\n  transcut mesh assets/meshes/stanford-bunny.obj --tets 500000 -o bunny.vtk")]
 pub struct MeshArgs {
     /// Input surface mesh (.obj or .ply). Open scans and overlapping shells are fine: inside is
     /// decided by the generalised winding number.

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 fn bunny() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes/stanford-bunny.obj")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/stanford-bunny.obj")
 }
 
 fn sum(v: &serde_json::Value) -> u64 {

@@ -8,7 +8,7 @@ fn transcut() -> Command {
 }
 
 fn shared_mesh(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes").join(name)
 }
 
 #[test]

@@ -185,7 +185,7 @@ fn edit_examples_differ_from_their_unedited_scenes() {
 /// bunny, "right" the lower half.
 #[test]
 fn cut_stroke_keeps_the_side_it_names() {
-    let bunny = examples().join("../../shared/data/meshes/stanford-bunny.obj");
+    let bunny = examples().join("../assets/meshes/stanford-bunny.obj");
     let scene = |keep: &str| {
         format!(
             "[camera]\nposition = [0, 0, 150]\ntarget = [0, 0, 0]\nfov_deg = 30\nwidth = 96\nheight = 72\n[render]\nground = false\n\

@@ -71,7 +71,7 @@ use transcut::DVec3;
 
 /// The shared bunny and its scale (millimetres per unit) for 60 mm across.
 fn bunny() -> (TriMesh, f64) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes/stanford-bunny.obj");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/stanford-bunny.obj");
     let surface = mesh::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let (lo, hi) = surface.bounds();
     let mm_per_unit = 60.0 / (hi - lo).max_element();

@@ -1,7 +1,7 @@
 //! Surface mesh input: OBJ and PLY readers, welding, triangulation, validation errors.
 //!
-//! Uses only the public API (`transcut::mesh::*`). The test meshes live in the shared data
-//! folder (`/work/shared/data/meshes`, or `$TRANSCUT_MESH_DIR`).
+//! Uses only the public API (`transcut::mesh::*`). The test meshes are the repository's
+//! `assets/meshes` (or `$TRANSCUT_MESH_DIR`).
 
 use std::path::{Path, PathBuf};
 
@@ -19,8 +19,7 @@ fn mesh_dir() -> PathBuf {
         candidates.push(PathBuf::from(dir));
     }
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    candidates.push(manifest.join("../shared/data/meshes"));
-    candidates.push(PathBuf::from("/work/shared/data/meshes"));
+    candidates.push(manifest.join("../assets/meshes"));
     candidates
         .into_iter()
         .find(|d| d.join("spot.obj").is_file())

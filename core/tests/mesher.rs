@@ -14,7 +14,7 @@ const MESHES: [&str; 8] =
     ["cow", "suzanne", "stanford-bunny", "fandisk", "homer", "cheburashka", "spot", "rocker-arm"];
 
 fn shared_mesh(name: &str) -> TriMesh {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes").join(format!("{name}.obj"));
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes").join(format!("{name}.obj"));
     mesh::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 

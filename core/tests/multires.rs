@@ -18,7 +18,7 @@ use transcut::sparse::{Preconditioner, PreconditionerKind, SolveOptions};
 use transcut::DVec3;
 
 fn mesh_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes").join(name)
 }
 
 /// `name` tetrahedralised to about `tets` tets, scaled to 60 mm across.

@@ -36,7 +36,7 @@ pub fn lock() -> MutexGuard<'static, ()> {
 
 /// The folder of the shared test meshes.
 pub fn shared_mesh_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/meshes")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes")
 }
 
 /// The surface at `path` tetrahedralised at about `tets` tets: (file stem, tet mesh, mm per
