@@ -2,15 +2,22 @@
 
 Bakes the subsurface scattering of the selected meshes (their Principled BSDF subsurface
 settings, or a preset / coefficients) under the scene's lights and world into a FLOAT_COLOR
-point attribute. See ARCHITECTURE.md, "The Blender add-on", and the modules:
+point attribute, and cuts or paints baked meshes. See ARCHITECTURE.md, "The Blender add-on",
+and the modules:
 
-- ``preferences``: registered first and always; shows where the native library was looked for;
+- ``preferences``: registered first and always; the library path, and where the library was
+  looked for;
 - ``properties``: ``Scene.transcut`` (bake settings) and ``Object.transcut`` (medium);
-- ``operators``: ``object.transcut_bake`` (modal with progress and ESC, or synchronous);
+- ``operators``: ``object.transcut_bake`` and the run every operator shares (modal with progress
+  and ESC, or synchronous);
 - ``edit_ops``: ``transcut.cut_with_object`` and ``transcut.paint_medium`` (bake, then cut or
   paint through ``edit_native``);
-- ``ui``: the sidebar tab; ``native``: the ctypes mirror of ``include/transcut.h``;
-- ``mesh_export`` / ``lights``: Blender data and units → library arrays; ``bake``: run and write.
+- ``ui``: the sidebar tab;
+- ``mesh_export`` / ``lights``: Blender data and units → library arrays; ``bake``: gather, run
+  and write;
+- ``library``: the loaded library, or why it did not load (no ``bpy``);
+- ``transcut``: the ctypes binding of ``include/transcut.h`` (no ``bpy``), also shipped as the
+  ``transcut`` wheel.
 """
 
 from . import edit_ops, library, operators, preferences, properties, ui
@@ -23,7 +30,7 @@ def register():
     for module in _modules:
         module.register()
     # Never fatal: a failure is recorded in library.state and shown in the preferences.
-    library.load()
+    library.load(preferences.library_path())
 
 
 def unregister():

@@ -1,9 +1,11 @@
 """A bake in three steps: gather (main thread, bpy), run (any thread, no bpy), write (main thread).
 
-:func:`run_job` only touches the library and NumPy, so the modal operator runs it on a worker
-thread while Blender stays responsive; :class:`BakeRunner` carries the progress the library
-reports and the cancel request (ESC) back the other way. :func:`write_results` is the only step
-that changes Blender data, and it runs only after every object baked.
+:func:`prepare_job` gathers everything a bake needs from Blender into a :class:`BakeJob` and
+checks it, for the bake and the editing operators alike. :func:`run_job` only touches the library
+and NumPy, so the modal operator runs it on a worker thread while Blender stays responsive;
+:class:`BakeRunner` carries the progress the library reports and the cancel request (ESC) back
+the other way. :func:`write_results` is the only step that changes Blender data, and it runs only
+after every object baked.
 """
 
 from __future__ import annotations
@@ -14,23 +16,42 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from . import native
-from .lights import LightSpec
-from .mesh_export import BakeError, MeshJob
+from . import transcut
+from .lights import scene_lights, world_lights
+from .mesh_export import BakeError, gather
 
 
 @dataclass
 class BakeJob:
     """Everything a bake needs, as plain data."""
 
-    meshes: list  # [MeshJob]
-    lights: list  # [LightSpec]
+    meshes: list  # [mesh_export.MeshJob]
+    lights: list  # [lights.LightSpec]
     options: dict  # TcBakeOptions fields
     attribute_name: str
     warnings: list = field(default_factory=list)
 
 
-def build_scene(lib: native.Library, job: BakeJob) -> tuple:
+def prepare_job(context, objects: list | None = None) -> BakeJob:
+    """The bake job for ``objects`` (default: the selected meshes), the scene's lights and world
+    and its TransCut settings; raises BakeError before any work when something is wrong."""
+    warnings: list = []
+    meshes = gather(context, warnings, objects=objects)
+    depsgraph = context.evaluated_depsgraph_get()
+    lights = scene_lights(depsgraph, warnings) + world_lights(context.scene.world, warnings)
+    if not lights:
+        raise BakeError("the scene has no lights (and the world is black); add a light to bake")
+    settings = context.scene.transcut
+    options = dict(
+        tets=settings.tets,
+        tolerance=settings.tolerance,
+        shadows=1 if settings.shadows else 0,
+        backend=settings.backend.lower(),
+    )
+    return BakeJob(meshes, lights, options, settings.attribute_name, warnings)
+
+
+def build_scene(lib: transcut.Library, job: BakeJob) -> tuple:
     """A native scene holding the job's objects and lights; returns (scene, object indices)."""
     scene = lib.scene()
     try:
@@ -44,13 +65,13 @@ def build_scene(lib: native.Library, job: BakeJob) -> tuple:
                 scene.set_transform(idx, mesh.matrix_world)
                 scene.set_scale(idx, mesh.mm_per_unit)
                 getattr(scene, mesh.medium.method)(idx, **mesh.medium.kwargs)
-            except native.TranscutError as exc:
+            except transcut.TranscutError as exc:
                 raise BakeError(f"{where} ({mesh.medium.source}): {exc.message or exc.status_name}") from exc
             indices.append(idx)
         for light in job.lights:
             try:
                 getattr(scene, light.method)(**light.kwargs)
-            except native.TranscutError as exc:
+            except transcut.TranscutError as exc:
                 raise BakeError(f"light '{light.source}': {exc.message or exc.status_name}") from exc
         return scene, indices
     except BaseException:
@@ -59,7 +80,7 @@ def build_scene(lib: native.Library, job: BakeJob) -> tuple:
 
 
 def run_job(
-    lib: native.Library,
+    lib: transcut.Library,
     job: BakeJob,
     progress: Optional[Callable[[str, float], bool]] = None,
     backends: Optional[list] = None,
@@ -67,7 +88,7 @@ def run_job(
     """Bakes the job; returns one float32 (vertex_count, 3) radiance array per mesh.
 
     When ``backends`` is a list, one :class:`BackendInfo` per mesh is appended to it (where its
-    solve ran). Raises :class:`native.TranscutError` (``TC_CANCELLED`` after a cancel, or
+    solve ran). Raises :class:`transcut.TranscutError` (``TC_CANCELLED`` after a cancel, or
     ``TC_GPU_UNAVAILABLE`` when the GPU backend was asked for and there is none) or
     :class:`BakeError`.
     """
@@ -99,13 +120,13 @@ class BackendInfo:
     fallback: str = ""
 
 
-def backend_info(scene: native.Scene, idx: int) -> BackendInfo:
+def backend_info(scene: transcut.Scene, idx: int) -> BackendInfo:
     """The backend of object ``idx`` after a bake (``"cpu"`` when the library cannot say)."""
     lib = scene.lib
     if not (lib.has("tc_object_device") and lib.has("tc_object_backend_fallback")):
         return BackendInfo("cpu")
-    used = scene.stats(idx).get("backend_used", native.TC_BACKEND_CPU)
-    backend = "gpu" if used == native.TC_BACKEND_GPU else "cpu"
+    used = scene.stats(idx).get("backend_used", transcut.TC_BACKEND_CPU)
+    backend = "gpu" if used == transcut.TC_BACKEND_GPU else "cpu"
     return BackendInfo(backend, scene.device(idx), scene.backend_fallback(idx))
 
 
@@ -124,7 +145,7 @@ def backend_summary(backends: list) -> str:
 class BakeRunner:
     """Runs :func:`run_job` on a worker thread; progress and cancel cross threads under a lock."""
 
-    def __init__(self, lib: native.Library, job: BakeJob):
+    def __init__(self, lib: transcut.Library, job: BakeJob):
         self.lib = lib
         self.job = job
         self._lock = threading.Lock()
@@ -180,15 +201,13 @@ class BakeRunner:
         return self.done()
 
 
-def error_message(exc: BaseException) -> str:
-    """A one-line message for the user."""
-    if isinstance(exc, native.TranscutError):
-        if exc.status == native.TC_CANCELLED:
-            return "bake cancelled; nothing was changed"
+def error_message(exc: BaseException, what: str = "bake") -> str:
+    """A one-line message for the user about ``exc``, raised by a ``what`` ("bake", "cut", …)."""
+    if isinstance(exc, transcut.TranscutError):
+        if exc.status == transcut.TC_CANCELLED:
+            return f"{what} cancelled; nothing was changed"
         return f"libtranscut: {exc.message or exc.status_name} ({exc.status_name})"
-    if isinstance(exc, native.LibraryNotFound):
-        return str(exc)
-    if isinstance(exc, BakeError):
+    if isinstance(exc, (transcut.LibraryNotFound, BakeError)):
         return str(exc)
     return f"{type(exc).__name__}: {exc}"
 

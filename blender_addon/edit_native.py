@@ -2,12 +2,13 @@
 
 Like :mod:`bake`, an edit runs in three steps: gather (main thread, ``bpy``: ``edit_ops``), run
 (here: only the library and NumPy, so it may run on a worker thread), write (main thread). The C
-functions are those of ``include/transcut.h``, "Editing", bound by :mod:`native`
-(``tc_scene_relight``, ``tc_object_cut_plane`` / ``_mesh``, ``tc_object_paint``,
+functions are those of ``include/transcut.h``, "Editing", bound by :mod:`transcut`
+(``tc_object_cut_plane`` / ``_mesh``, ``tc_object_fracture``, ``tc_object_paint``,
 ``tc_object_piece_*``, ``tc_object_edit_stats``); this module adds what the operators need on
-top: a relight with progress, the object's medium as coefficients (``tc_object_paint`` needs
-the painted medium to share the object's η and g), and one :func:`run_edit` that bakes the
-job's objects exactly as the bake operator does (:func:`bake.build_scene`) and applies the edit.
+top: the object's medium as coefficients (``tc_object_paint`` needs the painted medium to share
+the object's η and g, ``tc_medium_from_artist`` gives them for artist parameters), and one
+:func:`run_edit` that bakes the job's objects exactly as the bake operator does
+(:func:`bake.build_scene`) and applies the edit.
 
 Progress: the bake reports fractions in [0, :data:`BAKE_SHARE`], each object's edit the rest.
 The cut and paint calls have no progress callback of their own, so a cancel (the callback
@@ -22,14 +23,13 @@ is removed (``flip``: the other side).
 
 from __future__ import annotations
 
-import ctypes
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 import numpy as np
 
-from . import bake, native
+from . import bake, transcut
 from .mesh_export import BakeError, MediumSpec
 
 #: Share of the progress bar given to the bake; the edits of the objects share the rest.
@@ -48,14 +48,9 @@ CUT_FUNCTIONS = (
 PAINT_FUNCTIONS = ("tc_object_paint", "tc_object_edit_stats", "tc_medium_from_artist")
 
 
-def missing_functions(lib: native.Library, names) -> list:
-    """The names in ``names`` that ``lib`` does not export."""
-    return [n for n in names if not lib.has(n)]
-
-
-def require(lib: native.Library, names, what: str) -> None:
-    """Raises BakeError naming the library and the missing functions."""
-    missing = missing_functions(lib, names)
+def require(lib: transcut.Library, names, what: str) -> None:
+    """Raises BakeError naming the library and the functions in ``names`` that it lacks."""
+    missing = [n for n in names if not lib.has(n)]
     if missing:
         raise BakeError(
             f"{what} needs a libtranscut with the editing functions; {lib.path} "
@@ -66,42 +61,46 @@ def require(lib: native.Library, names, what: str) -> None:
 # -- what to do ------------------------------------------------------------------------------
 
 
+class _Cut:
+    """The run of a cut: the library cut (a subclass's ``_cut``, which honours ``keep_both``),
+    the cut's ``tc_object_edit_stats``, then with ``separate`` every connected part made its own
+    piece (``tc_object_fracture``)."""
+
+    def apply(self, scene: transcut.Scene, idx: int) -> dict:
+        """Cuts (then fractures); returns the cut's ``tc_object_edit_stats``."""
+        self._cut(scene, idx)
+        stats = scene.edit_stats(idx)
+        if self.separate:
+            scene.fracture(idx)
+        return stats
+
+
 @dataclass
-class PlaneCut:
+class PlaneCut(_Cut):
     """A cut by the plane through ``point`` with normal ``normal`` (world space): the side the
     normal points into is removed, or with ``keep_both`` both sides become pieces."""
 
     point: tuple
     normal: tuple
     keep_both: bool = False
-    separate: bool = False  # then: every connected part its own piece (tc_object_fracture)
+    separate: bool = False
 
-    def apply(self, scene: native.Scene, idx: int) -> dict:
-        """Cuts (then fractures); returns the cut's ``tc_object_edit_stats``."""
+    def _cut(self, scene: transcut.Scene, idx: int) -> None:
         scene.cut_plane(idx, self.point, self.normal, self.keep_both)
-        stats = scene.edit_stats(idx)
-        if self.separate:
-            fracture(scene, idx)
-        return stats
 
 
 @dataclass
-class MeshCut:
+class MeshCut(_Cut):
     """A cut by a closed triangle mesh (world space, CCW from outside): its inside is removed,
     or with ``keep_both`` kept as a separate piece."""
 
     positions: np.ndarray  # float32 (n, 3), world space
     triangles: np.ndarray  # uint32 (m, 3)
     keep_both: bool = False
-    separate: bool = False  # then: every connected part its own piece (tc_object_fracture)
+    separate: bool = False
 
-    def apply(self, scene: native.Scene, idx: int) -> dict:
-        """Cuts (then fractures); returns the cut's ``tc_object_edit_stats``."""
+    def _cut(self, scene: transcut.Scene, idx: int) -> None:
         scene.cut_mesh(idx, self.positions, self.triangles, self.keep_both)
-        stats = scene.edit_stats(idx)
-        if self.separate:
-            fracture(scene, idx)
-        return stats
 
 
 @dataclass
@@ -116,11 +115,9 @@ class Paint:
     sigma_s_prime: tuple
     strength: float = 1.0
 
-    def apply(self, scene: native.Scene, idx: int, eta: float, g: float) -> dict:
+    def apply(self, scene: transcut.Scene, idx: int, eta: float, g: float) -> dict:
         """Paints; returns the paint's ``tc_object_edit_stats``."""
-        medium = native.TcMedium(
-            native._vec3(self.sigma_a, "sigma_a"), native._vec3(self.sigma_s_prime, "sigma_s_prime"), eta, g
-        )
+        medium = transcut.medium(self.sigma_a, self.sigma_s_prime, eta, g)
         scene.paint(idx, self.points, self.radius, medium, self.strength)
         return scene.edit_stats(idx)
 
@@ -161,26 +158,7 @@ class EditRun:
 # -- library helpers -------------------------------------------------------------------------
 
 
-def relight(scene: native.Scene, progress: Optional[Callable[[str, float], bool]] = None) -> None:
-    """``tc_scene_relight`` with a progress callback (returning True cancels)."""
-    errors = []
-
-    def trampoline(_user, stage, fraction):
-        try:
-            text = stage.decode("utf-8", "replace") if stage else ""
-            return 1 if progress(text, float(fraction)) else 0
-        except BaseException as exc:  # never unwind into the library
-            errors.append(exc)
-            return 1
-
-    callback = native.TcProgressFn(trampoline) if progress is not None else native.TcProgressFn()
-    status = scene.lib.function("tc_scene_relight")(scene._h(), callback, None)
-    if errors:
-        raise errors[0]
-    scene.lib.check(status, "tc_scene_relight")
-
-
-def medium_coefficients(lib: native.Library, spec: MediumSpec, mm_per_unit: float) -> native.TcMedium:
+def medium_coefficients(lib: transcut.Library, spec: MediumSpec, mm_per_unit: float) -> transcut.TcMedium:
     """The coefficients the library gives an object set by ``spec`` (the η and g a paint must
     match): a preset through ``tc_medium_preset``, artist parameters through
     ``tc_medium_from_artist`` at ``mm_per_unit``, coefficients as they are."""
@@ -188,40 +166,13 @@ def medium_coefficients(lib: native.Library, spec: MediumSpec, mm_per_unit: floa
     if spec.method == "set_medium_preset":
         return lib.medium_preset(kw["name"])
     if spec.method == "set_medium":
-        return native.TcMedium(
-            native._vec3(kw["sigma_a"], "sigma_a"),
-            native._vec3(kw["sigma_s_prime"], "sigma_s_prime"),
-            float(kw["eta"]),
-            float(kw.get("g", 0.0)),
-        )
+        return transcut.medium(**kw)
     if spec.method == "set_medium_artist":
-        artist = native.TcArtistMedium(
-            native._vec3(kw["albedo"], "albedo"),
-            native._vec3(kw["radius"], "radius"),
-            float(kw["scale"]),
-            float(kw["ior"]),
-            float(kw.get("anisotropy", 0.0)),
-        )
-        out = native.TcMedium()
-        lib.check(
-            lib.function("tc_medium_from_artist")(ctypes.byref(artist), float(mm_per_unit), ctypes.byref(out)),
-            "tc_medium_from_artist",
-        )
-        return out
+        return lib.medium_from_artist(mm_per_unit, **kw)
     raise BakeError(f"{spec.source}: no coefficients for a medium set by {spec.method}")
 
 
-def fracture(scene: native.Scene, idx: int) -> int:
-    """Splits every piece of an edited object into its connected components
-    (``tc_object_fracture``); returns the new piece count."""
-    out = ctypes.c_uint32()
-    scene.lib.check(
-        scene.lib.function("tc_object_fracture")(scene._h(), idx, ctypes.byref(out)), "tc_object_fracture"
-    )
-    return int(out.value)
-
-
-def read_pieces(scene: native.Scene, idx: int) -> list:
+def read_pieces(scene: transcut.Scene, idx: int) -> list:
     """Every piece of an edited object, in the library's order."""
     return [PieceMesh(*scene.piece_mesh(idx, p)) for p in range(scene.piece_count(idx))]
 
@@ -269,12 +220,12 @@ def resample_polyline(points: np.ndarray, spacing: float) -> np.ndarray:
 # -- the run ---------------------------------------------------------------------------------
 
 
-def _cancelled() -> native.TranscutError:
-    return native.TranscutError(native.TC_CANCELLED, "edit", "cancelled")
+def _cancelled() -> transcut.TranscutError:
+    return transcut.TranscutError(transcut.TC_CANCELLED, "edit", "cancelled")
 
 
 def run_edit(
-    lib: native.Library,
+    lib: transcut.Library,
     job: bake.BakeJob,
     edit,
     progress: Optional[Callable[[str, float], bool]] = None,
@@ -283,8 +234,8 @@ def run_edit(
     """Bakes the job's objects (as the bake operator does), applies ``edit`` (a
     :class:`PlaneCut`, :class:`MeshCut` or :class:`Paint`) to each, and reads the results.
 
-    ``media`` (paint only): one :class:`native.TcMedium` per object, whose η and g the painted
-    medium takes. Raises :class:`native.TranscutError` (the library's status and message, e.g.
+    ``media`` (paint only): one :class:`transcut.TcMedium` per object, whose η and g the painted
+    medium takes. Raises :class:`transcut.TranscutError` (the library's status and message, e.g.
     ``TC_NOTHING_LEFT``, ``TC_CANCELLED``) or :class:`BakeError`.
     """
     is_paint = isinstance(edit, Paint)
@@ -309,7 +260,7 @@ def run_edit(
             start = time.perf_counter()
             try:
                 stats = edit.apply(scene, idx, media[k].eta, media[k].g) if is_paint else edit.apply(scene, idx)
-            except native.TranscutError as exc:
+            except transcut.TranscutError as exc:
                 exc.message = f"'{name}': {exc.message or exc.status_name}"
                 raise
             result = EditResult(name, baked=baked, stats=stats, edit_ms=(time.perf_counter() - start) * 1e3)
@@ -328,7 +279,7 @@ class EditRunner(bake.BakeRunner):
     """:class:`bake.BakeRunner` for an edit: the same progress, cancel and threading; the
     result is an :class:`EditRun` in ``results``."""
 
-    def __init__(self, lib: native.Library, job: bake.BakeJob, edit, media: Optional[list] = None):
+    def __init__(self, lib: transcut.Library, job: bake.BakeJob, edit, media: Optional[list] = None):
         super().__init__(lib, job)
         self.edit = edit
         self.media = media

@@ -36,67 +36,27 @@ library, so a wrong selection gets a message saying what to select instead of a 
 
 from __future__ import annotations
 
-import threading
 
 import bpy
 import numpy as np
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty
+from bpy.props import BoolProperty, FloatProperty
 
-from . import bake, edit_native, library
-from .lights import scene_lights, world_lights
-from .mesh_export import BakeError, gather
-from .operators import RunnerModal
-from .properties import PRESET_ITEMS
-
-
-def prepare_job(context, objects: list) -> bake.BakeJob:
-    """The bake job for ``objects``, gathered as ``operators.prepare`` does for the selection."""
-    warnings: list = []
-    meshes = gather(context, warnings, objects=objects)
-    depsgraph = context.evaluated_depsgraph_get()
-    lights = scene_lights(depsgraph, warnings) + world_lights(context.scene.world, warnings)
-    if not lights:
-        raise BakeError("the scene has no lights (and the world is black); add a light to bake")
-    settings = context.scene.transcut
-    options = dict(
-        tets=settings.tets,
-        tolerance=settings.tolerance,
-        shadows=1 if settings.shadows else 0,
-        backend=settings.backend.lower(),
-    )
-    return bake.BakeJob(meshes, lights, options, settings.attribute_name, warnings)
+from . import bake, edit_native, library, preferences
+from .mesh_export import BakeError, evaluated_triangles, to_world, world_matrix
+from .operators import RunnerOperator
+from .properties import TranscutObjectSettings, draw_medium, medium_properties
 
 
 def world_mesh(obj, depsgraph) -> tuple:
     """The evaluated mesh of ``obj`` in world space: float64 positions (n, 3), uint32
-    triangles (m, 3), float64 face normals (m, 3) (world space, unit)."""
-    ob_eval = obj.evaluated_get(depsgraph)
-    me = ob_eval.to_mesh()
-    try:
-        n = len(me.vertices)
-        co = np.empty(n * 3, np.float32)
-        me.vertices.foreach_get("co", co)
-        me.calc_loop_triangles()
-        tri = np.empty(len(me.loop_triangles) * 3, np.uint32)
-        me.loop_triangles.foreach_get("vertices", tri)
-        nrm = np.empty(len(me.loop_triangles) * 3, np.float32)
-        me.loop_triangles.foreach_get("normal", nrm)
-    finally:
-        ob_eval.to_mesh_clear()
-    m = np.array([list(r) for r in obj.matrix_world], np.float64)
-    pos = co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+    triangles (m, 3), float64 face normals (m, 3) (world space, unit). BakeError when its world
+    matrix is not finite or has a zero scale."""
+    m = world_matrix(obj)
+    co, tri, nrm = evaluated_triangles(obj, depsgraph)
     with np.errstate(all="ignore"):
-        normals = nrm.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(m[:3, :3])  # (M⁻¹)ᵀ n, row-wise
+        normals = nrm.astype(np.float64) @ np.linalg.inv(m[:3, :3])  # (M⁻¹)ᵀ n, row-wise
         normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return pos, tri.reshape(-1, 3), normals
-
-
-def _check_finite_matrix(obj) -> None:
-    m = np.array([list(r) for r in obj.matrix_world], np.float64)
-    if not np.all(np.isfinite(m)):
-        raise BakeError(f"'{obj.name}' has a non-finite transform (location, rotation or scale)")
-    if abs(np.linalg.det(m[:3, :3])) < 1e-12:
-        raise BakeError(f"'{obj.name}' has zero scale")
+    return to_world(co, m), tri, normals
 
 
 def cutter_edit(cutter, depsgraph, keep_both: bool, flip: bool, separate: bool = False):
@@ -108,7 +68,6 @@ def cutter_edit(cutter, depsgraph, keep_both: bool, flip: bool, separate: bool =
             f"the cutter '{cutter.name}' is a {cutter.type.lower()}; the cutter (the active object) must be "
             "a mesh: a plane, or a closed mesh"
         )
-    _check_finite_matrix(cutter)
     pos, tri, normals = world_mesh(cutter, depsgraph)
     if len(tri) == 0:
         raise BakeError(f"the cutter '{cutter.name}' has no faces")
@@ -122,7 +81,9 @@ def cutter_edit(cutter, depsgraph, keep_both: bool, flip: bool, separate: bool =
 
 def stroke_points(curve, depsgraph, spacing: float) -> np.ndarray:
     """The evaluated curve in world space as points at most ``spacing`` apart (every edge of its
-    evaluated polyline resampled; the order does not matter to a paint)."""
+    evaluated polyline resampled; the order does not matter to a paint). BakeError when its
+    world matrix is not finite or has a zero scale."""
+    m = world_matrix(curve)
     ob_eval = curve.evaluated_get(depsgraph)
     me = ob_eval.to_mesh()
     try:
@@ -132,8 +93,7 @@ def stroke_points(curve, depsgraph, spacing: float) -> np.ndarray:
         me.edges.foreach_get("vertices", edges)
     finally:
         ob_eval.to_mesh_clear()
-    m = np.array([list(r) for r in curve.matrix_world], np.float64)
-    pos = co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+    pos = to_world(co, m)
     edges = edges.reshape(-1, 2)
     if len(edges) == 0:
         return pos
@@ -175,7 +135,7 @@ def write_pieces(context, job: bake.BakeJob, run: edit_native.EditRun) -> list:
             new = bpy.data.objects.new(mesh.name, mesh)
             for coll in obj.users_collection:
                 coll.objects.link(new)
-            for key in ("medium_source", "preset", "sigma_a", "sigma_s_prime", "eta", "g"):
+            for key in TranscutObjectSettings.__annotations__:
                 setattr(new.transcut, key, getattr(obj.transcut, key))
             # What the cut guaranteed (custom property "transcut_cut"; distances in scene units).
             st = res.stats
@@ -199,20 +159,13 @@ def write_pieces(context, job: bake.BakeJob, run: edit_native.EditRun) -> list:
     return created
 
 
-class _EditOperator(RunnerModal):
-    """What both editing operators share: the bake operator's modal run (:class:`RunnerModal`),
-    with ``execute`` showing progress on the main thread.
-
-    A subclass defines ``_runner_for(context)`` (the :class:`edit_native.EditRunner` for the
-    selection; it raises ``BakeError`` with what to select) and ``_write(context, runner)``
-    (writes the results into Blender and returns the report's summary)."""
-
-    bl_options = {"REGISTER", "UNDO"}
-    what = "edit"
+class _EditOperator(RunnerOperator):
+    """What both editing operators share besides the run (:class:`operators.RunnerOperator`):
+    ``poll`` checks only the mode and the library, so a wrong selection gets a message saying
+    what to select instead of a greyed button."""
 
     @classmethod
     def poll(cls, context):
-        # Only mode and library: a wrong selection gets a message saying what to select.
         if context.mode != "OBJECT":
             cls.poll_message_set("works in Object Mode")
             return False
@@ -221,69 +174,17 @@ class _EditOperator(RunnerModal):
             return False
         return True
 
-    def _start(self, context):
-        try:
-            runner = self._runner_for(context)
-        except Exception as exc:  # BakeError, LibraryNotFound, TranscutError
-            self.report({"ERROR"}, bake.error_message(exc))
-            return None
-        for w in runner.job.warnings:
-            self.report({"WARNING"}, w)
-        return runner
-
-    def _finish(self, context, runner) -> set:
-        summary = ""
-        if runner.error is None:
-            try:
-                summary = self._write(context, runner)
-            except Exception as exc:
-                runner.error = exc
-        if runner.error is not None:
-            err = runner.error
-            if isinstance(err, edit_native.native.TranscutError) and err.status == edit_native.native.TC_CANCELLED:
-                self.report({"ERROR"}, f"{self.what} cancelled; nothing was changed")
-            else:
-                self.report({"ERROR"}, bake.error_message(err))
-            return {"CANCELLED"}
-        self.report({"INFO"}, summary)
-        return {"FINISHED"}
-
-    def execute(self, context):
-        runner = self._start(context)
-        if runner is None:
-            return {"CANCELLED"}
-        wm = context.window_manager
-        wm.progress_begin(0, 100)
-        record = runner.progress
-        main = threading.main_thread()
-
-        def progress(stage: str, fraction: float) -> bool:
-            # The library reports from its worker threads too; only the main thread may touch wm.
-            if threading.current_thread() is main:
-                wm.progress_update(int(min(max(fraction, 0.0), 1.0) * 100))
-            return record(stage, fraction)
-
-        runner.progress = progress
-        try:
-            runner.run_here()
-            wm.progress_update(100)
-        finally:
-            wm.progress_end()
-        return self._finish(context, runner)
-
-    def _status_prefix(self) -> str:
-        return f"TransCut {self.what}"
-
 
 def _targets(context, active, what: str) -> list:
     targets = [o for o in context.selected_objects if o != active and o.type == "MESH"]
     if not targets:
-        raise BakeError(f"select the mesh object(s) to {what} as well as the active {('cutter' if what == 'cut' else 'curve')}")
+        tool = "cutter" if what == "cut" else "curve"
+        raise BakeError(f"select the mesh object(s) to {what} as well as the active {tool}")
     return targets
 
 
 class TRANSCUT_OT_cut_with_object(_EditOperator, bpy.types.Operator):
-    """Cut the selected translucent meshes with the active object (a plane: the side its normal points to is removed; a closed mesh: its inside), baking the result into new objects"""
+    """Cut the selected translucent meshes with the active object (a plane: the side its normal points to is removed; a closed mesh: its inside), baking the result into new objects"""  # noqa: E501
 
     bl_idname = "transcut.cut_with_object"
     bl_label = "Cut with Object"
@@ -296,7 +197,9 @@ class TRANSCUT_OT_cut_with_object(_EditOperator, bpy.types.Operator):
     )
     separate: BoolProperty(
         name="Separate Parts",
-        description="Make every connected part left by the cut its own object (a fracture), not one object per side",
+        description=(
+            "Make every connected part left by the cut its own object (a fracture), not one object per side"
+        ),
         default=False,
     )
     flip: BoolProperty(
@@ -309,16 +212,15 @@ class TRANSCUT_OT_cut_with_object(_EditOperator, bpy.types.Operator):
         cutter = context.active_object
         if cutter is None:
             raise BakeError(
-                "no cutter: make the cutter (a plane or a closed mesh) the active object and also select the objects to cut"
+                "no cutter: make the cutter (a plane or a closed mesh) the active object and also select the "
+                "objects to cut"
             )
         depsgraph = context.evaluated_depsgraph_get()
         edit = cutter_edit(cutter, depsgraph, self.keep_both, self.flip, self.separate)
         targets = _targets(context, cutter, "cut")
-        lib = library.get(context)
+        lib = library.get(preferences.library_path(context))
         edit_native.require(lib, edit_native.CUT_FUNCTIONS, "Cut with Object")
-        for t in targets:
-            _check_finite_matrix(t)
-        job = prepare_job(context, targets)
+        job = bake.prepare_job(context, targets)
         return edit_native.EditRunner(lib, job, edit)
 
     def _write(self, context, runner) -> str:
@@ -346,64 +248,38 @@ class TRANSCUT_OT_paint_medium(_EditOperator, bpy.types.Operator):
     bl_label = "Paint Medium"
     what = "paint"
 
-    radius: FloatProperty(
-        name="Radius",
-        description="Gaussian radius of the stroke's influence, scene units",
-        default=0.1,
-        min=1e-6,
-        soft_max=10.0,
-        subtype="DISTANCE",
-    )
-    strength: FloatProperty(
-        name="Strength",
-        description="Weight of the painted medium on the stroke (0: nothing, 1: replaced)",
-        default=1.0,
-        min=0.0,
-        max=1.0,
-        subtype="FACTOR",
-    )
-    medium_source: EnumProperty(
-        name="Medium",
-        description="The medium to paint (its η and g are each object's own)",
-        items=(
-            ("PRESET", "Preset", "A measured material"),
-            ("COEFFICIENTS", "Coefficients", "Absorption and reduced scattering coefficients in 1/mm"),
+    __annotations__ = {
+        "radius": FloatProperty(
+            name="Radius",
+            description="Gaussian radius of the stroke's influence, scene units",
+            default=0.1,
+            min=1e-6,
+            soft_max=10.0,
+            subtype="DISTANCE",
         ),
-        default="PRESET",
-    )
-    preset: EnumProperty(
-        name="Preset",
-        items=PRESET_ITEMS,
-        default="ketchup",
-    )
-    sigma_a: FloatVectorProperty(
-        name="Absorption",
-        description="Absorption coefficient σa per RGB channel, 1/mm",
-        size=3,
-        min=0.0,
-        default=(0.5, 0.5, 0.5),
-        precision=5,
-    )
-    sigma_s_prime: FloatVectorProperty(
-        name="Reduced Scattering",
-        description="Reduced scattering coefficient σ′s per RGB channel, 1/mm",
-        size=3,
-        min=0.0,
-        default=(2.0, 2.0, 2.0),
-        precision=4,
-    )
+        "strength": FloatProperty(
+            name="Strength",
+            description="Weight of the painted medium on the stroke (0: nothing, 1: replaced)",
+            default=1.0,
+            min=0.0,
+            max=1.0,
+            subtype="FACTOR",
+        ),
+        **medium_properties(
+            "The medium to paint (its η and g are each object's own)",
+            ("PRESET", "COEFFICIENTS"),
+            preset="ketchup",
+            sigma_a=(0.5, 0.5, 0.5),
+            sigma_s_prime=(2.0, 2.0, 2.0),
+        ),
+    }
 
     def draw(self, _context):
         layout = self.layout
         layout.use_property_split = True
         layout.prop(self, "radius")
         layout.prop(self, "strength")
-        layout.prop(self, "medium_source")
-        if self.medium_source == "PRESET":
-            layout.prop(self, "preset")
-        else:
-            layout.prop(self, "sigma_a")
-            layout.prop(self, "sigma_s_prime")
+        draw_medium(layout, self)
 
     def _paint_coefficients(self, lib) -> tuple:
         if self.medium_source == "PRESET":
@@ -421,7 +297,6 @@ class TRANSCUT_OT_paint_medium(_EditOperator, bpy.types.Operator):
             raise BakeError(f"the stroke must be a curve object, made active ({what}); also select the meshes to paint")
         if not (np.isfinite(self.radius) and np.isfinite(self.strength)):
             raise BakeError("the paint's radius and strength must be finite")
-        _check_finite_matrix(curve)
         depsgraph = context.evaluated_depsgraph_get()
         points = stroke_points(curve, depsgraph, self.radius / 4.0)
         if len(points) == 0:
@@ -429,10 +304,10 @@ class TRANSCUT_OT_paint_medium(_EditOperator, bpy.types.Operator):
         if not np.all(np.isfinite(points)):
             raise BakeError(f"the curve '{curve.name}' has non-finite points")
         targets = _targets(context, curve, "paint")
-        lib = library.get(context)
+        lib = library.get(preferences.library_path(context))
         edit_native.require(lib, edit_native.PAINT_FUNCTIONS, "Paint Medium")
         sigma_a, sigma_s_prime = self._paint_coefficients(lib)
-        job = prepare_job(context, targets)
+        job = bake.prepare_job(context, targets)
         media = [edit_native.medium_coefficients(lib, m.medium, m.mm_per_unit) for m in job.meshes]
         edit = edit_native.Paint(points, self.radius, sigma_a, sigma_s_prime, self.strength)
         return edit_native.EditRunner(lib, job, edit, media)
@@ -456,16 +331,16 @@ def menu_func(self, _context):
     self.layout.operator(TRANSCUT_OT_paint_medium.bl_idname, icon="BRUSH_DATA")
 
 
-classes = (TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(
+    (TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium)
+)
 
 
 def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
+    _register_classes()
     bpy.types.VIEW3D_MT_object.append(menu_func)
 
 
 def unregister():
     bpy.types.VIEW3D_MT_object.remove(menu_func)
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

@@ -1,6 +1,6 @@
 """Blender lights and world → libtranscut lights, with Blender's units converted.
 
-Each light becomes a :class:`LightSpec`: the name of a ``native.Scene`` method and its keyword
+Each light becomes a :class:`LightSpec`: the name of a ``transcut.Scene`` method and its keyword
 arguments, in world space (scene units, Blender's +Z up; the library uses the same axes).
 
 Conversions (Blender's light units are those of Cycles; c is the light colour, times the
@@ -32,12 +32,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .mesh_export import matrix_array
+
 FOUR_PI = 4.0 * math.pi
 
 
 @dataclass
 class LightSpec:
-    """A light for ``native.Scene``: ``getattr(scene, method)(**kwargs)``."""
+    """A light for ``transcut.Scene``: ``getattr(scene, method)(**kwargs)``."""
 
     method: str
     kwargs: dict = field(default_factory=dict)
@@ -69,10 +71,6 @@ def area_radiance(power: float, colour, area: float, normalize: bool = True) -> 
     return [float(power) * float(x) / (math.pi * a) for x in colour]
 
 
-def _mat(matrix_world) -> np.ndarray:
-    return np.array([list(row) for row in matrix_world], dtype=np.float64)
-
-
 def _unit(v: np.ndarray) -> np.ndarray:
     n = float(np.linalg.norm(v))
     return v / n if n > 0.0 else v
@@ -81,7 +79,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
 def convert_light(obj_name: str, light, matrix_world, warnings: list) -> list:
     """One Blender light (``bpy.types.Light``) with its world matrix → ``LightSpec`` list (empty
     when it emits nothing)."""
-    m = _mat(matrix_world)
+    m = matrix_array(matrix_world)
     m3 = m[:3, :3]
     position = m[:3, 3]
     down = _unit(m3 @ np.array([0.0, 0.0, -1.0]))

@@ -29,7 +29,7 @@ class BakeError(Exception):
 
 @dataclass
 class MediumSpec:
-    """How to set an object's medium: ``getattr(native.Scene, method)(obj, **kwargs)``."""
+    """How to set an object's medium: ``getattr(transcut.Scene, method)(obj, **kwargs)``."""
 
     method: str
     kwargs: dict
@@ -145,15 +145,45 @@ def object_medium(obj, warnings: list) -> MediumSpec:
     return material_medium(obj, warnings)
 
 
-def _is_singular(m: np.ndarray) -> bool:
-    """Whether the 3×3 part of a world matrix collapses space (a zero or non-finite scale)."""
+def matrix_array(matrix) -> np.ndarray:
+    """A 4×4 ``mathutils.Matrix`` as float64 (4, 4), row-major."""
+    return np.array([list(row) for row in matrix], dtype=np.float64)
+
+
+def world_matrix(obj) -> np.ndarray:
+    """The object's world matrix as float64 (4, 4), row-major; BakeError when it is not finite or
+    collapses space (a zero scale)."""
+    m = matrix_array(obj.matrix_world)
+    if not np.all(np.isfinite(m)):
+        raise BakeError(f"'{obj.name}' has a non-finite transform (location, rotation or scale)")
     a = m[:3, :3]
-    if not np.all(np.isfinite(a)):
-        return True
     norms = np.linalg.norm(a, axis=0)
-    if norms.min() == 0.0:
-        return True
-    return abs(float(np.linalg.det(a))) <= 1e-9 * float(np.prod(norms))
+    if norms.min() == 0.0 or abs(float(np.linalg.det(a))) <= 1e-9 * float(np.prod(norms)):
+        raise BakeError(f"'{obj.name}' has zero scale (its world matrix is singular)")
+    return m
+
+
+def to_world(points: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """Object-space ``points`` (n, 3) mapped by a (4, 4) row-major matrix: float64 (n, 3)."""
+    return np.asarray(points, dtype=np.float64).reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def evaluated_triangles(obj, depsgraph) -> tuple:
+    """The evaluated mesh of ``obj`` (modifiers applied) in object space: float32 positions
+    (n, 3), uint32 triangles (m, 3) and float32 triangle normals (m, 3)."""
+    ob_eval = obj.evaluated_get(depsgraph)
+    mesh = ob_eval.to_mesh()
+    try:
+        positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", positions)
+        mesh.calc_loop_triangles()
+        triangles = np.empty(len(mesh.loop_triangles) * 3, dtype=np.uint32)
+        mesh.loop_triangles.foreach_get("vertices", triangles)
+        normals = np.empty(len(mesh.loop_triangles) * 3, dtype=np.float32)
+        mesh.loop_triangles.foreach_get("normal", normals)
+    finally:
+        ob_eval.to_mesh_clear()
+    return positions.reshape(-1, 3), triangles.reshape(-1, 3), normals.reshape(-1, 3)
 
 
 def check_attribute_name(mesh, name: str, obj_name: str) -> None:
@@ -172,21 +202,10 @@ def gather_mesh(obj, depsgraph, scene, settings, warnings: list) -> MeshJob:
     """The evaluated mesh of one object (modifiers applied), its matrix and medium."""
     if obj.type != "MESH":
         raise BakeError(f"'{obj.name}' is a {obj.type.lower()}, not a mesh")
-    matrix = np.array([list(r) for r in obj.matrix_world], dtype=np.float64)
-    if _is_singular(matrix):
-        raise BakeError(f"'{obj.name}' has zero scale (its world matrix is singular); nothing to bake")
+    matrix = world_matrix(obj)
     check_attribute_name(obj.data, settings.attribute_name, obj.name)
-    ob_eval = obj.evaluated_get(depsgraph)
-    mesh = ob_eval.to_mesh()
-    try:
-        n = len(mesh.vertices)
-        positions = np.empty(n * 3, dtype=np.float32)
-        mesh.vertices.foreach_get("co", positions)
-        mesh.calc_loop_triangles()
-        triangles = np.empty(len(mesh.loop_triangles) * 3, dtype=np.uint32)
-        mesh.loop_triangles.foreach_get("vertices", triangles)
-    finally:
-        ob_eval.to_mesh_clear()
+    positions, triangles, _ = evaluated_triangles(obj, depsgraph)
+    n = len(positions)
     if triangles.size == 0:
         raise BakeError(f"'{obj.name}' has no faces ({n} vertices, 0 triangles); nothing to bake")
     if not np.all(np.isfinite(positions)):
@@ -203,8 +222,8 @@ def gather_mesh(obj, depsgraph, scene, settings, warnings: list) -> MeshJob:
     warnings.extend(obj_warnings)
     return MeshJob(
         object_name=obj.name,
-        positions=positions.reshape(n, 3),
-        triangles=triangles.reshape(-1, 3),
+        positions=positions,
+        triangles=triangles,
         matrix_world=matrix,
         mm_per_unit=mm_per_unit(scene),
         medium=medium,

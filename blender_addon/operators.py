@@ -1,52 +1,87 @@
-"""The bake operator: ``bpy.ops.object.transcut_bake()``.
+"""The bake operator, ``bpy.ops.object.transcut_bake()``, and the run every operator shares.
 
-Run from the UI (``invoke``) it is modal: the library works on a thread, a window-manager timer
-shows its progress (progress cursor and status bar), ESC cancels through the library's progress
-callback. Called from a script or in background mode (``execute``) it bakes synchronously. Either
-way nothing changes unless every selected object baked; errors are reported with
-``self.report`` and the operator returns CANCELLED. Registered with undo.
+Run from the UI (``invoke``) an operator is modal: the library works on a thread, a
+window-manager timer shows its progress (progress cursor and status bar), ESC cancels through the
+library's progress callback. Called from a script or in background mode (``execute``) it runs
+synchronously on the main thread between ``progress_begin`` and ``progress_end``. Either way
+nothing changes unless every selected object was done; errors are reported with ``self.report``
+(a script sees them as bpy's RuntimeError) and the operator returns CANCELLED. Registered with
+undo.
 """
 
 from __future__ import annotations
 
+import threading
+
 import bpy
 
-from . import bake, library
-from .lights import scene_lights, world_lights
-from .mesh_export import BakeError, gather
+from . import bake, library, preferences
 
 
-def prepare(context) -> bake.BakeJob:
-    """Gathers objects, lights and options; raises BakeError / LibraryNotFound before any work."""
-    warnings: list = []
-    meshes = gather(context, warnings)
-    depsgraph = context.evaluated_depsgraph_get()
-    lights = scene_lights(depsgraph, warnings) + world_lights(context.scene.world, warnings)
-    if not lights:
-        raise BakeError("the scene has no lights (and the world is black); add a light to bake")
-    settings = context.scene.transcut
-    options = dict(
-        tets=settings.tets,
-        tolerance=settings.tolerance,
-        shadows=1 if settings.shadows else 0,
-        backend=settings.backend.lower(),
-    )
-    return bake.BakeJob(meshes, lights, options, settings.attribute_name, warnings)
+class RunnerOperator:
+    """What the bake and the editing operators share: a runner (:class:`bake.BakeRunner`) that
+    works in the library, started by ``invoke`` on a worker thread with a progress timer, or by
+    ``execute`` on the main thread; ``modal`` shows the progress in the status bar and ESC
+    cancels; ``cancel`` stops the library when Blender closes the operator.
 
+    A subclass sets ``what`` (the word in its messages) and defines ``_runner_for(context)``
+    (the runner for the selection; it raises ``BakeError`` saying what to select, or
+    ``LibraryNotFound``) and ``_write(context, runner)`` (writes the results into Blender and
+    returns the report's summary)."""
 
-class RunnerModal:
-    """The modal run the bake and the editing operators share: ``invoke`` (background mode:
-    ``execute``) starts the runner made by ``_start`` on a worker thread with a progress timer;
-    ``modal`` shows the progress in the status bar, ESC cancels, and the run ends through
-    ``_finish``; ``cancel`` stops the library when Blender closes the operator. A subclass
-    defines ``execute``, ``_start(context)`` (the runner, or None after reporting why not) and
-    ``_finish(context, runner)`` (the operator's result), and may override ``_status_prefix``."""
+    bl_options = {"REGISTER", "UNDO"}
+    what = "run"
 
     _runner = None
     _timer = None
 
-    def _status_prefix(self) -> str:
-        return "TransCut"
+    def _start(self, context):
+        """The runner, or None after reporting why not."""
+        try:
+            runner = self._runner_for(context)
+        except Exception as exc:  # BakeError, LibraryNotFound, TranscutError
+            self.report({"ERROR"}, bake.error_message(exc, self.what))
+            return None
+        for w in runner.job.warnings:
+            self.report({"WARNING"}, w)
+        return runner
+
+    def _finish(self, context, runner) -> set:
+        """Writes the results of a run that succeeded; reports the outcome."""
+        summary = ""
+        if runner.error is None:
+            try:
+                summary = self._write(context, runner)
+            except Exception as exc:
+                runner.error = exc
+        if runner.error is not None:
+            self.report({"ERROR"}, bake.error_message(runner.error, self.what))
+            return {"CANCELLED"}
+        self.report({"INFO"}, summary)
+        return {"FINISHED"}
+
+    def execute(self, context):
+        runner = self._start(context)
+        if runner is None:
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, 100)
+        record = runner.progress
+        main = threading.main_thread()
+
+        def progress(stage: str, fraction: float) -> bool:
+            # The library reports from its worker threads too; only the main thread may touch wm.
+            if threading.current_thread() is main:
+                wm.progress_update(int(min(max(fraction, 0.0), 1.0) * 100))
+            return record(stage, fraction)
+
+        runner.progress = progress
+        try:
+            runner.run_here()
+            wm.progress_update(100)
+        finally:
+            wm.progress_end()
+        return self._finish(context, runner)
 
     def invoke(self, context, event):
         if bpy.app.background:
@@ -80,7 +115,7 @@ class RunnerModal:
             context.window_manager.progress_update(int(fraction * 100))
             if context.workspace is not None:
                 note = "cancelling…" if runner.cancelled else "ESC to cancel"
-                context.workspace.status_text_set(f"{self._status_prefix()}: {stage} {fraction * 100:.0f}% ({note})")
+                context.workspace.status_text_set(f"TransCut {self.what}: {stage} {fraction * 100:.0f}% ({note})")
             if runner.done():
                 self._end_ui(context)
                 return self._finish(context, runner)
@@ -95,68 +130,45 @@ class RunnerModal:
         self._end_ui(context)
 
 
-class OBJECT_OT_transcut_bake(RunnerModal, bpy.types.Operator):
+class OBJECT_OT_transcut_bake(RunnerOperator, bpy.types.Operator):
     """Bake subsurface scattering of the selected meshes into a colour attribute"""
 
     bl_idname = "object.transcut_bake"
     bl_label = "Bake Subsurface (TransCut)"
-    bl_options = {"REGISTER", "UNDO"}
+    what = "bake"
 
     @classmethod
     def poll(cls, context):
         return context.mode == "OBJECT"
 
-    def _start(self, context):
-        """Job and library, or None after reporting why not."""
-        try:
-            job = prepare(context)
-            lib = library.get(context)
-        except Exception as exc:  # BakeError, LibraryNotFound
-            self.report({"ERROR"}, bake.error_message(exc))
-            return None
-        for w in job.warnings:
-            self.report({"WARNING"}, w)
+    def _runner_for(self, context):
+        job = bake.prepare_job(context)
+        lib = library.get(preferences.library_path(context))
         return bake.BakeRunner(lib, job)
 
-    def _finish(self, context, runner) -> set:
-        if runner.error is None:
-            try:
-                bake.write_results(context, runner.job, runner.results)
-            except Exception as exc:
-                runner.error = exc
-        if runner.error is not None:
-            self.report({"ERROR"}, bake.error_message(runner.error))
-            return {"CANCELLED"}
-        total = sum(m.vertex_count for m in runner.job.meshes)
-        self.report(
-            {"INFO"},
-            f"baked {len(runner.job.meshes)} object(s), {total} vertices, into '{runner.job.attribute_name}'"
-            f" ({bake.backend_summary(runner.backends)})",
+    def _write(self, context, runner) -> str:
+        job = runner.job
+        bake.write_results(context, job, runner.results)
+        total = sum(m.vertex_count for m in job.meshes)
+        return (
+            f"baked {len(job.meshes)} object(s), {total} vertices, into '{job.attribute_name}'"
+            f" ({bake.backend_summary(runner.backends)})"
         )
-        return {"FINISHED"}
 
-    def execute(self, context):
-        runner = self._start(context)
-        if runner is None:
-            return {"CANCELLED"}
-        runner.run_here()
-        return self._finish(context, runner)
 
 def menu_func(self, _context):
     self.layout.separator()
     self.layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
 
 
-classes = (OBJECT_OT_transcut_bake,)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory((OBJECT_OT_transcut_bake,))
 
 
 def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
+    _register_classes()
     bpy.types.VIEW3D_MT_object.append(menu_func)
 
 
 def unregister():
     bpy.types.VIEW3D_MT_object.remove(menu_func)
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

@@ -21,8 +21,15 @@ def get(context=None):
     return addon.preferences if addon is not None else None
 
 
+def library_path(context=None) -> str:
+    """The library path set in the preferences, made absolute ('' when unset or not registered):
+    what :func:`library.load` and :func:`library.get` take."""
+    prefs = get(context)
+    return bpy.path.abspath(prefs.library_path) if prefs is not None and prefs.library_path else ""
+
+
 def _on_path_changed(_self, context):
-    library.load(context)
+    library.load(library_path(context))
 
 
 class TRANSCUT_OT_reload_library(bpy.types.Operator):
@@ -33,7 +40,7 @@ class TRANSCUT_OT_reload_library(bpy.types.Operator):
     bl_options = {"INTERNAL"}
 
     def execute(self, context):
-        lib = library.load(context)
+        lib = library.load(library_path(context))
         if lib is None:
             self.report({"ERROR"}, library.state.error)
             return {"CANCELLED"}
@@ -79,14 +86,4 @@ def draw_library_status(layout) -> None:
         col.label(text=f"    {why}")
 
 
-classes = (TRANSCUT_OT_reload_library, TranscutPreferences)
-
-
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory((TRANSCUT_OT_reload_library, TranscutPreferences))

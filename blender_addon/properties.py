@@ -74,48 +74,80 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
     )
 
 
-class TranscutObjectSettings(bpy.types.PropertyGroup):
-    medium_source: EnumProperty(
-        name="Medium",
-        description="Where the object's scattering medium comes from",
-        items=(
-            ("MATERIAL", "Material", "Principled BSDF subsurface inputs of the object's material"),
-            ("PRESET", "Preset", "A measured material"),
-            ("COEFFICIENTS", "Coefficients", "Absorption and reduced scattering coefficients in 1/mm"),
+#: Where a medium comes from (EnumProperty items).
+MEDIUM_SOURCES = {
+    "MATERIAL": ("MATERIAL", "Material", "Principled BSDF subsurface inputs of the object's material"),
+    "PRESET": ("PRESET", "Preset", "A measured material"),
+    "COEFFICIENTS": ("COEFFICIENTS", "Coefficients", "Absorption and reduced scattering coefficients in 1/mm"),
+}
+
+
+def medium_properties(description: str, sources: tuple, preset: str, sigma_a: tuple, sigma_s_prime: tuple) -> dict:
+    """The properties that choose a medium, as class annotations: ``medium_source`` (one of
+    ``sources``, the first the default), ``preset`` and the coefficients ``sigma_a`` and
+    ``sigma_s_prime``, with the given defaults. Shared by ``Object.transcut`` and the paint
+    operator."""
+    return {
+        "medium_source": EnumProperty(
+            name="Medium",
+            description=description,
+            items=tuple(MEDIUM_SOURCES[s] for s in sources),
+            default=sources[0],
         ),
-        default="MATERIAL",
-    )
-    preset: EnumProperty(
-        name="Preset",
-        items=PRESET_ITEMS,
-        default="marble",
-    )
-    sigma_a: FloatVectorProperty(
-        name="Absorption",
-        description="Absorption coefficient σa per RGB channel, 1/mm",
-        size=3,
-        min=0.0,
-        default=(0.0021, 0.0041, 0.0071),
-        precision=5,
-    )
-    sigma_s_prime: FloatVectorProperty(
-        name="Reduced Scattering",
-        description="Reduced scattering coefficient σ′s per RGB channel, 1/mm",
-        size=3,
-        min=0.0,
-        default=(2.19, 2.62, 3.00),
-        precision=4,
-    )
-    eta: FloatProperty(name="IOR", description="Refractive index", default=1.3, min=1.0, max=3.99)
-    g: FloatProperty(name="Anisotropy", description="Scattering anisotropy g", default=0.0, min=-0.99, max=0.99)
+        "preset": EnumProperty(name="Preset", items=PRESET_ITEMS, default=preset),
+        "sigma_a": FloatVectorProperty(
+            name="Absorption",
+            description="Absorption coefficient σa per RGB channel, 1/mm",
+            size=3,
+            min=0.0,
+            default=sigma_a,
+            precision=5,
+        ),
+        "sigma_s_prime": FloatVectorProperty(
+            name="Reduced Scattering",
+            description="Reduced scattering coefficient σ′s per RGB channel, 1/mm",
+            size=3,
+            min=0.0,
+            default=sigma_s_prime,
+            precision=4,
+        ),
+    }
 
 
-classes = (TranscutSceneSettings, TranscutObjectSettings)
+def draw_medium(layout, settings, coefficients: tuple = ("sigma_a", "sigma_s_prime")) -> None:
+    """Draws a medium choice made by :func:`medium_properties`: the source, then the preset, the
+    ``coefficients`` properties, or what a material gives."""
+    layout.prop(settings, "medium_source")
+    if settings.medium_source == "PRESET":
+        layout.prop(settings, "preset")
+    elif settings.medium_source == "COEFFICIENTS":
+        for name in coefficients:
+            layout.prop(settings, name)
+    else:
+        layout.label(text="Principled BSDF subsurface inputs")
+
+
+class TranscutObjectSettings(bpy.types.PropertyGroup):
+    __annotations__ = {
+        **medium_properties(
+            "Where the object's scattering medium comes from",
+            ("MATERIAL", "PRESET", "COEFFICIENTS"),
+            preset="marble",
+            sigma_a=(0.0021, 0.0041, 0.0071),
+            sigma_s_prime=(2.19, 2.62, 3.00),
+        ),
+        "eta": FloatProperty(name="IOR", description="Refractive index", default=1.3, min=1.0, max=3.99),
+        "g": FloatProperty(name="Anisotropy", description="Scattering anisotropy g", default=0.0, min=-0.99, max=0.99),
+    }
+
+
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(
+    (TranscutSceneSettings, TranscutObjectSettings)
+)
 
 
 def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
+    _register_classes()
     bpy.types.Scene.transcut = PointerProperty(type=TranscutSceneSettings)
     bpy.types.Object.transcut = PointerProperty(type=TranscutObjectSettings)
 
@@ -123,5 +155,4 @@ def register():
 def unregister():
     del bpy.types.Object.transcut
     del bpy.types.Scene.transcut
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

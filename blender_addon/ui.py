@@ -9,6 +9,7 @@ from . import library
 from .edit_ops import TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium
 from .operators import OBJECT_OT_transcut_bake
 from .preferences import draw_library_status
+from .properties import draw_medium
 
 
 class VIEW3D_PT_transcut(bpy.types.Panel):
@@ -34,16 +35,7 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
         if obj is not None and obj.type == "MESH":
             box = layout.box()
             box.label(text=f"Medium of '{obj.name}'", icon="MATERIAL")
-            box.prop(obj.transcut, "medium_source")
-            if obj.transcut.medium_source == "PRESET":
-                box.prop(obj.transcut, "preset")
-            elif obj.transcut.medium_source == "COEFFICIENTS":
-                box.prop(obj.transcut, "sigma_a")
-                box.prop(obj.transcut, "sigma_s_prime")
-                box.prop(obj.transcut, "eta")
-                box.prop(obj.transcut, "g")
-            else:
-                box.label(text="Principled BSDF subsurface inputs")
+            draw_medium(box, obj.transcut, ("sigma_a", "sigma_s_prime", "eta", "g"))
 
         layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
         row = layout.row(align=True)
@@ -53,14 +45,4 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
             draw_library_status(layout)
 
 
-classes = (VIEW3D_PT_transcut,)
-
-
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory((VIEW3D_PT_transcut,))

@@ -6,13 +6,15 @@
 Produces, in DIR (default ``dist/``):
 
 - ``transcut-VERSION-py3-none-PLATFORM.whl``: the ``transcut`` Python package, i.e. the ctypes
-  binding (``blender_addon/native.py`` as ``transcut/__init__.py``) and the shared library
-  beside it. It needs only NumPy and works with a plain ``pip install`` outside Blender:
+  binding (the package ``blender_addon/transcut/``) and the shared library beside it. It needs
+  only NumPy and works with a plain ``pip install`` outside Blender:
   ``import transcut; lib = transcut.load()``.
 - ``transcut-VERSION-BLENDERPLATFORM.zip``: the installable extension (Blender: Edit ▸
-  Preferences ▸ Get Extensions ▸ ▾ ▸ Install from Disk). It carries the add-on's Python files and
-  the wheel under ``wheels/``; its manifest lists the wheel under ``wheels`` and sets
-  ``platforms`` (the extension holds native code, so it installs only where the library runs).
+  Preferences ▸ Get Extensions ▸ ▾ ▸ Install from Disk). It carries the add-on's Python files
+  (its ``transcut`` package included) and the wheel under ``wheels/``; its manifest lists the
+  wheel under ``wheels`` and sets ``platforms`` (the extension holds native code, so it installs
+  only where the library runs). The add-on's copy of the package finds the library in the
+  installed wheel.
 
 Without ``--lib`` it runs ``cargo build --release -p transcut-capi`` and packages that library;
 ``--lib`` packages an existing one (the tests use the library they already built).
@@ -35,6 +37,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 ADDON = ROOT / "blender_addon"
+BINDING = ADDON / "transcut"
 
 # Python's (sys.platform, machine) → (wheel platform tag, Blender extension platform).
 PLATFORMS = {
@@ -78,6 +81,11 @@ def record_line(name: str, data: bytes) -> str:
     return f"{name},sha256={digest},{len(data)}"
 
 
+def python_files(folder: Path, prefix: str = "") -> list[tuple[str, bytes, int]]:
+    """Zip entries for the ``.py`` files of ``folder`` (not its subfolders), named ``prefix`` + name."""
+    return [(prefix + src.name, src.read_bytes(), 0o644) for src in sorted(folder.glob("*.py"))]
+
+
 def write_zip(path: Path, files: list[tuple[str, bytes, int]]) -> None:
     """A deterministic zip: sorted-as-given entries, fixed timestamps, mode bits kept."""
     with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
@@ -109,7 +117,7 @@ def build_wheel(lib: Path, version: str, wheel_tag: str, lib_name: str, out: Pat
         "",
     ]).encode()
     files = [
-        ("transcut/__init__.py", (ADDON / "native.py").read_bytes(), 0o644),
+        *python_files(BINDING, "transcut/"),
         (f"transcut/{lib_name}", lib.read_bytes(), 0o755),
         (f"{dist_info}/METADATA", metadata, 0o644),
         (f"{dist_info}/WHEEL", wheel_meta, 0o644),
@@ -125,7 +133,7 @@ def packaged_manifest(blender_platform: str, wheel_name: str) -> bytes:
     """The source manifest with ``platforms`` and ``wheels`` added before its first table."""
     text = (ADDON / "blender_manifest.toml").read_text()
     lines = text.splitlines(keepends=True)
-    first_table = next((i for i, l in enumerate(lines) if l.lstrip().startswith("[")), len(lines))
+    first_table = next((i for i, line in enumerate(lines) if line.lstrip().startswith("[")), len(lines))
     extra = f'platforms = ["{blender_platform}"]\nwheels = ["./wheels/{wheel_name}"]\n\n'
     result = "".join(lines[:first_table]) + extra + "".join(lines[first_table:])
     parsed = tomllib.loads(result)
@@ -134,11 +142,13 @@ def packaged_manifest(blender_platform: str, wheel_name: str) -> bytes:
 
 
 def build_extension(wheel: Path, version: str, blender_platform: str, out: Path) -> Path:
-    """The extension zip: manifest at the root, the add-on's modules, ``wheels/``."""
-    files = [("blender_manifest.toml", packaged_manifest(blender_platform, wheel.name), 0o644)]
-    for src in sorted(ADDON.glob("*.py")):
-        files.append((src.name, src.read_bytes(), 0o644))
-    files.append((f"wheels/{wheel.name}", wheel.read_bytes(), 0o644))
+    """The extension zip: manifest at the root, the add-on's modules and package, ``wheels/``."""
+    files = [
+        ("blender_manifest.toml", packaged_manifest(blender_platform, wheel.name), 0o644),
+        *python_files(ADDON),
+        *python_files(BINDING, "transcut/"),
+        (f"wheels/{wheel.name}", wheel.read_bytes(), 0o644),
+    ]
     path = out / f"transcut-{version}-{blender_platform}.zip"
     write_zip(path, files)
     return path

@@ -1,4 +1,4 @@
-"""The Blender add-on, headless (issue 5, "How it is checked").
+"""The Blender add-on, headless: registration, conversions, errors, bakes against the C ABI.
 
 Bakes are small (15k tets, a 32×16 UV sphere) so the whole file runs in well under a minute.
 """
@@ -247,7 +247,7 @@ def test_world_and_unit_scale_conversions(scene, addon):
 
     obj = add_sphere()
     bpy.context.scene.world = world
-    job = addon.operators.prepare(bpy.context)
+    job = addon.bake.prepare_job(bpy.context)
     (mesh,) = job.meshes
     assert mesh.mm_per_unit == pytest.approx(MM_PER_UNIT)  # scale_length 0.01 m × 1000
     assert mesh.medium.method == "set_medium_artist"
@@ -409,8 +409,8 @@ def test_progress_reported_and_cancel_changes_nothing(scene, addon):
     add_light("SUN", energy=3.0)
     select_only(obj)
     ctx = bpy.context
-    job = addon.operators.prepare(ctx)
-    lib = addon.library.get(ctx)
+    job = addon.bake.prepare_job(ctx)
+    lib = addon.library.get()
 
     runner = addon.bake.BakeRunner(lib, job)
     reports = []
@@ -426,8 +426,8 @@ def test_progress_reported_and_cancel_changes_nothing(scene, addon):
     runner.start()  # on a worker thread, as the modal operator runs it
     assert runner.wait(timeout=120)
     assert runner.results is None
-    assert isinstance(runner.error, addon.native.TranscutError)
-    assert runner.error.status == addon.native.TC_CANCELLED
+    assert isinstance(runner.error, addon.transcut.TranscutError)
+    assert runner.error.status == addon.transcut.TC_CANCELLED
     assert addon.bake.error_message(runner.error) == "bake cancelled; nothing was changed"
     assert snapshot() == before
 
@@ -442,13 +442,13 @@ def test_backend_setting_reaches_the_library(scene, addon):
     add_light("SUN", rotation=(math.radians(30), 0.0, 0.0), energy=3.0)
     select_only(obj)
     ctx = bpy.context
-    lib = addon.library.get(ctx)
+    lib = addon.library.get()
     settings = ctx.scene.transcut
     assert settings.backend == "AUTO"
 
     def run(backend):
         settings.backend = backend
-        job = addon.operators.prepare(ctx)
+        job = addon.bake.prepare_job(ctx)
         assert job.options["backend"] == backend.lower()
         infos = []
         (rgb,) = addon.bake.run_job(lib, job, None, infos)
@@ -478,11 +478,11 @@ def test_backend_setting_reaches_the_library(scene, addon):
 
 
 def test_native_editing_bindings(addon):
-    """native.py's editing calls reach the library: bake, cut by a plane, read the piece,
+    """The binding's editing calls reach the library: bake, cut by a plane, read the piece,
     split, move a piece, relight; errors carry their status."""
     require_library()
-    native = addon.native
-    lib = native.load()
+    tc = addon.transcut
+    lib = tc.load()
     bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12, radius=10.0)
     obj = bpy.context.active_object
     pos, tri, _, _ = evaluated_arrays(obj)
@@ -491,9 +491,9 @@ def test_native_editing_bindings(addon):
         i = s.add_mesh(pos, tri)
         s.add_sun((0.0, 0.0, -1.0), (3.0, 3.0, 3.0))
         s.bake(tets=2000, shadows=0, backend="cpu")
-        with pytest.raises(native.TranscutError) as err:
+        with pytest.raises(tc.TranscutError) as err:
             s.cut_plane(i, (0.0, 0.0, -50.0), (0.0, 0.0, 1.0))
-        assert err.value.status == native.TC_NOTHING_LEFT
+        assert err.value.status == tc.TC_NOTHING_LEFT
         s.cut_plane(i, (0.0, 0.0, 4.0), (0.0, 0.0, 1.0))
         assert s.edit_stats(i)["cut"] == 1 and s.piece_count(i) == 1
         p, t, rgb = s.piece_mesh(i, 0)
@@ -549,7 +549,7 @@ def test_preset_and_coefficient_media(scene, addon):
     select_only(obj)
     obj.transcut.medium_source = "PRESET"
     obj.transcut.preset = "skin1"
-    (mesh,) = addon.operators.prepare(bpy.context).meshes
+    (mesh,) = addon.bake.prepare_job(bpy.context).meshes
     assert (mesh.medium.method, mesh.medium.kwargs) == ("set_medium_preset", {"name": "skin1"})
     assert bake() == {"FINISHED"}
     skin = attribute_rgb(obj).copy()

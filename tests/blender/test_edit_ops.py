@@ -1,4 +1,4 @@
-"""The editing operators (issue 6, item 7): "Cut with Object" and "Paint Medium", headless.
+"""The editing operators, "Cut with Object" and "Paint Medium", headless.
 
 A UV sphere of radius 1 unit (1 cm per unit) of the marble material of test_addon.py, lit by a
 sun from above (+Z lit), baked at 15k tetrahedra. Every cut and paint is checked against
@@ -24,7 +24,7 @@ from test_addon import (
     snapshot,
     world_points,
 )
-from test_native_header import declarations, native
+from test_native_header import abi, declarations
 
 CUT = "transcut_cut"
 
@@ -96,19 +96,20 @@ def test_operators_register_and_unregister(addon):
 
 
 def test_edit_native_calls_only_header_functions(addon):
-    """Every C function edit_native names is declared in include/transcut.h and bound (with
-    its prototype) by native.py, so its calls go through checked argtypes."""
+    """Every C function the editing path names (edit_native, and the binding's scene module
+    that it calls through) is declared in include/transcut.h and bound (with its prototype) by
+    the binding, so its calls go through checked argtypes."""
     import inspect
     import re
 
-    source = inspect.getsource(addon.edit_native)
+    source = inspect.getsource(addon.edit_native) + inspect.getsource(addon.transcut.scene)
     names = {n for n in re.findall(r"\b(tc_[a-z_0-9]+)\b", source) if not n.endswith("_")}  # not "tc_object_piece_*"
     assert {"tc_object_cut_plane", "tc_object_paint", "tc_scene_relight", "tc_medium_from_artist"} <= names
     decls = declarations()
-    bound = {**native._REQUIRED, **native._OPTIONAL}
+    bound = {**abi.REQUIRED, **abi.OPTIONAL}
     for name in names:
-        assert name in decls, f"edit_native names {name}, which transcut.h does not declare"
-        assert name in bound, f"edit_native names {name}, which native.py does not bind"
+        assert name in decls, f"the editing path names {name}, which transcut.h does not declare"
+        assert name in bound, f"the editing path names {name}, which the binding does not bind"
 
 
 def test_panel_draws_the_edit_buttons(scene, addon):
@@ -399,11 +400,11 @@ def test_cut_progress_and_cancel_change_nothing(lit_sphere, addon):
     plane = add_plane_cutter()
     select_only(plane, lit_sphere)
     ctx = bpy.context
-    lib = addon.library.get(ctx)
+    lib = addon.library.get()
     edit = addon.edit_ops.cutter_edit(plane, ctx.evaluated_depsgraph_get(), False, False)
     assert isinstance(edit, addon.edit_native.PlaneCut)
     np.testing.assert_allclose(edit.normal, (1.0, 0.0, 0.0), atol=1e-6)
-    job = addon.edit_ops.prepare_job(ctx, [lit_sphere])
+    job = addon.bake.prepare_job(ctx, [lit_sphere])
 
     runner = addon.edit_native.EditRunner(lib, job, edit)
     seen = []
@@ -420,7 +421,7 @@ def test_cut_progress_and_cancel_change_nothing(lit_sphere, addon):
     runner.cancel()  # as ESC does
     runner.start()
     assert runner.wait(timeout=120)
-    assert runner.results is None and runner.error.status == addon.native.TC_CANCELLED
+    assert runner.results is None and runner.error.status == addon.transcut.TC_CANCELLED
     assert snapshot() == before
 
 
@@ -441,11 +442,11 @@ def test_cut_object_rebakes_close_to_the_cut(lit_sphere, addon):
 
 
 def test_relight_with_progress_equals_a_fresh_bake(scene, addon):
-    """edit_native.relight (tc_scene_relight with a progress callback): after the lights change,
+    """Scene.relight (tc_scene_relight with a progress callback): after the lights change,
     the warm-started re-solve equals a bake under the new lights; a cancel changes nothing."""
     require_library()
-    native, en = addon.native, addon.edit_native
-    lib = addon.library.get(bpy.context)
+    tc = addon.transcut
+    lib = addon.library.get()
     bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12, radius=10.0)
     pos, tri, _, _ = evaluated_arrays(bpy.context.active_object)
     options = dict(tets=4000, tolerance=1e-9, shadows=0, backend="cpu")
@@ -457,14 +458,14 @@ def test_relight_with_progress_equals_a_fresh_bake(scene, addon):
         s.clear_lights()
         s.add_sun((1.0, 0.0, 0.0), (2.0, 2.0, 2.0))
         seen = []
-        en.relight(s, lambda stage, f: seen.append(f) and False)
+        s.relight(lambda stage, f: seen.append(f) and False)
         relit = s.radiance(i)
         assert seen and all(0.0 <= f <= 1.0 for f in seen)
         s.clear_lights()
         s.add_sun((0.0, 1.0, 0.0), (1.0, 1.0, 1.0))
-        with pytest.raises(native.TranscutError) as err:
-            en.relight(s, lambda stage, f: True)
-        assert err.value.status == native.TC_CANCELLED
+        with pytest.raises(tc.TranscutError) as err:
+            s.relight(lambda stage, f: True)
+        assert err.value.status == tc.TC_CANCELLED
     with lib.scene() as s:
         i = s.add_mesh(pos, tri)
         s.set_medium_preset(i, "marble")

@@ -1,6 +1,7 @@
-"""native.py mirrors include/transcut.h: every function it binds is declared there with the same
-parameter and return types, the structs have the same fields in the same order, and the status
-codes have the same values. Needs no library and no Blender; reads the committed header.
+"""The ctypes binding (``blender_addon/transcut``) mirrors include/transcut.h: every function its
+``_abi`` module binds is declared there with the same parameter and return types, the structs
+have the same fields in the same order, and every constant has the same value and is exported by
+the package. Needs no library and no Blender; reads the committed header.
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ import ctypes
 import importlib.util
 import os
 import re
+import sys
 from pathlib import Path
 
 import pytest
@@ -17,14 +19,19 @@ from conftest import ADDON_SRC, REPO
 HEADER = Path(os.environ.get("TRANSCUT_HEADER", REPO / "include" / "transcut.h"))
 
 
-def load_native():
-    spec = importlib.util.spec_from_file_location("transcut_native_under_test", ADDON_SRC / "native.py")
+def load_binding():
+    """The package ``blender_addon/transcut`` imported from the source folder, on its own."""
+    folder = ADDON_SRC / "transcut"
+    name = "transcut_binding_under_test"
+    spec = importlib.util.spec_from_file_location(name, folder / "__init__.py", submodule_search_locations=[str(folder)])
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod  # its relative imports look it up there
     spec.loader.exec_module(mod)
     return mod
 
 
-native = load_native()
+binding = load_binding()
+abi = binding._abi
 
 
 def header_text() -> str:
@@ -77,13 +84,13 @@ def ctypes_name(t) -> str:
     }
     if t in simple:
         return simple[t]
-    if t is native.TcProgressFn:
+    if t is abi.TcProgressFn:
         return "TcProgressFn"
-    if t is native._ScenePtr:
+    if t is abi.ScenePtr:
         return "struct TcScene *"
     if hasattr(t, "_type_") and isinstance(t._type_, type):
         inner = t._type_
-        if inner is native._ScenePtr:
+        if inner is abi.ScenePtr:
             return "struct TcScene **"
         if issubclass(inner, ctypes.Structure):
             return f"struct {inner.__name__} *"
@@ -101,15 +108,15 @@ def normalise(c: str) -> str:
 def test_every_bound_function_matches_the_header():
     decls = declarations()
     assert "tc_scene_bake" in decls, "header parse failed"
-    for name, (restype, argtypes) in {**native._REQUIRED, **native._OPTIONAL}.items():
-        if name not in decls and name in native._OPTIONAL:
+    for name, (restype, argtypes) in {**abi.REQUIRED, **abi.OPTIONAL}.items():
+        if name not in decls and name in abi.OPTIONAL:
             continue  # optional: not in this header version
-        assert name in decls, f"{name} is bound by native.py but not declared in transcut.h"
+        assert name in decls, f"{name} is bound by the binding but not declared in transcut.h"
         ret, params = decls[name]
         assert normalise(ret) == normalise(ctypes_name(restype)), f"{name}: returns {ret}"
         got = [normalise(ctypes_name(a)) for a in argtypes]
         want = [normalise(p) for p in params]
-        assert got == want, f"{name}: header ({', '.join(want)}) vs native.py ({', '.join(got)})"
+        assert got == want, f"{name}: header ({', '.join(want)}) vs the binding ({', '.join(got)})"
 
 
 def header_struct(name: str) -> list:
@@ -129,7 +136,14 @@ def header_struct(name: str) -> list:
 
 @pytest.mark.parametrize(
     "struct",
-    [native.TcMedium, native.TcArtistMedium, native.TcBakeOptions, native.TcBakeStats, native.TcMediumEdit, native.TcEditStats],
+    [
+        binding.TcMedium,
+        binding.TcArtistMedium,
+        binding.TcBakeOptions,
+        binding.TcBakeStats,
+        binding.TcMediumEdit,
+        binding.TcEditStats,
+    ],
 )
 def test_structs_match_the_header(struct):
     want = header_struct(struct.__name__)
@@ -144,16 +158,20 @@ def test_structs_match_the_header(struct):
 
 def test_status_codes_match_the_header():
     defines = dict((k, int(v)) for k, v in re.findall(r"#define (TC_[A-Z_]+) (\d+)", header_text()))
-    for value, name in native.STATUS_NAMES.items():
+    for value, name in binding.STATUS_NAMES.items():
         assert defines.get(name) == value, name
-    # Every other constant (TC_METHOD_*, TC_BACKEND_*, ...) is mirrored by native.py with its value.
-    others = {k: v for k, v in defines.items() if k not in native.STATUS_NAMES.values() and not k.startswith("TC_LAYOUT")}
+        assert getattr(binding, name, None) == value, f"{name} = {value} in transcut.h, not exported by the binding"
+    # Every other constant (TC_METHOD_*, TC_BACKEND_*, ...) is mirrored by the binding with its value.
+    others = {
+        k: v for k, v in defines.items() if k not in binding.STATUS_NAMES.values() and not k.startswith("TC_LAYOUT")
+    }
     assert "TC_METHOD_TRANSCUT" in others, "header parse failed"
     for name, value in others.items():
-        assert getattr(native, name, None) == value, f"{name} = {value} in transcut.h, {getattr(native, name, None)} in native.py"
+        got = getattr(binding, name, None)
+        assert got == value, f"{name} = {value} in transcut.h, {got} in the binding"
 
 
 def test_native_binds_every_header_function():
-    bound = set(native._REQUIRED) | set(native._OPTIONAL)
+    bound = set(abi.REQUIRED) | set(abi.OPTIONAL)
     missing = {n for n in declarations() if not n.startswith("tc_debug_")} - bound
-    assert not missing, f"declared in transcut.h but not mirrored by native.py: {sorted(missing)}"
+    assert not missing, f"declared in transcut.h but not mirrored by the binding: {sorted(missing)}"

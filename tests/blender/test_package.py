@@ -52,12 +52,20 @@ def tmp_path():
         yield Path(d)
 
 
+BINDING = sorted((REPO / "blender_addon" / "transcut").glob("*.py"))
+
+
 def test_wheel_layout_and_record(packages):
     wheel, _ = packages
     assert wheel.name == "transcut-0.1.0-py3-none-linux_x86_64.whl"
     with zipfile.ZipFile(wheel) as zf:
         names = set(zf.namelist())
         assert {"transcut/__init__.py", "transcut/libtranscut.so", "transcut-0.1.0.dist-info/WHEEL"} <= names
+        # The package is the add-on's binding, file for file.
+        assert {"transcut/_abi.py", "transcut/_loader.py", "transcut/scene.py"} <= names
+        assert {n for n in names if n.endswith(".py")} == {f"transcut/{src.name}" for src in BINDING}
+        for src in BINDING:
+            assert zf.read(f"transcut/{src.name}") == src.read_bytes(), src.name
         record = zf.read("transcut-0.1.0.dist-info/RECORD").decode().splitlines()
         for line in record:
             name, digest, size = line.rsplit(",", 2)
@@ -101,7 +109,12 @@ def test_extension_manifest_is_valid(packages):
         manifest = tomllib.loads(zf.read("blender_manifest.toml").decode())
         assert manifest["platforms"] == ["linux-x64"]
         assert manifest["wheels"] == ["./wheels/transcut-0.1.0-py3-none-linux_x86_64.whl"]
-        assert "wheels/transcut-0.1.0-py3-none-linux_x86_64.whl" in zf.namelist()
+        names = set(zf.namelist())
+        assert "wheels/transcut-0.1.0-py3-none-linux_x86_64.whl" in names
+        # The add-on's modules and its binding package, as in the source folder.
+        addon_files = {src.name for src in (REPO / "blender_addon").glob("*.py")}
+        assert {"__init__.py", "library.py", "operators.py"} <= addon_files
+        assert {n for n in names if n.endswith(".py")} == addon_files | {f"transcut/{src.name}" for src in BINDING}
     # Blender's own validator (the code behind `blender --command extension validate`).
     run([sys.executable, str(BLENDER_EXT), "validate", str(ext)])
     run([sys.executable, str(BLENDER_EXT), "validate", str(REPO / "blender_addon")])

@@ -18,7 +18,7 @@ def test_preset_menu_equals_the_library_presets(addon):
     require_library()
     import bpy
 
-    lib = addon.library.get(bpy.context)
+    lib = addon.library.get()
     menu = addon.properties.PRESET_NAMES
     assert len(set(menu)) == len(menu), "duplicate preset in the add-on menu"
     for name in menu:
@@ -27,7 +27,7 @@ def test_preset_menu_equals_the_library_presets(addon):
         assert all(math.isfinite(v) and v >= 0.0 for v in values), name
         assert all(v > 0.0 for v in m.sigma_s_prime), name
         assert 1.0 < m.eta < 3.0, name
-    with pytest.raises(addon.native.TranscutError) as err:
+    with pytest.raises(addon.transcut.TranscutError) as err:
         lib.medium_preset("no-such-preset")
     assert err.value.status_name == "TC_NOT_FOUND"
     listed = re.search(r"valid presets are: (.*)$", err.value.message)

@@ -1,0 +1,266 @@
+"""The C ABI of ``include/transcut.h`` as ctypes declarations: constants, structs, prototypes.
+
+Only declarations, no behaviour: the values and layouts mirror the header one for one
+(``tests/blender/test_native_header.py`` compares them with it), and :mod:`.scene` binds the
+prototypes to a loaded library. ``TcStatus`` is a transparent ``int32_t``.
+"""
+
+from __future__ import annotations
+
+from ctypes import (
+    CFUNCTYPE,
+    POINTER,
+    Structure,
+    c_char_p,
+    c_double,
+    c_float,
+    c_int32,
+    c_size_t,
+    c_uint8,
+    c_uint32,
+    c_uint64,
+    c_void_p,
+)
+
+#: The ABI major version this binding was written against (``tc_version() >> 16``).
+ABI_MAJOR = 0
+
+# Status codes (values fixed by the C ABI; only ever appended).
+TC_OK = 0
+TC_NULL_POINTER = 1
+TC_INVALID_ARGUMENT = 2
+TC_INVALID_HANDLE = 3
+TC_BUFFER_TOO_SHORT = 4
+TC_INVALID_MESH = 5
+TC_MESHING_FAILED = 6
+TC_SOLVE_FAILED = 7
+TC_NOT_FOUND = 8
+TC_IO_ERROR = 9
+TC_CANCELLED = 10
+TC_NOT_BAKED = 11
+TC_INTERNAL_ERROR = 12
+TC_BUSY = 13
+TC_GPU_UNAVAILABLE = 14
+TC_NOTHING_LEFT = 15
+
+STATUS_NAMES = {
+    TC_OK: "TC_OK",
+    TC_NULL_POINTER: "TC_NULL_POINTER",
+    TC_INVALID_ARGUMENT: "TC_INVALID_ARGUMENT",
+    TC_INVALID_HANDLE: "TC_INVALID_HANDLE",
+    TC_BUFFER_TOO_SHORT: "TC_BUFFER_TOO_SHORT",
+    TC_INVALID_MESH: "TC_INVALID_MESH",
+    TC_MESHING_FAILED: "TC_MESHING_FAILED",
+    TC_SOLVE_FAILED: "TC_SOLVE_FAILED",
+    TC_NOT_FOUND: "TC_NOT_FOUND",
+    TC_IO_ERROR: "TC_IO_ERROR",
+    TC_CANCELLED: "TC_CANCELLED",
+    TC_NOT_BAKED: "TC_NOT_BAKED",
+    TC_INTERNAL_ERROR: "TC_INTERNAL_ERROR",
+    TC_BUSY: "TC_BUSY",
+    TC_GPU_UNAVAILABLE: "TC_GPU_UNAVAILABLE",
+    TC_NOTHING_LEFT: "TC_NOTHING_LEFT",
+}
+
+TC_METHOD_TRANSCUT = 0
+
+# TcBakeOptions.backend: where the diffusion solve runs; TcBakeStats.backend_used: 1 or 2.
+TC_BACKEND_DEFAULT = 0  # TRANSCUT_BACKEND (cpu, gpu, auto), else auto
+TC_BACKEND_CPU = 1
+TC_BACKEND_GPU = 2  # TC_GPU_UNAVAILABLE when no adapter can be used
+TC_BACKEND_AUTO = 3  # a hardware GPU if there is one, else the CPU (tc_object_backend_fallback says why)
+
+#: ``backend`` option names accepted by :meth:`Scene.bake` (besides the integer values).
+BACKENDS = {"default": TC_BACKEND_DEFAULT, "cpu": TC_BACKEND_CPU, "gpu": TC_BACKEND_GPU, "auto": TC_BACKEND_AUTO}
+
+# TcMediumEdit.region and .op (tc_object_edit_medium).
+TC_REGION_ALL = 0
+TC_REGION_SPHERE = 1
+TC_REGION_DEPTH = 2
+TC_REGION_MASK = 3
+TC_MEDIUM_ASSIGN = 0
+TC_MEDIUM_SCALE = 1
+TC_MEDIUM_ADD = 2
+
+
+class TcMedium(Structure):
+    """``TcMedium``: physical coefficients in mm⁻¹ per RGB channel, relative index η, anisotropy g."""
+
+    _fields_ = [
+        ("sigma_a", c_double * 3),
+        ("sigma_s_prime", c_double * 3),
+        ("eta", c_double),
+        ("g", c_double),
+    ]
+
+
+class TcArtistMedium(Structure):
+    """``TcArtistMedium``: Principled-BSDF style parameters (radius in scene units)."""
+
+    _fields_ = [
+        ("albedo", c_double * 3),
+        ("radius", c_double * 3),
+        ("scale", c_double),
+        ("ior", c_double),
+        ("anisotropy", c_double),
+    ]
+
+
+class TcBakeOptions(Structure):
+    """``TcBakeOptions`` (starts with its own ``size``; filled by ``tc_bake_options_default``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("method", c_uint32),
+        ("tets", c_uint64),
+        ("tolerance", c_double),
+        ("max_iterations", c_uint32),
+        ("threads", c_uint32),
+        ("shadows", c_uint32),
+        ("area_samples", c_uint32),
+        ("environment_samples", c_uint32),
+        ("backend", c_uint32),
+    ]
+
+
+class TcBakeStats(Structure):
+    """``TcBakeStats`` (the caller sets ``size`` before ``tc_object_stats``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("tets", c_uint64),
+        ("vertices", c_uint64),
+        ("iterations", c_uint32 * 3),
+        ("meshing_ms", c_double),
+        ("assembly_ms", c_double),
+        ("source_ms", c_double),
+        ("solve_ms", c_double),
+        ("total_ms", c_double),
+        ("clamped_vertices", c_uint64),
+        ("backend_used", c_uint32),
+    ]
+
+
+class TcMediumEdit(Structure):
+    """``TcMediumEdit`` (``tc_object_edit_medium``; set ``size``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("region", c_uint32),
+        ("center", c_double * 3),
+        ("radius", c_double),
+        ("min_mm", c_double),
+        ("max_mm", c_double),
+        ("mask", POINTER(c_uint8)),
+        ("mask_len", c_size_t),
+        ("op", c_uint32),
+        ("sigma_a", c_double * 3),
+        ("sigma_s_prime", c_double * 3),
+    ]
+
+
+class TcEditStats(Structure):
+    """``TcEditStats`` (``tc_object_edit_stats``; the caller sets ``size``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("pieces_solved", c_uint32),
+        ("iterations", c_uint32 * 3),
+        ("cut", c_uint32),
+        ("rows_rebuilt", c_uint64),
+        ("tets_changed", c_uint64),
+        ("source_ms", c_double),
+        ("assembly_ms", c_double),
+        ("hierarchy_ms", c_double),
+        ("solve_ms", c_double),
+        ("total_ms", c_double),
+        ("cut_removed_tets", c_uint64),
+        ("cut_removed_vertices", c_uint64),
+        ("cut_moved_vertices", c_uint64),
+        ("cut_surface_vertices", c_uint64),
+        ("cut_max_distance", c_double),
+        ("cut_min_dihedral_degrees", c_double),
+        ("cut_bound_degrees", c_double),
+    ]
+
+
+class TcScene(Structure):
+    """Opaque ``TcScene``."""
+
+
+ScenePtr = POINTER(TcScene)
+
+#: ``typedef int32_t (*TcProgressFn)(void *user, const char *stage, double fraction)``;
+#: a non-zero return cancels the call that reports (``tc_scene_bake``, ``tc_scene_relight``).
+TcProgressFn = CFUNCTYPE(c_int32, c_void_p, c_char_p, c_double)
+
+c_double_p = POINTER(c_double)
+c_float_p = POINTER(c_float)
+c_uint32_p = POINTER(c_uint32)
+
+#: The prototypes, ``name: (restype, argtypes)``, that the Blender add-on needs: a library
+#: without one of them is refused at load.
+REQUIRED = {
+    "tc_version": (c_uint32, []),
+    "tc_version_string": (c_char_p, []),
+    "tc_last_error_message": (c_char_p, []),
+    "tc_scene_create": (c_int32, [POINTER(ScenePtr)]),
+    "tc_scene_destroy": (None, [POINTER(ScenePtr)]),
+    "tc_scene_add_mesh": (c_int32, [ScenePtr, c_float_p, c_size_t, c_uint32_p, c_size_t, c_uint32_p]),
+    "tc_object_set_transform": (c_int32, [ScenePtr, c_uint32, c_float_p]),
+    "tc_object_set_scale": (c_int32, [ScenePtr, c_uint32, c_double]),
+    "tc_object_vertex_count": (c_int32, [ScenePtr, c_uint32, POINTER(c_size_t)]),
+    "tc_medium_preset": (c_int32, [c_char_p, POINTER(TcMedium)]),
+    "tc_object_set_medium": (c_int32, [ScenePtr, c_uint32, POINTER(TcMedium)]),
+    "tc_object_set_medium_preset": (c_int32, [ScenePtr, c_uint32, c_char_p]),
+    "tc_object_set_medium_artist": (c_int32, [ScenePtr, c_uint32, POINTER(TcArtistMedium)]),
+    "tc_scene_add_sun": (c_int32, [ScenePtr, c_double_p, c_double_p, c_double]),
+    "tc_scene_add_point": (c_int32, [ScenePtr, c_double_p, c_double_p]),
+    "tc_scene_add_spot": (c_int32, [ScenePtr, c_double_p, c_double_p, c_double_p, c_double, c_double]),
+    "tc_scene_add_rect": (c_int32, [ScenePtr, c_double_p, c_double_p, c_double_p, c_double_p, c_int32]),
+    "tc_scene_add_disc": (c_int32, [ScenePtr, c_double_p, c_double_p, c_double, c_double_p, c_int32]),
+    "tc_scene_add_environment": (c_int32, [ScenePtr, c_double_p]),
+    "tc_scene_add_environment_image": (c_int32, [ScenePtr, c_float_p, c_size_t, c_size_t, c_double]),
+    "tc_bake_options_default": (None, [POINTER(TcBakeOptions)]),
+    "tc_scene_bake": (c_int32, [ScenePtr, POINTER(TcBakeOptions), TcProgressFn, c_void_p]),
+    "tc_object_radiance": (c_int32, [ScenePtr, c_uint32, c_float_p, c_size_t]),
+}
+#: The rest of the header: bound when the library has them; calling a missing one raises.
+OPTIONAL = {
+    "tc_status_name": (c_char_p, [c_int32]),
+    "tc_scene_object_count": (c_int32, [ScenePtr, POINTER(c_uint32)]),
+    "tc_scene_light_count": (c_int32, [ScenePtr, POINTER(c_uint32)]),
+    "tc_object_set_name": (c_int32, [ScenePtr, c_uint32, c_char_p]),
+    "tc_scene_add_mesh_file": (c_int32, [ScenePtr, c_char_p, c_uint32_p]),
+    "tc_scene_add_tet_mesh": (c_int32, [ScenePtr, c_float_p, c_size_t, c_uint32_p, c_size_t, c_uint32_p, c_uint32_p]),
+    "tc_medium_from_artist": (c_int32, [POINTER(TcArtistMedium), c_double, POINTER(TcMedium)]),
+    "tc_object_set_media_table": (c_int32, [ScenePtr, c_uint32, POINTER(TcMedium), c_size_t]),
+    "tc_object_set_media_per_tet": (c_int32, [ScenePtr, c_uint32, c_float_p, c_float_p, c_size_t, c_double, c_double]),
+    "tc_object_set_medium_voxels": (
+        c_int32,
+        [ScenePtr, c_uint32, c_uint32_p, c_double_p, c_double_p, c_float_p, c_size_t, c_double, c_double],
+    ),
+    "tc_object_set_medium_voxel_file": (c_int32, [ScenePtr, c_uint32, c_char_p, c_double, c_double]),
+    "tc_scene_add_environment_file": (c_int32, [ScenePtr, c_char_p, c_double]),
+    "tc_scene_clear_lights": (c_int32, [ScenePtr]),
+    "tc_object_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcBakeStats)]),
+    "tc_object_device": (c_int32, [ScenePtr, c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
+    "tc_object_backend_fallback": (c_int32, [ScenePtr, c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
+    # Editing (after a bake).
+    "tc_scene_relight": (c_int32, [ScenePtr, TcProgressFn, c_void_p]),
+    "tc_object_tet_count": (c_int32, [ScenePtr, c_uint32, POINTER(c_size_t)]),
+    "tc_object_edit_medium": (c_int32, [ScenePtr, c_uint32, POINTER(TcMediumEdit)]),
+    "tc_object_paint": (c_int32, [ScenePtr, c_uint32, c_double_p, c_size_t, c_double, POINTER(TcMedium), c_double]),
+    "tc_object_cut_plane": (c_int32, [ScenePtr, c_uint32, c_double_p, c_double_p, c_int32]),
+    "tc_object_cut_stroke": (c_int32, [ScenePtr, c_uint32, c_double_p, c_double_p, c_size_t, c_int32]),
+    "tc_object_cut_mesh": (c_int32, [ScenePtr, c_uint32, c_float_p, c_size_t, c_uint32_p, c_size_t, c_int32]),
+    "tc_object_fracture": (c_int32, [ScenePtr, c_uint32, c_uint32_p]),
+    "tc_object_recombine": (c_int32, [ScenePtr, c_uint32, c_uint32_p]),
+    "tc_object_piece_count": (c_int32, [ScenePtr, c_uint32, c_uint32_p]),
+    "tc_object_set_piece_transform": (c_int32, [ScenePtr, c_uint32, c_uint32, c_double_p]),
+    "tc_object_piece_transform": (c_int32, [ScenePtr, c_uint32, c_uint32, c_double_p]),
+    "tc_object_piece_sizes": (c_int32, [ScenePtr, c_uint32, c_uint32, POINTER(c_size_t), POINTER(c_size_t)]),
+    "tc_object_piece_mesh": (c_int32, [ScenePtr, c_uint32, c_uint32, c_float_p, c_size_t, c_uint32_p, c_size_t, c_float_p, c_size_t]),
+    "tc_object_edit_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcEditStats)]),
+}
+

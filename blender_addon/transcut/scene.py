@@ -1,0 +1,537 @@
+"""The Pythonic binding: :class:`Library` (a loaded libtranscut) and :class:`Scene` (a ``TcScene``).
+
+Every function prototype (``argtypes``/``restype``, :mod:`._abi`) is declared once, when the
+library is loaded. Every call's status is checked; a failure raises :class:`TranscutError`
+carrying the status code, its name and the library's thread-local message
+(``tc_last_error_message``), read on the thread that made the call. Scenes are freed by
+:meth:`Scene.close` (also on ``with`` exit and at garbage collection). Arrays go in and come out
+as NumPy arrays; 3-vectors are any sequence of three numbers.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+from collections.abc import Callable
+from ctypes import c_double, c_size_t, c_uint32
+
+import numpy as np
+
+from ._abi import (
+    ABI_MAJOR,
+    BACKENDS,
+    OPTIONAL,
+    REQUIRED,
+    STATUS_NAMES,
+    TC_OK,
+    ScenePtr,
+    TcArtistMedium,
+    TcBakeOptions,
+    TcBakeStats,
+    TcEditStats,
+    TcMedium,
+    TcProgressFn,
+    c_double_p,
+    c_float_p,
+    c_uint32_p,
+)
+
+class TranscutError(RuntimeError):
+    """A libtranscut call failed: ``status`` (int), ``status_name`` and the library's message."""
+
+    def __init__(self, status: int, call: str, message: str):
+        self.status = status
+        self.status_name = STATUS_NAMES.get(status, f"status {status}")
+        self.call = call
+        self.message = message
+        super().__init__(f"{call}: {message or self.status_name} ({self.status_name})")
+
+
+def _vec3(values, what: str):
+    arr = (c_double * 3)()
+    vals = [float(v) for v in values]
+    if len(vals) != 3:
+        raise ValueError(f"{what} needs 3 values, got {len(vals)}")
+    for i, v in enumerate(vals):
+        arr[i] = v
+    return arr
+
+
+def medium(sigma_a, sigma_s_prime, eta: float, g: float = 0.0) -> TcMedium:
+    """A :class:`TcMedium`: σa and σ′s (3 values each, mm⁻¹), relative index η, anisotropy g."""
+    return TcMedium(_vec3(sigma_a, "sigma_a"), _vec3(sigma_s_prime, "sigma_s_prime"), float(eta), float(g))
+
+
+def _artist(albedo, radius, scale: float, ior: float, anisotropy: float) -> TcArtistMedium:
+    return TcArtistMedium(_vec3(albedo, "albedo"), _vec3(radius, "radius"), float(scale), float(ior), float(anisotropy))
+
+
+class Library:
+    """A loaded libtranscut: the ``CDLL`` with every prototype declared, and its version."""
+
+    def __init__(self, path: str):
+        self.path = os.path.abspath(path)
+        self.cdll = ctypes.CDLL(self.path)
+        missing = []
+        self.optional_missing = []
+        for table, absent in ((REQUIRED, missing), (OPTIONAL, self.optional_missing)):
+            for name, (restype, argtypes) in table.items():
+                try:
+                    fn = getattr(self.cdll, name)
+                except AttributeError:
+                    absent.append(name)
+                    continue
+                fn.restype = restype
+                fn.argtypes = argtypes
+        if missing:
+            raise AttributeError(f"{self.path} lacks {', '.join(missing)} (not a libtranscut build?)")
+        self.version = int(self.cdll.tc_version())
+        self.version_string = (self.cdll.tc_version_string() or b"").decode("utf-8", "replace")
+        if self.version >> 16 != ABI_MAJOR:
+            raise OSError(
+                f"{self.path} is libtranscut {self.version_string}; this binding needs ABI major "
+                f"version {ABI_MAJOR}"
+            )
+
+    def has(self, name: str) -> bool:
+        """Whether the library exports the C function ``name``."""
+        return hasattr(self.cdll, name) and name not in self.optional_missing
+
+    def function(self, name: str):
+        """The C function ``name`` (prototype declared); AttributeError naming it if absent."""
+        if name in self.optional_missing:
+            raise AttributeError(f"{self.path} ({self.version_string}) has no {name}")
+        return getattr(self.cdll, name)
+
+    def last_error_message(self) -> str:
+        """``tc_last_error_message()`` of the calling thread ('' when none)."""
+        msg = self.cdll.tc_last_error_message()
+        return msg.decode("utf-8", "replace") if msg else ""
+
+    def check(self, status: int, call: str) -> None:
+        """Raises :class:`TranscutError` unless ``status`` is ``TC_OK``."""
+        if status != TC_OK:
+            raise TranscutError(int(status), call, self.last_error_message())
+
+    def call(self, name: str, *args) -> None:
+        """Calls the C function ``name`` and checks its status."""
+        self.check(self.function(name)(*args), name)
+
+    def medium_preset(self, name: str) -> TcMedium:
+        """The named measured medium (``tc_medium_preset``)."""
+        out = TcMedium()
+        self.call("tc_medium_preset", name.encode("utf-8"), ctypes.byref(out))
+        return out
+
+    def medium_from_artist(
+        self, mm_per_unit: float, albedo, radius, scale: float, ior: float, anisotropy: float = 0.0
+    ) -> TcMedium:
+        """The coefficients of artist parameters (as :meth:`Scene.set_medium_artist` takes them)
+        for an object of ``mm_per_unit`` millimetres per scene unit (``tc_medium_from_artist``)."""
+        artist = _artist(albedo, radius, scale, ior, anisotropy)
+        out = TcMedium()
+        self.call("tc_medium_from_artist", ctypes.byref(artist), float(mm_per_unit), ctypes.byref(out))
+        return out
+
+    def default_bake_options(self) -> TcBakeOptions:
+        """``tc_bake_options_default``."""
+        options = TcBakeOptions()
+        self.cdll.tc_bake_options_default(ctypes.byref(options))
+        return options
+
+    def scene(self) -> Scene:
+        """A new empty scene (``tc_scene_create``); use it in a ``with`` block or call ``close``."""
+        return Scene(self)
+
+
+def _stats_dict(st) -> dict:
+    """A ``TcBakeStats`` / ``TcEditStats`` as a dict (``size`` left out, ``iterations`` a list)."""
+    out = {name: getattr(st, name) for name, _ in st._fields_ if name != "size"}
+    out["iterations"] = list(st.iterations)
+    return out
+
+
+class Scene:
+    """A ``TcScene`` handle. Object indices are the ``uint32_t`` the ``add_*`` calls return."""
+
+    def __init__(self, lib: Library):
+        self.lib = lib
+        self._handle = ScenePtr()
+        lib.call("tc_scene_create", ctypes.byref(self._handle))
+
+    def close(self) -> None:
+        """Frees the scene (``tc_scene_destroy``); later calls are errors, a second close is a no-op."""
+        if getattr(self, "_handle", None):
+            self.lib.cdll.tc_scene_destroy(ctypes.byref(self._handle))
+        self._handle = ScenePtr()
+
+    def __enter__(self) -> Scene:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: the library may already be gone
+            pass
+
+    def _h(self):
+        if not self._handle:
+            raise ValueError("the scene was closed")
+        return self._handle
+
+    def _call(self, name: str, *args) -> None:
+        """Calls the C function ``name`` on this scene (its first argument) and checks its status."""
+        self.lib.call(name, self._h(), *args)
+
+    def _call_with_progress(self, name: str, progress: Callable[[str, float], bool] | None, *args) -> None:
+        """``_call`` for a function whose last two parameters are a ``TcProgressFn`` and its
+        ``user`` pointer: ``progress(stage, fraction)`` returning True cancels; an exception it
+        raises cancels too and is re-raised here (it never unwinds into the library)."""
+        errors = []
+
+        def trampoline(_user, stage, fraction):
+            try:
+                text = stage.decode("utf-8", "replace") if stage else ""
+                return 1 if progress(text, float(fraction)) else 0
+            except BaseException as exc:
+                errors.append(exc)
+                return 1
+
+        callback = TcProgressFn(trampoline) if progress is not None else TcProgressFn()
+        status = self.lib.function(name)(self._h(), *args, callback, None)
+        if errors:
+            raise errors[0]
+        self.lib.check(status, name)
+
+    # -- objects ---------------------------------------------------------------------------
+
+    def add_mesh(self, positions, triangles) -> int:
+        """Adds a triangle mesh: ``positions`` (n, 3) and ``triangles`` (m, 3) vertex indices.
+
+        The arrays are copied by the library; returns the new object's index.
+        """
+        pos = np.ascontiguousarray(positions, dtype=np.float32).reshape(-1)
+        tri = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1)
+        out = c_uint32()
+        self._call(
+            "tc_scene_add_mesh",
+            pos.ctypes.data_as(c_float_p),
+            pos.size // 3,
+            tri.ctypes.data_as(c_uint32_p),
+            tri.size,
+            ctypes.byref(out),
+        )
+        return int(out.value)
+
+    def add_tet_mesh(self, positions, tets, tet_medium=None) -> int:
+        """Adds a ready tetrahedral mesh (``tets`` (k, 4); optional per-tet medium ids)."""
+        pos = np.ascontiguousarray(positions, dtype=np.float32).reshape(-1)
+        tet = np.ascontiguousarray(tets, dtype=np.uint32).reshape(-1)
+        ids = None if tet_medium is None else np.ascontiguousarray(tet_medium, dtype=np.uint32)
+        out = c_uint32()
+        self._call(
+            "tc_scene_add_tet_mesh",
+            pos.ctypes.data_as(c_float_p),
+            pos.size // 3,
+            tet.ctypes.data_as(c_uint32_p),
+            tet.size // 4,
+            None if ids is None else ids.ctypes.data_as(c_uint32_p),
+            ctypes.byref(out),
+        )
+        return int(out.value)
+
+    def set_transform(self, obj: int, matrix) -> None:
+        """Object → world matrix, given as a row-major 4×4 (NumPy / ``mathutils`` layout);
+        sent column-major as the ABI expects."""
+        m = np.asarray(matrix, dtype=np.float64).reshape(4, 4)
+        col = np.ascontiguousarray(m.T, dtype=np.float32).reshape(-1)
+        self._call("tc_object_set_transform", obj, col.ctypes.data_as(c_float_p))
+
+    def set_scale(self, obj: int, mm_per_unit: float) -> None:
+        """Millimetres per scene unit of the object (``tc_object_set_scale``)."""
+        self._call("tc_object_set_scale", obj, float(mm_per_unit))
+
+    def set_name(self, obj: int, name: str) -> None:
+        """Names the object in the library's messages (``tc_object_set_name``)."""
+        self._call("tc_object_set_name", obj, name.encode("utf-8"))
+
+    def _count(self, name: str, *args) -> int:
+        out = c_size_t()
+        self._call(name, *args, ctypes.byref(out))
+        return int(out.value)
+
+    def vertex_count(self, obj: int) -> int:
+        """``tc_object_vertex_count``."""
+        return self._count("tc_object_vertex_count", obj)
+
+    # -- media -----------------------------------------------------------------------------
+
+    def set_medium(self, obj: int, sigma_a, sigma_s_prime, eta: float, g: float = 0.0) -> None:
+        """Homogeneous medium from coefficients in mm⁻¹ (``tc_object_set_medium``)."""
+        self._call("tc_object_set_medium", obj, ctypes.byref(medium(sigma_a, sigma_s_prime, eta, g)))
+
+    def set_medium_preset(self, obj: int, name: str) -> None:
+        """A measured preset by name (``tc_object_set_medium_preset``)."""
+        self._call("tc_object_set_medium_preset", obj, name.encode("utf-8"))
+
+    def set_medium_artist(self, obj: int, albedo, radius, scale: float, ior: float, anisotropy: float = 0.0) -> None:
+        """Artist parameters (``tc_object_set_medium_artist``; radius in scene units, converted
+        with the object's mm_per_unit at the time of the call: call :meth:`set_scale` first)."""
+        m = _artist(albedo, radius, scale, ior, anisotropy)
+        self._call("tc_object_set_medium_artist", obj, ctypes.byref(m))
+
+    def set_media_table(self, obj: int, media) -> None:
+        """One medium per material id of a tet mesh: ``media`` is a list of
+        ``(sigma_a, sigma_s_prime, eta, g)`` (``tc_object_set_media_table``)."""
+        table = (TcMedium * len(media))(*(medium(*m) for m in media))
+        self._call("tc_object_set_media_table", obj, table, len(media))
+
+    def set_media_per_tet(self, obj: int, sigma_a, sigma_s_prime, eta: float, g: float = 0.0) -> None:
+        """Coefficients per tet of a tet mesh: ``sigma_a``, ``sigma_s_prime`` (tet_count, 3) mm⁻¹."""
+        sa = np.ascontiguousarray(sigma_a, dtype=np.float32).reshape(-1, 3)
+        ss = np.ascontiguousarray(sigma_s_prime, dtype=np.float32).reshape(-1, 3)
+        if sa.shape != ss.shape:
+            raise ValueError(f"sigma_a {sa.shape} and sigma_s_prime {ss.shape} differ in shape")
+        self._call(
+            "tc_object_set_media_per_tet",
+            obj,
+            sa.ctypes.data_as(c_float_p),
+            ss.ctypes.data_as(c_float_p),
+            sa.shape[0],
+            float(eta),
+            float(g),
+        )
+
+    def set_medium_voxels(self, obj: int, origin, voxel_size, data, eta: float, g: float = 0.0) -> None:
+        """A voxel grid in object space: ``data`` (nz, ny, nx, 6) = σa RGB then σ′s RGB (mm⁻¹),
+        x fastest in memory; ``origin`` is the corner of voxel 0, ``voxel_size`` per axis."""
+        grid = np.ascontiguousarray(data, dtype=np.float32)
+        if grid.ndim != 4 or grid.shape[3] != 6:
+            raise ValueError(f"voxel data must be (nz, ny, nx, 6), got {grid.shape}")
+        dims = (c_uint32 * 3)(grid.shape[2], grid.shape[1], grid.shape[0])
+        self._call(
+            "tc_object_set_medium_voxels",
+            obj,
+            dims,
+            _vec3(origin, "origin"),
+            _vec3(voxel_size, "voxel_size"),
+            grid.reshape(-1).ctypes.data_as(c_float_p),
+            grid.size,
+            float(eta),
+            float(g),
+        )
+
+    def set_medium_voxel_file(self, obj: int, path: str, eta: float, g: float = 0.0) -> None:
+        """A voxel grid read from a TCVOX1 file (``tc_object_set_medium_voxel_file``)."""
+        self._call("tc_object_set_medium_voxel_file", obj, os.fsencode(path), float(eta), float(g))
+
+    # -- lights ----------------------------------------------------------------------------
+
+    def add_sun(self, direction, irradiance, angular_diameter_deg: float = 0.0) -> None:
+        """A directional light travelling along ``direction`` with ``irradiance`` (RGB)."""
+        self._call(
+            "tc_scene_add_sun",
+            _vec3(direction, "direction"),
+            _vec3(irradiance, "irradiance"),
+            float(angular_diameter_deg),
+        )
+
+    def add_point(self, position, intensity) -> None:
+        """An isotropic point light of radiant intensity ``intensity`` (RGB, W/sr)."""
+        self._call("tc_scene_add_point", _vec3(position, "position"), _vec3(intensity, "intensity"))
+
+    def add_spot(self, position, direction, intensity, cone_half_angle_deg: float, blend: float) -> None:
+        """A spot light (intensity along the axis, cone half-angle in degrees, blend in [0, 1])."""
+        self._call(
+            "tc_scene_add_spot",
+            _vec3(position, "position"),
+            _vec3(direction, "direction"),
+            _vec3(intensity, "intensity"),
+            float(cone_half_angle_deg),
+            float(blend),
+        )
+
+    def add_rect(self, center, half_u, half_v, radiance, two_sided: bool = False) -> None:
+        """A parallelogram light emitting ``radiance`` along half_u × half_v (or both ways)."""
+        self._call(
+            "tc_scene_add_rect",
+            _vec3(center, "center"),
+            _vec3(half_u, "half_u"),
+            _vec3(half_v, "half_v"),
+            _vec3(radiance, "radiance"),
+            1 if two_sided else 0,
+        )
+
+    def add_disc(self, center, normal, radius: float, radiance, two_sided: bool = False) -> None:
+        """A disc light emitting ``radiance`` towards ``normal`` (or both ways)."""
+        self._call(
+            "tc_scene_add_disc",
+            _vec3(center, "center"),
+            _vec3(normal, "normal"),
+            float(radius),
+            _vec3(radiance, "radiance"),
+            1 if two_sided else 0,
+        )
+
+    def add_environment(self, radiance) -> None:
+        """A constant environment of ``radiance`` (RGB) from every direction."""
+        self._call("tc_scene_add_environment", _vec3(radiance, "radiance"))
+
+    def add_environment_image(self, rgb, strength: float = 1.0) -> None:
+        """An equirectangular environment: ``rgb`` (height, width, 3) linear, row 0 = top
+        (+Z up, the library's convention, which Blender's world shares once rows are flipped)."""
+        img = np.ascontiguousarray(rgb, dtype=np.float32)
+        if img.ndim != 3 or img.shape[2] != 3:
+            raise ValueError(f"environment image must be (height, width, 3), got {img.shape}")
+        height, width = img.shape[0], img.shape[1]
+        self._call(
+            "tc_scene_add_environment_image", img.reshape(-1).ctypes.data_as(c_float_p), width, height, float(strength)
+        )
+
+    def add_environment_file(self, path: str, strength: float = 1.0) -> None:
+        """An equirectangular environment read from a .hdr / .exr file."""
+        self._call("tc_scene_add_environment_file", os.fsencode(path), float(strength))
+
+    def clear_lights(self) -> None:
+        """Removes every light (``tc_scene_clear_lights``)."""
+        self._call("tc_scene_clear_lights")
+
+    # -- bake ------------------------------------------------------------------------------
+
+    def bake(self, progress: Callable[[str, float], bool] | None = None, **options) -> None:
+        """Bakes every object (``tc_scene_bake``).
+
+        ``options`` are :class:`TcBakeOptions` field names (``tets``, ``tolerance``,
+        ``max_iterations``, ``threads``, ``shadows``, ``area_samples``,
+        ``environment_samples``, ``backend``); unset fields keep the library's defaults.
+        ``backend`` is a ``TC_BACKEND_*`` value or one of the names in :data:`BACKENDS`
+        (any case).
+        ``progress(stage, fraction)`` may be called from several threads; returning True
+        cancels (the call then raises :class:`TranscutError` with ``TC_CANCELLED``). An
+        exception raised by ``progress`` cancels too and is re-raised here.
+        """
+        opts = self.lib.default_bake_options()
+        names = {f[0] for f in TcBakeOptions._fields_} - {"size"}
+        for key, value in options.items():
+            if key not in names:
+                raise TypeError(f"unknown bake option {key!r} (known: {', '.join(sorted(names))})")
+            if key == "backend" and isinstance(value, str):
+                if value.lower() not in BACKENDS:
+                    raise ValueError(f"unknown backend {value!r} (known: {', '.join(BACKENDS)})")
+                value = BACKENDS[value.lower()]
+            current = getattr(opts, key)
+            setattr(opts, key, float(value) if isinstance(current, float) else int(value))
+        self._call_with_progress("tc_scene_bake", progress, ctypes.byref(opts))
+
+    def radiance(self, obj: int) -> np.ndarray:
+        """The baked radiance of an object: float32 (vertex_count, 3), linear RGB."""
+        out = np.empty((self.vertex_count(obj), 3), dtype=np.float32)
+        self._call("tc_object_radiance", obj, out.ctypes.data_as(c_float_p), out.size)
+        return out
+
+    def stats(self, obj: int) -> dict:
+        """``tc_object_stats`` as a dict."""
+        st = TcBakeStats()
+        st.size = ctypes.sizeof(TcBakeStats)
+        self._call("tc_object_stats", obj, ctypes.byref(st))
+        return _stats_dict(st)
+
+    def _object_text(self, name: str, obj: int) -> str:
+        needed = self._count(name, obj, None, 0)
+        buf = ctypes.create_string_buffer(needed)
+        self._call(name, obj, buf, needed, None)
+        return buf.value.decode("utf-8", "replace")
+
+    def device(self, obj: int) -> str:
+        """The GPU adapter that solved the object in the last bake ('' when the CPU did)."""
+        return self._object_text("tc_object_device", obj)
+
+    def backend_fallback(self, obj: int) -> str:
+        """Why the ``auto`` backend solved the object on the CPU ('' when it did not)."""
+        return self._object_text("tc_object_backend_fallback", obj)
+
+    # -- editing (after a bake) ------------------------------------------------------------
+
+    def relight(self, progress: Callable[[str, float], bool] | None = None) -> None:
+        """Re-solves every object for the scene's current lights (``tc_scene_relight``), warm
+        started from the last solution; ``progress`` as for :meth:`bake`."""
+        self._call_with_progress("tc_scene_relight", progress)
+
+    def cut_plane(self, obj: int, point, normal, keep_both: bool = False) -> None:
+        """Removes the side ``normal`` points into (``tc_object_cut_plane``); keep_both splits."""
+        self._call("tc_object_cut_plane", obj, _vec3(point, "point"), _vec3(normal, "normal"), 1 if keep_both else 0)
+
+    def cut_mesh(self, obj: int, positions, triangles, keep_both: bool = False) -> None:
+        """Removes what lies inside a closed mesh, world space (``tc_object_cut_mesh``)."""
+        pos = np.ascontiguousarray(positions, dtype=np.float32).reshape(-1)
+        tri = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1)
+        self._call(
+            "tc_object_cut_mesh",
+            obj,
+            pos.ctypes.data_as(c_float_p),
+            pos.size // 3,
+            tri.ctypes.data_as(c_uint32_p),
+            tri.size,
+            1 if keep_both else 0,
+        )
+
+    def fracture(self, obj: int) -> int:
+        """Splits every piece of an edited object into its connected components
+        (``tc_object_fracture``); returns the new piece count."""
+        out = c_uint32()
+        self._call("tc_object_fracture", obj, ctypes.byref(out))
+        return int(out.value)
+
+    def paint(self, obj: int, points, radius: float, medium: TcMedium, strength: float = 1.0) -> None:
+        """Paints ``medium`` along a 3D stroke (``tc_object_paint``)."""
+        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1)
+        self._call(
+            "tc_object_paint",
+            obj,
+            pts.ctypes.data_as(c_double_p),
+            pts.size // 3,
+            float(radius),
+            ctypes.byref(medium),
+            float(strength),
+        )
+
+    def piece_count(self, obj: int) -> int:
+        """``tc_object_piece_count``."""
+        out = c_uint32()
+        self._call("tc_object_piece_count", obj, ctypes.byref(out))
+        return int(out.value)
+
+    def set_piece_transform(self, obj: int, piece: int, matrix) -> None:
+        """Places a piece rigidly (4 × 4, row-major like ``Matrix``; sent column-major)."""
+        m = np.ascontiguousarray(np.asarray(matrix, dtype=np.float64).reshape(4, 4).T).reshape(-1)
+        self._call("tc_object_set_piece_transform", obj, piece, m.ctypes.data_as(c_double_p))
+
+    def piece_mesh(self, obj: int, piece: int) -> tuple:
+        """A piece's surface: float32 positions (n, 3), uint32 triangles (m, 3), float32 radiance (n, 3)."""
+        nv, nt = c_size_t(), c_size_t()
+        self._call("tc_object_piece_sizes", obj, piece, ctypes.byref(nv), ctypes.byref(nt))
+        pos = np.empty((nv.value, 3), np.float32)
+        tri = np.empty((nt.value, 3), np.uint32)
+        rgb = np.empty((nv.value, 3), np.float32)
+        self._call(
+            "tc_object_piece_mesh",
+            obj,
+            piece,
+            pos.ctypes.data_as(c_float_p),
+            pos.size,
+            tri.ctypes.data_as(c_uint32_p),
+            tri.size,
+            rgb.ctypes.data_as(c_float_p),
+            rgb.size,
+        )
+        return pos, tri, rgb
+
+    def edit_stats(self, obj: int) -> dict:
+        """``tc_object_edit_stats`` as a dict."""
+        st = TcEditStats()
+        st.size = ctypes.sizeof(TcEditStats)
+        self._call("tc_object_edit_stats", obj, ctypes.byref(st))
+        return _stats_dict(st)
