@@ -11,8 +11,8 @@ after every object baked.
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable, Optional
 
 import numpy as np
 
@@ -82,8 +82,8 @@ def build_scene(lib: transcut.Library, job: BakeJob) -> tuple:
 def run_job(
     lib: transcut.Library,
     job: BakeJob,
-    progress: Optional[Callable[[str, float], bool]] = None,
-    backends: Optional[list] = None,
+    progress: Callable[[str, float], bool] | None = None,
+    backends: list | None = None,
 ) -> list:
     """Bakes the job; returns one float32 (vertex_count, 3) radiance array per mesh.
 
@@ -98,12 +98,11 @@ def run_job(
         if backends is not None:
             backends.extend(backend_info(scene, idx) for idx in indices)
         results = []
-        for mesh, idx in zip(job.meshes, indices):
+        for mesh, idx in zip(job.meshes, indices, strict=True):
             rgb = scene.radiance(idx)
             if rgb.shape[0] != mesh.vertex_count:
                 raise BakeError(
-                    f"'{mesh.object_name}': the library returned {rgb.shape[0]} values for "
-                    f"{mesh.vertex_count} vertices"
+                    f"'{mesh.object_name}': the library returned {rgb.shape[0]} values for {mesh.vertex_count} vertices"
                 )
             results.append(rgb)
         return results
@@ -152,10 +151,10 @@ class BakeRunner:
         self._cancel = False
         self.stage = ""
         self.fraction = 0.0
-        self.results: Optional[list] = None
+        self.results: list | None = None
         self.backends: list = []
-        self.error: Optional[BaseException] = None
-        self._thread: Optional[threading.Thread] = None
+        self.error: BaseException | None = None
+        self._thread: threading.Thread | None = None
 
     def progress(self, stage: str, fraction: float) -> bool:
         """The library's progress callback (any thread): records progress, returns cancel."""
@@ -195,7 +194,7 @@ class BakeRunner:
     def done(self) -> bool:
         return self._thread is None or not self._thread.is_alive()
 
-    def wait(self, timeout: Optional[float] = None) -> bool:
+    def wait(self, timeout: float | None = None) -> bool:
         if self._thread is not None:
             self._thread.join(timeout)
         return self.done()
@@ -234,7 +233,7 @@ def write_results(context, job: BakeJob, results: list) -> None:
 
     depsgraph = context.evaluated_depsgraph_get()
     targets = []
-    for mesh_job, rgb in zip(job.meshes, results):
+    for mesh_job, rgb in zip(job.meshes, results, strict=True):
         obj = bpy.data.objects.get(mesh_job.object_name)
         if obj is None or obj.type != "MESH":
             raise BakeError(f"'{mesh_job.object_name}' was removed during the bake")
@@ -255,7 +254,7 @@ def write_results(context, job: BakeJob, results: list) -> None:
                 bpy.data.meshes.remove(m)
         raise
     name = job.attribute_name
-    for (obj, mesh_job, rgb), new_mesh in zip(targets, new_meshes):
+    for (obj, _, rgb), new_mesh in zip(targets, new_meshes, strict=True):
         if new_mesh is not None:
             obj.modifiers.clear()
             obj.data = new_mesh

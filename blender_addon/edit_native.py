@@ -23,9 +23,10 @@ is removed (``flip``: the other side).
 
 from __future__ import annotations
 
+import itertools
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable, Optional
 
 import numpy as np
 
@@ -141,8 +142,8 @@ class EditResult:
 
     object_name: str
     pieces: list = field(default_factory=list)  # [PieceMesh] (cut)
-    radiance: Optional[np.ndarray] = None  # float32 (vertex_count, 3) (paint)
-    baked: Optional[np.ndarray] = None  # float32 (vertex_count, 3), before the edit
+    radiance: np.ndarray | None = None  # float32 (vertex_count, 3) (paint)
+    baked: np.ndarray | None = None  # float32 (vertex_count, 3), before the edit
     stats: dict = field(default_factory=dict)  # tc_object_edit_stats
     edit_ms: float = 0.0  # wall time of the edit call, milliseconds
 
@@ -210,7 +211,7 @@ def resample_polyline(points: np.ndarray, spacing: float) -> np.ndarray:
     if len(p) < 2 or spacing <= 0.0:
         return p
     out = [p[:1]]
-    for a, b in zip(p[:-1], p[1:]):
+    for a, b in itertools.pairwise(p):
         n = max(1, int(np.ceil(np.linalg.norm(b - a) / spacing)))
         t = np.arange(1, n + 1, dtype=np.float64)[:, None] / n
         out.append(a + t * (b - a))
@@ -228,8 +229,8 @@ def run_edit(
     lib: transcut.Library,
     job: bake.BakeJob,
     edit,
-    progress: Optional[Callable[[str, float], bool]] = None,
-    media: Optional[list] = None,
+    progress: Callable[[str, float], bool] | None = None,
+    media: list | None = None,
 ) -> EditRun:
     """Bakes the job's objects (as the bake operator does), applies ``edit`` (a
     :class:`PlaneCut`, :class:`MeshCut` or :class:`Paint`) to each, and reads the results.
@@ -252,7 +253,7 @@ def run_edit(
         bake_ms = (time.perf_counter() - start) * 1e3
         results = []
         count = len(indices)
-        for k, (mesh, idx) in enumerate(zip(job.meshes, indices)):
+        for k, (mesh, idx) in enumerate(zip(job.meshes, indices, strict=True)):
             name = mesh.object_name
             if report(f"{'paint' if is_paint else 'cut'} '{name}'", BAKE_SHARE + (1 - BAKE_SHARE) * k / count):
                 raise _cancelled()
@@ -279,7 +280,7 @@ class EditRunner(bake.BakeRunner):
     """:class:`bake.BakeRunner` for an edit: the same progress, cancel and threading; the
     result is an :class:`EditRun` in ``results``."""
 
-    def __init__(self, lib: transcut.Library, job: bake.BakeJob, edit, media: Optional[list] = None):
+    def __init__(self, lib: transcut.Library, job: bake.BakeJob, edit, media: list | None = None):
         super().__init__(lib, job)
         self.edit = edit
         self.media = media

@@ -36,7 +36,6 @@ library, so a wrong selection gets a message saying what to select instead of a 
 
 from __future__ import annotations
 
-
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, FloatProperty
@@ -118,7 +117,7 @@ def write_pieces(context, job: bake.BakeJob, run: edit_native.EditRun) -> list:
                 raise BakeError(f"'{res.object_name}': the library returned non-finite values")
     name = job.attribute_name
     created = []
-    for obj, res in zip(originals, run.results):
+    for obj, res in zip(originals, run.results, strict=True):
         for piece in res.pieces:
             mesh = bpy.data.meshes.new(f"{obj.name}.cut")
             mesh.from_pydata(piece.positions.tolist(), [], piece.triangles.tolist())
@@ -197,9 +196,7 @@ class TRANSCUT_OT_cut_with_object(_EditOperator, bpy.types.Operator):
     )
     separate: BoolProperty(
         name="Separate Parts",
-        description=(
-            "Make every connected part left by the cut its own object (a fracture), not one object per side"
-        ),
+        description="Make every connected part left by the cut its own object (a fracture), not one object per side",
         default=False,
     )
     flip: BoolProperty(

@@ -100,7 +100,9 @@ def convert_light(obj_name: str, light, matrix_world, warnings: list) -> list:
             )
         ]
     if light.type == "POINT":
-        return [LightSpec("add_point", dict(position=position.tolist(), intensity=point_intensity(power, colour)), obj_name)]
+        return [
+            LightSpec("add_point", dict(position=position.tolist(), intensity=point_intensity(power, colour)), obj_name)
+        ]
     if light.type == "SPOT":
         return [
             LightSpec(

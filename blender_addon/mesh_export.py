@@ -13,7 +13,6 @@ converted by the library with that mm_per_unit (``tc_object_set_medium_artist``)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
 
 import numpy as np
 
@@ -244,7 +243,7 @@ def selected_meshes(context) -> list:
     return meshes
 
 
-def gather(context, warnings: list, objects: Optional[list] = None) -> list:
+def gather(context, warnings: list, objects: list | None = None) -> list:
     """MeshJobs for ``objects`` (default: the selected meshes)."""
     scene = context.scene
     settings = scene.transcut

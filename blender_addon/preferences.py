@@ -54,8 +54,7 @@ class TranscutPreferences(bpy.types.AddonPreferences):
     library_path: StringProperty(
         name="Library Path",
         description=(
-            "Full path of the libtranscut shared library; empty: the copy bundled with the "
-            "extension, or TRANSCUT_LIB"
+            "Full path of the libtranscut shared library; empty: the copy bundled with the extension, or TRANSCUT_LIB"
         ),
         subtype="FILE_PATH",
         default="",

@@ -27,7 +27,6 @@ import argparse
 import base64
 import hashlib
 import json
-import os
 import platform
 import subprocess
 import sys
@@ -62,8 +61,16 @@ def this_platform() -> tuple[str, str, str]:
 
 def build_release_library() -> Path:
     """``cargo build --release -p transcut-capi``; the path of the cdylib cargo reports."""
-    cmd = ["cargo", "build", "--release", "-p", "transcut-capi", "--lib", "--locked",
-           "--message-format=json-render-diagnostics"]
+    cmd = [
+        "cargo",
+        "build",
+        "--release",
+        "-p",
+        "transcut-capi",
+        "--lib",
+        "--locked",
+        "--message-format=json-render-diagnostics",
+    ]
     print("package-addon:", " ".join(cmd), file=sys.stderr)
     proc = subprocess.run(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True, check=True)
     found = []
@@ -99,23 +106,27 @@ def write_zip(path: Path, files: list[tuple[str, bytes, int]]) -> None:
 def build_wheel(lib: Path, version: str, wheel_tag: str, lib_name: str, out: Path) -> Path:
     """The ``transcut`` wheel: binding + shared library + dist-info (PEP 427)."""
     dist_info = f"transcut-{version}.dist-info"
-    metadata = "\n".join([
-        "Metadata-Version: 2.1",
-        "Name: transcut",
-        f"Version: {version}",
-        "Summary: libtranscut (subsurface scattering bakes) through its C ABI, with the shared library",
-        "License: MIT OR Apache-2.0",
-        "Requires-Python: >=3.9",
-        "Requires-Dist: numpy",
-        "",
-    ]).encode()
-    wheel_meta = "\n".join([
-        "Wheel-Version: 1.0",
-        "Generator: libtranscut scripts/package-addon.py",
-        "Root-Is-Purelib: false",
-        f"Tag: py3-none-{wheel_tag}",
-        "",
-    ]).encode()
+    metadata = "\n".join(
+        [
+            "Metadata-Version: 2.1",
+            "Name: transcut",
+            f"Version: {version}",
+            "Summary: libtranscut (subsurface scattering bakes) through its C ABI, with the shared library",
+            "License: MIT OR Apache-2.0",
+            "Requires-Python: >=3.9",
+            "Requires-Dist: numpy",
+            "",
+        ]
+    ).encode()
+    wheel_meta = "\n".join(
+        [
+            "Wheel-Version: 1.0",
+            "Generator: libtranscut scripts/package-addon.py",
+            "Root-Is-Purelib: false",
+            f"Tag: py3-none-{wheel_tag}",
+            "",
+        ]
+    ).encode()
     files = [
         *python_files(BINDING, "transcut/"),
         (f"transcut/{lib_name}", lib.read_bytes(), 0o755),

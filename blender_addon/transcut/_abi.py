@@ -260,7 +260,9 @@ OPTIONAL = {
     "tc_object_set_piece_transform": (c_int32, [ScenePtr, c_uint32, c_uint32, c_double_p]),
     "tc_object_piece_transform": (c_int32, [ScenePtr, c_uint32, c_uint32, c_double_p]),
     "tc_object_piece_sizes": (c_int32, [ScenePtr, c_uint32, c_uint32, POINTER(c_size_t), POINTER(c_size_t)]),
-    "tc_object_piece_mesh": (c_int32, [ScenePtr, c_uint32, c_uint32, c_float_p, c_size_t, c_uint32_p, c_size_t, c_float_p, c_size_t]),
+    "tc_object_piece_mesh": (
+        c_int32,
+        [ScenePtr, c_uint32, c_uint32, c_float_p, c_size_t, c_uint32_p, c_size_t, c_float_p, c_size_t],
+    ),
     "tc_object_edit_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcEditStats)]),
 }
-

@@ -36,6 +36,7 @@ from ._abi import (
     c_uint32_p,
 )
 
+
 class TranscutError(RuntimeError):
     """A libtranscut call failed: ``status`` (int), ``status_name`` and the library's message."""
 
@@ -89,8 +90,7 @@ class Library:
         self.version_string = (self.cdll.tc_version_string() or b"").decode("utf-8", "replace")
         if self.version >> 16 != ABI_MAJOR:
             raise OSError(
-                f"{self.path} is libtranscut {self.version_string}; this binding needs ABI major "
-                f"version {ABI_MAJOR}"
+                f"{self.path} is libtranscut {self.version_string}; this binding needs ABI major version {ABI_MAJOR}"
             )
 
     def has(self, name: str) -> bool:

@@ -51,7 +51,14 @@ class Direct:
         c.tc_scene_create.argtypes = [POINTER(c_void_p)]
         c.tc_scene_destroy.argtypes = [POINTER(c_void_p)]
         c.tc_scene_destroy.restype = None
-        c.tc_scene_add_mesh.argtypes = [c_void_p, POINTER(c_float), c_size_t, POINTER(c_uint32), c_size_t, POINTER(c_uint32)]
+        c.tc_scene_add_mesh.argtypes = [
+            c_void_p,
+            POINTER(c_float),
+            c_size_t,
+            POINTER(c_uint32),
+            c_size_t,
+            POINTER(c_uint32),
+        ]
         c.tc_object_set_transform.argtypes = [c_void_p, c_uint32, POINTER(c_float)]
         c.tc_object_set_scale.argtypes = [c_void_p, c_uint32, c_double]
         c.tc_object_set_medium_artist.argtypes = [c_void_p, c_uint32, POINTER(Artist)]
@@ -64,9 +71,20 @@ class Direct:
         c.tc_scene_bake.argtypes = [c_void_p, POINTER(Options), Progress, c_void_p]
         c.tc_object_vertex_count.argtypes = [c_void_p, c_uint32, POINTER(c_size_t)]
         c.tc_object_radiance.argtypes = [c_void_p, c_uint32, POINTER(c_float), c_size_t]
-        for name in ("tc_scene_create", "tc_scene_add_mesh", "tc_object_set_transform", "tc_object_set_scale",
-                     "tc_object_set_medium_artist", "tc_scene_add_sun", "tc_scene_add_point", "tc_scene_add_rect",
-                     "tc_scene_add_environment", "tc_scene_bake", "tc_object_vertex_count", "tc_object_radiance"):
+        for name in (
+            "tc_scene_create",
+            "tc_scene_add_mesh",
+            "tc_object_set_transform",
+            "tc_object_set_scale",
+            "tc_object_set_medium_artist",
+            "tc_scene_add_sun",
+            "tc_scene_add_point",
+            "tc_scene_add_rect",
+            "tc_scene_add_environment",
+            "tc_scene_bake",
+            "tc_object_vertex_count",
+            "tc_object_radiance",
+        ):
             getattr(c, name).restype = c_int32
 
     def ok(self, status, what):
@@ -84,12 +102,22 @@ class Direct:
                 pos = np.ascontiguousarray(pos, np.float32)
                 tri = np.ascontiguousarray(tri, np.uint32)
                 out = c_uint32()
-                self.ok(self.c.tc_scene_add_mesh(scene, pos.ctypes.data_as(POINTER(c_float)), pos.shape[0],
-                                                 tri.ctypes.data_as(POINTER(c_uint32)), tri.size, ctypes.byref(out)),
-                        "add_mesh")
+                self.ok(
+                    self.c.tc_scene_add_mesh(
+                        scene,
+                        pos.ctypes.data_as(POINTER(c_float)),
+                        pos.shape[0],
+                        tri.ctypes.data_as(POINTER(c_uint32)),
+                        tri.size,
+                        ctypes.byref(out),
+                    ),
+                    "add_mesh",
+                )
                 col_major = np.ascontiguousarray(np.asarray(matrix, np.float64).T, np.float32)
-                self.ok(self.c.tc_object_set_transform(scene, out.value, col_major.ctypes.data_as(POINTER(c_float))),
-                        "transform")
+                self.ok(
+                    self.c.tc_object_set_transform(scene, out.value, col_major.ctypes.data_as(POINTER(c_float))),
+                    "transform",
+                )
                 self.ok(self.c.tc_object_set_scale(scene, out.value, mm), "scale")
                 a = Artist(d3(art["albedo"]), d3(art["radius"]), art["scale"], art["ior"], art["anisotropy"])
                 self.ok(self.c.tc_object_set_medium_artist(scene, out.value, ctypes.byref(a)), "artist")
@@ -100,7 +128,9 @@ class Direct:
                 elif kind == "point":
                     self.ok(self.c.tc_scene_add_point(scene, d3(args[0]), d3(args[1])), kind)
                 elif kind == "rect":
-                    self.ok(self.c.tc_scene_add_rect(scene, d3(args[0]), d3(args[1]), d3(args[2]), d3(args[3]), 0), kind)
+                    self.ok(
+                        self.c.tc_scene_add_rect(scene, d3(args[0]), d3(args[1]), d3(args[2]), d3(args[3]), 0), kind
+                    )
                 elif kind == "env":
                     self.ok(self.c.tc_scene_add_environment(scene, d3(args[0])), kind)
                 else:
@@ -117,7 +147,9 @@ class Direct:
                 self.ok(self.c.tc_object_vertex_count(scene, idx, ctypes.byref(count)), "vertex_count")
                 assert count.value == n
                 rgb = np.empty((n, 3), np.float32)
-                self.ok(self.c.tc_object_radiance(scene, idx, rgb.ctypes.data_as(POINTER(c_float)), rgb.size), "radiance")
+                self.ok(
+                    self.c.tc_object_radiance(scene, idx, rgb.ctypes.data_as(POINTER(c_float)), rgb.size), "radiance"
+                )
                 results.append(rgb)
             return results
         finally:

@@ -79,8 +79,14 @@ def addon(extension_repo):
 
 def clear_scene():
     """An empty scene: no objects, meshes, lights, materials, worlds or images; unit scale 1."""
-    for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.lights, bpy.data.materials, bpy.data.images,
-                 bpy.data.cameras):
+    for coll in (
+        bpy.data.objects,
+        bpy.data.meshes,
+        bpy.data.lights,
+        bpy.data.materials,
+        bpy.data.images,
+        bpy.data.cameras,
+    ):
         for item in list(coll):
             coll.remove(item)
     scene = bpy.context.scene

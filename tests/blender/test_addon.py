@@ -10,9 +10,9 @@ import os
 
 import numpy as np
 import pytest
-from conftest import ADDON_MODULE, bpy, disable, enable, require_library
-
 from mathutils import Vector
+
+from conftest import ADDON_MODULE, bpy, disable, enable, require_library
 
 TETS = 15_000
 TOL = 1e-6
@@ -205,7 +205,9 @@ def test_light_unit_conversions(scene, addon):
     (spec,) = lights.convert_light(sun.name, sun.data, sun.matrix_world, warnings)
     assert spec.method == "add_sun"
     np.testing.assert_allclose(spec.kwargs["irradiance"], [3.0, 1.5, 0.75])
-    np.testing.assert_allclose(spec.kwargs["direction"], [0.0, math.sin(math.radians(30)), -math.cos(math.radians(30))], atol=1e-7)
+    np.testing.assert_allclose(
+        spec.kwargs["direction"], [0.0, math.sin(math.radians(30)), -math.cos(math.radians(30))], atol=1e-7
+    )
     assert spec.kwargs["angular_diameter_deg"] == pytest.approx(math.degrees(0.02))
 
     point = add_light("POINT", location=(1.0, 2.0, 3.0), energy=1000.0)
@@ -226,7 +228,8 @@ def test_light_unit_conversions(scene, addon):
     # A = (2 × 1.5) × 0.8 = 2.4 world units²; L = P/(π A) = 150/(2.4π) = 19.894.
     np.testing.assert_allclose(spec.kwargs["radiance"], [150.0 / (math.pi * 2.4)] * 3)
     np.testing.assert_allclose(spec.kwargs["half_u"], [1.5, 0.0, 0.0])
-    np.testing.assert_allclose(np.cross(spec.kwargs["half_u"], spec.kwargs["half_v"]), [0.0, 0.0, -0.6], rtol=1e-6)  # 4|u×v| = A
+    # 4|u×v| = A
+    np.testing.assert_allclose(np.cross(spec.kwargs["half_u"], spec.kwargs["half_v"]), [0.0, 0.0, -0.6], rtol=1e-6)
 
     disk = add_light("AREA", energy=10.0, shape="DISK", size=2.0)
     (spec,) = lights.convert_light(disk.name, disk.data, disk.matrix_world, warnings)
@@ -384,7 +387,9 @@ def test_modifiers_applied(scene, lib):
     assert len(cube.data.vertices) == 98 and len(cube.modifiers) == 0
     rgb = check_attribute(cube, 98)
     direction = np.array(sun.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0)))
-    (ref,) = lib.bake([(pos, tri, m, MM_PER_UNIT, ARTIST)], [("sun", (direction, [3.0] * 3, math.degrees(sun.data.angle)))], TETS, TOL)
+    (ref,) = lib.bake(
+        [(pos, tri, m, MM_PER_UNIT, ARTIST)], [("sun", (direction, [3.0] * 3, math.degrees(sun.data.angle)))], TETS, TOL
+    )
     np.testing.assert_allclose(rgb, ref, rtol=1e-4, atol=1e-4 * float(np.abs(ref).max()))
 
 

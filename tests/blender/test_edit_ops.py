@@ -8,10 +8,12 @@ non-negative, the lit side brighter, a painted absorber darkening only near the 
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 import pytest
+
 from conftest import bpy, require_library
 from test_addon import (
     RecordingLayout,
@@ -301,7 +303,7 @@ def add_stroke(points, name="Stroke"):
     data.dimensions = "3D"
     spline = data.splines.new("POLY")
     spline.points.add(len(points) - 1)
-    for p, xyz in zip(spline.points, points):
+    for p, xyz in zip(spline.points, points, strict=True):
         p.co = (*xyz, 1.0)
     obj = bpy.data.objects.new(name, data)
     bpy.context.scene.collection.objects.link(obj)
@@ -341,17 +343,17 @@ def test_paint_absorber_darkens_near_the_stroke_only(scene, addon):
     arc = [(0.99 * math.cos(a), 0.0, 0.99 * math.sin(a)) for a in angles]
     stroke = add_stroke(arc)
     select_only(stroke, ball)
-    assert (
-        bpy.ops.transcut.paint_medium(
-            radius=RADIUS, strength=1.0, medium_source="COEFFICIENTS", sigma_a=(1.0, 1.0, 1.0),
-            sigma_s_prime=(2.0, 2.0, 2.0),
-        )
-        == {"FINISHED"}
-    )
+    assert bpy.ops.transcut.paint_medium(
+        radius=RADIUS,
+        strength=1.0,
+        medium_source="COEFFICIENTS",
+        sigma_a=(1.0, 1.0, 1.0),
+        sigma_s_prime=(2.0, 2.0, 2.0),
+    ) == {"FINISHED"}
     after = luminance(check_radiance(ball))
     assert not ball.hide_get() and len(ball.data.vertices) == len(before)
     wp, _ = world_vertices(ball)
-    dense = np.array([a + t * (b - a) for a, b in zip(np.array(arc[:-1]), np.array(arc[1:])) for t in np.linspace(0, 1, 11)])
+    dense = np.array([a + t * (b - a) for a, b in itertools.pairwise(np.array(arc)) for t in np.linspace(0, 1, 11)])
     d = np.min(np.linalg.norm(wp[:, None, :] - dense[None, :, :], axis=2), axis=1)
     near, far = d <= RADIUS, d >= FAR
     assert near.sum() >= 5
@@ -359,7 +361,10 @@ def test_paint_absorber_darkens_near_the_stroke_only(scene, addon):
     # Far vertices that the sun lights (the shadowed bottom is dark to the solver's tolerance).
     far &= before > 1e-2 * before.max()
     rel_far = np.abs(after[far] - before[far]) / before[far]
-    print(f"paint: {near.sum()} near vertices, mean radiance x{ratio_near:.3f}; {far.sum()} far, max change {rel_far.max():.2e}")
+    print(
+        f"paint: {near.sum()} near vertices, mean radiance x{ratio_near:.3f}; "
+        f"{far.sum()} far, max change {rel_far.max():.2e}"
+    )
     assert far.sum() > 300
     assert ratio_near < 0.1, ratio_near  # absorbing σa = 1/mm vs marble's ≤ 0.0071/mm
     assert rel_far.max() < 0.05, rel_far.max()

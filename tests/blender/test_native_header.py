@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 import pytest
+
 from conftest import ADDON_SRC, REPO
 
 HEADER = Path(os.environ.get("TRANSCUT_HEADER", REPO / "include" / "transcut.h"))
@@ -23,7 +24,9 @@ def load_binding():
     """The package ``blender_addon/transcut`` imported from the source folder, on its own."""
     folder = ADDON_SRC / "transcut"
     name = "transcut_binding_under_test"
-    spec = importlib.util.spec_from_file_location(name, folder / "__init__.py", submodule_search_locations=[str(folder)])
+    spec = importlib.util.spec_from_file_location(
+        name, folder / "__init__.py", submodule_search_locations=[str(folder)]
+    )
     mod = importlib.util.module_from_spec(spec)
     sys.modules[name] = mod  # its relative imports look it up there
     spec.loader.exec_module(mod)
@@ -120,7 +123,7 @@ def test_every_bound_function_matches_the_header():
 
 
 def header_struct(name: str) -> list:
-    m = re.search(r"typedef struct %s \{(.*?)\} %s;" % (name, name), header_text(), flags=re.S)
+    m = re.search(rf"typedef struct {name} \{{(.*?)\}} {name};", header_text(), flags=re.S)
     assert m, f"struct {name} not in the header"
     fields = []
     for line in m.group(1).split(";"):

@@ -11,13 +11,12 @@ import math
 import re
 
 import pytest
+
 from conftest import require_library
 
 
 def test_preset_menu_equals_the_library_presets(addon):
     require_library()
-    import bpy
-
     lib = addon.library.get()
     menu = addon.properties.PRESET_NAMES
     assert len(set(menu)) == len(menu), "duplicate preset in the add-on menu"
