@@ -52,7 +52,7 @@ def prepare_job(context, objects: list | None = None) -> BakeJob:
 
 
 def build_scene(lib: transcut.Library, job: BakeJob) -> tuple:
-    """A native scene holding the job's objects and lights; returns (scene, object indices)."""
+    """A :class:`transcut.Scene` holding the job's objects and lights; returns (scene, object indices)."""
     scene = lib.scene()
     try:
         indices = []

@@ -22,7 +22,7 @@ from ctypes import (
     c_void_p,
 )
 
-#: The ABI major version this binding was written against (``tc_version() >> 16``).
+#: The ABI major version this binding mirrors: it loads a library whose ``tc_version() >> 16`` is this.
 ABI_MAJOR = 0
 
 # Status codes (values fixed by the C ABI; only ever appended).

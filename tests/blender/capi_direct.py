@@ -1,4 +1,4 @@
-"""The C ABI called directly through ctypes, independently of the add-on's ``native.py``.
+"""The C ABI called directly through ctypes, independently of the add-on's binding.
 
 The reference the add-on's bakes are compared with: the same mesh, medium and lights sent
 straight to libtranscut with prototypes declared here from ``include/transcut.h``, with the

@@ -1,6 +1,6 @@
 """The Blender add-on, headless: registration, conversions, errors, bakes against the C ABI.
 
-Bakes are small (15k tets, a 32×16 UV sphere) so the whole file runs in well under a minute.
+Bakes are small: 15k tets, a 32×16 UV sphere.
 """
 
 from __future__ import annotations
