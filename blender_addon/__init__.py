@@ -12,7 +12,7 @@ and the modules:
   and ESC, or synchronous);
 - ``edit_ops``: ``transcut.cut_with_object`` and ``transcut.paint_medium`` (bake, then cut or
   paint through ``edit_native``);
-- ``ui``: the sidebar tab;
+- ``ui``: the sidebar tab and the Object menu entries;
 - ``mesh_export`` / ``lights``: Blender data and units → library arrays; ``bake``: gather, run
   and write;
 - ``library``: the loaded library, or why it did not load (no ``bpy``);

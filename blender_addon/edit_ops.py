@@ -323,21 +323,4 @@ class TRANSCUT_OT_paint_medium(_EditOperator, bpy.types.Operator):
         )
 
 
-def menu_func(self, _context):
-    self.layout.operator(TRANSCUT_OT_cut_with_object.bl_idname, icon="MOD_BOOLEAN")
-    self.layout.operator(TRANSCUT_OT_paint_medium.bl_idname, icon="BRUSH_DATA")
-
-
-_register_classes, _unregister_classes = bpy.utils.register_classes_factory(
-    (TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium)
-)
-
-
-def register():
-    _register_classes()
-    bpy.types.VIEW3D_MT_object.append(menu_func)
-
-
-def unregister():
-    bpy.types.VIEW3D_MT_object.remove(menu_func)
-    _unregister_classes()
+register, unregister = bpy.utils.register_classes_factory((TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium))

@@ -156,19 +156,4 @@ class OBJECT_OT_transcut_bake(RunnerOperator, bpy.types.Operator):
         )
 
 
-def menu_func(self, _context):
-    self.layout.separator()
-    self.layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
-
-
-_register_classes, _unregister_classes = bpy.utils.register_classes_factory((OBJECT_OT_transcut_bake,))
-
-
-def register():
-    _register_classes()
-    bpy.types.VIEW3D_MT_object.append(menu_func)
-
-
-def unregister():
-    bpy.types.VIEW3D_MT_object.remove(menu_func)
-    _unregister_classes()
+register, unregister = bpy.utils.register_classes_factory((OBJECT_OT_transcut_bake,))

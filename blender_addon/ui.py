@@ -1,5 +1,6 @@
 """The "TransCut" tab of the 3D viewport's sidebar (N panel): bake settings, the active object's
-medium, the bake button, and the library status when it is not loaded."""
+medium, the bake and editing buttons, and the library status when it is not loaded; the same
+operators in the Object menu."""
 
 from __future__ import annotations
 
@@ -45,4 +46,22 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
             draw_library_status(layout)
 
 
-register, unregister = bpy.utils.register_classes_factory((VIEW3D_PT_transcut,))
+def menu_func(self, _context):
+    """The operators at the end of the 3D view's Object menu."""
+    self.layout.separator()
+    self.layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
+    self.layout.operator(TRANSCUT_OT_cut_with_object.bl_idname, icon="MOD_BOOLEAN")
+    self.layout.operator(TRANSCUT_OT_paint_medium.bl_idname, icon="BRUSH_DATA")
+
+
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory((VIEW3D_PT_transcut,))
+
+
+def register():
+    _register_classes()
+    bpy.types.VIEW3D_MT_object.append(menu_func)
+
+
+def unregister():
+    bpy.types.VIEW3D_MT_object.remove(menu_func)
+    _unregister_classes()

@@ -180,7 +180,7 @@ def test_unregister_leaves_nothing_behind(addon):
         "PREFERENCES_OT_transcut_reload_library",
     ]
     assert any(hasattr(bpy.types, n) for n in names)
-    menu_func = addon.operators.menu_func
+    menu_func = addon.ui.menu_func
     assert menu_func in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()
     disable()
     for n in names:

@@ -92,7 +92,7 @@ def test_operators_register_and_unregister(addon):
     disable()
     assert not hasattr(bpy.types, "TRANSCUT_OT_cut_with_object")
     assert not hasattr(bpy.types, "TRANSCUT_OT_paint_medium")
-    assert addon.edit_ops.menu_func not in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()
+    assert addon.ui.menu_func not in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()
     enable()
     assert "paint_medium" in dir(bpy.ops.transcut)
 
