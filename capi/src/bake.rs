@@ -14,8 +14,7 @@ use super::guard::{run, Failure};
 use super::handle::{with_scene, ObjectResult, TcScene};
 use super::ptr;
 use super::status::{
-    TcStatus, TC_BUFFER_TOO_SHORT, TC_CANCELLED, TC_GPU_UNAVAILABLE, TC_INVALID_ARGUMENT, TC_MESHING_FAILED,
-    TC_SOLVE_FAILED,
+    TcStatus, TC_BUFFER_TOO_SHORT, TC_CANCELLED, TC_GPU_UNAVAILABLE, TC_INVALID_ARGUMENT, TC_MESHING_FAILED, TC_SOLVE_FAILED,
 };
 
 /// The TransCut finite-element diffusion solver on a tetrahedral mesh (the only method so far).
@@ -192,8 +191,11 @@ unsafe fn read_options(options: *const TcBakeOptions) -> Result<BakeOptions, Fai
     if o.method != TC_METHOD_TRANSCUT {
         return Err(Failure::invalid(format!("options->method = {}: unknown method (TC_METHOD_TRANSCUT = 0)", o.method)));
     }
-    let source =
-        SourceOptions { area_samples: o.area_samples as usize, environment_samples: o.environment_samples as usize, ..SourceOptions::default() };
+    let source = SourceOptions {
+        area_samples: o.area_samples as usize,
+        environment_samples: o.environment_samples as usize,
+        ..SourceOptions::default()
+    };
     Ok(BakeOptions {
         tets: usize::try_from(o.tets).map_err(|_| Failure::invalid(format!("options->tets = {} is too large", o.tets)))?,
         tolerance: o.tolerance,
@@ -298,8 +300,11 @@ pub unsafe extern "C" fn tc_scene_bake(
         unsafe {
             with_scene(scene, |s| {
                 let baked = bake_with(&s.scene, &options, Progress::new(&report)).map_err(|e| bake_failure(&e))?;
-                let results =
-                    baked.objects.iter().map(|o| ObjectResult { radiance: Some(o.radiance.clone()), stats: o.stats.clone() }).collect();
+                let results = baked
+                    .objects
+                    .iter()
+                    .map(|o| ObjectResult { radiance: Some(o.radiance.clone()), stats: o.stats.clone() })
+                    .collect();
                 s.results = Some(results);
                 s.session = Some(EditSession::new(&s.scene, baked.objects, &options));
                 Ok(())
@@ -469,8 +474,6 @@ pub unsafe extern "C" fn tc_object_backend_fallback(
 ) -> TcStatus {
     run("tc_object_backend_fallback", || {
         // SAFETY: the caller's contract.
-        unsafe {
-            object_text(scene, object, out, out_len, out_needed, |st| st.backend_fallback.clone().unwrap_or_default())
-        }
+        unsafe { object_text(scene, object, out, out_len, out_needed, |st| st.backend_fallback.clone().unwrap_or_default()) }
     })
 }

@@ -27,8 +27,8 @@ use super::handle::{with_scene, ObjectResult, SceneState, TcScene};
 use super::medium::{medium_from, TcMedium};
 use super::ptr;
 use super::status::{
-    TcStatus, TC_BUFFER_TOO_SHORT, TC_CANCELLED, TC_GPU_UNAVAILABLE, TC_INVALID_ARGUMENT, TC_INVALID_HANDLE,
-    TC_INVALID_MESH, TC_NOTHING_LEFT, TC_NOT_BAKED, TC_SOLVE_FAILED,
+    TcStatus, TC_BUFFER_TOO_SHORT, TC_CANCELLED, TC_GPU_UNAVAILABLE, TC_INVALID_ARGUMENT, TC_INVALID_HANDLE, TC_INVALID_MESH,
+    TC_NOTHING_LEFT, TC_NOT_BAKED, TC_SOLVE_FAILED,
 };
 
 /// `TcMediumEdit.region`: every tet of the object.
@@ -188,9 +188,10 @@ impl EditSlot {
     /// A new editor from the object's bake (not stored), solved under `lights` (the lights the
     /// bake was solved under).
     fn new_editor(&self, lights: &[Light], options: &EditOptions) -> Result<Editor, Failure> {
-        let bake = self.bake.as_deref().ok_or_else(|| {
-            Failure::new(super::status::TC_INTERNAL_ERROR, "an object with neither bake nor editor")
-        })?;
+        let bake = self
+            .bake
+            .as_deref()
+            .ok_or_else(|| Failure::new(super::status::TC_INTERNAL_ERROR, "an object with neither bake nor editor"))?;
         Editor::from_bake(bake, self.mm_per_unit, lights, options).map_err(|e| edit_failure(&e))
     }
 
@@ -505,10 +506,7 @@ unsafe fn medium_edit(e: &TcMediumEdit) -> Result<(Region, u32, [f64; 3], [f64; 
         }
     };
     if !matches!(e.op, TC_MEDIUM_ASSIGN | TC_MEDIUM_SCALE | TC_MEDIUM_ADD) {
-        return Err(Failure::invalid(format!(
-            "edit->op = {}: unknown operation (TC_MEDIUM_ASSIGN 0, SCALE 1, ADD 2)",
-            e.op
-        )));
+        return Err(Failure::invalid(format!("edit->op = {}: unknown operation (TC_MEDIUM_ASSIGN 0, SCALE 1, ADD 2)", e.op)));
     }
     Ok((region, e.op, e.sigma_a, e.sigma_s_prime))
 }
@@ -538,9 +536,7 @@ pub unsafe extern "C" fn tc_object_edit_medium(scene: *mut TcScene, object: u32,
             with_scene(scene, |s| {
                 edit_object(s, object, move |e| {
                     let op = match op {
-                        TC_MEDIUM_ASSIGN => {
-                            MediumOp::Assign(Medium::new(sigma_a, sigma_s, e.media().eta(), e.media().g())?)
-                        }
+                        TC_MEDIUM_ASSIGN => MediumOp::Assign(Medium::new(sigma_a, sigma_s, e.media().eta(), e.media().g())?),
                         TC_MEDIUM_SCALE => MediumOp::Scale { sigma_a, sigma_s },
                         _ => MediumOp::Add { sigma_a, sigma_s },
                     };
@@ -671,8 +667,8 @@ pub unsafe extern "C" fn tc_object_cut_mesh(
         }
         let keep_both = flag(keep_both, "keep_both")?;
         let xyz: Vec<[f32; 3]> = positions.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
-        let mesh = TriMesh::from_triangles(&xyz, indices)
-            .map_err(|e| Failure::new(TC_INVALID_MESH, format!("cutter mesh: {e}")))?;
+        let mesh =
+            TriMesh::from_triangles(&xyz, indices).map_err(|e| Failure::new(TC_INVALID_MESH, format!("cutter mesh: {e}")))?;
         // SAFETY: the caller's contract.
         unsafe { cut_with(scene, object, Cutter::Solid(mesh), keep_both) }
     })
@@ -858,9 +854,11 @@ pub unsafe extern "C" fn tc_object_piece_mesh(
                 let p = piece_of(edited(s, object)?, piece)?;
                 let surface = PieceSurface::of(p);
                 let (nv, nt) = (3 * surface.vertices.len(), 3 * surface.triangles.len());
-                for (name, len, needed) in
-                    [("positions_len", positions_len, nv), ("triangles_len", triangles_len, nt), ("radiance_len", radiance_len, nv)]
-                {
+                for (name, len, needed) in [
+                    ("positions_len", positions_len, nv),
+                    ("triangles_len", triangles_len, nt),
+                    ("radiance_len", radiance_len, nv),
+                ] {
                     if len < needed {
                         return Err(Failure::new(
                             TC_BUFFER_TOO_SHORT,
@@ -909,9 +907,10 @@ pub unsafe extern "C" fn tc_object_edit_stats(scene: *const TcScene, object: u32
             with_scene(scene, |s| {
                 let i = s.object_index(object)?;
                 let session = s.session.as_ref().ok_or_else(not_baked)?;
-                let st = session.objects[i].last.as_ref().ok_or_else(|| {
-                    Failure::new(TC_NOT_BAKED, format!("object {object} has not been updated since the bake"))
-                })?;
+                let st = session.objects[i]
+                    .last
+                    .as_ref()
+                    .ok_or_else(|| Failure::new(TC_NOT_BAKED, format!("object {object} has not been updated since the bake")))?;
                 Ok(edit_stats(st))
             })?
         };

@@ -35,7 +35,5 @@ pub(crate) fn clear_last_error() {
 /// next `tc_*` call on the same thread (copy it to keep it).
 #[no_mangle]
 pub extern "C" fn tc_last_error_message() -> *const c_char {
-    super::guard::value(c"".as_ptr(), || {
-        LAST_ERROR.try_with(|slot| slot.borrow().as_ptr()).unwrap_or(c"".as_ptr())
-    })
+    super::guard::value(c"".as_ptr(), || LAST_ERROR.try_with(|slot| slot.borrow().as_ptr()).unwrap_or(c"".as_ptr()))
 }

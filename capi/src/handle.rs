@@ -165,7 +165,7 @@ pub(crate) unsafe fn destroy(scene: *mut TcScene) -> Result<(), Failure> {
     // SAFETY: forwarded.
     let (_, claim) = unsafe { claim(scene)? };
     std::mem::forget(claim); // the flag stays set until the memory is gone
-    // SAFETY: from Box::into_raw in tc_scene_create, claimed, so no call is using it.
+                             // SAFETY: from Box::into_raw in tc_scene_create, claimed, so no call is using it.
     let mut boxed = unsafe { Box::from_raw(scene) };
     // A volatile store, so that it is not optimised away before the free: a later call with this
     // dangling pointer (undefined behaviour all the same) then most likely fails the magic check.

@@ -80,9 +80,8 @@ pub unsafe extern "C" fn tc_scene_add_spot(
 ) -> TcStatus {
     run("tc_scene_add_spot", || {
         // SAFETY: the caller's contract (3 doubles each).
-        let (position, direction, intensity) = unsafe {
-            (ptr::vec3(position, "position")?, ptr::vec3(direction, "direction")?, ptr::vec3(intensity, "intensity")?)
-        };
+        let (position, direction, intensity) =
+            unsafe { (ptr::vec3(position, "position")?, ptr::vec3(direction, "direction")?, ptr::vec3(intensity, "intensity")?) };
         let light = Light::Spot { position: vec(position), direction: vec(direction), intensity, cone_half_angle_deg, blend };
         // SAFETY: the caller's contract.
         unsafe { add(scene, light) }
@@ -111,8 +110,13 @@ pub unsafe extern "C" fn tc_scene_add_rect(
                 ptr::vec3(radiance, "radiance")?,
             )
         };
-        let light =
-            Light::RectArea { center: vec(center), half_u: vec(half_u), half_v: vec(half_v), radiance, two_sided: two_sided != 0 };
+        let light = Light::RectArea {
+            center: vec(center),
+            half_u: vec(half_u),
+            half_v: vec(half_v),
+            radiance,
+            two_sided: two_sided != 0,
+        };
         // SAFETY: the caller's contract.
         unsafe { add(scene, light) }
     })

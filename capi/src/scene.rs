@@ -17,8 +17,7 @@ pub(crate) fn default_medium() -> Result<Medium, Failure> {
 
 /// Adds `object` to the scene and returns its index.
 fn push_object(state: &mut SceneState, object: Object) -> Result<u32, Failure> {
-    let index = u32::try_from(state.scene.objects.len())
-        .map_err(|_| Failure::invalid("the scene already has 2^32 objects"))?;
+    let index = u32::try_from(state.scene.objects.len()).map_err(|_| Failure::invalid("the scene already has 2^32 objects"))?;
     state.scene.objects.push(object);
     state.changed();
     Ok(index)
@@ -33,7 +32,9 @@ pub(crate) fn output_vertex_count(object: &Object) -> usize {
 /// A status for a surface mesh error: files that are missing or unreadable, or invalid data.
 fn mesh_failure(e: &MeshError) -> Failure {
     match e {
-        MeshError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => Failure::new(TC_NOT_FOUND, e.to_string()),
+        MeshError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+            Failure::new(TC_NOT_FOUND, e.to_string())
+        }
         MeshError::Io { .. } => Failure::new(TC_IO_ERROR, e.to_string()),
         _ => Failure::new(TC_INVALID_MESH, e.to_string()),
     }
@@ -205,7 +206,11 @@ pub unsafe extern "C" fn tc_scene_add_tet_mesh(
 /// order. `TC_NOT_FOUND` when the file does not exist, `TC_IO_ERROR` when it cannot be read,
 /// `TC_INVALID_MESH` when its content is invalid (the message names file, line and element).
 #[no_mangle]
-pub unsafe extern "C" fn tc_scene_add_mesh_file(scene: *mut TcScene, path: *const std::ffi::c_char, out_object: *mut u32) -> TcStatus {
+pub unsafe extern "C" fn tc_scene_add_mesh_file(
+    scene: *mut TcScene,
+    path: *const std::ffi::c_char,
+    out_object: *mut u32,
+) -> TcStatus {
     run("tc_scene_add_mesh_file", || {
         check_not_null!(out_object);
         // SAFETY: the caller's contract.

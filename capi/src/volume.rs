@@ -97,7 +97,12 @@ pub unsafe extern "C" fn tc_object_set_medium_voxels(
         // SAFETY: the caller's contract (3 values each; `data_len` floats).
         let (dims, origin, voxel_size, data) = unsafe {
             let d = ptr::slice(dims, 3, "dims")?;
-            ([d[0], d[1], d[2]], ptr::vec3(origin, "origin")?, ptr::vec3(voxel_size, "voxel_size")?, ptr::slice(data, data_len, "data")?)
+            (
+                [d[0], d[1], d[2]],
+                ptr::vec3(origin, "origin")?,
+                ptr::vec3(voxel_size, "voxel_size")?,
+                ptr::slice(data, data_len, "data")?,
+            )
         };
         let grid = VoxelGrid::new(dims, DVec3::from_array(origin), DVec3::from_array(voxel_size), data.to_vec())
             .map_err(|e| Failure::invalid(e.to_string()))?;
@@ -121,7 +126,9 @@ pub unsafe extern "C" fn tc_object_set_medium_voxel_file(
         // SAFETY: the caller's contract.
         let path = unsafe { ptr::path(path, "path")? };
         let grid = VoxelGrid::read(path).map_err(|e| match &e {
-            VolumeError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => Failure::new(TC_NOT_FOUND, e.to_string()),
+            VolumeError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+                Failure::new(TC_NOT_FOUND, e.to_string())
+            }
             _ => Failure::new(TC_IO_ERROR, e.to_string()),
         })?;
         // SAFETY: the caller's contract.

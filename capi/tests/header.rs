@@ -145,10 +145,13 @@ fn committed_header_is_current() {
     }
     let committed = std::fs::read_to_string(&path).unwrap_or_default();
     if committed != fresh {
-        let line = committed.lines().zip(fresh.lines()).position(|(a, b)| a != b).map_or(
-            format!("(lengths {} and {} lines)", committed.lines().count(), fresh.lines().count()),
-            |i| format!("first difference at line {}", i + 1),
-        );
+        let line = committed
+            .lines()
+            .zip(fresh.lines())
+            .position(|(a, b)| a != b)
+            .map_or(format!("(lengths {} and {} lines)", committed.lines().count(), fresh.lines().count()), |i| {
+                format!("first difference at line {}", i + 1)
+            });
         panic!(
             "{} is stale {line}; regenerate it with: TRANSCUT_BLESS=1 cargo test -p transcut-capi --test header",
             display(&path)

@@ -113,7 +113,11 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
         let s = &object.stats;
         println!("{}: {} vertices baked", args.input.display(), object.radiance.len());
         println!("tets {} ({} vertices, {} on the surface)", s.tets, s.vertices, s.boundary_vertices);
-        println!("solver iterations {:?}, relative residual {:.1e}", s.iterations, s.relative_residual.iter().copied().fold(0.0, f64::max));
+        println!(
+            "solver iterations {:?}, relative residual {:.1e}",
+            s.iterations,
+            s.relative_residual.iter().copied().fold(0.0, f64::max)
+        );
         println!(
             "time {:.0} ms (mesh {:.0}, assembly {:.0}, light {:.0}, solve {:.0})",
             baked.total_ms, s.meshing_ms, s.assembly_ms, s.source_ms, s.solve_ms

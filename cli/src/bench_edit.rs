@@ -155,13 +155,19 @@ fn relative_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> Option<f64> {
 /// of 8 points spaced over the middle 40% of the x extent just in front of the bounds, the
 /// closest vertex.
 fn stroke_points(positions: &[DVec3]) -> Vec<DVec3> {
-    let (lo, hi) = positions.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let (lo, hi) = positions
+        .iter()
+        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
     let c = 0.5 * (lo + hi);
     (0..8)
         .map(|k| {
             let x = lo.x + (hi.x - lo.x) * (0.3 + 0.4 * k as f64 / 7.0);
             let target = DVec3::new(x, c.y, hi.z + 0.1 * (hi.z - lo.z));
-            positions.iter().copied().min_by(|a, b| a.distance_squared(target).total_cmp(&b.distance_squared(target))).unwrap_or(target)
+            positions
+                .iter()
+                .copied()
+                .min_by(|a, b| a.distance_squared(target).total_cmp(&b.distance_squared(target)))
+                .unwrap_or(target)
         })
         .collect()
 }

@@ -178,8 +178,11 @@ pub(crate) fn fig7(system: &mut DiffusionSystem, sun: DVec3, runs: usize, refere
     let tolerances: Vec<f64> = (2..=12).map(|k| 10f64.powf(-(k as f64) / 2.0)).collect();
     let runs = runs.max(1);
     light(system, sun)?;
-    let reference = MultiresSolver::new(system, Method::Pcg, &HierarchyOptions::default())?
-        .solve(system, None, &SolveOptions::default().with_tolerance(reference_tolerance))?;
+    let reference = MultiresSolver::new(system, Method::Pcg, &HierarchyOptions::default())?.solve(
+        system,
+        None,
+        &SolveOptions::default().with_tolerance(reference_tolerance),
+    )?;
     let mut hierarchy_ms = Vec::new();
     let mut h = None;
     for _ in 0..runs {

@@ -16,7 +16,7 @@ use transcut::optics::Medium;
 use transcut::sparse::hierarchy::{HierarchyOptions, Multigrid};
 use transcut::sparse::SolveOptions;
 
-use crate::bench::{BenchArgs, median};
+use crate::bench::{median, BenchArgs};
 
 #[derive(Serialize)]
 struct GpuEntry {

@@ -72,8 +72,15 @@ pub fn apply(
         };
         for o in targets {
             let editor = editors[o].as_mut().ok_or_else(|| anyhow!("internal: object {} has no editor", o + 1))?;
-            let stats = run(editor, &step.kind, camera).with_context(|| format!("{}: object {} ({})", label(), o + 1, objects[o].name))?;
-            let report = EditReport { edit: step.index, kind: step.kind_name.clone(), object: objects[o].name.clone(), pieces: editor.pieces().len(), stats };
+            let stats = run(editor, &step.kind, camera)
+                .with_context(|| format!("{}: object {} ({})", label(), o + 1, objects[o].name))?;
+            let report = EditReport {
+                edit: step.index,
+                kind: step.kind_name.clone(),
+                object: objects[o].name.clone(),
+                pieces: editor.pieces().len(),
+                stats,
+            };
             each(&report);
             reports.push(report);
         }
@@ -126,7 +133,10 @@ fn run(editor: &mut Editor, kind: &EditKind, camera: &Camera) -> anyhow::Result<
         EditKind::Fracture => editor.fracture()?,
         EditKind::MovePiece { piece, translate, axis, angle_deg, pivot } => {
             let count = editor.pieces().len();
-            let current = editor.pieces().get(*piece).ok_or_else(|| anyhow!("'piece': piece {piece} does not exist (there are {count})"))?;
+            let current = editor
+                .pieces()
+                .get(*piece)
+                .ok_or_else(|| anyhow!("'piece': piece {piece} does not exist (there are {count})"))?;
             let transform = current.transform();
             let pivot = pivot.unwrap_or_else(|| centroid(current.mesh().positions(), transform));
             let rotation = match axis {

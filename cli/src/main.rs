@@ -1,11 +1,11 @@
 //! `transcut`: mesh, bake, render and benchmark translucent objects from the shell.
 
 mod bake_cmd;
-mod edit_apply;
 mod bench;
-mod bench_multires;
 mod bench_edit;
+mod bench_multires;
 mod bench_solve;
+mod edit_apply;
 mod mesh_cmd;
 mod progress;
 mod render_cmd;

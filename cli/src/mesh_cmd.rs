@@ -81,7 +81,10 @@ fn print_human(path: &std::path::Path, input: &transcut::mesh::TriMesh, s: &Mesh
         s.hausdorff.max, s.hausdorff.boundary_to_input, s.hausdorff.input_to_boundary
     );
     if s.bisected_cuts + s.split_vertices + s.removed_tets > 0 {
-        println!("repairs     {} cuts across holes, {} pinched vertices split, {} tets removed", s.bisected_cuts, s.split_vertices, s.removed_tets);
+        println!(
+            "repairs     {} cuts across holes, {} pinched vertices split, {} tets removed",
+            s.bisected_cuts, s.split_vertices, s.removed_tets
+        );
     }
     let t = &s.timings;
     println!(

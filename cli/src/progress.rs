@@ -14,7 +14,10 @@ pub struct StageBar {
 impl StageBar {
     /// A bar on stderr, or a hidden one when `quiet`.
     pub fn new(quiet: bool) -> Self {
-        let bar = ProgressBar::with_draw_target(Some(1000), if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() });
+        let bar = ProgressBar::with_draw_target(
+            Some(1000),
+            if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() },
+        );
         bar.set_style(
             ProgressStyle::with_template("{spinner} {msg:<18} [{bar:40}] {percent:>3}% {elapsed}")
                 .unwrap_or_else(|_| ProgressStyle::default_bar())

@@ -13,9 +13,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use clap::Args;
+use transcut::edit::EditOptions;
 use transcut::light::{Environment, Light};
 use transcut::render::{render, Camera, GroundPlane, RenderObject, RenderOptions, RenderScene, SamplePattern, SpecularLight};
-use transcut::edit::EditOptions;
 use transcut::scene::{bake_with, BakeOptions, Scene};
 use transcut::{DVec3, Progress};
 
@@ -145,7 +145,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let objects: Vec<RenderObject<'_>> = meshes
         .iter()
-        .map(|(mesh, r, eta)| RenderObject { positions: mesh.positions(), triangles: mesh.triangles(), radiance: r, normals: None, eta: *eta })
+        .map(|(mesh, r, eta)| RenderObject {
+            positions: mesh.positions(),
+            triangles: mesh.triangles(),
+            radiance: r,
+            normals: None,
+            eta: *eta,
+        })
         .collect();
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for (mesh, _, _) in &meshes {
@@ -198,12 +204,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let image = render(&render_scene, &render_options).with_context(|| format!("rendering {}", args.scene.display()))?;
     let render_ms = t_render.elapsed().as_secs_f64() * 1e3;
     let t_save = Instant::now();
-    if ext == "png" {
-        image.save_png(&args.output)
-    } else {
-        image.save_exr(&args.output)
-    }
-    .with_context(|| format!("writing {}", args.output.display()))?;
+    if ext == "png" { image.save_png(&args.output) } else { image.save_exr(&args.output) }
+        .with_context(|| format!("writing {}", args.output.display()))?;
     let save_ms = t_save.elapsed().as_secs_f64() * 1e3;
     let total_ms = start.elapsed().as_secs_f64() * 1e3;
 

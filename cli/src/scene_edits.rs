@@ -107,7 +107,12 @@ const KINDS: &[&str] = &["relight", "medium", "paint", "cut_plane", "cut_stroke"
 ///
 /// # Errors
 /// The first bad edit, naming its index, kind and key.
-pub fn resolve(tables: &[toml::Table], names: &[String], mm_per_unit: &[f64], base: &std::path::Path) -> anyhow::Result<Vec<EditStep>> {
+pub fn resolve(
+    tables: &[toml::Table],
+    names: &[String],
+    mm_per_unit: &[f64],
+    base: &std::path::Path,
+) -> anyhow::Result<Vec<EditStep>> {
     tables
         .iter()
         .enumerate()
@@ -122,7 +127,14 @@ pub fn resolve(tables: &[toml::Table], names: &[String], mm_per_unit: &[f64], ba
         .collect()
 }
 
-fn step(index: usize, kind: Option<String>, t: &toml::Table, names: &[String], mm_per_unit: &[f64], base: &std::path::Path) -> anyhow::Result<EditStep> {
+fn step(
+    index: usize,
+    kind: Option<String>,
+    t: &toml::Table,
+    names: &[String],
+    mm_per_unit: &[f64],
+    base: &std::path::Path,
+) -> anyhow::Result<EditStep> {
     let kind = match (kind, t.get("kind")) {
         (Some(k), _) => k,
         (None, None) => bail!("missing key 'kind' ({})", KINDS.join(", ")),
@@ -157,8 +169,10 @@ fn step(index: usize, kind: Option<String>, t: &toml::Table, names: &[String], m
             let list = list.as_array().ok_or_else(|| anyhow!("'lights' must be a list of light tables"))?;
             let mut lights = Vec::with_capacity(list.len());
             for (i, v) in list.iter().enumerate() {
-                let spec = LightSpec::deserialize(v.clone()).map_err(|e| anyhow!("'lights' entry {}: {}", i + 1, e.to_string().trim_end()))?;
-                let light = spec.to_light(base).with_context(|| format!("'lights' entry {} (kind = \"{}\")", i + 1, spec.kind))?;
+                let spec = LightSpec::deserialize(v.clone())
+                    .map_err(|e| anyhow!("'lights' entry {}: {}", i + 1, e.to_string().trim_end()))?;
+                let light =
+                    spec.to_light(base).with_context(|| format!("'lights' entry {} (kind = \"{}\")", i + 1, spec.kind))?;
                 light.validate(i).map_err(|e| anyhow!("'lights' entry {} (kind = \"{}\"): {e}", i + 1, spec.kind))?;
                 lights.push(light);
             }
@@ -197,7 +211,8 @@ fn step(index: usize, kind: Option<String>, t: &toml::Table, names: &[String], m
                 bail!("'points' must hold at least one point");
             }
             let radius = positive(t, "radius")?;
-            let medium = scene_file::medium(t.get("medium").ok_or_else(|| anyhow!("missing key 'medium'"))?, mm).context("'medium'")?;
+            let medium =
+                scene_file::medium(t.get("medium").ok_or_else(|| anyhow!("missing key 'medium'"))?, mm).context("'medium'")?;
             let strength = match t.get("strength") {
                 None => 1.0,
                 Some(_) => number(t, "strength")?,
@@ -218,7 +233,8 @@ fn step(index: usize, kind: Option<String>, t: &toml::Table, names: &[String], m
         }
         "cut_stroke" => {
             let v = t.get("stroke").ok_or_else(|| anyhow!("missing key 'stroke' (a list of [u, v] pixel positions)"))?;
-            let pixels = <Vec<[f64; 2]>>::deserialize(v.clone()).map_err(|_| anyhow!("'stroke' must be a list of [u, v] pixel positions"))?;
+            let pixels = <Vec<[f64; 2]>>::deserialize(v.clone())
+                .map_err(|_| anyhow!("'stroke' must be a list of [u, v] pixel positions"))?;
             if pixels.len() < 2 {
                 bail!("'stroke' must hold at least 2 points, got {}", pixels.len());
             }
@@ -233,7 +249,10 @@ fn step(index: usize, kind: Option<String>, t: &toml::Table, names: &[String], m
         _ => {
             let piece = match t.get("piece") {
                 None => bail!("missing key 'piece' (a 0-based piece index)"),
-                Some(v) => v.as_integer().and_then(|p| usize::try_from(p).ok()).ok_or_else(|| anyhow!("'piece' must be a non-negative integer"))?,
+                Some(v) => v
+                    .as_integer()
+                    .and_then(|p| usize::try_from(p).ok())
+                    .ok_or_else(|| anyhow!("'piece' must be a non-negative integer"))?,
             };
             let translate = if t.contains_key("translate") { vec3(t, "translate")? } else { DVec3::ZERO };
             let axis = if t.contains_key("axis") { Some(vec3(t, "axis")?) } else { None };
@@ -322,7 +341,11 @@ fn keep(t: &toml::Table, options: &[(&str, Keep)]) -> anyhow::Result<Keep> {
 
 fn region(v: &toml::Value) -> anyhow::Result<RegionSpec> {
     if let Some(s) = v.as_str() {
-        return if s.eq_ignore_ascii_case("all") { Ok(RegionSpec::All) } else { bail!("expected \"all\" or a table with kind = \"sphere\" or \"depth\", got '{s}'") };
+        return if s.eq_ignore_ascii_case("all") {
+            Ok(RegionSpec::All)
+        } else {
+            bail!("expected \"all\" or a table with kind = \"sphere\" or \"depth\", got '{s}'")
+        };
     }
     let t = v.as_table().ok_or_else(|| anyhow!("expected \"all\" or a table, got {}", v.type_str()))?;
     let kind = t.get("kind").and_then(toml::Value::as_str).ok_or_else(|| anyhow!("missing key 'kind' (all, sphere, depth)"))?;
@@ -354,7 +377,8 @@ fn coefficients(v: &toml::Value, default: f64) -> anyhow::Result<([f64; 3], [f64
         match t.get(key) {
             None => Ok([default; 3]),
             Some(v) => {
-                let c = Rgb::deserialize(v.clone()).map(Rgb::get).map_err(|_| anyhow!("'{key}' must be a number or [r, g, b]"))?;
+                let c =
+                    Rgb::deserialize(v.clone()).map(Rgb::get).map_err(|_| anyhow!("'{key}' must be a number or [r, g, b]"))?;
                 if c.iter().all(|x| x.is_finite()) {
                     Ok(c)
                 } else {
@@ -440,16 +464,32 @@ add = { sigma_s = 0.25 }
         assert_eq!(steps.len(), 10);
         assert_eq!(steps.iter().map(|s| s.index).collect::<Vec<_>>(), (1..=10).collect::<Vec<_>>());
         assert!(matches!(&steps[0].kind, EditKind::Relight(l) if l.len() == 1) && steps[0].object.is_none());
-        assert!(matches!(&steps[1].kind, EditKind::Medium { region: RegionSpec::Sphere { radius, .. }, op: OpSpec::Scale { sigma_a: [2.0, 2.0, 2.0], sigma_s: [1.0, 1.0, 1.0] } } if *radius == 4.0));
+        assert!(
+            matches!(&steps[1].kind, EditKind::Medium { region: RegionSpec::Sphere { radius, .. }, op: OpSpec::Scale { sigma_a: [2.0, 2.0, 2.0], sigma_s: [1.0, 1.0, 1.0] } } if *radius == 4.0)
+        );
         assert_eq!(steps[1].object, Some(1));
-        assert!(matches!(&steps[2].kind, EditKind::Medium { region: RegionSpec::Depth { min_mm, max_mm }, op: OpSpec::Assign(m) } if *min_mm == 0.0 && *max_mm == 1.5 && m.eta == 1.5));
-        assert!(matches!(&steps[3].kind, EditKind::Paint { points, radius, strength, medium } if points.len() == 2 && *radius == 2.0 && *strength == 0.5 && medium.sigma_a == [0.5; 3]));
-        assert!(matches!(&steps[4].kind, EditKind::CutPlane { keep: Keep::Both, normal, .. } if *normal == DVec3::new(0.0, 0.0, 2.0)));
+        assert!(
+            matches!(&steps[2].kind, EditKind::Medium { region: RegionSpec::Depth { min_mm, max_mm }, op: OpSpec::Assign(m) } if *min_mm == 0.0 && *max_mm == 1.5 && m.eta == 1.5)
+        );
+        assert!(
+            matches!(&steps[3].kind, EditKind::Paint { points, radius, strength, medium } if points.len() == 2 && *radius == 2.0 && *strength == 0.5 && medium.sigma_a == [0.5; 3])
+        );
+        assert!(
+            matches!(&steps[4].kind, EditKind::CutPlane { keep: Keep::Both, normal, .. } if *normal == DVec3::new(0.0, 0.0, 2.0))
+        );
         assert!(matches!(&steps[5].kind, EditKind::CutStroke { keep: Keep::Right, pixels } if pixels[1] == [30.5, 40.0]));
         assert!(matches!(steps[6].kind, EditKind::Fracture));
-        assert!(matches!(&steps[7].kind, EditKind::MovePiece { piece: 1, angle_deg, axis: Some(_), pivot: None, .. } if *angle_deg == 30.0));
+        assert!(
+            matches!(&steps[7].kind, EditKind::MovePiece { piece: 1, angle_deg, axis: Some(_), pivot: None, .. } if *angle_deg == 30.0)
+        );
         assert!(matches!(steps[8].kind, EditKind::Recombine));
-        assert!(matches!(&steps[9].kind, EditKind::Medium { region: RegionSpec::All, op: OpSpec::Add { sigma_a: [0.0, 0.0, 0.0], sigma_s: [0.25, 0.25, 0.25] } }));
+        assert!(matches!(
+            &steps[9].kind,
+            EditKind::Medium {
+                region: RegionSpec::All,
+                op: OpSpec::Add { sigma_a: [0.0, 0.0, 0.0], sigma_s: [0.25, 0.25, 0.25] }
+            }
+        ));
     }
 
     #[test]
@@ -465,7 +505,8 @@ add = { sigma_s = 0.25 }
         let ok = "[[edit]]\nkind = \"fracture\"\n";
         let e = err(&format!("{ok}[[edit]]\nkind = \"cut_plane\"\npoint = [0,0,0]\n"), &["a"]);
         assert!(e.contains("edit 2 (kind = \"cut_plane\")") && e.contains("'normal'"), "{e}");
-        let e = err(&format!("{ok}{ok}[[edit]]\nkind = \"paint\"\npoints = [[0,0,0]]\nradius = -1\nmedium = \"marble\"\n"), &["a"]);
+        let e =
+            err(&format!("{ok}{ok}[[edit]]\nkind = \"paint\"\npoints = [[0,0,0]]\nradius = -1\nmedium = \"marble\"\n"), &["a"]);
         assert!(e.contains("edit 3 (kind = \"paint\")") && e.contains("'radius' must be positive"), "{e}");
         let e = err("[[edit]]\nkind = \"cut_plane\"\npoint = [0,0,0]\nnormal = [0,0,1]\nradius = 2\n", &["a"]);
         assert!(e.contains("edit 1") && e.contains("unknown key 'radius'"), "{e}");
@@ -479,11 +520,17 @@ add = { sigma_s = 0.25 }
         assert!(e.contains("no object named 'c'"), "{e}");
         let e = err("[[edit]]\nkind = \"medium\"\nscale = { sigma_a = 2 }\nadd = { sigma_a = 1 }\n", &["a"]);
         assert!(e.contains("not scale and add"), "{e}");
-        let e = err("[[edit]]\nkind = \"medium\"\nregion = { kind = \"sphere\", center = [0,0,0] }\nscale = { sigma_a = 2 }\n", &["a"]);
+        let e = err(
+            "[[edit]]\nkind = \"medium\"\nregion = { kind = \"sphere\", center = [0,0,0] }\nscale = { sigma_a = 2 }\n",
+            &["a"],
+        );
         assert!(e.contains("'region'") && e.contains("'radius'"), "{e}");
         let e = err("[[edit]]\nkind = \"medium\"\nobject = \"a\"\n", &["a"]);
         assert!(e.contains("give one of 'assign', 'scale', 'add'"), "{e}");
-        let e = err("[[edit]]\nkind = \"medium\"\nregion = { kind = \"depth\", min_mm = 2, max_mm = 1 }\nscale = { sigma_a = 2 }\n", &["a"]);
+        let e = err(
+            "[[edit]]\nkind = \"medium\"\nregion = { kind = \"depth\", min_mm = 2, max_mm = 1 }\nscale = { sigma_a = 2 }\n",
+            &["a"],
+        );
         assert!(e.contains("'region'") && e.contains("min_mm < max_mm"), "{e}");
         let e = err("[[edit]]\nkind = \"medium\"\nscale = { sigma_a = -2 }\n", &["a"]);
         assert!(e.contains("'scale'") && e.contains("negative"), "{e}");

@@ -65,13 +65,13 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context};
+use glam::DMat4;
 use serde::Deserialize;
 use transcut::light::{Environment, EquirectMap, Light};
 use transcut::mesh::TriMesh;
 use transcut::optics::{ArtistParams, Medium};
 use transcut::scene::{MediumSource, Object, Shape};
 use transcut::volume::{Layers, VeinParams, Veins, VoxelGrid};
-use glam::DMat4;
 
 use crate::scene_edits::EditStep;
 use transcut::DVec3;
@@ -267,7 +267,10 @@ fn object(spec: &ObjectSpec, base: &Path) -> anyhow::Result<Object> {
     }
     let medium = object_medium(&spec.medium, spec.mm_per_unit, base).context("medium")?;
     let transform = transform(spec, &mesh)?;
-    let name = spec.name.clone().unwrap_or_else(|| spec.mesh.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned()));
+    let name = spec
+        .name
+        .clone()
+        .unwrap_or_else(|| spec.mesh.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned()));
     let mut object = Object::with_shape(name, Shape::Surface(mesh), medium, spec.mm_per_unit);
     object.transform = transform;
     Ok(object)
@@ -338,7 +341,10 @@ pub fn object_medium(value: &toml::Value, mm_per_unit: f64, base_dir: &Path) -> 
         return Ok(MediumSource::Layers(Layers::new(&parsed, number("blend_mm", 0.0)?).map_err(|e| anyhow!("{e}"))?));
     }
     if table.contains_key("base") {
-        check_keys("veined", &["base", "vein", "seed", "period", "direction", "turbulence", "noise_scale", "octaves", "sharpness"])?;
+        check_keys(
+            "veined",
+            &["base", "vein", "seed", "period", "direction", "turbulence", "noise_scale", "octaves", "sharpness"],
+        )?;
         let d = VeinParams::default();
         let direction = match table.get("direction") {
             None => d.direction,
@@ -415,7 +421,8 @@ pub fn medium(value: &toml::Value, mm_per_unit: f64) -> anyhow::Result<Medium> {
         };
         params.to_medium().map_err(|e| anyhow!("{e}"))
     } else {
-        Medium::new(rgb("sigma_a")?, rgb("sigma_s")?, number("eta", Some(1.3))?, number("g", Some(0.0))?).map_err(|e| anyhow!("{e}"))
+        Medium::new(rgb("sigma_a")?, rgb("sigma_s")?, number("eta", Some(1.3))?, number("g", Some(0.0))?)
+            .map_err(|e| anyhow!("{e}"))
     }
 }
 
@@ -477,7 +484,8 @@ impl LightSpec {
                         bail!("give radiance or file, not both");
                     }
                     let path = base.join(file);
-                    let map = EquirectMap::load(&path, self.strength.unwrap_or(1.0)).with_context(|| format!("loading {}", path.display()))?;
+                    let map = EquirectMap::load(&path, self.strength.unwrap_or(1.0))
+                        .with_context(|| format!("loading {}", path.display()))?;
                     Light::Environment(Environment::Equirect(map))
                 }
                 None => {
@@ -549,9 +557,11 @@ mod tests {
             let v: toml::Value = toml::from_str(text).unwrap();
             object_medium(&v["m"], 1.0, Path::new("."))
         };
-        let layered = parse("m = { layers = [{ depth_mm = 1.5, medium = \"skin1\" }, { medium = \"skin2\" }], blend_mm = 0.3 }").unwrap();
+        let layered =
+            parse("m = { layers = [{ depth_mm = 1.5, medium = \"skin1\" }, { medium = \"skin2\" }], blend_mm = 0.3 }").unwrap();
         assert!(matches!(layered, MediumSource::Layers(_)));
-        let veined = parse("m = { base = \"marble\", vein = { sigma_a = 0.05, sigma_s = 2, eta = 1.5 }, seed = 3, period = 8 }").unwrap();
+        let veined =
+            parse("m = { base = \"marble\", vein = { sigma_a = 0.05, sigma_s = 2, eta = 1.5 }, seed = 3, period = 8 }").unwrap();
         assert!(matches!(veined, MediumSource::Veins(_)));
         assert!(matches!(parse("m = \"marble\"").unwrap(), MediumSource::Homogeneous(_)));
         let err = |text: &str| format!("{:#}", parse(text).unwrap_err());

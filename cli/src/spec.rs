@@ -35,10 +35,7 @@ fn parameters(text: &str) -> anyhow::Result<BTreeMap<String, Vec<String>>> {
 }
 
 fn numbers(key: &str, values: &[String]) -> anyhow::Result<Vec<f64>> {
-    values
-        .iter()
-        .map(|v| v.parse::<f64>().map_err(|_| anyhow!("{key}: '{v}' is not a number")))
-        .collect()
+    values.iter().map(|v| v.parse::<f64>().map_err(|_| anyhow!("{key}: '{v}' is not a number"))).collect()
 }
 
 fn vec3(p: &BTreeMap<String, Vec<String>>, key: &str) -> anyhow::Result<DVec3> {
@@ -84,7 +81,11 @@ pub fn light(spec: &str) -> anyhow::Result<Light> {
     let light = match kind.as_str() {
         "sun" | "directional" => {
             reject_unknown(&p, &["dir", "irradiance", "angle"], "a sun")?;
-            Light::Directional { direction: vec3(&p, "dir")?, irradiance: rgb(&p, "irradiance")?, angular_diameter_deg: scalar(&p, "angle", Some(0.0))? }
+            Light::Directional {
+                direction: vec3(&p, "dir")?,
+                irradiance: rgb(&p, "irradiance")?,
+                angular_diameter_deg: scalar(&p, "angle", Some(0.0))?,
+            }
         }
         "point" => {
             reject_unknown(&p, &["pos", "intensity"], "a point")?;
@@ -135,8 +136,9 @@ pub fn medium(spec: &str) -> anyhow::Result<Medium> {
     if let Some(k) = p.keys().find(|k| !["sigma_a", "sigma_s", "eta", "g"].contains(&k.as_str())) {
         bail!("a medium has no parameter '{k}' (sigma_a, sigma_s, eta, g)");
     }
-    let medium = Medium::new(rgb(&p, "sigma_a")?, rgb(&p, "sigma_s")?, scalar(&p, "eta", Some(1.3))?, scalar(&p, "g", Some(0.0))?)
-        .map_err(|e| anyhow!("--medium {spec}: {e}"))?;
+    let medium =
+        Medium::new(rgb(&p, "sigma_a")?, rgb(&p, "sigma_s")?, scalar(&p, "eta", Some(1.3))?, scalar(&p, "g", Some(0.0))?)
+            .map_err(|e| anyhow!("--medium {spec}: {e}"))?;
     Ok(medium)
 }
 

@@ -46,7 +46,10 @@ fn bench_edit_reports_every_edit_consistently() {
     let warm = sum(&relight["warm"]["last"]["iterations"]);
     assert!(cold > 0 && warm > 0, "cold {cold}, warm {warm}");
     assert!(warm <= cold, "a warm start took more iterations ({warm}) than a cold solve ({cold})");
-    assert!(cold < cold_bake, "the editor's aggregation MG-PCG ({cold}) needs fewer iterations than the bake's SSOR-PCG ({cold_bake})");
+    assert!(
+        cold < cold_bake,
+        "the editor's aggregation MG-PCG ({cold}) needs fewer iterations than the bake's SSOR-PCG ({cold_bake})"
+    );
     let ratio = relight["iteration_ratio"].as_f64().unwrap();
     assert!((ratio - warm as f64 / cold as f64).abs() < 1e-12, "{ratio}");
     let ratio_bake = relight["iteration_ratio_vs_cold_bake"].as_f64().unwrap();

@@ -119,9 +119,21 @@ fn scene_file_errors_name_the_file_and_problem() {
     let object = format!("[[object]]\nmesh = \"{}\"\nmedium = \"marble\"\n", block.display());
     expect_error("unknown_key.toml", &format!("{HEAD}[render]\nexposure = 1\n{object}"), &["exposure", "render"]);
     expect_error("unknown_object_key.toml", &format!("{HEAD}{object}colour = 1\n"), &["colour"]);
-    expect_error("unknown_light_key.toml", &format!("{HEAD}{object}[[light]]\nkind = \"sun\"\ndir = [0,0,-1]\nirradiance = 1\npos = [0,0,0]\n"), &["pos", "light 1"]);
-    expect_error("missing_mesh.toml", &format!("{HEAD}[[object]]\nmesh = \"no-such.obj\"\nmedium = \"marble\"\n"), &["no-such.obj", "not found"]);
-    expect_error("bad_preset.toml", &format!("{HEAD}[[object]]\nmesh = \"{}\"\nmedium = \"plutonium\"\n", block.display()), &["plutonium", "medium"]);
+    expect_error(
+        "unknown_light_key.toml",
+        &format!("{HEAD}{object}[[light]]\nkind = \"sun\"\ndir = [0,0,-1]\nirradiance = 1\npos = [0,0,0]\n"),
+        &["pos", "light 1"],
+    );
+    expect_error(
+        "missing_mesh.toml",
+        &format!("{HEAD}[[object]]\nmesh = \"no-such.obj\"\nmedium = \"marble\"\n"),
+        &["no-such.obj", "not found"],
+    );
+    expect_error(
+        "bad_preset.toml",
+        &format!("{HEAD}[[object]]\nmesh = \"{}\"\nmedium = \"plutonium\"\n", block.display()),
+        &["plutonium", "medium"],
+    );
     expect_error(
         "bad_medium.toml",
         &format!("{HEAD}[[object]]\nmesh = \"{}\"\nmedium = {{ sigma_a = [0.1, 0.1], sigma_s = 1 }}\n", block.display()),
@@ -158,7 +170,11 @@ fn coverage(img: &image::RgbaImage) -> usize {
 }
 
 fn mean_luminance(img: &image::RgbaImage) -> f64 {
-    let v: Vec<f64> = img.pixels().filter(|p| p[3] == 255).map(|p| 0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2])).collect();
+    let v: Vec<f64> = img
+        .pixels()
+        .filter(|p| p[3] == 255)
+        .map(|p| 0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2]))
+        .collect();
     v.iter().sum::<f64>() / v.len() as f64
 }
 
@@ -214,8 +230,16 @@ fn edit_errors_name_the_edit_and_key() {
     let block = examples().join("box.obj");
     let object = format!("[[object]]\nmesh = \"{}\"\nname = \"block\"\nmedium = \"jade\"\nfit_size_mm = 80\n", block.display());
     let fracture = "[[edit]]\nkind = \"fracture\"\n";
-    expect_error("edit_missing_key.toml", &format!("{HEAD}{object}{fracture}[[edit]]\nkind = \"cut_plane\"\npoint = [0, 0, 0]\n"), &["edit 2", "cut_plane", "'normal'"]);
-    expect_error("edit_bad_object.toml", &format!("{HEAD}{object}[[edit]]\nkind = \"fracture\"\nobject = \"bunny\"\n"), &["edit 1", "no object named 'bunny'", "block"]);
+    expect_error(
+        "edit_missing_key.toml",
+        &format!("{HEAD}{object}{fracture}[[edit]]\nkind = \"cut_plane\"\npoint = [0, 0, 0]\n"),
+        &["edit 2", "cut_plane", "'normal'"],
+    );
+    expect_error(
+        "edit_bad_object.toml",
+        &format!("{HEAD}{object}[[edit]]\nkind = \"fracture\"\nobject = \"bunny\"\n"),
+        &["edit 1", "no object named 'bunny'", "block"],
+    );
     // Caught by the core when the edit runs: a paint medium whose η differs from the object's.
     expect_error(
         "edit_paint_eta.toml",

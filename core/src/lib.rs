@@ -8,18 +8,18 @@
 //!
 //! Every stage reports typed errors; nothing panics on bad input.
 
+pub mod diffusion;
+pub mod edit;
+pub mod gpu;
+pub mod light;
 pub mod mesh;
 pub mod mesher;
-pub mod light;
 pub mod optics;
 pub mod progress;
-pub mod sparse;
-pub mod diffusion;
-pub mod volume;
-pub mod scene;
-pub mod edit;
 pub mod render;
-pub mod gpu;
+pub mod scene;
+pub mod sparse;
+pub mod volume;
 
 pub use glam::DVec3;
 pub use progress::{Cancelled, Progress};

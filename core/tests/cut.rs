@@ -10,12 +10,12 @@ use std::f64::consts::PI;
 use std::sync::OnceLock;
 
 use common::uv_sphere;
+use glam::DMat4;
 use transcut::edit::cut::{cut, CutOptions, CutResult, Cutter, SweptStroke};
 use transcut::edit::pieces::{check_rigid, connected_components, extract, weld};
 use transcut::edit::EditError;
 use transcut::mesh::{tet_volume, TetMesh, TriMesh};
 use transcut::mesher::{tetrahedralize, MesherOptions};
-use glam::DMat4;
 use transcut::DVec3;
 
 const RADIUS: f64 = 1.0;
@@ -161,7 +161,9 @@ fn plane_cut_of_a_sphere_keeps_quality_and_lies_on_the_plane() {
         assert_eq!(mine, theirs, "tet {t}");
         let c_new: DVec3 = r.mesh.tet_positions(t).iter().sum::<DVec3>() / 4.0;
         let c_old: DVec3 = mesh.tet_positions(o as usize).iter().sum::<DVec3>() / 4.0;
-        let moved = r.mesh.tets()[t].iter().any(|&v| r.mesh.positions()[v as usize] != mesh.positions()[r.kept_vertex[v as usize] as usize]);
+        let moved = r.mesh.tets()[t]
+            .iter()
+            .any(|&v| r.mesh.positions()[v as usize] != mesh.positions()[r.kept_vertex[v as usize] as usize]);
         if !moved {
             assert_eq!(c_new, c_old);
             unmoved += 1;
@@ -246,7 +248,13 @@ fn a_perspective_stroke_removes_its_left_side() {
 fn cube(c: DVec3, a: f64) -> TriMesh {
     let mut positions = Vec::new();
     for i in 0..8 {
-        positions.push(c + a * DVec3::new(if i & 1 == 0 { -1.0 } else { 1.0 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -1.0 } else { 1.0 }));
+        positions.push(
+            c + a * DVec3::new(
+                if i & 1 == 0 { -1.0 } else { 1.0 },
+                if i & 2 == 0 { -1.0 } else { 1.0 },
+                if i & 4 == 0 { -1.0 } else { 1.0 },
+            ),
+        );
     }
     let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
     let polys: Vec<Vec<u32>> = quads.iter().map(|q| q.to_vec()).collect();
@@ -314,10 +322,7 @@ fn a_slab_cut_fractures_the_sphere_in_two() {
     let r = cut(mesh, &identity_ids(mesh), &Cutter::Solid(slab), &CutOptions::default()).unwrap();
     let comps = connected_components(&r.mesh);
     assert_eq!(comps.len(), 2);
-    let volumes: Vec<f64> = comps
-        .iter()
-        .map(|c| extract(&r.mesh, &r.original_tet, c).unwrap().0.volume())
-        .collect();
+    let volumes: Vec<f64> = comps.iter().map(|c| extract(&r.mesh, &r.original_tet, c).unwrap().0.volume()).collect();
     let expected = ball_below(RADIUS, -0.15);
     for v in &volumes {
         assert!((v / expected - 1.0).abs() < 0.02, "{v} vs {expected}");
@@ -354,7 +359,10 @@ fn weld_glues_two_halves_back() {
 
 #[test]
 fn check_rigid_accepts_motions_and_names_what_is_wrong() {
-    let rot = DMat4::from_rotation_translation(glam::DQuat::from_axis_angle(DVec3::new(1.0, 2.0, -0.5).normalize(), 0.7), DVec3::new(1.0, 2.0, 3.0));
+    let rot = DMat4::from_rotation_translation(
+        glam::DQuat::from_axis_angle(DVec3::new(1.0, 2.0, -0.5).normalize(), 0.7),
+        DVec3::new(1.0, 2.0, 3.0),
+    );
     check_rigid(&rot).unwrap();
     check_rigid(&DMat4::IDENTITY).unwrap();
     let err = |m: DMat4| match check_rigid(&m) {

@@ -132,7 +132,8 @@ fn per_internal(surface: &TriMesh, radiance: &[[f64; 3]]) -> Vec<[f64; 3]> {
 /// Bakes the reference surface at `tets` tets: radiance per internal vertex of `surface`.
 fn reference(surface: &TriMesh, tets: usize) -> (Vec<[f64; 3]>, usize) {
     let scene = Scene { objects: vec![Object::new("reference", surface.clone(), marble(), 1.0)], lights: vec![sun()] };
-    let options = BakeOptions { tets, tolerance: TOLERANCE, shadows: true, backend: Some(Backend::Cpu), ..BakeOptions::default() };
+    let options =
+        BakeOptions { tets, tolerance: TOLERANCE, shadows: true, backend: Some(Backend::Cpu), ..BakeOptions::default() };
     let b = bake(&scene, &options).unwrap();
     let o = &b.objects[0];
     (per_internal(surface, &o.radiance), o.stats.tets)
@@ -165,7 +166,8 @@ fn compare(points: &[DVec3], area: &[f64], got: &[[f64; 3]], surface: &TriMesh, 
 
 #[test]
 fn a_plane_cut_matches_a_fresh_bake_of_the_cut_solid_within_5_percent_rms() {
-    let options = EditOptions { tets: TETS, tolerance: TOLERANCE, shadows: true, backend: Some(Backend::Cpu), ..EditOptions::default() };
+    let options =
+        EditOptions { tets: TETS, tolerance: TOLERANCE, shadows: true, backend: Some(Backend::Cpu), ..EditOptions::default() };
     let ball = Object::new("ball", uv_sphere(RADIUS, 96, 48), marble(), 1.0);
     let mut ed = Editor::new(&ball, &[sun()], &options).unwrap();
     let stats = ed.cut(&Cutter::Plane { point: DVec3::new(0.0, 0.0, CUT_Z), normal: DVec3::Z }).unwrap();
@@ -209,9 +211,15 @@ fn a_plane_cut_matches_a_fresh_bake_of_the_cut_solid_within_5_percent_rms() {
         }
     }
     let self_errors = compare(surface.positions(), &area, &values, &surface, &finer);
-    eprintln!("reference at {ref_tets} vs {finer_tets} tets: whole {:.4?}, cut face {:.4?}, rest {:.4?}, rim band {:.4?}", self_errors[0], self_errors[1], self_errors[2], self_errors[3]);
+    eprintln!(
+        "reference at {ref_tets} vs {finer_tets} tets: whole {:.4?}, cut face {:.4?}, rest {:.4?}, rim band {:.4?}",
+        self_errors[0], self_errors[1], self_errors[2], self_errors[3]
+    );
     let finer_errors = compare(&points, &boundary.area_mm2, &got, &surface, &finer);
-    eprintln!("cut piece vs reference at {finer_tets} tets: whole {:.4?}, cut face {:.4?}, rest {:.4?}, rim band {:.4?}", finer_errors[0], finer_errors[1], finer_errors[2], finer_errors[3]);
+    eprintln!(
+        "cut piece vs reference at {finer_tets} tets: whole {:.4?}, cut face {:.4?}, rest {:.4?}, rim band {:.4?}",
+        finer_errors[0], finer_errors[1], finer_errors[2], finer_errors[3]
+    );
     for c in 0..3 {
         assert!(finer_errors[0][c] < 0.05, "channel {c}: {finer_errors:?}");
     }

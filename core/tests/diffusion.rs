@@ -166,7 +166,11 @@ fn uniform_sphere_matches_the_closed_form_for_every_preset() {
             let amp = exact[c] / (exact[c] - 2.0 * q); // Lo error / φ error
             eprintln!(
                 "{name:9} ch{c} σtr·h {:.3} amp {amp:6.2}: φ max {:.2e} rms {:.2e} | Lo max {:.2e} rms {:.2e} ({elapsed:.2} s)",
-                tr[c] * h, e.phi_max[c], e.phi_rms[c], e.lo_max[c], e.lo_rms[c]
+                tr[c] * h,
+                e.phi_max[c],
+                e.phi_rms[c],
+                e.lo_max[c],
+                e.lo_rms[c]
             );
             if amp > 0.0 && amp * x2 <= 0.15 {
                 resolved += 1;
@@ -287,17 +291,13 @@ fn matrix_is_symmetric_positive_definite() {
     // Two materials with the same η: the lower half of the sphere is skin, the upper marble.
     let marble = Medium::preset("marble").unwrap();
     let skin = Medium { eta: marble.eta, ..Medium::preset("skin1").unwrap() };
-    let materials = (0..mesh.tet_count())
-        .map(|t| u32::from(mesh.tet_positions(t).iter().map(|p| p.z).sum::<f64>() < 0.0))
-        .collect();
+    let materials =
+        (0..mesh.tet_count()).map(|t| u32::from(mesh.tet_positions(t).iter().map(|p| p.z).sum::<f64>() < 0.0)).collect();
     mesh.set_materials(materials).unwrap();
     for consistent in [false, true] {
-        let sys = if consistent {
-            assemble_consistent(&mesh, &[marble, skin], 1.0)
-        } else {
-            assemble(&mesh, &[marble, skin], 1.0)
-        }
-        .unwrap();
+        let sys =
+            if consistent { assemble_consistent(&mesh, &[marble, skin], 1.0) } else { assemble(&mesh, &[marble, skin], 1.0) }
+                .unwrap();
         let m = sys.matrix();
         let largest = m.values().iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
         assert!(m.is_symmetric(1e-12 * largest));
@@ -384,7 +384,8 @@ fn energy_balance_holds() {
             eprintln!(
                 "{name} ch{c}: absorbed {:.4} + exitant {:.4} of incident {incident:.4}: defect {discrete:.1e}, \
                  with the integrated radiance query {integrated:.1e}",
-                absorbed[c] / incident, exitant / incident
+                absorbed[c] / incident,
+                exitant / incident
             );
             assert!(discrete.abs() < 1e-5, "{name} {c}: {discrete}");
             assert!(integrated.abs() < 0.01, "{name} {c}: {integrated}");
@@ -407,21 +408,15 @@ fn relighting_keeps_the_matrix_and_warm_starts() {
     let pattern = std::sync::Arc::clone(sys.pattern());
     // The uniform light tilted by ±5% towards +x.
     let light = DVec3::new(1.0, 0.0, 0.0);
-    let q: Vec<[f64; 3]> = sys
-        .boundary()
-        .normal
-        .iter()
-        .map(|n| [uniform_q(&m) * (1.0 + 0.05 * n.dot(light)); 3])
-        .collect();
+    let q: Vec<[f64; 3]> = sys.boundary().normal.iter().map(|n| [uniform_q(&m) * (1.0 + 0.05 * n.dot(light)); 3]).collect();
     sys.set_source(&q).unwrap();
     assert!(std::sync::Arc::ptr_eq(&pattern, sys.pattern()));
     assert_eq!(sys.matrix().values(), &values[..]);
     let warm = solve(&sys, Some(&phi), &SolveOptions::default()).unwrap();
     let cold = solve(&sys, None, &SolveOptions::default()).unwrap();
     let exact = solve(&sys, None, &SolveOptions::default().with_tolerance(1e-12)).unwrap();
-    let error = |x: &[[f64; 3]]| {
-        [0, 1, 2].map(|c| (0..x.len()).map(|i| (x[i][c] / exact.phi[i][c] - 1.0).abs()).fold(0.0, f64::max))
-    };
+    let error =
+        |x: &[[f64; 3]]| [0, 1, 2].map(|c| (0..x.len()).map(|i| (x[i][c] / exact.phi[i][c] - 1.0).abs()).fold(0.0, f64::max));
     eprintln!(
         "iterations: uniform cold {cold_iterations:?}, relit cold {:?} (error {}), warm {:?} (error {})",
         cold.stats.iterations,

@@ -354,7 +354,12 @@ fn a_failed_relight_or_paint_leaves_every_array_bit_identical() {
     assert!(matches!(e, Err(EditError::Diffusion(_))), "{e:?}");
     assert!(snapshot(&ed) == before, "a failed relight changed the editor");
     let red = Medium { sigma_a: [0.001, 0.2, 0.3], sigma_s_prime: [3.0, 1.0, 1.0], ..marble() };
-    let stroke = PaintStroke { points: vec![DVec3::new(10.0, 0.0, 0.0), DVec3::new(0.0, 10.0, 0.0)], radius: 2.0, medium: red, strength: 1.0 };
+    let stroke = PaintStroke {
+        points: vec![DVec3::new(10.0, 0.0, 0.0), DVec3::new(0.0, 10.0, 0.0)],
+        radius: 2.0,
+        medium: red,
+        strength: 1.0,
+    };
     let e = ed.paint(&stroke);
     assert!(matches!(e, Err(EditError::Diffusion(_))), "{e:?}");
     assert!(snapshot(&ed) == before, "a failed paint changed the editor");

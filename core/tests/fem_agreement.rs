@@ -137,7 +137,13 @@ fn radiance(system: &mut DiffusionSystem, q: &[[f64; 3]]) -> (Vec<[f64; 3]>, [us
 
 /// Assembles and solves both discretisations of `mesh` with `media`, and returns the agreement
 /// on the lit vertices and on all of them.
-fn compare(name: &str, mesh: &TetMesh, media: &[Medium], mm_per_unit: f64, occluder: &TriangleBvh) -> (Agreement, Agreement, Agreement) {
+fn compare(
+    name: &str,
+    mesh: &TetMesh,
+    media: &[Medium],
+    mm_per_unit: f64,
+    occluder: &TriangleBvh,
+) -> (Agreement, Agreement, Agreement) {
     let t = Instant::now();
     let mut tc = assemble(mesh, media, mm_per_unit).unwrap();
     let assembly_tc = t.elapsed().as_secs_f64();
@@ -233,14 +239,25 @@ fn transcut_and_consistent_fem_agree_on_the_bunny_with_marble_veins() {
         assert!(homogeneous_all.l2[c] < 0.03, "homogeneous, channel {c}: relative L2 {}", percent(homogeneous_all.l2));
         assert!(veined.rms[c] < 0.03, "veins, channel {c}: RMS over the lit interior {}", percent(veined.rms));
         assert!(homogeneous.rms[c] < 0.03, "homogeneous, channel {c}: RMS over the lit interior {}", percent(homogeneous.rms));
-        assert!(homogeneous_lit.rms[c] < 0.03, "homogeneous, channel {c}: RMS over all lit vertices {}", percent(homogeneous_lit.rms));
+        assert!(
+            homogeneous_lit.rms[c] < 0.03,
+            "homogeneous, channel {c}: RMS over all lit vertices {}",
+            percent(homogeneous_lit.rms)
+        );
     }
 }
 
 /// Solves `matrix · φ = b` tightly (Jacobi PCG).
 fn solve_raw(matrix: &CsrMatrix3, b: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let mut phi = vec![[0.0; 3]; matrix.n()];
-    let stats = pcg(matrix, b, &mut phi, &Preconditioner::Jacobi(Jacobi::new(matrix).unwrap()), &SolveOptions::default().with_tolerance(1e-9)).unwrap();
+    let stats = pcg(
+        matrix,
+        b,
+        &mut phi,
+        &Preconditioner::Jacobi(Jacobi::new(matrix).unwrap()),
+        &SolveOptions::default().with_tolerance(1e-9),
+    )
+    .unwrap();
     assert!(stats.converged);
     phi
 }
@@ -310,7 +327,8 @@ fn where_the_difference_comes_from() {
     let corners = (0..surface.triangles().len()).map(|t| surface.triangle(t)).collect();
     let occluder = TriangleBvh::new(corners);
     let marble = Medium::preset("marble").unwrap();
-    let sizes: Vec<usize> = std::env::var("FEM_SIZES").map_or(vec![250_000, 500_000, 1_000_000], |s| s.split(',').map(|x| x.parse().unwrap()).collect());
+    let sizes: Vec<usize> = std::env::var("FEM_SIZES")
+        .map_or(vec![250_000, 500_000, 1_000_000], |s| s.split(',').map(|x| x.parse().unwrap()).collect());
     for tets in sizes {
         let mut mesh = tetrahedralize(&surface, &MesherOptions::with_tets(tets)).unwrap();
         let h = (12.0 * mesh.volume() / mesh.tet_count() as f64).cbrt() * mm_per_unit;

@@ -87,7 +87,8 @@ fn gpu_spmv_and_dot_match_the_cpu() {
     let sys = system_for(mesh, *scale, "skin1");
     let a = sys.matrix();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let x: Vec<[f64; 3]> = (0..a.n()).map(|_| [rng.random_range(-1.0..1.0), rng.random_range(0.0..2.0), rng.random_range(-3.0..1.0)]).collect();
+    let x: Vec<[f64; 3]> =
+        (0..a.n()).map(|_| [rng.random_range(-1.0..1.0), rng.random_range(0.0..2.0), rng.random_range(-3.0..1.0)]).collect();
     let y_cpu = a.mul_vec(&x).unwrap();
     let (y_gpu, xax) = gpu::spmv_dot(ctx, a, &x).unwrap();
     let scale_row: Vec<[f64; 3]> = (0..a.n())
@@ -158,7 +159,9 @@ fn gpu_solve_matches_the_cpu_f64_solution_on_every_shared_mesh() {
             // The residual is the true f64 one: recompute it.
             let r = sys.matrix().mul_vec(&g.solution.phi).unwrap();
             let bn = transcut::sparse::norm3(sys.rhs());
-            let rn = transcut::sparse::norm3(&r.iter().zip(sys.rhs()).map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]]).collect::<Vec<_>>());
+            let rn = transcut::sparse::norm3(
+                &r.iter().zip(sys.rhs()).map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]]).collect::<Vec<_>>(),
+            );
             for c in 0..3 {
                 assert!((rn[c] / bn[c] - g.solution.stats.relative_residual[c]).abs() <= 1e-3 * tol);
             }
@@ -203,7 +206,8 @@ fn gpu_solve_is_exact_on_a_small_system_against_a_dense_direct_solve() {
             let dense = sys.matrix().to_dense(c);
             let rhs = nalgebra::DVector::from_iterator(sys.vertex_count(), sys.rhs().iter().map(|b| b[c]));
             let exact = dense.lu().solve(&rhs).unwrap();
-            let err = (0..sys.vertex_count()).map(|i| (g.solution.phi[i][c] - exact[i]).powi(2)).sum::<f64>().sqrt() / exact.norm();
+            let err =
+                (0..sys.vertex_count()).map(|i| (g.solution.phi[i][c] - exact[i]).powi(2)).sum::<f64>().sqrt() / exact.norm();
             assert!(err < 1e-10, "consistent = {consistent}, channel {c}: relative error {err:e} against LU");
         }
     }

@@ -14,8 +14,7 @@ use transcut::DVec3;
 #[test]
 fn auto_falls_back_to_the_cpu_and_gpu_fails_clearly_without_an_adapter() {
     std::env::set_var(ADAPTER_ENV, "no-such-adapter-anywhere");
-    let corners: Vec<DVec3> =
-        (0..8).map(|d| DVec3::new((d & 1) as f64, ((d >> 1) & 1) as f64, ((d >> 2) & 1) as f64)).collect();
+    let corners: Vec<DVec3> = (0..8).map(|d| DVec3::new((d & 1) as f64, ((d >> 1) & 1) as f64, ((d >> 2) & 1) as f64)).collect();
     let tets = vec![[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 5, 7], [0, 4, 6, 7]];
     let mesh = TetMesh::new(corners, tets, vec![]).unwrap();
     let mut sys = assemble(&mesh, &[Medium::preset("marble").unwrap()], 10.0).unwrap();

@@ -114,7 +114,11 @@ fn one_device_vcycle_equals_the_cpu_vcycle() {
                 mg.vcycle(a, &r, &mut cpu).unwrap();
                 let g = gpu::vcycle(ctx, &mg, a, &r).unwrap();
                 let err = rel_rms(&g, &cpu);
-                eprintln!("{name}: levels {:?}, degree {degree}: V-cycle GPU vs CPU relative RMS {}", h.vertex_counts(), fmt3(err));
+                eprintln!(
+                    "{name}: levels {:?}, degree {degree}: V-cycle GPU vs CPU relative RMS {}",
+                    h.vertex_counts(),
+                    fmt3(err)
+                );
                 assert!(err.iter().all(|&e| e < 1e-4), "{name}: {err:?}");
                 // Not the identity or a scaled copy of r: the cycle did something.
                 assert!(rel_rms(&cpu, &r).iter().all(|&e| e > 1e-2));
@@ -123,7 +127,12 @@ fn one_device_vcycle_equals_the_cpu_vcycle() {
     }
     let (_, mesh, scale) = &meshes()[0];
     let sys = system_for(mesh, *scale, "marble");
-    let mg = Multigrid::new(Arc::new(hierarchy(&sys, &HierarchyOptions::default()).unwrap()), sys.matrix(), MultigridOptions::default()).unwrap();
+    let mg = Multigrid::new(
+        Arc::new(hierarchy(&sys, &HierarchyOptions::default()).unwrap()),
+        sys.matrix(),
+        MultigridOptions::default(),
+    )
+    .unwrap();
     assert!(matches!(gpu::vcycle(ctx, &mg, sys.matrix(), &[[1.0; 3]; 4]), Err(GpuError::Diffusion(_))));
 }
 
@@ -251,8 +260,14 @@ fn one_level_hierarchy_is_plain_cg_and_exact() {
     assert_eq!(h.levels(), 1);
     let mg = Multigrid::new(Arc::new(h), sys.matrix(), MultigridOptions::default()).unwrap();
     let r = sys.rhs().to_vec();
-    assert_eq!(gpu::vcycle(ctx, &mg, sys.matrix(), &r).unwrap(), r.iter().map(|v| v.map(|x| f64::from(x as f32))).collect::<Vec<_>>());
-    let g = GpuSolver::with_multigrid(ctx, &sys, &mg).unwrap().solve(&sys, None, &SolveOptions::default().with_tolerance(1e-13)).unwrap();
+    assert_eq!(
+        gpu::vcycle(ctx, &mg, sys.matrix(), &r).unwrap(),
+        r.iter().map(|v| v.map(|x| f64::from(x as f32))).collect::<Vec<_>>()
+    );
+    let g = GpuSolver::with_multigrid(ctx, &sys, &mg)
+        .unwrap()
+        .solve(&sys, None, &SolveOptions::default().with_tolerance(1e-13))
+        .unwrap();
     assert_eq!(g.stats.multigrid_levels, 1);
     for c in 0..3 {
         let dense = sys.matrix().to_dense(c);

@@ -117,11 +117,7 @@ fn occluded_vertex_gets_nothing_from_that_light() {
     assert!((q[1][0] - t0).abs() < 1e-15);
     // The shadow of a directional light falls along its direction: a light from the side
     // misses the roof.
-    let slanted = [Light::Directional {
-        direction: DVec3::new(1.0, 0.0, -1.0),
-        irradiance: [1.0; 3],
-        angular_diameter_deg: 0.0,
-    }];
+    let slanted = [Light::Directional { direction: DVec3::new(1.0, 0.0, -1.0), irradiance: [1.0; 3], angular_diameter_deg: 0.0 }];
     let q = transmitted_source(&slanted, &points[..1], &normals[..1], ETA, Some(&bvh), &opts).unwrap();
     assert!(q[0][0] > 0.0);
 }
@@ -173,8 +169,7 @@ fn a_point_inside_a_closed_mesh_sees_no_sky() {
         Light::Environment(Environment::Equirect(map)),
         Light::Directional { direction: DVec3::new(0.2, 0.1, -1.0), irradiance: [5.0; 3], angular_diameter_deg: 2.0 },
     ];
-    let q = transmitted_source(&lights, &[DVec3::ZERO], &[DVec3::X], ETA, Some(&shell), &SourceOptions::default())
-        .unwrap();
+    let q = transmitted_source(&lights, &[DVec3::ZERO], &[DVec3::X], ETA, Some(&shell), &SourceOptions::default()).unwrap();
     assert_eq!(q[0], [0.0; 3]);
 }
 
@@ -207,13 +202,8 @@ fn rectangle_light_far_away_approaches_a_point_light() {
 
 #[test]
 fn one_sided_area_lights_emit_along_u_cross_v() {
-    let rect = |center: DVec3| Light::RectArea {
-        center,
-        half_u: DVec3::X,
-        half_v: DVec3::Y,
-        radiance: [1.0; 3],
-        two_sided: false,
-    };
+    let rect =
+        |center: DVec3| Light::RectArea { center, half_u: DVec3::X, half_v: DVec3::Y, radiance: [1.0; 3], two_sided: false };
     // u × v = +z: a receiver above it, facing down, is lit; one below, facing up, is not.
     let points = [DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.0, 0.0, -1.0)];
     let normals = [-DVec3::Z, DVec3::Z];
@@ -429,10 +419,7 @@ fn bad_points_normals_eta_and_options_are_reported() {
     let lights = [Light::Point { position: DVec3::Z, intensity: [1.0; 3] }];
     let opts = SourceOptions::default();
     let run = |p: &[DVec3], n: &[DVec3], eta: f64, o: &SourceOptions| transmitted_source(&lights, p, n, eta, None, o);
-    assert_eq!(
-        run(&[DVec3::ZERO; 2], &[DVec3::Z], ETA, &opts),
-        Err(LightError::LengthMismatch { points: 2, normals: 1 })
-    );
+    assert_eq!(run(&[DVec3::ZERO; 2], &[DVec3::Z], ETA, &opts), Err(LightError::LengthMismatch { points: 2, normals: 1 }));
     assert!(matches!(
         run(&[DVec3::ZERO, DVec3::new(0.0, 0.0, f64::NAN)], &[DVec3::Z; 2], ETA, &opts),
         Err(LightError::InvalidPoint { index: 1, field: "position", .. })
@@ -493,8 +480,7 @@ fn results_do_not_depend_on_the_thread_count() {
     assert_eq!(one, two);
     assert_eq!(one, run(2), "repeatable");
     // A different seed gives a different (but close) answer.
-    let other = transmitted_source(&lights, &points, &normals, ETA, Some(&bvh), &SourceOptions { seed: 43, ..opts })
-        .unwrap();
+    let other = transmitted_source(&lights, &points, &normals, ETA, Some(&bvh), &SourceOptions { seed: 43, ..opts }).unwrap();
     assert_ne!(one, other);
     let (s1, s2): (f64, f64) = (one.iter().map(|q| q[0]).sum(), other.iter().map(|q| q[0]).sum());
     assert!(rel(s1, s2) < 0.01, "{s1} vs {s2}");

@@ -6,9 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::{DMat4, DVec3};
-use transcut::mesh::{
-    self, load_obj, load_ply, parse_obj, parse_ply, MeshError, TriMesh, WeldOptions,
-};
+use transcut::mesh::{self, load_obj, load_ply, parse_obj, parse_ply, MeshError, TriMesh, WeldOptions};
 
 // ---------------------------------------------------------------------------------------------
 // Helpers
@@ -31,8 +29,7 @@ struct TempFile(PathBuf);
 
 impl TempFile {
     fn new(name: &str, contents: &[u8]) -> TempFile {
-        let path =
-            std::env::temp_dir().join(format!("transcut-mesh-input-{}-{name}", std::process::id()));
+        let path = std::env::temp_dir().join(format!("transcut-mesh-input-{}-{name}", std::process::id()));
         std::fs::write(&path, contents).unwrap();
         TempFile(path)
     }
@@ -56,10 +53,7 @@ fn raw_obj(text: &str) -> (Vec<DVec3>, Vec<Vec<u32>>) {
                 let c: Vec<f64> = t.take(3).map(|s| s.parse().unwrap()).collect();
                 v.push(DVec3::new(c[0], c[1], c[2]));
             }
-            Some("f") => f.push(
-                t.map(|s| s.split('/').next().unwrap().parse::<u32>().unwrap() - 1)
-                    .collect(),
-            ),
+            Some("f") => f.push(t.map(|s| s.split('/').next().unwrap().parse::<u32>().unwrap() - 1).collect()),
             _ => {}
         }
     }
@@ -95,27 +89,13 @@ fn write_ply(format: PlyFormat, single: bool, v: &[DVec3], f: &[Vec<u32>]) -> Ve
     let big = matches!(format, PlyFormat::BigEndian);
     let float = |out: &mut Vec<u8>, x: f64| {
         if single {
-            let b = if big {
-                (x as f32).to_be_bytes()
-            } else {
-                (x as f32).to_le_bytes()
-            };
+            let b = if big { (x as f32).to_be_bytes() } else { (x as f32).to_le_bytes() };
             out.extend(b);
         } else {
-            out.extend(if big {
-                x.to_be_bytes()
-            } else {
-                x.to_le_bytes()
-            });
+            out.extend(if big { x.to_be_bytes() } else { x.to_le_bytes() });
         }
     };
-    let int = |out: &mut Vec<u8>, x: i32| {
-        out.extend(if big {
-            x.to_be_bytes()
-        } else {
-            x.to_le_bytes()
-        })
-    };
+    let int = |out: &mut Vec<u8>, x: i32| out.extend(if big { x.to_be_bytes() } else { x.to_le_bytes() });
     match format {
         PlyFormat::Ascii => {
             let mut s = String::new();
@@ -152,11 +132,7 @@ fn write_ply(format: PlyFormat, single: bool, v: &[DVec3], f: &[Vec<u32>]) -> Ve
             int(&mut out, 2);
             int(&mut out, 0);
             int(&mut out, 1);
-            out.extend(if big {
-                (-3i16).to_be_bytes()
-            } else {
-                (-3i16).to_le_bytes()
-            });
+            out.extend(if big { (-3i16).to_be_bytes() } else { (-3i16).to_le_bytes() });
         }
     }
     out
@@ -233,20 +209,13 @@ fn every_test_mesh_loads_with_the_documented_counts() {
             continue;
         }
         let name = path.file_name().unwrap().to_str().unwrap().to_owned();
-        let &(_, vertices, triangles) = table
-            .iter()
-            .find(|t| t.0 == name)
-            .unwrap_or_else(|| panic!("{name} is not in the table"));
+        let &(_, vertices, triangles) =
+            table.iter().find(|t| t.0 == name).unwrap_or_else(|| panic!("{name} is not in the table"));
         let m = mesh::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(m.user_vertex_count(), vertices, "{name}: user vertices");
         assert_eq!(m.triangles().len(), triangles, "{name}: triangles");
         assert!(m.positions().len() <= vertices, "{name}");
-        assert!(
-            m.user_to_internal()
-                .iter()
-                .all(|&i| (i as usize) < m.positions().len()),
-            "{name}"
-        );
+        assert!(m.user_to_internal().iter().all(|&i| (i as usize) < m.positions().len()), "{name}");
         assert!(m.area() > 0.0, "{name}");
         // load_obj and mesh::load agree.
         let direct = load_obj(&path).unwrap();
@@ -297,12 +266,7 @@ fn obj_reader_agrees_with_an_independent_parse() {
 
 #[test]
 fn quad_becomes_two_triangles_with_the_same_area_and_winding() {
-    let v = vec![
-        DVec3::new(0., 0., 0.),
-        DVec3::new(2., 0., 0.),
-        DVec3::new(2., 1., 0.),
-        DVec3::new(0., 1., 0.),
-    ];
+    let v = vec![DVec3::new(0., 0., 0.), DVec3::new(2., 0., 0.), DVec3::new(2., 1., 0.), DVec3::new(0., 1., 0.)];
     let m = TriMesh::from_polygons(v, &[vec![0, 1, 2, 3]], &WeldOptions::default()).unwrap();
     assert_eq!(m.triangles().len(), 2);
     assert!((m.area() - 2.0).abs() < 1e-15);
@@ -342,11 +306,7 @@ fn cube_of_separate_quads_welds_to_eight_vertices_and_unit_volume() {
     assert_eq!(m.user_vertex_count(), 24);
     assert_eq!(m.positions().len(), 8);
     assert_eq!(m.triangles().len(), 12);
-    assert!(
-        (m.signed_volume() - 1.0).abs() < 1e-12,
-        "volume {}",
-        m.signed_volume()
-    );
+    assert!((m.signed_volume() - 1.0).abs() < 1e-12, "volume {}", m.signed_volume());
     assert!(m.is_closed());
     assert_eq!(m.shells().0, 1);
     // Every user vertex maps to a welded vertex at its own position.
@@ -362,18 +322,8 @@ fn cube_of_separate_quads_welds_to_eight_vertices_and_unit_volume() {
     assert_same_mesh(&m, &from_obj, 0.0);
 
     // Tolerance 0 still merges identical positions.
-    let unwelded = TriMesh::from_polygons(
-        v,
-        &f,
-        &WeldOptions {
-            relative_tolerance: 0.0,
-        },
-    );
-    assert_eq!(
-        unwelded.unwrap().positions().len(),
-        8,
-        "identical positions weld even at tolerance 0"
-    );
+    let unwelded = TriMesh::from_polygons(v, &f, &WeldOptions { relative_tolerance: 0.0 });
+    assert_eq!(unwelded.unwrap().positions().len(), 8, "identical positions weld even at tolerance 0");
 }
 
 #[test]
@@ -384,14 +334,7 @@ fn near_duplicates_weld_within_the_relative_tolerance_only() {
     let m = TriMesh::from_polygons(v.clone(), &f, &WeldOptions::default()).unwrap();
     assert_eq!(m.positions().len(), 8);
     // A tolerance of 0 keeps it apart, and the cube is no longer closed.
-    let m = TriMesh::from_polygons(
-        v,
-        &f,
-        &WeldOptions {
-            relative_tolerance: 0.0,
-        },
-    )
-    .unwrap();
+    let m = TriMesh::from_polygons(v, &f, &WeldOptions { relative_tolerance: 0.0 }).unwrap();
     assert_eq!(m.positions().len(), 9);
     assert!(!m.is_closed());
 }
@@ -420,12 +363,7 @@ fn faces_collapsed_by_welding_are_dropped() {
         DVec3::new(0., 1., 0.),
     ];
     // The quad loses a corner and becomes a triangle; the sliver triangle vanishes.
-    let m = TriMesh::from_polygons(
-        v,
-        &[vec![0, 1, 2, 3], vec![0, 1, 2]],
-        &WeldOptions::default(),
-    )
-    .unwrap();
+    let m = TriMesh::from_polygons(v, &[vec![0, 1, 2, 3], vec![0, 1, 2]], &WeldOptions::default()).unwrap();
     assert_eq!(m.user_to_internal(), &[0, 1, 1, 2]);
     assert_eq!(m.triangles(), &[[0, 1, 2]]);
     assert!((m.area() - 0.5).abs() < 1e-15);
@@ -446,18 +384,8 @@ fn from_triangles_accepts_f32_and_f64() {
 #[test]
 fn shells_are_edge_connected_components() {
     // Two tetrahedra sharing only a vertex: two shells.
-    let p = [
-        [0., 0., 0.],
-        [1., 0., 0.],
-        [0., 1., 0.],
-        [0., 0., 1.],
-        [-1., 0., 0.],
-        [0., -1., 0.],
-        [0., 0., -1.],
-    ];
-    let idx = [
-        0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3, 0, 4, 5, 0, 6, 4, 0, 5, 6, 4, 6, 5,
-    ];
+    let p = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [-1., 0., 0.], [0., -1., 0.], [0., 0., -1.]];
+    let idx = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3, 0, 4, 5, 0, 6, 4, 0, 5, 6, 4, 6, 5];
     let m = TriMesh::from_triangles(&p, &idx).unwrap();
     let (count, ids) = m.shells();
     assert_eq!(count, 2);
@@ -468,15 +396,10 @@ fn shells_are_edge_connected_components() {
 fn transformed_moves_positions_and_keeps_the_user_map() {
     let (v, f) = unit_cube_as_separate_quads();
     let m = TriMesh::from_polygons(v, &f, &WeldOptions::default()).unwrap();
-    let scaled = m.transformed(
-        &(DMat4::from_translation(DVec3::new(3., 0., 0.)) * DMat4::from_scale(DVec3::splat(2.))),
-    );
+    let scaled = m.transformed(&(DMat4::from_translation(DVec3::new(3., 0., 0.)) * DMat4::from_scale(DVec3::splat(2.))));
     assert_eq!(scaled.user_to_internal(), m.user_to_internal());
     assert!((scaled.signed_volume() - 8.0).abs() < 1e-12);
-    assert_eq!(
-        scaled.bounds(),
-        (DVec3::new(3., 0., 0.), DVec3::new(5., 2., 2.))
-    );
+    assert_eq!(scaled.bounds(), (DVec3::new(3., 0., 0.), DVec3::new(5., 2., 2.)));
     // A mirror keeps the faces pointing outwards.
     let mirrored = m.transformed(&DMat4::from_scale(DVec3::new(-1., 1., 1.)));
     assert!((mirrored.signed_volume() - 1.0).abs() < 1e-12);
@@ -492,11 +415,7 @@ fn obj_to_ply_round_trip_gives_the_same_mesh() {
     let text = std::fs::read_to_string(&path).unwrap();
     let from_obj = parse_obj(&text, "suzanne.obj").unwrap();
     let (v, f) = raw_obj(&text);
-    for format in [
-        PlyFormat::Ascii,
-        PlyFormat::LittleEndian,
-        PlyFormat::BigEndian,
-    ] {
+    for format in [PlyFormat::Ascii, PlyFormat::LittleEndian, PlyFormat::BigEndian] {
         let bytes = write_ply(format, false, &v, &f);
         let from_ply = parse_ply(&bytes, "suzanne.ply").unwrap();
         assert_same_mesh(&from_obj, &from_ply, 0.0);
@@ -531,14 +450,7 @@ fn ply_with_integer_coordinates_and_aliases() {
         b.extend(i.to_le_bytes());
     }
     let m = parse_ply(&b, "ints.ply").unwrap();
-    assert_eq!(
-        m.positions(),
-        &[
-            DVec3::ZERO,
-            DVec3::new(-4., 0., 0.),
-            DVec3::new(0., 200., 0.)
-        ]
-    );
+    assert_eq!(m.positions(), &[DVec3::ZERO, DVec3::new(-4., 0., 0.), DVec3::new(0., 200., 0.)]);
     assert!((m.area() - 400.0).abs() < 1e-12);
 }
 
@@ -551,24 +463,21 @@ fn error_empty_file() {
     let e = load_obj(&file.0).unwrap_err();
     assert!(matches!(e, MeshError::Empty(_)), "{e:?}");
     let msg = e.to_string();
-    assert!(
-        msg.contains("empty.obj") && msg.contains("no vertices"),
-        "{msg}"
-    );
+    assert!(msg.contains("empty.obj") && msg.contains("no vertices"), "{msg}");
 
     // Vertices but no faces.
     let e = parse_obj("v 0 0 0\nv 1 0 0\n", "points.obj").unwrap_err();
     assert!(matches!(e, MeshError::Empty(_)), "{e:?}");
-    assert!(
-        e.to_string().contains("points.obj: there are no faces"),
-        "{e}"
-    );
+    assert!(e.to_string().contains("points.obj: there are no faces"), "{e}");
 
     // An empty PLY file, and a PLY with no elements.
     let e = parse_ply(b"", "empty.ply").unwrap_err();
     assert!(matches!(e, MeshError::Parse { line: 1, .. }), "{e:?}");
-    let e = parse_ply(b"ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nend_header\n", "none.ply")
-        .unwrap_err();
+    let e = parse_ply(
+        b"ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+        "none.ply",
+    )
+    .unwrap_err();
     assert!(matches!(e, MeshError::Empty(_)), "{e:?}");
     assert!(e.to_string().contains("none.ply"), "{e}");
 
@@ -582,37 +491,17 @@ fn error_nan_coordinate() {
     let text = "v 0 0 0\nv 1 0 0\nv 0 NaN 0\nf 1 2 3\n";
     let e = parse_obj(text, "nan.obj").unwrap_err();
     match e {
-        MeshError::NonFinite {
-            vertex: 2,
-            x,
-            y,
-            line: Some(3),
-            ..
-        } => {
+        MeshError::NonFinite { vertex: 2, x, y, line: Some(3), .. } => {
             assert_eq!(x, 0.0);
             assert!(y.is_nan());
         }
         ref other => panic!("{other:?}"),
     }
-    assert!(
-        e.to_string()
-            .starts_with("nan.obj:3: vertex 2 has a non-finite coordinate (0, NaN, 0)"),
-        "{e}"
-    );
+    assert!(e.to_string().starts_with("nan.obj:3: vertex 2 has a non-finite coordinate (0, NaN, 0)"), "{e}");
 
     let v = vec![DVec3::ZERO, DVec3::X, DVec3::new(f64::NAN, 0., 0.)];
     let e = TriMesh::from_polygons(v, &[vec![0, 1, 2]], &WeldOptions::default()).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MeshError::NonFinite {
-                vertex: 2,
-                line: None,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    assert!(matches!(e, MeshError::NonFinite { vertex: 2, line: None, .. }), "{e:?}");
     assert!(e.to_string().starts_with("vertex 2 has"), "{e}");
 }
 
@@ -622,76 +511,29 @@ fn error_infinite_coordinate() {
     for (token, line) in [("1e400", 2), ("-inf", 2)] {
         let text = format!("v 0 0 0\nv 1 0 {token}\nv 0 1 0\nf 1 2 3\n");
         let e = parse_obj(&text, "inf.obj").unwrap_err();
-        assert!(
-            matches!(e, MeshError::NonFinite { vertex: 1, z, line: Some(l), .. } if z.is_infinite() && l == line),
-            "{e:?}"
-        );
+        assert!(matches!(e, MeshError::NonFinite { vertex: 1, z, line: Some(l), .. } if z.is_infinite() && l == line), "{e:?}");
         assert!(e.to_string().starts_with("inf.obj:2: vertex 1"), "{e}");
     }
     // In a binary PLY.
     let v = [DVec3::ZERO, DVec3::new(0., f64::INFINITY, 0.), DVec3::Y];
     let bytes = write_ply(PlyFormat::LittleEndian, false, &v, &[vec![0, 1, 2]]);
     let e = parse_ply(&bytes, "inf.ply").unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MeshError::NonFinite {
-                vertex: 1,
-                line: None,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
-    assert!(
-        e.to_string()
-            .starts_with("inf.ply: vertex 1 has a non-finite coordinate (0, inf, 0)"),
-        "{e}"
-    );
+    assert!(matches!(e, MeshError::NonFinite { vertex: 1, line: None, .. }), "{e:?}");
+    assert!(e.to_string().starts_with("inf.ply: vertex 1 has a non-finite coordinate (0, inf, 0)"), "{e}");
 }
 
 #[test]
 fn error_index_out_of_range() {
     let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n";
     let e = parse_obj(text, "range.obj").unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MeshError::IndexOutOfRange {
-                face: 1,
-                index: 9,
-                vertex_count: 3,
-                line: Some(5),
-                ..
-            }
-        ),
-        "{e:?}"
-    );
-    assert_eq!(
-        e.to_string(),
-        "range.obj:5: face 1 refers to vertex 9, but there are 3 vertices"
-    );
+    assert!(matches!(e, MeshError::IndexOutOfRange { face: 1, index: 9, vertex_count: 3, line: Some(5), .. }), "{e:?}");
+    assert_eq!(e.to_string(), "range.obj:5: face 1 refers to vertex 9, but there are 3 vertices");
 
     // Arrays (0-based).
     let v = vec![DVec3::ZERO, DVec3::X, DVec3::Y];
-    let e = TriMesh::from_polygons(v, &[vec![0, 1, 2], vec![0, 3, 1]], &WeldOptions::default())
-        .unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MeshError::IndexOutOfRange {
-                face: 1,
-                index: 3,
-                vertex_count: 3,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
-    assert_eq!(
-        e.to_string(),
-        "face 1 refers to vertex 3, but there are 3 vertices"
-    );
+    let e = TriMesh::from_polygons(v, &[vec![0, 1, 2], vec![0, 3, 1]], &WeldOptions::default()).unwrap_err();
+    assert!(matches!(e, MeshError::IndexOutOfRange { face: 1, index: 3, vertex_count: 3, .. }), "{e:?}");
+    assert_eq!(e.to_string(), "face 1 refers to vertex 3, but there are 3 vertices");
 
     // PLY: past the end, and negative.
     let v = [DVec3::ZERO, DVec3::X, DVec3::Y];
@@ -700,15 +542,8 @@ fn error_index_out_of_range() {
         let e = parse_ply(&bytes, "range.ply").unwrap_err();
         // u32::MAX is written as the int -1.
         let expected = if bad == 3 { 3 } else { -1 };
-        assert!(
-            matches!(e, MeshError::IndexOutOfRange { face: 1, index, vertex_count: 3, .. } if index == expected),
-            "{e:?}"
-        );
-        assert!(
-            e.to_string()
-                .contains(&format!("face 1 refers to vertex {expected}")),
-            "{e}"
-        );
+        assert!(matches!(e, MeshError::IndexOutOfRange { face: 1, index, vertex_count: 3, .. } if index == expected), "{e:?}");
+        assert!(e.to_string().contains(&format!("face 1 refers to vertex {expected}")), "{e}");
         if let PlyFormat::Ascii = format {
             assert!(e.to_string().starts_with("range.ply:19: "), "{e}");
         }
@@ -719,23 +554,8 @@ fn error_index_out_of_range() {
 fn error_negative_relative_index_too_far_back() {
     let text = "v 0 0 0\nv 1 0 0\nf -1 -2 -3\n";
     let e = parse_obj(text, "rel.obj").unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MeshError::IndexOutOfRange {
-                face: 0,
-                index: -3,
-                vertex_count: 2,
-                line: Some(3),
-                ..
-            }
-        ),
-        "{e:?}"
-    );
-    assert_eq!(
-        e.to_string(),
-        "rel.obj:3: face 0 refers to vertex -3, but there are 2 vertices"
-    );
+    assert!(matches!(e, MeshError::IndexOutOfRange { face: 0, index: -3, vertex_count: 2, line: Some(3), .. }), "{e:?}");
+    assert_eq!(e.to_string(), "rel.obj:3: face 0 refers to vertex -3, but there are 2 vertices");
     // Relative indices count from the vertices defined so far, not from the end of the file.
     let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 9 9 9\n";
     let m = parse_obj(text, "rel.obj").unwrap();
@@ -748,74 +568,24 @@ fn error_zero_index() {
     let e = parse_obj(text, "zero.obj").unwrap_err();
     assert!(matches!(e, MeshError::Parse { line: 5, .. }), "{e:?}");
     let msg = e.to_string();
-    assert!(
-        msg.starts_with("zero.obj:5: vertex index 0 in face corner '0/1'"),
-        "{msg}"
-    );
+    assert!(msg.starts_with("zero.obj:5: vertex index 0 in face corner '0/1'"), "{msg}");
 }
 
 #[test]
 fn error_face_with_two_vertices() {
     let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n";
     let e = parse_obj(text, "two.obj").unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MeshError::TooFewVertices {
-                face: 1,
-                count: 2,
-                line: Some(5),
-                ..
-            }
-        ),
-        "{e:?}"
-    );
-    assert_eq!(
-        e.to_string(),
-        "two.obj:5: face 1 has 2 vertices; a face needs at least 3"
-    );
+    assert!(matches!(e, MeshError::TooFewVertices { face: 1, count: 2, line: Some(5), .. }), "{e:?}");
+    assert_eq!(e.to_string(), "two.obj:5: face 1 has 2 vertices; a face needs at least 3");
 
     let v = [DVec3::ZERO, DVec3::X, DVec3::Y];
-    let bytes = write_ply(
-        PlyFormat::LittleEndian,
-        false,
-        &v,
-        &[vec![0, 1, 2], vec![0, 1]],
-    );
+    let bytes = write_ply(PlyFormat::LittleEndian, false, &v, &[vec![0, 1, 2], vec![0, 1]]);
     let e = parse_ply(&bytes, "two.ply").unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MeshError::TooFewVertices {
-                face: 1,
-                count: 2,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
-    assert!(
-        e.to_string().starts_with("two.ply: face 1 has 2 vertices"),
-        "{e}"
-    );
+    assert!(matches!(e, MeshError::TooFewVertices { face: 1, count: 2, .. }), "{e:?}");
+    assert!(e.to_string().starts_with("two.ply: face 1 has 2 vertices"), "{e}");
 
-    let e = TriMesh::from_polygons(
-        v.to_vec(),
-        &[vec![0, 1, 2], vec![]],
-        &WeldOptions::default(),
-    )
-    .unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MeshError::TooFewVertices {
-                face: 1,
-                count: 0,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    let e = TriMesh::from_polygons(v.to_vec(), &[vec![0, 1, 2], vec![]], &WeldOptions::default()).unwrap_err();
+    assert!(matches!(e, MeshError::TooFewVertices { face: 1, count: 0, .. }), "{e:?}");
 }
 
 #[test]
@@ -823,27 +593,12 @@ fn error_only_zero_area_faces() {
     // Collinear corners, a repeated corner, and a triangle collapsed by welding.
     let text = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 1 0 1e-12\nf 1 2 3\nf 1 2 2\nf 1 2 4\nf 1 2 3 4\n";
     let e = parse_obj(text, "flat.obj").unwrap_err();
-    assert!(
-        matches!(e, MeshError::AllFacesDegenerate { faces: 4, .. }),
-        "{e:?}"
-    );
-    assert_eq!(
-        e.to_string(),
-        "flat.obj: all 4 faces have zero area: there is no surface"
-    );
+    assert!(matches!(e, MeshError::AllFacesDegenerate { faces: 4, .. }), "{e:?}");
+    assert_eq!(e.to_string(), "flat.obj: all 4 faces have zero area: there is no surface");
 
     // Every vertex at one point.
     let e = TriMesh::from_triangles(&[[1.0f32; 3]; 3], &[0, 1, 2]).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MeshError::AllFacesDegenerate {
-                faces: 1,
-                path: None
-            }
-        ),
-        "{e:?}"
-    );
+    assert!(matches!(e, MeshError::AllFacesDegenerate { faces: 1, path: None }), "{e:?}");
 }
 
 #[test]
@@ -852,19 +607,13 @@ fn error_neither_obj_nor_ply() {
     let file = TempFile::new("junk.bin", &junk);
     let e = mesh::load(&file.0).unwrap_err();
     assert!(matches!(e, MeshError::UnknownFormat { .. }), "{e:?}");
-    assert!(
-        e.to_string().contains("junk.bin") && e.to_string().contains("not an OBJ or PLY"),
-        "{e}"
-    );
+    assert!(e.to_string().contains("junk.bin") && e.to_string().contains("not an OBJ or PLY"), "{e}");
 
     // A missing file names the file.
     let missing = std::env::temp_dir().join("transcut-definitely-missing.obj");
     let e = mesh::load(&missing).unwrap_err();
     assert!(matches!(e, MeshError::Io { .. }), "{e:?}");
-    assert!(
-        e.to_string().contains("transcut-definitely-missing.obj"),
-        "{e}"
-    );
+    assert!(e.to_string().contains("transcut-definitely-missing.obj"), "{e}");
 
     // A file that claims to be OBJ but has garbage lines.
     let e = parse_obj("v 0 0 0\n\u{1}\u{2}garbage\n", "bad.obj").unwrap_err();
@@ -875,32 +624,19 @@ fn error_neither_obj_nor_ply() {
 fn error_truncated_binary_ply() {
     let (v, f) = unit_cube_as_separate_quads();
     let bytes = write_ply(PlyFormat::LittleEndian, false, &v, &f);
-    let header_len = bytes
-        .windows(11)
-        .position(|w| w == b"end_header\n")
-        .unwrap()
-        + 11;
+    let header_len = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
     // Cut in the middle of the faces: each vertex is 25 bytes, each quad 17 bytes.
     let cut = header_len + 24 * 25 + 2 * 17 + 5;
     let e = parse_ply(&bytes[..cut], "cut.ply").unwrap_err();
     assert!(matches!(e, MeshError::Truncated { .. }), "{e:?}");
-    assert_eq!(
-        e.to_string(),
-        "cut.ply: truncated: the data ends in face 2 of 6 (property 'vertex_indices')"
-    );
+    assert_eq!(e.to_string(), "cut.ply: truncated: the data ends in face 2 of 6 (property 'vertex_indices')");
     // Cut in the vertices.
     let cut = header_len + 10 * 25 + 20;
     let e = parse_ply(&bytes[..cut], "cut.ply").unwrap_err();
-    assert!(
-        e.to_string().contains("vertex 10 of 24 (property 'z')"),
-        "{e}"
-    );
+    assert!(e.to_string().contains("vertex 10 of 24 (property 'z')"), "{e}");
     // Cut in the trailing element that is skipped.
     let e = parse_ply(&bytes[..bytes.len() - 1], "cut.ply").unwrap_err();
-    assert!(
-        e.to_string().contains("edge 0 of 1 (property 'crease')"),
-        "{e}"
-    );
+    assert!(e.to_string().contains("edge 0 of 1 (property 'crease')"), "{e}");
     // Cut in the header.
     let e = parse_ply(&bytes[..header_len - 11], "cut.ply").unwrap_err();
     assert!(matches!(e, MeshError::Truncated { .. }), "{e:?}");
@@ -917,56 +653,20 @@ fn error_ply_bad_header_line() {
     let (v, f) = unit_cube_as_separate_quads();
     let good = String::from_utf8(write_ply(PlyFormat::Ascii, false, &v, &f)).unwrap();
     let cases = [
-        (
-            "property double y",
-            "property dubble y",
-            7,
-            "unknown property type 'dubble'",
-        ),
-        (
-            "format ascii 1.0",
-            "format ascii 2.0",
-            2,
-            "unsupported PLY version '2.0'",
-        ),
-        (
-            "format ascii 1.0",
-            "format utf8 1.0",
-            2,
-            "unknown format 'utf8'",
-        ),
-        (
-            "element face 6",
-            "element face six",
-            9,
-            "cannot read 'six' as the number of 'face' elements",
-        ),
-        (
-            "comment written",
-            "remark written",
-            3,
-            "unknown header keyword 'remark'",
-        ),
+        ("property double y", "property dubble y", 7, "unknown property type 'dubble'"),
+        ("format ascii 1.0", "format ascii 2.0", 2, "unsupported PLY version '2.0'"),
+        ("format ascii 1.0", "format utf8 1.0", 2, "unknown format 'utf8'"),
+        ("element face 6", "element face six", 9, "cannot read 'six' as the number of 'face' elements"),
+        ("comment written", "remark written", 3, "unknown header keyword 'remark'"),
         ("ply\n", "plx\n", 1, "not a PLY file"),
-        (
-            "property list uchar int vertex_indices",
-            "property list uchar int corners",
-            9,
-            "no list property 'vertex_indices'",
-        ),
+        ("property list uchar int vertex_indices", "property list uchar int corners", 9, "no list property 'vertex_indices'"),
     ];
     for (from, to, line, needle) in cases {
         let bad = good.replacen(from, to, 1);
         let e = parse_ply(bad.as_bytes(), "hdr.ply").unwrap_err();
-        assert!(
-            matches!(e, MeshError::Parse { line: l, .. } if l == line),
-            "{to}: {e:?}"
-        );
+        assert!(matches!(e, MeshError::Parse { line: l, .. } if l == line), "{to}: {e:?}");
         let msg = e.to_string();
-        assert!(
-            msg.starts_with(&format!("hdr.ply:{line}: ")) && msg.contains(needle),
-            "{msg}"
-        );
+        assert!(msg.starts_with(&format!("hdr.ply:{line}: ")) && msg.contains(needle), "{msg}");
     }
 }
 
@@ -974,33 +674,17 @@ fn error_ply_bad_header_line() {
 fn error_obj_bad_number_names_token_and_line() {
     let e = parse_obj("v 0 0 0\nv 1 0,5 0\n", "comma.obj").unwrap_err();
     assert!(matches!(e, MeshError::Parse { line: 2, .. }), "{e:?}");
-    assert_eq!(
-        e.to_string(),
-        "comma.obj:2: cannot read '0,5' as the y coordinate of a vertex"
-    );
+    assert_eq!(e.to_string(), "comma.obj:2: cannot read '0,5' as the y coordinate of a vertex");
     let e = parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "face.obj").unwrap_err();
-    assert_eq!(
-        e.to_string(),
-        "face.obj:4: cannot read 'x' in face corner 'x' as a vertex index"
-    );
+    assert_eq!(e.to_string(), "face.obj:4: cannot read 'x' in face corner 'x' as a vertex index");
 }
 
 #[test]
 fn error_bad_arrays() {
     let e = TriMesh::from_triangles(&[[0.0f64; 3]; 3], &[0, 1, 2, 0]).unwrap_err();
-    assert!(
-        matches!(e, MeshError::IndexCountNotMultipleOf3 { len: 4 }),
-        "{e:?}"
-    );
+    assert!(matches!(e, MeshError::IndexCountNotMultipleOf3 { len: 4 }), "{e:?}");
     assert!(e.to_string().contains("4 entries"), "{e}");
     let v = vec![DVec3::ZERO, DVec3::X, DVec3::Y];
-    let e = TriMesh::from_polygons(
-        v,
-        &[vec![0, 1, 2]],
-        &WeldOptions {
-            relative_tolerance: -1.0,
-        },
-    )
-    .unwrap_err();
+    let e = TriMesh::from_polygons(v, &[vec![0, 1, 2]], &WeldOptions { relative_tolerance: -1.0 }).unwrap_err();
     assert!(matches!(e, MeshError::InvalidTolerance { .. }), "{e:?}");
 }

@@ -10,8 +10,7 @@ use transcut::mesh::{self, TriMesh};
 use transcut::mesher::{tetrahedralize_with, MeshSize, MesherError, MesherOptions, Tetrahedralization};
 use transcut::Progress;
 
-const MESHES: [&str; 8] =
-    ["cow", "suzanne", "stanford-bunny", "fandisk", "homer", "cheburashka", "spot", "rocker-arm"];
+const MESHES: [&str; 8] = ["cow", "suzanne", "stanford-bunny", "fandisk", "homer", "cheburashka", "spot", "rocker-arm"];
 
 fn shared_mesh(name: &str) -> TriMesh {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes").join(format!("{name}.obj"));
@@ -20,11 +19,8 @@ fn shared_mesh(name: &str) -> TriMesh {
 
 /// Whether every edge of the input is shared by exactly two triangles.
 fn is_closed(m: &TriMesh) -> bool {
-    let mut edges: Vec<(u32, u32)> = m
-        .triangles()
-        .iter()
-        .flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
-        .collect();
+    let mut edges: Vec<(u32, u32)> =
+        m.triangles().iter().flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])))).collect();
     edges.sort_unstable();
     let mut i = 0;
     while i < edges.len() {
@@ -58,7 +54,11 @@ fn check(name: &str, input: &TriMesh, t: &Tetrahedralization, target: usize) {
     assert_eq!(m.surface_map().len(), input.user_vertex_count(), "{name}: every user vertex is mapped");
     assert!(m.surface_map().iter().all(|p| p.distance.is_finite() && (p.bary.iter().sum::<f64>() - 1.0).abs() < 1e-9));
     if is_closed(input) {
-        assert!(s.hausdorff.boundary_to_input <= 0.01 * s.spacing, "{name}: boundary {:.3e} off the surface", s.hausdorff.boundary_to_input);
+        assert!(
+            s.hausdorff.boundary_to_input <= 0.01 * s.spacing,
+            "{name}: boundary {:.3e} off the surface",
+            s.hausdorff.boundary_to_input
+        );
         assert_eq!(s.bisected_cuts, 0, "{name}: a closed input needs no bisected cut");
     }
 }
@@ -127,8 +127,9 @@ fn invalid_sizes_are_rejected_with_a_message() {
         let err = tetrahedralize_with(&input, &MesherOptions { size, ..Default::default() }, Progress::none()).unwrap_err();
         assert!(matches!(err, MesherError::InvalidOptions(_)), "{size:?}: {err}");
     }
-    let err = tetrahedralize_with(&input, &MesherOptions { size: MeshSize::Spacing(1e-6), ..Default::default() }, Progress::none())
-        .unwrap_err();
+    let err =
+        tetrahedralize_with(&input, &MesherOptions { size: MeshSize::Spacing(1e-6), ..Default::default() }, Progress::none())
+            .unwrap_err();
     assert!(matches!(err, MesherError::TooLarge { .. }), "{err}");
 }
 

@@ -11,8 +11,8 @@ use transcut::mesh::{self, TetMesh};
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
 use transcut::sparse::hierarchy::{
-    check_invariants, codes, galerkin, lost_connections, mg_pcg, substituted, Hierarchy, HierarchyKind, HierarchyOptions, Multigrid,
-    MultigridOptions,
+    check_invariants, codes, galerkin, lost_connections, mg_pcg, substituted, Hierarchy, HierarchyKind, HierarchyOptions,
+    Multigrid, MultigridOptions,
 };
 use transcut::sparse::{Preconditioner, PreconditionerKind, SolveOptions};
 use transcut::DVec3;

@@ -3,9 +3,8 @@
 
 use proptest::prelude::*;
 use transcut::optics::{
-    f_ext, fdr, fresnel_reflectance, reduced_albedo_from_rd, total_diffuse_reflectance,
-    transmittance_out, uniform_sphere_fluence, ArtistParams, BoundaryTerms, Medium, OpticsError,
-    UniformSphere, PRESET_NAMES,
+    f_ext, fdr, fresnel_reflectance, reduced_albedo_from_rd, total_diffuse_reflectance, transmittance_out,
+    uniform_sphere_fluence, ArtistParams, BoundaryTerms, Medium, OpticsError, UniformSphere, PRESET_NAMES,
 };
 
 /// A published value and the number of decimals it was printed with.
@@ -33,8 +32,7 @@ fn agrees(computed: f64, published: Published) -> bool {
         return true;
     }
     let unit = 10f64.powi(-published.decimals);
-    significant_digits(published) <= 2
-        && ((computed / unit).round() - published.value / unit).abs() < 1e-9
+    significant_digits(published) <= 2 && ((computed / unit).round() - published.value / unit).abs() < 1e-9
 }
 
 /// Jensen et al. 2001 (and the RenderMan tables copied from it): name, Rd, ℓd (mm).
@@ -66,9 +64,7 @@ fn published_values_needing_the_rounding_rule_are_only_the_two_digit_ones() {
     let mut rounded = Vec::new();
     for (name, rd, ld) in published_table() {
         let m = Medium::preset(name).unwrap();
-        for (got, published, what) in
-            [(m.total_diffuse_reflectance(), rd, "Rd"), (m.diffuse_mean_free_path(), ld, "ld")]
-        {
+        for (got, published, what) in [(m.total_diffuse_reflectance(), rd, "Rd"), (m.diffuse_mean_free_path(), ld, "ld")] {
             for c in 0..3 {
                 if (got[c] / published[c].value - 1.0).abs() > 0.01 {
                     assert!(significant_digits(published[c]) <= 2);
@@ -94,8 +90,7 @@ fn every_preset_is_valid_and_consistent() {
     for name in PRESET_NAMES {
         let m = Medium::preset(name).unwrap();
         m.validate().unwrap();
-        let (rd, ld, tr) =
-            (m.total_diffuse_reflectance(), m.diffuse_mean_free_path(), m.sigma_tr());
+        let (rd, ld, tr) = (m.total_diffuse_reflectance(), m.diffuse_mean_free_path(), m.sigma_tr());
         for c in 0..3 {
             assert!(rd[c] > 0.0 && rd[c] < 1.0, "{name}");
             assert!((ld[c] * tr[c] - 1.0).abs() < 1e-14, "{name}");
@@ -225,14 +220,7 @@ proptest! {
 
 #[test]
 fn artist_parameters_reject_invalid_input() {
-    let ok = ArtistParams {
-        albedo: [0.5; 3],
-        radius: [1.0; 3],
-        scale: 1.0,
-        mm_per_unit: 1.0,
-        eta: 1.3,
-        g: 0.0,
-    };
+    let ok = ArtistParams { albedo: [0.5; 3], radius: [1.0; 3], scale: 1.0, mm_per_unit: 1.0, eta: 1.3, g: 0.0 };
     assert!(ok.to_medium().is_ok());
     let e = ArtistParams { albedo: [0.5, 1.0, 0.5], ..ok }.to_medium().unwrap_err();
     assert!(e.to_string().contains("albedo[1] (green)"), "{e}");

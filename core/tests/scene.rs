@@ -42,10 +42,8 @@ fn uniform_sphere_under_a_constant_sky_matches_the_closed_form() {
 fn the_lit_side_is_brighter_and_results_follow_the_users_vertex_order() {
     let mesh = uv_sphere(20.0, 64, 32);
     let sun = Light::Directional { direction: DVec3::new(0.0, 0.0, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 };
-    let scene = Scene {
-        objects: vec![Object::new("ball", mesh.clone(), Medium::preset("skin1").unwrap(), 1.0)],
-        lights: vec![sun],
-    };
+    let scene =
+        Scene { objects: vec![Object::new("ball", mesh.clone(), Medium::preset("skin1").unwrap(), 1.0)], lights: vec![sun] };
     let r = bake(&scene, &BakeOptions { tets: 20_000, ..Default::default() }).unwrap();
     let lo = &r.objects[0].radiance;
     let top = lo[0]; // north pole faces the sun
@@ -74,6 +72,7 @@ fn bad_scenes_are_rejected_with_the_culprit_named() {
     let nan_light = Light::Point { position: DVec3::new(f64::NAN, 0.0, 0.0), intensity: [1.0; 3] };
     let err = bake(&Scene { objects: vec![ball.clone()], lights: vec![nan_light] }, &BakeOptions::default()).unwrap_err();
     assert!(matches!(err, SceneError::Light(_)), "{err}");
-    let err = bake(&Scene { objects: vec![ball], lights: vec![] }, &BakeOptions { tolerance: 2.0, ..Default::default() }).unwrap_err();
+    let err =
+        bake(&Scene { objects: vec![ball], lights: vec![] }, &BakeOptions { tolerance: 2.0, ..Default::default() }).unwrap_err();
     assert!(matches!(err, SceneError::InvalidOptions(_)), "{err}");
 }

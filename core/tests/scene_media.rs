@@ -140,7 +140,10 @@ fn misused_media_are_named() {
     expect_invalid(sphere_object(MediumSource::Table(vec![])), "empty");
     let mesh = bake_one(sphere_object(m.into())).objects.swap_remove(0).tet_mesh;
     let n = mesh.tet_count();
-    expect_invalid(Object::from_tets("t", mesh.clone(), MediumSource::PerTet(per_tet), 1.0), &format!("10 tets but the tet mesh has {n}"));
+    expect_invalid(
+        Object::from_tets("t", mesh.clone(), MediumSource::PerTet(per_tet), 1.0),
+        &format!("10 tets but the tet mesh has {n}"),
+    );
     let mut two = mesh;
     two.set_materials(vec![1; n]).unwrap();
     expect_invalid(Object::from_tets("t", two, MediumSource::Table(vec![m]), 1.0), "material id 1 but the table has 1 entries");

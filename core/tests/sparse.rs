@@ -11,8 +11,8 @@ use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use transcut::sparse::{
-    bicgstab, pcg, read_array_matrix_market, write_vector3_matrix_market, write_vector_matrix_market, CsrMatrix,
-    CsrMatrix3, CsrPattern, Precision, Preconditioner, PreconditionerKind, SolveOptions, SparseError, Triplet,
+    bicgstab, pcg, read_array_matrix_market, write_vector3_matrix_market, write_vector_matrix_market, CsrMatrix, CsrMatrix3,
+    CsrPattern, Precision, Preconditioner, PreconditionerKind, SolveOptions, SparseError, Triplet,
 };
 
 /// A random SPD matrix: a random weighted graph Laplacian (different weights per channel) plus a
@@ -566,9 +566,8 @@ pub fn kuhn_proxy(s: usize) -> (CsrMatrix3, Vec<[f64; 3]>) {
             for x in 0..s {
                 let i = idx(x, y, z);
                 let boundary = [x, y, z].iter().any(|&v| v == 0 || v == s - 1);
-                let mass: [f64; 3] = std::array::from_fn(|c| {
-                    h * h * h * sigma_a[c] + if boundary { 2.0 * h * h / (3.0 * big_a) } else { 0.0 }
-                });
+                let mass: [f64; 3] =
+                    std::array::from_fn(|c| h * h * h * sigma_a[c] + if boundary { 2.0 * h * h / (3.0 * big_a) } else { 0.0 });
                 t.push(Triplet::new(i, i, mass));
                 for (o, wgt) in offsets {
                     let (a, b, c) = (x as i64 + o[0], y as i64 + o[1], z as i64 + o[2]);
@@ -649,8 +648,7 @@ fn bench_preconditioners_on_the_86k_proxy() {
         let (setup, pc) = time_best(3, || Preconditioner::new(&a, kind).unwrap());
         pcs.push((kind, setup, pc));
     }
-    let cases: Vec<(usize, Precision)> =
-        (0..pcs.len()).flat_map(|k| [(k, Precision::Mixed), (k, Precision::Double)]).collect();
+    let cases: Vec<(usize, Precision)> = (0..pcs.len()).flat_map(|k| [(k, Precision::Mixed), (k, Precision::Double)]).collect();
     let mut best = vec![f64::INFINITY; cases.len()];
     let mut cpu1 = vec![f64::INFINITY; cases.len()];
     let mut results = vec![None; cases.len()];
@@ -688,8 +686,8 @@ fn bench_preconditioners_on_the_86k_proxy() {
     let x = reference;
     // What f32 matrix values would cost in accuracy: the residual that rounding A to f32 alone
     // leaves at the f64 solution, ‖(A − A₃₂) x‖ / ‖b‖.
-    let a32 = CsrMatrix3::new(Arc::clone(a.pattern()), a.values().iter().map(|v| v.map(|t| f64::from(t as f32))).collect())
-        .unwrap();
+    let a32 =
+        CsrMatrix3::new(Arc::clone(a.pattern()), a.values().iter().map(|v| v.map(|t| f64::from(t as f32))).collect()).unwrap();
     let y64 = a.mul_vec(&x).unwrap();
     let y32 = a32.mul_vec(&x).unwrap();
     let bn = transcut::sparse::norm3(&b);

@@ -11,9 +11,7 @@ use transcut::diffusion::assemble;
 use transcut::mesh::TetMesh;
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
-use transcut::volume::{
-    Coefficients, Layers, PerTetMedia, TableLayout, TetSampling, VeinParams, Veins, VolumeError, VoxelGrid,
-};
+use transcut::volume::{Coefficients, Layers, PerTetMedia, TableLayout, TetSampling, VeinParams, Veins, VolumeError, VoxelGrid};
 use transcut::DVec3;
 
 /// Sphere radius (scene units = mm).
@@ -151,10 +149,9 @@ fn per_tet_averaging_of_a_linear_grid_is_the_centroid_value() {
     // Inside the box of voxel centres, a linear field is sampled exactly, and the five-point
     // rule is exact for linear fields: every tet gets the value at its centroid.
     let f = |p: DVec3| 2.0 + 0.0625 * p.x + 0.03125 * p.y + 0.015625 * p.z;
-    let grid = VoxelGrid::from_fn([48, 48, 48], DVec3::splat(-12.0), DVec3::splat(0.5), |p| {
-        Coefficients::new([f(p); 3], [1.0; 3])
-    })
-    .unwrap();
+    let grid =
+        VoxelGrid::from_fn([48, 48, 48], DVec3::splat(-12.0), DVec3::splat(0.5), |p| Coefficients::new([f(p); 3], [1.0; 3]))
+            .unwrap();
     let mesh = sphere();
     let media = grid.per_tet(mesh, 1.3, 0.0, TetSampling::FivePoint).unwrap();
     for t in 0..mesh.tet_count() {
@@ -214,7 +211,10 @@ fn every_bad_file_gives_its_error() {
     let at = 72 + 4 * (6 * 104);
     negative[at..at + 4].copy_from_slice(&(-0.5f32).to_le_bytes());
     let e = read_bytes("negative", &negative).unwrap_err();
-    assert!(matches!(e.root(), VolumeError::InvalidVoxel { voxel: [6, 4, 2], index: 104, channel: 0, value, .. } if *value == -0.5), "{e}");
+    assert!(
+        matches!(e.root(), VolumeError::InvalidVoxel { voxel: [6, 4, 2], index: 104, channel: 0, value, .. } if *value == -0.5),
+        "{e}"
+    );
     assert!(e.to_string().contains("channel 0 (sigma_a red): value -0.5: must be finite and >= 0"), "{e}");
 
     // Infinite values are rejected too.
@@ -303,9 +303,7 @@ fn layers_on_a_meshed_sphere_follow_the_depth() {
     }
     assert!(counts.iter().all(|&n| n > 500), "{counts:?}");
     // The tet containing the centre.
-    let centre_tet = (0..mesh.tet_count())
-        .min_by(|&a, &b| centroid(a).length().total_cmp(&centroid(b).length()))
-        .unwrap();
+    let centre_tet = (0..mesh.tet_count()).min_by(|&a, &b| centroid(a).length().total_cmp(&centroid(b).length())).unwrap();
     assert_eq!(media.coefficients()[centre_tet], inner);
 }
 

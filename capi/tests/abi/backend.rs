@@ -40,7 +40,10 @@ fn stats(s: *mut TcScene) -> TcBakeStats {
 }
 
 /// `tc_object_device` or `tc_object_backend_fallback` of object 0, through the size query.
-fn text(s: *mut TcScene, f: unsafe extern "C" fn(*const TcScene, u32, *mut std::ffi::c_char, usize, *mut usize) -> TcStatus) -> String {
+fn text(
+    s: *mut TcScene,
+    f: unsafe extern "C" fn(*const TcScene, u32, *mut std::ffi::c_char, usize, *mut usize) -> TcStatus,
+) -> String {
     let mut needed = 0usize;
     // SAFETY: the documented size query (NULL, 0).
     ok(unsafe { f(s, 0, ptr::null_mut(), 0, &mut needed) }, "size query");

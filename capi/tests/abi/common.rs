@@ -93,7 +93,14 @@ pub fn add(scene: *mut TcScene, mesh: &Mesh) -> u32 {
     let mut object = u32::MAX;
     // SAFETY: arrays of the given lengths.
     let status = unsafe {
-        tc_scene_add_mesh(scene, mesh.positions.as_ptr(), mesh.vertex_count(), mesh.indices.as_ptr(), mesh.indices.len(), &mut object)
+        tc_scene_add_mesh(
+            scene,
+            mesh.positions.as_ptr(),
+            mesh.vertex_count(),
+            mesh.indices.as_ptr(),
+            mesh.indices.len(),
+            &mut object,
+        )
     };
     ok(status, "tc_scene_add_mesh");
     object

@@ -206,9 +206,16 @@ fn plane_cut_equals_the_cores_result() {
     let xyz: Vec<[f32; 3]> = mesh.positions.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
     let surface = TriMesh::from_triangles(&xyz, &mesh.indices).unwrap();
     let object = Object::new("object 0", surface, Medium::preset("marble").unwrap(), 1.0);
-    let sun = Light::Directional { direction: DVec3::new(0.3, 0.2, -1.0), irradiance: [3.0, 2.5, 2.0], angular_diameter_deg: 0.0 };
+    let sun =
+        Light::Directional { direction: DVec3::new(0.3, 0.2, -1.0), irradiance: [3.0, 2.5, 2.0], angular_diameter_deg: 0.0 };
     let scene = Scene { objects: vec![object], lights: vec![sun.clone()] };
-    let options = BakeOptions { tets: TETS as usize, tolerance: TOL, shadows: false, backend: Some(Backend::Cpu), ..BakeOptions::default() };
+    let options = BakeOptions {
+        tets: TETS as usize,
+        tolerance: TOL,
+        shadows: false,
+        backend: Some(Backend::Cpu),
+        ..BakeOptions::default()
+    };
     let baked = bake(&scene, &options).unwrap();
     let edit_options = EditOptions {
         tets: options.tets,
@@ -320,7 +327,11 @@ fn bad_edits_are_refused_naming_the_argument_and_change_nothing() {
         fails(tc_object_cut_plane(s, 0, [0.0, 0.0, -100.0].as_ptr(), normal.as_ptr(), 0), TC_NOTHING_LEFT, &[]);
         let one = [0.0, 0.0, 30.0];
         fails(tc_object_cut_stroke(s, 0, one.as_ptr(), [0.0, 0.0, -1.0].as_ptr(), 1, 0), TC_INVALID_ARGUMENT, &["stroke"]);
-        fails(tc_object_cut_mesh(s, 0, [0.0f32; 9].as_ptr(), 3, [0u32, 1, 2, 0].as_ptr(), 4, 0), TC_INVALID_MESH, &["index_count = 4"]);
+        fails(
+            tc_object_cut_mesh(s, 0, [0.0f32; 9].as_ptr(), 3, [0u32, 1, 2, 0].as_ptr(), 4, 0),
+            TC_INVALID_MESH,
+            &["index_count = 4"],
+        );
 
         let mut edit: TcMediumEdit = std::mem::zeroed();
         edit.size = std::mem::size_of::<TcMediumEdit>() as u32;
@@ -363,9 +374,11 @@ fn bad_edits_are_refused_naming_the_argument_and_change_nothing() {
     let (mut pb, mut tb, mut rb) = (vec![-7.0f32; p.len()], vec![7u32; t.len()], vec![-7.0f32; r.len() - 1]);
     // SAFETY: buffers of the given lengths; the radiance one is one short.
     unsafe {
-        let status = tc_object_piece_mesh(s, 0, 0, pb.as_mut_ptr(), pb.len(), tb.as_mut_ptr(), tb.len(), rb.as_mut_ptr(), rb.len());
+        let status =
+            tc_object_piece_mesh(s, 0, 0, pb.as_mut_ptr(), pb.len(), tb.as_mut_ptr(), tb.len(), rb.as_mut_ptr(), rb.len());
         fails(status, TC_BUFFER_TOO_SHORT, &["radiance_len"]);
-        let status = tc_object_piece_mesh(s, 0, 5, pb.as_mut_ptr(), pb.len(), tb.as_mut_ptr(), tb.len(), rb.as_mut_ptr(), rb.len());
+        let status =
+            tc_object_piece_mesh(s, 0, 5, pb.as_mut_ptr(), pb.len(), tb.as_mut_ptr(), tb.len(), rb.as_mut_ptr(), rb.len());
         fails(status, TC_INVALID_HANDLE, &["piece 5"]);
     }
     assert!(pb.iter().all(|&x| x == -7.0) && tb.iter().all(|&x| x == 7) && rb.iter().all(|&x| x == -7.0), "written on failure");
@@ -411,7 +424,7 @@ fn relight_progress_and_cancel_change_nothing() {
     let mesh = Mesh::uv_sphere(10.0, 24, 12);
     let s = baked(&mesh, [0.0, 0.0, -1.0]);
     let ink = TcMedium { sigma_a: [1.0, 1.0, 0.01], sigma_s_prime: [2.0; 3], eta: 1.5, g: 0.0 }; // marble: eta 1.5
-    // SAFETY: valid pointers.
+                                                                                                 // SAFETY: valid pointers.
     ok(unsafe { tc_object_paint(s, 0, [10.0, 0.0, 0.0].as_ptr(), 1, 2.0, &ink, 1.0) }, "paint");
     let painted = edit_stats(s, 0);
     assert!(painted.rows_rebuilt > 0);
@@ -446,7 +459,7 @@ fn relight_progress_and_cancel_change_nothing() {
 fn painted_and_baked_pair(mesh: &Mesh) -> *mut TcScene {
     let s = scene();
     let ink = TcMedium { sigma_a: [1.0, 1.0, 0.01], sigma_s_prime: [2.0; 3], eta: 1.5, g: 0.0 }; // marble: eta 1.5
-    // SAFETY: valid pointers.
+                                                                                                 // SAFETY: valid pointers.
     unsafe {
         for _ in 0..2 {
             let ball = add(s, mesh);

@@ -175,15 +175,23 @@ fn invalid_values_name_the_field() {
         fails(tc_object_set_transform(s, ball, projective.as_ptr()), TC_INVALID_ARGUMENT, &["affine"]);
         // Lights.
         fails(tc_scene_add_sun(s, [0.0; 3].as_ptr(), v.as_ptr(), 0.0), TC_INVALID_ARGUMENT, &["direction", "non-zero"]);
-        fails(tc_scene_add_sun(s, [0.0, 0.0, -1.0].as_ptr(), [1.0, f64::NAN, 1.0].as_ptr(), 0.0), TC_INVALID_ARGUMENT, &[
-            "irradiance",
-        ]);
+        fails(
+            tc_scene_add_sun(s, [0.0, 0.0, -1.0].as_ptr(), [1.0, f64::NAN, 1.0].as_ptr(), 0.0),
+            TC_INVALID_ARGUMENT,
+            &["irradiance"],
+        );
         fails(tc_scene_add_sun(s, [0.0, 0.0, -1.0].as_ptr(), v.as_ptr(), 200.0), TC_INVALID_ARGUMENT, &["angular_diameter"]);
         fails(tc_scene_add_point(s, [f64::NAN, 0.0, 0.0].as_ptr(), v.as_ptr()), TC_INVALID_ARGUMENT, &["position"]);
-        fails(tc_scene_add_spot(s, [0.0, 0.0, 50.0].as_ptr(), [0.0, 0.0, -1.0].as_ptr(), v.as_ptr(), 120.0, 0.1), TC_INVALID_ARGUMENT, &[
-            "cone",
-        ]);
-        fails(tc_scene_add_disc(s, [0.0; 3].as_ptr(), [0.0, 0.0, 1.0].as_ptr(), -1.0, v.as_ptr(), 0), TC_INVALID_ARGUMENT, &["radius"]);
+        fails(
+            tc_scene_add_spot(s, [0.0, 0.0, 50.0].as_ptr(), [0.0, 0.0, -1.0].as_ptr(), v.as_ptr(), 120.0, 0.1),
+            TC_INVALID_ARGUMENT,
+            &["cone"],
+        );
+        fails(
+            tc_scene_add_disc(s, [0.0; 3].as_ptr(), [0.0, 0.0, 1.0].as_ptr(), -1.0, v.as_ptr(), 0),
+            TC_INVALID_ARGUMENT,
+            &["radius"],
+        );
         fails(tc_scene_add_environment(s, [-1.0, 1.0, 1.0].as_ptr()), TC_INVALID_ARGUMENT, &["radiance"]);
         let mut image = [1.0f32; 3 * 8 * 4];
         fails(tc_scene_add_environment_image(s, image.as_ptr(), 0, 4, 1.0), TC_INVALID_ARGUMENT, &["at least 1"]);
@@ -217,7 +225,11 @@ fn short_buffers_and_missing_results() {
         ok(tc_scene_add_environment(s, [1.0; 3].as_ptr()), "sky");
         ok(tc_scene_bake(s, &options(2_000), None, ptr::null_mut()), "bake");
         let needed = format!("needs {}", 3 * n);
-        fails(tc_object_radiance(s, ball, rgb.as_mut_ptr(), 3 * n - 1), TC_BUFFER_TOO_SHORT, &[&needed, &format!("{}", 3 * n - 1)]);
+        fails(
+            tc_object_radiance(s, ball, rgb.as_mut_ptr(), 3 * n - 1),
+            TC_BUFFER_TOO_SHORT,
+            &[&needed, &format!("{}", 3 * n - 1)],
+        );
         fails(tc_object_radiance(s, ball, rgb.as_mut_ptr(), 0), TC_BUFFER_TOO_SHORT, &[&needed]);
         assert!(rgb.iter().all(|&x| x == -3.0), "the buffer was written on failure");
         // Stats with a size that is too small: refused, untouched.

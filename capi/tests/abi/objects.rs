@@ -20,9 +20,10 @@ fn presets_and_artist_media() {
     assert_eq!((m.sigma_a, m.sigma_s_prime, m.eta, m.g), (skin.sigma_a, skin.sigma_s_prime, skin.eta, skin.g));
 
     let artist = TcArtistMedium { albedo: [0.8, 0.6, 0.4], radius: [0.004, 0.002, 0.001], scale: 1.0, ior: 1.4, anisotropy: 0.0 };
-    let expected = ArtistParams { albedo: artist.albedo, radius: artist.radius, scale: 1.0, mm_per_unit: 1000.0, eta: 1.4, g: 0.0 }
-        .to_medium()
-        .unwrap();
+    let expected =
+        ArtistParams { albedo: artist.albedo, radius: artist.radius, scale: 1.0, mm_per_unit: 1000.0, eta: 1.4, g: 0.0 }
+            .to_medium()
+            .unwrap();
     let mut converted: TcMedium = unsafe { std::mem::zeroed() };
     // SAFETY: valid pointers.
     unsafe { ok(tc_medium_from_artist(&artist, 1000.0, &mut converted), "from artist") };
@@ -70,7 +71,17 @@ fn objects_are_numbered_and_counted() {
     unsafe {
         ok(tc_scene_object_count(s, &mut objects), "count");
         ok(tc_scene_add_environment(s, [0.5; 3].as_ptr()), "sky");
-        ok(tc_scene_add_rect(s, [0.0, 0.0, 30.0].as_ptr(), [5.0, 0.0, 0.0].as_ptr(), [0.0, 5.0, 0.0].as_ptr(), [2.0; 3].as_ptr(), 0), "rect");
+        ok(
+            tc_scene_add_rect(
+                s,
+                [0.0, 0.0, 30.0].as_ptr(),
+                [5.0, 0.0, 0.0].as_ptr(),
+                [0.0, 5.0, 0.0].as_ptr(),
+                [2.0; 3].as_ptr(),
+                0,
+            ),
+            "rect",
+        );
         ok(tc_scene_light_count(s, &mut lights), "lights");
         ok(tc_object_vertex_count(s, 1, &mut n), "vertex count");
     }

@@ -64,7 +64,15 @@ impl TetCube {
         let ids = if with_ids { self.ids.as_ptr() } else { ptr::null() };
         // SAFETY: arrays of the given lengths.
         let status = unsafe {
-            tc_scene_add_tet_mesh(s, self.positions.as_ptr(), self.vertex_count(), self.tets.as_ptr(), self.tet_count(), ids, &mut object)
+            tc_scene_add_tet_mesh(
+                s,
+                self.positions.as_ptr(),
+                self.vertex_count(),
+                self.tets.as_ptr(),
+                self.tet_count(),
+                ids,
+                &mut object,
+            )
         };
         ok(status, "tc_scene_add_tet_mesh");
         object
@@ -162,9 +170,8 @@ fn heterogeneous_media_agree_with_homogeneous_ones() {
     assert!(close(&homogeneous, &reference, 1e-5));
     let t = cube.tet_count();
     let (sa, ss): (Vec<f32>, Vec<f32>) = (a32.repeat(t), s32.repeat(t));
-    let per_tet = bake_with(&|s, o| {
-        ok(unsafe { tc_object_set_media_per_tet(s, o, sa.as_ptr(), ss.as_ptr(), t, 1.3, 0.0) }, "per tet")
-    });
+    let per_tet =
+        bake_with(&|s, o| ok(unsafe { tc_object_set_media_per_tet(s, o, sa.as_ptr(), ss.as_ptr(), t, 1.3, 0.0) }, "per tet"));
     assert!(close(&reference, &per_tet, 1e-6), "per-tet");
 
     let voxel: Vec<f32> = a32.iter().chain(&s32).copied().collect();
@@ -172,7 +179,17 @@ fn heterogeneous_media_agree_with_homogeneous_ones() {
     let dims = [4u32; 3];
     let voxels = bake_with(&|s, o| {
         let status = unsafe {
-            tc_object_set_medium_voxels(s, o, dims.as_ptr(), [-1.0; 3].as_ptr(), [6.0; 3].as_ptr(), data.as_ptr(), data.len(), 1.3, 0.0)
+            tc_object_set_medium_voxels(
+                s,
+                o,
+                dims.as_ptr(),
+                [-1.0; 3].as_ptr(),
+                [6.0; 3].as_ptr(),
+                data.as_ptr(),
+                data.len(),
+                1.3,
+                0.0,
+            )
         };
         ok(status, "voxels");
     });
@@ -284,30 +301,63 @@ fn invalid_tet_meshes_and_media() {
         let other_eta = TcMedium { eta: 1.5, ..INKY };
         fails(tc_object_set_media_table(s, object, [MARBLE, other_eta].as_ptr(), 2), TC_INVALID_ARGUMENT, &["table[1].eta"]);
         let bad = TcMedium { sigma_s_prime: [1.0, f64::NAN, 1.0], ..MARBLE };
-        fails(tc_object_set_media_table(s, object, [MARBLE, bad].as_ptr(), 2), TC_INVALID_ARGUMENT, &["table[1]", "sigma_s_prime[1]"]);
+        fails(
+            tc_object_set_media_table(s, object, [MARBLE, bad].as_ptr(), 2),
+            TC_INVALID_ARGUMENT,
+            &["table[1]", "sigma_s_prime[1]"],
+        );
         fails(tc_object_set_media_table(s, object, ptr::null(), 2), TC_NULL_POINTER, &["`table`"]);
         sa[3 * 5 + 2] = -1.0;
         fails(tc_object_set_media_per_tet(s, object, sa.as_ptr(), ss.as_ptr(), t, 1.3, 0.0), TC_INVALID_ARGUMENT, &["tet 5"]);
         sa[3 * 5 + 2] = 0.01;
-        fails(tc_object_set_media_per_tet(s, object, sa.as_ptr(), ss.as_ptr(), t - 1, 1.3, 0.0), TC_INVALID_ARGUMENT, &[
-            &format!("{}", t - 1),
-            &format!("{t}"),
-        ]);
+        fails(
+            tc_object_set_media_per_tet(s, object, sa.as_ptr(), ss.as_ptr(), t - 1, 1.3, 0.0),
+            TC_INVALID_ARGUMENT,
+            &[&format!("{}", t - 1), &format!("{t}")],
+        );
         fails(tc_object_set_media_per_tet(s, object, sa.as_ptr(), ss.as_ptr(), t, 0.5, 0.0), TC_INVALID_ARGUMENT, &["eta"]);
         fails(
-            tc_object_set_medium_voxels(s, object, dims.as_ptr(), [0.0; 3].as_ptr(), [1.0; 3].as_ptr(), data.as_ptr(), data.len() - 1, 1.3, 0.0),
+            tc_object_set_medium_voxels(
+                s,
+                object,
+                dims.as_ptr(),
+                [0.0; 3].as_ptr(),
+                [1.0; 3].as_ptr(),
+                data.as_ptr(),
+                data.len() - 1,
+                1.3,
+                0.0,
+            ),
             TC_INVALID_ARGUMENT,
             &["47"],
         );
         fails(
-            tc_object_set_medium_voxels(s, object, dims.as_ptr(), [0.0; 3].as_ptr(), [0.0, 1.0, 1.0].as_ptr(), data.as_ptr(), data.len(), 1.3, 0.0),
+            tc_object_set_medium_voxels(
+                s,
+                object,
+                dims.as_ptr(),
+                [0.0; 3].as_ptr(),
+                [0.0, 1.0, 1.0].as_ptr(),
+                data.as_ptr(),
+                data.len(),
+                1.3,
+                0.0,
+            ),
             TC_INVALID_ARGUMENT,
             &["voxel_size"],
         );
-        fails(tc_object_set_medium_voxel_file(s, object, cstr(c"/nonexistent/grid.tcvox"), 1.3, 0.0), TC_NOT_FOUND, &["grid.tcvox"]);
+        fails(
+            tc_object_set_medium_voxel_file(s, object, cstr(c"/nonexistent/grid.tcvox"), 1.3, 0.0),
+            TC_NOT_FOUND,
+            &["grid.tcvox"],
+        );
         // Per-tet media on a surface object: its tets are not known before the bake.
         let ball = add(s, &Mesh::uv_sphere(5.0, 12, 6));
-        fails(tc_object_set_media_per_tet(s, ball, sa.as_ptr(), ss.as_ptr(), t, 1.3, 0.0), TC_INVALID_ARGUMENT, &["ready tet mesh"]);
+        fails(
+            tc_object_set_media_per_tet(s, ball, sa.as_ptr(), ss.as_ptr(), t, 1.3, 0.0),
+            TC_INVALID_ARGUMENT,
+            &["ready tet mesh"],
+        );
         // The tet object still has its default medium and bakes.
         ok(tc_scene_add_environment(s, [1.0; 3].as_ptr()), "sky");
         ok(tc_scene_bake(s, &options(500), None, ptr::null_mut()), "bake");

@@ -150,8 +150,8 @@ impl DiffusionSystem {
         fill_matrix(&structure, discretization, &coefficients, &terms, matrix.values_mut());
         let nb = structure.boundary.len();
         let n = structure.n();
-        let per_tet_ids = structure.materials.len() == media.len()
-            && structure.materials.par_iter().enumerate().all(|(t, &m)| m as usize == t);
+        let per_tet_ids =
+            structure.materials.len() == media.len() && structure.materials.par_iter().enumerate().all(|(t, &m)| m as usize == t);
         Ok(DiffusionSystem {
             structure,
             discretization,
@@ -246,9 +246,7 @@ impl DiffusionSystem {
             medium.validate().map_err(|source| DiffusionError::InvalidMedium { index, source })?;
         }
         let eta = self.terms.eta;
-        if let Some(&(_, medium)) =
-            entries.iter().find(|(m, medium)| medium.eta != eta && s.face_material.contains(m))
-        {
+        if let Some(&(_, medium)) = entries.iter().find(|(m, medium)| medium.eta != eta && s.face_material.contains(m)) {
             return Err(DiffusionError::RefractiveIndexChanged { old: eta, new: medium.eta });
         }
         // Nothing fails from here on.
@@ -432,25 +430,17 @@ fn check_listed(s: &Structure, old: &[Medium], new: &[Medium], tets: &[u32]) -> 
 
 /// Validates the media, derives κ and μ per material and the boundary constants of the one η of
 /// the surface media.
-pub(crate) fn prepare_media(
-    s: &Structure,
-    media: &[Medium],
-) -> Result<(Coefficients, BoundaryTerms), DiffusionError> {
+pub(crate) fn prepare_media(s: &Structure, media: &[Medium]) -> Result<(Coefficients, BoundaryTerms), DiffusionError> {
     for (index, m) in media.iter().enumerate() {
         m.validate().map_err(|source| DiffusionError::InvalidMedium { index, source })?;
     }
     let first = s.face_material.first().copied().unwrap_or(0);
     let first_eta = media[first as usize].eta;
     if let Some(&other) = s.face_material.iter().find(|&&m| media[m as usize].eta != first_eta) {
-        return Err(DiffusionError::MixedRefractiveIndex {
-            first,
-            first_eta,
-            other,
-            other_eta: media[other as usize].eta,
-        });
+        return Err(DiffusionError::MixedRefractiveIndex { first, first_eta, other, other_eta: media[other as usize].eta });
     }
-    let terms = BoundaryTerms::new(first_eta)
-        .map_err(|source| DiffusionError::InvalidMedium { index: first as usize, source })?;
+    let terms =
+        BoundaryTerms::new(first_eta).map_err(|source| DiffusionError::InvalidMedium { index: first as usize, source })?;
     Ok((Coefficients::of(media), terms))
 }
 
@@ -481,13 +471,7 @@ fn refill_rows(
 }
 
 /// Fills the matrix values of the chosen discretisation.
-fn fill_matrix(
-    s: &Structure,
-    discretization: Discretization,
-    c: &Coefficients,
-    terms: &BoundaryTerms,
-    values: &mut [[f64; 3]],
-) {
+fn fill_matrix(s: &Structure, discretization: Discretization, c: &Coefficients, terms: &BoundaryTerms, values: &mut [[f64; 3]]) {
     match discretization {
         Discretization::TransCut => fill_transcut(s, c, terms, values),
         Discretization::ConsistentFem => fem::fill_consistent(s, c, terms, values),
@@ -560,12 +544,7 @@ fn check_source(boundary: &BoundaryVertices, q: &[[f64; 3]]) -> Result<(), Diffu
     }
     for (index, v) in q.iter().enumerate() {
         if let Some(channel) = v.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
-            return Err(DiffusionError::InvalidSource {
-                index,
-                vertex: boundary.ids[index],
-                channel,
-                value: v[channel],
-            });
+            return Err(DiffusionError::InvalidSource { index, vertex: boundary.ids[index], channel, value: v[channel] });
         }
     }
     Ok(())
@@ -629,11 +608,8 @@ pub(crate) mod tests {
             // −4Σw_ij cancels the off-diagonals: the row sum is V_i μ (+ 2S_i/(3A)).
             let vi: f64 = s.tets_of(i).iter().map(|inc| s.volume[inc.tet as usize]).sum();
             let b = s.boundary_index[i];
-            let boundary = if b == INTERIOR {
-                0.0
-            } else {
-                2.0 * s.boundary.area_mm2[b as usize] / (3.0 * sys.boundary_terms().a)
-            };
+            let boundary =
+                if b == INTERIOR { 0.0 } else { 2.0 * s.boundary.area_mm2[b as usize] / (3.0 * sys.boundary_terms().a) };
             for c in 0..3 {
                 let expect = vi * m.sigma_a[c] + boundary;
                 assert!((row_sum[c] - expect).abs() < 1e-12 * vals[p.diagonal_positions()[i]][c]);
@@ -722,15 +698,9 @@ pub(crate) mod tests {
         let mut mesh = cube_mesh(1, 1.0);
         assert!(matches!(assemble(&mesh, &[marble()], 0.0), Err(DiffusionError::InvalidScale { .. })));
         assert!(matches!(assemble(&mesh, &[marble()], f64::NAN), Err(DiffusionError::InvalidScale { .. })));
-        assert!(matches!(
-            assemble(&mesh, &[], 1.0),
-            Err(DiffusionError::MaterialOutOfRange { tet: 0, material: 0, media: 0 })
-        ));
+        assert!(matches!(assemble(&mesh, &[], 1.0), Err(DiffusionError::MaterialOutOfRange { tet: 0, material: 0, media: 0 })));
         let bad = Medium { sigma_a: [-1.0, 0.0, 0.0], ..marble() };
-        assert!(matches!(
-            assemble(&mesh, &[marble(), bad], 1.0),
-            Err(DiffusionError::InvalidMedium { index: 1, .. })
-        ));
+        assert!(matches!(assemble(&mesh, &[marble(), bad], 1.0), Err(DiffusionError::InvalidMedium { index: 1, .. })));
         mesh.set_materials(vec![0, 0, 1, 0, 0, 0]).unwrap();
         let other = Medium { eta: 1.3, ..marble() };
         let e = assemble(&mesh, &[marble(), other], 1.0).unwrap_err();
@@ -741,10 +711,7 @@ pub(crate) mod tests {
         assert!(matches!(sys.set_source(&[[1.0; 3]; 3]), Err(DiffusionError::LengthMismatch { .. })));
         let mut q = vec![[1.0; 3]; sys.boundary().len()];
         q[5][1] = f64::NAN;
-        assert!(matches!(
-            sys.set_source(&q),
-            Err(DiffusionError::InvalidSource { index: 5, channel: 1, .. })
-        ));
+        assert!(matches!(sys.set_source(&q), Err(DiffusionError::InvalidSource { index: 5, channel: 1, .. })));
         q[5][1] = -0.5;
         assert!(matches!(sys.set_source(&q), Err(DiffusionError::InvalidSource { index: 5, .. })));
         assert!(matches!(sys.set_media(&[marble()]), Err(DiffusionError::MaterialOutOfRange { tet: 2, .. })));
@@ -811,7 +778,9 @@ pub(crate) mod tests {
         let before = sys.clone();
         let mut media = base.clone();
         media[5].sigma_a = [0.5; 3];
-        assert!(matches!(sys.update_media_rows(&media, &[nt as u32]), Err(DiffusionError::TetOutOfRange { tet, count }) if tet == nt && count == nt));
+        assert!(
+            matches!(sys.update_media_rows(&media, &[nt as u32]), Err(DiffusionError::TetOutOfRange { tet, count }) if tet == nt && count == nt)
+        );
         assert!(matches!(sys.update_media_rows(&media, &[4]), Err(DiffusionError::UnlistedMediaChange { tet: 5, material: 5 })));
         assert!(matches!(sys.update_media_rows(&media[..3], &[5]), Err(DiffusionError::MaterialOutOfRange { tet: 3, .. })));
         let eta: Vec<Medium> = base.iter().map(|m| Medium { eta: 1.3, ..*m }).collect();

@@ -28,7 +28,7 @@
 //! the order of the P1 error itself, so both converge to the same φ at second order; for a
 //! constant q the two right-hand sides are identical.
 
-use super::assembly::{Coefficients, Discretization, DiffusionSystem};
+use super::assembly::{Coefficients, DiffusionSystem, Discretization};
 use super::error::DiffusionError;
 use super::structure::{fill_rows, hat_gradients, Structure, INTERIOR, OTHERS};
 use crate::mesh::TetMesh;
@@ -39,11 +39,7 @@ use crate::optics::{BoundaryTerms, Medium};
 ///
 /// # Errors
 /// Those of [`super::assemble`].
-pub fn assemble_consistent(
-    mesh: &TetMesh,
-    media: &[Medium],
-    mm_per_unit: f64,
-) -> Result<DiffusionSystem, DiffusionError> {
+pub fn assemble_consistent(mesh: &TetMesh, media: &[Medium], mm_per_unit: f64) -> Result<DiffusionSystem, DiffusionError> {
     DiffusionSystem::new(mesh, media, mm_per_unit, Discretization::ConsistentFem)
 }
 

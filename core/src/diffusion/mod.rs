@@ -57,7 +57,7 @@ pub mod multires;
 pub mod solve;
 mod structure;
 
-pub use assembly::{assemble, rhs, Discretization, DiffusionSystem};
+pub use assembly::{assemble, rhs, DiffusionSystem, Discretization};
 pub use error::DiffusionError;
 pub use fem::assemble_consistent;
 pub use multires::{Method, MultiresSolver};

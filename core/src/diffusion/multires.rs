@@ -101,7 +101,8 @@ impl MultiresSolver {
     /// [`DiffusionError::Sparse`] from the hierarchy or the coarse operators.
     pub fn new(system: &DiffusionSystem, method: Method, options: &HierarchyOptions) -> Result<Self, DiffusionError> {
         if method == Method::AggregationPcg {
-            let mg = Multigrid::aggregated(system.matrix(), &system.structure().positions_mm, options, MultigridOptions::default())?;
+            let mg =
+                Multigrid::aggregated(system.matrix(), &system.structure().positions_mm, options, MultigridOptions::default())?;
             return Ok(Self { hierarchy: Arc::clone(mg.hierarchy()), method, prepared: Prepared::Multigrid(mg) });
         }
         let h = if method.is_single_level() {
@@ -228,7 +229,11 @@ impl MultiresSolver {
         let n = system.vertex_count();
         let mut phi = match warm_start {
             Some(x) if x.len() != n => {
-                return Err(DiffusionError::LengthMismatch { what: "warm start (one entry per vertex)", expected: n, found: x.len() })
+                return Err(DiffusionError::LengthMismatch {
+                    what: "warm start (one entry per vertex)",
+                    expected: n,
+                    found: x.len(),
+                })
             }
             Some(x) => x.to_vec(),
             None => vec![[0.0; 3]; n],
@@ -255,7 +260,9 @@ fn prepare(system: &DiffusionSystem, h: &Arc<Hierarchy>, method: Method) -> Resu
     Ok(match method {
         Method::Pcg => Prepared::Pcg(Preconditioner::new(a, PreconditionerKind::Jacobi)?),
         Method::Cascade => Prepared::Cascade(Cascade::new(Arc::clone(h), a, CascadeOptions::default())?),
-        Method::MultigridPcg | Method::AggregationPcg => Prepared::Multigrid(Multigrid::new(Arc::clone(h), a, MultigridOptions::default())?),
+        Method::MultigridPcg | Method::AggregationPcg => {
+            Prepared::Multigrid(Multigrid::new(Arc::clone(h), a, MultigridOptions::default())?)
+        }
         Method::SsorPcg => Prepared::Pcg(Preconditioner::new(a, PreconditionerKind::Ssor)?),
     })
 }

@@ -59,11 +59,7 @@ pub fn solve_with(
     let n = system.vertex_count();
     let mut phi = match warm_start {
         Some(x) if x.len() != n => {
-            return Err(DiffusionError::LengthMismatch {
-                what: "warm start (one entry per vertex)",
-                expected: n,
-                found: x.len(),
-            })
+            return Err(DiffusionError::LengthMismatch { what: "warm start (one entry per vertex)", expected: n, found: x.len() })
         }
         Some(x) => x.to_vec(),
         None => vec![[0.0; 3]; n],
@@ -136,13 +132,15 @@ impl EnergyBalance {
     /// (absorbed + exitant) / incident − 1 per channel (0 for a channel without light).
     #[must_use]
     pub fn relative_defect(&self) -> [f64; 3] {
-        [0, 1, 2].map(|c| {
-            if self.incident[c] > 0.0 {
-                (self.absorbed[c] + self.exitant[c]) / self.incident[c] - 1.0
-            } else {
-                0.0
-            }
-        })
+        [0, 1, 2].map(
+            |c| {
+                if self.incident[c] > 0.0 {
+                    (self.absorbed[c] + self.exitant[c]) / self.incident[c] - 1.0
+                } else {
+                    0.0
+                }
+            },
+        )
     }
 }
 
@@ -202,11 +200,8 @@ mod tests {
     fn solved(consistent: bool) -> (DiffusionSystem, Solution) {
         let mesh = cube_mesh(5, 1.0);
         let m = Medium::preset("skin1").unwrap();
-        let mut sys = if consistent {
-            assemble_consistent(&mesh, &[m], 1.0).unwrap()
-        } else {
-            assemble(&mesh, &[m], 1.0).unwrap()
-        };
+        let mut sys =
+            if consistent { assemble_consistent(&mesh, &[m], 1.0).unwrap() } else { assemble(&mesh, &[m], 1.0).unwrap() };
         let q: Vec<[f64; 3]> = sys.boundary().normal.iter().map(|n| [1.0 + n.x.max(0.0), 1.0, 0.2 + n.z.abs()]).collect();
         sys.set_source(&q).unwrap();
         let sol = solve(&sys, None, &SolveOptions::default().with_tolerance(1e-10)).unwrap();
@@ -239,10 +234,7 @@ mod tests {
         let again = solve(&sys, Some(&sol.phi), &options).unwrap();
         assert_eq!(again.stats.iterations, [0; 3]);
         assert!(sol.stats.iterations.iter().all(|&k| k > 0));
-        assert!(matches!(
-            solve(&sys, Some(&sol.phi[1..]), &options),
-            Err(DiffusionError::LengthMismatch { .. })
-        ));
+        assert!(matches!(solve(&sys, Some(&sol.phi[1..]), &options), Err(DiffusionError::LengthMismatch { .. })));
         let capped = SolveOptions::default().with_tolerance(1e-12).with_max_iterations(2);
         assert!(matches!(solve(&sys, None, &capped), Err(DiffusionError::NotConverged { .. })));
     }

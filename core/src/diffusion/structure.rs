@@ -245,8 +245,7 @@ impl Structure {
 
         // Boundary vertices, their areas S_i and normals, and vertex → boundary faces.
         let faces: Vec<[u32; 3]> = mesh.boundary_faces().iter().map(|f| f.vertices).collect();
-        let face_material: Vec<u32> =
-            mesh.boundary_faces().iter().map(|f| mesh.materials()[f.tet as usize]).collect();
+        let face_material: Vec<u32> = mesh.boundary_faces().iter().map(|f| mesh.materials()[f.tet as usize]).collect();
         let face_cross: Vec<DVec3> = faces
             .par_iter()
             .map(|f| {
@@ -279,11 +278,7 @@ impl Structure {
                 let v = f[a];
                 let b = boundary_index[v as usize] as usize;
                 let others = [f[(a + 1) % 3], f[(a + 2) % 3]];
-                face_inc[fill[b]] = FaceIncidence {
-                    face: fi as u32,
-                    others,
-                    slots: others.map(|o| slot(v as usize, o)),
-                };
+                face_inc[fill[b]] = FaceIncidence { face: fi as u32, others, slots: others.map(|o| slot(v as usize, o)) };
                 fill[b] += 1;
                 area_mm2[b] += face_area[fi];
                 normal[b] += face_cross[fi];
@@ -328,11 +323,7 @@ impl Structure {
 /// Fills `values` (laid out by `row_ptr`) row by row in parallel: `f(row, row_values)` for every
 /// row, in blocks of [`ROW_BLOCK`] rows. Each row is written by exactly one call, so the result
 /// does not depend on the thread count.
-pub(crate) fn fill_rows<T: Send>(
-    values: &mut [T],
-    row_ptr: &[usize],
-    f: impl Fn(usize, &mut [T]) + Sync,
-) {
+pub(crate) fn fill_rows<T: Send>(values: &mut [T], row_ptr: &[usize], f: impl Fn(usize, &mut [T]) + Sync) {
     let n = row_ptr.len() - 1;
     let mut blocks: Vec<(usize, &mut [T])> = Vec::with_capacity(n.div_ceil(ROW_BLOCK));
     let mut rest = values;
@@ -359,12 +350,7 @@ pub(crate) fn fill_rows<T: Send>(
 ///
 /// # Panics
 /// If `rows` is not strictly increasing or names a row out of range (callers build it so).
-pub(crate) fn fill_selected_rows<T: Send>(
-    values: &mut [T],
-    row_ptr: &[usize],
-    rows: &[u32],
-    f: impl Fn(usize, &mut [T]) + Sync,
-) {
+pub(crate) fn fill_selected_rows<T: Send>(values: &mut [T], row_ptr: &[usize], rows: &[u32], f: impl Fn(usize, &mut [T]) + Sync) {
     let mut slices: Vec<(usize, &mut [T])> = Vec::with_capacity(rows.len());
     let mut rest = values;
     let mut consumed = 0;
@@ -406,19 +392,9 @@ mod tests {
     fn sample_tets() -> Vec<[DVec3; 4]> {
         vec![
             [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
-            [
-                DVec3::new(0.1, -0.2, 0.3),
-                DVec3::new(1.7, 0.1, -0.2),
-                DVec3::new(0.4, 1.3, 0.2),
-                DVec3::new(0.5, 0.6, 2.1),
-            ],
+            [DVec3::new(0.1, -0.2, 0.3), DVec3::new(1.7, 0.1, -0.2), DVec3::new(0.4, 1.3, 0.2), DVec3::new(0.5, 0.6, 2.1)],
             // Negatively oriented and with an obtuse dihedral angle.
-            [
-                DVec3::new(0.0, 0.0, 0.0),
-                DVec3::new(0.0, 1.0, 0.0),
-                DVec3::new(1.0, 0.0, 0.0),
-                DVec3::new(0.9, 0.9, 0.3),
-            ],
+            [DVec3::new(0.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.9, 0.9, 0.3)],
         ]
     }
 

@@ -271,11 +271,7 @@ impl SweptStroke {
     /// that).
     pub fn new(origins: Vec<DVec3>, directions: Vec<DVec3>) -> Result<Self, EditError> {
         if origins.len() != directions.len() {
-            return Err(EditError::InvalidStroke(format!(
-                "{} origins but {} directions",
-                origins.len(),
-                directions.len()
-            )));
+            return Err(EditError::InvalidStroke(format!("{} origins but {} directions", origins.len(), directions.len())));
         }
         if origins.len() < 2 {
             return Err(EditError::InvalidStroke(format!("a swept stroke needs at least 2 rays, got {}", origins.len())));
@@ -422,7 +418,17 @@ impl Quad {
         };
         let side = (x - c).dot(pseudo);
         let dist = d2.sqrt();
-        (d2, if side > 0.0 { dist } else if side < 0.0 { -dist } else { 0.0 }, c)
+        (
+            d2,
+            if side > 0.0 {
+                dist
+            } else if side < 0.0 {
+                -dist
+            } else {
+                0.0
+            },
+            c,
+        )
     }
 }
 
@@ -553,7 +559,8 @@ pub fn cut(mesh: &TetMesh, original_tet: &[u32], cutter: &Cutter, options: &CutO
     let input_worst = tets.par_iter().map(|t| min_dihedral(t.map(|v| pos[v as usize]))).reduce(|| f64::INFINITY, f64::min);
     let bound_degrees = options.min_dihedral_degrees.min(input_worst.to_degrees());
     let bound = bound_degrees.to_radians();
-    let (lo, hi) = pos.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| (a.min(*p), b.max(*p)));
+    let (lo, hi) =
+        pos.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| (a.min(*p), b.max(*p)));
     let min_volume = 1e-12 * (hi - lo).length().powi(3);
 
     // Outward normals of the input boundary at kept vertices (zero inside), for sliding.
@@ -634,8 +641,7 @@ pub fn cut(mesh: &TetMesh, original_tet: &[u32], cutter: &Cutter, options: &CutO
         }
     }
 
-    let max_cut_distance =
-        movable.par_iter().map(|&v| prepared.signed_distance(pos[v as usize]).abs()).reduce(|| 0.0, f64::max);
+    let max_cut_distance = movable.par_iter().map(|&v| prepared.signed_distance(pos[v as usize]).abs()).reduce(|| 0.0, f64::max);
     let moved_vertices = (0..pos.len()).filter(|&v| pos[v] != positions[kept_vertex[v] as usize]).count();
     let min_after = tets.par_iter().map(|t| min_dihedral(t.map(|v| pos[v as usize]))).reduce(|| f64::INFINITY, f64::min);
     let stats = CutStats {

@@ -339,8 +339,7 @@ impl Editor {
         let piece =
             piece::build(original.clone(), all, DMat4::IDENTITY, &media, &setup, Some(bake.fluence.clone()), &mut timings)?;
         let mut pieces = vec![piece];
-        let occluder =
-            piece::light_and_solve(&mut pieces, lights, &options.source, options.shadows, &setup, &mut timings)?;
+        let occluder = piece::light_and_solve(&mut pieces, lights, &options.source, options.shadows, &setup, &mut timings)?;
         let located = locate(original.tet_count(), &pieces);
         Ok(Self {
             original,
@@ -396,11 +395,7 @@ impl Editor {
             [p] if self.uncut && p.transform == DMat4::IDENTITY => p,
             _ => return None,
         };
-        Some(if self.user_surface {
-            self.original.sample_at_user_vertices(&p.radiance)
-        } else {
-            p.radiance.clone()
-        })
+        Some(if self.user_surface { self.original.sample_at_user_vertices(&p.radiance) } else { p.radiance.clone() })
     }
 
     /// New lights: q recomputed on every piece (matrices unchanged), every piece re-solved from
@@ -440,8 +435,7 @@ impl Editor {
     /// When the pieces are not those the relight saw (their number or meshes changed since).
     pub fn undo_relight(&mut self, undo: RelightUndo) {
         assert!(
-            undo.meshes.len() == self.pieces.len()
-                && undo.meshes.iter().zip(&self.pieces).all(|(m, p)| Arc::ptr_eq(m, &p.mesh)),
+            undo.meshes.len() == self.pieces.len() && undo.meshes.iter().zip(&self.pieces).all(|(m, p)| Arc::ptr_eq(m, &p.mesh)),
             "undo_relight: the editor's pieces changed since the relight"
         );
         for (piece, replaced) in self.pieces.iter_mut().zip(undo.pieces) {

@@ -103,10 +103,7 @@ impl PaintStroke {
     #[must_use]
     pub fn changes(&self, media: &PerTetMedia, centroids: &[DVec3]) -> Vec<(u32, Coefficients)> {
         let new = Coefficients::from(&self.medium);
-        self.weights(centroids)
-            .into_iter()
-            .map(|(t, w)| (t, media.coefficients()[t as usize].lerp(&new, w)))
-            .collect()
+        self.weights(centroids).into_iter().map(|(t, w)| (t, media.coefficients()[t as usize].lerp(&new, w))).collect()
     }
 }
 
@@ -115,22 +112,17 @@ mod tests {
     use super::*;
 
     fn stroke() -> PaintStroke {
-        PaintStroke {
-            points: vec![DVec3::ZERO, DVec3::X],
-            radius: 0.5,
-            medium: Medium::preset("marble").unwrap(),
-            strength: 0.8,
-        }
+        PaintStroke { points: vec![DVec3::ZERO, DVec3::X], radius: 0.5, medium: Medium::preset("marble").unwrap(), strength: 0.8 }
     }
 
     #[test]
     fn weights_are_the_gaussian_of_the_closest_point_and_cut_at_the_threshold() {
         let s = stroke();
         let centroids = vec![
-            DVec3::new(0.0, 0.3, 0.0),  // closest: point 0, d = 0.3
-            DVec3::new(1.2, 0.0, 0.0),  // closest: point 1, d = 0.2
-            DVec3::new(0.5, 0.0, 2.0),  // far: d ≈ 2.06, w ≈ 0.8 e^{-8.5} < 1e-3
-            DVec3::new(0.5, 1.5, 0.0),  // d = √(0.25 + 2.25) = 1.58: w = 0.8 e^{-5} ≈ 5.4e-3
+            DVec3::new(0.0, 0.3, 0.0), // closest: point 0, d = 0.3
+            DVec3::new(1.2, 0.0, 0.0), // closest: point 1, d = 0.2
+            DVec3::new(0.5, 0.0, 2.0), // far: d ≈ 2.06, w ≈ 0.8 e^{-8.5} < 1e-3
+            DVec3::new(0.5, 1.5, 0.0), // d = √(0.25 + 2.25) = 1.58: w = 0.8 e^{-5} ≈ 5.4e-3
         ];
         let w = s.weights(&centroids);
         assert_eq!(w.iter().map(|x| x.0).collect::<Vec<_>>(), vec![0, 1, 3]);
@@ -150,7 +142,9 @@ mod tests {
             .validate(m.eta, m.g)
             .unwrap_err();
         assert!(matches!(e, EditError::InvalidStroke(ref s) if s.contains("point 1")), "{e}");
-        assert!(matches!(PaintStroke { radius: -1.0, ..ok.clone() }.validate(m.eta, m.g), Err(EditError::InvalidStroke(ref s)) if s.contains("radius")));
+        assert!(
+            matches!(PaintStroke { radius: -1.0, ..ok.clone() }.validate(m.eta, m.g), Err(EditError::InvalidStroke(ref s)) if s.contains("radius"))
+        );
         assert!(matches!(PaintStroke { points: vec![], ..ok.clone() }.validate(m.eta, m.g), Err(EditError::InvalidStroke(_))));
         assert!(matches!(PaintStroke { strength: 1.5, ..ok.clone() }.validate(m.eta, m.g), Err(EditError::InvalidStroke(_))));
         assert!(matches!(ok.validate(1.3, m.g), Err(EditError::InvalidStroke(ref s)) if s.contains("eta")));

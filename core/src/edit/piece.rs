@@ -78,8 +78,7 @@ impl Piece {
     #[must_use]
     pub fn surface(&self) -> TriMesh {
         let m = self.transform;
-        let positions: Vec<[f64; 3]> =
-            self.mesh.positions().iter().map(|&p| m.transform_point3(p).to_array()).collect();
+        let positions: Vec<[f64; 3]> = self.mesh.positions().iter().map(|&p| m.transform_point3(p).to_array()).collect();
         let indices: Vec<u32> = self.mesh.boundary_faces().iter().flat_map(|f| f.vertices).collect();
         TriMesh::from_triangles(&positions, &indices).expect("a tet mesh's boundary has triangles of non-zero area")
     }
@@ -325,8 +324,7 @@ pub(crate) fn solution(
     timings: &mut Timings,
 ) -> Result<Solved, EditError> {
     let t = Instant::now();
-    let options =
-        SolveOptions { tolerance: setup.tolerance, max_iterations: setup.max_iterations, ..SolveOptions::default() };
+    let options = SolveOptions { tolerance: setup.tolerance, max_iterations: setup.max_iterations, ..SolveOptions::default() };
     let solution: Solution = if setup.method == Method::Pcg && setup.backend != Backend::Cpu {
         gpu::solve_on(setup.backend, system, Some(warm), &options)
             .map_err(|e| match e {

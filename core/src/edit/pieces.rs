@@ -145,7 +145,13 @@ pub fn check_rigid(m: &DMat4) -> Result<(), EditError> {
 /// # Errors
 /// [`EditError::InvalidOptions`] for a tolerance that is not positive and finite or id arrays of
 /// the wrong length; [`EditError::Mesh`] if the glued mesh is invalid (faces shared three ways).
-pub fn weld(a: &TetMesh, a_orig: &[u32], b: &TetMesh, b_orig: &[u32], tolerance: f64) -> Result<Option<(TetMesh, Vec<u32>)>, EditError> {
+pub fn weld(
+    a: &TetMesh,
+    a_orig: &[u32],
+    b: &TetMesh,
+    b_orig: &[u32],
+    tolerance: f64,
+) -> Result<Option<(TetMesh, Vec<u32>)>, EditError> {
     if !(tolerance > 0.0 && tolerance.is_finite()) {
         return Err(EditError::InvalidOptions(format!("weld tolerance {tolerance} is not positive and finite")));
     }

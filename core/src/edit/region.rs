@@ -136,14 +136,12 @@ impl MediumOp {
         let f = |a: [f64; 3], b: [f64; 3], op: fn(f64, f64) -> f64| [0, 1, 2].map(|c| op(a[c], b[c]));
         match self {
             Self::Assign(m) => Coefficients::from(m),
-            Self::Scale { sigma_a, sigma_s } => Coefficients::new(
-                f(old.sigma_a, *sigma_a, |x, y| x * y),
-                f(old.sigma_s_prime, *sigma_s, |x, y| x * y),
-            ),
-            Self::Add { sigma_a, sigma_s } => Coefficients::new(
-                f(old.sigma_a, *sigma_a, |x, y| x + y),
-                f(old.sigma_s_prime, *sigma_s, |x, y| x + y),
-            ),
+            Self::Scale { sigma_a, sigma_s } => {
+                Coefficients::new(f(old.sigma_a, *sigma_a, |x, y| x * y), f(old.sigma_s_prime, *sigma_s, |x, y| x * y))
+            }
+            Self::Add { sigma_a, sigma_s } => {
+                Coefficients::new(f(old.sigma_a, *sigma_a, |x, y| x + y), f(old.sigma_s_prime, *sigma_s, |x, y| x + y))
+            }
         }
     }
 }
@@ -168,11 +166,8 @@ fn check_terms(what: &str, sigma_a: &[f64; 3], sigma_s: &[f64; 3], non_negative:
 /// [`EditError::Volume`] ([`VolumeError::InvalidTetMedium`]) naming the first tet whose new
 /// coefficients are invalid (e.g. an `Add` that makes σa negative).
 pub fn changes(media: &PerTetMedia, tets: &[u32], op: &MediumOp) -> Result<Vec<(u32, Coefficients)>, EditError> {
-    let out: Vec<(u32, Coefficients)> =
-        tets.par_iter().map(|&t| (t, op.apply(&media.coefficients()[t as usize]))).collect();
-    if let Some((tet, source)) =
-        out.par_iter().find_map_first(|(t, c)| c.validate().err().map(|e| (*t as usize, e)))
-    {
+    let out: Vec<(u32, Coefficients)> = tets.par_iter().map(|&t| (t, op.apply(&media.coefficients()[t as usize]))).collect();
+    if let Some((tet, source)) = out.par_iter().find_map_first(|(t, c)| c.validate().err().map(|e| (*t as usize, e))) {
         return Err(EditError::Volume(VolumeError::InvalidTetMedium { tet, source }));
     }
     Ok(out)

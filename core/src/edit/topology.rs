@@ -104,8 +104,8 @@ impl Editor {
         let mut changed = 0;
         for p in &self.pieces {
             let local = cutter_in_rest_space(cutter, &p.transform)?;
-            let (positive, negative): (Vec<u32>, Vec<u32>) = (0..p.mesh.tet_count() as u32)
-                .partition(|&t| local.signed_distance(centroid(&p.mesh, t as usize)) > 0.0);
+            let (positive, negative): (Vec<u32>, Vec<u32>) =
+                (0..p.mesh.tet_count() as u32).partition(|&t| local.signed_distance(centroid(&p.mesh, t as usize)) > 0.0);
             if positive.is_empty() || negative.is_empty() {
                 next.push(p.clone());
                 continue;
@@ -212,7 +212,13 @@ impl Editor {
     }
 
     /// Re-lights and re-solves `next` (every piece: the shadows depend on all), then swaps it in.
-    fn commit(&mut self, mut next: Vec<Piece>, timings: &mut Timings, changed: usize, start: Instant) -> Result<UpdateStats, EditError> {
+    fn commit(
+        &mut self,
+        mut next: Vec<Piece>,
+        timings: &mut Timings,
+        changed: usize,
+        start: Instant,
+    ) -> Result<UpdateStats, EditError> {
         let (lights, options) = (&self.lights, &self.options);
         let occluder = piece::light_and_solve(&mut next, lights, &options.source, options.shadows, &self.setup, timings)?;
         let rebuilt = changed > 0;
@@ -235,9 +241,7 @@ fn cutter_in_rest_space(cutter: &Cutter, transform: &DMat4) -> Result<Cutter, Ed
     let inverse = transform.inverse();
     let rotation = DMat3::from_mat4(inverse);
     Ok(match cutter {
-        Cutter::Plane { point, normal } => {
-            Cutter::Plane { point: inverse.transform_point3(*point), normal: rotation * *normal }
-        }
+        Cutter::Plane { point, normal } => Cutter::Plane { point: inverse.transform_point3(*point), normal: rotation * *normal },
         Cutter::Stroke(s) => Cutter::Stroke(SweptStroke::new(
             s.origins().iter().map(|&o| inverse.transform_point3(o)).collect(),
             s.directions().iter().map(|&d| rotation * d).collect(),
@@ -308,13 +312,7 @@ fn weld_pair(a: &Piece, b: &Piece, tolerance: f64) -> Result<Option<Plan>, EditE
     let b_index: HashMap<[u64; 3], usize> = b_mesh.positions().iter().enumerate().map(|(i, &p)| (key(p), i)).collect();
     let n_a = a.mesh.vertex_count();
     let warm = (0..mesh.vertex_count())
-        .map(|v| {
-            if v < n_a {
-                a.fluence[v]
-            } else {
-                b_index.get(&key(mesh.positions()[v])).map_or([0.0; 3], |&i| b.fluence[i])
-            }
-        })
+        .map(|v| if v < n_a { a.fluence[v] } else { b_index.get(&key(mesh.positions()[v])).map_or([0.0; 3], |&i| b.fluence[i]) })
         .collect();
     Ok(Some(Plan { mesh, original_tets, transform: a.transform, warm }))
 }

@@ -12,8 +12,7 @@ use crate::sparse::SolveOptions;
 pub const BACKEND_ENV: &str = "TRANSCUT_BACKEND";
 
 /// Where the diffusion solve runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
-#[derive(serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Backend {
     /// The CPU path (rayon), always available.

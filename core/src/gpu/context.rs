@@ -65,13 +65,13 @@ impl GpuContext {
         };
         let adapter = adapters
             .into_iter()
-            .filter(|a| {
-                filter.as_ref().is_none_or(|f| a.get_info().name.to_lowercase().contains(&f.trim().to_lowercase()))
-            })
+            .filter(|a| filter.as_ref().is_none_or(|f| a.get_info().name.to_lowercase().contains(&f.trim().to_lowercase())))
             .min_by_key(|a| rank(a.get_info().device_type))
             .ok_or_else(|| GpuError::NoAdapter {
                 detail: match (&filter, seen.is_empty()) {
-                    (_, true) => format!("no adapter on backends {:?}", wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY)),
+                    (_, true) => {
+                        format!("no adapter on backends {:?}", wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY))
+                    }
                     (Some(f), false) => format!("none of [{}] matches {ADAPTER_ENV}={f:?}", seen.join(", ")),
                     (None, false) => format!("adapters seen: {}", seen.join(", ")),
                 },
@@ -128,9 +128,7 @@ impl GpuContext {
         });
         match slot {
             Ok(c) => Ok(c),
-            Err((true, adapter, message)) => {
-                Err(GpuError::DeviceRequest { adapter: adapter.clone(), message: message.clone() })
-            }
+            Err((true, adapter, message)) => Err(GpuError::DeviceRequest { adapter: adapter.clone(), message: message.clone() }),
             Err((false, _, message)) => Err(GpuError::NoAdapter { detail: message.clone() }),
         }
     }
@@ -196,7 +194,11 @@ impl GpuContext {
             .enumerate()
             .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
             .collect();
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(kernel.file()), layout: &layout, entries: &entries })
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(kernel.file()),
+            layout: &layout,
+            entries: &entries,
+        })
     }
 
     /// Leases a storage buffer of at least `bytes` (also a copy source and destination).
@@ -222,8 +224,7 @@ impl GpuContext {
 
     /// Leases a uniform buffer holding `value`.
     pub(crate) fn uniform<T: bytemuck::Pod>(&self, value: &T, label: &'static str) -> Lease<'_> {
-        let buffer =
-            self.pool.lease(&self.device, 256, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, label);
+        let buffer = self.pool.lease(&self.device, 256, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, label);
         self.queue.write_buffer(&buffer, 0, bytemuck::bytes_of(value));
         buffer
     }
@@ -257,9 +258,7 @@ impl GpuContext {
     /// last check.
     pub(crate) fn submit_wait(&self, encoder: wgpu::CommandEncoder, during: &'static str) -> Result<(), GpuError> {
         self.queue.submit([encoder.finish()]);
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Device { during, message: e.to_string() })?;
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Device { during, message: e.to_string() })?;
         self.take_error(during)
     }
 
@@ -281,8 +280,7 @@ impl GpuContext {
         during: &'static str,
     ) -> Result<Vec<u8>, GpuError> {
         let size = bytes.div_ceil(4) * 4;
-        let staging =
-            self.pool.lease(&self.device, size, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, "staging");
+        let staging = self.pool.lease(&self.device, size, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, "staging");
         if size > 0 {
             encoder.copy_buffer_to_buffer(source, 0, &staging, 0, size);
         }
@@ -295,16 +293,11 @@ impl GpuContext {
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Device { during, message: e.to_string() })?;
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Device { during, message: e.to_string() })?;
         rx.recv()
             .map_err(|e| GpuError::Device { during, message: e.to_string() })?
             .map_err(|e| GpuError::Device { during, message: e.to_string() })?;
-        let out = slice
-            .get_mapped_range()
-            .map_err(|e| GpuError::Device { during, message: e.to_string() })?
-            .to_vec();
+        let out = slice.get_mapped_range().map_err(|e| GpuError::Device { during, message: e.to_string() })?.to_vec();
         staging.unmap();
         self.take_error(during)?;
         Ok(out)
@@ -317,7 +310,13 @@ impl GpuContext {
 }
 
 /// Records one dispatch of `kernel` over a (x, y) grid into `pass`.
-pub(crate) fn dispatch(pass: &mut wgpu::ComputePass<'_>, ctx: &GpuContext, kernel: Kernel, bind: &wgpu::BindGroup, grid: (u32, u32)) {
+pub(crate) fn dispatch(
+    pass: &mut wgpu::ComputePass<'_>,
+    ctx: &GpuContext,
+    kernel: Kernel,
+    bind: &wgpu::BindGroup,
+    grid: (u32, u32),
+) {
     pass.set_pipeline(ctx.pipeline(kernel));
     pass.set_bind_group(0, bind, &[]);
     pass.dispatch_workgroups(grid.0, grid.1, 1);

@@ -16,7 +16,7 @@ use super::error::GpuError;
 use super::layout::{Incidence, Params, RowInfo};
 use super::pool::Lease;
 use super::shaders::Kernel;
-use crate::diffusion::{Discretization, DiffusionError, DiffusionSystem};
+use crate::diffusion::{DiffusionError, DiffusionSystem, Discretization};
 use crate::sparse::{CsrMatrix3, CsrPattern};
 
 /// A matrix on the device with its Jacobi scaling.
@@ -103,9 +103,10 @@ impl<'c> DeviceMatrix<'c> {
         let mut m = Self::pattern(ctx, &s.pattern, params)?;
         // Positions relative to the centre of the bounding box, so f32 keeps the digits that
         // the edge vectors need.
-        let (lo, hi) = s.positions_mm.iter().fold((glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
+        let (lo, hi) = s
+            .positions_mm
+            .iter()
+            .fold((glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
         let centre = 0.5 * (lo + hi);
         let positions: Vec<[f32; 4]> = s
             .positions_mm
@@ -173,7 +174,8 @@ impl<'c> DeviceMatrix<'c> {
         let asm_bind = ctx.bind(Kernel::Assemble, &[&m.params, &rows, &incidences, &geometry, &media, &m.values]);
         let mut encoder = ctx.encoder();
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("assembly"), timestamp_writes: None });
+            let mut pass =
+                encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("assembly"), timestamp_writes: None });
             dispatch(&mut pass, ctx, Kernel::TetGeometry, &geo_bind, (tet_grid.0, tet_grid.1));
             dispatch(&mut pass, ctx, Kernel::Assemble, &asm_bind, m.grid);
         }
@@ -188,13 +190,12 @@ impl<'c> DeviceMatrix<'c> {
     fn scale(&mut self, ctx: &'c GpuContext) -> Result<(), GpuError> {
         let start = Instant::now();
         let diag_bind = ctx.bind(Kernel::JacobiDiag, &[&self.params, &self.row_ptr, &self.col_idx, &self.values, &self.sdiag]);
-        let scale_bind = ctx.bind(
-            Kernel::JacobiScale,
-            &[&self.params, &self.row_ptr, &self.col_idx, &self.values, &self.sdiag, &self.scaled],
-        );
+        let scale_bind =
+            ctx.bind(Kernel::JacobiScale, &[&self.params, &self.row_ptr, &self.col_idx, &self.values, &self.sdiag, &self.scaled]);
         let mut encoder = ctx.encoder();
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("jacobi"), timestamp_writes: None });
+            let mut pass =
+                encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("jacobi"), timestamp_writes: None });
             dispatch(&mut pass, ctx, Kernel::JacobiDiag, &diag_bind, self.grid);
             dispatch(&mut pass, ctx, Kernel::JacobiScale, &scale_bind, self.grid);
         }
@@ -240,6 +241,5 @@ pub fn assemble(ctx: &GpuContext, system: &DiffusionSystem) -> Result<CsrMatrix3
     }
     let m = DeviceMatrix::assemble(ctx, system)?;
     let values = m.read_values(ctx)?;
-    CsrMatrix3::new(std::sync::Arc::clone(system.pattern()), values)
-        .map_err(|e| GpuError::Diffusion(DiffusionError::Sparse(e)))
+    CsrMatrix3::new(std::sync::Arc::clone(system.pattern()), values).map_err(|e| GpuError::Diffusion(DiffusionError::Sparse(e)))
 }

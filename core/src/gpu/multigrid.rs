@@ -349,7 +349,8 @@ pub fn restrict(ctx: &GpuContext, p: &Prolongation, fine: &[[f64; 3]]) -> Result
     let bind = ctx.bind(Kernel::MgRestrict, &[&params, &t.t_ptr, &t.t_rows, &t.t_weights, &f, &c]);
     let mut encoder = ctx.encoder();
     {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("restrict"), timestamp_writes: None });
+        let mut pass =
+            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("restrict"), timestamp_writes: None });
         dispatch(&mut pass, ctx, Kernel::MgRestrict, &bind, grid);
     }
     Ok(from_vec4(&ctx.read_back(encoder, &c, 16 * p.n_coarse() as u64, "restriction read-back")?, p.n_coarse()))
@@ -361,7 +362,12 @@ pub fn restrict(ctx: &GpuContext, p: &Prolongation, fine: &[[f64; 3]]) -> Result
 /// # Errors
 /// [`GpuError::Diffusion`] with a length mismatch unless `coarse` has `p.n_coarse()` and `fine`
 /// `p.n_fine()` entries; device errors.
-pub fn prolong_add(ctx: &GpuContext, p: &Prolongation, coarse: &[[f64; 3]], fine: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, GpuError> {
+pub fn prolong_add(
+    ctx: &GpuContext,
+    p: &Prolongation,
+    coarse: &[[f64; 3]],
+    fine: &[[f64; 3]],
+) -> Result<Vec<[f64; 3]>, GpuError> {
     check_len("coarse vector (one entry per coarse vertex)", p.n_coarse(), coarse.len())?;
     check_len("fine vector (one entry per fine vertex)", p.n_fine(), fine.len())?;
     let t = DeviceTransfer::upload(ctx, p)?;
@@ -371,7 +377,8 @@ pub fn prolong_add(ctx: &GpuContext, p: &Prolongation, coarse: &[[f64; 3]], fine
     let bind = ctx.bind(Kernel::MgProlong, &[&params, &t.p_ptr, &t.p_cols, &t.p_weights, &c, &f]);
     let mut encoder = ctx.encoder();
     {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("prolong"), timestamp_writes: None });
+        let mut pass =
+            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("prolong"), timestamp_writes: None });
         dispatch(&mut pass, ctx, Kernel::MgProlong, &bind, grid);
     }
     Ok(from_vec4(&ctx.read_back(encoder, &f, 16 * p.n_fine() as u64, "prolongation read-back")?, p.n_fine()))
@@ -393,7 +400,8 @@ pub fn vcycle(ctx: &GpuContext, mg: &Multigrid, a: &CsrMatrix3, r: &[[f64; 3]]) 
     let plan = dmg.plan(ctx, &m, &r0);
     let mut encoder = ctx.encoder();
     {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("v-cycle"), timestamp_writes: None });
+        let mut pass =
+            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("v-cycle"), timestamp_writes: None });
         plan.record(&mut pass, ctx);
     }
     Ok(from_vec4(&ctx.read_back(encoder, plan.output, 16 * n as u64, "v-cycle read-back")?, n))

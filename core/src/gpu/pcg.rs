@@ -316,15 +316,16 @@ impl<'c> GpuSolver<'c> {
             ctx.queue().write_buffer(&scalars, 0, bytemuck::bytes_of(&s0));
             let mut encoder = ctx.encoder();
             {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("cg init"), timestamp_writes: None });
+                let mut pass =
+                    encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("cg init"), timestamp_writes: None });
                 dispatch(&mut pass, ctx, Kernel::CgInit, &bind_init, m.grid);
                 dispatch(&mut pass, ctx, Kernel::ReduceRestart, &bind_restart, single);
             }
             if mg.is_some() {
                 // p = 0, so the first p = z + β p is z.
                 encoder.clear_buffer(&p, 0, None);
-                let mut pass =
-                    encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("mg-pcg start"), timestamp_writes: None });
+                let mut pass = encoder
+                    .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("mg-pcg start"), timestamp_writes: None });
                 precondition(&mut pass);
             }
             ctx.submit_wait(encoder, "PCG start")?;
@@ -335,8 +336,10 @@ impl<'c> GpuSolver<'c> {
             loop {
                 let mut encoder = ctx.encoder();
                 {
-                    let mut pass =
-                        encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("cg iterations"), timestamp_writes: None });
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("cg iterations"),
+                        timestamp_writes: None,
+                    });
                     for _ in 0..check_every {
                         k += 1;
                         dispatch(&mut pass, ctx, Kernel::SpmvDot, &bind_spmv, m.grid);
@@ -377,13 +380,8 @@ impl<'c> GpuSolver<'c> {
                         },
                     }));
                 }
-                let estimate = [0, 1, 2].map(|c| {
-                    if need[c] && bn[c] > 0.0 {
-                        f64::from(sc.rr[c]).max(0.0).sqrt() / bn[c]
-                    } else {
-                        rel[c]
-                    }
-                });
+                let estimate =
+                    [0, 1, 2].map(|c| if need[c] && bn[c] > 0.0 { f64::from(sc.rr[c]).max(0.0).sqrt() / bn[c] } else { rel[c] });
                 if let Some(monitor) = options.monitor {
                     if !monitor(iterations.iter().copied().max().unwrap_or(0), estimate) {
                         return Err(sparse(SparseError::Cancelled { iteration: iterations.iter().copied().max().unwrap_or(0) }));
@@ -411,7 +409,8 @@ impl<'c> GpuSolver<'c> {
             }
             let mut encoder = ctx.encoder();
             {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("unscale"), timestamp_writes: None });
+                let mut pass =
+                    encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("unscale"), timestamp_writes: None });
                 dispatch(&mut pass, ctx, Kernel::CgUnscale, &bind_unscale, m.grid);
             }
             let bytes = ctx.read_back(encoder, &out, vec_bytes, "correction read-back")?;

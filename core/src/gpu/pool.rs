@@ -39,12 +39,7 @@ impl BufferPool {
         let reused = self.free.lock().unwrap_or_else(|e| e.into_inner()).get_mut(&key).and_then(Vec::pop);
         let buffer = reused.unwrap_or_else(|| {
             *self.created.lock().unwrap_or_else(|e| e.into_inner()) += 1;
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: key.0,
-                usage,
-                mapped_at_creation: false,
-            })
+            device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: key.0, usage, mapped_at_creation: false })
         });
         Lease { pool: self, key, buffer: Some(buffer) }
     }

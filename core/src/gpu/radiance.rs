@@ -18,7 +18,9 @@ use crate::diffusion::{DiffusionError, DiffusionSystem};
 pub fn surface_radiance(ctx: &GpuContext, system: &DiffusionSystem, phi: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, GpuError> {
     let n = system.vertex_count();
     if phi.len() != n {
-        return Err(DiffusionError::LengthMismatch { what: "fluence phi (one entry per vertex)", expected: n, found: phi.len() }.into());
+        return Err(
+            DiffusionError::LengthMismatch { what: "fluence phi (one entry per vertex)", expected: n, found: phi.len() }.into()
+        );
     }
     let ids = &system.boundary().ids;
     for &v in ids {
@@ -37,7 +39,8 @@ pub fn surface_radiance(ctx: &GpuContext, system: &DiffusionSystem, phi: &[[f64;
     let bind = ctx.bind(Kernel::Radiance, &[&params, &ids_buf, &phi_buf, &q_buf, &out]);
     let mut encoder = ctx.encoder();
     {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("radiance"), timestamp_writes: None });
+        let mut pass =
+            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("radiance"), timestamp_writes: None });
         dispatch(&mut pass, ctx, Kernel::Radiance, &bind, (gx, gy));
     }
     Ok(from_vec4(&ctx.read_back(encoder, &out, 16 * nb as u64, "radiance read-back")?, nb))

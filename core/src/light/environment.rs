@@ -196,10 +196,7 @@ impl EquirectMap {
         let img = reader.decode().map_err(|e| load_err(e.to_string()))?.into_rgb32f();
         let (width, height) = (img.width() as usize, img.height() as usize);
         check_size(width, height)?;
-        let texels = img
-            .pixels()
-            .map(|p| p.0.map(|c| if c < 0.0 { 0.0 } else { c }))
-            .collect();
+        let texels = img.pixels().map(|p| p.0.map(|c| if c < 0.0 { 0.0 } else { c })).collect();
         Self::from_texels(width, height, texels, intensity)
     }
 
@@ -484,10 +481,7 @@ mod tests {
         }
         rgb[7] = -1.0;
         assert!(matches!(EquirectMap::from_rgb(2, 2, &rgb, 1.0), Err(LightError::ImageTexel { x: 0, y: 1, .. })));
-        assert_eq!(
-            EquirectMap::from_rgb(1, 1, &[1.0; 3], -2.0),
-            Err(LightError::ImageIntensity { value: -2.0 })
-        );
+        assert_eq!(EquirectMap::from_rgb(1, 1, &[1.0; 3], -2.0), Err(LightError::ImageIntensity { value: -2.0 }));
         let mut m = EquirectMap::from_rgb(1, 1, &[1.0; 3], 1.0).unwrap();
         assert!(m.set_intensity(f64::NAN).is_err());
         assert_eq!(m.intensity(), 1.0);

@@ -54,9 +54,7 @@ mod source;
 
 use glam::DVec3;
 
-pub use environment::{
-    direction_to_equirect, equirect_to_direction, luminance, EnvSample, Environment, EquirectMap, LUMINANCE,
-};
+pub use environment::{direction_to_equirect, equirect_to_direction, luminance, EnvSample, Environment, EquirectMap, LUMINANCE};
 pub use error::LightError;
 pub use source::{irradiance, spot_falloff, transmitted_source, EnvironmentMethod, SourceOptions};
 
@@ -198,11 +196,7 @@ impl Light {
                 direction("direction", *d)?;
                 colour("irradiance", *irradiance)?;
                 if !(0.0..180.0).contains(angular_diameter_deg) {
-                    return Err(err(
-                        "angular_diameter_deg",
-                        angular_diameter_deg.to_string(),
-                        "must be in [0, 180) degrees",
-                    ));
+                    return Err(err("angular_diameter_deg", angular_diameter_deg.to_string(), "must be in [0, 180) degrees"));
                 }
             }
             Light::Point { position, intensity } => {
@@ -214,11 +208,7 @@ impl Light {
                 direction("direction", *d)?;
                 colour("intensity", *intensity)?;
                 if !(*cone_half_angle_deg > 0.0 && *cone_half_angle_deg <= 90.0) {
-                    return Err(err(
-                        "cone_half_angle_deg",
-                        cone_half_angle_deg.to_string(),
-                        "must be in (0, 90] degrees",
-                    ));
+                    return Err(err("cone_half_angle_deg", cone_half_angle_deg.to_string(), "must be in (0, 90] degrees"));
                 }
                 if !(0.0..=1.0).contains(blend) {
                     return Err(err("blend", blend.to_string(), "must be in [0, 1]"));
@@ -292,11 +282,7 @@ mod tests {
 
     #[test]
     fn bad_fields_are_named() {
-        let sun = |d: DVec3, e: [f64; 3], a: f64| Light::Directional {
-            direction: d,
-            irradiance: e,
-            angular_diameter_deg: a,
-        };
+        let sun = |d: DVec3, e: [f64; 3], a: f64| Light::Directional { direction: d, irradiance: e, angular_diameter_deg: a };
         assert_eq!(field_of(sun(DVec3::ZERO, [1.0; 3], 0.0).validate(0)), "direction");
         assert_eq!(field_of(sun(DVec3::new(f64::NAN, 0.0, 1.0), [1.0; 3], 0.0).validate(0)), "direction");
         assert_eq!(field_of(sun(DVec3::Z, [1.0, -1.0, 0.0], 0.0).validate(0)), "irradiance");
@@ -312,13 +298,7 @@ mod tests {
         assert_eq!(field_of(spot(0.0, 0.5).validate(0)), "cone_half_angle_deg");
         assert_eq!(field_of(spot(90.5, 0.5).validate(0)), "cone_half_angle_deg");
         assert_eq!(field_of(spot(30.0, 1.5).validate(0)), "blend");
-        let disc = Light::DiscArea {
-            center: DVec3::ZERO,
-            normal: DVec3::Z,
-            radius: 0.0,
-            radiance: [1.0; 3],
-            two_sided: false,
-        };
+        let disc = Light::DiscArea { center: DVec3::ZERO, normal: DVec3::Z, radius: 0.0, radiance: [1.0; 3], two_sided: false };
         assert_eq!(field_of(disc.validate(0)), "radius");
         let rect = Light::RectArea {
             center: DVec3::ZERO,

@@ -137,10 +137,7 @@ pub(crate) fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
     let sign = 1.0_f64.copysign(n.z);
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
-    (
-        DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        DVec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
+    (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
 /// Nodes and weights of the `n`-point Gauss–Legendre rule on [−1, 1], by Newton iteration on

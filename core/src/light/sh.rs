@@ -34,17 +34,7 @@ const C22: f64 = 0.546_274_215_296_039_6; // ¼√(15/π)
 #[must_use]
 pub fn sh9_basis(d: DVec3) -> [f64; 9] {
     let (x, y, z) = (d.x, d.y, d.z);
-    [
-        C0,
-        C1 * y,
-        C1 * z,
-        C1 * x,
-        C2 * x * y,
-        C2 * y * z,
-        C20 * (3.0 * z * z - 1.0),
-        C2 * x * z,
-        C22 * (x * x - y * y),
-    ]
+    [C0, C1 * y, C1 * z, C1 * x, C2 * x * y, C2 * y * z, C20 * (3.0 * z * z - 1.0), C2 * x * z, C22 * (x * x - y * y)]
 }
 
 /// Exact integrals ∫ Y_i dω of the nine basis functions over the spherical rectangle

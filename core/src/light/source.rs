@@ -248,9 +248,7 @@ impl<'a> Prepared<'a> {
                     two_sided: *two_sided,
                 }
             }
-            Light::Environment(Environment::Constant(l)) => {
-                Prepared::ConstantEnv { l: *l, unshadowed: l.map(|c| lobe[0] * c) }
-            }
+            Light::Environment(Environment::Constant(l)) => Prepared::ConstantEnv { l: *l, unshadowed: l.map(|c| lobe[0] * c) },
             Light::Environment(Environment::Equirect(map)) => Prepared::MapEnv { map, sh: map.sh9() },
         }
     }
@@ -477,10 +475,11 @@ fn scale(c: [f64; 3], s: f64) -> [f64; 3] {
 
 /// Diagonal of the axis-aligned box around the occluder's triangles (0 when empty).
 fn bounding_diagonal(bvh: &TriangleBvh) -> f64 {
-    let (lo, hi) = bvh.corners.iter().flatten().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), &c| (lo.min(c), hi.max(c)),
-    );
+    let (lo, hi) = bvh
+        .corners
+        .iter()
+        .flatten()
+        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &c| (lo.min(c), hi.max(c)));
     if lo.x <= hi.x {
         (hi - lo).length()
     } else {
@@ -519,11 +518,7 @@ fn check_inputs(points: &[DVec3], normals: &[DVec3]) -> Result<Vec<DVec3>, Light
         .collect()
 }
 
-fn check_options(
-    prepared: &[Prepared<'_>],
-    options: &SourceOptions,
-    shadowed: bool,
-) -> Result<(), LightError> {
+fn check_options(prepared: &[Prepared<'_>], options: &SourceOptions, shadowed: bool) -> Result<(), LightError> {
     if !(options.shadow_bias.is_finite() && options.shadow_bias >= 0.0) {
         return Err(LightError::InvalidOption {
             field: "shadow_bias",
@@ -541,9 +536,7 @@ fn check_options(
         }
     }
     if options.environment_samples == 0 {
-        if let Some(i) =
-            prepared.iter().position(|p| p.needs_environment_samples(shadowed, options.unshadowed_environment))
-        {
+        if let Some(i) = prepared.iter().position(|p| p.needs_environment_samples(shadowed, options.unshadowed_environment)) {
             return Err(LightError::InvalidOption {
                 field: "environment_samples",
                 value: "0".into(),
@@ -626,11 +619,7 @@ mod tests {
         let eta = 1.4;
         let theta = 40f64.to_radians();
         let to_light = DVec3::new(theta.sin(), 0.0, theta.cos());
-        let lights = [Light::Directional {
-            direction: -to_light,
-            irradiance: [2.0, 1.0, 0.5],
-            angular_diameter_deg: 0.0,
-        }];
+        let lights = [Light::Directional { direction: -to_light, irradiance: [2.0, 1.0, 0.5], angular_diameter_deg: 0.0 }];
         let (p, n) = at_origin_facing_up();
         let q = transmitted_source(&lights, &p, &n, eta, None, &SourceOptions::default()).unwrap();
         let expect = theta.cos() * fresnel_transmittance(theta.cos(), eta);
@@ -730,13 +719,7 @@ mod tests {
 
     #[test]
     fn option_checks() {
-        let area = [Light::DiscArea {
-            center: DVec3::Z,
-            normal: -DVec3::Z,
-            radius: 1.0,
-            radiance: [1.0; 3],
-            two_sided: false,
-        }];
+        let area = [Light::DiscArea { center: DVec3::Z, normal: -DVec3::Z, radius: 1.0, radiance: [1.0; 3], two_sided: false }];
         let (p, n) = at_origin_facing_up();
         let zero_area = SourceOptions { area_samples: 0, ..Default::default() };
         assert!(matches!(

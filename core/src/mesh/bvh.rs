@@ -219,13 +219,17 @@ fn build(corners: &[[DVec3; 3]], centroids: &[DVec3], order: &mut [u32], offset:
     if order.len() <= LEAF_SIZE {
         return index;
     }
-    let (clo, chi) = order
-        .iter()
-        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &t| {
-            (lo.min(centroids[t as usize]), hi.max(centroids[t as usize]))
-        });
+    let (clo, chi) = order.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &t| {
+        (lo.min(centroids[t as usize]), hi.max(centroids[t as usize]))
+    });
     let extent = chi - clo;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
     let mid = if extent[axis] <= 0.0 {
         order.len() / 2
     } else {

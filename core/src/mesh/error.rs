@@ -56,10 +56,7 @@ pub enum MeshError {
     #[error("empty mesh: {0}")]
     Empty(String),
     /// A coordinate is NaN or infinite.
-    #[error(
-        "{}vertex {vertex} has a non-finite coordinate ({x}, {y}, {z})",
-        at(path, line)
-    )]
+    #[error("{}vertex {vertex} has a non-finite coordinate ({x}, {y}, {z})", at(path, line))]
     NonFinite {
         /// 0-based vertex number.
         vertex: usize,
@@ -75,10 +72,7 @@ pub enum MeshError {
         line: Option<usize>,
     },
     /// A face refers to a vertex that does not exist.
-    #[error(
-        "{}face {face} refers to vertex {index}, but there are {vertex_count} vertices",
-        at(path, line)
-    )]
+    #[error("{}face {face} refers to vertex {index}, but there are {vertex_count} vertices", at(path, line))]
     IndexOutOfRange {
         /// 0-based face number.
         face: usize,
@@ -92,10 +86,7 @@ pub enum MeshError {
         line: Option<usize>,
     },
     /// A face has fewer than three vertices.
-    #[error(
-        "{}face {face} has {count} vertices; a face needs at least 3",
-        at(path, line)
-    )]
+    #[error("{}face {face} has {count} vertices; a face needs at least 3", at(path, line))]
     TooFewVertices {
         /// 0-based face number.
         face: usize,

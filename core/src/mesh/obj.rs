@@ -34,10 +34,7 @@ pub fn load_obj(path: &Path) -> Result<TriMesh, MeshError> {
 /// As [`load_obj`], and [`MeshError::InvalidTolerance`] for a bad tolerance.
 pub fn load_obj_with(path: &Path, weld: &WeldOptions) -> Result<TriMesh, MeshError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
-        path: name.clone(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: name.clone(), source })?;
     let text = String::from_utf8_lossy(&bytes);
     parse_obj_with(&text, &name, weld)
 }
@@ -63,11 +60,7 @@ pub fn parse_obj(text: &str, path_for_messages: &str) -> Result<TriMesh, MeshErr
 ///
 /// # Errors
 /// As [`parse_obj`], and [`MeshError::InvalidTolerance`] for a bad tolerance.
-pub fn parse_obj_with(
-    text: &str,
-    path_for_messages: &str,
-    weld: &WeldOptions,
-) -> Result<TriMesh, MeshError> {
+pub fn parse_obj_with(text: &str, path_for_messages: &str, weld: &WeldOptions) -> Result<TriMesh, MeshError> {
     let mut reader = ObjReader::new(path_for_messages, text.len());
     let mut lines = text.split('\n');
     let mut line_no = 0usize;
@@ -179,11 +172,7 @@ impl<'a> ObjReader<'a> {
     }
 
     fn parse_error(&self, line: usize, message: String) -> MeshError {
-        MeshError::Parse {
-            path: self.path.to_owned(),
-            line,
-            message,
-        }
+        MeshError::Parse { path: self.path.to_owned(), line, message }
     }
 
     fn statement(&mut self, line: &str, line_no: usize) -> Result<(), MeshError> {
@@ -198,43 +187,28 @@ impl<'a> ObjReader<'a> {
             k if k.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_') => {
                 Ok(()) // an extension statement some other program writes
             }
-            k => Err(self.parse_error(
-                line_no,
-                format!(
-                    "unexpected '{k}': an OBJ statement starts with a keyword such as 'v' or 'f'"
-                ),
-            )),
+            k => {
+                Err(self
+                    .parse_error(line_no, format!("unexpected '{k}': an OBJ statement starts with a keyword such as 'v' or 'f'")))
+            }
         }
     }
 
-    fn vertex<'t>(
-        &mut self,
-        mut tokens: impl Iterator<Item = &'t str>,
-        line_no: usize,
-    ) -> Result<(), MeshError> {
+    fn vertex<'t>(&mut self, mut tokens: impl Iterator<Item = &'t str>, line_no: usize) -> Result<(), MeshError> {
         let mut xyz = [0.0f64; 3];
         for (k, axis) in ["x", "y", "z"].iter().enumerate() {
             let Some(tok) = tokens.next() else {
-                return Err(self.parse_error(
-                    line_no,
-                    format!("vertex has {k} coordinates; 'v' needs x, y and z"),
-                ));
+                return Err(self.parse_error(line_no, format!("vertex has {k} coordinates; 'v' needs x, y and z")));
             };
-            xyz[k] = tok.parse::<f64>().map_err(|_| {
-                self.parse_error(
-                    line_no,
-                    format!("cannot read '{tok}' as the {axis} coordinate of a vertex"),
-                )
-            })?;
+            xyz[k] = tok
+                .parse::<f64>()
+                .map_err(|_| self.parse_error(line_no, format!("cannot read '{tok}' as the {axis} coordinate of a vertex")))?;
         }
         // An optional weight w, or vertex colours r g b (some exporters write them): ignored,
         // but they must be numbers.
         for tok in tokens {
             if tok.parse::<f64>().is_err() {
-                return Err(self.parse_error(
-                    line_no,
-                    format!("cannot read '{tok}' as a number after a vertex's x y z"),
-                ));
+                return Err(self.parse_error(line_no, format!("cannot read '{tok}' as a number after a vertex's x y z")));
             }
         }
         let p = DVec3::from_array(xyz);
@@ -252,11 +226,7 @@ impl<'a> ObjReader<'a> {
         Ok(())
     }
 
-    fn face<'t>(
-        &mut self,
-        tokens: impl Iterator<Item = &'t str>,
-        line_no: usize,
-    ) -> Result<(), MeshError> {
+    fn face<'t>(&mut self, tokens: impl Iterator<Item = &'t str>, line_no: usize) -> Result<(), MeshError> {
         let face = self.offsets.len() - 1;
         let defined = self.positions.len();
         let start = self.indices.len();
@@ -268,17 +238,11 @@ impl<'a> ObjReader<'a> {
             for part in parts {
                 extra += 1;
                 if extra > 2 || (!part.is_empty() && parse_int(part).is_none()) {
-                    return Err(self.parse_error(
-                        line_no,
-                        format!("bad face corner '{tok}': expected i, i/t, i//n or i/t/n"),
-                    ));
+                    return Err(self.parse_error(line_no, format!("bad face corner '{tok}': expected i, i/t, i//n or i/t/n")));
                 }
             }
             let Some(index) = parse_int(first) else {
-                return Err(self.parse_error(
-                    line_no,
-                    format!("cannot read '{first}' in face corner '{tok}' as a vertex index"),
-                ));
+                return Err(self.parse_error(line_no, format!("cannot read '{first}' in face corner '{tok}' as a vertex index")));
             };
             let resolved = if index > 0 {
                 index - 1
@@ -313,12 +277,7 @@ impl<'a> ObjReader<'a> {
         }
         let count = self.indices.len() - start;
         if count < 3 {
-            return Err(MeshError::TooFewVertices {
-                face,
-                count,
-                path: Some(self.path.to_owned()),
-                line: Some(line_no),
-            });
+            return Err(MeshError::TooFewVertices { face, count, path: Some(self.path.to_owned()), line: Some(line_no) });
         }
         self.offsets.push(self.indices.len());
         self.face_lines.push(line_no);
@@ -342,13 +301,7 @@ impl<'a> ObjReader<'a> {
                 }
             }
         }
-        build(
-            self.positions,
-            &self.offsets,
-            &self.indices,
-            weld,
-            Some(self.path),
-        )
+        build(self.positions, &self.offsets, &self.indices, weld, Some(self.path))
     }
 }
 
@@ -431,10 +384,7 @@ mod tests {
     #[test]
     fn too_few_coordinates() {
         let e = parse_obj("v 0 0\n", "t.obj").unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "t.obj:1: vertex has 2 coordinates; 'v' needs x, y and z"
-        );
+        assert_eq!(e.to_string(), "t.obj:1: vertex has 2 coordinates; 'v' needs x, y and z");
     }
 
     #[test]

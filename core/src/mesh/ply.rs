@@ -30,10 +30,7 @@ pub fn load_ply(path: &Path) -> Result<TriMesh, MeshError> {
 /// As [`load_ply`], and [`MeshError::InvalidTolerance`] for a bad tolerance.
 pub fn load_ply_with(path: &Path, weld: &WeldOptions) -> Result<TriMesh, MeshError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
-        path: name.clone(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: name.clone(), source })?;
     parse_ply_with(&bytes, &name, weld)
 }
 
@@ -62,46 +59,26 @@ pub fn parse_ply(bytes: &[u8], path_for_messages: &str) -> Result<TriMesh, MeshE
 ///
 /// # Errors
 /// As [`parse_ply`], and [`MeshError::InvalidTolerance`] for a bad tolerance.
-pub fn parse_ply_with(
-    bytes: &[u8],
-    path_for_messages: &str,
-    weld: &WeldOptions,
-) -> Result<TriMesh, MeshError> {
+pub fn parse_ply_with(bytes: &[u8], path_for_messages: &str, weld: &WeldOptions) -> Result<TriMesh, MeshError> {
     let path = path_for_messages;
     let header = parse_header(bytes, path)?;
     if header.vertex.is_none() {
-        return Err(MeshError::Empty(format!(
-            "{path}: there is no 'vertex' element"
-        )));
+        return Err(MeshError::Empty(format!("{path}: there is no 'vertex' element")));
     }
     let body = &bytes[header.body_start..];
     let mut mesh = MeshData::new(&header, body.len());
     match header.format {
         Format::Ascii => {
-            let mut src = AsciiSource {
-                data: body,
-                pos: 0,
-                line: header.lines + 1,
-            };
+            let mut src = AsciiSource { data: body, pos: 0, line: header.lines + 1 };
             read_body(&header, &mut src, &mut mesh, path)?;
         }
         Format::BinaryLittleEndian | Format::BinaryBigEndian => {
             let big = header.format == Format::BinaryBigEndian;
-            let mut src = BinarySource {
-                data: body,
-                pos: 0,
-                big,
-            };
+            let mut src = BinarySource { data: body, pos: 0, big };
             read_body(&header, &mut src, &mut mesh, path)?;
         }
     }
-    build(
-        mesh.positions,
-        &mesh.offsets,
-        &mesh.indices,
-        weld,
-        Some(path),
-    )
+    build(mesh.positions, &mesh.offsets, &mesh.indices, weld, Some(path))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -170,15 +147,8 @@ impl Scalar {
 
 #[derive(Debug, Clone)]
 enum Property {
-    Scalar {
-        name: String,
-        ty: Scalar,
-    },
-    List {
-        name: String,
-        count: Scalar,
-        item: Scalar,
-    },
+    Scalar { name: String, ty: Scalar },
+    List { name: String, count: Scalar, item: Scalar },
 }
 
 impl Property {
@@ -254,11 +224,7 @@ struct Header {
 }
 
 fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
-    let err = |line: usize, message: String| MeshError::Parse {
-        path: path.to_owned(),
-        line,
-        message,
-    };
+    let err = |line: usize, message: String| MeshError::Parse { path: path.to_owned(), line, message };
     let mut pos = 0;
     let mut line_no = 0;
     let mut format: Option<Format> = None;
@@ -266,20 +232,14 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
     loop {
         if pos >= bytes.len() {
             if line_no == 0 {
-                return Err(err(
-                    1,
-                    "empty file: a PLY file starts with the line 'ply'".into(),
-                ));
+                return Err(err(1, "empty file: a PLY file starts with the line 'ply'".into()));
             }
             return Err(MeshError::Truncated {
                 path: path.to_owned(),
                 message: format!("the header ends after line {line_no} without 'end_header'"),
             });
         }
-        let end = bytes[pos..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(bytes.len(), |i| pos + i);
+        let end = bytes[pos..].iter().position(|&b| b == b'\n').map_or(bytes.len(), |i| pos + i);
         let raw = &bytes[pos..end];
         pos = (end + 1).min(bytes.len());
         line_no += 1;
@@ -288,10 +248,7 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
         if line_no == 1 {
             if text.trim_end() != "ply" {
                 let shown: String = text.chars().take(40).collect();
-                return Err(err(
-                    1,
-                    format!("not a PLY file: the first line is '{shown}', not 'ply'"),
-                ));
+                return Err(err(1, format!("not a PLY file: the first line is '{shown}', not 'ply'")));
             }
             continue;
         }
@@ -324,9 +281,9 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
                 let (Some(name), Some(count)) = (tokens.next(), tokens.next()) else {
                     return Err(err(line_no, format!("incomplete element line '{}'", text.trim())));
                 };
-                let count: usize = count.parse().map_err(|_| {
-                    err(line_no, format!("cannot read '{count}' as the number of '{name}' elements"))
-                })?;
+                let count: usize = count
+                    .parse()
+                    .map_err(|_| err(line_no, format!("cannot read '{count}' as the number of '{name}' elements")))?;
                 if elements.iter().any(|e| e.name == name) {
                     return Err(err(line_no, format!("element '{name}' is declared twice")));
                 }
@@ -340,14 +297,11 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
                     return Err(err(line_no, "incomplete property line".into()));
                 };
                 let property = if first == "list" {
-                    let (Some(ct), Some(it), Some(name)) = (tokens.next(), tokens.next(), tokens.next())
-                    else {
+                    let (Some(ct), Some(it), Some(name)) = (tokens.next(), tokens.next(), tokens.next()) else {
                         return Err(err(line_no, format!("incomplete list property '{}'", text.trim())));
                     };
-                    let count = Scalar::parse(ct)
-                        .ok_or_else(|| err(line_no, format!("unknown type '{ct}' of a list length")))?;
-                    let item = Scalar::parse(it)
-                        .ok_or_else(|| err(line_no, format!("unknown type '{it}' of list items")))?;
+                    let count = Scalar::parse(ct).ok_or_else(|| err(line_no, format!("unknown type '{ct}' of a list length")))?;
+                    let item = Scalar::parse(it).ok_or_else(|| err(line_no, format!("unknown type '{it}' of list items")))?;
                     if !count.is_integer() {
                         return Err(err(line_no, format!("list length type '{ct}' is not an integer type")));
                     }
@@ -356,8 +310,7 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
                     let Some(name) = tokens.next() else {
                         return Err(err(line_no, format!("property of type '{first}' has no name")));
                     };
-                    let ty = Scalar::parse(first)
-                        .ok_or_else(|| err(line_no, format!("unknown property type '{first}'")))?;
+                    let ty = Scalar::parse(first).ok_or_else(|| err(line_no, format!("unknown property type '{first}'")))?;
                     Property::Scalar { name: name.to_owned(), ty }
                 };
                 if element.properties.iter().any(|p| p.name() == property.name()) {
@@ -390,48 +343,25 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
                 let mut axes = [0usize; 3];
                 for (a, axis) in ["x", "y", "z"].iter().enumerate() {
                     let Some(i) = find(axis) else {
-                        return Err(err(
-                            e.line,
-                            format!("element 'vertex' has no property '{axis}'"),
-                        ));
+                        return Err(err(e.line, format!("element 'vertex' has no property '{axis}'")));
                     };
                     if matches!(e.properties[i], Property::List { .. }) {
-                        return Err(err(
-                            e.line,
-                            format!("vertex property '{axis}' is a list, not a number"),
-                        ));
+                        return Err(err(e.line, format!("vertex property '{axis}' is a list, not a number")));
                     }
                     axes[a] = i;
                 }
                 vertex = Some(k);
-                Role::Vertex {
-                    x: axes[0],
-                    y: axes[1],
-                    z: axes[2],
-                }
+                Role::Vertex { x: axes[0], y: axes[1], z: axes[2] }
             }
             "face" | "tristrips" => {
                 let Some(list) = find("vertex_indices").or_else(|| find("vertex_index")) else {
-                    return Err(err(
-                        e.line,
-                        format!("element '{}' has no list property 'vertex_indices'", e.name),
-                    ));
+                    return Err(err(e.line, format!("element '{}' has no list property 'vertex_indices'", e.name)));
                 };
                 let Property::List { item, .. } = e.properties[list] else {
-                    return Err(err(
-                        e.line,
-                        format!(
-                            "'{}' of element '{}' is not a list",
-                            e.properties[list].name(),
-                            e.name
-                        ),
-                    ));
+                    return Err(err(e.line, format!("'{}' of element '{}' is not a list", e.properties[list].name(), e.name)));
                 };
                 if !item.is_integer() {
-                    return Err(err(
-                        e.line,
-                        format!("vertex indices of type '{}' are not integers", item.name()),
-                    ));
+                    return Err(err(e.line, format!("vertex indices of type '{}' are not integers", item.name())));
                 }
                 if e.name == "face" {
                     Role::Face { list }
@@ -443,14 +373,7 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
         };
         roles.push(role);
     }
-    Ok(Header {
-        format,
-        elements,
-        roles,
-        vertex,
-        lines: line_no,
-        body_start: pos,
-    })
+    Ok(Header { format, elements, roles, vertex, lines: line_no, body_start: pos })
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -622,20 +545,11 @@ impl MeshData {
         let faces = cap(|r| matches!(r, Role::Face { .. }));
         let mut offsets = Vec::with_capacity(faces + 1);
         offsets.push(0);
-        MeshData {
-            positions: Vec::with_capacity(vertices),
-            offsets,
-            indices: Vec::with_capacity(3 * faces),
-        }
+        MeshData { positions: Vec::with_capacity(vertices), offsets, indices: Vec::with_capacity(3 * faces) }
     }
 }
 
-fn read_body(
-    header: &Header,
-    src: &mut impl Source,
-    mesh: &mut MeshData,
-    path: &str,
-) -> Result<(), MeshError> {
+fn read_body(header: &Header, src: &mut impl Source, mesh: &mut MeshData, path: &str) -> Result<(), MeshError> {
     let vertex_count = header.vertex.map_or(0, |v| header.elements[v].count);
     let mut values: Vec<f64> = Vec::new();
     let mut strip: Vec<i64> = Vec::new();
@@ -649,10 +563,7 @@ fn read_body(
             ReadError::Bad(token, line) => MeshError::Parse {
                 path: path.to_owned(),
                 line,
-                message: format!(
-                    "cannot read '{token}' as a number ({}, property '{property}')",
-                    of(i)
-                ),
+                message: format!("cannot read '{token}' as a number ({}, property '{property}')", of(i)),
             },
         };
         if *role == Role::Skip {
@@ -672,28 +583,14 @@ fn read_body(
                         let v = src.read(ty).map_err(|e| fail(e, i, name))?;
                         values.push(v.as_f64());
                     }
-                    Property::List {
-                        count,
-                        item,
-                        ref name,
-                    } => {
+                    Property::List { count, item, ref name } => {
                         let n = src.read(count).map_err(|e| fail(e, i, name))?.as_i64();
                         let line = src.line();
                         if n < 0 {
-                            let message = format!(
-                                "negative list length {n} in {} (property '{name}')",
-                                of(i)
-                            );
+                            let message = format!("negative list length {n} in {} (property '{name}')", of(i));
                             return Err(match line {
-                                Some(line) => MeshError::Parse {
-                                    path: path.to_owned(),
-                                    line,
-                                    message,
-                                },
-                                None => MeshError::Malformed {
-                                    path: path.to_owned(),
-                                    message,
-                                },
+                                Some(line) => MeshError::Parse { path: path.to_owned(), line, message },
+                                None => MeshError::Malformed { path: path.to_owned(), message },
                             });
                         }
                         let n = n as usize;
@@ -839,21 +736,10 @@ mod tests {
 
     #[test]
     fn header_errors_name_the_line() {
-        let e = parse_ply(
-            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty flot x\n",
-            "h.ply",
-        )
-        .unwrap_err();
+        let e = parse_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty flot x\n", "h.ply").unwrap_err();
         assert_eq!(e.to_string(), "h.ply:4: unknown property type 'flot'");
-        let e = parse_ply(
-            b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n",
-            "h.ply",
-        )
-        .unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "h.ply:3: element 'vertex' has no property 'y'"
-        );
+        let e = parse_ply(b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n", "h.ply").unwrap_err();
+        assert_eq!(e.to_string(), "h.ply:3: element 'vertex' has no property 'y'");
         let e = parse_ply(b"ply\nformat ascii 1.0\n", "h.ply").unwrap_err();
         assert!(matches!(e, MeshError::Truncated { .. }), "{e}");
     }
@@ -862,10 +748,7 @@ mod tests {
     fn ascii_bad_number_names_token_and_line() {
         let text = CUBE_ASCII.replace("1 1 1 7", "1 x1 1 7");
         let e = parse_ply(text.as_bytes(), "cube.ply").unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "cube.ply:21: cannot read 'x1' as a number (vertex 6 of 8, property 'y')"
-        );
+        assert_eq!(e.to_string(), "cube.ply:21: cannot read 'x1' as a number (vertex 6 of 8, property 'y')");
     }
 
     #[test]

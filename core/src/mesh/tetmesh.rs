@@ -525,12 +525,8 @@ mod tests {
 
     #[test]
     fn regular_tet_dihedral_is_arccos_one_third() {
-        let p = [
-            DVec3::new(1.0, 1.0, 1.0),
-            DVec3::new(1.0, -1.0, -1.0),
-            DVec3::new(-1.0, 1.0, -1.0),
-            DVec3::new(-1.0, -1.0, 1.0),
-        ];
+        let p =
+            [DVec3::new(1.0, 1.0, 1.0), DVec3::new(1.0, -1.0, -1.0), DVec3::new(-1.0, 1.0, -1.0), DVec3::new(-1.0, -1.0, 1.0)];
         let p = if tet_volume(p) < 0.0 { [p[0], p[2], p[1], p[3]] } else { p };
         for a in dihedral_angles(p) {
             assert!((a - (1.0f64 / 3.0).acos()).abs() < 1e-12);

@@ -24,9 +24,7 @@ pub(crate) fn triangulate(pos: &[DVec3], poly: &[u32], out: &mut Vec<[u32; 3]>) 
     let p = |i: usize| pos[poly[i] as usize];
     let centroid = (0..n).map(p).sum::<DVec3>() / n as f64;
     let normal = newell_normal((0..n).map(|i| p(i) - centroid));
-    let scale2 = (0..n)
-        .map(|i| (p(i) - centroid).length_squared())
-        .fold(0.0, f64::max);
+    let scale2 = (0..n).map(|i| (p(i) - centroid).length_squared()).fold(0.0, f64::max);
     let has_plane = normal.length() > 1e-12 * scale2; // false for NaN too
     if !has_plane {
         // No well-defined plane (collinear corners, or a figure-eight with no net area): any
@@ -50,11 +48,7 @@ pub(crate) fn triangulate(pos: &[DVec3], poly: &[u32], out: &mut Vec<[u32; 3]>) 
         })
         .collect();
     if is_convex(&pts) {
-        let apex = if n <= BEST_APEX_MAX_CORNERS {
-            best_fan_apex(pos, poly)
-        } else {
-            0
-        };
+        let apex = if n <= BEST_APEX_MAX_CORNERS { best_fan_apex(pos, poly) } else { 0 };
         fan(poly, apex, out);
     } else {
         ear_clip(&pts, poly, out);
@@ -100,9 +94,7 @@ fn best_fan_apex(pos: &[DVec3], poly: &[u32]) -> usize {
     let p = |i: usize| pos[poly[i % n] as usize];
     let mut best = (0, f64::NEG_INFINITY);
     for apex in 0..n {
-        let worst = (1..n - 1)
-            .map(|k| quality(p(apex), p(apex + k), p(apex + k + 1)))
-            .fold(f64::INFINITY, f64::min);
+        let worst = (1..n - 1).map(|k| quality(p(apex), p(apex + k), p(apex + k + 1))).fold(f64::INFINITY, f64::min);
         if worst > best.1 {
             best = (apex, worst);
         }
@@ -164,9 +156,7 @@ fn ear_clip(pts: &[DVec2], poly: &[u32], out: &mut Vec<[u32; 3]>) {
     let mut next: Vec<usize> = (0..n).map(|i| (i + 1) % n).collect();
     let mut prev: Vec<usize> = (0..n).map(|i| (i + n - 1) % n).collect();
     let mut removed = vec![false; n];
-    let turn = |prev: &[usize], next: &[usize], i: usize| {
-        cross2(pts[i] - pts[prev[i]], pts[next[i]] - pts[i])
-    };
+    let turn = |prev: &[usize], next: &[usize], i: usize| cross2(pts[i] - pts[prev[i]], pts[next[i]] - pts[i]);
     let reflex: Vec<usize> = (0..n).filter(|&i| turn(&prev, &next, i) <= 0.0).collect();
     let grid = PointGrid::new(pts, &reflex);
     let mut remaining = n;
@@ -174,10 +164,8 @@ fn ear_clip(pts: &[DVec2], poly: &[u32], out: &mut Vec<[u32; 3]>) {
     let mut misses = 0;
     while remaining > 3 {
         let (a, c) = (prev[i], next[i]);
-        let ear = turn(&prev, &next, i) > 0.0
-            && !grid.any_in_triangle(pts, a, i, c, |j| {
-                !removed[j] && turn(&prev, &next, j) <= 0.0
-            });
+        let ear =
+            turn(&prev, &next, i) > 0.0 && !grid.any_in_triangle(pts, a, i, c, |j| !removed[j] && turn(&prev, &next, j) <= 0.0);
         let clip = if ear {
             Some(i)
         } else {
@@ -229,34 +217,18 @@ struct PointGrid {
 
 impl PointGrid {
     fn new(pts: &[DVec2], members: &[usize]) -> PointGrid {
-        let lo = members
-            .iter()
-            .fold(DVec2::splat(f64::INFINITY), |m, &j| m.min(pts[j]));
-        let hi = members
-            .iter()
-            .fold(DVec2::splat(f64::NEG_INFINITY), |m, &j| m.max(pts[j]));
+        let lo = members.iter().fold(DVec2::splat(f64::INFINITY), |m, &j| m.min(pts[j]));
+        let hi = members.iter().fold(DVec2::splat(f64::NEG_INFINITY), |m, &j| m.max(pts[j]));
         let extent = (hi - lo).max_element();
         let side = (members.len() as f64).sqrt().ceil().clamp(1.0, 1024.0) as usize;
         let has_extent = extent > 0.0; // false for NaN too
         if members.is_empty() || !has_extent {
             // One cell holds everything.
             let cells = vec![members.iter().map(|&j| j as u32).collect()];
-            return PointGrid {
-                lo: DVec2::ZERO,
-                inv_cell: 0.0,
-                nx: 1,
-                ny: 1,
-                cells,
-            };
+            return PointGrid { lo: DVec2::ZERO, inv_cell: 0.0, nx: 1, ny: 1, cells };
         }
         let inv_cell = side as f64 / extent;
-        let mut grid = PointGrid {
-            lo,
-            inv_cell,
-            nx: side,
-            ny: side,
-            cells: vec![Vec::new(); side * side],
-        };
+        let mut grid = PointGrid { lo, inv_cell, nx: side, ny: side, cells: vec![Vec::new(); side * side] };
         for &j in members {
             let (cx, cy) = grid.cell(pts[j]);
             grid.cells[cy * grid.nx + cx].push(j as u32);
@@ -275,14 +247,7 @@ impl PointGrid {
     /// Whether any grid member `j` accepted by `active` lies in the triangle `a b c` (inclusive
     /// of its boundary; members at the same place as a corner do not count, so that polygons
     /// touching themselves, as when a hole is bridged to the outline, can still be clipped).
-    fn any_in_triangle(
-        &self,
-        pts: &[DVec2],
-        a: usize,
-        b: usize,
-        c: usize,
-        active: impl Fn(usize) -> bool,
-    ) -> bool {
+    fn any_in_triangle(&self, pts: &[DVec2], a: usize, b: usize, c: usize, active: impl Fn(usize) -> bool) -> bool {
         let (pa, pb, pc) = (pts[a], pts[b], pts[c]);
         let (x0, y0) = self.cell(pa.min(pb).min(pc));
         let (x1, y1) = self.cell(pa.max(pb).max(pc));
@@ -314,10 +279,7 @@ mod tests {
     use super::*;
 
     fn tri(points2: &[(f64, f64)]) -> (Vec<DVec3>, Vec<[u32; 3]>) {
-        let pos: Vec<DVec3> = points2
-            .iter()
-            .map(|&(x, y)| DVec3::new(x, y, 0.0))
-            .collect();
+        let pos: Vec<DVec3> = points2.iter().map(|&(x, y)| DVec3::new(x, y, 0.0)).collect();
         let poly: Vec<u32> = (0..pos.len() as u32).collect();
         let mut out = Vec::new();
         triangulate(&pos, &poly, &mut out);
@@ -359,25 +321,16 @@ mod tests {
             assert!(z > 0.0, "triangle {t:?} is not counter-clockwise");
             area += 0.5 * z;
             let g = (a + b + c) / 3.0;
-            assert!(
-                inside(points2, (g.x, g.y)),
-                "triangle {t:?} lies outside the polygon"
-            );
+            assert!(inside(points2, (g.x, g.y)), "triangle {t:?} lies outside the polygon");
         }
         let expected = polygon_area(points2);
-        assert!(
-            (area - expected).abs() <= 1e-12 * expected,
-            "area {area} vs {expected}"
-        );
+        assert!((area - expected).abs() <= 1e-12 * expected, "area {area} vs {expected}");
         out
     }
 
     #[test]
     fn triangle_passes_through() {
-        assert_eq!(
-            tri(&[(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]).1,
-            vec![[0, 1, 2]]
-        );
+        assert_eq!(tri(&[(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]).1, vec![[0, 1, 2]]);
     }
 
     #[test]
@@ -396,23 +349,9 @@ mod tests {
 
     #[test]
     fn l_shaped_hexagon() {
-        check(&[
-            (0.0, 0.0),
-            (2.0, 0.0),
-            (2.0, 1.0),
-            (1.0, 1.0),
-            (1.0, 2.0),
-            (0.0, 2.0),
-        ]);
+        check(&[(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (1.0, 1.0), (1.0, 2.0), (0.0, 2.0)]);
         // Every rotation of the corner order.
-        let l = [
-            (0.0, 0.0),
-            (2.0, 0.0),
-            (2.0, 1.0),
-            (1.0, 1.0),
-            (1.0, 2.0),
-            (0.0, 2.0),
-        ];
+        let l = [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (1.0, 1.0), (1.0, 2.0), (0.0, 2.0)];
         for r in 0..6 {
             let mut v = l.to_vec();
             v.rotate_left(r);
@@ -469,14 +408,7 @@ mod tests {
     #[test]
     fn convex_hexagon_with_collinear_corner_avoids_zero_area() {
         // Corner 1 lies on the edge 0–2; a fan from 0 or 2 would make a zero-area triangle.
-        let (pos, out) = tri(&[
-            (0.0, 0.0),
-            (1.0, 0.0),
-            (2.0, 0.0),
-            (2.0, 1.0),
-            (1.0, 2.0),
-            (0.0, 1.0),
-        ]);
+        let (pos, out) = tri(&[(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (2.0, 1.0), (1.0, 2.0), (0.0, 1.0)]);
         assert_eq!(out.len(), 4);
         for t in &out {
             let [a, b, c] = t.map(|i| pos[i as usize]);
@@ -487,19 +419,9 @@ mod tests {
     #[test]
     fn tilted_non_convex_polygon_in_3d() {
         // The L-shape rotated out of the xy-plane and reversed (clockwise seen from +z).
-        let l = [
-            (0.0, 0.0),
-            (0.0, 2.0),
-            (1.0, 2.0),
-            (1.0, 1.0),
-            (2.0, 1.0),
-            (2.0, 0.0),
-        ];
+        let l = [(0.0, 0.0), (0.0, 2.0), (1.0, 2.0), (1.0, 1.0), (2.0, 1.0), (2.0, 0.0)];
         let rot = glam::DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 1.1);
-        let pos: Vec<DVec3> = l
-            .iter()
-            .map(|&(x, y)| rot * DVec3::new(x, y, 0.0) + DVec3::splat(5.0))
-            .collect();
+        let pos: Vec<DVec3> = l.iter().map(|&(x, y)| rot * DVec3::new(x, y, 0.0) + DVec3::splat(5.0)).collect();
         let poly: Vec<u32> = (0..6).collect();
         let mut out = Vec::new();
         triangulate(&pos, &poly, &mut out);

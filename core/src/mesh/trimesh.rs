@@ -25,9 +25,7 @@ pub struct WeldOptions {
 
 impl Default for WeldOptions {
     fn default() -> Self {
-        Self {
-            relative_tolerance: 1e-7,
-        }
+        Self { relative_tolerance: 1e-7 }
     }
 }
 
@@ -66,11 +64,7 @@ impl TriMesh {
     /// - [`MeshError::TooFewVertices`]: a polygon with fewer than 3 indices;
     /// - [`MeshError::IndexOutOfRange`]: an index `>= user_positions.len()`;
     /// - [`MeshError::AllFacesDegenerate`]: no triangle with a non-zero area is left.
-    pub fn from_polygons(
-        user_positions: Vec<DVec3>,
-        polygons: &[Vec<u32>],
-        weld: &WeldOptions,
-    ) -> Result<TriMesh, MeshError> {
+    pub fn from_polygons(user_positions: Vec<DVec3>, polygons: &[Vec<u32>], weld: &WeldOptions) -> Result<TriMesh, MeshError> {
         let mut offsets = Vec::with_capacity(polygons.len() + 1);
         offsets.push(0);
         let mut indices = Vec::with_capacity(polygons.iter().map(Vec::len).sum());
@@ -89,17 +83,11 @@ impl TriMesh {
     /// # Errors
     /// [`MeshError::IndexCountNotMultipleOf3`] if `indices.len() % 3 != 0`, and every error of
     /// [`from_polygons`](Self::from_polygons).
-    pub fn from_triangles<T: Copy + Into<f64>>(
-        positions: &[[T; 3]],
-        indices: &[u32],
-    ) -> Result<TriMesh, MeshError> {
+    pub fn from_triangles<T: Copy + Into<f64>>(positions: &[[T; 3]], indices: &[u32]) -> Result<TriMesh, MeshError> {
         if indices.len() % 3 != 0 {
             return Err(MeshError::IndexCountNotMultipleOf3 { len: indices.len() });
         }
-        let positions: Vec<DVec3> = positions
-            .iter()
-            .map(|p| DVec3::new(p[0].into(), p[1].into(), p[2].into()))
-            .collect();
+        let positions: Vec<DVec3> = positions.iter().map(|p| DVec3::new(p[0].into(), p[1].into(), p[2].into())).collect();
         let offsets: Vec<usize> = (0..=indices.len() / 3).map(|f| 3 * f).collect();
         build(positions, &offsets, indices, &WeldOptions::default(), None)
     }
@@ -197,28 +185,15 @@ impl TriMesh {
     #[must_use]
     pub fn transformed(&self, m: &DMat4) -> TriMesh {
         let affine = m.row(3) == DVec4::new(0.0, 0.0, 0.0, 1.0);
-        let positions = self
-            .positions
-            .iter()
-            .map(|&p| {
-                if affine {
-                    m.transform_point3(p)
-                } else {
-                    m.project_point3(p)
-                }
-            })
-            .collect();
+        let positions =
+            self.positions.iter().map(|&p| if affine { m.transform_point3(p) } else { m.project_point3(p) }).collect();
         let linear = glam::DMat3::from_mat4(*m);
         let triangles = if linear.determinant() < 0.0 {
             self.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect()
         } else {
             self.triangles.clone()
         };
-        TriMesh {
-            positions,
-            triangles,
-            user_to_internal: self.user_to_internal.clone(),
-        }
+        TriMesh { positions, triangles, user_to_internal: self.user_to_internal.clone() }
     }
 
     /// Every triangle edge as (undirected key, triangle, corner where it starts), sorted by key.
@@ -263,10 +238,9 @@ impl TriMesh {
     /// Axis-aligned bounds `(min, max)` of the internal vertices.
     #[must_use]
     pub fn bounds(&self) -> (DVec3, DVec3) {
-        self.positions.iter().fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-        )
+        self.positions
+            .iter()
+            .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
     }
 
     /// Length of the bounding-box diagonal.
@@ -280,11 +254,7 @@ impl TriMesh {
     #[must_use]
     pub fn triangle(&self, t: usize) -> [DVec3; 3] {
         let [a, b, c] = self.triangles[t];
-        [
-            self.positions[a as usize],
-            self.positions[b as usize],
-            self.positions[c as usize],
-        ]
+        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
     }
 
     /// Area-weighted normal of triangle `t` (length = twice the area).
@@ -297,9 +267,7 @@ impl TriMesh {
     /// Total surface area.
     #[must_use]
     pub fn area(&self) -> f64 {
-        (0..self.triangles.len())
-            .map(|t| 0.5 * self.triangle_cross(t).length())
-            .sum()
+        (0..self.triangles.len()).map(|t| 0.5 * self.triangle_cross(t).length()).sum()
     }
 
     /// Signed enclosed volume by the divergence theorem: the sum of the signed volumes of the
@@ -328,14 +296,7 @@ pub(crate) fn check_finite(vertex: usize, p: DVec3) -> Result<(), MeshError> {
     if p.is_finite() {
         Ok(())
     } else {
-        Err(MeshError::NonFinite {
-            vertex,
-            x: p.x,
-            y: p.y,
-            z: p.z,
-            path: None,
-            line: None,
-        })
+        Err(MeshError::NonFinite { vertex, x: p.x, y: p.y, z: p.z, path: None, line: None })
     }
 }
 
@@ -374,28 +335,16 @@ pub(crate) fn build(
     }
     for (i, p) in user_positions.iter().enumerate() {
         check_finite(i, *p).map_err(|e| match e {
-            MeshError::NonFinite {
-                vertex, x, y, z, ..
-            } => MeshError::NonFinite {
-                vertex,
-                x,
-                y,
-                z,
-                path: owned_path(),
-                line: None,
-            },
+            MeshError::NonFinite { vertex, x, y, z, .. } => {
+                MeshError::NonFinite { vertex, x, y, z, path: owned_path(), line: None }
+            }
             other => other,
         })?;
     }
     for face in 0..faces {
         let poly = &indices[offsets[face]..offsets[face + 1]];
         if poly.len() < 3 {
-            return Err(MeshError::TooFewVertices {
-                face,
-                count: poly.len(),
-                path: owned_path(),
-                line: None,
-            });
+            return Err(MeshError::TooFewVertices { face, count: poly.len(), path: owned_path(), line: None });
         }
         if let Some(&index) = poly.iter().find(|&&i| i as usize >= n) {
             return Err(MeshError::IndexOutOfRange {
@@ -408,10 +357,9 @@ pub(crate) fn build(
         }
     }
 
-    let (lo, hi) = user_positions.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
+    let (lo, hi) = user_positions
+        .iter()
+        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
     let diagonal = (hi - lo).length();
     let welded = weld(&user_positions, tolerance * diagonal);
     drop(user_positions);
@@ -442,11 +390,7 @@ pub(crate) fn build(
             if a == b || b == c || c == a {
                 continue;
             }
-            let (pa, pb, pc) = (
-                positions[a as usize],
-                positions[b as usize],
-                positions[c as usize],
-            );
+            let (pa, pb, pc) = (positions[a as usize], positions[b as usize], positions[c as usize]);
             // Written so that an unexpected NaN also counts as degenerate.
             let has_area = (pb - pa).cross(pc - pa).length() > min_cross;
             if !has_area {
@@ -456,14 +400,7 @@ pub(crate) fn build(
         }
     }
     if triangles.is_empty() {
-        return Err(MeshError::AllFacesDegenerate {
-            faces,
-            path: owned_path(),
-        });
+        return Err(MeshError::AllFacesDegenerate { faces, path: owned_path() });
     }
-    Ok(TriMesh {
-        positions,
-        triangles,
-        user_to_internal: map,
-    })
+    Ok(TriMesh { positions, triangles, user_to_internal: map })
 }

@@ -37,12 +37,8 @@ pub(crate) fn weld(points: &[DVec3], tolerance: f64) -> Welded {
         return Welded { positions, map };
     }
 
-    let lo = points
-        .iter()
-        .fold(DVec3::splat(f64::INFINITY), |a, p| a.min(*p));
-    let hi = points
-        .iter()
-        .fold(DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
+    let lo = points.iter().fold(DVec3::splat(f64::INFINITY), |a, p| a.min(*p));
+    let hi = points.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
     // Cells must not be so small that cell coordinates overflow or lose meaning.
     let extent = (hi - lo).max_element();
     let tolerance_usable = tolerance > 0.0 && extent / tolerance < 1e15;
@@ -71,18 +67,9 @@ pub(crate) fn weld(points: &[DVec3], tolerance: f64) -> Welded {
     grid.reserve(points.len());
     for p in points {
         let mut best: Option<u32> = None;
-        let (x0, x1) = (
-            cell_of(p.x - tolerance, lo.x),
-            cell_of(p.x + tolerance, lo.x),
-        );
-        let (y0, y1) = (
-            cell_of(p.y - tolerance, lo.y),
-            cell_of(p.y + tolerance, lo.y),
-        );
-        let (z0, z1) = (
-            cell_of(p.z - tolerance, lo.z),
-            cell_of(p.z + tolerance, lo.z),
-        );
+        let (x0, x1) = (cell_of(p.x - tolerance, lo.x), cell_of(p.x + tolerance, lo.x));
+        let (y0, y1) = (cell_of(p.y - tolerance, lo.y), cell_of(p.y + tolerance, lo.y));
+        let (z0, z1) = (cell_of(p.z - tolerance, lo.z), cell_of(p.z + tolerance, lo.z));
         for cx in x0..=x1 {
             for cy in y0..=y1 {
                 for cz in z0..=z1 {
@@ -183,12 +170,7 @@ mod tests {
 
     #[test]
     fn exact_duplicates_merge_to_lowest_index() {
-        let p = [
-            DVec3::new(0.0, 0.0, 0.0),
-            DVec3::new(1.0, 0.0, 0.0),
-            DVec3::new(-0.0, 0.0, 0.0),
-            DVec3::new(1.0, 0.0, 0.0),
-        ];
+        let p = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(-0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0)];
         let w = weld(&p, 0.0);
         assert_eq!(w.positions.len(), 2);
         assert_eq!(w.map, vec![0, 1, 0, 1]);
@@ -212,9 +194,7 @@ mod tests {
     #[test]
     fn no_creep_along_chains() {
         // Points 0.6 tol apart: each is within tol of its neighbour but the chain is 3 tol long.
-        let p: Vec<DVec3> = (0..6)
-            .map(|i| DVec3::new(0.6 * f64::from(i), 0.0, 0.0))
-            .collect();
+        let p: Vec<DVec3> = (0..6).map(|i| DVec3::new(0.6 * f64::from(i), 0.0, 0.0)).collect();
         let w = weld(&p, 1.0);
         // 0 represents 0,1 (0.6); 2 at 1.2 is too far from 0 -> new; 3 at 1.8 joins 2; ...
         assert_eq!(w.map, vec![0, 0, 1, 1, 2, 2]);
@@ -224,18 +204,10 @@ mod tests {
     fn lowest_index_wins_across_cells() {
         // Point 2 is within tolerance of both 0 and 1 (which are not within tolerance of each
         // other); it must join 0, the lower index, whatever cell it is in.
-        let p = [
-            DVec3::new(0.0, 0.0, 0.0),
-            DVec3::new(1.5, 0.0, 0.0),
-            DVec3::new(0.75, 0.0, 0.0),
-        ];
+        let p = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.5, 0.0, 0.0), DVec3::new(0.75, 0.0, 0.0)];
         let w = weld(&p, 1.0);
         assert_eq!(w.map, vec![0, 1, 0]);
-        let q = [
-            DVec3::new(1.5, 0.0, 0.0),
-            DVec3::new(0.0, 0.0, 0.0),
-            DVec3::new(0.75, 0.0, 0.0),
-        ];
+        let q = [DVec3::new(1.5, 0.0, 0.0), DVec3::new(0.0, 0.0, 0.0), DVec3::new(0.75, 0.0, 0.0)];
         assert_eq!(weld(&q, 1.0).map, vec![0, 1, 0]);
     }
 
@@ -243,9 +215,7 @@ mod tests {
     fn matches_brute_force_on_random_cloud() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let base: Vec<DVec3> = (0..300)
-            .map(|_| DVec3::new(rng.random(), rng.random(), rng.random()) * 10.0)
-            .collect();
+        let base: Vec<DVec3> = (0..300).map(|_| DVec3::new(rng.random(), rng.random(), rng.random()) * 10.0).collect();
         let mut pts = base.clone();
         for _ in 0..600 {
             let b = base[rng.random_range(0..base.len())];
@@ -258,10 +228,7 @@ mod tests {
         let mut reps: Vec<DVec3> = Vec::new();
         let mut map = Vec::new();
         for p in &pts {
-            match reps
-                .iter()
-                .position(|r| r.distance_squared(*p) <= tol * tol)
-            {
+            match reps.iter().position(|r| r.distance_squared(*p) <= tol * tol) {
                 Some(i) => map.push(i as u32),
                 None => {
                     map.push(reps.len() as u32);

@@ -225,8 +225,14 @@ mod tests {
             DVec3::new(0.1, 0.0, -0.5),
         ];
         let faces: Vec<Vec<u32>> = vec![
-            vec![0, 2, 4], vec![2, 1, 4], vec![1, 3, 4], vec![3, 0, 4],
-            vec![2, 0, 5], vec![1, 2, 5], vec![3, 1, 5], vec![0, 3, 5],
+            vec![0, 2, 4],
+            vec![2, 1, 4],
+            vec![1, 3, 4],
+            vec![3, 0, 4],
+            vec![2, 0, 5],
+            vec![1, 2, 5],
+            vec![3, 1, 5],
+            vec![0, 3, 5],
         ];
         let mesh = TriMesh::from_polygons(p, &faces, &Default::default()).unwrap();
         let f0 = principal_frame(&mesh);
@@ -246,12 +252,21 @@ mod tests {
     fn box_mesh(extent: DVec3) -> TriMesh {
         let h = extent / 2.0;
         let p: Vec<DVec3> = (0..8)
-            .map(|i| DVec3::new(if i & 1 == 0 { -h.x } else { h.x }, if i & 2 == 0 { -h.y } else { h.y }, if i & 4 == 0 { -h.z } else { h.z }))
+            .map(|i| {
+                DVec3::new(
+                    if i & 1 == 0 { -h.x } else { h.x },
+                    if i & 2 == 0 { -h.y } else { h.y },
+                    if i & 4 == 0 { -h.z } else { h.z },
+                )
+            })
             .collect();
         let faces: Vec<Vec<u32>> = vec![
-            vec![0, 2, 3, 1], vec![4, 5, 7, 6], // −z, +z
-            vec![0, 1, 5, 4], vec![2, 6, 7, 3], // −y, +y
-            vec![0, 4, 6, 2], vec![1, 3, 7, 5], // −x, +x
+            vec![0, 2, 3, 1],
+            vec![4, 5, 7, 6], // −z, +z
+            vec![0, 1, 5, 4],
+            vec![2, 6, 7, 3], // −y, +y
+            vec![0, 4, 6, 2],
+            vec![1, 3, 7, 5], // −x, +x
         ];
         let mesh = TriMesh::from_polygons(p, &faces, &Default::default()).unwrap();
         assert!(mesh.signed_volume() > 0.0);

@@ -28,7 +28,13 @@ pub(crate) struct Repair {
 /// Moves boundary vertices among `touched` that a removal exposed (off the input surface) to
 /// their closest point on it, one at a time, keeping each move only if every tet around the
 /// vertex stays positively oriented and within the dihedral bounds.
-fn project_exposed(positions: &mut [DVec3], tets: &[[u32; 4]], mesh: &TetMesh, touched: &[u32], surface: &crate::mesh::TriangleBvh) -> usize {
+fn project_exposed(
+    positions: &mut [DVec3],
+    tets: &[[u32; 4]],
+    mesh: &TetMesh,
+    touched: &[u32],
+    surface: &crate::mesh::TriangleBvh,
+) -> usize {
     let scale = mesh.positions().iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
     let mut moved = 0;
     for &v in touched {
@@ -218,8 +224,9 @@ fn tets_to_remove(mesh: &TetMesh) -> Vec<u32> {
     let mut remove = Vec::new();
     for ([u, v], edge_faces) in mesh.irregular_boundary_edges() {
         if edge_faces.len() > 2 {
-            let around: Vec<u32> =
-                (0..mesh.tet_count() as u32).filter(|&t| mesh.tets()[t as usize].contains(&u) && mesh.tets()[t as usize].contains(&v)).collect();
+            let around: Vec<u32> = (0..mesh.tet_count() as u32)
+                .filter(|&t| mesh.tets()[t as usize].contains(&u) && mesh.tets()[t as usize].contains(&v))
+                .collect();
             let groups = groups_by_shared_face(mesh, &around);
             if let Some(smallest) = groups.iter().min_by_key(|g| g.len()) {
                 remove.extend(smallest);
@@ -387,15 +394,7 @@ mod tests {
     #[test]
     fn two_tets_touching_at_a_vertex_are_separated() {
         let mut surface = vec![true; 7];
-        let mut p = vec![
-            DVec3::ZERO,
-            DVec3::X,
-            DVec3::Y,
-            DVec3::Z,
-            -DVec3::X,
-            -DVec3::Y,
-            -DVec3::Z,
-        ];
+        let mut p = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z];
         let mut tets = vec![[0, 1, 2, 3], [0, 4, 5, 6]];
         assert_eq!(split_pinched_vertices(&mut p, &mut tets, &mut surface), 1);
         assert_eq!(p.len(), 8);

@@ -77,7 +77,9 @@ pub enum MesherError {
     #[error("invalid mesher options: {0}")]
     InvalidOptions(String),
     /// The surface encloses no volume (e.g. a single open sheet): no lattice point is inside.
-    #[error("the surface encloses no volume (winding number below 1/2 everywhere{detail}): a single open sheet cannot be filled")]
+    #[error(
+        "the surface encloses no volume (winding number below 1/2 everywhere{detail}): a single open sheet cannot be filled"
+    )]
     NoInterior { detail: String },
     /// The requested size needs a lattice larger than `max_lattice_vertices`.
     #[error("a lattice of {vertices} vertices would be needed (limit {limit}); ask for fewer tets or a larger spacing")]
@@ -174,7 +176,11 @@ pub fn tetrahedralize(surface: &TriMesh, options: &MesherOptions) -> Result<TetM
 ///
 /// # Errors
 /// As [`tetrahedralize`], plus [`MesherError::Cancelled`].
-pub fn tetrahedralize_with(surface: &TriMesh, options: &MesherOptions, progress: Progress) -> Result<Tetrahedralization, MesherError> {
+pub fn tetrahedralize_with(
+    surface: &TriMesh,
+    options: &MesherOptions,
+    progress: Progress,
+) -> Result<Tetrahedralization, MesherError> {
     let start = Instant::now();
     let mut timings = MesherTimings::default();
     let user_surface = surface;
@@ -365,11 +371,8 @@ fn size_to_count(
         if (count as f64 / n - 1.0).abs() <= 0.1 || passes >= 3 {
             return Ok((stuffed, h, passes));
         }
-        let measured: f64 = stuffed
-            .tets
-            .par_iter()
-            .map(|t| crate::mesh::tet_volume(t.map(|v| stuffed.positions[v as usize])).abs())
-            .sum();
+        let measured: f64 =
+            stuffed.tets.par_iter().map(|t| crate::mesh::tet_volume(t.map(|v| stuffed.positions[v as usize])).abs()).sum();
         h = spacing_for_count(measured, area, n);
     }
 }
@@ -379,11 +382,8 @@ fn size_to_count(
 fn map_user_vertices(surface: &TriMesh, mesh: &TetMesh, input: &TriangleBvh) -> (Vec<SurfacePoint>, Hausdorff) {
     let faces: Vec<[u32; 3]> = mesh.boundary_faces().iter().map(|f| f.vertices).collect();
     let boundary = TriangleBvh::from_indexed(mesh.positions(), &faces);
-    let internal: Vec<SurfacePoint> = surface
-        .positions()
-        .par_iter()
-        .map(|&p| boundary.closest_point(p).expect("a tet mesh has boundary faces"))
-        .collect();
+    let internal: Vec<SurfacePoint> =
+        surface.positions().par_iter().map(|&p| boundary.closest_point(p).expect("a tet mesh has boundary faces")).collect();
     let input_to_boundary = internal.iter().map(|s| s.distance).fold(0.0, f64::max);
     let boundary_to_input = (0..mesh.vertex_count())
         .into_par_iter()

@@ -235,7 +235,9 @@ mod tests {
                     valid += 1;
                     let vol: f64 = tets
                         .iter()
-                        .map(|t| tet_volume(t.map(|v| if let Vert::Lattice(i) = v { pts[i as usize] } else { DVec3::ZERO })).abs())
+                        .map(|t| {
+                            tet_volume(t.map(|v| if let Vert::Lattice(i) = v { pts[i as usize] } else { DVec3::ZERO })).abs()
+                        })
                         .sum();
                     assert!((vol - 0.5).abs() < 1e-12, "pattern {bits}: volume {vol}");
                 }

@@ -114,7 +114,8 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
             for &(v, _) in &nb[..n] {
                 if v > u && labels[u as usize] != labels[v as usize] {
                     let (a, b) = if labels[u as usize] > 0 { (u, v) } else { (v, u) };
-                    let (p, by_bisection) = cut_point(surface, lattice.position(a), lattice.position(b), winding[a as usize], &mut hits);
+                    let (p, by_bisection) =
+                        cut_point(surface, lattice.position(a), lattice.position(b), winding[a as usize], &mut hits);
                     if by_bisection {
                         bisected.fetch_add(1, Ordering::Relaxed);
                     }
@@ -270,7 +271,14 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
     }
     let tets = tets.into_par_iter().map(|t| t.map(|v| used[v as usize])).collect();
     timings.stencils_ms = ms_since(t);
-    Ok(Stuffed { positions: final_positions, tets, bisected_cuts: bisected.into_inner(), on_surface, lattice_vertices: nv, timings })
+    Ok(Stuffed {
+        positions: final_positions,
+        tets,
+        bisected_cuts: bisected.into_inner(),
+        on_surface,
+        lattice_vertices: nv,
+        timings,
+    })
 }
 
 /// The lattice, warped positions and cut points, as the stencils see them.
@@ -290,10 +298,9 @@ impl StencilContext for Context<'_> {
             Vert::Lattice(l) => self.positions[l as usize],
             Vert::Cut(a, b) => {
                 let key = edge_key(a, b);
-                self.cuts.binary_search_by_key(&key, |c| c.0).map_or_else(
-                    |_| 0.5 * (self.lattice.position(a) + self.lattice.position(b)),
-                    |i| self.cuts[i].1,
-                )
+                self.cuts
+                    .binary_search_by_key(&key, |c| c.0)
+                    .map_or_else(|_| 0.5 * (self.lattice.position(a) + self.lattice.position(b)), |i| self.cuts[i].1)
             }
         }
     }

@@ -46,10 +46,8 @@ impl WindingNumber {
     /// Prepares the hierarchy for the triangles of `bvh`.
     #[must_use]
     pub fn new(bvh: TriangleBvh) -> Self {
-        let mut moments = vec![
-            Moments { center: DVec3::ZERO, radius: 0.0, normal: DVec3::ZERO, second: DMat3::ZERO };
-            bvh.nodes.len()
-        ];
+        let mut moments =
+            vec![Moments { center: DVec3::ZERO, radius: 0.0, normal: DVec3::ZERO, second: DMat3::ZERO }; bvh.nodes.len()];
         if !bvh.nodes.is_empty() {
             fill_moments(&bvh, 0, &mut moments);
         }
@@ -180,11 +178,7 @@ fn leaf_moments(tris: impl Iterator<Item = [DVec3; 3]> + Clone) -> Moments {
         center += w * (a + b + c) / 3.0;
         normal += 0.5 * n2;
     }
-    let center = if area > 0.0 {
-        center / area
-    } else {
-        tris.clone().next().map_or(DVec3::ZERO, |[a, b, c]| (a + b + c) / 3.0)
-    };
+    let center = if area > 0.0 { center / area } else { tris.clone().next().map_or(DVec3::ZERO, |[a, b, c]| (a + b + c) / 3.0) };
     let mut second = DMat3::ZERO;
     for [a, b, c] in tris {
         let an = 0.5 * (b - a).cross(c - a);
@@ -285,7 +279,9 @@ mod tests {
             }
         }
         let w = WindingNumber::new(TriangleBvh::new(tris.clone()));
-        for q in [DVec3::ZERO, DVec3::new(0.5, 0.3, 0.1), DVec3::new(0.0, 0.0, 0.97), DVec3::new(1.5, 0.2, 0.0), DVec3::splat(5.0)] {
+        for q in
+            [DVec3::ZERO, DVec3::new(0.5, 0.3, 0.1), DVec3::new(0.0, 0.0, 0.97), DVec3::new(1.5, 0.2, 0.0), DVec3::splat(5.0)]
+        {
             let e = exact(&tris, q);
             // The bound the mesher's ±0.05 re-evaluation band relies on, and the strict one.
             let h = w.at(q);

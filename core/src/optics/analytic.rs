@@ -46,20 +46,14 @@ impl UniformSphere {
             });
         }
         if let Some(c) = (0..3).find(|&c| !q[c].is_finite()) {
-            return Err(OpticsError::InvalidChannel {
-                field: "q",
-                channel: c,
-                value: q[c],
-                requirement: "must be finite",
-            });
+            return Err(OpticsError::InvalidChannel { field: "q", channel: c, value: q[c], requirement: "must be finite" });
         }
         Ok(UniformSphere { medium, radius_mm, q })
     }
 
     /// The boundary constants of the medium's η.
     fn boundary(&self) -> BoundaryTerms {
-        BoundaryTerms::new(self.medium.eta)
-            .expect("a validated medium has a valid refractive index")
+        BoundaryTerms::new(self.medium.eta).expect("a validated medium has a valid refractive index")
     }
 
     /// Fluence at the surface, φ(R) = Q / (1 + 2Aκ(x coth x − 1)/R), x = σtr R, per channel.
@@ -237,10 +231,7 @@ mod tests {
     #[test]
     fn invalid_spheres_are_rejected() {
         let m = marble_at_1_3();
-        assert!(matches!(
-            UniformSphere::new(m, 0.0, [1.0; 3]),
-            Err(OpticsError::InvalidScalar { field: "radius_mm", .. })
-        ));
+        assert!(matches!(UniformSphere::new(m, 0.0, [1.0; 3]), Err(OpticsError::InvalidScalar { field: "radius_mm", .. })));
         assert!(matches!(
             UniformSphere::new(m, 1.0, [1.0, f64::NAN, 1.0]),
             Err(OpticsError::InvalidChannel { field: "q", channel: 1, .. })

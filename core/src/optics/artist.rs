@@ -54,11 +54,7 @@ impl ArtistParams {
         check_positive("mm_per_unit", self.mm_per_unit)?;
         check_eta(self.eta)?;
         if !(self.g > -1.0 && self.g < 1.0) {
-            return Err(OpticsError::InvalidScalar {
-                field: "g",
-                value: self.g,
-                requirement: "must be finite and in (-1, 1)",
-            });
+            return Err(OpticsError::InvalidScalar { field: "g", value: self.g, requirement: "must be finite and in (-1, 1)" });
         }
         for c in 0..3 {
             let a = self.albedo[c];
@@ -178,14 +174,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     fn params() -> ArtistParams {
-        ArtistParams {
-            albedo: [0.8, 0.5, 0.3],
-            radius: [1.0, 0.5, 0.25],
-            scale: 0.1,
-            mm_per_unit: 1000.0,
-            eta: 1.4,
-            g: 0.0,
-        }
+        ArtistParams { albedo: [0.8, 0.5, 0.3], radius: [1.0, 0.5, 0.25], scale: 0.1, mm_per_unit: 1000.0, eta: 1.4, g: 0.0 }
     }
 
     #[test]
@@ -217,10 +206,7 @@ mod tests {
             let back = p.to_medium().unwrap().to_artist(p.mm_per_unit, p.scale).unwrap();
             for c in 0..3 {
                 assert!((back.albedo[c] - p.albedo[c]).abs() < 1e-12, "{p:?} -> {back:?}");
-                assert!(
-                    (back.radius[c] - p.radius[c]).abs() < 1e-12 * p.radius[c],
-                    "{p:?} -> {back:?}"
-                );
+                assert!((back.radius[c] - p.radius[c]).abs() < 1e-12 * p.radius[c], "{p:?} -> {back:?}");
             }
             assert_eq!((back.eta, back.g), (p.eta, p.g));
         }
@@ -232,10 +218,7 @@ mod tests {
         for bad in [0.0, 1.0, -0.2, 1.5, f64::NAN] {
             p.albedo[2] = bad;
             let e = p.to_medium().unwrap_err();
-            assert!(
-                matches!(e, OpticsError::InvalidChannel { field: "albedo", channel: 2, .. }),
-                "{bad}: {e}"
-            );
+            assert!(matches!(e, OpticsError::InvalidChannel { field: "albedo", channel: 2, .. }), "{bad}: {e}");
         }
         let mut p = params();
         for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
@@ -245,10 +228,7 @@ mod tests {
         }
         let mut p = params();
         p.radius[1] = 1e-320;
-        assert!(matches!(
-            p.to_medium(),
-            Err(OpticsError::InvalidChannel { field: "radius", channel: 1, .. })
-        ));
+        assert!(matches!(p.to_medium(), Err(OpticsError::InvalidChannel { field: "radius", channel: 1, .. })));
         for (field, f) in [
             ("scale", (|p: &mut ArtistParams| p.scale = 0.0) as fn(&mut ArtistParams)),
             ("mm_per_unit", |p| p.mm_per_unit = f64::NAN),
@@ -265,24 +245,12 @@ mod tests {
     #[test]
     fn media_without_absorption_or_scattering_are_not_representable() {
         let m = Medium::new([0.0, 0.1, 0.1], [1.0; 3], 1.3, 0.0).unwrap();
-        assert!(matches!(
-            m.to_artist(1.0, 1.0),
-            Err(OpticsError::NotRepresentable { channel: 0, .. })
-        ));
+        assert!(matches!(m.to_artist(1.0, 1.0), Err(OpticsError::NotRepresentable { channel: 0, .. })));
         let m = Medium::new([0.1; 3], [1.0, 1.0, 0.0], 1.3, 0.0).unwrap();
-        assert!(matches!(
-            m.to_artist(1.0, 1.0),
-            Err(OpticsError::NotRepresentable { channel: 2, .. })
-        ));
+        assert!(matches!(m.to_artist(1.0, 1.0), Err(OpticsError::NotRepresentable { channel: 2, .. })));
         let m = Medium::preset("marble").unwrap();
-        assert!(matches!(
-            m.to_artist(0.0, 1.0),
-            Err(OpticsError::InvalidScalar { field: "mm_per_unit", .. })
-        ));
-        assert!(matches!(
-            m.to_artist(1.0, -1.0),
-            Err(OpticsError::InvalidScalar { field: "scale", .. })
-        ));
+        assert!(matches!(m.to_artist(0.0, 1.0), Err(OpticsError::InvalidScalar { field: "mm_per_unit", .. })));
+        assert!(matches!(m.to_artist(1.0, -1.0), Err(OpticsError::InvalidScalar { field: "scale", .. })));
     }
 
     #[test]

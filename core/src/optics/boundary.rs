@@ -78,8 +78,7 @@ impl BoundaryTerms {
 
     /// Ft/(4π) · [(1 + 1/A) φ − 4q/(1 + Fdr)] for a given Ft.
     fn radiance_with_ft(&self, phi: f64, q: f64, ft: f64) -> f64 {
-        ft / (4.0 * std::f64::consts::PI)
-            * ((1.0 + 1.0 / self.a) * phi - 4.0 * q / (1.0 + self.fdr))
+        ft / (4.0 * std::f64::consts::PI) * ((1.0 + 1.0 / self.a) * phi - 4.0 * q / (1.0 + self.fdr))
     }
 }
 
@@ -89,8 +88,7 @@ impl BoundaryTerms {
 /// η, build a [`BoundaryTerms`] once instead.
 #[must_use]
 pub fn radiance_from_fluence(phi: f64, q: f64, eta: f64, cos_o: f64) -> f64 {
-    BoundaryTerms { eta, fdr: fdr(eta), a: a_coefficient(eta), ft_normal: ft_out(eta, 1.0) }
-        .radiance_from_fluence(phi, q, cos_o)
+    BoundaryTerms { eta, fdr: fdr(eta), a: a_coefficient(eta), ft_normal: ft_out(eta, 1.0) }.radiance_from_fluence(phi, q, cos_o)
 }
 
 #[cfg(test)]
@@ -104,18 +102,14 @@ mod tests {
         assert!((b.a - (1.0 + b.fdr) / (1.0 - b.fdr)).abs() < 1e-15);
         let t0 = 1.0 - (0.3f64 / 2.3).powi(2);
         assert!((b.ft_normal - t0 / 1.69).abs() < 1e-15);
-        assert!(matches!(
-            BoundaryTerms::new(0.5),
-            Err(OpticsError::InvalidScalar { field: "eta", .. })
-        ));
+        assert!(matches!(BoundaryTerms::new(0.5), Err(OpticsError::InvalidScalar { field: "eta", .. })));
     }
 
     #[test]
     fn radiance_formula_and_free_function_agree() {
         let b = BoundaryTerms::new(1.3).unwrap();
         let (phi, q) = (20.0, 2.9);
-        let expect = b.ft_normal / (4.0 * std::f64::consts::PI)
-            * ((1.0 + 1.0 / b.a) * phi - 4.0 * q / (1.0 + b.fdr));
+        let expect = b.ft_normal / (4.0 * std::f64::consts::PI) * ((1.0 + 1.0 / b.a) * phi - 4.0 * q / (1.0 + b.fdr));
         assert!((b.radiance_normal(phi, q) - expect).abs() < 1e-15);
         assert!((b.radiance_from_fluence(phi, q, 1.0) - expect).abs() < 1e-15);
         assert!((radiance_from_fluence(phi, q, 1.3, 1.0) - expect).abs() < 1e-15);

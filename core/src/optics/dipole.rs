@@ -70,8 +70,7 @@ impl Dipole {
     /// [`total_diffuse_reflectance`] of α′).
     #[must_use]
     pub fn total(&self) -> f64 {
-        0.5 * self.alpha_prime
-            * ((-self.sigma_tr * self.z_r).exp() + (-self.sigma_tr * self.z_v).exp())
+        0.5 * self.alpha_prime * ((-self.sigma_tr * self.z_r).exp() + (-self.sigma_tr * self.z_v).exp())
     }
 }
 
@@ -312,14 +311,8 @@ mod tests {
     #[test]
     fn inversion_rejects_bad_input() {
         for rd in [-0.1, 1.1, f64::NAN, f64::INFINITY] {
-            assert!(matches!(
-                reduced_albedo_from_rd(rd, 1.3),
-                Err(OpticsError::InvalidScalar { field: "rd", .. })
-            ));
+            assert!(matches!(reduced_albedo_from_rd(rd, 1.3), Err(OpticsError::InvalidScalar { field: "rd", .. })));
         }
-        assert!(matches!(
-            reduced_albedo_from_rd(0.5, 0.5),
-            Err(OpticsError::InvalidScalar { field: "eta", .. })
-        ));
+        assert!(matches!(reduced_albedo_from_rd(0.5, 0.5), Err(OpticsError::InvalidScalar { field: "eta", .. })));
     }
 }

@@ -62,12 +62,7 @@ mod tests {
 
     #[test]
     fn messages_name_field_channel_and_value() {
-        let e = OpticsError::InvalidChannel {
-            field: "sigma_a",
-            channel: 1,
-            value: -0.5,
-            requirement: "must be >= 0",
-        };
+        let e = OpticsError::InvalidChannel { field: "sigma_a", channel: 1, value: -0.5, requirement: "must be >= 0" };
         assert_eq!(e.to_string(), "sigma_a[1] (green) = -0.5: must be >= 0");
         let e = OpticsError::InvalidScalar { field: "eta", value: f64::NAN, requirement: "finite" };
         assert_eq!(e.to_string(), "eta = NaN: finite");

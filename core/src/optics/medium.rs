@@ -39,12 +39,7 @@ impl Medium {
     /// coefficient is not finite, negative, or when σa + σ′s = 0 (nothing interacts: the
     /// diffusion coefficient is infinite); [`OpticsError::InvalidScalar`] naming `eta` (not in
     /// [1, 4)) or `g` (not in (−1, 1)).
-    pub fn new(
-        sigma_a: [f64; 3],
-        sigma_s_prime: [f64; 3],
-        eta: f64,
-        g: f64,
-    ) -> Result<Medium, OpticsError> {
+    pub fn new(sigma_a: [f64; 3], sigma_s_prime: [f64; 3], eta: f64, g: f64) -> Result<Medium, OpticsError> {
         let m = Medium { sigma_a, sigma_s_prime, eta, g };
         m.validate()?;
         Ok(m)
@@ -69,11 +64,7 @@ impl Medium {
         }
         check_eta(self.eta)?;
         if !(self.g > -1.0 && self.g < 1.0) {
-            return Err(OpticsError::InvalidScalar {
-                field: "g",
-                value: self.g,
-                requirement: "must be finite and in (-1, 1)",
-            });
+            return Err(OpticsError::InvalidScalar { field: "g", value: self.g, requirement: "must be finite and in (-1, 1)" });
         }
         Ok(())
     }
@@ -162,12 +153,7 @@ impl Medium {
                 requirement: "length scale factor must be finite and > 0",
             });
         }
-        Medium::new(
-            per_channel(|c| self.sigma_a[c] / f),
-            per_channel(|c| self.sigma_s_prime[c] / f),
-            self.eta,
-            self.g,
-        )
+        Medium::new(per_channel(|c| self.sigma_a[c] / f), per_channel(|c| self.sigma_s_prime[c] / f), self.eta, self.g)
     }
 }
 
@@ -181,12 +167,7 @@ fn check_coefficient(field: &'static str, channel: usize, value: f64) -> Result<
     if value.is_finite() && value >= 0.0 {
         Ok(())
     } else {
-        Err(OpticsError::InvalidChannel {
-            field,
-            channel,
-            value,
-            requirement: "must be finite and >= 0 (mm^-1)",
-        })
+        Err(OpticsError::InvalidChannel { field, channel, value, requirement: "must be finite and >= 0 (mm^-1)" })
     }
 }
 
@@ -195,11 +176,7 @@ pub(crate) fn check_eta(eta: f64) -> Result<(), OpticsError> {
     if (ETA_MIN..ETA_MAX).contains(&eta) {
         Ok(())
     } else {
-        Err(OpticsError::InvalidScalar {
-            field: "eta",
-            value: eta,
-            requirement: "refractive index must be in [1, 4)",
-        })
+        Err(OpticsError::InvalidScalar { field: "eta", value: eta, requirement: "refractive index must be in [1, 4)" })
     }
 }
 
@@ -248,20 +225,11 @@ mod tests {
         let e = Medium::new([0.1, -0.1, 0.1], [1.0; 3], 1.3, 0.0).unwrap_err();
         assert!(matches!(e, OpticsError::InvalidChannel { field: "sigma_a", channel: 1, .. }));
         let e = Medium::new([0.1; 3], [1.0, 1.0, f64::NAN], 1.3, 0.0).unwrap_err();
-        assert!(matches!(
-            e,
-            OpticsError::InvalidChannel { field: "sigma_s_prime", channel: 2, .. }
-        ));
+        assert!(matches!(e, OpticsError::InvalidChannel { field: "sigma_s_prime", channel: 2, .. }));
         let e = Medium::new([0.1; 3], [f64::INFINITY, 1.0, 1.0], 1.3, 0.0).unwrap_err();
-        assert!(matches!(
-            e,
-            OpticsError::InvalidChannel { field: "sigma_s_prime", channel: 0, .. }
-        ));
+        assert!(matches!(e, OpticsError::InvalidChannel { field: "sigma_s_prime", channel: 0, .. }));
         let e = Medium::new([0.1, 0.0, 0.1], [1.0, 0.0, 1.0], 1.3, 0.0).unwrap_err();
-        assert!(matches!(
-            e,
-            OpticsError::InvalidChannel { field: "sigma_a + sigma_s_prime", channel: 1, .. }
-        ));
+        assert!(matches!(e, OpticsError::InvalidChannel { field: "sigma_a + sigma_s_prime", channel: 1, .. }));
         assert!(e.to_string().contains("green"), "{e}");
     }
 
@@ -287,15 +255,9 @@ mod tests {
         for c in 0..3 {
             assert!((cm.sigma_a[c] - 10.0 * m.sigma_a[c]).abs() < 1e-15);
             assert!((cm.sigma_s_prime[c] - 10.0 * m.sigma_s_prime[c]).abs() < 1e-12);
-            assert!(
-                (cm.diffuse_mean_free_path()[c] - 0.1 * m.diffuse_mean_free_path()[c]).abs()
-                    < 1e-12
-            );
+            assert!((cm.diffuse_mean_free_path()[c] - 0.1 * m.diffuse_mean_free_path()[c]).abs() < 1e-12);
             assert!((cm.reduced_albedo()[c] - m.reduced_albedo()[c]).abs() < 1e-15);
-            assert!(
-                (cm.total_diffuse_reflectance()[c] - m.total_diffuse_reflectance()[c]).abs()
-                    < 1e-15
-            );
+            assert!((cm.total_diffuse_reflectance()[c] - m.total_diffuse_reflectance()[c]).abs() < 1e-15);
         }
         assert_eq!(cm.eta, m.eta);
         for f in [0.0, -1.0, f64::NAN, f64::INFINITY] {

@@ -79,8 +79,8 @@ pub use boundary::{radiance_from_fluence, BoundaryTerms};
 pub use dipole::{rd_profile, reduced_albedo_from_rd, sigma_tr, total_diffuse_reflectance, Dipole};
 pub use error::{OpticsError, CHANNEL_NAMES};
 pub use fresnel::{
-    a_coefficient, critical_cosine, f_ext, fdr, fdr_exact, fresnel_reflectance,
-    fresnel_transmittance, ft_out, hemispherical_reflectance, transmittance_out,
+    a_coefficient, critical_cosine, f_ext, fdr, fdr_exact, fresnel_reflectance, fresnel_transmittance, ft_out,
+    hemispherical_reflectance, transmittance_out,
 };
 pub use medium::{Medium, ETA_MAX, ETA_MIN};
 pub use presets::PRESET_NAMES;

@@ -24,100 +24,28 @@ const ETA_ORGANIC: f64 = 1.3;
 
 /// The presets, in the order of [`PRESET_NAMES`].
 const PRESETS: [Preset; 12] = [
-    Preset {
-        name: "apple",
-        sigma_s_prime: [2.29, 2.39, 1.97],
-        sigma_a: [0.0030, 0.0034, 0.046],
-        eta: ETA_ORGANIC,
-    },
-    Preset {
-        name: "chicken1",
-        sigma_s_prime: [0.15, 0.21, 0.38],
-        sigma_a: [0.015, 0.077, 0.19],
-        eta: ETA_ORGANIC,
-    },
-    Preset {
-        name: "chicken2",
-        sigma_s_prime: [0.19, 0.25, 0.32],
-        sigma_a: [0.018, 0.088, 0.20],
-        eta: ETA_ORGANIC,
-    },
-    Preset {
-        name: "cream",
-        sigma_s_prime: [7.38, 5.47, 3.15],
-        sigma_a: [0.0002, 0.0028, 0.0163],
-        eta: ETA_ORGANIC,
-    },
-    Preset {
-        name: "ketchup",
-        sigma_s_prime: [0.18, 0.07, 0.03],
-        sigma_a: [0.061, 0.97, 1.45],
-        eta: ETA_ORGANIC,
-    },
-    Preset {
-        name: "marble",
-        sigma_s_prime: [2.19, 2.62, 3.00],
-        sigma_a: [0.0021, 0.0041, 0.0071],
-        eta: 1.5,
-    },
-    Preset {
-        name: "potato",
-        sigma_s_prime: [0.68, 0.70, 0.55],
-        sigma_a: [0.0024, 0.0090, 0.12],
-        eta: ETA_ORGANIC,
-    },
-    Preset {
-        name: "skimmilk",
-        sigma_s_prime: [0.70, 1.22, 1.90],
-        sigma_a: [0.0014, 0.0025, 0.0142],
-        eta: ETA_ORGANIC,
-    },
-    Preset {
-        name: "skin1",
-        sigma_s_prime: [0.74, 0.88, 1.01],
-        sigma_a: [0.032, 0.17, 0.48],
-        eta: ETA_ORGANIC,
-    },
-    Preset {
-        name: "skin2",
-        sigma_s_prime: [1.09, 1.59, 1.79],
-        sigma_a: [0.013, 0.070, 0.145],
-        eta: ETA_ORGANIC,
-    },
-    Preset {
-        name: "wholemilk",
-        sigma_s_prime: [2.55, 3.21, 3.77],
-        sigma_a: [0.0011, 0.0024, 0.014],
-        eta: ETA_ORGANIC,
-    },
+    Preset { name: "apple", sigma_s_prime: [2.29, 2.39, 1.97], sigma_a: [0.0030, 0.0034, 0.046], eta: ETA_ORGANIC },
+    Preset { name: "chicken1", sigma_s_prime: [0.15, 0.21, 0.38], sigma_a: [0.015, 0.077, 0.19], eta: ETA_ORGANIC },
+    Preset { name: "chicken2", sigma_s_prime: [0.19, 0.25, 0.32], sigma_a: [0.018, 0.088, 0.20], eta: ETA_ORGANIC },
+    Preset { name: "cream", sigma_s_prime: [7.38, 5.47, 3.15], sigma_a: [0.0002, 0.0028, 0.0163], eta: ETA_ORGANIC },
+    Preset { name: "ketchup", sigma_s_prime: [0.18, 0.07, 0.03], sigma_a: [0.061, 0.97, 1.45], eta: ETA_ORGANIC },
+    Preset { name: "marble", sigma_s_prime: [2.19, 2.62, 3.00], sigma_a: [0.0021, 0.0041, 0.0071], eta: 1.5 },
+    Preset { name: "potato", sigma_s_prime: [0.68, 0.70, 0.55], sigma_a: [0.0024, 0.0090, 0.12], eta: ETA_ORGANIC },
+    Preset { name: "skimmilk", sigma_s_prime: [0.70, 1.22, 1.90], sigma_a: [0.0014, 0.0025, 0.0142], eta: ETA_ORGANIC },
+    Preset { name: "skin1", sigma_s_prime: [0.74, 0.88, 1.01], sigma_a: [0.032, 0.17, 0.48], eta: ETA_ORGANIC },
+    Preset { name: "skin2", sigma_s_prime: [1.09, 1.59, 1.79], sigma_a: [0.013, 0.070, 0.145], eta: ETA_ORGANIC },
+    Preset { name: "wholemilk", sigma_s_prime: [2.55, 3.21, 3.77], sigma_a: [0.0011, 0.0024, 0.014], eta: ETA_ORGANIC },
     // Jade: an *artistic* preset, not a measurement. η = 1.66 is the gemmological refractive
     // index of jadeite (nephrite: 1.61–1.63). The coefficients were chosen by hand for a pale
     // green stone that is translucent over a few millimetres: Rd ≈ (0.443, 0.676, 0.493) and
     // ℓd ≈ (2.1, 4.7, 2.5) mm, the green channel absorbing least.
-    Preset {
-        name: "jade",
-        sigma_s_prime: [1.80, 2.10, 1.90],
-        sigma_a: [0.040, 0.007, 0.028],
-        eta: 1.66,
-    },
+    Preset { name: "jade", sigma_s_prime: [1.80, 2.10, 1.90], sigma_a: [0.040, 0.007, 0.028], eta: 1.66 },
 ];
 
 /// Names accepted by [`Medium::preset`] (compared case-insensitively). All but `jade` are the
 /// measured materials of Jensen et al. 2001.
-pub const PRESET_NAMES: [&str; 12] = [
-    "apple",
-    "chicken1",
-    "chicken2",
-    "cream",
-    "ketchup",
-    "marble",
-    "potato",
-    "skimmilk",
-    "skin1",
-    "skin2",
-    "wholemilk",
-    "jade",
-];
+pub const PRESET_NAMES: [&str; 12] =
+    ["apple", "chicken1", "chicken2", "cream", "ketchup", "marble", "potato", "skimmilk", "skin1", "skin2", "wholemilk", "jade"];
 
 impl Medium {
     /// The named preset (see [`PRESET_NAMES`]; case-insensitive, surrounding spaces ignored),
@@ -127,9 +55,10 @@ impl Medium {
     /// [`OpticsError::UnknownPreset`], listing the valid names, when no preset has this name.
     pub fn preset(name: &str) -> Result<Medium, OpticsError> {
         let wanted = name.trim();
-        let p = PRESETS.iter().find(|p| p.name.eq_ignore_ascii_case(wanted)).ok_or_else(|| {
-            OpticsError::UnknownPreset { name: name.to_owned(), valid: PRESET_NAMES.join(", ") }
-        })?;
+        let p = PRESETS
+            .iter()
+            .find(|p| p.name.eq_ignore_ascii_case(wanted))
+            .ok_or_else(|| OpticsError::UnknownPreset { name: name.to_owned(), valid: PRESET_NAMES.join(", ") })?;
         Medium::new(p.sigma_a, p.sigma_s_prime, p.eta, 0.0)
     }
 }

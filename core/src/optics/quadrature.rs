@@ -31,17 +31,7 @@ fn simpson(a: f64, b: f64, fa: f64, fm: f64, fb: f64) -> f64 {
 
 /// One level of adaptive Simpson: accept when the two halves agree with the whole to 15·tol.
 #[allow(clippy::too_many_arguments)]
-fn refine<F: Fn(f64) -> f64>(
-    f: &F,
-    a: f64,
-    b: f64,
-    fa: f64,
-    fm: f64,
-    fb: f64,
-    whole: f64,
-    tol: f64,
-    depth: u32,
-) -> f64 {
+fn refine<F: Fn(f64) -> f64>(f: &F, a: f64, b: f64, fa: f64, fm: f64, fb: f64, whole: f64, tol: f64, depth: u32) -> f64 {
     let m = 0.5 * (a + b);
     let (lm, rm) = (0.5 * (a + m), 0.5 * (m + b));
     let (flm, frm) = (f(lm), f(rm));
@@ -51,8 +41,7 @@ fn refine<F: Fn(f64) -> f64>(
     if depth == 0 || delta.abs() <= 15.0 * tol || !delta.is_finite() {
         return left + right + delta / 15.0;
     }
-    refine(f, a, m, fa, flm, fm, left, 0.5 * tol, depth - 1)
-        + refine(f, m, b, fm, frm, fb, right, 0.5 * tol, depth - 1)
+    refine(f, a, m, fa, flm, fm, left, 0.5 * tol, depth - 1) + refine(f, m, b, fm, frm, fb, right, 0.5 * tol, depth - 1)
 }
 
 #[cfg(test)]

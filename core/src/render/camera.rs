@@ -67,10 +67,7 @@ impl CameraFrame {
     /// Pixel coordinates of a clip-space point with w > 0.
     #[inline]
     pub fn clip_to_pixel(&self, c: DVec3) -> DVec2 {
-        DVec2::new(
-            0.5 * self.width * (1.0 + c.x / c.z),
-            0.5 * self.height * (1.0 - c.y / c.z),
-        )
+        DVec2::new(0.5 * self.width * (1.0 + c.x / c.z), 0.5 * self.height * (1.0 - c.y / c.z))
     }
 }
 
@@ -102,11 +99,7 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Result<Camera, RenderError> {
-        let bounds_err = |requirement| RenderError::InvalidBounds {
-            min: bounds_min,
-            max: bounds_max,
-            requirement,
-        };
+        let bounds_err = |requirement| RenderError::InvalidBounds { min: bounds_min, max: bounds_max, requirement };
         if !bounds_min.is_finite() || !bounds_max.is_finite() {
             return Err(bounds_err("the corners must be finite"));
         }
@@ -135,14 +128,7 @@ impl Camera {
         let half_angle = tan_half_v.min(tan_half_h).atan();
         let distance = radius / half_angle.sin();
         let centre = 0.5 * (bounds_min + bounds_max);
-        Ok(Camera {
-            position: centre - distance * forward,
-            target: centre,
-            up,
-            vertical_fov_deg,
-            width,
-            height,
-        })
+        Ok(Camera { position: centre - distance * forward, target: centre, up, vertical_fov_deg, width, height })
     }
 
     /// Checks every field.
@@ -195,30 +181,17 @@ impl Camera {
     pub(crate) fn derive(&self) -> Result<CameraFrame, RenderError> {
         check_size(self.width, self.height)?;
         check_fov(self.vertical_fov_deg)?;
-        for (field, v) in [
-            ("position", self.position),
-            ("target", self.target),
-            ("up", self.up),
-        ] {
+        for (field, v) in [("position", self.position), ("target", self.target), ("up", self.up)] {
             if !v.is_finite() {
                 return Err(camera_err(field, v, "must be finite"));
             }
         }
         let axis = self.target - self.position;
-        let forward = axis.try_normalize().ok_or_else(|| {
-            camera_err(
-                "target",
-                self.target,
-                "must differ from the camera position",
-            )
-        })?;
+        let forward =
+            axis.try_normalize().ok_or_else(|| camera_err("target", self.target, "must differ from the camera position"))?;
         let right = forward.cross(self.up);
         if right.length_squared() <= 1e-24 * self.up.length_squared().max(f64::MIN_POSITIVE) {
-            return Err(camera_err(
-                "up",
-                self.up,
-                "must be non-zero and not parallel to the view direction (target − position)",
-            ));
+            return Err(camera_err("up", self.up, "must be non-zero and not parallel to the view direction (target − position)"));
         }
         let right = right.normalize();
         let up = right.cross(forward);
@@ -238,11 +211,7 @@ impl Camera {
 }
 
 fn camera_err(field: &'static str, value: DVec3, requirement: &'static str) -> RenderError {
-    RenderError::InvalidCamera {
-        field,
-        value: format!("{value}"),
-        requirement,
-    }
+    RenderError::InvalidCamera { field, value: format!("{value}"), requirement }
 }
 
 fn check_size(width: u32, height: u32) -> Result<(), RenderError> {
@@ -250,11 +219,7 @@ fn check_size(width: u32, height: u32) -> Result<(), RenderError> {
     if ok(width) && ok(height) {
         Ok(())
     } else {
-        Err(RenderError::InvalidSize {
-            width,
-            height,
-            max: MAX_DIMENSION,
-        })
+        Err(RenderError::InvalidSize { width, height, max: MAX_DIMENSION })
     }
 }
 
@@ -274,8 +239,7 @@ fn unit_direction(field: &'static str, v: DVec3) -> Result<DVec3, RenderError> {
     if !v.is_finite() {
         return Err(camera_err(field, v, "must be finite"));
     }
-    v.try_normalize()
-        .ok_or_else(|| camera_err(field, v, "must be non-zero"))
+    v.try_normalize().ok_or_else(|| camera_err(field, v, "must be non-zero"))
 }
 
 #[cfg(test)]
@@ -307,19 +271,13 @@ mod tests {
         assert!((top - DVec2::new(100.0, 0.0)).length() < 1e-12, "{top}");
         // Horizontal half-angle tangent is 2 (aspect 2): x = 2d is the right edge.
         let right = c.project(DVec3::new(10.0, 0.0, 0.0)).unwrap().unwrap();
-        assert!(
-            (right - DVec2::new(200.0, 50.0)).length() < 1e-12,
-            "{right}"
-        );
+        assert!((right - DVec2::new(200.0, 50.0)).length() < 1e-12, "{right}");
         assert!(c.project(DVec3::new(0.0, 0.0, 6.0)).unwrap().is_none());
     }
 
     #[test]
     fn ray_direction_inverts_project() {
-        let c = Camera {
-            up: DVec3::new(0.3, 1.0, 0.1),
-            ..cam()
-        };
+        let c = Camera { up: DVec3::new(0.3, 1.0, 0.1), ..cam() };
         for &(u, v) in &[(0.5, 0.5), (13.25, 80.0), (199.0, 1.0)] {
             let d = c.ray_direction(u, v).unwrap();
             let p = c.project(c.position + 7.0 * d).unwrap().unwrap();
@@ -338,8 +296,7 @@ mod tests {
     #[test]
     fn frame_fits_the_bounding_sphere() {
         let (lo, hi) = (DVec3::splat(-1.0), DVec3::splat(1.0));
-        let c =
-            Camera::frame(lo, hi, DVec3::new(0.0, 0.0, -2.0), DVec3::Y, 60.0, 300, 200).unwrap();
+        let c = Camera::frame(lo, hi, DVec3::new(0.0, 0.0, -2.0), DVec3::Y, 60.0, 300, 200).unwrap();
         let r = 3f64.sqrt();
         // Narrower (vertical) half-angle 30°: distance r / sin 30° = 2r.
         assert!((c.position - DVec3::new(0.0, 0.0, 2.0 * r)).length() < 1e-12);
@@ -356,25 +313,13 @@ mod tests {
                 if corner & 4 == 0 { -1.0 } else { 1.0 },
             );
             let px = p.project(q).unwrap().unwrap();
-            assert!(
-                (0.0..=100.0).contains(&px.x) && (0.0..=200.0).contains(&px.y),
-                "{px}"
-            );
+            assert!((0.0..=100.0).contains(&px.x) && (0.0..=200.0).contains(&px.y), "{px}");
         }
     }
 
     #[test]
     fn frame_replaces_a_parallel_up() {
-        let c = Camera::frame(
-            DVec3::ZERO,
-            DVec3::ONE,
-            DVec3::NEG_Y,
-            DVec3::Y,
-            40.0,
-            10,
-            10,
-        )
-        .unwrap();
+        let c = Camera::frame(DVec3::ZERO, DVec3::ONE, DVec3::NEG_Y, DVec3::Y, 40.0, 10, 10).unwrap();
         assert!(c.validate().is_ok());
         let c = Camera::frame(DVec3::ZERO, DVec3::ONE, DVec3::X, DVec3::X, 40.0, 10, 10).unwrap();
         assert_eq!(c.up, DVec3::Y);
@@ -382,67 +327,27 @@ mod tests {
 
     #[test]
     fn invalid_cameras_are_rejected() {
-        let bad_fov = |fov| {
-            Camera {
-                vertical_fov_deg: fov,
-                ..cam()
-            }
-            .validate()
-            .unwrap_err()
-            .to_string()
-        };
+        let bad_fov = |fov| Camera { vertical_fov_deg: fov, ..cam() }.validate().unwrap_err().to_string();
         for fov in [0.0, -10.0, 180.0, 200.0, f64::NAN] {
-            assert!(
-                bad_fov(fov).contains("vertical_fov_deg"),
-                "{}",
-                bad_fov(fov)
-            );
+            assert!(bad_fov(fov).contains("vertical_fov_deg"), "{}", bad_fov(fov));
         }
         let e = Camera { width: 0, ..cam() }.validate().unwrap_err();
         assert!(matches!(e, RenderError::InvalidSize { width: 0, .. }));
-        let e = Camera {
-            height: MAX_DIMENSION + 1,
-            ..cam()
-        }
-        .validate()
-        .unwrap_err();
+        let e = Camera { height: MAX_DIMENSION + 1, ..cam() }.validate().unwrap_err();
         assert!(matches!(e, RenderError::InvalidSize { .. }));
-        let e = Camera {
-            target: cam().position,
-            ..cam()
-        }
-        .validate()
-        .unwrap_err();
+        let e = Camera { target: cam().position, ..cam() }.validate().unwrap_err();
         assert!(e.to_string().contains("target"), "{e}");
-        let e = Camera {
-            up: DVec3::Z,
-            ..cam()
-        }
-        .validate()
-        .unwrap_err();
+        let e = Camera { up: DVec3::Z, ..cam() }.validate().unwrap_err();
         assert!(e.to_string().contains("up"), "{e}");
-        let e = Camera {
-            up: DVec3::ZERO,
-            ..cam()
-        }
-        .validate()
-        .unwrap_err();
+        let e = Camera { up: DVec3::ZERO, ..cam() }.validate().unwrap_err();
         assert!(e.to_string().contains("up"), "{e}");
-        let e = Camera {
-            position: DVec3::new(f64::NAN, 0.0, 0.0),
-            ..cam()
-        }
-        .validate()
-        .unwrap_err();
+        let e = Camera { position: DVec3::new(f64::NAN, 0.0, 0.0), ..cam() }.validate().unwrap_err();
         assert!(e.to_string().contains("position"), "{e}");
-        let e =
-            Camera::frame(DVec3::ONE, DVec3::ZERO, DVec3::Z, DVec3::Y, 40.0, 10, 10).unwrap_err();
+        let e = Camera::frame(DVec3::ONE, DVec3::ZERO, DVec3::Z, DVec3::Y, 40.0, 10, 10).unwrap_err();
         assert!(matches!(e, RenderError::InvalidBounds { .. }), "{e}");
-        let e =
-            Camera::frame(DVec3::ONE, DVec3::ONE, DVec3::Z, DVec3::Y, 40.0, 10, 10).unwrap_err();
+        let e = Camera::frame(DVec3::ONE, DVec3::ONE, DVec3::Z, DVec3::Y, 40.0, 10, 10).unwrap_err();
         assert!(matches!(e, RenderError::InvalidBounds { .. }), "{e}");
-        let e = Camera::frame(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, DVec3::Y, 40.0, 10, 10)
-            .unwrap_err();
+        let e = Camera::frame(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, DVec3::Y, 40.0, 10, 10).unwrap_err();
         assert!(e.to_string().contains("view_direction"), "{e}");
     }
 }

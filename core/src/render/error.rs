@@ -86,9 +86,7 @@ pub enum RenderError {
         vertex_count: usize,
     },
     /// The refractive index of an object is unusable.
-    #[error(
-        "object {object}: eta = {value}: the refractive index must be finite and in [{min}, {max})"
-    )]
+    #[error("object {object}: eta = {value}: the refractive index must be finite and in [{min}, {max})")]
     InvalidEta {
         /// Index of the object in the scene.
         object: usize,

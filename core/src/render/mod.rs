@@ -87,16 +87,13 @@ pub use camera::Camera;
 pub use error::RenderError;
 pub use output::{aces_fitted, srgb_oetf, Image, ToneMap};
 pub use scene::{
-    area_weighted_normals, AlphaMode, Filter, GroundPlane, RenderObject, RenderOptions,
-    RenderScene, SamplePattern, Shading, SpecularLight, MAX_GRID, MIN_ROUGHNESS,
+    area_weighted_normals, AlphaMode, Filter, GroundPlane, RenderObject, RenderOptions, RenderScene, SamplePattern, Shading,
+    SpecularLight, MAX_GRID, MIN_ROUGHNESS,
 };
 pub use shade::{ggx_distribution, ggx_specular, view_factor};
 
 use camera::CameraFrame;
-use raster::{
-    fixed_offsets, setup_triangle, SampleBuffer, ScreenTri, Viewport, GROUND, MAX_SAMPLES, NO_PRIM,
-    ONE, TILE,
-};
+use raster::{fixed_offsets, setup_triangle, SampleBuffer, ScreenTri, Viewport, GROUND, MAX_SAMPLES, NO_PRIM, ONE, TILE};
 use shade::Lighting;
 
 /// Largest image width or height, in pixels.
@@ -161,10 +158,7 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
     for (i, o) in scene.objects.iter().enumerate() {
         o.validate(i)?;
     }
-    let too_many = |count: usize| RenderError::TooManyTriangles {
-        count,
-        max: NO_PRIM as usize - 1,
-    };
+    let too_many = |count: usize| RenderError::TooManyTriangles { count, max: NO_PRIM as usize - 1 };
     let total: usize = scene.objects.iter().map(|o| o.triangles.len()).sum();
     if scene.objects.len() >= GROUND as usize || total >= NO_PRIM as usize {
         return Err(too_many(total));
@@ -188,12 +182,8 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
 
     // The near plane: a small fraction of the farthest depth, so that nothing visible is clipped
     // and 1/w stays well conditioned (no far plane is needed for a 1/w z-buffer).
-    let max_depth = objects
-        .iter()
-        .flat_map(|o| o.clip.iter())
-        .chain(ground_clip.iter().flatten())
-        .map(|c| c.z)
-        .fold(0.0f64, f64::max);
+    let max_depth =
+        objects.iter().flat_map(|o| o.clip.iter()).chain(ground_clip.iter().flatten()).map(|c| c.z).fold(0.0f64, f64::max);
     let apron = match options.filter {
         Filter::Box => 0,
         Filter::Tent => 1,
@@ -203,11 +193,7 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
         width,
         height,
         apron,
-        near: if max_depth > 0.0 {
-            NEAR_FRACTION * max_depth
-        } else {
-            1.0
-        },
+        near: if max_depth > 0.0 { NEAR_FRACTION * max_depth } else { 1.0 },
         cull_back_faces: options.cull_back_faces,
     };
 
@@ -253,17 +239,11 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
     neighbours.sort_unstable();
     neighbours.dedup();
     let lighting = Lighting {
-        lights: scene
-            .lights
-            .iter()
-            .map(|l| (l.direction_to_light.normalize(), DVec3::from(l.irradiance)))
-            .collect(),
+        lights: scene.lights.iter().map(|l| (l.direction_to_light.normalize(), DVec3::from(l.irradiance))).collect(),
         environment: scene.environment.map(DVec3::from),
         alpha: options.specular_roughness * options.specular_roughness,
     };
-    let ground_radiance = scene.ground.map_or(DVec3::ZERO, |g| {
-        DVec3::from(g.radiance(&scene.lights, scene.environment))
-    });
+    let ground_radiance = scene.ground.map_or(DVec3::ZERO, |g| DVec3::from(g.radiance(&scene.lights, scene.environment)));
     let ctx = TileContext {
         objects: &objects,
         tris: &tris,
@@ -271,9 +251,7 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
         offsets: &offsets,
         offset_mean: {
             let n = offsets.len() as f64;
-            let sum = offsets
-                .iter()
-                .fold((0i64, 0i64), |a, o| (a.0 + o[0], a.1 + o[1]));
+            let sum = offsets.iter().fold((0i64, 0i64), |a, o| (a.0 + o[0], a.1 + o[1]));
             (sum.0 as f64 / n, sum.1 as f64 / n)
         },
         weights: &weights,
@@ -296,9 +274,7 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
 
     let tiles: Vec<Vec<[f32; 4]>> = (0..tiles_x * tiles_y)
         .into_par_iter()
-        .map_init(TileScratch::default, |scratch, t| {
-            render_tile(&ctx, &frame, t, scratch)
-        })
+        .map_init(TileScratch::default, |scratch, t| render_tile(&ctx, &frame, t, scratch))
         .collect();
 
     let mut rgba = vec![[0f32; 4]; width as usize * height as usize];
@@ -309,11 +285,7 @@ pub fn render(scene: &RenderScene<'_>, options: &RenderOptions) -> Result<Image,
             rgba[start..start + row.len()].copy_from_slice(row);
         }
     }
-    Ok(Image {
-        width: scene.camera.width,
-        height: scene.camera.height,
-        rgba,
-    })
+    Ok(Image { width: scene.camera.width, height: scene.camera.height, rgba })
 }
 
 /// Pixel rectangle (x0, y0, w, h) of tile `t`.
@@ -397,25 +369,16 @@ const KIND_OBJECT: u8 = 2;
 const MIXED: u8 = u8::MAX;
 
 /// Rasterises, shades and resolves one tile; returns its pixels row by row.
-fn render_tile(
-    ctx: &TileContext<'_>,
-    frame: &CameraFrame,
-    t: i32,
-    scratch: &mut TileScratch,
-) -> Vec<[f32; 4]> {
+fn render_tile(ctx: &TileContext<'_>, frame: &CameraFrame, t: i32, scratch: &mut TileScratch) -> Vec<[f32; 4]> {
     let (x0, y0, tw, th) = tile_rect(t, ctx.tiles_x, ctx.width, ctx.height);
     let bin = &ctx.bins[t as usize];
     if bin.is_empty() {
         return vec![ctx.background_pixel(); (tw * th) as usize];
     }
     let a = ctx.apron;
-    scratch
-        .samples
-        .reset(x0 - a, y0 - a, tw + 2 * a, th + 2 * a, ctx.offsets.len());
+    scratch.samples.reset(x0 - a, y0 - a, tw + 2 * a, th + 2 * a, ctx.offsets.len());
     for &id in bin {
-        scratch
-            .samples
-            .rasterise(&ctx.tris[id as usize], id, ctx.offsets);
+        scratch.samples.rasterise(&ctx.tris[id as usize], id, ctx.offsets);
     }
     shade_tile(ctx, frame, scratch);
     resolve_tile(ctx, scratch, (x0, y0, tw, th))
@@ -468,33 +431,17 @@ fn shade_tile(ctx: &TileContext<'_>, frame: &CameraFrame, scratch: &mut TileScra
 /// Filters the shaded samples into the tile's pixels (rectangle `(x0, y0, w, h)`), summing the
 /// weighted samples in a fixed order; applies the exposure.
 #[inline(never)]
-fn resolve_tile(
-    ctx: &TileContext<'_>,
-    scratch: &TileScratch,
-    (x0, y0, tw, th): (i32, i32, i32, i32),
-) -> Vec<[f32; 4]> {
+fn resolve_tile(ctx: &TileContext<'_>, scratch: &TileScratch, (x0, y0, tw, th): (i32, i32, i32, i32)) -> Vec<[f32; 4]> {
     let buf = &scratch.samples;
     let bg_pixel = ctx.background_pixel();
     // Sample index of each weight relative to the pixel's first sample.
     let origin = buf.index(x0, y0, 0) as isize;
-    let rel: Vec<(isize, f64)> = ctx
-        .weights
-        .iter()
-        .map(|&(dx, dy, s, w)| (buf.index(x0 + dx, y0 + dy, s) as isize - origin, w))
-        .collect();
+    let rel: Vec<(isize, f64)> =
+        ctx.weights.iter().map(|&(dx, dy, s, w)| (buf.index(x0 + dx, y0 + dy, s) as isize - origin, w)).collect();
     // Pixel index (in the buffer) of each neighbour the filter reaches, relative to the pixel.
-    let neighbours: Vec<isize> = ctx
-        .neighbours
-        .iter()
-        .map(|&(dx, dy)| (dy * buf.w + dx) as isize)
-        .collect();
+    let neighbours: Vec<isize> = ctx.neighbours.iter().map(|&(dx, dy)| (dy * buf.w + dx) as isize).collect();
     let ground = ctx.ground_radiance * ctx.exposure;
-    let ground_pixel = [
-        ground.x as f32,
-        ground.y as f32,
-        ground.z as f32,
-        ctx.ground_alpha as f32,
-    ];
+    let ground_pixel = [ground.x as f32, ground.y as f32, ground.z as f32, ctx.ground_alpha as f32];
     let mut out = Vec::with_capacity((tw * th) as usize);
     for py in y0..y0 + th {
         for px in x0..x0 + tw {
@@ -502,16 +449,8 @@ fn resolve_tile(
             // pixel is that constant exactly.
             let p = ((py - buf.y0) * buf.w + (px - buf.x0)) as isize;
             let u = scratch.uniform[(p + neighbours[0]) as usize];
-            if u != MIXED
-                && neighbours
-                    .iter()
-                    .all(|&q| scratch.uniform[(p + q) as usize] == u)
-            {
-                out.push(if u == KIND_GROUND {
-                    ground_pixel
-                } else {
-                    bg_pixel
-                });
+            if u != MIXED && neighbours.iter().all(|&q| scratch.uniform[(p + q) as usize] == u) {
+                out.push(if u == KIND_GROUND { ground_pixel } else { bg_pixel });
                 continue;
             }
             let base = buf.index(px, py, 0) as isize;
@@ -537,11 +476,7 @@ fn resolve_tile(
             }
             // Exactly 1 where the filter saw only covered samples (and 0, above, where it saw
             // only background).
-            let alpha = if all_covered {
-                1.0
-            } else {
-                alpha.clamp(0.0, 1.0)
-            };
+            let alpha = if all_covered { 1.0 } else { alpha.clamp(0.0, 1.0) };
             let c = sum * ctx.exposure;
             out.push([c.x as f32, c.y as f32, c.z as f32, alpha as f32]);
         }
@@ -580,10 +515,7 @@ fn shade_pixel(
             kind.fill(KIND_GROUND);
             return;
         }
-        let at = (
-            origin.0 as f64 + ctx.offset_mean.0,
-            origin.1 as f64 + ctx.offset_mean.1,
-        );
+        let at = (origin.0 as f64 + ctx.offset_mean.0, origin.1 as f64 + ctx.offset_mean.1);
         let (c, k) = shade_prim(ctx, frame, first, at);
         colour.fill(c);
         kind.fill(k);
@@ -598,14 +530,7 @@ fn shade_pixel(
         let g = match groups.iter().position(|g| g.prim == prim) {
             Some(g) => g,
             None => {
-                groups.push(Group {
-                    prim,
-                    sum_x: 0,
-                    sum_y: 0,
-                    count: 0,
-                    colour: DVec3::ZERO,
-                    kind: 0,
-                });
+                groups.push(Group { prim, sum_x: 0, sum_y: 0, count: 0, colour: DVec3::ZERO, kind: 0 });
                 groups.len() - 1
             }
         };
@@ -618,10 +543,7 @@ fn shade_pixel(
     }
     for g in groups.iter_mut() {
         let c = g.count as f64;
-        let at = (
-            origin.0 as f64 + g.sum_x as f64 / c,
-            origin.1 as f64 + g.sum_y as f64 / c,
-        );
+        let at = (origin.0 as f64 + g.sum_x as f64 / c, origin.1 as f64 + g.sum_y as f64 / c);
         (g.colour, g.kind) = shade_prim(ctx, frame, g.prim, at);
     }
     for (s, &prim) in prims.iter().enumerate() {
@@ -645,12 +567,7 @@ struct Group {
 
 /// Radiance and kind of the surface of screen triangle `prim` at a point in fixed-point pixel
 /// units.
-fn shade_prim(
-    ctx: &TileContext<'_>,
-    frame: &CameraFrame,
-    prim: u32,
-    at: (f64, f64),
-) -> (DVec3, u8) {
+fn shade_prim(ctx: &TileContext<'_>, frame: &CameraFrame, prim: u32, at: (f64, f64)) -> (DVec3, u8) {
     let tri = &ctx.tris[prim as usize];
     if tri.object == GROUND {
         return (ctx.ground_radiance, KIND_GROUND);
@@ -662,17 +579,12 @@ fn shade_prim(
     let n = o.normals[i0] * b.x + o.normals[i1] * b.y + o.normals[i2] * b.z;
     let n = n.try_normalize().unwrap_or_else(|| {
         // No usable vertex normals here: use the face normal.
-        (o.positions[i1] - o.positions[i0])
-            .cross(o.positions[i2] - o.positions[i0])
-            .normalize_or_zero()
+        (o.positions[i1] - o.positions[i0]).cross(o.positions[i2] - o.positions[i0]).normalize_or_zero()
     });
     let r = |i: usize| DVec3::from(o.radiance[i]);
     let baked = r(i0) * b.x + r(i1) * b.y + r(i2) * b.z;
     let v = (ctx.eye - p).try_normalize().unwrap_or(-frame.forward);
-    (
-        ctx.lighting.shade(baked, n, v, o.eta, o.inv_ft_normal),
-        KIND_OBJECT,
-    )
+    (ctx.lighting.shade(baked, n, v, o.eta, o.inv_ft_normal), KIND_OBJECT)
 }
 
 #[cfg(test)]
@@ -681,26 +593,17 @@ mod tests {
 
     #[test]
     fn resolve_weights_sum_to_one() {
-        for pattern in [
-            SamplePattern::Centre,
-            SamplePattern::RotatedGrid4,
-            SamplePattern::Grid(3),
-        ] {
+        for pattern in [SamplePattern::Centre, SamplePattern::RotatedGrid4, SamplePattern::Grid(3)] {
             let off = fixed_offsets(&pattern.offsets());
             for filter in [Filter::Box, Filter::Tent] {
                 let w = resolve_weights(&off, filter);
                 let total: f64 = w.iter().map(|e| e.3).sum();
                 assert!((total - 1.0).abs() < 1e-12);
-                assert!(w
-                    .iter()
-                    .all(|e| e.3 > 0.0 && e.0.abs() <= 1 && e.1.abs() <= 1));
+                assert!(w.iter().all(|e| e.3 > 0.0 && e.0.abs() <= 1 && e.1.abs() <= 1));
             }
         }
         // The box filter sees only the pixel's own samples.
-        let w = resolve_weights(
-            &fixed_offsets(&SamplePattern::Grid(2).offsets()),
-            Filter::Box,
-        );
+        let w = resolve_weights(&fixed_offsets(&SamplePattern::Grid(2).offsets()), Filter::Box);
         assert_eq!(w.len(), 4);
         assert!(w.iter().all(|e| e.0 == 0 && e.1 == 0 && e.3 == 0.25));
     }
@@ -718,14 +621,8 @@ mod tests {
             bounds: [TILE, 0, TILE + 2, 3],
         };
         let bins = bin_triangles(&[tri], 3, 2, 0);
-        assert_eq!(
-            bins.iter().map(Vec::len).collect::<Vec<_>>(),
-            vec![0, 1, 0, 0, 0, 0]
-        );
+        assert_eq!(bins.iter().map(Vec::len).collect::<Vec<_>>(), vec![0, 1, 0, 0, 0, 0]);
         let bins = bin_triangles(&[tri], 3, 2, 1);
-        assert_eq!(
-            bins.iter().map(Vec::len).collect::<Vec<_>>(),
-            vec![1, 1, 0, 0, 0, 0]
-        );
+        assert_eq!(bins.iter().map(Vec::len).collect::<Vec<_>>(), vec![1, 1, 0, 0, 0, 0]);
     }
 }

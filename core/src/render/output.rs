@@ -103,8 +103,7 @@ impl Image {
     /// The pixel at column `x`, row `y` (0, 0 top-left), or `None` outside the image.
     #[must_use]
     pub fn pixel(&self, x: u32, y: u32) -> Option<[f32; 4]> {
-        (x < self.width && y < self.height)
-            .then(|| self.rgba[y as usize * self.width as usize + x as usize])
+        (x < self.width && y < self.height).then(|| self.rgba[y as usize * self.width as usize + x as usize])
     }
 
     /// 8-bit display values, row-major RGBA: each colour channel tone-mapped by `tone` and then
@@ -137,15 +136,9 @@ impl Image {
     /// [`RenderError::Write`] when the file cannot be created or encoded.
     pub fn save_png_with(&self, path: impl AsRef<Path>, tone: ToneMap) -> Result<(), RenderError> {
         let path = path.as_ref();
-        let buffer: ImageBuffer<Rgba<u8>, Vec<u8>> =
-            ImageBuffer::from_raw(self.width, self.height, self.to_srgb8(tone))
-                .expect("to_srgb8 returns width × height × 4 bytes");
-        buffer
-            .save_with_format(path, ImageFormat::Png)
-            .map_err(|source| RenderError::Write {
-                path: path.to_path_buf(),
-                source,
-            })
+        let buffer: ImageBuffer<Rgba<u8>, Vec<u8>> = ImageBuffer::from_raw(self.width, self.height, self.to_srgb8(tone))
+            .expect("to_srgb8 returns width × height × 4 bytes");
+        buffer.save_with_format(path, ImageFormat::Png).map_err(|source| RenderError::Write { path: path.to_path_buf(), source })
     }
 
     /// Writes a linear RGBA 32-bit float OpenEXR file: the image's values as they are (exposure
@@ -157,14 +150,10 @@ impl Image {
         let path = path.as_ref();
         let data: Vec<f32> = self.rgba.iter().flatten().copied().collect();
         let buffer: ImageBuffer<Rgba<f32>, Vec<f32>> =
-            ImageBuffer::from_raw(self.width, self.height, data)
-                .expect("rgba has width × height pixels");
+            ImageBuffer::from_raw(self.width, self.height, data).expect("rgba has width × height pixels");
         buffer
             .save_with_format(path, ImageFormat::OpenExr)
-            .map_err(|source| RenderError::Write {
-                path: path.to_path_buf(),
-                source,
-            })
+            .map_err(|source| RenderError::Write { path: path.to_path_buf(), source })
     }
 }
 
@@ -206,18 +195,11 @@ mod tests {
 
     #[test]
     fn srgb8_encoding() {
-        let img = Image {
-            width: 2,
-            height: 1,
-            rgba: vec![[0.18, 0.0, 5.0, 0.5], [1.0, -1.0, f32::NAN, 1.0]],
-        };
+        let img = Image { width: 2, height: 1, rgba: vec![[0.18, 0.0, 5.0, 0.5], [1.0, -1.0, f32::NAN, 1.0]] };
         let clamp = img.to_srgb8(ToneMap::Clamp);
         assert_eq!(clamp, vec![118, 0, 255, 128, 255, 0, 0, 255]);
         let aces = img.to_srgb8(ToneMap::AcesFitted);
-        assert_eq!(
-            aces[0],
-            quantise(srgb_oetf(aces_fitted(f64::from(0.18f32))))
-        );
+        assert_eq!(aces[0], quantise(srgb_oetf(aces_fitted(f64::from(0.18f32)))));
         assert_eq!(aces[3], 128);
         assert_eq!(img.pixel(0, 0), Some([0.18, 0.0, 5.0, 0.5]));
         assert!(img.pixel(2, 0).is_none());

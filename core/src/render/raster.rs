@@ -62,9 +62,7 @@ impl ScreenTri {
     /// E₀ = E_{12}, E₁ = E_{20}, E₂ = E_{01}. At corner k, E_k = area; their sum is the area.
     #[inline]
     pub fn edges_at(&self, px: i64, py: i64) -> [i64; 3] {
-        let e = |a: usize, b: usize| {
-            (self.x[b] - self.x[a]) * (py - self.y[a]) - (self.y[b] - self.y[a]) * (px - self.x[a])
-        };
+        let e = |a: usize, b: usize| (self.x[b] - self.x[a]) * (py - self.y[a]) - (self.y[b] - self.y[a]) * (px - self.x[a]);
         [e(1, 2), e(2, 0), e(0, 1)]
     }
 
@@ -78,11 +76,7 @@ impl ScreenTri {
         let x = self.x.map(|v| v as f64);
         let y = self.y.map(|v| v as f64);
         let e = |a: usize, b: usize| (x[b] - x[a]) * (py - y[a]) - (y[b] - y[a]) * (px - x[a]);
-        let q = [
-            e(1, 2) * self.inv_w[0],
-            e(2, 0) * self.inv_w[1],
-            e(0, 1) * self.inv_w[2],
-        ];
+        let q = [e(1, 2) * self.inv_w[0], e(2, 0) * self.inv_w[1], e(0, 1) * self.inv_w[2]];
         let s = q[0] + q[1] + q[2];
         if s.is_nan() || s <= 0.0 {
             // Degenerate (cannot happen inside the triangle); fall back to the centroid.
@@ -121,10 +115,7 @@ fn plane_distances(c: DVec3, near: f64) -> [f64; 5] {
 
 #[inline]
 fn outcode(c: DVec3, near: f64) -> u8 {
-    plane_distances(c, near)
-        .iter()
-        .enumerate()
-        .fold(0, |m, (k, d)| if *d < 0.0 { m | (1 << k) } else { m })
+    plane_distances(c, near).iter().enumerate().fold(0, |m, (k, d)| if *d < 0.0 { m | (1 << k) } else { m })
 }
 
 /// The point where the segment a–b crosses plane `k`, computed from the endpoints in a canonical
@@ -135,10 +126,7 @@ fn intersect(a: ClipVertex, b: ClipVertex, k: usize, near: f64) -> ClipVertex {
     let da = plane_distances(a.c, near)[k];
     let db = plane_distances(b.c, near)[k];
     let t = da / (da - db);
-    ClipVertex {
-        c: a.c + (b.c - a.c) * t,
-        b: a.b + (b.b - a.b) * t,
-    }
+    ClipVertex { c: a.c + (b.c - a.c) * t, b: a.b + (b.b - a.b) * t }
 }
 
 /// Sutherland–Hodgman clipping of a convex polygon (at most 3 + 5 vertices) against plane `k`.
@@ -179,12 +167,7 @@ pub(crate) fn setup_triangle(
         emit(clip, corners, object, triangle, frame, vp, out);
         return;
     }
-    let mut poly: Vec<ClipVertex> = (0..3)
-        .map(|k| ClipVertex {
-            c: clip[k],
-            b: corners[k],
-        })
-        .collect();
+    let mut poly: Vec<ClipVertex> = (0..3).map(|k| ClipVertex { c: clip[k], b: corners[k] }).collect();
     let mut scratch = Vec::with_capacity(9);
     let crossed = codes[0] | codes[1] | codes[2];
     for k in 0..5 {
@@ -198,15 +181,7 @@ pub(crate) fn setup_triangle(
     }
     for i in 1..poly.len() - 1 {
         let (a, b, c) = (poly[0], poly[i], poly[i + 1]);
-        emit(
-            [a.c, b.c, c.c],
-            [a.b, b.b, c.b],
-            object,
-            triangle,
-            frame,
-            vp,
-            out,
-        );
+        emit([a.c, b.c, c.c], [a.b, b.b, c.b], object, triangle, frame, vp, out);
     }
 }
 
@@ -251,10 +226,7 @@ fn emit(
     }
     let lo = |v: &[i64; 3]| v.iter().copied().min().unwrap_or(0).div_euclid(ONE);
     let hi = |v: &[i64; 3]| v.iter().copied().max().unwrap_or(0).div_euclid(ONE);
-    let (x0, y0) = (
-        lo(&x).max(-i64::from(vp.apron)),
-        lo(&y).max(-i64::from(vp.apron)),
-    );
+    let (x0, y0) = (lo(&x).max(-i64::from(vp.apron)), lo(&y).max(-i64::from(vp.apron)));
     let x1 = hi(&x).min(i64::from(vp.width - 1 + vp.apron));
     let y1 = hi(&y).min(i64::from(vp.height - 1 + vp.apron));
     if x0 > x1 || y0 > y1 {
@@ -275,10 +247,7 @@ fn emit(
 
 /// Sample positions inside a pixel in fixed-point units, [0, [`ONE`]).
 pub(crate) fn fixed_offsets(offsets: &[[f64; 2]]) -> Vec<[i64; 2]> {
-    offsets
-        .iter()
-        .map(|o| o.map(|v| ((v * ONE as f64).round() as i64).clamp(0, ONE - 1)))
-        .collect()
+    offsets.iter().map(|o| o.map(|v| ((v * ONE as f64).round() as i64).clamp(0, ONE - 1))).collect()
 }
 
 /// A rectangle of sample storage: pixels [x0, x0 + w) × [y0, y0 + h), `samples` each, with a
@@ -365,9 +334,7 @@ impl SampleBuffer {
                     if (w0 | w1 | w2) >= 0 {
                         // 1/w is affine in screen space: Σ_k (E_k/area)(1/w_k), with the
                         // unbiased edge functions.
-                        let z = (w0 - bias[0]) as f64 * zc[0]
-                            + (w1 - bias[1]) as f64 * zc[1]
-                            + (w2 - bias[2]) as f64 * zc[2];
+                        let z = (w0 - bias[0]) as f64 * zc[0] + (w1 - bias[1]) as f64 * zc[1] + (w2 - bias[2]) as f64 * zc[2];
                         if z > self.depth[idx] {
                             self.depth[idx] = z;
                             self.prim[idx] = id;
@@ -405,25 +372,12 @@ mod tests {
     }
 
     fn vp(w: i32, h: i32) -> Viewport {
-        Viewport {
-            width: w,
-            height: h,
-            apron: 0,
-            near: 1e-3,
-            cull_back_faces: false,
-        }
+        Viewport { width: w, height: h, apron: 0, near: 1e-3, cull_back_faces: false }
     }
 
     fn screen(f: &CameraFrame, v: &Viewport, p: [DVec3; 3]) -> Vec<ScreenTri> {
         let mut out = Vec::new();
-        setup_triangle(
-            p.map(|q| f.view_to_clip(f.world_to_view(q))),
-            0,
-            0,
-            f,
-            v,
-            &mut out,
-        );
+        setup_triangle(p.map(|q| f.view_to_clip(f.world_to_view(q))), 0, 0, f, v, &mut out);
         out
     }
 
@@ -441,24 +395,14 @@ mod tests {
                 }
             }
         }
-        (
-            hits.iter().filter(|&&c| c > 0).count(),
-            hits.iter().copied().max().unwrap_or(0),
-        )
+        (hits.iter().filter(|&&c| c > 0).count(), hits.iter().copied().max().unwrap_or(0))
     }
 
     #[test]
     fn front_faces_are_counter_clockwise_from_the_camera() {
         let f = frame(64, 64);
-        let v = Viewport {
-            cull_back_faces: true,
-            ..vp(64, 64)
-        };
-        let ccw = [
-            DVec3::new(-1.0, -1.0, 0.0),
-            DVec3::new(1.0, -1.0, 0.0),
-            DVec3::new(0.0, 1.0, 0.0),
-        ];
+        let v = Viewport { cull_back_faces: true, ..vp(64, 64) };
+        let ccw = [DVec3::new(-1.0, -1.0, 0.0), DVec3::new(1.0, -1.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
         assert_eq!(screen(&f, &v, ccw).len(), 1);
         assert!(screen(&f, &v, [ccw[0], ccw[2], ccw[1]]).is_empty());
         assert_eq!(screen(&f, &vp(64, 64), [ccw[0], ccw[2], ccw[1]]).len(), 1);
@@ -496,35 +440,21 @@ mod tests {
         let n = 6usize;
         let mut seed = 12345u64;
         let mut jitter = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((seed >> 33) % 41) as i64 - 20
         };
         let mut v = vec![(0i64, 0i64); n * n];
         for j in 0..n {
             for i in 0..n {
                 let interior = i > 0 && j > 0 && i < n - 1 && j < n - 1;
-                let (jx, jy) = if interior {
-                    (jitter(), jitter())
-                } else {
-                    (0, 0)
-                };
-                v[j * n + i] = (
-                    16 + 1280 * i as i64 + 32 * jx,
-                    16 + 1280 * j as i64 + 32 * jy,
-                );
+                let (jx, jy) = if interior { (jitter(), jitter()) } else { (0, 0) };
+                v[j * n + i] = (16 + 1280 * i as i64 + 32 * jx, 16 + 1280 * j as i64 + 32 * jy);
             }
         }
         let mut tris = Vec::new();
         for j in 0..n - 1 {
             for i in 0..n - 1 {
-                let (a, b, c, d) = (
-                    v[j * n + i],
-                    v[j * n + i + 1],
-                    v[(j + 1) * n + i],
-                    v[(j + 1) * n + i + 1],
-                );
+                let (a, b, c, d) = (v[j * n + i], v[j * n + i + 1], v[(j + 1) * n + i], v[(j + 1) * n + i + 1]);
                 if (i + j) % 2 == 0 {
                     tris.push(fixed_tri([a, b, d], 30, 30));
                     tris.push(fixed_tri([a, d, c], 30, 30));
@@ -564,17 +494,7 @@ mod tests {
         // different depths; piece ids 0.. for the far one, 100.. for the near one.
         let f = frame(16, 16);
         let v = vp(16, 16);
-        let big = |z: f64| {
-            screen(
-                &f,
-                &v,
-                [
-                    DVec3::new(-50.0, -50.0, z),
-                    DVec3::new(50.0, -50.0, z),
-                    DVec3::new(0.0, 50.0, z),
-                ],
-            )
-        };
+        let big = |z: f64| screen(&f, &v, [DVec3::new(-50.0, -50.0, z), DVec3::new(50.0, -50.0, z), DVec3::new(0.0, 50.0, z)]);
         let (far, near) = (big(-1.0), big(1.0));
         let offsets = fixed_offsets(&[[0.5, 0.5]]);
         let draw = |buf: &mut SampleBuffer, tris: &[ScreenTri], base: u32| {
@@ -592,10 +512,7 @@ mod tests {
                 draw(&mut buf, &far, 0);
                 draw(&mut buf, &near, 100);
             }
-            assert!(buf
-                .prim
-                .iter()
-                .all(|&p| (100..100 + near.len() as u32).contains(&p)));
+            assert!(buf.prim.iter().all(|&p| (100..100 + near.len() as u32).contains(&p)));
             // 1/w of the near plane, depth 9 from the camera.
             assert!(buf.depth.iter().all(|&z| (z - 1.0 / 9.0).abs() < 1e-12));
         }
@@ -613,11 +530,7 @@ mod tests {
         // barycentrics that interpolate to points on the original triangle.
         let f = frame(32, 32);
         let v = vp(32, 32);
-        let p = [
-            DVec3::new(-1.0, -1.0, 0.0),
-            DVec3::new(1.0, -1.0, 0.0),
-            DVec3::new(0.0, -1.0, 30.0),
-        ];
+        let p = [DVec3::new(-1.0, -1.0, 0.0), DVec3::new(1.0, -1.0, 0.0), DVec3::new(0.0, -1.0, 30.0)];
         let tris = screen(&f, &v, p);
         assert!(!tris.is_empty());
         for t in &tris {
@@ -627,19 +540,13 @@ mod tests {
                 assert!(t.inv_w[k] > 0.0 && t.inv_w[k] <= 1.0 / v.near * (1.0 + 1e-9));
             }
             // The barycentric of a covered sample reconstructs a point on the triangle.
-            let (cx, cy) = (
-                (t.x[0] + t.x[1] + t.x[2]) / 3,
-                (t.y[0] + t.y[1] + t.y[2]) / 3,
-            );
+            let (cx, cy) = ((t.x[0] + t.x[1] + t.x[2]) / 3, (t.y[0] + t.y[1] + t.y[2]) / 3);
             let b = t.barycentric_at(cx as f64, cy as f64);
             let q = p[0] * b.x + p[1] * b.y + p[2] * b.z;
             assert!((q.y + 1.0).abs() < 1e-9);
             // And it projects back onto the sample.
             let s = f.clip_to_pixel(f.view_to_clip(f.world_to_view(q)));
-            assert!(
-                (s.x * ONE as f64 - cx as f64).abs() < 2.0
-                    && (s.y * ONE as f64 - cy as f64).abs() < 2.0
-            );
+            assert!((s.x * ONE as f64 - cx as f64).abs() < 2.0 && (s.y * ONE as f64 - cy as f64).abs() < 2.0);
         }
         // Entirely behind the camera: nothing.
         let behind = p.map(|q| q + DVec3::new(0.0, 0.0, 40.0));
@@ -651,15 +558,7 @@ mod tests {
         let f = frame(32, 32);
         let v = vp(32, 32);
         let s = 1e9;
-        let tris = screen(
-            &f,
-            &v,
-            [
-                DVec3::new(-s, -s, 0.0),
-                DVec3::new(s, -s, 0.0),
-                DVec3::new(0.0, s, 0.0),
-            ],
-        );
+        let tris = screen(&f, &v, [DVec3::new(-s, -s, 0.0), DVec3::new(s, -s, 0.0), DVec3::new(0.0, s, 0.0)]);
         assert!(!tris.is_empty());
         for t in &tris {
             for k in 0..3 {

@@ -152,22 +152,11 @@ impl SamplePattern {
         match self {
             SamplePattern::Centre => vec![[0.5, 0.5]],
             SamplePattern::RotatedGrid4 => {
-                vec![
-                    [0.375, 0.125],
-                    [0.875, 0.375],
-                    [0.125, 0.625],
-                    [0.625, 0.875],
-                ]
+                vec![[0.375, 0.125], [0.875, 0.375], [0.125, 0.625], [0.625, 0.875]]
             }
             SamplePattern::Grid(n) => {
                 let step = 1.0 / f64::from(n);
-                (0..n)
-                    .flat_map(|j| {
-                        (0..n).map(move |i| {
-                            [(f64::from(i) + 0.5) * step, (f64::from(j) + 0.5) * step]
-                        })
-                    })
-                    .collect()
+                (0..n).flat_map(|j| (0..n).map(move |i| [(f64::from(i) + 0.5) * step, (f64::from(j) + 0.5) * step])).collect()
             }
         }
     }
@@ -258,16 +247,8 @@ pub const MAX_GRID: u32 = 8;
 /// Smallest accepted [`RenderOptions::specular_roughness`].
 pub const MIN_ROUGHNESS: f64 = 0.01;
 
-fn option_err(
-    field: &'static str,
-    value: impl std::fmt::Debug,
-    requirement: &'static str,
-) -> RenderError {
-    RenderError::InvalidOption {
-        field,
-        value: format!("{value:?}"),
-        requirement,
-    }
+fn option_err(field: &'static str, value: impl std::fmt::Debug, requirement: &'static str) -> RenderError {
+    RenderError::InvalidOption { field, value: format!("{value:?}"), requirement }
 }
 
 fn finite3(v: [f64; 3]) -> bool {
@@ -286,22 +267,14 @@ impl RenderOptions {
     /// grid size outside 1..=[`MAX_GRID`], a roughness outside [[`MIN_ROUGHNESS`], 1].
     pub fn validate(&self) -> Result<(), RenderError> {
         if !self.exposure_ev.is_finite() {
-            return Err(option_err(
-                "exposure_ev",
-                self.exposure_ev,
-                "must be finite",
-            ));
+            return Err(option_err("exposure_ev", self.exposure_ev, "must be finite"));
         }
         if !finite3(self.background) {
             return Err(option_err("background", self.background, "must be finite"));
         }
         if let SamplePattern::Grid(n) = self.samples {
             if !(1..=MAX_GRID).contains(&n) {
-                return Err(option_err(
-                    "samples",
-                    self.samples,
-                    "Grid(n) needs n in 1..=8",
-                ));
+                return Err(option_err("samples", self.samples, "Grid(n) needs n in 1..=8"));
             }
         }
         let r = self.specular_roughness;
@@ -348,11 +321,7 @@ impl RenderScene<'_> {
         }
         if let Some(env) = self.environment {
             if !non_negative3(env) {
-                return Err(option_err(
-                    "environment",
-                    env,
-                    "every channel must be finite and >= 0",
-                ));
+                return Err(option_err("environment", env, "every channel must be finite and >= 0"));
             }
         }
         if let Some(g) = &self.ground {
@@ -360,25 +329,13 @@ impl RenderScene<'_> {
                 return Err(option_err("ground.point", g.point, "must be finite"));
             }
             if !g.normal.is_finite() || g.normal == DVec3::ZERO {
-                return Err(option_err(
-                    "ground.normal",
-                    g.normal,
-                    "must be finite and non-zero",
-                ));
+                return Err(option_err("ground.normal", g.normal, "must be finite and non-zero"));
             }
             if !g.albedo.iter().all(|a| (0.0..=1.0).contains(a)) {
-                return Err(option_err(
-                    "ground.albedo",
-                    g.albedo,
-                    "every channel must be in [0, 1]",
-                ));
+                return Err(option_err("ground.albedo", g.albedo, "every channel must be in [0, 1]"));
             }
             if !(g.half_extent.is_finite() && g.half_extent > 0.0) {
-                return Err(option_err(
-                    "ground.half_extent",
-                    g.half_extent,
-                    "must be finite and > 0",
-                ));
+                return Err(option_err("ground.half_extent", g.half_extent, "must be finite and > 0"));
             }
         }
         Ok(())
@@ -395,29 +352,14 @@ impl RenderObject<'_> {
     pub fn validate(&self, object: usize) -> Result<(), RenderError> {
         let n = self.positions.len();
         if !(self.eta.is_finite() && (ETA_MIN..ETA_MAX).contains(&self.eta)) {
-            return Err(RenderError::InvalidEta {
-                object,
-                value: self.eta,
-                min: ETA_MIN,
-                max: ETA_MAX,
-            });
+            return Err(RenderError::InvalidEta { object, value: self.eta, min: ETA_MIN, max: ETA_MAX });
         }
         if self.radiance.len() != n {
-            return Err(RenderError::LengthMismatch {
-                object,
-                field: "radiance",
-                expected: n,
-                got: self.radiance.len(),
-            });
+            return Err(RenderError::LengthMismatch { object, field: "radiance", expected: n, got: self.radiance.len() });
         }
         if let Some(normals) = self.normals {
             if normals.len() != n {
-                return Err(RenderError::LengthMismatch {
-                    object,
-                    field: "normals",
-                    expected: n,
-                    got: normals.len(),
-                });
+                return Err(RenderError::LengthMismatch { object, field: "normals", expected: n, got: normals.len() });
             }
         }
         let vertex_err = |field, index, value: String| RenderError::InvalidVertex {
@@ -438,22 +380,10 @@ impl RenderObject<'_> {
                 return Err(vertex_err("normals", i, format!("{}", normals[i])));
             }
         }
-        if let Some(t) = self
-            .triangles
-            .par_iter()
-            .position_first(|t| t.iter().any(|&v| v as usize >= n))
-        {
+        if let Some(t) = self.triangles.par_iter().position_first(|t| t.iter().any(|&v| v as usize >= n)) {
             let tri = self.triangles[t];
-            let corner = (0..3)
-                .find(|&c| tri[c] as usize >= n)
-                .expect("some corner is out of range");
-            return Err(RenderError::IndexOutOfRange {
-                object,
-                triangle: t,
-                corner,
-                index: tri[corner],
-                vertex_count: n,
-            });
+            let corner = (0..3).find(|&c| tri[c] as usize >= n).expect("some corner is out of range");
+            return Err(RenderError::IndexOutOfRange { object, triangle: t, corner, index: tri[corner], vertex_count: n });
         }
         Ok(())
     }
@@ -500,8 +430,7 @@ mod tests {
         // Vertex 1 (x axis): faces −z (area ½), −y (area ½), slanted (area √3/2, normal (1,1,1)/√3).
         let s = DVec3::new(0.0, -1.0, -1.0) + DVec3::ONE;
         assert!((n[1] - s.normalize()).length() < 1e-15, "{}", n[1]);
-        let lonely =
-            area_weighted_normals(&[DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z], &[[0, 1, 2]]);
+        let lonely = area_weighted_normals(&[DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z], &[[0, 1, 2]]);
         assert_eq!(lonely[3], DVec3::ZERO);
         assert_eq!(lonely[0], DVec3::Z);
     }
@@ -510,10 +439,7 @@ mod tests {
     fn sample_patterns() {
         assert_eq!(SamplePattern::Centre.offsets(), vec![[0.5, 0.5]]);
         let g = SamplePattern::Grid(2).offsets();
-        assert_eq!(
-            g,
-            vec![[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]]
-        );
+        assert_eq!(g, vec![[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]]);
         let r = SamplePattern::RotatedGrid4.offsets();
         // One sample per row and column quarter.
         let mut xs: Vec<f64> = r.iter().map(|o| o[0]).collect();
@@ -524,11 +450,7 @@ mod tests {
 
     #[test]
     fn ground_below_a_box() {
-        let g = GroundPlane::below(
-            DVec3::new(-1.0, 2.0, 0.0),
-            DVec3::new(1.0, 4.0, 1.0),
-            DVec3::Y * 3.0,
-        );
+        let g = GroundPlane::below(DVec3::new(-1.0, 2.0, 0.0), DVec3::new(1.0, 4.0, 1.0), DVec3::Y * 3.0);
         assert!((g.point - DVec3::new(0.0, 2.0, 0.5)).length() < 1e-15);
         assert_eq!(g.normal, DVec3::Y);
         let c = g.corners();
@@ -538,14 +460,8 @@ mod tests {
             assert!((p - g.point).dot(g.normal).abs() < 1e-12);
         }
         let lights = [
-            SpecularLight {
-                direction_to_light: DVec3::new(0.0, 2.0, 0.0),
-                irradiance: [2.0; 3],
-            },
-            SpecularLight {
-                direction_to_light: DVec3::NEG_Y,
-                irradiance: [5.0; 3],
-            },
+            SpecularLight { direction_to_light: DVec3::new(0.0, 2.0, 0.0), irradiance: [2.0; 3] },
+            SpecularLight { direction_to_light: DVec3::NEG_Y, irradiance: [5.0; 3] },
         ];
         let l = g.radiance(&lights, Some([1.0, 0.0, 0.5]));
         let pi = std::f64::consts::PI;
@@ -554,13 +470,7 @@ mod tests {
     }
 
     fn obj<'a>(p: &'a [DVec3], t: &'a [[u32; 3]], r: &'a [[f64; 3]]) -> RenderObject<'a> {
-        RenderObject {
-            positions: p,
-            triangles: t,
-            radiance: r,
-            normals: None,
-            eta: 1.3,
-        }
+        RenderObject { positions: p, triangles: t, radiance: r, normals: None, eta: 1.3 }
     }
 
     #[test]
@@ -568,100 +478,36 @@ mod tests {
         let p = [DVec3::ZERO, DVec3::X, DVec3::Y];
         let r = [[1.0; 3]; 3];
         assert!(obj(&p, &[[0, 1, 2]], &r).validate(0).is_ok());
-        let e = obj(&p, &[[0, 1, 2], [0, 3, 1]], &r)
-            .validate(4)
-            .unwrap_err();
+        let e = obj(&p, &[[0, 1, 2], [0, 3, 1]], &r).validate(4).unwrap_err();
         assert!(
-            matches!(
-                e,
-                RenderError::IndexOutOfRange {
-                    object: 4,
-                    triangle: 1,
-                    corner: 1,
-                    index: 3,
-                    vertex_count: 3
-                }
-            ),
+            matches!(e, RenderError::IndexOutOfRange { object: 4, triangle: 1, corner: 1, index: 3, vertex_count: 3 }),
             "{e}"
         );
         let nan = [[1.0; 3], [1.0, f64::NAN, 1.0], [1.0; 3]];
         let e = obj(&p, &[[0, 1, 2]], &nan).validate(0).unwrap_err();
         assert!(e.to_string().contains("radiance[1]"), "{e}");
         let e = obj(&p, &[[0, 1, 2]], &r[..2]).validate(0).unwrap_err();
-        assert!(
-            matches!(
-                e,
-                RenderError::LengthMismatch {
-                    field: "radiance",
-                    expected: 3,
-                    got: 2,
-                    ..
-                }
-            ),
-            "{e}"
-        );
-        let e = RenderObject {
-            eta: 0.5,
-            ..obj(&p, &[], &r)
-        }
-        .validate(2)
-        .unwrap_err();
-        assert!(
-            matches!(e, RenderError::InvalidEta { object: 2, .. }),
-            "{e}"
-        );
+        assert!(matches!(e, RenderError::LengthMismatch { field: "radiance", expected: 3, got: 2, .. }), "{e}");
+        let e = RenderObject { eta: 0.5, ..obj(&p, &[], &r) }.validate(2).unwrap_err();
+        assert!(matches!(e, RenderError::InvalidEta { object: 2, .. }), "{e}");
         let bad_p = [DVec3::ZERO, DVec3::new(0.0, f64::INFINITY, 0.0), DVec3::Y];
         let e = obj(&bad_p, &[], &r).validate(0).unwrap_err();
         assert!(e.to_string().contains("positions[1]"), "{e}");
         let normals = [DVec3::Z; 2];
-        let e = RenderObject {
-            normals: Some(&normals),
-            ..obj(&p, &[], &r)
-        }
-        .validate(0)
-        .unwrap_err();
-        assert!(
-            matches!(
-                e,
-                RenderError::LengthMismatch {
-                    field: "normals",
-                    ..
-                }
-            ),
-            "{e}"
-        );
+        let e = RenderObject { normals: Some(&normals), ..obj(&p, &[], &r) }.validate(0).unwrap_err();
+        assert!(matches!(e, RenderError::LengthMismatch { field: "normals", .. }), "{e}");
     }
 
     #[test]
     fn option_validation_names_the_problem() {
         assert!(RenderOptions::default().validate().is_ok());
-        let e = RenderOptions {
-            exposure_ev: f64::NAN,
-            ..Default::default()
-        }
-        .validate()
-        .unwrap_err();
+        let e = RenderOptions { exposure_ev: f64::NAN, ..Default::default() }.validate().unwrap_err();
         assert!(e.to_string().contains("exposure_ev"), "{e}");
-        let e = RenderOptions {
-            samples: SamplePattern::Grid(0),
-            ..Default::default()
-        }
-        .validate()
-        .unwrap_err();
+        let e = RenderOptions { samples: SamplePattern::Grid(0), ..Default::default() }.validate().unwrap_err();
         assert!(e.to_string().contains("samples"), "{e}");
-        let e = RenderOptions {
-            specular_roughness: 0.0,
-            ..Default::default()
-        }
-        .validate()
-        .unwrap_err();
+        let e = RenderOptions { specular_roughness: 0.0, ..Default::default() }.validate().unwrap_err();
         assert!(e.to_string().contains("specular_roughness"), "{e}");
-        let e = RenderOptions {
-            background: [0.0, f64::NAN, 0.0],
-            ..Default::default()
-        }
-        .validate()
-        .unwrap_err();
+        let e = RenderOptions { background: [0.0, f64::NAN, 0.0], ..Default::default() }.validate().unwrap_err();
         assert!(e.to_string().contains("background"), "{e}");
     }
 }

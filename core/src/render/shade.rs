@@ -141,10 +141,7 @@ mod tests {
         // At the mirror direction h = n: D(1) = 1/(π α²), both G₁ ≈ 1 for small α.
         let nl = l.z;
         let expect = 0.25 / (PI * 0.01) * fresnel_reflectance(nl, 1.5) / (nl * nl) * nl;
-        assert!(
-            (at_mirror / expect - 1.0).abs() < 0.02,
-            "{at_mirror} vs {expect}"
-        );
+        assert!((at_mirror / expect - 1.0).abs() < 0.02, "{at_mirror} vs {expect}");
         assert_eq!(ggx_specular(n, mirror, -l, 0.1, 1.5), 0.0);
         // No interface, no reflection.
         assert_eq!(ggx_specular(n, mirror, l, 0.1, 1.0), 0.0);
@@ -152,11 +149,7 @@ mod tests {
 
     #[test]
     fn shade_combines_the_terms() {
-        let lighting = Lighting {
-            lights: vec![],
-            environment: Some(DVec3::splat(2.0)),
-            alpha: 0.09,
-        };
+        let lighting = Lighting { lights: vec![], environment: Some(DVec3::splat(2.0)), alpha: 0.09 };
         let eta = 1.3;
         let inv = 1.0 / ft_out(eta, 1.0);
         let v = DVec3::new(0.6, 0.0, 0.8);

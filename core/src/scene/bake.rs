@@ -9,9 +9,9 @@ use crate::light::{self, LightError, SourceOptions};
 use crate::mesh::{TetMesh, TetMeshError, TriangleBvh};
 use crate::mesher::{self, MesherError, MesherOptions, MesherStats};
 use crate::optics::Medium;
-use crate::volume::VolumeError;
 use crate::progress::{Cancelled, Progress};
 use crate::sparse::{SolveOptions, SparseError};
+use crate::volume::VolumeError;
 
 /// How to bake.
 #[derive(Debug, Clone, PartialEq)]
@@ -36,7 +36,15 @@ pub struct BakeOptions {
 
 impl Default for BakeOptions {
     fn default() -> Self {
-        Self { tets: 200_000, tolerance: 1e-6, max_iterations: 10_000, threads: 0, source: SourceOptions::default(), shadows: true, backend: None }
+        Self {
+            tets: 200_000,
+            tolerance: 1e-6,
+            max_iterations: 10_000,
+            threads: 0,
+            source: SourceOptions::default(),
+            shadows: true,
+            backend: None,
+        }
     }
 }
 
@@ -242,10 +250,11 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
 
         let t = Instant::now();
         let to_object = object.transform.inverse();
-        let media = object
-            .medium
-            .apply(&mut tet_mesh, &to_object, object.mm_per_unit)
-            .map_err(|source| SceneError::Medium { index, name: name(), source })?;
+        let media = object.medium.apply(&mut tet_mesh, &to_object, object.mm_per_unit).map_err(|source| SceneError::Medium {
+            index,
+            name: name(),
+            source,
+        })?;
         let diffusion_error = |source| SceneError::Diffusion { index, name: name(), source };
         let mut system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(diffusion_error)?;
         let assembly_ms = ms(t);
@@ -267,13 +276,15 @@ fn bake_all(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<
             let worst = residual.iter().fold(0.0f64, |m, &r| m.max(r)).max(options.tolerance);
             stage("solve", 0.8 + 0.19 * (-worst.log10() / decades).clamp(0.0, 1.0)).is_ok()
         };
-        let solve_options = SolveOptions { tolerance: options.tolerance, max_iterations: options.max_iterations, ..SolveOptions::default() }
-            .with_monitor(&monitor);
-        let (solution, report) = gpu::solve_on(options.backend.unwrap_or_default(), &system, None, &solve_options).map_err(|e| match e {
-            GpuError::Diffusion(DiffusionError::Sparse(SparseError::Cancelled { .. })) => SceneError::Cancelled(Cancelled),
-            GpuError::Diffusion(source) => diffusion_error(source),
-            source => SceneError::Gpu { index, name: name(), source },
-        })?;
+        let solve_options =
+            SolveOptions { tolerance: options.tolerance, max_iterations: options.max_iterations, ..SolveOptions::default() }
+                .with_monitor(&monitor);
+        let (solution, report) =
+            gpu::solve_on(options.backend.unwrap_or_default(), &system, None, &solve_options).map_err(|e| match e {
+                GpuError::Diffusion(DiffusionError::Sparse(SparseError::Cancelled { .. })) => SceneError::Cancelled(Cancelled),
+                GpuError::Diffusion(source) => diffusion_error(source),
+                source => SceneError::Gpu { index, name: name(), source },
+            })?;
         let lo = diffusion::surface_radiance(&system, &solution.phi).map_err(diffusion_error)?;
         let solve_ms = ms(t);
 
@@ -324,7 +335,9 @@ impl TetsError {
         match self {
             Self::Mesher(MesherError::Cancelled(c)) => SceneError::Cancelled(c),
             Self::Mesher(source) => SceneError::Mesher { index, name, source },
-            Self::Transform(e) => SceneError::InvalidObject { index, name, message: format!("the transformed tet mesh is invalid: {e}") },
+            Self::Transform(e) => {
+                SceneError::InvalidObject { index, name, message: format!("the transformed tet mesh is invalid: {e}") }
+            }
         }
     }
 }
@@ -355,8 +368,9 @@ fn world_tets(
         Shape::Surface(_) => {
             // The mesher reports each of its stages from 0 to 1: one fraction of the meshing.
             let mesh_progress = |s: &str, f: f64| stage(s, 0.6 * mesher_fraction(s, f)).is_ok();
-            let meshed = mesher::tetrahedralize_with(surface, &MesherOptions::with_tets(options.tets), Progress::new(&mesh_progress))
-                .map_err(TetsError::Mesher)?;
+            let meshed =
+                mesher::tetrahedralize_with(surface, &MesherOptions::with_tets(options.tets), Progress::new(&mesh_progress))
+                    .map_err(TetsError::Mesher)?;
             Ok((meshed.mesh, Some(meshed.stats)))
         }
         Shape::Tetrahedra(mesh) => {

@@ -98,10 +98,7 @@ impl Eq for CsrPattern {}
 
 fn check_dimension(n: usize) -> Result<(), SparseError> {
     if u32::try_from(n).is_err() {
-        return Err(SparseError::TooLarge(format!(
-            "{n} rows; column indices are 32-bit, so at most {} rows",
-            u32::MAX
-        )));
+        return Err(SparseError::TooLarge(format!("{n} rows; column indices are 32-bit, so at most {} rows", u32::MAX)));
     }
     Ok(())
 }
@@ -186,22 +183,14 @@ impl CsrPattern {
             }
             let cols = &col_idx[row_ptr[i]..row_ptr[i + 1]];
             if let Some(&c) = cols.iter().find(|&&c| c as usize >= n) {
-                return Err(SparseError::IndexOutOfRange {
-                    what: format!("column index in row {i}"),
-                    index: u64::from(c),
-                    n,
-                });
+                return Err(SparseError::IndexOutOfRange { what: format!("column index in row {i}"), index: u64::from(c), n });
             }
             if cols.windows(2).any(|w| w[0] >= w[1]) {
-                return Err(SparseError::InvalidOption(format!(
-                    "columns of row {i} are not strictly increasing"
-                )));
+                return Err(SparseError::InvalidOption(format!("columns of row {i} are not strictly increasing")));
             }
             match cols.binary_search(&(i as u32)) {
                 Ok(k) => diag.push(row_ptr[i] + k),
-                Err(_) => {
-                    return Err(SparseError::InvalidOption(format!("row {i} has no diagonal entry")))
-                }
+                Err(_) => return Err(SparseError::InvalidOption(format!("row {i} has no diagonal entry"))),
             }
         }
         Ok(Self { n, row_ptr, col_idx, diag, symmetric_by_construction: false })
@@ -213,11 +202,7 @@ impl CsrPattern {
         for (k, &[i, j]) in entries.iter().enumerate() {
             for v in [i, j] {
                 if v as usize >= n {
-                    return Err(SparseError::IndexOutOfRange {
-                        what: format!("{what} {k}"),
-                        index: u64::from(v),
-                        n,
-                    });
+                    return Err(SparseError::IndexOutOfRange { what: format!("{what} {k}"), index: u64::from(v), n });
                 }
             }
             if i != j {
@@ -411,11 +396,7 @@ fn scatter_by_row<T>(n: usize, triplets: &[Triplet<T>]) -> Result<(Vec<usize>, V
     for (k, t) in triplets.iter().enumerate() {
         for (v, which) in [(t.row, "row"), (t.col, "column")] {
             if v as usize >= n {
-                return Err(SparseError::IndexOutOfRange {
-                    what: format!("triplet {k} {which}"),
-                    index: u64::from(v),
-                    n,
-                });
+                return Err(SparseError::IndexOutOfRange { what: format!("triplet {k} {which}"), index: u64::from(v), n });
             }
         }
         counts[t.row as usize] += 1;
@@ -432,9 +413,7 @@ fn scatter_by_row<T>(n: usize, triplets: &[Triplet<T>]) -> Result<(Vec<usize>, V
 }
 
 fn check_triplets_finite<T: Entry>(triplets: &[Triplet<T>]) -> Result<(), SparseError> {
-    let bad = triplets
-        .par_iter()
-        .position_first(|t| (0..T::CHANNELS).any(|c| !t.value.channel(c).is_finite()));
+    let bad = triplets.par_iter().position_first(|t| (0..T::CHANNELS).any(|c| !t.value.channel(c).is_finite()));
     if let Some(k) = bad {
         let t = &triplets[k];
         let c = (0..T::CHANNELS).find(|&c| !t.value.channel(c).is_finite()).unwrap_or(0);

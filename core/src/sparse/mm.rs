@@ -30,10 +30,7 @@ impl<T: Entry> CsrMatrix<T> {
     pub fn write_matrix_market(&self, path: impl AsRef<Path>, channel: usize) -> Result<(), SparseError> {
         let path = path.as_ref();
         if channel >= T::CHANNELS {
-            return Err(SparseError::InvalidOption(format!(
-                "channel {channel}: the matrix has {} channel(s)",
-                T::CHANNELS
-            )));
+            return Err(SparseError::InvalidOption(format!("channel {channel}: the matrix has {} channel(s)", T::CHANNELS)));
         }
         let p = self.pattern();
         let n = self.n();
@@ -69,7 +66,10 @@ impl<T: Entry> CsrMatrix<T> {
 }
 
 /// Reads the header line and the size line; returns (format words, size numbers, line number).
-fn read_header(path: &Path, lines: &mut impl Iterator<Item = std::io::Result<String>>) -> Result<(Vec<String>, Vec<usize>, usize), SparseError> {
+fn read_header(
+    path: &Path,
+    lines: &mut impl Iterator<Item = std::io::Result<String>>,
+) -> Result<(Vec<String>, Vec<usize>, usize), SparseError> {
     let mut line_no = 0;
     let mut next = |line_no: &mut usize| -> Result<Option<String>, SparseError> {
         *line_no += 1;
@@ -202,7 +202,11 @@ impl MmArray {
 pub fn write_array_matrix_market(path: impl AsRef<Path>, rows: usize, cols: usize, data: &[f64]) -> Result<(), SparseError> {
     let path = path.as_ref();
     if data.len() != rows * cols {
-        return Err(SparseError::DimensionMismatch { what: "array data length (rows × cols)", expected: rows * cols, found: data.len() });
+        return Err(SparseError::DimensionMismatch {
+            what: "array data length (rows × cols)",
+            expected: rows * cols,
+            found: data.len(),
+        });
     }
     let file = File::create(path).map_err(io_err(path))?;
     let mut w = BufWriter::new(file);

@@ -88,8 +88,7 @@ pub use bicgstab::bicgstab;
 pub use csr::{CsrMatrix, CsrMatrix3, CsrPattern, Entry, Triplet};
 pub use error::{SparseError, CHANNEL_NAMES};
 pub use mm::{
-    read_array_matrix_market, write_array_matrix_market, write_vector3_matrix_market, write_vector_matrix_market,
-    MmArray,
+    read_array_matrix_market, write_array_matrix_market, write_vector3_matrix_market, write_vector_matrix_market, MmArray,
 };
 pub use ops::{dot3, interleave_channels, norm3, split_channels};
 pub use pcg::pcg;
@@ -177,10 +176,7 @@ impl<'a> SolveOptions<'a> {
 
     fn validate(&self) -> Result<(), SparseError> {
         if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
-            return Err(SparseError::InvalidOption(format!(
-                "tolerance {} must be finite and non-negative",
-                self.tolerance
-            )));
+            return Err(SparseError::InvalidOption(format!("tolerance {} must be finite and non-negative", self.tolerance)));
         }
         Ok(())
     }

@@ -104,14 +104,11 @@ pub fn interleave_channels(r: &[f64], g: &[f64], b: &[f64]) -> Vec<[f64; 3]> {
 /// The first non-finite value of a three-channel vector, as `(row, channel, value)`.
 pub(crate) fn first_non_finite(v: &[[f64; 3]]) -> Option<(usize, usize, f64)> {
     // Blocks are searched in parallel; the first bad block (in order) wins.
-    let bad: Option<usize> = v
-        .par_chunks(CHUNK)
-        .position_first(|c| c.iter().any(|x| !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite())));
+    let bad: Option<usize> =
+        v.par_chunks(CHUNK).position_first(|c| c.iter().any(|x| !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite())));
     let b = bad?;
     let start = b * CHUNK;
-    v[start..].iter().enumerate().find_map(|(i, x)| {
-        x.iter().position(|t| !t.is_finite()).map(|c| (start + i, c, x[c]))
-    })
+    v[start..].iter().enumerate().find_map(|(i, x)| x.iter().position(|t| !t.is_finite()).map(|c| (start + i, c, x[c])))
 }
 
 #[cfg(test)]

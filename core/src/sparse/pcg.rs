@@ -98,7 +98,10 @@ pub(super) struct Progress {
 pub(super) enum Mixed {
     Done(SolveStats),
     /// The recursive residual drifted from the true one: continue from `x` in `f64`.
-    Stagnated { x: Vec<[f64; 3]>, progress: Progress },
+    Stagnated {
+        x: Vec<[f64; 3]>,
+        progress: Progress,
+    },
 }
 
 /// The `f64` PCG on the original matrix (Jacobi fused into the vector updates), from `x0`,
@@ -271,9 +274,7 @@ fn pcg_mixed(
             // Per channel, so that each channel's iterates do not depend on the others.
             let recompute = [0, 1, 2].map(|c| {
                 active[c]
-                    && (est[c] <= tol
-                        || est[c] <= RELIABLE_FACTOR * last_true[c]
-                        || it - last_recompute[c] >= RELIABLE_PERIOD)
+                    && (est[c] <= tol || est[c] <= RELIABLE_FACTOR * last_true[c] || it - last_recompute[c] >= RELIABLE_PERIOD)
             });
             let mut checked = est;
             if recompute.iter().any(|&t| t) {
@@ -344,40 +345,30 @@ fn update_scaled(
     d: &[[f32; 3]],
     alpha: [f64; 3],
 ) -> ([f64; 3], [f64; 3]) {
-    let parts: Vec<[f64; 6]> = (
-        y.par_chunks_mut(CHUNK),
-        rh.par_chunks_mut(CHUNK),
-        p.par_chunks(CHUNK),
-        q.par_chunks(CHUNK),
-        d.par_chunks(CHUNK),
-    )
-        .into_par_iter()
-        .map(|(y, r, p, q, d)| {
-            let mut s = [0.0; 6];
-            for ((((y, r), p), q), d) in y.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(d) {
-                for c in 0..3 {
-                    y[c] += alpha[c] * p[c];
-                    r[c] -= alpha[c] * q[c];
-                    let r2 = r[c] * r[c];
-                    s[c] += r2 * f64::from(d[c]);
-                    s[3 + c] += r2;
+    let parts: Vec<[f64; 6]> =
+        (y.par_chunks_mut(CHUNK), rh.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), q.par_chunks(CHUNK), d.par_chunks(CHUNK))
+            .into_par_iter()
+            .map(|(y, r, p, q, d)| {
+                let mut s = [0.0; 6];
+                for ((((y, r), p), q), d) in y.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(d) {
+                    for c in 0..3 {
+                        y[c] += alpha[c] * p[c];
+                        r[c] -= alpha[c] * q[c];
+                        let r2 = r[c] * r[c];
+                        s[c] += r2 * f64::from(d[c]);
+                        s[3 + c] += r2;
+                    }
                 }
-            }
-            s
-        })
-        .collect();
+                s
+            })
+            .collect();
     let s = sum_partials(&parts);
     ([s[0], s[1], s[2]], [s[3], s[4], s[5]])
 }
 
 pub(crate) fn make_stats(iterations: [usize; 3], rel: [f64; 3], tol: f64) -> SolveStats {
     let converged_channels = rel.map(|r| r <= tol);
-    SolveStats {
-        iterations,
-        relative_residual: rel,
-        converged_channels,
-        converged: converged_channels.iter().all(|&c| c),
-    }
+    SolveStats { iterations, relative_residual: rel, converged_channels, converged: converged_channels.iter().all(|&c| c) }
 }
 
 /// Sets the channels whose right-hand side is zero to zero.
@@ -494,27 +485,22 @@ fn update_jacobi(
     dinv: &[[f64; 3]],
     alpha: [f64; 3],
 ) -> ([f64; 3], [f64; 3]) {
-    let parts: Vec<[f64; 6]> = (
-        x.par_chunks_mut(CHUNK),
-        r.par_chunks_mut(CHUNK),
-        p.par_chunks(CHUNK),
-        q.par_chunks(CHUNK),
-        dinv.par_chunks(CHUNK),
-    )
-        .into_par_iter()
-        .map(|(x, r, p, q, d)| {
-            let mut s = [0.0; 6];
-            for ((((x, r), p), q), d) in x.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(d) {
-                for c in 0..3 {
-                    x[c] += alpha[c] * p[c];
-                    r[c] -= alpha[c] * q[c];
-                    s[c] += r[c] * r[c];
-                    s[3 + c] += r[c] * r[c] * d[c];
+    let parts: Vec<[f64; 6]> =
+        (x.par_chunks_mut(CHUNK), r.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), q.par_chunks(CHUNK), dinv.par_chunks(CHUNK))
+            .into_par_iter()
+            .map(|(x, r, p, q, d)| {
+                let mut s = [0.0; 6];
+                for ((((x, r), p), q), d) in x.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(d) {
+                    for c in 0..3 {
+                        x[c] += alpha[c] * p[c];
+                        r[c] -= alpha[c] * q[c];
+                        s[c] += r[c] * r[c];
+                        s[3 + c] += r[c] * r[c] * d[c];
+                    }
                 }
-            }
-            s
-        })
-        .collect();
+                s
+            })
+            .collect();
     let s = sum_partials(&parts);
     ([s[0], s[1], s[2]], [s[3], s[4], s[5]])
 }

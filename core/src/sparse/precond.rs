@@ -21,9 +21,9 @@ use rayon::prelude::*;
 
 use super::csr::CsrMatrix3;
 use super::error::SparseError;
+use super::ops::{row_mul, sum_partials, CHUNK};
 use super::scaled::ScaledOperator;
 use super::ssor::Ssor;
-use super::ops::{row_mul, sum_partials, CHUNK};
 
 /// Which preconditioner to build (a plain, copyable choice for options, the CLI and the C ABI).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -145,10 +145,7 @@ impl Chebyshev {
     /// [`SparseError::InvalidOption`] if `degree` is 0 or above [`Self::MAX_DEGREE`].
     pub fn new(a: &CsrMatrix3, degree: usize) -> Result<Self, SparseError> {
         if degree == 0 || degree > Self::MAX_DEGREE {
-            return Err(SparseError::InvalidOption(format!(
-                "Chebyshev degree {degree}: must be 1 to {}",
-                Self::MAX_DEGREE
-            )));
+            return Err(SparseError::InvalidOption(format!("Chebyshev degree {degree}: must be 1 to {}", Self::MAX_DEGREE)));
         }
         let op = ScaledOperator::new(a)?;
         let lambda_max = op.lambda_max;
@@ -310,11 +307,9 @@ impl Preconditioner {
 
     pub(crate) fn check_dimension(&self, n: usize) -> Result<(), SparseError> {
         match self.n() {
-            Some(m) if m != n => Err(SparseError::DimensionMismatch {
-                what: "preconditioner dimension (matrix rows)",
-                expected: n,
-                found: m,
-            }),
+            Some(m) if m != n => {
+                Err(SparseError::DimensionMismatch { what: "preconditioner dimension (matrix rows)", expected: n, found: m })
+            }
             _ => Ok(()),
         }
     }

@@ -97,12 +97,7 @@ impl ScaledOperator {
 }
 
 /// `q = A p` on raw parts; returns `pᵀq` per channel (deterministic).
-pub(crate) fn spmv_dot_raw<E: super::ops::Load3>(
-    pat: &CsrPattern,
-    vals: &[E],
-    p: &[[f64; 3]],
-    q: &mut [[f64; 3]],
-) -> [f64; 3] {
+pub(crate) fn spmv_dot_raw<E: super::ops::Load3>(pat: &CsrPattern, vals: &[E], p: &[[f64; 3]], q: &mut [[f64; 3]]) -> [f64; 3] {
     let (rp, ci) = (pat.row_ptr(), pat.col_idx());
     let parts: Vec<[f64; 3]> = q
         .par_chunks_mut(CHUNK)

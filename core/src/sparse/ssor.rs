@@ -408,11 +408,7 @@ fn triangles(p: &CsrPattern, perm: &[u32], inv: &[u32]) -> (Triangle, Triangle) 
                 let start = p.row_ptr()[o];
                 row.clear();
                 row.extend(
-                    p.row(o)
-                        .iter()
-                        .enumerate()
-                        .map(|(k, &j)| (inv[j as usize], start + k))
-                        .filter(|&(jn, _)| (jn as usize) < i),
+                    p.row(o).iter().enumerate().map(|(k, &j)| (inv[j as usize], start + k)).filter(|&(jn, _)| (jn as usize) < i),
                 );
                 row.sort_unstable_by_key(|e| e.0);
                 for (e, &(jn, k)) in (ptr[i]..ptr[i + 1]).zip(&row) {
@@ -465,27 +461,26 @@ impl Ssor {
     ) -> ([f64; 3], [f64; 3]) {
         self.solve_upper(y, &mut w.t);
         let t = &w.t;
-        let parts: Vec<[f64; 3]> = w
-            .r
-            .par_chunks_mut(CHUNK)
-            .enumerate()
-            .map(|(k, rc)| {
-                let mut sum = [0.0; 3];
-                for (li, r) in rc.iter_mut().enumerate() {
-                    let i = k * CHUNK + li;
-                    let (lc, lv) = self.lower.row(i);
-                    let (uc, uv) = self.upper.row(i);
-                    let l = row_mul(lc, lv, t);
-                    let u = row_mul(uc, uv, t);
-                    for c in 0..3 {
-                        r[c] = bh[i][c] - (t[i][c] + l[c] + u[c]);
-                        let unscaled = r[c] / self.s[i][c];
-                        sum[c] += unscaled * unscaled;
+        let parts: Vec<[f64; 3]> =
+            w.r.par_chunks_mut(CHUNK)
+                .enumerate()
+                .map(|(k, rc)| {
+                    let mut sum = [0.0; 3];
+                    for (li, r) in rc.iter_mut().enumerate() {
+                        let i = k * CHUNK + li;
+                        let (lc, lv) = self.lower.row(i);
+                        let (uc, uv) = self.upper.row(i);
+                        let l = row_mul(lc, lv, t);
+                        let u = row_mul(uc, uv, t);
+                        for c in 0..3 {
+                            r[c] = bh[i][c] - (t[i][c] + l[c] + u[c]);
+                            let unscaled = r[c] / self.s[i][c];
+                            sum[c] += unscaled * unscaled;
+                        }
                     }
-                }
-                sum
-            })
-            .collect();
+                    sum
+                })
+                .collect();
         let rr = sum_partials(&parts);
         let r = &w.r;
         let rtrt = self.solve_lower(|i| r[i], &mut w.u, |_, u| [u[0] * u[0], u[1] * u[1], u[2] * u[2]]);
@@ -528,20 +523,21 @@ const EARLY_CHECK: f64 = 4.0;
 
 /// `ỹ += α p`, `r̃ −= α (t + u)`; returns `‖r̃‖²`.
 fn update(y: &mut [[f64; 3]], rt: &mut [[f64; 3]], p: &[[f64; 3]], t: &[[f64; 3]], u: &[[f64; 3]], alpha: [f64; 3]) -> [f64; 3] {
-    let parts: Vec<[f64; 3]> = (y.par_chunks_mut(CHUNK), rt.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), t.par_chunks(CHUNK), u.par_chunks(CHUNK))
-        .into_par_iter()
-        .map(|(y, r, p, t, u)| {
-            let mut s = [0.0; 3];
-            for ((((y, r), p), t), u) in y.iter_mut().zip(r.iter_mut()).zip(p).zip(t).zip(u) {
-                for c in 0..3 {
-                    y[c] += alpha[c] * p[c];
-                    r[c] -= alpha[c] * (t[c] + u[c]);
-                    s[c] += r[c] * r[c];
+    let parts: Vec<[f64; 3]> =
+        (y.par_chunks_mut(CHUNK), rt.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), t.par_chunks(CHUNK), u.par_chunks(CHUNK))
+            .into_par_iter()
+            .map(|(y, r, p, t, u)| {
+                let mut s = [0.0; 3];
+                for ((((y, r), p), t), u) in y.iter_mut().zip(r.iter_mut()).zip(p).zip(t).zip(u) {
+                    for c in 0..3 {
+                        y[c] += alpha[c] * p[c];
+                        r[c] -= alpha[c] * (t[c] + u[c]);
+                        s[c] += r[c] * r[c];
+                    }
                 }
-            }
-            s
-        })
-        .collect();
+                s
+            })
+            .collect();
     sum_partials(&parts)
 }
 
@@ -607,7 +603,8 @@ pub(crate) fn pcg_eisenstat(
             let alpha = step_lengths(rtrt, pq, active, it)?;
             let new_rtrt = update(&mut y, &mut rt, &p, &w.t, &w.u, alpha);
             // ‖r‖ estimated from ‖r̃‖ relative to the last recomputation.
-            let est = [0, 1, 2].map(|c| if last_rtrt[c] > 0.0 { last_true[c] * (new_rtrt[c] / last_rtrt[c]).sqrt() } else { 0.0 });
+            let est =
+                [0, 1, 2].map(|c| if last_rtrt[c] > 0.0 { last_true[c] * (new_rtrt[c] / last_rtrt[c]).sqrt() } else { 0.0 });
             // One schedule for all channels (module documentation): a check, for every active
             // channel, when all their estimates meet the tolerance or one has gone unchecked for
             // `RELIABLE_PERIOD` iterations. The estimate can be pessimistic (‖r‖ and ‖r̃‖ need
@@ -658,7 +655,10 @@ pub(crate) fn pcg_eisenstat(
     m.to_solution(&y, &mut w.t, &mut xs, touched);
     let rel_a = relative(super::residual(a, b, &xs, &mut w.r), bn);
     if (0..3).any(|c| rel_a[c] > tol && rel[c] <= tol && touched[c]) {
-        return Ok(Mixed::Stagnated { x: xs, progress: Progress { iteration: iterations.into_iter().max().unwrap_or(0), iterations } });
+        return Ok(Mixed::Stagnated {
+            x: xs,
+            progress: Progress { iteration: iterations.into_iter().max().unwrap_or(0), iterations },
+        });
     }
     x.copy_from_slice(&xs);
     Ok(Mixed::Done(make_stats(iterations, rel_a, tol)))
@@ -721,7 +721,8 @@ mod tests {
                 });
                 let dt = DMatrix::from_diagonal_element(n, n, 1.0 / omega);
                 let l = DMatrix::from_fn(n, n, |i, j| if j < i { ah[(i, j)] } else { 0.0 });
-                let mm = (&dt + &l) * DMatrix::from_diagonal_element(n, n, omega) * (&dt + l.transpose()) / (omega * (2.0 - omega));
+                let mm =
+                    (&dt + &l) * DMatrix::from_diagonal_element(n, n, omega) * (&dt + l.transpose()) / (omega * (2.0 - omega));
                 let r = rhs(n);
                 let mut z = vec![[0.0; 3]; n];
                 m.apply_dot(&r, &mut z);
@@ -731,7 +732,11 @@ mod tests {
                 for i in 0..n {
                     let o = m.perm[i] as usize;
                     let want = s[o] * zh[i];
-                    assert!((z[o][c] - want).abs() <= 1e-5 * (1.0 + want.abs()), "ω {omega} channel {c} row {o}: {} vs {want}", z[o][c]);
+                    assert!(
+                        (z[o][c] - want).abs() <= 1e-5 * (1.0 + want.abs()),
+                        "ω {omega} channel {c} row {o}: {} vs {want}",
+                        z[o][c]
+                    );
                 }
             }
         }

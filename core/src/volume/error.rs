@@ -160,7 +160,9 @@ pub enum VolumeError {
     },
     /// Media that must share the object's η (or g) disagree: one η per object, because the
     /// boundary condition and the radiance query use a single Fdr, A and Ft.
-    #[error("{what} {first} has {field} = {first_value} but {what} {other} has {field} = {other_value} (one {field} per object)")]
+    #[error(
+        "{what} {first} has {field} = {first_value} but {what} {other} has {field} = {other_value} (one {field} per object)"
+    )]
     MixedObjectParameter {
         /// `"eta"` or `"g"`.
         field: &'static str,

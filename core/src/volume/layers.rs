@@ -80,8 +80,7 @@ impl Layers {
                 requirement: "must be finite and >= 0 (mm)",
             });
         }
-        let layers: Vec<Layer> =
-            layers.iter().map(|&(max_depth_mm, medium)| Layer { max_depth_mm, medium }).collect();
+        let layers: Vec<Layer> = layers.iter().map(|&(max_depth_mm, medium)| Layer { max_depth_mm, medium }).collect();
         let coefficients = layers.iter().map(|l| Coefficients::from(&l.medium)).collect();
         Ok(Self { layers, coefficients, blend_mm })
     }
@@ -236,10 +235,7 @@ mod tests {
         assert!(matches!(Layers::new(&[], 0.1), Err(VolumeError::InvalidLayers { index: 0, .. })));
         assert!(matches!(Layers::new(&[(0.0, a)], 0.1), Err(VolumeError::InvalidLayers { index: 0, .. })));
         assert!(matches!(Layers::new(&[(1.0, a), (1.0, b)], 0.1), Err(VolumeError::InvalidLayers { index: 1, .. })));
-        assert!(matches!(
-            Layers::new(&[(f64::INFINITY, a), (2.0, b)], 0.1),
-            Err(VolumeError::InvalidLayers { index: 0, .. })
-        ));
+        assert!(matches!(Layers::new(&[(f64::INFINITY, a), (2.0, b)], 0.1), Err(VolumeError::InvalidLayers { index: 0, .. })));
         assert!(matches!(Layers::new(&[(1.0, a), (f64::NAN, b)], 0.1), Err(VolumeError::InvalidLayers { index: 1, .. })));
         let bad = Medium { g: 1.0, ..b };
         assert!(matches!(

@@ -63,11 +63,7 @@ impl PerlinNoise {
         let g = |h: usize, dx: f64, dy: f64, dz: f64| grad(perm[h], f.x - dx, f.y - dy, f.z - dz);
         lerp(
             w,
-            lerp(
-                v,
-                lerp(u, g(aa, 0.0, 0.0, 0.0), g(ba, 1.0, 0.0, 0.0)),
-                lerp(u, g(ab, 0.0, 1.0, 0.0), g(bb, 1.0, 1.0, 0.0)),
-            ),
+            lerp(v, lerp(u, g(aa, 0.0, 0.0, 0.0), g(ba, 1.0, 0.0, 0.0)), lerp(u, g(ab, 0.0, 1.0, 0.0), g(bb, 1.0, 1.0, 0.0))),
             lerp(
                 v,
                 lerp(u, g(aa + 1, 0.0, 0.0, 1.0), g(ba + 1, 1.0, 0.0, 1.0)),

@@ -371,10 +371,7 @@ mod tests {
         let b = Medium { eta: 1.3, ..a };
         let mesh = cube(vec![0, 0, 1, 0, 0, 0]); // every Kuhn tet touches the surface
         let e = PerTetMedia::from_materials(&mesh, &[a, b]).unwrap_err();
-        assert!(
-            matches!(e, VolumeError::MixedObjectParameter { field: "eta", first: 0, other: 1, .. }),
-            "{e}"
-        );
+        assert!(matches!(e, VolumeError::MixedObjectParameter { field: "eta", first: 0, other: 1, .. }), "{e}");
         // An unused entry does not count.
         let mesh = cube(vec![0; 6]);
         let media = PerTetMedia::from_materials(&mesh, &[a, b]).unwrap();

@@ -224,10 +224,7 @@ mod tests {
             Err(VolumeError::MixedObjectParameter { field: "eta", .. })
         ));
         let bad = Medium { sigma_a: [f64::NAN; 3], ..vein };
-        assert!(matches!(
-            Veins::new(base, bad, 0, VeinParams::default()),
-            Err(VolumeError::InvalidMedium { index: 1, .. })
-        ));
+        assert!(matches!(Veins::new(base, bad, 0, VeinParams::default()), Err(VolumeError::InvalidMedium { index: 1, .. })));
         for (params, field) in [
             (VeinParams { direction: DVec3::ZERO, ..VeinParams::default() }, "direction"),
             (VeinParams { period: 0.0, ..VeinParams::default() }, "period"),

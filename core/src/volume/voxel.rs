@@ -85,8 +85,7 @@ impl VoxelGrid {
     pub fn read(path: impl AsRef<Path>) -> Result<Self, VolumeError> {
         let path = path.as_ref();
         let bytes = std::fs::read(path).map_err(|source| VolumeError::Io { path: path.to_path_buf(), source })?;
-        Self::from_bytes(&bytes)
-            .map_err(|source| VolumeError::VoxelFile { path: path.to_path_buf(), source: Box::new(source) })
+        Self::from_bytes(&bytes).map_err(|source| VolumeError::VoxelFile { path: path.to_path_buf(), source: Box::new(source) })
     }
 
     /// Parses the bytes of a TCVOX1 file.
@@ -103,11 +102,7 @@ impl VoxelGrid {
             return Err(VolumeError::BadMagic { found: head.to_vec() });
         }
         if bytes.len() < HEADER_BYTES {
-            return Err(VolumeError::Truncated {
-                part: "header",
-                expected: HEADER_BYTES as u64,
-                found: bytes.len() as u64,
-            });
+            return Err(VolumeError::Truncated { part: "header", expected: HEADER_BYTES as u64, found: bytes.len() as u64 });
         }
         let u32_at = |o: usize| u32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
         let f64_at = |o: usize| {
@@ -138,10 +133,7 @@ impl VoxelGrid {
         let origin = DVec3::new(f64_at(24), f64_at(32), f64_at(40));
         let voxel_size = DVec3::new(f64_at(48), f64_at(56), f64_at(64));
         check_shape(dims, origin, voxel_size)?;
-        let data = bytes[HEADER_BYTES..]
-            .par_chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect();
+        let data = bytes[HEADER_BYTES..].par_chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
         Self::new(dims, origin, voxel_size, data)
     }
 
@@ -358,7 +350,11 @@ fn voxel_error(v: &[f32]) -> Option<(usize, f64, &'static str)> {
         return Some((c, f64::from(v[c]), "must be finite and >= 0 (mm^-1)"));
     }
     (0..3).find(|&c| f64::from(v[c]) + f64::from(v[c + 3]) <= 0.0).map(|c| {
-        (c, f64::from(v[c]) + f64::from(v[c + 3]), "sigma_a + sigma_s_prime of this colour must be > 0 (the voxel must absorb or scatter)")
+        (
+            c,
+            f64::from(v[c]) + f64::from(v[c + 3]),
+            "sigma_a + sigma_s_prime of this colour must be > 0 (the voxel must absorb or scatter)",
+        )
     })
 }
 

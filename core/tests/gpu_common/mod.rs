@@ -44,8 +44,7 @@ pub fn shared_mesh_dir() -> PathBuf {
 pub fn scaled_tets(path: &Path, tets: usize) -> (String, TetMesh, f64) {
     let surface = mesh::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let tets = tetrahedralize(&surface, &MesherOptions::with_tets(tets)).unwrap();
-    let (lo, hi) =
-        tets.positions().iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let (lo, hi) = tets.positions().iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
     (path.file_stem().unwrap().to_string_lossy().into_owned(), tets, 60.0 / (hi - lo).length())
 }
 

@@ -43,13 +43,7 @@ pub fn aggregates(graph: &CsrPattern) -> (Vec<u32>, usize) {
     let n = graph.n();
     let mut agg = vec![FREE; n];
     let mut count = 0u32;
-    let neighbours = |i: usize| {
-        graph
-            .row(i)
-            .iter()
-            .map(|&j| j as usize)
-            .filter(move |&j| j != i)
-    };
+    let neighbours = |i: usize| graph.row(i).iter().map(|&j| j as usize).filter(move |&j| j != i);
     // Pass 1: roots whose whole neighbourhood is free.
     for i in 0..n {
         if agg[i] == FREE && neighbours(i).all(|j| agg[j] == FREE) {
@@ -189,27 +183,12 @@ impl Hierarchy {
                 centroid[c as usize].0 += fine_positions[i];
                 centroid[c as usize].1 += 1;
             }
-            let positions = centroid
-                .into_iter()
-                .map(|(s, k)| s / f64::from(k))
-                .collect();
-            levels.push(Level {
-                graph: Arc::clone(coarse.pattern()),
-                positions,
-                independent: count,
-                enhancement_rounds: 0,
-            });
+            let positions = centroid.into_iter().map(|(s, k)| s / f64::from(k)).collect();
+            levels.push(Level { graph: Arc::clone(coarse.pattern()), positions, independent: count, enhancement_rounds: 0 });
             prolongations.push(p);
             operators.push(coarse);
         }
-        Ok((
-            Self {
-                kind: HierarchyKind::Aggregation,
-                levels,
-                prolongations,
-            },
-            operators,
-        ))
+        Ok((Self { kind: HierarchyKind::Aggregation, levels, prolongations }, operators))
     }
 }
 
@@ -237,19 +216,9 @@ mod tests {
                             t.push(Triplet::new(j, i, [-1.0, -2.0, -3.0]));
                         }
                     }
-                    for (dx, dy, dz) in [
-                        (1i64, 0i64, 0i64),
-                        (-1, 0, 0),
-                        (0, 1, 0),
-                        (0, -1, 0),
-                        (0, 0, 1),
-                        (0, 0, -1),
-                    ] {
+                    for (dx, dy, dz) in [(1i64, 0i64, 0i64), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)] {
                         let (x2, y2, z2) = (x as i64 + dx, y as i64 + dy, z as i64 + dz);
-                        if (0..nx as i64).contains(&x2)
-                            && (0..ny as i64).contains(&y2)
-                            && (0..nz as i64).contains(&z2)
-                        {
+                        if (0..nx as i64).contains(&x2) && (0..ny as i64).contains(&y2) && (0..nz as i64).contains(&z2) {
                             degree += 1.0;
                         }
                     }
@@ -258,10 +227,7 @@ mod tests {
                 }
             }
         }
-        (
-            CsrMatrix3::from_triplets(nx * ny * nz, &t).unwrap(),
-            positions,
-        )
+        (CsrMatrix3::from_triplets(nx * ny * nz, &t).unwrap(), positions)
     }
 
     #[test]
@@ -277,19 +243,10 @@ mod tests {
         }
         assert!(sizes.iter().all(|&s| s >= 2), "sizes {sizes:?}");
         for i in 0..p.n() {
-            assert!(
-                p.row(i)
-                    .iter()
-                    .any(|&j| j as usize != i && agg[j as usize] == agg[i]),
-                "vertex {i} alone in its aggregate"
-            );
+            assert!(p.row(i).iter().any(|&j| j as usize != i && agg[j as usize] == agg[i]), "vertex {i} alone in its aggregate");
         }
         // A 7-point neighbourhood holds 7 vertices: the grid shrinks at least 3-fold.
-        assert!(
-            count * 3 < p.n(),
-            "{count} aggregates of {} vertices",
-            p.n()
-        );
+        assert!(count * 3 < p.n(), "{count} aggregates of {} vertices", p.n());
     }
 
     #[test]
@@ -308,11 +265,7 @@ mod tests {
         let (a, _) = grid(8, 8, 8, 0.5);
         let p = smoothed_prolongation(&a, &agg, count).unwrap();
         p.prolong(&vec![[1.0; 3]; count], &mut fine);
-        assert!(
-            fine.iter().all(|f| f[0] < 1.0 && f[0] > 0.8),
-            "{:?}",
-            &fine[..4]
-        );
+        assert!(fine.iter().all(|f| f[0] < 1.0 && f[0] > 0.8), "{:?}", &fine[..4]);
     }
 
     #[test]
@@ -343,9 +296,6 @@ mod tests {
         ));
         let mut bad = positions.clone();
         bad[3].x = f64::NAN;
-        assert!(matches!(
-            Hierarchy::aggregated(&a, &bad, &HierarchyOptions::default()),
-            Err(SparseError::InvalidOption(_))
-        ));
+        assert!(matches!(Hierarchy::aggregated(&a, &bad, &HierarchyOptions::default()), Err(SparseError::InvalidOption(_))));
     }
 }

@@ -82,9 +82,7 @@ impl Cascade {
                 let above = if l == 1 { a } else { &operators[l - 2] };
                 substituted(above, hierarchy.prolongation(l - 1), &hierarchy.level(l).graph)?
             };
-            preconditioners.push(
-                Preconditioner::new(&m, PreconditionerKind::Jacobi).unwrap_or(Preconditioner::Identity),
-            );
+            preconditioners.push(Preconditioner::new(&m, PreconditionerKind::Jacobi).unwrap_or(Preconditioner::Identity));
             operators.push(m);
         }
         Ok(Self { hierarchy, operators, preconditioners, fine, options })
@@ -116,7 +114,11 @@ impl Cascade {
     ) -> Result<CascadeStats, SparseError> {
         let n0 = self.hierarchy.level(0).graph.n();
         if a.n() != n0 || b.len() != n0 || x.len() != n0 {
-            return Err(SparseError::DimensionMismatch { what: "cascade system size", expected: n0, found: a.n().min(b.len()).min(x.len()) });
+            return Err(SparseError::DimensionMismatch {
+                what: "cascade system size",
+                expected: n0,
+                found: a.n().min(b.len()).min(x.len()),
+            });
         }
         let levels = self.hierarchy.levels();
         let mut coarse_iterations = vec![[0usize; 3]; levels - 1];

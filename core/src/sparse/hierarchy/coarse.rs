@@ -57,9 +57,7 @@ pub fn substituted(a: &CsrMatrix3, p: &Prolongation, coarse_pattern: &Arc<CsrPat
                 let m = vals[k];
                 let (pc, pw) = p.row(j);
                 for (&d, &w) in pc.iter().zip(pw) {
-                    let pos = cols
-                        .binary_search(&d)
-                        .map_err(|_| SparseError::NotInPattern { row: c, col: d as usize })?;
+                    let pos = cols.binary_search(&d).map_err(|_| SparseError::NotInPattern { row: c, col: d as usize })?;
                     for ch in 0..3 {
                         out[pos][ch] += m[ch] * w;
                     }
@@ -109,7 +107,10 @@ impl Rows {
                 out
             })
             .collect();
-        let mut all = Self { start: Vec::with_capacity(count + 1), entries: Vec::with_capacity(blocks.iter().map(|b| b.entries.len()).sum()) };
+        let mut all = Self {
+            start: Vec::with_capacity(count + 1),
+            entries: Vec::with_capacity(blocks.iter().map(|b| b.entries.len()).sum()),
+        };
         for b in blocks {
             let offset = all.entries.len();
             all.start.extend(b.start.iter().map(|s| s + offset));
@@ -242,7 +243,12 @@ pub fn galerkin(a: &CsrMatrix3, p: &Prolongation) -> Result<CsrMatrix3, SparseEr
 /// [`SparseError::DimensionMismatch`] for mismatched sizes; [`SparseError::IndexOutOfRange`]
 /// for a row outside `a`; [`SparseError::NotInPattern`] if `coarse` is not the Galerkin
 /// operator of `a`'s pattern. `coarse` is unchanged on error.
-pub fn galerkin_rows(a: &CsrMatrix3, p: &Prolongation, coarse: &mut CsrMatrix3, fine_rows: &[u32]) -> Result<Vec<u32>, SparseError> {
+pub fn galerkin_rows(
+    a: &CsrMatrix3,
+    p: &Prolongation,
+    coarse: &mut CsrMatrix3,
+    fine_rows: &[u32],
+) -> Result<Vec<u32>, SparseError> {
     check_sizes(a, p)?;
     let m = p.n_coarse();
     if coarse.n() != m {
@@ -267,7 +273,8 @@ pub fn galerkin_rows(a: &CsrMatrix3, p: &Prolongation, coarse: &mut CsrMatrix3, 
     }
     let fine: Vec<u32> = (0..a.n() as u32).filter(|&u| need[u as usize]).collect();
     let mp = ap_rows(a, p, &fine);
-    let new_rows = ptap_rows(p, &rows, |u| mp.row(fine.binary_search(&(u as u32)).expect("the fine rows of the recomputed columns")));
+    let new_rows =
+        ptap_rows(p, &rows, |u| mp.row(fine.binary_search(&(u as u32)).expect("the fine rows of the recomputed columns")));
     let pattern = Arc::clone(coarse.pattern());
     for (r, &c) in rows.iter().enumerate() {
         let c = c as usize;
@@ -383,7 +390,12 @@ mod tests {
         let mut trips = Vec::new();
         for (e, &[i, j]) in edges.iter().enumerate() {
             let w = [1.0, 0.5, 0.25].map(|k| -k * (1.0 + ((e * 13) % 11) as f64 / 7.0));
-            trips.extend([Triplet::new(i, j, w), Triplet::new(j, i, w), Triplet::new(i, i, w.map(|t| -t)), Triplet::new(j, j, w.map(|t| -t))]);
+            trips.extend([
+                Triplet::new(i, j, w),
+                Triplet::new(j, i, w),
+                Triplet::new(i, i, w.map(|t| -t)),
+                Triplet::new(j, j, w.map(|t| -t)),
+            ]);
         }
         for i in 0..n as u32 {
             trips.push(Triplet::new(i, i, [0.1, 0.2, 0.3]));

@@ -52,9 +52,10 @@ pub fn lost_connections(graph: &CsrPattern, keep: &[bool]) -> Vec<u32> {
         .into_par_iter()
         .filter(|&i| {
             !keep[i as usize]
-                && graph.row(i as usize).iter().any(|&j| {
-                    j != i && !keep[j as usize] && !share_retained(graph.row(i as usize), graph.row(j as usize), keep)
-                })
+                && graph
+                    .row(i as usize)
+                    .iter()
+                    .any(|&j| j != i && !keep[j as usize] && !share_retained(graph.row(i as usize), graph.row(j as usize), keep))
         })
         .collect()
 }

@@ -121,7 +121,17 @@ impl Prolongation {
                 cursor[c] += 1;
             }
         }
-        Ok(Self { n_coarse: m, row_ptr, cols, weights, t_ptr, t_rows, t_weights, coarse_of: vec![u32::MAX; n], retained: Vec::new() })
+        Ok(Self {
+            n_coarse: m,
+            row_ptr,
+            cols,
+            weights,
+            t_ptr,
+            t_rows,
+            t_weights,
+            coarse_of: vec![u32::MAX; n],
+            retained: Vec::new(),
+        })
     }
 
     /// Fine vertices (rows of `P`).

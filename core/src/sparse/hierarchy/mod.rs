@@ -74,8 +74,8 @@
 
 mod aggregation;
 mod cascade;
-pub mod codes;
 mod coarse;
+pub mod codes;
 mod edges;
 mod interpolation;
 mod vcycle;
@@ -87,9 +87,9 @@ use glam::DVec3;
 pub use aggregation::{aggregates, smoothed_prolongation};
 pub use cascade::{Cascade, CascadeOptions, CascadeStats};
 pub use coarse::{galerkin, galerkin_rows, substituted};
+pub use edges::lost_connections;
 pub use interpolation::Prolongation;
 pub use vcycle::{mg_pcg, Multigrid, MultigridOptions};
-pub use edges::lost_connections;
 
 use super::{CsrPattern, SparseError};
 
@@ -124,7 +124,11 @@ impl HierarchyOptions {
     /// of an input of `n` vertices (one each, finite).
     fn check_input(&self, n: usize, positions: &[DVec3]) -> Result<(), SparseError> {
         if positions.len() != n {
-            return Err(SparseError::DimensionMismatch { what: "positions (one per vertex)", expected: n, found: positions.len() });
+            return Err(SparseError::DimensionMismatch {
+                what: "positions (one per vertex)",
+                expected: n,
+                found: positions.len(),
+            });
         }
         if !(self.max_ratio > 0.0 && self.max_ratio <= 1.0) || self.max_levels == 0 {
             return Err(SparseError::InvalidOption(format!(
@@ -305,9 +309,8 @@ pub fn check_invariants(h: &Hierarchy, l: usize) -> Result<(), String> {
             }
             let sj = support(j);
             let shared = si.iter().any(|a| sj.contains(a));
-            let adjacent = p.coarse_of(i).is_some()
-                && p.coarse_of(j).is_some()
-                && coarse.position(si[0] as usize, sj[0] as usize).is_some();
+            let adjacent =
+                p.coarse_of(i).is_some() && p.coarse_of(j).is_some() && coarse.position(si[0] as usize, sj[0] as usize).is_some();
             if !shared && !adjacent {
                 return Err(format!("level {l}: the connection of edge ({i}, {j}) is lost"));
             }
@@ -317,9 +320,8 @@ pub fn check_invariants(h: &Hierarchy, l: usize) -> Result<(), String> {
         let i = p.retained()[c] as usize;
         for &d in coarse.row(c) {
             let j = p.retained()[d as usize] as usize;
-            let two_ring = i == j
-                || fine.position(i, j).is_some()
-                || fine.row(i).iter().any(|&k| fine.position(k as usize, j).is_some());
+            let two_ring =
+                i == j || fine.position(i, j).is_some() || fine.row(i).iter().any(|&k| fine.position(k as usize, j).is_some());
             if !two_ring {
                 return Err(format!("level {}: edge ({c}, {d}) joins fine vertices {i}, {j} beyond two rings", l + 1));
             }

@@ -43,17 +43,17 @@
 
 use std::sync::{Arc, Mutex, TryLockError};
 
+use glam::DVec3;
 #[cfg(feature = "gpu")]
 use nalgebra::DMatrix;
-use glam::DVec3;
 use nalgebra::{Cholesky, Dyn};
 use rayon::prelude::*;
 
 use super::coarse::{galerkin, galerkin_rows};
 use super::{Hierarchy, HierarchyOptions};
 use crate::sparse::ops::{dot3, norm3, row_mul, CHUNK};
-use crate::sparse::precond::{inverse_diagonal, positive_diagonal};
 use crate::sparse::pcg::{spmv_dot, update};
+use crate::sparse::precond::{inverse_diagonal, positive_diagonal};
 use crate::sparse::{CsrMatrix3, CsrPattern, SolveOptions, SolveStats, SparseError};
 
 /// Rows per parallel task of the V-cycle kernels (fixed: per-row results do not depend on it).
@@ -99,10 +99,7 @@ fn chebyshev_steps(lambda_max: [f64; 3], degree: usize, ratio: f64) -> Vec<Step>
     let mut steps = vec![Step { keep: [0.0; 3], gain: theta.map(|t| 1.0 / t) }];
     for _ in 1..degree {
         let rho_new = [0, 1, 2].map(|c| 1.0 / (2.0 * sigma[c] - rho[c]));
-        steps.push(Step {
-            keep: [0, 1, 2].map(|c| rho_new[c] * rho[c]),
-            gain: [0, 1, 2].map(|c| 2.0 * rho_new[c] / delta[c]),
-        });
+        steps.push(Step { keep: [0, 1, 2].map(|c| rho_new[c] * rho[c]), gain: [0, 1, 2].map(|c| 2.0 * rho_new[c] / delta[c]) });
         rho = rho_new;
     }
     steps
@@ -490,14 +487,24 @@ impl Multigrid {
     ///
     /// # Errors
     /// Those of [`Hierarchy::aggregated`] and [`Self::new`].
-    pub fn aggregated(a: &CsrMatrix3, positions: &[DVec3], hierarchy: &HierarchyOptions, options: MultigridOptions) -> Result<Self, SparseError> {
+    pub fn aggregated(
+        a: &CsrMatrix3,
+        positions: &[DVec3],
+        hierarchy: &HierarchyOptions,
+        options: MultigridOptions,
+    ) -> Result<Self, SparseError> {
         validate(&options)?;
         let (h, operators) = Hierarchy::aggregated(a, positions, hierarchy)?;
         Self::with_operators(Arc::new(h), a, operators, options)
     }
 
     /// The multigrid of `hierarchy` whose Galerkin operators are `operators` (`A^1, A^2, …`).
-    fn with_operators(hierarchy: Arc<Hierarchy>, a: &CsrMatrix3, operators: Vec<CsrMatrix3>, options: MultigridOptions) -> Result<Self, SparseError> {
+    fn with_operators(
+        hierarchy: Arc<Hierarchy>,
+        a: &CsrMatrix3,
+        operators: Vec<CsrMatrix3>,
+        options: MultigridOptions,
+    ) -> Result<Self, SparseError> {
         let levels = hierarchy.levels();
         let level_op = |l: usize| if l == 0 { a } else { &operators[l - 1] };
         let mut smoothers = Vec::new();
@@ -556,7 +563,9 @@ impl Multigrid {
             return Ok(());
         }
         if !(Arc::ptr_eq(a.pattern(), &self.ops32[0].pattern) || **a.pattern() == *self.ops32[0].pattern) {
-            return Err(SparseError::PatternMismatch("the refreshed level-0 matrix has another pattern than the multigrid's".into()));
+            return Err(SparseError::PatternMismatch(
+                "the refreshed level-0 matrix has another pattern than the multigrid's".into(),
+            ));
         }
         let mut changed = rows.to_vec();
         changed.sort_unstable();
@@ -768,7 +777,12 @@ fn mg_pcg_in(
             it += 1;
             for c in 0..3 {
                 if active[c] && !(rz[c] > 0.0 && rz[c].is_finite()) {
-                    return Err(SparseError::Breakdown { method: "MG-PCG", channel: c, iteration: it, reason: format!("rᵀBr = {:e}", rz[c]) });
+                    return Err(SparseError::Breakdown {
+                        method: "MG-PCG",
+                        channel: c,
+                        iteration: it,
+                        reason: format!("rᵀBr = {:e}", rz[c]),
+                    });
                 }
             }
             let pq = spmv_dot(a, p, q);
@@ -776,7 +790,12 @@ fn mg_pcg_in(
             for c in 0..3 {
                 if active[c] {
                     if !(pq[c] > 0.0 && pq[c].is_finite()) {
-                        return Err(SparseError::Breakdown { method: "MG-PCG", channel: c, iteration: it, reason: format!("pᵀAp = {:e}", pq[c]) });
+                        return Err(SparseError::Breakdown {
+                            method: "MG-PCG",
+                            channel: c,
+                            iteration: it,
+                            reason: format!("pᵀAp = {:e}", pq[c]),
+                        });
                     }
                     alpha[c] = rz[c] / pq[c];
                     iterations[c] += 1;
@@ -1006,7 +1025,12 @@ mod tests {
                 let e: Vec<[f64; 3]> = u.iter().zip(&bax).map(|(x, y)| [0, 1, 2].map(|c| x[c] - y[c])).collect();
                 let (ee, xx) = (dot3(&e, &a.mul_vec(&e).unwrap()), dot3(&u, &ax));
                 for c in 0..3 {
-                    assert!(ee[c].sqrt() <= 0.5 * xx[c].sqrt(), "degree {degree} channel {c}: {} of {}", ee[c].sqrt(), xx[c].sqrt());
+                    assert!(
+                        ee[c].sqrt() <= 0.5 * xx[c].sqrt(),
+                        "degree {degree} channel {c}: {} of {}",
+                        ee[c].sqrt(),
+                        xx[c].sqrt()
+                    );
                 }
             }
         }
