@@ -44,7 +44,9 @@
 
 
 /**
- * The TransCut finite-element diffusion solver on a tetrahedral mesh (the only method so far).
+ * The TransCut method (Li et al. 2012): the diffusion equation on a tetrahedral mesh.
+ * `tc_method_count`, `tc_method_name` and `tc_method_from_name` list and name the methods;
+ * new ones are appended.
  */
 #define TC_METHOD_TRANSCUT 0
 
@@ -74,6 +76,37 @@
  * the CPU ran.
  */
 #define TC_BACKEND_AUTO 3
+
+/**
+ * `TcTransCutOptions.solver` and `.edit_solver`: the method's default (SSOR-PCG for the bake,
+ * the smoothed-aggregation V-cycle for edits).
+ */
+#define TC_SOLVER_DEFAULT 0
+
+/**
+ * CG with the Jacobi preconditioner (mixed precision).
+ */
+#define TC_SOLVER_PCG 1
+
+/**
+ * CG with the SSOR preconditioner.
+ */
+#define TC_SOLVER_SSOR_PCG 2
+
+/**
+ * TransCut §4.2's coarse-to-fine cascade (CPU only).
+ */
+#define TC_SOLVER_CASCADE 3
+
+/**
+ * CG preconditioned by a V-cycle on TransCut's §4.1 hierarchy.
+ */
+#define TC_SOLVER_MG_PCG 4
+
+/**
+ * CG preconditioned by a V-cycle on a smoothed-aggregation hierarchy.
+ */
+#define TC_SOLVER_SA_PCG 5
 
 /**
  * `TcMediumEdit.region`: every tet of the object.
@@ -124,6 +157,15 @@
 typedef struct TcScene TcScene;
 
 /**
+ * The result of a call: `TC_OK` (0) on success, another `TC_*` code on failure, with a message
+ * from `tc_last_error_message()`.
+ *
+ * Values are fixed forever; new codes are only appended. Unknown codes must be treated as
+ * failures.
+ */
+typedef int32_t TcStatus;
+
+/**
  * How to bake. Fill it with `tc_bake_options_default` (which also sets `size`), then change
  * fields. `size` lets later versions append fields: a library reads only the fields that it
  * and the caller both know.
@@ -134,11 +176,11 @@ typedef struct TcBakeOptions {
    */
   uint32_t size;
   /**
-   * `TC_METHOD_TRANSCUT`.
+   * The subsurface method: `TC_METHOD_TRANSCUT` (default).
    */
   uint32_t method;
   /**
-   * Target number of tetrahedra per surface object (default 200 000).
+   * TransCut: target number of tetrahedra per surface object (default 200 000).
    */
   uint64_t tets;
   /**
@@ -166,23 +208,40 @@ typedef struct TcBakeOptions {
    */
   uint32_t environment_samples;
   /**
-   * Where the diffusion solve runs: `TC_BACKEND_DEFAULT` (default), `TC_BACKEND_CPU`,
+   * Where the solve runs: `TC_BACKEND_DEFAULT` (default), `TC_BACKEND_CPU`,
    * `TC_BACKEND_GPU` or `TC_BACKEND_AUTO`; another value fails with `TC_INVALID_ARGUMENT`.
-   * (This field occupies what was the struct's tail padding before it existed, so
-   * `sizeof(TcBakeOptions)` is still 48: fill the struct with `tc_bake_options_default`.)
    * `tc_object_stats` says which backend ran (`TcBakeStats.backend_used`).
    */
   uint32_t backend;
+  /**
+   * NULL (the default: the method's own defaults), or the chosen method's options: for
+   * `TC_METHOD_TRANSCUT` a `const TcTransCutOptions *` (filled by
+   * `tc_transcut_options_default`). Read during `tc_scene_bake` only. (A caller built
+   * against the 48-byte struct without this field gets NULL.)
+   */
+  const void *method_options;
 } TcBakeOptions;
 
 /**
- * The result of a call: `TC_OK` (0) on success, another `TC_*` code on failure, with a message
- * from `tc_last_error_message()`.
- *
- * Values are fixed forever; new codes are only appended. Unknown codes must be treated as
- * failures.
+ * TransCut's own options (`TcBakeOptions.method_options` with `TC_METHOD_TRANSCUT`). Fill it
+ * with `tc_transcut_options_default`, which sets `size`.
  */
-typedef int32_t TcStatus;
+typedef struct TcTransCutOptions {
+  /**
+   * `sizeof(TcTransCutOptions)`.
+   */
+  uint32_t size;
+  /**
+   * The bake's solver on the CPU: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a `TC_SOLVER_*` (on the
+   * GPU the single-level solvers run Jacobi PCG).
+   */
+  uint32_t solver;
+  /**
+   * The solver of edits after the bake (relight, material edits, cuts):
+   * `TC_SOLVER_DEFAULT` (the smoothed-aggregation V-cycle) or a `TC_SOLVER_*`.
+   */
+  uint32_t edit_solver;
+} TcTransCutOptions;
 
 /**
  * Progress callback: `stage` is a short UTF-8 description (valid during the call only),
@@ -250,81 +309,6 @@ typedef struct TcBakeStats {
    */
   uint32_t backend_used;
 } TcBakeStats;
-
-/**
- * A material edit for `tc_object_edit_medium`: an operation (`op`) applied to the tetrahedra of
- * a region (`region`); only the fields of the chosen region and operation are read. Set `size`
- * to `sizeof(TcMediumEdit)`.
- */
-typedef struct TcMediumEdit {
-  /**
-   * `sizeof(TcMediumEdit)`.
-   */
-  uint32_t size;
-  /**
-   * `TC_REGION_ALL`, `TC_REGION_SPHERE`, `TC_REGION_DEPTH` or `TC_REGION_MASK`.
-   */
-  uint32_t region;
-  /**
-   * `TC_REGION_SPHERE`: the centre (world space at the bake's placement, scene units).
-   */
-  double center[3];
-  /**
-   * `TC_REGION_SPHERE`: the radius, scene units, finite and ≥ 0.
-   */
-  double radius;
-  /**
-   * `TC_REGION_DEPTH`: the depth range below the surface, millimetres (0 ≤ min ≤ max).
-   */
-  double min_mm;
-  /**
-   * `TC_REGION_DEPTH`: see `min_mm`.
-   */
-  double max_mm;
-  /**
-   * `TC_REGION_MASK`: one byte per tetrahedron of the baked object, non-zero = selected.
-   */
-  const uint8_t *mask;
-  /**
-   * `TC_REGION_MASK`: the length of `mask` (= `tc_object_tet_count`).
-   */
-  size_t mask_len;
-  /**
-   * `TC_MEDIUM_ASSIGN`, `TC_MEDIUM_SCALE` or `TC_MEDIUM_ADD`.
-   */
-  uint32_t op;
-  /**
-   * New values (mm⁻¹), factors or increments of σa per channel, as `op` says.
-   */
-  double sigma_a[3];
-  /**
-   * New values (mm⁻¹), factors or increments of σ′s per channel, as `op` says.
-   */
-  double sigma_s_prime[3];
-} TcMediumEdit;
-
-/**
- * A homogeneous medium. Coefficients per RGB channel in mm⁻¹ (whatever the scene unit; see
- * `tc_object_set_scale`).
- */
-typedef struct TcMedium {
-  /**
-   * Absorption coefficient σa (mm⁻¹), ≥ 0.
-   */
-  double sigma_a[3];
-  /**
-   * Reduced scattering coefficient σ′s = (1 − g) σs (mm⁻¹), ≥ 0; σa + σ′s > 0.
-   */
-  double sigma_s_prime[3];
-  /**
-   * Refractive index relative to air, in [1, 4).
-   */
-  double eta;
-  /**
-   * Scattering anisotropy (Henyey–Greenstein g), in (−1, 1).
-   */
-  double g;
-} TcMedium;
 
 /**
  * What the last update of one object did (`tc_object_edit_stats`). The caller sets `size` to
@@ -404,6 +388,81 @@ typedef struct TcEditStats {
    */
   double cut_bound_degrees;
 } TcEditStats;
+
+/**
+ * A material edit for `tc_object_edit_medium`: an operation (`op`) applied to the tetrahedra of
+ * a region (`region`); only the fields of the chosen region and operation are read. Set `size`
+ * to `sizeof(TcMediumEdit)`.
+ */
+typedef struct TcMediumEdit {
+  /**
+   * `sizeof(TcMediumEdit)`.
+   */
+  uint32_t size;
+  /**
+   * `TC_REGION_ALL`, `TC_REGION_SPHERE`, `TC_REGION_DEPTH` or `TC_REGION_MASK`.
+   */
+  uint32_t region;
+  /**
+   * `TC_REGION_SPHERE`: the centre (world space at the bake's placement, scene units).
+   */
+  double center[3];
+  /**
+   * `TC_REGION_SPHERE`: the radius, scene units, finite and ≥ 0.
+   */
+  double radius;
+  /**
+   * `TC_REGION_DEPTH`: the depth range below the surface, millimetres (0 ≤ min ≤ max).
+   */
+  double min_mm;
+  /**
+   * `TC_REGION_DEPTH`: see `min_mm`.
+   */
+  double max_mm;
+  /**
+   * `TC_REGION_MASK`: one byte per tetrahedron of the baked object, non-zero = selected.
+   */
+  const uint8_t *mask;
+  /**
+   * `TC_REGION_MASK`: the length of `mask` (= `tc_object_tet_count`).
+   */
+  size_t mask_len;
+  /**
+   * `TC_MEDIUM_ASSIGN`, `TC_MEDIUM_SCALE` or `TC_MEDIUM_ADD`.
+   */
+  uint32_t op;
+  /**
+   * New values (mm⁻¹), factors or increments of σa per channel, as `op` says.
+   */
+  double sigma_a[3];
+  /**
+   * New values (mm⁻¹), factors or increments of σ′s per channel, as `op` says.
+   */
+  double sigma_s_prime[3];
+} TcMediumEdit;
+
+/**
+ * A homogeneous medium. Coefficients per RGB channel in mm⁻¹ (whatever the scene unit; see
+ * `tc_object_set_scale`).
+ */
+typedef struct TcMedium {
+  /**
+   * Absorption coefficient σa (mm⁻¹), ≥ 0.
+   */
+  double sigma_a[3];
+  /**
+   * Reduced scattering coefficient σ′s = (1 − g) σs (mm⁻¹), ≥ 0; σa + σ′s > 0.
+   */
+  double sigma_s_prime[3];
+  /**
+   * Refractive index relative to air, in [1, 4).
+   */
+  double eta;
+  /**
+   * Scattering anisotropy (Henyey–Greenstein g), in (−1, 1).
+   */
+  double g;
+} TcMedium;
 
 /**
  * A medium as an artist sets it (Blender's Principled BSDF subsurface inputs), converted to
@@ -521,9 +580,28 @@ typedef struct TcArtistMedium {
  */
 #define TC_NOTHING_LEFT 15
 
+/**
+ * The chosen method cannot do what was asked (bake this object, or this kind of edit); the
+ * message names the method and the reason. Nothing changed.
+ */
+#define TC_UNSUPPORTED 16
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
+
+/**
+ * The name of a status code, e.g. `"TC_NULL_POINTER"` for 1, or `"unknown status"` for a code
+ * this library does not know. Never NULL; a static string the caller must not free.
+ */
+const char *tc_status_name(TcStatus status);
+
+/**
+ * The message of the last call on this thread that failed, as UTF-8; the empty string when
+ * that call succeeded. Never NULL. The string belongs to the library and stays valid until the
+ * next `tc_*` call on the same thread (copy it to keep it).
+ */
+const char *tc_last_error_message(void);
 
 /**
  * Fills `*options` with the defaults and sets `options->size`. Does nothing when `options` is
@@ -532,11 +610,17 @@ extern "C" {
 void tc_bake_options_default(struct TcBakeOptions *options);
 
 /**
- * Bakes every object: meshes surfaces into tetrahedra, computes the light transmitted into
- * them (shadowed by all objects), solves the diffusion system and keeps the radiance leaving
- * each vertex along its normal, Lo(x, n), linear RGB, in the units of the lights (a sun of
- * irradiance E on a white Lambertian plane would give E/π). Read it with `tc_object_radiance`
- * and `tc_object_stats`.
+ * Fills `*options` with TransCut's defaults (`TC_SOLVER_DEFAULT` for both solvers) and sets
+ * `options->size`. Does nothing when `options` is NULL.
+ */
+void tc_transcut_options_default(struct TcTransCutOptions *options);
+
+/**
+ * Bakes every object with the chosen method (`TcBakeOptions.method`; TransCut meshes surfaces
+ * into tetrahedra, computes the light transmitted into them, shadowed by all objects, solves
+ * the diffusion system) and keeps the radiance leaving each vertex along its normal, Lo(x, n),
+ * linear RGB, in the units of the lights (a sun of irradiance E on a white Lambertian plane
+ * would give E/π). Read it with `tc_object_radiance` and `tc_object_stats`.
  *
  * `options` may be NULL for the defaults. `progress` may be NULL; otherwise it is called with
  * `user` as the bake goes (see `TcProgressFn`); a non-zero return cancels the bake, which then
@@ -549,10 +633,11 @@ void tc_bake_options_default(struct TcBakeOptions *options);
  * solution. Changing an object (mesh, medium, transform, scale) ends the session; changing the
  * lights does not (see `tc_scene_relight`).
  *
- * Errors: `TC_INVALID_ARGUMENT` (no objects, options out of range, an invalid object or
- * light, naming it; an unknown `TRANSCUT_BACKEND` value), `TC_MESHING_FAILED`,
- * `TC_SOLVE_FAILED`, `TC_CANCELLED`, `TC_GPU_UNAVAILABLE` (the GPU was required and cannot be
- * used).
+ * Errors: `TC_INVALID_ARGUMENT` (no objects, options out of range, an unknown method, an
+ * invalid object or light, naming it; an unknown `TRANSCUT_BACKEND` value),
+ * `TC_UNSUPPORTED` (the method cannot bake an object, naming the method and the reason),
+ * `TC_MESHING_FAILED`, `TC_SOLVE_FAILED`, `TC_CANCELLED`, `TC_GPU_UNAVAILABLE` (the GPU was
+ * required and cannot be used).
  */
 TcStatus tc_scene_bake(struct TcScene *scene,
                        const struct TcBakeOptions *options,
@@ -605,64 +690,6 @@ TcStatus tc_object_backend_fallback(const struct TcScene *scene,
                                     char *out,
                                     size_t out_len,
                                     size_t *out_needed);
-
-/**
- * Re-solves every object for the scene's CURRENT lights (after `tc_scene_clear_lights` /
- * `tc_scene_add_*`), warm-started from its last solution, without meshing or assembling again:
- * the interactive counterpart of `tc_scene_bake` after a change of lights. The matrices, media,
- * cuts and pieces stay; afterwards `tc_object_radiance` returns the new radiance (of objects
- * not cut or moved) and `tc_object_edit_stats` what each object's update did.
- *
- * Each object is lit by the scene's lights with its own shadows (the pieces of that object);
- * unlike `tc_scene_bake`, other objects cast no shadows on it. `progress` (nullable) is called
- * with `user` as objects finish, as for `tc_scene_bake`; a non-zero return cancels
- * (`TC_CANCELLED`). On any failure no object changes.
- *
- * Errors: `TC_NOT_BAKED` before a bake (or after a change other than lights), `TC_INVALID_ARGUMENT`
- * (an invalid light), `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`, `TC_CANCELLED`.
- */
-TcStatus tc_scene_relight(struct TcScene *scene, TcProgressFn progress, void *user);
-
-/**
- * The number of tetrahedra of the object as baked, in `*out` (the length of a
- * `TC_REGION_MASK` mask; cuts do not change it). `TC_NOT_BAKED` before a bake.
- */
-TcStatus tc_object_tet_count(const struct TcScene *scene, uint32_t object, size_t *out);
-
-/**
- * Changes the medium of an object's tetrahedra inside a region (`TcMediumEdit`), then re-solves
- * the pieces that hold any of them, warm-started; only the matrix rows of the affected
- * vertices are rebuilt (TransCut §5.2). Regions are evaluated on the object as baked (also
- * parts a cut removed, so a later recombine sees them).
- *
- * Errors: `TC_NOT_BAKED`, `TC_INVALID_ARGUMENT` (unknown region or operation, a mask of the
- * wrong length, a negative radius, a result that is not a valid medium: the message names the
- * field or tetrahedron), `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`. Nothing changes on failure.
- */
-TcStatus tc_object_edit_medium(struct TcScene *scene,
-                               uint32_t object,
-                               const struct TcMediumEdit *edit);
-
-/**
- * Paints a medium along a 3D stroke (TransCut §5.2): `points_xyz` holds `point_count` points
- * (x, y, z; world space at the bake's placement, e.g. on the surface or a cross-section);
- * every tetrahedron whose centroid lies at distance d from the closest point gets the weight
- * w = strength · exp(−d² / (2 radius²)) and its σa, σ′s become (1 − w)·old + w·medium
- * (w < 1e-3: untouched). `radius` in scene units (> 0), `strength` in [0, 1]; `medium` must
- * have the object's η and g. Only the matrix rows of the affected vertices are rebuilt; the
- * solve warm-starts.
- *
- * Errors: `TC_NOT_BAKED`, `TC_NULL_POINTER`, `TC_INVALID_ARGUMENT` (naming the fault: no
- * points, a non-finite point, radius, strength, an invalid medium or one whose η or g differs
- * from the object's), `TC_SOLVE_FAILED`. Nothing changes on failure.
- */
-TcStatus tc_object_paint(struct TcScene *scene,
-                         uint32_t object,
-                         const double *points_xyz,
-                         size_t point_count,
-                         double radius,
-                         const struct TcMedium *medium,
-                         double strength);
 
 /**
  * Cuts an object by the plane through `point` with normal `normal` (world space, scene units;
@@ -729,12 +756,6 @@ TcStatus tc_object_fracture(struct TcScene *scene, uint32_t object, uint32_t *ou
 TcStatus tc_object_recombine(struct TcScene *scene, uint32_t object, uint32_t *out_piece_count);
 
 /**
- * The number of pieces of an edited object, in `*out` (1 until a split or fracture).
- * `TC_NOT_BAKED` before the object's first edit (or `tc_scene_relight`).
- */
-TcStatus tc_object_piece_count(const struct TcScene *scene, uint32_t object, uint32_t *out);
-
-/**
  * Places piece `piece` of an object: `matrix` (16 doubles, column-major, like
  * `tc_object_set_transform`) maps the piece from where the object was baked to where it is
  * now; it must be rigid (a rotation and a translation: orthonormal within 1e-9, determinant
@@ -748,45 +769,6 @@ TcStatus tc_object_set_piece_transform(struct TcScene *scene,
                                        const double *matrix);
 
 /**
- * The placement of piece `piece` (16 doubles, column-major, from where the object was baked
- * to where the piece is now) into `out_matrix`.
- */
-TcStatus tc_object_piece_transform(const struct TcScene *scene,
-                                   uint32_t object,
-                                   uint32_t piece,
-                                   double *out_matrix);
-
-/**
- * The sizes of piece `piece`'s surface mesh: `*out_vertex_count` vertices and
- * `*out_triangle_count` triangles (buffers for `tc_object_piece_mesh` need 3 of each).
- */
-TcStatus tc_object_piece_sizes(const struct TcScene *scene,
-                               uint32_t object,
-                               uint32_t piece,
-                               size_t *out_vertex_count,
-                               size_t *out_triangle_count);
-
-/**
- * Copies piece `piece`'s surface into the caller's buffers: `positions` (3 floats per vertex,
- * world space where the piece is now, scene units), `triangles` (3 vertex indices per
- * triangle, counter-clockwise seen from outside: the boundary faces of the piece's tet mesh,
- * cut surfaces included) and `radiance` (3 floats per vertex, linear RGB, Lo(x, n) as
- * `tc_object_radiance`). The vertices are the boundary vertices of the piece's tet mesh in
- * increasing index order. Each `*_len` is the buffer's length in elements and must be at least
- * 3 × the count from `tc_object_piece_sizes` (`TC_BUFFER_TOO_SHORT` naming it); on failure
- * nothing is written.
- */
-TcStatus tc_object_piece_mesh(const struct TcScene *scene,
-                              uint32_t object,
-                              uint32_t piece,
-                              float *positions,
-                              size_t positions_len,
-                              uint32_t *triangles,
-                              size_t triangles_len,
-                              float *radiance,
-                              size_t radiance_len);
-
-/**
  * What the last update of an object did (relight, material edit, paint, cut, fracture, move,
  * recombine), into `*out`. Set `out->size = sizeof(TcEditStats)` first; it is set to the
  * number of bytes written. `TC_NOT_BAKED` before the object's first update.
@@ -794,13 +776,6 @@ TcStatus tc_object_piece_mesh(const struct TcScene *scene,
 TcStatus tc_object_edit_stats(const struct TcScene *scene,
                               uint32_t object,
                               struct TcEditStats *out);
-
-/**
- * The message of the last call on this thread that failed, as UTF-8; the empty string when
- * that call succeeded. Never NULL. The string belongs to the library and stays valid until the
- * next `tc_*` call on the same thread (copy it to keep it).
- */
-const char *tc_last_error_message(void);
 
 /**
  * Adds a sun: parallel light travelling along `direction` (from the sun towards the scene;
@@ -888,6 +863,47 @@ TcStatus tc_scene_clear_lights(struct TcScene *scene);
 TcStatus tc_scene_light_count(const struct TcScene *scene, uint32_t *out);
 
 /**
+ * The number of tetrahedra of the object as baked, in `*out` (the length of a
+ * `TC_REGION_MASK` mask; cuts do not change it). `TC_NOT_BAKED` before a bake.
+ */
+TcStatus tc_object_tet_count(const struct TcScene *scene, uint32_t object, size_t *out);
+
+/**
+ * Changes the medium of an object's tetrahedra inside a region (`TcMediumEdit`), then re-solves
+ * the pieces that hold any of them, warm-started; only the matrix rows of the affected
+ * vertices are rebuilt (TransCut §5.2). Regions are evaluated on the object as baked (also
+ * parts a cut removed, so a later recombine sees them).
+ *
+ * Errors: `TC_NOT_BAKED`, `TC_INVALID_ARGUMENT` (unknown region or operation, a mask of the
+ * wrong length, a negative radius, a result that is not a valid medium: the message names the
+ * field or tetrahedron), `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`. Nothing changes on failure.
+ */
+TcStatus tc_object_edit_medium(struct TcScene *scene,
+                               uint32_t object,
+                               const struct TcMediumEdit *edit);
+
+/**
+ * Paints a medium along a 3D stroke (TransCut §5.2): `points_xyz` holds `point_count` points
+ * (x, y, z; world space at the bake's placement, e.g. on the surface or a cross-section);
+ * every tetrahedron whose centroid lies at distance d from the closest point gets the weight
+ * w = strength · exp(−d² / (2 radius²)) and its σa, σ′s become (1 − w)·old + w·medium
+ * (w < 1e-3: untouched). `radius` in scene units (> 0), `strength` in [0, 1]; `medium` must
+ * have the object's η and g. Only the matrix rows of the affected vertices are rebuilt; the
+ * solve warm-starts.
+ *
+ * Errors: `TC_NOT_BAKED`, `TC_NULL_POINTER`, `TC_INVALID_ARGUMENT` (naming the fault: no
+ * points, a non-finite point, radius, strength, an invalid medium or one whose η or g differs
+ * from the object's), `TC_SOLVE_FAILED`. Nothing changes on failure.
+ */
+TcStatus tc_object_paint(struct TcScene *scene,
+                         uint32_t object,
+                         const double *points_xyz,
+                         size_t point_count,
+                         double radius,
+                         const struct TcMedium *medium,
+                         double strength);
+
+/**
  * Writes the named preset medium into `*out`. Names (case-insensitive): apple, chicken1,
  * chicken2, cream, ketchup, marble, potato, skimmilk, skin1, skin2, wholemilk (measured by
  * Jensen et al. 2001, g = 0) and jade. `TC_NOT_FOUND` (listing the valid names) for any other
@@ -926,6 +942,96 @@ TcStatus tc_object_set_medium_preset(struct TcScene *scene, uint32_t object, con
 TcStatus tc_object_set_medium_artist(struct TcScene *scene,
                                      uint32_t object,
                                      const struct TcArtistMedium *artist);
+
+/**
+ * The number of subsurface methods this library has: `TcBakeOptions.method` takes the values
+ * 0 to `tc_method_count() - 1` (`TC_METHOD_TRANSCUT` = 0 first; new methods are appended).
+ */
+uint32_t tc_method_count(void);
+
+/**
+ * Copies the name of method `method` (e.g. "transcut"; the names the CLI, scene files and the
+ * Blender add-on use) into `out` as a NUL-terminated UTF-8 string, as `tc_object_device`
+ * copies its text: `out_len` is the size of `out` in bytes, `*out_needed` (nullable) the size
+ * the name needs, NUL included; `out` = NULL with `out_len` = 0 asks for the size only.
+ * `TC_NOT_FOUND` for a method number this library does not have; `TC_BUFFER_TOO_SHORT` when
+ * the name does not fit. On failure nothing is written.
+ */
+TcStatus tc_method_name(uint32_t method, char *out, size_t out_len, size_t *out_needed);
+
+/**
+ * Copies a one-line description of method `method` into `out`, as `tc_method_name` copies the
+ * name.
+ */
+TcStatus tc_method_description(uint32_t method, char *out, size_t out_len, size_t *out_needed);
+
+/**
+ * The number of the method called `name` (any case) into `*out_method`. `TC_NOT_FOUND`
+ * listing the valid names for any other name; `*out_method` is then unchanged.
+ */
+TcStatus tc_method_from_name(const char *name, uint32_t *out_method);
+
+/**
+ * The number of pieces of an edited object, in `*out` (1 until a split or fracture).
+ * `TC_NOT_BAKED` before the object's first edit (or `tc_scene_relight`).
+ */
+TcStatus tc_object_piece_count(const struct TcScene *scene, uint32_t object, uint32_t *out);
+
+/**
+ * The placement of piece `piece` (16 doubles, column-major, from where the object was baked
+ * to where the piece is now) into `out_matrix`.
+ */
+TcStatus tc_object_piece_transform(const struct TcScene *scene,
+                                   uint32_t object,
+                                   uint32_t piece,
+                                   double *out_matrix);
+
+/**
+ * The sizes of piece `piece`'s surface mesh: `*out_vertex_count` vertices and
+ * `*out_triangle_count` triangles (buffers for `tc_object_piece_mesh` need 3 of each).
+ */
+TcStatus tc_object_piece_sizes(const struct TcScene *scene,
+                               uint32_t object,
+                               uint32_t piece,
+                               size_t *out_vertex_count,
+                               size_t *out_triangle_count);
+
+/**
+ * Copies piece `piece`'s surface into the caller's buffers: `positions` (3 floats per vertex,
+ * world space where the piece is now, scene units), `triangles` (3 vertex indices per
+ * triangle, counter-clockwise seen from outside: the boundary faces of the piece's tet mesh,
+ * cut surfaces included) and `radiance` (3 floats per vertex, linear RGB, Lo(x, n) as
+ * `tc_object_radiance`). The vertices are the boundary vertices of the piece's tet mesh in
+ * increasing index order. Each `*_len` is the buffer's length in elements and must be at least
+ * 3 × the count from `tc_object_piece_sizes` (`TC_BUFFER_TOO_SHORT` naming it); on failure
+ * nothing is written.
+ */
+TcStatus tc_object_piece_mesh(const struct TcScene *scene,
+                              uint32_t object,
+                              uint32_t piece,
+                              float *positions,
+                              size_t positions_len,
+                              uint32_t *triangles,
+                              size_t triangles_len,
+                              float *radiance,
+                              size_t radiance_len);
+
+/**
+ * Re-solves every object for the scene's CURRENT lights (after `tc_scene_clear_lights` /
+ * `tc_scene_add_*`), warm-started from its last solution, without meshing or assembling again:
+ * the interactive counterpart of `tc_scene_bake` after a change of lights. The matrices, media,
+ * cuts and pieces stay; afterwards `tc_object_radiance` returns the new radiance (of objects
+ * not cut or moved) and `tc_object_edit_stats` what each object's update did.
+ *
+ * Each object is lit by the scene's lights with its own shadows (the pieces of that object);
+ * unlike `tc_scene_bake`, other objects cast no shadows on it. `progress` (nullable) is called
+ * with `user` as objects finish, as for `tc_scene_bake`; a non-zero return cancels
+ * (`TC_CANCELLED`). On any failure no object changes.
+ *
+ * Errors: `TC_NOT_BAKED` before a bake (or after a change other than lights), `TC_INVALID_ARGUMENT`
+ * (an invalid light), `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`, `TC_CANCELLED`.
+ */
+TcStatus tc_scene_relight(struct TcScene *scene, TcProgressFn progress, void *user);
 
 /**
  * Creates an empty scene (no objects, no lights) and stores its handle in `*out`.
@@ -1040,12 +1146,6 @@ TcStatus tc_object_set_scale(struct TcScene *scene, uint32_t object, double mm_p
 TcStatus tc_object_vertex_count(const struct TcScene *scene, uint32_t object, size_t *out);
 
 /**
- * The name of a status code, e.g. `"TC_NULL_POINTER"` for 1, or `"unknown status"` for a code
- * this library does not know. Never NULL; a static string the caller must not free.
- */
-const char *tc_status_name(TcStatus status);
-
-/**
  * The library's version as `major << 16 | minor << 8 | patch` (compare with
  * `TRANSCUT_VERSION`).
  */
@@ -1138,7 +1238,7 @@ TC_LAYOUT_CHECK(TcArtistMedium_radius, offsetof(TcArtistMedium, radius) == 24);
 TC_LAYOUT_CHECK(TcArtistMedium_scale, offsetof(TcArtistMedium, scale) == 48);
 TC_LAYOUT_CHECK(TcArtistMedium_ior, offsetof(TcArtistMedium, ior) == 56);
 TC_LAYOUT_CHECK(TcArtistMedium_anisotropy, offsetof(TcArtistMedium, anisotropy) == 64);
-TC_LAYOUT_CHECK(TcBakeOptions__sizeof, sizeof(TcBakeOptions) == 48);
+TC_LAYOUT_CHECK(TcBakeOptions__sizeof, sizeof(TcBakeOptions) == 56);
 TC_LAYOUT_CHECK(TcBakeOptions_size, offsetof(TcBakeOptions, size) == 0);
 TC_LAYOUT_CHECK(TcBakeOptions_method, offsetof(TcBakeOptions, method) == 4);
 TC_LAYOUT_CHECK(TcBakeOptions_tets, offsetof(TcBakeOptions, tets) == 8);
@@ -1149,6 +1249,11 @@ TC_LAYOUT_CHECK(TcBakeOptions_shadows, offsetof(TcBakeOptions, shadows) == 32);
 TC_LAYOUT_CHECK(TcBakeOptions_area_samples, offsetof(TcBakeOptions, area_samples) == 36);
 TC_LAYOUT_CHECK(TcBakeOptions_environment_samples, offsetof(TcBakeOptions, environment_samples) == 40);
 TC_LAYOUT_CHECK(TcBakeOptions_backend, offsetof(TcBakeOptions, backend) == 44);
+TC_LAYOUT_CHECK(TcBakeOptions_method_options, offsetof(TcBakeOptions, method_options) == 48);
+TC_LAYOUT_CHECK(TcTransCutOptions__sizeof, sizeof(TcTransCutOptions) == 12);
+TC_LAYOUT_CHECK(TcTransCutOptions_size, offsetof(TcTransCutOptions, size) == 0);
+TC_LAYOUT_CHECK(TcTransCutOptions_solver, offsetof(TcTransCutOptions, solver) == 4);
+TC_LAYOUT_CHECK(TcTransCutOptions_edit_solver, offsetof(TcTransCutOptions, edit_solver) == 8);
 TC_LAYOUT_CHECK(TcBakeStats__sizeof, sizeof(TcBakeStats) == 96);
 TC_LAYOUT_CHECK(TcBakeStats_size, offsetof(TcBakeStats, size) == 0);
 TC_LAYOUT_CHECK(TcBakeStats_tets, offsetof(TcBakeStats, tets) == 8);

@@ -1,5 +1,5 @@
-//! The opaque `TcScene` handle: a core [`Scene`] plus the results of its last bake, guarded so
-//! that one call at a time uses it.
+//! The opaque `TcScene` handle: a core [`Scene`] plus the [`Session`] of its last bake, guarded
+//! so that one call at a time uses it.
 //!
 //! A handle is a `Box::into_raw` pointer from `tc_scene_create`, freed by `tc_scene_destroy`.
 //! Every call that takes a scene goes through [`with_scene`]: it checks the pointer (NULL, a
@@ -12,11 +12,11 @@
 use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use transcut_core::scene::{ObjectStats, Scene};
+use transcut_core::edit::Editor;
+use transcut_core::{MediumSource, ObjectStats, Scene, Session, SessionError};
 
-use super::edit::EditSession;
-use super::guard::Failure;
-use super::status::{TC_BUSY, TC_INVALID_HANDLE, TC_NOT_BAKED, TC_NULL_POINTER};
+use super::convert::session_failure;
+use super::status::{Failure, TC_BUSY, TC_INVALID_HANDLE, TC_NOT_BAKED, TC_NULL_POINTER};
 
 /// Marks a live `TcScene` ("TCSCENE\0" as little-endian bytes); zeroed when it is destroyed.
 pub(crate) const MAGIC: u64 = u64::from_le_bytes(*b"TCSCENE\0");
@@ -34,34 +34,26 @@ pub struct TcScene {
 #[derive(Default)]
 pub(crate) struct SceneState {
     pub scene: Scene,
-    /// The last successful bake (or relight), one entry per object; `None` before a bake or
-    /// after a change.
-    pub results: Option<Vec<ObjectResult>>,
-    /// What edits start from: each object's bake and editor, and the lights they were solved
-    /// under. Kept when only the lights change (`tc_scene_relight` applies them); `None` before
-    /// a bake or after any other change.
-    pub session: Option<EditSession>,
-}
-
-/// One object's result.
-pub(crate) struct ObjectResult {
-    /// Lo(x, n) per output vertex, linear RGB; `None` once an edit cut the object or moved a
-    /// piece (its radiance then lives on the pieces).
-    pub radiance: Option<Vec<[f64; 3]>>,
-    pub stats: ObjectStats,
+    /// What edits start from: each object's bake or live state and the lights they were solved
+    /// under. Kept when only the lights change (`tc_scene_relight` applies them); `None` before a
+    /// bake or after any other change.
+    pub session: Option<Session>,
+    /// Whether the session's results describe the scene's current lights: false after a change
+    /// of lights until `tc_scene_relight`.
+    pub current: bool,
 }
 
 impl SceneState {
-    /// Discards the results and the editing session: they no longer describe the scene.
+    /// Discards the session: it no longer describes the scene.
     pub(crate) fn changed(&mut self) {
-        self.results = None;
         self.session = None;
+        self.current = false;
     }
 
-    /// Discards the results after a change of lights; edits go on under the lights of the last
-    /// bake or relight until `tc_scene_relight`.
+    /// Marks the results stale after a change of lights; edits go on under the lights of the
+    /// last bake or relight until `tc_scene_relight`.
     pub(crate) fn lights_changed(&mut self) {
-        self.results = None;
+        self.current = false;
     }
 
     /// Index `object` checked against the object count.
@@ -75,12 +67,21 @@ impl SceneState {
         }
     }
 
-    /// The result of object `object` (checked).
-    pub(crate) fn result(&self, object: u32) -> Result<&ObjectResult, Failure> {
-        let i = self.object_index(object)?;
-        match &self.results {
-            Some(results) => Ok(&results[i]),
-            None => Err(Failure::new(
+    /// The session of the last bake, to edit.
+    pub(crate) fn session_mut(&mut self) -> Result<&mut Session, Failure> {
+        self.session.as_mut().ok_or_else(not_baked)
+    }
+
+    /// The session of the last bake.
+    pub(crate) fn session(&self) -> Result<&Session, Failure> {
+        self.session.as_ref().ok_or_else(not_baked)
+    }
+
+    /// The session, while its results describe the scene (not after a change of lights).
+    fn results(&self) -> Result<&Session, Failure> {
+        match &self.session {
+            Some(session) if self.current => Ok(session),
+            _ => Err(Failure::new(
                 TC_NOT_BAKED,
                 "the scene has no results: call tc_scene_bake first (any change to the scene discards them; \
                  after a change of lights, tc_scene_relight also brings them back)",
@@ -88,9 +89,16 @@ impl SceneState {
         }
     }
 
+    /// The statistics of object `object`'s last bake (checked).
+    pub(crate) fn bake_stats(&self, object: u32) -> Result<&ObjectStats, Failure> {
+        let i = self.object_index(object)?;
+        Ok(self.results()?.bake_stats(i).map_err(|e| session_failure(&e))?)
+    }
+
     /// The radiance at the user's vertices of object `object` (checked).
-    pub(crate) fn radiance(&self, object: u32) -> Result<&[[f64; 3]], Failure> {
-        self.result(object)?.radiance.as_deref().ok_or_else(|| {
+    pub(crate) fn radiance(&self, object: u32) -> Result<Vec<[f64; 3]>, Failure> {
+        let i = self.object_index(object)?;
+        self.results()?.radiance(i).map_err(|e| session_failure(&e))?.ok_or_else(|| {
             Failure::new(
                 TC_NOT_BAKED,
                 format!(
@@ -100,6 +108,37 @@ impl SceneState {
             )
         })
     }
+
+    /// The editor of object `object`, which must have been edited.
+    pub(crate) fn editor(&self, object: u32) -> Result<&Editor, Failure> {
+        let i = self.object_index(object)?;
+        self.session()?.editor(i).map_err(|e| session_failure(&e))?.ok_or_else(|| {
+            Failure::new(
+                TC_NOT_BAKED,
+                format!("object {object} has not been edited since the bake: its pieces exist from its first edit (or tc_scene_relight) on"),
+            )
+        })
+    }
+
+    /// Replaces an object's medium after checking it against the object's shape (a per-tet
+    /// array must match the tet count, table ids must be in range, …); the object is unchanged
+    /// on error.
+    pub(crate) fn set_medium(&mut self, object: u32, medium: MediumSource) -> Result<(), Failure> {
+        let i = self.object_index(object)?;
+        let o = &mut self.scene.objects[i];
+        medium.validate(&o.shape).map_err(|e| Failure::invalid(format!("object {object} ({}): {e}", o.name)))?;
+        o.medium = medium;
+        self.changed();
+        Ok(())
+    }
+}
+
+/// `TC_NOT_BAKED`: nothing to edit.
+fn not_baked() -> Failure {
+    Failure::new(
+        TC_NOT_BAKED,
+        "the scene has not been baked (or an object, medium, transform or scale changed since): call tc_scene_bake first",
+    )
 }
 
 impl TcScene {
@@ -155,6 +194,25 @@ pub(crate) unsafe fn with_scene<R>(
     let (s, _claim) = unsafe { claim(scene)? };
     // SAFETY: the busy flag is held, so no other reference to the state exists.
     f(unsafe { &mut *s.state.get() })
+}
+
+/// Runs the session update `op` on object `object` of `scene` (after a bake; nothing changes
+/// when it fails).
+///
+/// # Safety
+/// As [`claim`].
+pub(crate) unsafe fn update(
+    scene: *mut TcScene,
+    object: u32,
+    op: impl FnOnce(&mut Session, usize) -> Result<(), SessionError>,
+) -> Result<(), Failure> {
+    // SAFETY: forwarded.
+    unsafe {
+        with_scene(scene, |s| {
+            let i = s.object_index(object)?;
+            op(s.session_mut()?, i).map_err(|e| session_failure(&e))
+        })
+    }
 }
 
 /// Frees a scene unless a call is using it.

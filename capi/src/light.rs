@@ -10,10 +10,9 @@ use std::ffi::c_char;
 use glam::DVec3;
 use transcut_core::light::{Environment, EquirectMap, Light, LightError};
 
-use super::guard::{run, Failure};
 use super::handle::{with_scene, TcScene};
 use super::ptr;
-use super::status::{TcStatus, TC_IO_ERROR, TC_NOT_FOUND};
+use super::status::{run, Failure, TcStatus, TC_IO_ERROR, TC_NOT_FOUND};
 
 /// Validates `light` as the scene's next light and adds it.
 ///

@@ -3,27 +3,12 @@
 use std::ffi::c_char;
 
 use transcut_core::optics::{ArtistParams, Medium, OpticsError};
-use transcut_core::scene::MediumSource;
+use transcut_core::MediumSource;
 
-use super::guard::{run, Failure};
+use super::convert::{medium_from, TcMedium};
 use super::handle::{with_scene, SceneState, TcScene};
 use super::ptr;
-use super::status::{TcStatus, TC_NOT_FOUND};
-
-/// A homogeneous medium. Coefficients per RGB channel in mm⁻¹ (whatever the scene unit; see
-/// `tc_object_set_scale`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TcMedium {
-    /// Absorption coefficient σa (mm⁻¹), ≥ 0.
-    pub sigma_a: [f64; 3],
-    /// Reduced scattering coefficient σ′s = (1 − g) σs (mm⁻¹), ≥ 0; σa + σ′s > 0.
-    pub sigma_s_prime: [f64; 3],
-    /// Refractive index relative to air, in [1, 4).
-    pub eta: f64,
-    /// Scattering anisotropy (Henyey–Greenstein g), in (−1, 1).
-    pub g: f64,
-}
+use super::status::{run, Failure, TcStatus, TC_NOT_FOUND};
 
 /// A medium as an artist sets it (Blender's Principled BSDF subsurface inputs), converted to
 /// σa and σ′s by inverting the dipole's total diffuse reflectance: a thick slab reflects
@@ -44,22 +29,6 @@ pub struct TcArtistMedium {
     pub anisotropy: f64,
 }
 
-impl From<Medium> for TcMedium {
-    fn from(m: Medium) -> Self {
-        Self { sigma_a: m.sigma_a, sigma_s_prime: m.sigma_s_prime, eta: m.eta, g: m.g }
-    }
-}
-
-/// `TC_INVALID_ARGUMENT` with the optics error's message (which names field, channel, value).
-fn invalid(what: &str, e: &OpticsError) -> Failure {
-    Failure::invalid(format!("{what}: {e}"))
-}
-
-/// A validated core medium from the caller's struct.
-pub(crate) fn medium_from(m: &TcMedium, what: &str) -> Result<Medium, Failure> {
-    Medium::new(m.sigma_a, m.sigma_s_prime, m.eta, m.g).map_err(|e| invalid(what, &e))
-}
-
 /// A preset by name; `TC_NOT_FOUND` listing the valid names.
 fn preset(name: &str) -> Result<Medium, Failure> {
     Medium::preset(name).map_err(|e| match e {
@@ -71,12 +40,12 @@ fn preset(name: &str) -> Result<Medium, Failure> {
 /// Artist parameters to a medium, at `mm_per_unit` millimetres per scene unit.
 fn artist_medium(a: &TcArtistMedium, mm_per_unit: f64) -> Result<Medium, Failure> {
     let params = ArtistParams { albedo: a.albedo, radius: a.radius, scale: a.scale, mm_per_unit, eta: a.ior, g: a.anisotropy };
-    params.to_medium().map_err(|e| invalid("artist medium", &e))
+    params.to_medium().map_err(|e| Failure::invalid(format!("artist medium: {e}")))
 }
 
 /// Replaces object `object`'s medium by a homogeneous one.
 fn set_homogeneous(state: &mut SceneState, object: u32, medium: Medium) -> Result<(), Failure> {
-    super::scene::set_medium(state, object, MediumSource::Homogeneous(medium))
+    state.set_medium(object, MediumSource::Homogeneous(medium))
 }
 
 /// Writes the named preset medium into `*out`. Names (case-insensitive): apple, chicken1,

@@ -1,11 +1,12 @@
 //! Reading the caller's pointer + length arguments, with every check a C caller can fail:
 //! NULL with a non-zero length, misalignment, lengths whose byte size overflows, and strings
-//! that are not UTF-8. Nothing here writes to caller memory.
+//! that are not UTF-8; and writing into the caller's buffers once every check has passed.
 
 use std::ffi::{c_char, CStr};
 
-use super::guard::Failure;
-use super::status::TC_NULL_POINTER;
+use glam::DVec3;
+
+use super::status::{Failure, TC_BUFFER_TOO_SHORT, TC_NULL_POINTER};
 
 /// The caller's array `ptr[0..len]`; `ptr` may be NULL when `len` is 0.
 ///
@@ -45,6 +46,17 @@ pub(crate) unsafe fn vec3(ptr: *const f64, name: &str) -> Result<[f64; 3], Failu
     // SAFETY: forwarded to the caller's contract.
     let s = unsafe { slice(ptr, 3, name)? };
     Ok([s[0], s[1], s[2]])
+}
+
+/// Points from the caller's `xyz` array of `count` points (3 doubles each).
+///
+/// # Safety
+/// `ptr` must point to `3 × count` readable doubles when `count > 0`.
+pub(crate) unsafe fn points(ptr: *const f64, count: usize, name: &str) -> Result<Vec<DVec3>, Failure> {
+    let len = times(count, 3, name)?;
+    // SAFETY: forwarded.
+    let xyz = unsafe { slice(ptr, len, name)? };
+    Ok(xyz.chunks_exact(3).map(|p| DVec3::new(p[0], p[1], p[2])).collect())
 }
 
 /// The caller's NUL-terminated UTF-8 string.
@@ -91,4 +103,51 @@ pub(crate) unsafe fn path<'a>(ptr: *const c_char, name: &str) -> Result<&'a std:
 pub(crate) unsafe fn write<T>(out: *mut T, value: T) {
     // SAFETY: the caller's contract; `write` does not read or drop the old value.
     unsafe { out.write(value) }
+}
+
+/// Copies `text` and its NUL into the caller's `out[0..out_len]` and its size (bytes with the
+/// NUL) into `*out_needed` (when not NULL). `out` may be NULL when `out_len` is 0: only the size
+/// is returned. Nothing is written on failure.
+///
+/// # Safety
+/// `out` NULL or `out_len` writable bytes; `out_needed` NULL or writable.
+pub(crate) unsafe fn copy_text(text: &str, out: *mut c_char, out_len: usize, out_needed: *mut usize) -> Result<(), Failure> {
+    if !out_needed.is_null() && !out_needed.is_aligned() {
+        return Err(Failure::invalid("`out_needed` is not aligned for its type"));
+    }
+    let needed = text.len() + 1;
+    if out.is_null() {
+        if out_len != 0 {
+            return Err(Failure::new(TC_NULL_POINTER, format!("`out` is NULL but out_len is {out_len}")));
+        }
+    } else if out_len < needed {
+        return Err(Failure::new(
+            TC_BUFFER_TOO_SHORT,
+            format!("out_len = {out_len} bytes, but the text needs {needed} (with its NUL)"),
+        ));
+    } else {
+        // SAFETY: `needed ≤ out_len` writable bytes (caller's contract); the text has no NUL
+        // (the core's strings come from Rust, a NUL would only truncate it for C).
+        unsafe {
+            std::ptr::copy_nonoverlapping(text.as_ptr(), out.cast::<u8>(), text.len());
+            out.add(text.len()).write(0);
+        }
+    }
+    if !out_needed.is_null() {
+        // SAFETY: checked above.
+        unsafe { write(out_needed, needed) };
+    }
+    Ok(())
+}
+
+/// Writes the first `written` bytes of `value` over the caller's size-prefixed struct `out`
+/// (a caller built against an older, shorter struct gets the fields it knows).
+///
+/// # Safety
+/// `out` must be non-NULL and have at least `written` writable bytes; `written` must not exceed
+/// the size of `T`.
+pub(crate) unsafe fn write_prefix<T>(out: *mut T, value: &T, written: usize) {
+    debug_assert!(written <= std::mem::size_of::<T>());
+    // SAFETY: the caller's contract. A byte copy of a prefix (padding included) of a built value.
+    unsafe { std::ptr::copy_nonoverlapping(std::ptr::from_ref(value).cast::<u8>(), out.cast::<u8>(), written) };
 }

@@ -1,14 +1,14 @@
 //! Scenes and objects: create, destroy, add meshes, place them.
 
 use glam::{DMat4, DVec3};
-use transcut_core::mesh::{MeshError, TetMesh, TriMesh};
+use transcut_core::mesh::{TetMesh, TriMesh};
 use transcut_core::optics::Medium;
-use transcut_core::scene::{MediumSource, Object};
+use transcut_core::{MediumSource, Object};
 
-use super::guard::{run, Failure};
+use super::convert::mesh_failure;
 use super::handle::{self, with_scene, SceneState, TcScene};
 use super::ptr;
-use super::status::{TcStatus, TC_INTERNAL_ERROR, TC_INVALID_MESH, TC_IO_ERROR, TC_NOT_FOUND};
+use super::status::{run, Failure, TcStatus, TC_INTERNAL_ERROR, TC_INVALID_MESH};
 
 /// The medium of a new object until one is set: the "marble" preset.
 pub(crate) fn default_medium() -> Result<Medium, Failure> {
@@ -27,17 +27,6 @@ fn push_object(state: &mut SceneState, object: Object) -> Result<u32, Failure> {
 /// vertices).
 pub(crate) fn output_vertex_count(object: &Object) -> usize {
     object.shape.output_vertex_count()
-}
-
-/// A status for a surface mesh error: files that are missing or unreadable, or invalid data.
-fn mesh_failure(e: &MeshError) -> Failure {
-    match e {
-        MeshError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
-            Failure::new(TC_NOT_FOUND, e.to_string())
-        }
-        MeshError::Io { .. } => Failure::new(TC_IO_ERROR, e.to_string()),
-        _ => Failure::new(TC_INVALID_MESH, e.to_string()),
-    }
 }
 
 /// Creates an empty scene (no objects, no lights) and stores its handle in `*out`.
@@ -323,15 +312,4 @@ pub unsafe extern "C" fn tc_object_vertex_count(scene: *const TcScene, object: u
         unsafe { ptr::write(out, n) };
         Ok(())
     })
-}
-
-/// Replaces an object's medium after checking it against the object's shape (a per-tet array
-/// must match the tet count, table ids must be in range, …); the object is unchanged on error.
-pub(crate) fn set_medium(state: &mut SceneState, object: u32, medium: MediumSource) -> Result<(), Failure> {
-    let i = state.object_index(object)?;
-    let o = &mut state.scene.objects[i];
-    medium.validate(&o.shape).map_err(|e| Failure::invalid(format!("object {object} ({}): {e}", o.name)))?;
-    o.medium = medium;
-    state.changed();
-    Ok(())
 }

@@ -1,6 +1,19 @@
-//! The status every call returns.
+//! The boundary of every call: the status it returns, the thread's last-error message, and
+//! the guard that runs every `extern "C"` body.
+//!
+//! - [`TcStatus`]: `TC_OK` (0) or a `TC_*` code, values fixed forever, new ones appended;
+//! - the last error: a thread-local C string that every entry point clears when it starts and
+//!   sets when it fails, so after a call it describes that call's failure (or is empty); it
+//!   lives until the next call on the thread, the lifetime the header promises;
+//! - [`run`] and [`value`]: every body runs inside `catch_unwind` (a panic must never unwind into
+//!   C, where it would abort the host application) and a failure becomes a status plus the
+//!   message (metatensor's `c_api/status.rs` does the same); `check_not_null!` names a NULL or
+//!   misaligned pointer argument.
 
-use std::ffi::{c_char, CStr};
+use std::any::Any;
+use std::cell::RefCell;
+use std::ffi::{c_char, CStr, CString};
+use std::panic::{catch_unwind, AssertUnwindSafe};
 
 /// The result of a call: `TC_OK` (0) on success, another `TC_*` code on failure, with a message
 /// from `tc_last_error_message()`.
@@ -51,6 +64,9 @@ pub const TC_BUSY: TcStatus = TcStatus(13);
 pub const TC_GPU_UNAVAILABLE: TcStatus = TcStatus(14);
 /// A cut would remove every tetrahedron of the object; nothing changed.
 pub const TC_NOTHING_LEFT: TcStatus = TcStatus(15);
+/// The chosen method cannot do what was asked (bake this object, or this kind of edit); the
+/// message names the method and the reason. Nothing changed.
+pub const TC_UNSUPPORTED: TcStatus = TcStatus(16);
 
 impl TcStatus {
     /// The constant's name, e.g. `"TC_NULL_POINTER"`, or `"unknown status"`.
@@ -73,6 +89,7 @@ impl TcStatus {
             13 => c"TC_BUSY",
             14 => c"TC_GPU_UNAVAILABLE",
             15 => c"TC_NOTHING_LEFT",
+            16 => c"TC_UNSUPPORTED",
             _ => c"unknown status",
         }
     }
@@ -82,5 +99,106 @@ impl TcStatus {
 /// this library does not know. Never NULL; a static string the caller must not free.
 #[no_mangle]
 pub extern "C" fn tc_status_name(status: TcStatus) -> *const c_char {
-    super::guard::value(c"unknown status".as_ptr(), || status.name().as_ptr())
+    value(c"unknown status".as_ptr(), || status.name().as_ptr())
+}
+
+/// A failed call: the status to return and the message for `tc_last_error_message()`.
+#[derive(Debug)]
+pub(crate) struct Failure {
+    pub status: TcStatus,
+    pub message: String,
+}
+
+impl Failure {
+    pub(crate) fn new(status: TcStatus, message: impl Into<String>) -> Self {
+        Self { status, message: message.into() }
+    }
+
+    /// `TC_INVALID_ARGUMENT` with a message.
+    pub(crate) fn invalid(message: impl Into<String>) -> Self {
+        Self::new(TC_INVALID_ARGUMENT, message)
+    }
+}
+
+/// Runs the body of entry point `name`: clears the last error, returns `TC_OK` on success, and
+/// on failure (an `Err`, or a panic) sets the message, prefixed with `name`, and returns the
+/// failure's status (`TC_INTERNAL_ERROR` for a panic).
+pub(crate) fn run(name: &str, body: impl FnOnce() -> Result<(), Failure>) -> TcStatus {
+    clear_last_error();
+    match catch_unwind(AssertUnwindSafe(body)) {
+        Ok(Ok(())) => TC_OK,
+        Ok(Err(failure)) => {
+            set_last_error(&format!("{name}: {}", failure.message));
+            failure.status
+        }
+        Err(payload) => {
+            set_last_error(&format!("{name}: internal error (a bug in libtranscut): {}", panic_message(payload.as_ref())));
+            TC_INTERNAL_ERROR
+        }
+    }
+}
+
+/// Runs the body of an entry point that returns a value instead of a status and cannot fail;
+/// a panic (a bug) returns `fallback`. The last error is left alone.
+pub(crate) fn value<T>(fallback: T, body: impl FnOnce() -> T) -> T {
+    catch_unwind(AssertUnwindSafe(body)).unwrap_or(fallback)
+}
+
+/// The text of a panic payload (`panic!` gives a `&str` or a `String`).
+fn panic_message(payload: &(dyn Any + Send)) -> &str {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        s
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s
+    } else {
+        "a panic without a message"
+    }
+}
+
+/// Checks pointer arguments before any work: `return Err(TC_NULL_POINTER)` naming the argument
+/// when one is NULL, `Err(TC_INVALID_ARGUMENT)` when one is not aligned for its type.
+macro_rules! check_not_null {
+    ($($arg:ident),+ $(,)?) => {
+        $(
+            if $arg.is_null() {
+                return Err(super::status::Failure::new(
+                    super::status::TC_NULL_POINTER,
+                    concat!("`", stringify!($arg), "` is NULL"),
+                ));
+            }
+            if !$arg.is_aligned() {
+                return Err(super::status::Failure::invalid(concat!("`", stringify!($arg), "` is not aligned for its type")));
+            }
+        )+
+    };
+}
+
+thread_local! {
+    static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
+}
+
+/// Replaces the thread's message. Interior NUL bytes (which a C string cannot hold) become `?`.
+fn set_last_error(message: &str) {
+    let bytes: Vec<u8> = message.bytes().map(|b| if b == 0 { b'?' } else { b }).collect();
+    // Cannot fail: no NUL is left. Ignored if the thread is being torn down.
+    let message = CString::new(bytes).unwrap_or_default();
+    let _ = LAST_ERROR.try_with(|slot| *slot.borrow_mut() = message);
+}
+
+/// Empties the thread's message.
+fn clear_last_error() {
+    let _ = LAST_ERROR.try_with(|slot| {
+        let mut slot = slot.borrow_mut();
+        if !slot.as_bytes().is_empty() {
+            *slot = CString::default();
+        }
+    });
+}
+
+/// The message of the last call on this thread that failed, as UTF-8; the empty string when
+/// that call succeeded. Never NULL. The string belongs to the library and stays valid until the
+/// next `tc_*` call on the same thread (copy it to keep it).
+#[no_mangle]
+pub extern "C" fn tc_last_error_message() -> *const c_char {
+    value(c"".as_ptr(), || LAST_ERROR.try_with(|slot| slot.borrow().as_ptr()).unwrap_or(c"".as_ptr()))
 }

@@ -1,6 +1,6 @@
 //! Entry points that exist only to test the boundary itself; not in the header.
 
-use super::guard::run;
+use super::status::run;
 use super::status::TcStatus;
 
 /// Panics inside the guarded body, to prove that a panic comes back as `TC_INTERNAL_ERROR`

@@ -23,12 +23,12 @@ pub(crate) const PATCH: u32 = parse(env!("CARGO_PKG_VERSION_PATCH"));
 /// `TRANSCUT_VERSION`).
 #[no_mangle]
 pub extern "C" fn tc_version() -> u32 {
-    super::guard::value(0, || (MAJOR << 16) | (MINOR << 8) | PATCH)
+    super::status::value(0, || (MAJOR << 16) | (MINOR << 8) | PATCH)
 }
 
 /// The library's version as a static string, e.g. "0.1.0". Never NULL; do not free it.
 #[no_mangle]
 pub extern "C" fn tc_version_string() -> *const c_char {
     const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), "\0");
-    super::guard::value(c"".as_ptr(), || VERSION.as_ptr().cast())
+    super::status::value(c"".as_ptr(), || VERSION.as_ptr().cast())
 }

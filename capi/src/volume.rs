@@ -5,15 +5,13 @@
 use std::ffi::c_char;
 
 use glam::DVec3;
-use transcut_core::scene::MediumSource;
 use transcut_core::volume::{Coefficients, PerTetMedia, VolumeError, VoxelGrid};
+use transcut_core::MediumSource;
 
-use super::guard::{run, Failure};
+use super::convert::{medium_from, TcMedium};
 use super::handle::{with_scene, TcScene};
-use super::medium::{medium_from, TcMedium};
 use super::ptr;
-use super::scene::set_medium;
-use super::status::{TcStatus, TC_IO_ERROR, TC_NOT_FOUND};
+use super::status::{run, Failure, TcStatus, TC_IO_ERROR, TC_NOT_FOUND};
 
 /// Fills a tet-mesh object with a table of media indexed by its per-tet material ids (the
 /// `tet_medium` array of `tc_scene_add_tet_mesh`; all 0 when it was NULL, and for a surface
@@ -40,7 +38,7 @@ pub unsafe extern "C" fn tc_object_set_media_table(
             )));
         }
         // SAFETY: the caller's contract.
-        unsafe { with_scene(scene, |s| set_medium(s, object, MediumSource::Table(media))) }
+        unsafe { with_scene(scene, |s| s.set_medium(object, MediumSource::Table(media))) }
     })
 }
 
@@ -69,7 +67,7 @@ pub unsafe extern "C" fn tc_object_set_media_per_tet(
         let coefficients = a.chunks_exact(3).zip(s.chunks_exact(3)).map(|(a, s)| Coefficients::new(f(a), f(s))).collect();
         let media = PerTetMedia::new(coefficients, eta, g).map_err(|e| Failure::invalid(e.to_string()))?;
         // SAFETY: the caller's contract.
-        unsafe { with_scene(scene, |st| set_medium(st, object, MediumSource::PerTet(media))) }
+        unsafe { with_scene(scene, |st| st.set_medium(object, MediumSource::PerTet(media))) }
     })
 }
 
@@ -107,7 +105,7 @@ pub unsafe extern "C" fn tc_object_set_medium_voxels(
         let grid = VoxelGrid::new(dims, DVec3::from_array(origin), DVec3::from_array(voxel_size), data.to_vec())
             .map_err(|e| Failure::invalid(e.to_string()))?;
         // SAFETY: the caller's contract.
-        unsafe { with_scene(scene, |s| set_medium(s, object, MediumSource::Voxels { grid, eta, g })) }
+        unsafe { with_scene(scene, |s| s.set_medium(object, MediumSource::Voxels { grid, eta, g })) }
     })
 }
 
@@ -132,6 +130,6 @@ pub unsafe extern "C" fn tc_object_set_medium_voxel_file(
             _ => Failure::new(TC_IO_ERROR, e.to_string()),
         })?;
         // SAFETY: the caller's contract.
-        unsafe { with_scene(scene, |s| set_medium(s, object, MediumSource::Voxels { grid, eta, g })) }
+        unsafe { with_scene(scene, |s| s.set_medium(object, MediumSource::Voxels { grid, eta, g })) }
     })
 }

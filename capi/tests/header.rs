@@ -15,7 +15,7 @@ use std::fmt::Write as _;
 use std::mem::{offset_of, size_of};
 use std::path::{Path, PathBuf};
 
-use abi::{TcArtistMedium, TcBakeOptions, TcBakeStats, TcEditStats, TcMedium, TcMediumEdit};
+use abi::{TcArtistMedium, TcBakeOptions, TcBakeStats, TcEditStats, TcMedium, TcMediumEdit, TcTransCutOptions};
 
 fn crate_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -62,8 +62,10 @@ fn layouts() -> Vec<Layout> {
             shadows,
             area_samples,
             environment_samples,
-            backend
+            backend,
+            method_options
         }),
+        layout!(TcTransCutOptions { size, solver, edit_solver }),
         layout!(TcBakeStats {
             size,
             tets,
@@ -172,7 +174,9 @@ fn header_declares_the_whole_api() {
         .collect();
     let mut count = 0;
     for line in sources.lines() {
-        let Some(rest) = line.split("extern \"C\" fn ").nth(1) else { continue };
+        let Some(rest) = line.split("extern \"C\" fn ").nth(1) else {
+            continue;
+        };
         let name = rest.split('(').next().unwrap();
         if name == "tc_debug_panic" {
             continue;

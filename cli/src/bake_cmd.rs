@@ -7,9 +7,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 use clap::Args;
 use transcut::mesh::{self, TriMesh};
-use transcut::scene::{bake_with, BakeOptions, Object, Scene};
-use transcut::{diffusion, Progress};
+use transcut::{bake_with, diffusion, BakeOptions, Object, ObjectBake, Progress, Scene};
 
+use crate::method_args::{method_help, MethodArgs, MethodDefaults};
 use crate::progress::StageBar;
 use crate::spec;
 
@@ -21,6 +21,8 @@ use crate::spec;
   spot:pos=X,Y,Z,dir=X,Y,Z,intensity=I[,angle=DEG][,blend=B]
   env:radiance=R,G,B                          constant sky
   env:file=sky.hdr[,strength=S]               equirectangular .hdr or .exr
+
+Methods: `--method help` lists them (default transcut).
 
 Medium forms:
   marble | skin1 | … (see `--medium help`)    measured presets (Jensen et al. 2001)
@@ -40,25 +42,17 @@ pub struct BakeArgs {
     /// A light (repeatable; see below). Without one, a white sky of radiance 1 is used.
     #[arg(long = "light")]
     pub lights: Vec<String>,
-    /// Target number of tetrahedra.
-    #[arg(long, default_value_t = 200_000, value_parser = clap::value_parser!(u64).range(1..=50_000_000))]
-    pub tets: u64,
-    /// Relative residual at which the solver stops.
-    #[arg(long, default_value_t = 1e-6)]
-    pub tolerance: f64,
+    #[command(flatten)]
+    pub method: MethodArgs,
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Where the solve runs: cpu, gpu (an error without a GPU) or auto (a hardware GPU when
-    /// there is one, else the CPU). Default: the TRANSCUT_BACKEND environment variable, else auto.
-    #[arg(long)]
-    pub backend: Option<transcut::gpu::Backend>,
     /// Output: .ply (the mesh with float red, green, blue per vertex), .npy (float32 N×3) or
     /// .raw (float32 RGB, N×3, little-endian). Rows follow the input's vertex order.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Write the diffusion system (M per channel, b) as Matrix Market files in this folder, so
-    /// any external solver can be timed on exactly the same system.
+    /// transcut: write the diffusion system (M per channel, b) as Matrix Market files in this
+    /// folder, so any external solver can be timed on exactly the same system.
     #[arg(long)]
     pub export_system: Option<PathBuf>,
     /// Print statistics as JSON on stdout (no progress bar).
@@ -71,6 +65,11 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
         println!("presets: {}", transcut::optics::PRESET_NAMES.join(", "));
         return Ok(());
     }
+    if args.method.wants_help() {
+        print!("{}", method_help());
+        return Ok(());
+    }
+    let method = args.method.method(&MethodDefaults::default())?;
     let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
     let medium = spec::medium(&args.medium)?;
     let mut lights = args.lights.iter().map(|s| spec::light(s)).collect::<anyhow::Result<Vec<_>>>()?;
@@ -82,13 +81,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
     }
     let name = args.input.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned());
     let scene = Scene { objects: vec![Object::new(name, input.clone(), medium, args.scale)], lights };
-    let options = BakeOptions {
-        tets: args.tets as usize,
-        tolerance: args.tolerance,
-        threads: args.threads,
-        backend: args.backend,
-        ..BakeOptions::default()
-    };
+    let options = BakeOptions { method, threads: args.threads, ..BakeOptions::default() };
     let bar = StageBar::new(args.json);
     let callback = |stage: &str, f: f64| bar.update(stage, f);
     let result = bake_with(&scene, &options, Progress::new(&callback));
@@ -111,7 +104,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         let s = &object.stats;
-        println!("{}: {} vertices baked", args.input.display(), object.radiance.len());
+        println!("{}: {} vertices baked by {}", args.input.display(), object.radiance.len(), s.method);
         println!("tets {} ({} vertices, {} on the surface)", s.tets, s.vertices, s.boundary_vertices);
         println!(
             "solver iterations {:?}, relative residual {:.1e}",
@@ -199,12 +192,15 @@ fn write_ply(out: &mut impl Write, mesh: &TriMesh, radiance: &[[f64; 3]]) -> std
 
 /// Writes `M_red.mtx`, `M_green.mtx`, `M_blue.mtx` (coordinate, symmetric general) and `b.mtx`
 /// (array, n × 3) of the object's TransCut system.
-fn export_system(dir: &Path, scene: &Scene, object: &transcut::scene::ObjectBake) -> anyhow::Result<()> {
+fn export_system(dir: &Path, scene: &Scene, object: &ObjectBake) -> anyhow::Result<()> {
+    let Some(state) = object.transcut() else {
+        bail!("--export-system writes TransCut's system; the {} method has none", object.method())
+    };
     std::fs::create_dir_all(dir)?;
     let o = &scene.objects[0];
-    let mut system = diffusion::assemble(&object.tet_mesh, &object.media, o.mm_per_unit)?;
+    let mut system = diffusion::assemble(&state.tet_mesh, &state.media, o.mm_per_unit)?;
     let boundary = system.boundary();
-    let points: Vec<_> = boundary.ids.iter().map(|&v| object.tet_mesh.positions()[v as usize]).collect();
+    let points: Vec<_> = boundary.ids.iter().map(|&v| state.tet_mesh.positions()[v as usize]).collect();
     let surface = o.world_surface()?;
     let bvh = transcut::mesh::TriangleBvh::from_indexed(surface.positions(), surface.triangles());
     let q = transcut::light::transmitted_source(

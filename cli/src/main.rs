@@ -2,14 +2,10 @@
 
 mod bake_cmd;
 mod bench;
-mod bench_edit;
-mod bench_multires;
-mod bench_solve;
-mod edit_apply;
 mod mesh_cmd;
+mod method_args;
 mod progress;
 mod render_cmd;
-mod scene_edits;
 mod scene_file;
 mod spec;
 

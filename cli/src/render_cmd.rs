@@ -13,15 +13,13 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use clap::Args;
-use transcut::edit::EditOptions;
 use transcut::light::{Environment, Light};
 use transcut::render::{render, Camera, GroundPlane, RenderObject, RenderOptions, RenderScene, SamplePattern, SpecularLight};
-use transcut::scene::{bake_with, BakeOptions, Scene};
-use transcut::{DVec3, Progress};
+use transcut::{bake_with, BakeOptions, DVec3, Progress, Scene, Session};
 
-use crate::edit_apply;
+use crate::method_args::{method_help, MethodArgs, MethodDefaults};
 use crate::progress::StageBar;
-use crate::scene_file;
+use crate::scene_file::{self, apply, schema::CameraSpec};
 
 /// Arguments of `transcut render`.
 #[derive(Args)]
@@ -41,21 +39,22 @@ pub struct RenderArgs {
     /// Override the camera's image height.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: Option<u32>,
-    /// Override the target number of tetrahedra per object.
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=50_000_000))]
-    pub tets: Option<u64>,
-    /// Worker threads for the bake (0 = all cores).
+    /// The method and its options (they override the scene file's [bake] table).
+    #[command(flatten)]
+    pub method: MethodArgs,
+    /// Worker threads for the bake and the edits (0 = all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Where the solve runs: cpu, gpu or auto (default: TRANSCUT_BACKEND, else auto).
-    #[arg(long)]
-    pub backend: Option<transcut::gpu::Backend>,
     /// Print statistics as JSON on stdout (no progress bar).
     #[arg(long)]
     pub json: bool,
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    if args.method.wants_help() {
+        print!("{}", method_help());
+        return Ok(());
+    }
     let ext = args.output.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
     if ext != "png" && ext != "exr" {
         bail!("output {}: the extension must be .png or .exr", args.output.display());
@@ -70,14 +69,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if let Some(h) = args.height {
         camera_spec.height = h;
     }
-    let defaults = BakeOptions::default();
-    let options = BakeOptions {
-        tets: args.tets.or(file.bake.tets).map_or(defaults.tets, |t| t as usize),
-        tolerance: file.bake.tolerance.unwrap_or(defaults.tolerance),
-        threads: args.threads,
-        backend: args.backend,
-        ..defaults
-    };
+    let b = &file.bake;
+    let defaults = MethodDefaults { method: b.method.clone(), tets: b.tets, tolerance: b.tolerance, solver: b.solver.clone() };
+    let method = args.method.method(&defaults).with_context(|| format!("scene file {}", args.scene.display()))?;
+    let options = BakeOptions { method, threads: args.threads, ..BakeOptions::default() };
     let scene = Scene { objects: loaded.objects, lights: loaded.lights };
     let load_ms = start.elapsed().as_secs_f64() * 1e3;
 
@@ -86,62 +81,48 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let result = bake_with(&scene, &options, Progress::new(&callback));
     bar.finish();
     let baked = result.with_context(|| format!("baking {}", args.scene.display()))?;
+    let (bake_ms, bake_stats): (f64, Vec<_>) = (baked.total_ms, baked.objects.iter().map(|o| o.stats.clone()).collect());
+    let mut session = Session::new(&scene, baked, &options);
 
     // The file's camera (before --width/--height): cut strokes are in its pixels.
     let file_camera = camera(&file.camera);
+    let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
     let t_edit = Instant::now();
-    let edited = if loaded.edits.is_empty() {
-        None
-    } else {
-        let edit_options = EditOptions {
-            tolerance: options.tolerance,
-            max_iterations: options.max_iterations,
-            backend: options.backend,
-            source: options.source,
-            shadows: options.shadows,
-            ..EditOptions::default()
-        };
-        let apply = || {
-            edit_apply::apply(&loaded.edits, &scene.objects, &baked.objects, &scene.lights, &file_camera, &edit_options, |r| {
-                if !args.json {
-                    let s = &r.stats;
-                    eprintln!(
-                        "edit {} ({}) {}: {} piece{}, iterations {:?}, {:.0} ms",
-                        r.edit,
-                        r.kind,
-                        r.object,
-                        r.pieces,
-                        if r.pieces == 1 { "" } else { "s" },
-                        s.iterations,
-                        s.total_ms
-                    );
-                }
-            })
-        };
-        let result = if args.threads == 0 {
-            apply()
-        } else {
-            rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?.install(apply)
-        };
-        Some(result.with_context(|| format!("editing {}", args.scene.display()))?)
-    };
+    let reports = apply::apply(&loaded.edits, &mut session, &names, &file_camera, |r| {
+        if !args.json {
+            let s = &r.stats;
+            eprintln!(
+                "edit {} ({}) {}: {} piece{}, iterations {:?}, {:.0} ms",
+                r.edit,
+                r.kind,
+                r.object,
+                r.pieces,
+                if r.pieces == 1 { "" } else { "s" },
+                s.iterations,
+                s.total_ms
+            );
+        }
+    })
+    .with_context(|| format!("editing {}", args.scene.display()))?;
     let edit_ms = t_edit.elapsed().as_secs_f64() * 1e3;
 
     let t_render = Instant::now();
     // World-space meshes over their welded vertices with the radiance of those vertices, and
     // the object's η: an edited object's pieces, else the baked surface.
     let mut meshes: Vec<(transcut::mesh::TriMesh, Vec<[f64; 3]>, f64)> = Vec::new();
-    for (i, (object, b)) in scene.objects.iter().zip(&baked.objects).enumerate() {
-        if let Some(editor) = edited.as_ref().and_then(|e| e.editors[i].as_ref()) {
-            meshes.extend(edit_apply::piece_meshes(editor).into_iter().map(|(m, r)| (m, r, b.eta)));
+    for (i, object) in scene.objects.iter().enumerate() {
+        let eta = session.eta(i)?;
+        if let Some(editor) = session.editor(i)? {
+            meshes.extend(apply::piece_meshes(editor).into_iter().map(|(m, r)| (m, r, eta)));
             continue;
         }
         let mesh = object.world_surface()?;
+        let radiance = session.radiance(i)?.context("internal: an unedited object without radiance")?;
         let mut r = vec![[0.0; 3]; mesh.positions().len()];
         for (user, &internal) in mesh.user_to_internal().iter().enumerate() {
-            r[internal as usize] = b.radiance[user];
+            r[internal as usize] = radiance[user];
         }
-        meshes.push((mesh, r, b.eta));
+        meshes.push((mesh, r, eta));
     }
     let objects: Vec<RenderObject<'_>> = meshes
         .iter()
@@ -163,8 +144,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let r = &file.render;
     let mut specular = Vec::new();
     let mut environment = [0.0; 3];
-    let lights = edited.as_ref().map_or(&scene.lights, |e| &e.lights);
-    for light in lights {
+    for light in session.lights() {
         match light {
             Light::Directional { direction, irradiance, .. } => {
                 specular.push(SpecularLight { direction_to_light: -*direction, irradiance: *irradiance });
@@ -216,19 +196,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "width": camera_spec.width,
             "height": camera_spec.height,
             "load_ms": load_ms,
-            "bake_ms": baked.total_ms,
+            "bake_ms": bake_ms,
             "edit_ms": edit_ms,
             "render_ms": render_ms,
             "save_ms": save_ms,
             "total_ms": total_ms,
-            "objects": scene.objects.iter().zip(&baked.objects).map(|(o, b)| serde_json::json!({"name": o.name, "stats": b.stats})).collect::<Vec<_>>(),
-            "edits": edited.as_ref().map_or(&[][..], |e| &e.reports[..]),
+            "objects": scene.objects.iter().zip(&bake_stats).map(|(o, s)| serde_json::json!({"name": o.name, "stats": s})).collect::<Vec<_>>(),
+            "edits": reports,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        for (o, b) in scene.objects.iter().zip(&baked.objects) {
-            let s = &b.stats;
-            println!("{}: {} tets, solve iterations {:?}, {:.0} ms", o.name, s.tets, s.iterations, s.total_ms);
+        for (o, s) in scene.objects.iter().zip(&bake_stats) {
+            println!("{}: {} ({} tets), solve iterations {:?}, {:.0} ms", o.name, s.method, s.tets, s.iterations, s.total_ms);
         }
         println!(
             "{}: {}×{} in {:.0} ms (load {:.0}, bake {:.0}, edits {:.0}, render {:.0}, save {:.0})",
@@ -237,7 +216,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             camera_spec.height,
             total_ms,
             load_ms,
-            baked.total_ms,
+            bake_ms,
             edit_ms,
             render_ms,
             save_ms
@@ -247,7 +226,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// The render camera of a `[camera]` table.
-fn camera(spec: &scene_file::CameraSpec) -> Camera {
+fn camera(spec: &CameraSpec) -> Camera {
     Camera {
         position: DVec3::from(spec.position),
         target: DVec3::from(spec.target),

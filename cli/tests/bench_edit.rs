@@ -40,9 +40,9 @@ fn bench_edit_reports_every_edit_consistently() {
     assert!(sum(&e["cold_bake"]["iterations"]) > 0);
     positive(&e["cold_bake"]["median_solve_ms"], "cold solve ms");
     let relight = &e["relight_5deg"];
-    assert_eq!(relight["method"], "aggregation_pcg", "the editor's default solver");
+    assert_eq!(relight["solver"], "aggregation_pcg", "the editor's default solver");
     let cold_bake = sum(&relight["cold"]["iterations"]);
-    let cold = sum(&relight["cold_same_method_iterations"]);
+    let cold = sum(&relight["cold_same_solver_iterations"]);
     let warm = sum(&relight["warm"]["last"]["iterations"]);
     assert!(cold > 0 && warm > 0, "cold {cold}, warm {warm}");
     assert!(warm <= cold, "a warm start took more iterations ({warm}) than a cold solve ({cold})");

@@ -1,25 +1,66 @@
 //! # libtranscut core
 //!
-//! Subsurface light transport for translucent objects, returned as per-vertex outgoing radiance.
-//! Data flows one way through the stages (each a module):
+//! Subsurface light transport for translucent objects, returned as per-vertex outgoing
+//! radiance Lo(x, n). One entry point bakes a scene with any method:
 //!
-//! `mesh` (surface input, tetrahedral topology) → `mesher` (surface → quality tetrahedra) →
-//! `optics` (media) → `sparse` (linear algebra) → …
+//! ```no_run
+//! use transcut::{bake, BakeOptions, Method, Object, Scene};
+//! use transcut::light::Light;
+//! use transcut::optics::Medium;
+//! # fn demo() -> Result<(), Box<dyn std::error::Error>> {
+//! let mesh = transcut::mesh::load("assets/meshes/spot.obj".as_ref())?;
+//! let scene = Scene {
+//!     objects: vec![Object::new("spot", mesh, Medium::preset("marble")?, 30.0)],
+//!     lights: vec![Light::Directional { direction: transcut::DVec3::NEG_Z, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }],
+//! };
+//! let options = BakeOptions { method: Method::from_name("transcut").unwrap(), ..BakeOptions::default() };
+//! let result = bake(&scene, &options)?;
+//! println!("{} vertices, Lo of the first: {:?}", result.objects[0].radiance.len(), result.objects[0].radiance[0]);
+//! # Ok(()) }
+//! ```
+//!
+//! The modules are layers; each uses only those listed before it (`core/tests/layering.rs`
+//! checks it):
+//!
+//! | layer | what it holds |
+//! |---|---|
+//! | [`progress`] | progress reports and cancellation |
+//! | [`mesh`] | surfaces (OBJ, PLY, welding, n-gons), tet meshes, BVH, quality |
+//! | [`optics`] | media, Fresnel, the dipole, closed forms |
+//! | [`mesher`] | surface → quality tetrahedra (winding numbers, isosurface stuffing) |
+//! | [`volume`] | heterogeneous media on tets: tables, layers, veins, voxels |
+//! | [`light`] | lights and environments, the transmitted source q(x) |
+//! | [`sparse`] | CSR matrices, CG/BiCGSTAB, preconditioners, multiresolution hierarchies |
+//! | [`diffusion`] | TransCut's diffusion system (eqs. 9–14), solvers, eq. 3 |
+//! | [`gpu`] | the wgpu backend and the CPU/GPU choice |
+//! | [`render`] | a CPU rasteriser of baked radiance |
+//! | [`scene`] | what a bake is asked for: scene, objects, [`Method`], [`BakeOptions`] |
+//! | [`edit`] | TransCut's interactive editing (§5): relight, medium edits, paint, cuts |
+//! | [`methods`] | the subsurface methods behind one contract, and what a bake returns |
+//! | [`mod@bake`] | the driver: [`bake()`] validates and runs a method on every object |
+//! | [`session`] | a baked scene kept for interactive work, for every method |
 //!
 //! Every stage reports typed errors; nothing panics on bad input.
 
+pub mod bake;
 pub mod diffusion;
 pub mod edit;
 pub mod gpu;
 pub mod light;
 pub mod mesh;
 pub mod mesher;
+pub mod methods;
 pub mod optics;
 pub mod progress;
 pub mod render;
 pub mod scene;
+pub mod session;
 pub mod sparse;
 pub mod volume;
 
+pub use bake::{bake, bake_with, Bake};
 pub use glam::DVec3;
+pub use methods::{BakedState, ObjectBake, ObjectStats};
 pub use progress::{Cancelled, Progress};
+pub use scene::{BakeOptions, MediumSource, Method, Object, Scene, SceneError, Shape, TransCutOptions};
+pub use session::{Session, SessionError};

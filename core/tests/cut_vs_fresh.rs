@@ -49,7 +49,7 @@ use transcut::gpu::Backend;
 use transcut::light::Light;
 use transcut::mesh::{TriMesh, TriangleBvh};
 use transcut::optics::Medium;
-use transcut::scene::{bake, BakeOptions, Object, Scene};
+use transcut::{bake, BakeOptions, Object, Scene, TransCutOptions};
 
 mod common;
 use common::uv_sphere;
@@ -102,7 +102,13 @@ fn cut_ball_surface(segments: usize, cap_rings: usize, disc_rings: usize) -> Tri
     }
     let centre = positions.len() as u32;
     positions.push(DVec3::new(0.0, 0.0, CUT_Z));
-    let disc = |i: usize, k: usize| if i == 0 { cap(0, k) } else { (disc_start + (i - 1) * segments + k % segments) as u32 };
+    let disc = |i: usize, k: usize| {
+        if i == 0 {
+            cap(0, k)
+        } else {
+            (disc_start + (i - 1) * segments + k % segments) as u32
+        }
+    };
 
     let mut polygons = Vec::new();
     for k in 0..segments {
@@ -132,8 +138,12 @@ fn per_internal(surface: &TriMesh, radiance: &[[f64; 3]]) -> Vec<[f64; 3]> {
 /// Bakes the reference surface at `tets` tets: radiance per internal vertex of `surface`.
 fn reference(surface: &TriMesh, tets: usize) -> (Vec<[f64; 3]>, usize) {
     let scene = Scene { objects: vec![Object::new("reference", surface.clone(), marble(), 1.0)], lights: vec![sun()] };
-    let options =
-        BakeOptions { tets, tolerance: TOLERANCE, shadows: true, backend: Some(Backend::Cpu), ..BakeOptions::default() };
+    let options = BakeOptions::with_method(TransCutOptions {
+        tets,
+        tolerance: TOLERANCE,
+        backend: Some(Backend::Cpu),
+        ..TransCutOptions::default()
+    });
     let b = bake(&scene, &options).unwrap();
     let o = &b.objects[0];
     (per_internal(surface, &o.radiance), o.stats.tets)

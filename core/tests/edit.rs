@@ -3,15 +3,15 @@
 //! change nothing; warm starts save iterations.
 
 use glam::{DMat3, DMat4, DVec3};
-use transcut::diffusion::Method;
+use transcut::diffusion::SolverKind;
 use transcut::edit::{Cutter, EditError, EditOptions, Editor, MediumEdit, MediumOp, PaintStroke, Region};
 use transcut::gpu::Backend;
 use transcut::light::Light;
 use transcut::mesh::TetMesh;
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
-use transcut::scene::{bake, BakeOptions, MediumSource, Object, Scene};
 use transcut::volume::{Coefficients, PerTetMedia};
+use transcut::{bake, BakeOptions, MediumSource, Object, Scene, TransCutOptions};
 
 mod common;
 use common::uv_sphere;
@@ -33,7 +33,8 @@ fn options() -> EditOptions {
 }
 
 fn bake_options() -> BakeOptions {
-    BakeOptions { tolerance: TOLERANCE, shadows: false, backend: Some(Backend::Cpu), ..BakeOptions::default() }
+    let transcut = TransCutOptions { tolerance: TOLERANCE, backend: Some(Backend::Cpu), ..TransCutOptions::default() };
+    BakeOptions { shadows: false, ..BakeOptions::with_method(transcut) }
 }
 
 /// The sun straight down, turned by `degrees` about the x axis.
@@ -176,8 +177,8 @@ fn failed_edits_return_the_named_error_and_change_nothing() {
     let object = Object::from_tets("ball", mesh.clone(), marble().into(), 1.0);
     let baked = bake(&Scene { objects: vec![object], lights: vec![sun(0.0)] }, &bake_options()).unwrap();
     // The bake's φ already solves the editor's system: no iteration needed to start.
-    let one = EditOptions { max_iterations: 1, method: Method::Pcg, ..options() };
-    let mut strict = Editor::from_bake(&baked.objects[0], 1.0, &[sun(0.0)], &one).unwrap();
+    let one = EditOptions { max_iterations: 1, solver: SolverKind::Pcg, ..options() };
+    let mut strict = Editor::from_bake(&baked.objects[0], &[sun(0.0)], &one).unwrap();
     let radiance = strict.user_radiance().unwrap();
     assert!(relative_difference(&radiance, &baked.objects[0].radiance) < 1e-12);
     let triple = MediumEdit { region: Region::All, op: MediumOp::Scale { sigma_a: [3.0; 3], sigma_s: [1.0; 3] } };
@@ -348,7 +349,7 @@ fn a_failed_relight_or_paint_leaves_every_array_bit_identical() {
     let baked = bake(&Scene { objects: vec![object], lights: vec![sun(0.0)] }, &bake_options()).unwrap();
     // One iteration: enough for the bake's own lights (already solved), not for a change.
     let one = EditOptions { max_iterations: 1, ..options() };
-    let mut ed = Editor::from_bake(&baked.objects[0], 1.0, &[sun(0.0)], &one).unwrap();
+    let mut ed = Editor::from_bake(&baked.objects[0], &[sun(0.0)], &one).unwrap();
     let before = snapshot(&ed);
     let e = ed.relight(&[sun(30.0)]);
     assert!(matches!(e, Err(EditError::Diffusion(_))), "{e:?}");
@@ -387,7 +388,7 @@ fn undo_relight_restores_every_array_and_the_next_relight_is_as_if_never_relit()
         // q, b, φ and radiance change with the light; the matrix and media do not.
         assert_eq!(a == b, k % 6 >= 4, "piece {} {} after the relight", k / 6, SNAPSHOT_ARRAYS[k % 6]);
     }
-    ed.undo_relight(undo);
+    ed.undo_relight(undo).unwrap();
     let undone = snapshot(&ed);
     assert_eq!(undone.0.len(), before.0.len());
     for (k, (a, b)) in undone.0.iter().zip(&before.0).enumerate() {

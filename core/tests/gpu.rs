@@ -15,8 +15,9 @@ use gpu_common::{device, lit, lock, rel_rms, scaled_tets, shared_mesh_dir, syste
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use transcut::diffusion::SolverKind;
 use transcut::diffusion::{assemble, assemble_consistent, solve, surface_radiance};
-use transcut::gpu::{self, Backend, GpuError};
+use transcut::gpu::{self, Backend, GpuError, SolveWith};
 use transcut::mesh::TetMesh;
 use transcut::optics::Medium;
 use transcut::sparse::SolveOptions;
@@ -279,16 +280,16 @@ fn backend_choice_reports_what_ran() {
     let (_, mesh, scale) = &shared_meshes()[3];
     let sys = system_for(mesh, *scale, "skin2");
     let options = SolveOptions::default();
-    let (cpu, report) = gpu::solve_on(Backend::Cpu, &sys, None, &options).unwrap();
+    let (cpu, report) = gpu::solve_on(Backend::Cpu, SolveWith::Kind(SolverKind::SsorPcg), &sys, None, &options).unwrap();
     assert_eq!((report.used, report.device.clone(), report.fallback.clone()), (Backend::Cpu, None, None));
-    let (sol, report) = gpu::solve_on(Backend::Gpu, &sys, None, &options).unwrap();
+    let (sol, report) = gpu::solve_on(Backend::Gpu, SolveWith::Kind(SolverKind::SsorPcg), &sys, None, &options).unwrap();
     assert_eq!((report.requested, report.used), (Backend::Gpu, Backend::Gpu));
     assert_eq!(report.device.as_deref(), Some(ctx.device_name()));
     assert!(report.fallback.is_none());
     assert!(report.gpu.is_some());
     assert!(rel_rms(&sol.phi, &cpu.phi).iter().all(|&e| e < 1e-4));
     // Auto takes a hardware GPU, but not a software one (lavapipe), and says why.
-    let (sol, report) = gpu::solve_on(Backend::Auto, &sys, None, &options).unwrap();
+    let (sol, report) = gpu::solve_on(Backend::Auto, SolveWith::Kind(SolverKind::SsorPcg), &sys, None, &options).unwrap();
     assert_eq!(report.requested, Backend::Auto);
     if ctx.is_software() {
         assert_eq!(report.used, Backend::Cpu);

@@ -5,7 +5,8 @@
 #![cfg(feature = "gpu")]
 
 use transcut::diffusion::assemble;
-use transcut::gpu::{self, Backend, GpuContext, GpuError, ADAPTER_ENV};
+use transcut::diffusion::SolverKind;
+use transcut::gpu::{self, Backend, GpuContext, GpuError, SolveWith, ADAPTER_ENV};
 use transcut::mesh::TetMesh;
 use transcut::optics::Medium;
 use transcut::sparse::SolveOptions;
@@ -26,7 +27,7 @@ fn auto_falls_back_to_the_cpu_and_gpu_fails_clearly_without_an_adapter() {
     let message = e.to_string();
     assert!(message.contains("no GPU adapter") && message.contains("TRANSCUT_BACKEND=cpu"), "{message}");
 
-    let (solution, report) = gpu::solve_on(Backend::Auto, &sys, None, &options).unwrap();
+    let (solution, report) = gpu::solve_on(Backend::Auto, SolveWith::Kind(SolverKind::SsorPcg), &sys, None, &options).unwrap();
     assert_eq!(report.used, Backend::Cpu);
     assert_eq!(report.requested, Backend::Auto);
     assert!(report.device.is_none());
@@ -34,6 +35,6 @@ fn auto_falls_back_to_the_cpu_and_gpu_fails_clearly_without_an_adapter() {
     let cpu = transcut::diffusion::solve(&sys, None, &options).unwrap();
     assert_eq!(solution.phi, cpu.phi);
 
-    let e = gpu::solve_on(Backend::Gpu, &sys, None, &options).unwrap_err();
+    let e = gpu::solve_on(Backend::Gpu, SolveWith::Kind(SolverKind::SsorPcg), &sys, None, &options).unwrap_err();
     assert!(matches!(e, GpuError::NoAdapter { .. }), "{e}");
 }

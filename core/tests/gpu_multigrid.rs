@@ -16,9 +16,9 @@ use gpu_common::{device, lock, rel_rms, scaled_tets, shared_mesh_dir, system_for
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use transcut::diffusion::multires::hierarchy;
-use transcut::diffusion::{solve, Method, MultiresSolver};
-use transcut::gpu::{self, Backend, GpuError, GpuSolver};
+use transcut::diffusion::solver::hierarchy;
+use transcut::diffusion::{solve, Solver, SolverKind};
+use transcut::gpu::{self, Backend, GpuError, GpuSolver, SolveWith};
 use transcut::mesh::TetMesh;
 use transcut::sparse::hierarchy::{HierarchyOptions, Multigrid, MultigridOptions};
 use transcut::sparse::SolveOptions;
@@ -145,8 +145,8 @@ fn device_mg_pcg_matches_the_cpu_in_solution_and_iterations_and_beats_jacobi() {
         let sys = system_for(mesh, *scale, preset);
         let reference = solve(&sys, None, &SolveOptions::default().with_tolerance(1e-12)).unwrap();
         // The paper's hierarchy, then the smoothed aggregation (the same kernels, other `P`).
-        for method in [Method::MultigridPcg, Method::AggregationPcg] {
-            let solver = MultiresSolver::new(&sys, method, &HierarchyOptions::default()).unwrap();
+        for method in [SolverKind::MultigridPcg, SolverKind::AggregationPcg] {
+            let solver = Solver::new(&sys, method, &HierarchyOptions::default()).unwrap();
             let levels = solver.hierarchy().levels();
             let device_mg = GpuSolver::with_multigrid(ctx, &sys, solver.multigrid().unwrap()).unwrap();
             let device_pcg = GpuSolver::new(ctx, &sys).unwrap();
@@ -199,25 +199,25 @@ fn multires_solver_runs_on_the_chosen_backend() {
     let options = SolveOptions::default();
     let reference = solve(&sys, None, &options.with_tolerance(1e-12)).unwrap();
     let h = Arc::new(hierarchy(&sys, &HierarchyOptions::default()).unwrap());
-    let mg = MultiresSolver::with_hierarchy(&sys, Arc::clone(&h), Method::MultigridPcg).unwrap();
-    let (sol, report) = mg.solve_on(Backend::Gpu, &sys, None, &options).unwrap();
+    let mg = Solver::with_hierarchy(&sys, Arc::clone(&h), SolverKind::MultigridPcg).unwrap();
+    let (sol, report) = gpu::solve_on(Backend::Gpu, SolveWith::Solver(&mg), &sys, None, &options).unwrap();
     assert_eq!((report.used, report.device.as_deref()), (Backend::Gpu, Some(ctx.device_name())));
     assert_eq!(report.gpu.as_ref().map(|g| g.multigrid_levels), Some(h.levels()));
     assert!(rel_rms(&sol.phi, &reference.phi).iter().all(|&e| e < 1e-4));
-    let (cpu, report) = mg.solve_on(Backend::Cpu, &sys, None, &options).unwrap();
+    let (cpu, report) = gpu::solve_on(Backend::Cpu, SolveWith::Solver(&mg), &sys, None, &options).unwrap();
     assert_eq!(report.used, Backend::Cpu);
     assert_eq!(cpu.phi, mg.solve(&sys, None, &options).unwrap().phi);
     // Auto skips a software adapter (lavapipe), as for Jacobi PCG.
-    let (_, report) = gpu::solve_multires_on(Backend::Auto, &mg, &sys, None, &options).unwrap();
+    let (_, report) = gpu::solve_on(Backend::Auto, SolveWith::Solver(&mg), &sys, None, &options).unwrap();
     assert_eq!(report.used, if ctx.is_software() { Backend::Cpu } else { Backend::Gpu });
     // Single-level PCG goes to the Jacobi GPU solver; the cascade has no GPU path.
-    let pcg = MultiresSolver::with_hierarchy(&sys, Arc::clone(&h), Method::Pcg).unwrap();
-    let (_, report) = pcg.solve_on(Backend::Gpu, &sys, None, &options).unwrap();
+    let pcg = Solver::with_hierarchy(&sys, Arc::clone(&h), SolverKind::Pcg).unwrap();
+    let (_, report) = gpu::solve_on(Backend::Gpu, SolveWith::Solver(&pcg), &sys, None, &options).unwrap();
     assert_eq!((report.used, report.gpu.as_ref().map(|g| g.multigrid_levels)), (Backend::Gpu, Some(0)));
-    let cascade = MultiresSolver::with_hierarchy(&sys, Arc::clone(&h), Method::Cascade).unwrap();
-    let e = cascade.solve_on(Backend::Gpu, &sys, None, &options).unwrap_err();
+    let cascade = Solver::with_hierarchy(&sys, Arc::clone(&h), SolverKind::Cascade).unwrap();
+    let e = gpu::solve_on(Backend::Gpu, SolveWith::Solver(&cascade), &sys, None, &options).unwrap_err();
     assert!(matches!(e, GpuError::Unsupported { .. }) && e.to_string().contains("cascade"), "{e}");
-    let (_, report) = cascade.solve_on(Backend::Auto, &sys, None, &options).unwrap();
+    let (_, report) = gpu::solve_on(Backend::Auto, SolveWith::Solver(&cascade), &sys, None, &options).unwrap();
     assert_eq!(report.used, Backend::Cpu);
     assert!(report.fallback.as_deref().is_some_and(|f| f.contains("cascade")), "{report:?}");
     // A multigrid of another mesh is refused.

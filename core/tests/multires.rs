@@ -5,8 +5,8 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use transcut::diffusion::multires::hierarchy;
-use transcut::diffusion::{assemble, solve, solve_with, DiffusionSystem, Method, MultiresSolver, Solution};
+use transcut::diffusion::solver::hierarchy;
+use transcut::diffusion::{assemble, solve, DiffusionSystem, Solution, Solver, SolverKind};
 use transcut::mesh::{self, TetMesh};
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
@@ -14,7 +14,7 @@ use transcut::sparse::hierarchy::{
     check_invariants, codes, galerkin, lost_connections, mg_pcg, substituted, Hierarchy, HierarchyKind, HierarchyOptions,
     Multigrid, MultigridOptions,
 };
-use transcut::sparse::{Preconditioner, PreconditionerKind, SolveOptions};
+use transcut::sparse::SolveOptions;
 use transcut::DVec3;
 
 fn mesh_path(name: &str) -> PathBuf {
@@ -39,7 +39,7 @@ fn lit_system(mesh: &TetMesh, mm: f64, dir: DVec3) -> DiffusionSystem {
 /// Mixed-precision Jacobi PCG (the baseline the multigrid methods are measured against; the
 /// bake's `solve` is SSOR-preconditioned).
 fn jacobi_pcg(sys: &DiffusionSystem, options: &SolveOptions<'_>) -> Solution {
-    solve_with(sys, &Preconditioner::new(sys.matrix(), PreconditionerKind::Jacobi).unwrap(), None, options).unwrap()
+    Solver::new(sys, SolverKind::Pcg, &HierarchyOptions::default()).unwrap().solve(sys, None, options).unwrap()
 }
 
 fn relight(sys: &mut DiffusionSystem, dir: DVec3) {
@@ -200,11 +200,11 @@ fn multiresolution_solutions_equal_pcg_on_every_shared_mesh() {
         let sys = lit_system(&mesh, mm, DVec3::new(0.3, 1.0, 0.8));
         let reference = solve(&sys, None, &options).unwrap();
         let h = Arc::new(hierarchy(&sys, &HierarchyOptions::default()).unwrap());
-        for method in [Method::Cascade, Method::MultigridPcg, Method::SsorPcg, Method::AggregationPcg] {
-            let solver = if method == Method::AggregationPcg {
-                MultiresSolver::new(&sys, method, &HierarchyOptions::default()).unwrap()
+        for method in [SolverKind::Cascade, SolverKind::MultigridPcg, SolverKind::SsorPcg, SolverKind::AggregationPcg] {
+            let solver = if method == SolverKind::AggregationPcg {
+                Solver::new(&sys, method, &HierarchyOptions::default()).unwrap()
             } else {
-                MultiresSolver::with_hierarchy(&sys, Arc::clone(&h), method).unwrap()
+                Solver::with_hierarchy(&sys, Arc::clone(&h), method).unwrap()
             };
             let sol = solver.solve(&sys, None, &options).unwrap();
             let d = max_rel_diff(&sol.phi, &reference.phi);
@@ -242,9 +242,11 @@ fn warm_start_after_moving_the_sun_5_degrees() {
     let norm = |v: &[[f64; 3]]| v.iter().map(|x| x[0] * x[0]).sum::<f64>().sqrt();
     eprintln!("‖b₁ − b₀‖ / ‖b₁‖ = {:.3} (channel R)", norm(&db) / norm(sys.rhs()));
     let mut cold_pcg = [0; 3];
-    for method in [Method::Pcg, Method::SsorPcg, Method::Cascade, Method::MultigridPcg, Method::AggregationPcg] {
+    for method in
+        [SolverKind::Pcg, SolverKind::SsorPcg, SolverKind::Cascade, SolverKind::MultigridPcg, SolverKind::AggregationPcg]
+    {
         relight(&mut sys, d0);
-        let solver = MultiresSolver::new(&sys, method, &HierarchyOptions::default()).unwrap();
+        let solver = Solver::new(&sys, method, &HierarchyOptions::default()).unwrap();
         let before = solver.solve(&sys, None, &options).unwrap();
         relight(&mut sys, d1);
         let cold = solver.solve(&sys, None, &options).unwrap();
@@ -255,8 +257,8 @@ fn warm_start_after_moving_the_sun_5_degrees() {
         }
         assert!(max_rel_diff(&warm.phi, &cold.phi) < 1e-4);
         match method {
-            Method::Pcg => cold_pcg = cold.stats.iterations,
-            Method::MultigridPcg | Method::AggregationPcg => {
+            SolverKind::Pcg => cold_pcg = cold.stats.iterations,
+            SolverKind::MultigridPcg | SolverKind::AggregationPcg => {
                 for c in 0..3 {
                     assert!(3 * warm.stats.iterations[c] <= cold_pcg[c], "{:?} vs {cold_pcg:?}", warm.stats.iterations);
                 }
@@ -274,7 +276,7 @@ fn aggregation_hierarchy_coarsens_fast_and_kinds_are_checked() {
     let (mesh, mm) = tet_mesh("stanford-bunny.obj", 40_000);
     let sys = lit_system(&mesh, mm, DVec3::new(0.0, 1.0, 1.0));
     let options = SolveOptions::default().with_tolerance(1e-8);
-    let sa = MultiresSolver::new(&sys, Method::AggregationPcg, &HierarchyOptions::default()).unwrap();
+    let sa = Solver::new(&sys, SolverKind::AggregationPcg, &HierarchyOptions::default()).unwrap();
     let h = sa.hierarchy();
     assert_eq!(h.kind(), HierarchyKind::Aggregation);
     let counts = h.vertex_counts();
@@ -291,14 +293,14 @@ fn aggregation_hierarchy_coarsens_fast_and_kinds_are_checked() {
     }
     assert!(max_rel_diff(&sol.phi, &reference.phi) < 1e-6);
     let ts = Arc::new(hierarchy(&sys, &HierarchyOptions::default()).unwrap());
-    let err = MultiresSolver::with_hierarchy(&sys, ts, Method::AggregationPcg).unwrap_err();
+    let err = Solver::with_hierarchy(&sys, ts, SolverKind::AggregationPcg).unwrap_err();
     assert!(err.to_string().contains("Aggregation"), "{err}");
-    for method in [Method::Cascade, Method::MultigridPcg] {
-        let err = MultiresSolver::with_hierarchy(&sys, Arc::clone(h), method).unwrap_err();
+    for method in [SolverKind::Cascade, SolverKind::MultigridPcg] {
+        let err = Solver::with_hierarchy(&sys, Arc::clone(h), method).unwrap_err();
         assert!(err.to_string().contains("IndependentSets"), "{err}");
     }
     // The same aggregation hierarchy prepares again (e.g. after the media changed).
-    let again = MultiresSolver::with_hierarchy(&sys, Arc::clone(h), Method::AggregationPcg).unwrap();
+    let again = Solver::with_hierarchy(&sys, Arc::clone(h), SolverKind::AggregationPcg).unwrap();
     let sol2 = again.solve(&sys, None, &options).unwrap();
     assert_eq!(sol2.phi, sol.phi);
 }

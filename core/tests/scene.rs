@@ -4,7 +4,7 @@
 use glam::{DMat4, DVec3};
 use transcut::light::{Environment, Light};
 use transcut::optics::{f_ext, Medium, UniformSphere};
-use transcut::scene::{bake, BakeOptions, Object, Scene, SceneError};
+use transcut::{bake, BakeOptions, Object, Scene, SceneError, TransCutOptions};
 
 mod common;
 use common::uv_sphere;
@@ -23,7 +23,7 @@ fn uniform_sphere_under_a_constant_sky_matches_the_closed_form() {
         objects: vec![Object::new("sphere", mesh.clone(), medium, 1.0)],
         lights: vec![Light::Environment(Environment::Constant([1.0; 3]))],
     };
-    let result = bake(&scene, &BakeOptions { tets: 60_000, ..Default::default() }).unwrap();
+    let result = bake(&scene, &BakeOptions::with_method(TransCutOptions { tets: 60_000, ..Default::default() })).unwrap();
     let o = &result.objects[0];
     assert_eq!(o.radiance.len(), scene.objects[0].shape.output_vertex_count());
     let q = std::f64::consts::PI * (1.0 - f_ext(1.3));
@@ -44,7 +44,7 @@ fn the_lit_side_is_brighter_and_results_follow_the_users_vertex_order() {
     let sun = Light::Directional { direction: DVec3::new(0.0, 0.0, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 };
     let scene =
         Scene { objects: vec![Object::new("ball", mesh.clone(), Medium::preset("skin1").unwrap(), 1.0)], lights: vec![sun] };
-    let r = bake(&scene, &BakeOptions { tets: 20_000, ..Default::default() }).unwrap();
+    let r = bake(&scene, &BakeOptions::with_method(TransCutOptions { tets: 20_000, ..Default::default() })).unwrap();
     let lo = &r.objects[0].radiance;
     let top = lo[0]; // north pole faces the sun
     let bottom = lo[mesh.user_vertex_count() - 1];
@@ -52,7 +52,7 @@ fn the_lit_side_is_brighter_and_results_follow_the_users_vertex_order() {
     // Moving the object moves the result with it: vertex i keeps its value.
     let mut moved = scene.clone();
     moved.objects[0].transform = DMat4::from_translation(DVec3::new(100.0, -5.0, 3.0));
-    let r2 = bake(&moved, &BakeOptions { tets: 20_000, ..Default::default() }).unwrap();
+    let r2 = bake(&moved, &BakeOptions::with_method(TransCutOptions { tets: 20_000, ..Default::default() })).unwrap();
     for (a, b) in lo.iter().zip(&r2.objects[0].radiance) {
         for c in 0..3 {
             assert!((a[c] - b[c]).abs() <= 1e-6 * a[c].abs().max(1e-3), "{a:?} vs {b:?}");
@@ -72,7 +72,10 @@ fn bad_scenes_are_rejected_with_the_culprit_named() {
     let nan_light = Light::Point { position: DVec3::new(f64::NAN, 0.0, 0.0), intensity: [1.0; 3] };
     let err = bake(&Scene { objects: vec![ball.clone()], lights: vec![nan_light] }, &BakeOptions::default()).unwrap_err();
     assert!(matches!(err, SceneError::Light(_)), "{err}");
-    let err =
-        bake(&Scene { objects: vec![ball], lights: vec![] }, &BakeOptions { tolerance: 2.0, ..Default::default() }).unwrap_err();
+    let err = bake(
+        &Scene { objects: vec![ball], lights: vec![] },
+        &BakeOptions::with_method(TransCutOptions { tolerance: 2.0, ..Default::default() }),
+    )
+    .unwrap_err();
     assert!(matches!(err, SceneError::InvalidOptions(_)), "{err}");
 }

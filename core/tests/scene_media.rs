@@ -8,8 +8,8 @@ mod common;
 use glam::{DMat4, DVec3};
 use transcut::light::Light;
 use transcut::optics::Medium;
-use transcut::scene::{bake, Bake, BakeOptions, MediumSource, Object, Scene, SceneError, Shape};
 use transcut::volume::{Coefficients, Layers, PerTetMedia, VeinParams, Veins, VoxelGrid};
+use transcut::{bake, Bake, BakeOptions, MediumSource, Object, Scene, SceneError, Shape, TransCutOptions};
 
 fn marble() -> Medium {
     Medium::preset("marble").unwrap()
@@ -20,7 +20,12 @@ fn sun() -> Light {
 }
 
 fn options() -> BakeOptions {
-    BakeOptions { tets: 20_000, tolerance: 1e-10, ..BakeOptions::default() }
+    BakeOptions::with_method(TransCutOptions { tets: 20_000, tolerance: 1e-10, ..TransCutOptions::default() })
+}
+
+/// The tet mesh a TransCut bake solved on.
+fn tets_of(bake: &transcut::ObjectBake) -> &transcut::mesh::TetMesh {
+    &bake.transcut().expect("a TransCut bake").tet_mesh
 }
 
 fn bake_one(object: Object) -> Bake {
@@ -47,17 +52,17 @@ fn a_ready_tet_mesh_bakes_like_the_surface_it_was_meshed_from() {
     };
     let surface = unshadowed(sphere_object(marble().into()));
     let o = &surface.objects[0];
-    let tets = unshadowed(Object::from_tets("tets", o.tet_mesh.clone(), marble().into(), 1.0));
+    let tets = unshadowed(Object::from_tets("tets", tets_of(o).clone(), marble().into(), 1.0));
     let t = &tets.objects[0];
-    assert_eq!(t.radiance.len(), o.tet_mesh.vertex_count());
+    assert_eq!(t.radiance.len(), tets_of(o).vertex_count());
     assert!(t.stats.meshing.is_none() && o.stats.meshing.is_some());
     // Interior vertices have no outgoing radiance; boundary ones do.
     for (v, l) in t.radiance.iter().enumerate() {
-        if !o.tet_mesh.is_boundary_vertex(v) {
+        if !tets_of(o).is_boundary_vertex(v) {
             assert_eq!(*l, [0.0; 3]);
         }
     }
-    let at_user = o.tet_mesh.sample_at_user_vertices(&t.radiance);
+    let at_user = tets_of(o).sample_at_user_vertices(&t.radiance);
     let d = max_relative_difference(&at_user, &o.radiance);
     assert!(d < 1e-9, "ready tet mesh vs surface bake: {d:e}");
 }
@@ -75,7 +80,7 @@ fn uniform_voxels_and_identical_layers_equal_the_homogeneous_medium() {
     for (what, b, tolerance) in [("voxels", &voxels, 1e-6), ("layers", &layered, 1e-9)] {
         let d = max_relative_difference(&b.objects[0].radiance, &reference.objects[0].radiance);
         assert!(d < tolerance, "{what} vs homogeneous: {d:e}");
-        assert_eq!(b.objects[0].eta, m.eta);
+        assert_eq!(b.objects[0].eta(), m.eta);
     }
 }
 
@@ -91,7 +96,7 @@ fn a_darker_outer_layer_darkens_the_surface_and_a_material_table_matches_per_tet
     }
 
     // The same two-material split as a table (ids on the tet mesh) and as per-tet values.
-    let mut mesh = reference.objects[0].tet_mesh.clone();
+    let mut mesh = tets_of(&reference.objects[0]).clone();
     let ids: Vec<u32> = (0..mesh.tet_count()).map(|t| u32::from(mesh.tet_positions(t)[0].x > 0.0)).collect();
     mesh.set_materials(ids.clone()).unwrap();
     let table = bake_one(Object::from_tets("table", mesh.clone(), MediumSource::Table(vec![m, dark]), 1.0));
@@ -114,7 +119,7 @@ fn object_space_veins_move_with_the_object() {
     let vein = Medium { sigma_a: [0.08, 0.1, 0.12], ..m };
     let veins = Veins::new(m, vein, 3, VeinParams { period: 4.0, ..VeinParams::default() }).unwrap();
     // One tet mesh, placed at the origin and translated, so only the medium can differ.
-    let mesh = bake_one(sphere_object(m.into())).objects.swap_remove(0).tet_mesh;
+    let mesh = tets_of(&bake_one(sphere_object(m.into())).objects[0]).clone();
     let at_origin = bake_one(Object::from_tets("veined", mesh.clone(), MediumSource::Veins(veins.clone()), 1.0));
     let mut moved = Object::from_tets("veined", mesh.clone(), MediumSource::Veins(veins), 1.0);
     moved.transform = DMat4::from_translation(DVec3::new(7.25, -3.5, 11.0));
@@ -138,7 +143,7 @@ fn misused_media_are_named() {
     };
     expect_invalid(sphere_object(MediumSource::PerTet(per_tet.clone())), "ready tet mesh");
     expect_invalid(sphere_object(MediumSource::Table(vec![])), "empty");
-    let mesh = bake_one(sphere_object(m.into())).objects.swap_remove(0).tet_mesh;
+    let mesh = tets_of(&bake_one(sphere_object(m.into())).objects[0]).clone();
     let n = mesh.tet_count();
     expect_invalid(
         Object::from_tets("t", mesh.clone(), MediumSource::PerTet(per_tet), 1.0),
@@ -160,7 +165,7 @@ fn bake_progress_never_goes_back_and_ends_at_one() {
         true
     };
     let scene = Scene { objects: vec![sphere_object(marble().into())], lights: vec![sun()] };
-    transcut::scene::bake_with(&scene, &options(), transcut::Progress::new(&callback)).unwrap();
+    transcut::bake_with(&scene, &options(), transcut::Progress::new(&callback)).unwrap();
     let seen = seen.into_inner().unwrap();
     assert!(seen.len() > 10, "{} reports", seen.len());
     assert!(seen.windows(2).all(|w| w[1] >= w[0]), "{seen:?}");

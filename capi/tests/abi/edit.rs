@@ -11,7 +11,7 @@ use transcut_core::gpu::Backend;
 use transcut_core::light::{Light, SourceOptions};
 use transcut_core::mesh::TriMesh;
 use transcut_core::optics::Medium;
-use transcut_core::scene::{bake, BakeOptions, Object, Scene};
+use transcut_core::{bake, BakeOptions, Object, Scene, TransCutOptions};
 
 use super::abi::*;
 use super::common::*;
@@ -209,24 +209,20 @@ fn plane_cut_equals_the_cores_result() {
     let sun =
         Light::Directional { direction: DVec3::new(0.3, 0.2, -1.0), irradiance: [3.0, 2.5, 2.0], angular_diameter_deg: 0.0 };
     let scene = Scene { objects: vec![object], lights: vec![sun.clone()] };
-    let options = BakeOptions {
-        tets: TETS as usize,
-        tolerance: TOL,
-        shadows: false,
-        backend: Some(Backend::Cpu),
-        ..BakeOptions::default()
-    };
+    let transcut =
+        TransCutOptions { tets: TETS as usize, tolerance: TOL, backend: Some(Backend::Cpu), ..TransCutOptions::default() };
+    let options = BakeOptions { shadows: false, ..BakeOptions::with_method(transcut.clone()) };
     let baked = bake(&scene, &options).unwrap();
     let edit_options = EditOptions {
-        tets: options.tets,
+        tets: transcut.tets,
         tolerance: TOL,
-        max_iterations: options.max_iterations,
+        max_iterations: transcut.max_iterations,
         backend: Some(Backend::Cpu),
         source: SourceOptions::default(),
         shadows: false,
         ..EditOptions::default()
     };
-    let mut editor = Editor::from_bake(&baked.objects[0], 1.0, &[sun], &edit_options).unwrap();
+    let mut editor = Editor::from_bake(&baked.objects[0], &[sun], &edit_options).unwrap();
     editor.cut(&Cutter::Plane { point: DVec3::new(0.0, 0.0, 2.0), normal: DVec3::Z }).unwrap();
     assert_eq!(editor.pieces().len(), 1);
     let core = &editor.pieces()[0];

@@ -8,7 +8,9 @@
 //!
 //! - [`assemble`] ([`assembly`]): TransCut eqs. 10–14, cotangent edge weights and lumped masses;
 //! - [`assemble_consistent`] ([`fem`]): the consistent P1 Galerkin reference, scaled alike;
-//! - [`solve`] ([`solve`](mod@solve)): PCG on the three channels, warm starts;
+//! - [`Solver`] ([`solver`]): CG with a Jacobi, SSOR or multigrid preconditioner, or the §4
+//!   cascade ([`SolverKind`]), on the three channels, from warm starts; [`solve`] the bake's
+//!   cold solve;
 //! - [`surface_radiance`]: eq. 3 along the normal, the per-vertex value a bake returns;
 //! - [`energy_balance`]: absorbed + exitant = incident power.
 //!
@@ -53,13 +55,13 @@
 pub mod assembly;
 mod error;
 pub mod fem;
-pub mod multires;
 pub mod solve;
+pub mod solver;
 mod structure;
 
 pub use assembly::{assemble, rhs, DiffusionSystem, Discretization};
 pub use error::DiffusionError;
 pub use fem::assemble_consistent;
-pub use multires::{Method, MultiresSolver};
-pub use solve::{energy_balance, solve, solve_with, surface_fluence, surface_radiance, EnergyBalance, Solution};
+pub use solve::{energy_balance, solve, surface_fluence, surface_radiance, EnergyBalance, Solution};
+pub use solver::{Solver, SolverKind};
 pub use structure::BoundaryVertices;

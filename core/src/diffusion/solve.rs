@@ -1,16 +1,17 @@
-//! Solving M φ = b for the three channels and querying the exitant radiance.
+//! The solved fluence and what is read from it.
 //!
-//! - [`solve`] / [`solve_with`]: preconditioned CG ([`crate::sparse::pcg`]) on the three
-//!   channels at once (M is symmetric positive definite, TransCut §3.2.3), relative residual
-//!   ‖b − Mφ‖/‖b‖ ≤ 1e-6 by default, optionally warm-started from a previous φ (after relighting
-//!   or a small material edit the old solution is a good start).
+//! - [`solve`]: the cold solve of a bake, CG with the SSOR preconditioner on the three channels
+//!   at once (M is symmetric positive definite, TransCut §3.2.3), relative residual
+//!   ‖b − Mφ‖/‖b‖ ≤ 1e-6 by default; shorthand for a [`Solver`] of [`SolverKind::SsorPcg`];
 //! - [`surface_radiance`]: TransCut eq. 3 along the normal, the per-vertex value a bake returns
 //!   (ARCHITECTURE.md "What a bake returns"): Lo(x, n) = Ft(n)/(4π) · [(1 + 1/A) φ − 4q/(1 + Fdr)].
 //! - [`energy_balance`]: absorbed, exitant and incident power of a solution.
 
 use super::assembly::DiffusionSystem;
 use super::error::DiffusionError;
-use crate::sparse::{pcg, Preconditioner, PreconditionerKind, SolveOptions, SolveStats};
+use super::solver::{Solver, SolverKind};
+use crate::sparse::hierarchy::HierarchyOptions;
+use crate::sparse::{SolveOptions, SolveStats};
 
 /// A solved fluence.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,58 +22,41 @@ pub struct Solution {
     pub stats: SolveStats,
 }
 
-/// Solves the system with an SSOR-preconditioned CG ([`crate::sparse::Ssor`], see
-/// [`solve_with`]): the cold solve of a bake. SSOR's setup (a level-set ordering and the
-/// reordered triangles) costs a few Jacobi iterations and CG then needs a quarter of Jacobi's
-/// iterations: `transcut bench bake` on the bunny, alternated with mixed-precision Jacobi PCG
-/// (the earlier default, still [`super::Method::Pcg`] and the GPU's solver), measured the solve
-/// 9–17% faster at 500k tets (182–192 against 200–231 ms) and 23% at 1M (417–425 against
-/// 539–555 ms). The V-cycles of [`super::MultiresSolver`] iterate faster still, but their
-/// setup outweighs that in a single solve.
-///
-/// # Errors
-/// Those of [`solve_with`].
-pub fn solve(
-    system: &DiffusionSystem,
-    warm_start: Option<&[[f64; 3]]>,
-    options: &SolveOptions<'_>,
-) -> Result<Solution, DiffusionError> {
-    let preconditioner = Preconditioner::new(system.matrix(), PreconditionerKind::Ssor)?;
-    solve_with(system, &preconditioner, warm_start, options)
+impl Solution {
+    /// The solution of a solve that ended with `stats`, or [`DiffusionError::NotConverged`]
+    /// when a channel missed `tolerance`.
+    ///
+    /// # Errors
+    /// [`DiffusionError::NotConverged`] unless `stats.converged`.
+    pub(crate) fn converged(phi: Vec<[f64; 3]>, stats: SolveStats, tolerance: f64) -> Result<Self, DiffusionError> {
+        if stats.converged {
+            Ok(Self { phi, stats })
+        } else {
+            Err(DiffusionError::NotConverged { iterations: stats.iterations, residual: stats.relative_residual, tolerance })
+        }
+    }
 }
 
-/// Solves M φ = b for the three channels by preconditioned CG with `preconditioner` (built for
-/// this matrix with [`Preconditioner::new`]; it can be kept while only the source changes),
-/// starting from `warm_start` (one entry per vertex) or from zero.
+/// Solves M φ = b for the three channels with CG preconditioned by SSOR
+/// ([`crate::sparse::Ssor`]) from `warm_start` (one entry per vertex) or from zero: the cold
+/// solve of a bake on the CPU. The same as `Solver::new(system, SolverKind::SsorPcg,
+/// &HierarchyOptions::default())?.solve(system, warm_start, options)`; keep a [`Solver`] to
+/// solve again after the source changed. SSOR's setup (a level-set ordering and the reordered
+/// triangles) costs a few Jacobi iterations and CG then needs about a quarter of Jacobi's
+/// iterations, so it is the fastest single solve; the multigrid kinds iterate faster still but
+/// their setup outweighs that in one solve (`docs/benchmarks.md`).
 ///
 /// # Errors
 /// [`DiffusionError::LengthMismatch`] for a warm start of the wrong length;
 /// [`DiffusionError::NotConverged`] when a channel misses the tolerance within
 /// `options.max_iterations`; [`DiffusionError::Sparse`] for the solver's own errors (a
-/// non-finite warm start, a preconditioner of another size, a breakdown, cancellation).
-pub fn solve_with(
+/// non-finite warm start, a breakdown, cancellation).
+pub fn solve(
     system: &DiffusionSystem,
-    preconditioner: &Preconditioner,
     warm_start: Option<&[[f64; 3]]>,
     options: &SolveOptions<'_>,
 ) -> Result<Solution, DiffusionError> {
-    let n = system.vertex_count();
-    let mut phi = match warm_start {
-        Some(x) if x.len() != n => {
-            return Err(DiffusionError::LengthMismatch { what: "warm start (one entry per vertex)", expected: n, found: x.len() })
-        }
-        Some(x) => x.to_vec(),
-        None => vec![[0.0; 3]; n],
-    };
-    let stats = pcg(system.matrix(), system.rhs(), &mut phi, preconditioner, options)?;
-    if !stats.converged {
-        return Err(DiffusionError::NotConverged {
-            iterations: stats.iterations,
-            residual: stats.relative_residual,
-            tolerance: options.tolerance,
-        });
-    }
-    Ok(Solution { phi, stats })
+    Solver::new(system, SolverKind::SsorPcg, &HierarchyOptions::default())?.solve(system, warm_start, options)
 }
 
 /// The fluence at the boundary vertices, in the order of [`DiffusionSystem::boundary`].

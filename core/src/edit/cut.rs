@@ -186,7 +186,9 @@ impl Prepared<'_> {
             Prepared::Plane { point, normal } => plane_distance(p, *point, *normal),
             Prepared::Stroke(s) => s.query(p).0,
             Prepared::Solid { winding, threshold } => {
-                let Some(sp) = winding.bvh().closest_point(p) else { return f64::NEG_INFINITY };
+                let Some(sp) = winding.bvh().closest_point(p) else {
+                    return f64::NEG_INFINITY;
+                };
                 if solid_removes(winding, *threshold, p) {
                     sp.distance
                 } else {
@@ -411,7 +413,9 @@ impl Quad {
                 best = Some((d2, c, l.neighbour));
             }
         }
-        let Some((d2, c, neighbour)) = best else { return (signed * signed, signed, q) };
+        let Some((d2, c, neighbour)) = best else {
+            return (signed * signed, signed, q);
+        };
         let pseudo = match neighbour {
             Some(nb) => self.unit + quads[nb].unit,
             None => self.unit,

@@ -3,8 +3,9 @@
 //!
 //! # Data model
 //!
-//! An [`Editor`] starts from one bake of one scene object ([`Editor::new`] bakes it,
-//! [`Editor::from_bake`] takes a finished [`crate::scene::ObjectBake`]). It keeps:
+//! An [`Editor`] starts from one TransCut bake of one scene object ([`Editor::new`] bakes it,
+//! [`Editor::from_bake`] takes a finished [`crate::methods::ObjectBake`]; both are TransCut's
+//! and live with it in [`crate::methods::transcut`]). It keeps:
 //!
 //! - the **original tet mesh** as baked (world space at bake time = the *rest* space of every
 //!   piece), and the **medium per ORIGINAL tet** (a [`crate::volume::PerTetMedia`]). Material
@@ -15,7 +16,7 @@
 //! - the **pieces** ([`Piece`]): each a rest-space tet mesh whose tets carry their original ids,
 //!   a rigid transform rest → world, its own diffusion system (TransCut eqs. 10–14, assembled
 //!   with the per-tet table of its tets: material id = local tet index), its solver
-//!   ([`crate::diffusion::MultiresSolver`], the §4 hierarchy built once per piece mesh) and its
+//!   ([`crate::diffusion::Solver`], its hierarchy built once per piece mesh) and its
 //!   last fluence φ and radiance Lo per tet-mesh vertex.
 //!
 //! # Updates
@@ -25,7 +26,7 @@
 //! - [`Editor::edit_medium`] and [`Editor::paint`]: the per-tet table changes, and only the
 //!   matrix rows of the vertices of the affected tets are refilled
 //!   ([`crate::diffusion::DiffusionSystem::update_media_rows`], TransCut §5.2), and the solver
-//!   follows those rows ([`crate::diffusion::MultiresSolver::refresh_rows`], see "Solver");
+//!   follows those rows ([`crate::diffusion::Solver::refresh_rows`], see "Solver");
 //! - cuts, splits, fracture, moves and recombination rebuild the affected pieces' meshes,
 //!   systems and hierarchies (TransCut §5.1) and re-light every piece (the shadows change).
 //!   [`Editor::cut`] deletes the cutter's positive side and snaps the cut surface onto it
@@ -37,31 +38,18 @@
 //! # Solver
 //!
 //! Updates solve with CG preconditioned by a multigrid V-cycle on a smoothed-aggregation
-//! hierarchy ([`Method::AggregationPcg`], the default of [`EditOptions::method`];
-//! [`crate::sparse::hierarchy::Hierarchy::aggregated`]). `transcut bench edit --tets 500000
-//! --runs 3 --method sa-pcg|ssor-pcg` on the bunny (2 cores), this default against SSOR-PCG
-//! ([`Method::SsorPcg`], the default until then), whole benchmarks alternated five times; the
-//! median over the five runs of each run's median, and their range:
-//!
-//! | | aggregation MG-PCG | SSOR-PCG |
-//! |---|---|---|
-//! | editor setup | 343 ms (311–347) | 312 ms (267–331) |
-//! | relight after a 5° sun move | **90 ms** (82–96; 12/12/11 iterations) | 115 ms (92–141; 29/25/21) |
-//! | 6,000-row paint stroke | **123 ms** (110–125; refresh 11–16 ms) | 137 ms (116–166; refresh 13–18 ms) |
-//! | plane cut, rebuild included | 503 ms (480–551) | 526 ms (494–597) |
-//!
-//! The aggregation hierarchy shrinks each level about 20-fold (93,481 → 4,253 → 85 vertices),
-//! so its coarse operators add only 12% to the level-0 matrix and a V-cycle costs about two
-//! matrix products; CG needs 12–15 iterations where SSOR needs 25–36. Its setup (aggregation,
-//! the smoothed prolongation and the Galerkin products, about 0.1 s at 500k tets) is paid at
-//! the editor's start and after every cut, split, fracture and recombination; a paint refreshes
-//! the Galerkin rows the refilled rows reach ([`crate::sparse::hierarchy::Multigrid::refresh`])
-//! and keeps the prolongation, smoothed with the matrix before the paint (still a valid
-//! V-cycle: on the bench's ink stroke CG needs 14/13/12 iterations after it against 15/14/13 on
-//! the unpainted bunny). The V-cycle on the paper's §4 hierarchy ([`Method::MultigridPcg`])
-//! needs 6 iterations but about 1 s of setup per piece mesh, and its Galerkin operators fill in
-//! to 3.4 times the level-0 matrix; it and SSOR-PCG stay available through
-//! [`EditOptions::method`].
+//! hierarchy ([`SolverKind::AggregationPcg`], the default of [`EditOptions::solver`];
+//! [`crate::sparse::hierarchy::Hierarchy::aggregated`]): the aggregation shrinks each level
+//! about 20-fold, so its coarse operators add little to the level-0 matrix and a V-cycle costs
+//! about two matrix products, while CG needs about half the iterations of SSOR-PCG. Its setup
+//! (aggregation, the smoothed prolongation and the Galerkin products) is paid at the editor's
+//! start and after every cut, split, fracture and recombination; a paint refreshes the Galerkin
+//! rows the refilled rows reach ([`crate::sparse::hierarchy::Multigrid::refresh`]) and keeps the
+//! prolongation, smoothed with the matrix before the paint (still a valid V-cycle, a little
+//! weaker). The V-cycle on the paper's §4 hierarchy ([`SolverKind::MultigridPcg`]) needs fewer
+//! iterations but a much longer setup per piece mesh, and SSOR-PCG no hierarchy at all; both
+//! stay available through [`EditOptions::solver`]. `transcut bench edit --solver …` measures
+//! them against each other (`docs/benchmarks.md`).
 //!
 //! Every solve is **warm-started** from the previous φ (TransCut §4.2; after a cut φ is carried
 //! over through the kept vertices). Every method returns [`UpdateStats`] with the stage timings.
@@ -104,31 +92,29 @@ pub use piece::Piece;
 pub use region::{MediumEdit, MediumOp, Region};
 
 use crate::diffusion::assembly::MediaUndo;
-use crate::diffusion::Method;
+use crate::diffusion::SolverKind;
 use crate::gpu::Backend;
 use crate::light::{self, Light, SourceOptions};
 use crate::mesh::{TetMesh, TriangleBvh};
 use crate::optics::Medium;
-use crate::progress::Progress;
-use crate::scene::{self, BakeOptions, Object, ObjectBake, Scene};
+use crate::scene::{BakeOptions, TransCutOptions};
 use crate::volume::{Coefficients, PerTetMedia};
 use piece::{ms, SolveSetup, Timings};
 
 /// How the editor solves and lights.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EditOptions {
-    /// Target tetrahedra when [`Editor::new`] meshes a surface (as [`BakeOptions::tets`]).
+    /// Target tetrahedra when [`Editor::new`] meshes a surface (as [`TransCutOptions::tets`]).
     pub tets: usize,
-    /// Relative residual at which every solve stops (as [`BakeOptions::tolerance`]).
+    /// Relative residual at which every solve stops (as [`TransCutOptions::tolerance`]).
     pub tolerance: f64,
     /// Iteration cap of every solve.
     pub max_iterations: usize,
-    /// The solver of the updates (default [`Method::AggregationPcg`], the fastest for relights
-    /// and paints, as fast as SSOR-PCG for cuts: see the module documentation's "Solver"
-    /// section).
-    pub method: Method,
-    /// Where [`Method::Pcg`] solves run (as [`BakeOptions::backend`]; `None`: `TRANSCUT_BACKEND`,
-    /// else auto). The other methods run on the CPU.
+    /// The solver of the updates (default [`SolverKind::AggregationPcg`], the fastest for
+    /// relights and paints: see the module documentation's "Solver" section).
+    pub solver: SolverKind,
+    /// Where [`SolverKind::Pcg`] solves run (as [`TransCutOptions::backend`]; `None`:
+    /// `TRANSCUT_BACKEND`, else auto). The other kinds run on the CPU.
     pub backend: Option<Backend>,
     /// Sampling of area and environment lights and shadow rays.
     pub source: SourceOptions,
@@ -143,13 +129,22 @@ pub struct EditOptions {
 
 impl Default for EditOptions {
     fn default() -> Self {
-        let bake = BakeOptions::default();
+        Self::from_bake_options(&BakeOptions::default(), &TransCutOptions::default())
+    }
+}
+
+impl EditOptions {
+    /// The options of an editor that continues a bake made with `bake` and TransCut's options
+    /// `transcut`: the same tolerance, iteration cap, backend, sampling and shadows, the update
+    /// solver [`TransCutOptions::edit_solver`].
+    #[must_use]
+    pub fn from_bake_options(bake: &BakeOptions, transcut: &TransCutOptions) -> Self {
         Self {
-            tets: bake.tets,
-            tolerance: bake.tolerance,
-            max_iterations: bake.max_iterations,
-            method: Method::AggregationPcg,
-            backend: None,
+            tets: transcut.tets,
+            tolerance: transcut.tolerance,
+            max_iterations: transcut.max_iterations,
+            solver: transcut.edit_solver,
+            backend: transcut.backend,
             source: bake.source,
             shadows: bake.shadows,
             cut: CutOptions::default(),
@@ -159,7 +154,7 @@ impl Default for EditOptions {
 }
 
 impl EditOptions {
-    fn validate(&self) -> Result<(), EditError> {
+    pub(crate) fn validate(&self) -> Result<(), EditError> {
         let bad = |s: String| Err(EditError::InvalidOptions(s));
         if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
             return bad(format!("tolerance {}: must lie in (0, 1)", self.tolerance));
@@ -176,16 +171,19 @@ impl EditOptions {
         self.cut.validate()
     }
 
-    fn bake_options(&self) -> BakeOptions {
-        BakeOptions {
+    /// The options of the bake an editor starts from ([`Editor::new`]): TransCut with this
+    /// editor's tets, tolerance, iteration cap and backend.
+    #[must_use]
+    pub fn bake_options(&self) -> BakeOptions {
+        let transcut = TransCutOptions {
             tets: self.tets,
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
-            threads: 0,
-            source: self.source,
-            shadows: self.shadows,
+            edit_solver: self.solver,
             backend: self.backend,
-        }
+            ..TransCutOptions::default()
+        };
+        BakeOptions { method: transcut.into(), threads: 0, source: self.source, shadows: self.shadows }
     }
 }
 
@@ -271,57 +269,34 @@ pub struct Editor {
 }
 
 impl Editor {
-    /// Meshes (if a surface) and bakes `object` under `lights` once ([`scene::bake_with`]); the
-    /// starting state.
+    /// The editor of a tet mesh baked by TransCut: `original` (world space) with the media
+    /// table its material ids index, the bake's fluence (one per vertex) and whether the bake
+    /// returned radiance at the user's surface vertices. The solve starts from `fluence`: when
+    /// the editor's source equals the bake's (e.g. shadows off), it takes no iteration.
     ///
     /// # Errors
-    /// [`EditError::InvalidOptions`]; [`EditError::Scene`] from the bake; those of
-    /// [`Editor::from_bake`].
-    pub fn new(object: &Object, lights: &[Light], options: &EditOptions) -> Result<Self, EditError> {
-        Self::with_progress(object, lights, options, Progress::none())
-    }
-
-    /// [`Editor::new`] with progress reporting and cancellation of the bake.
-    ///
-    /// # Errors
-    /// As [`Editor::new`], plus [`EditError::Cancelled`].
-    pub fn with_progress(
-        object: &Object,
+    /// [`EditError::InvalidOptions`] for bad options or a fluence that does not match the mesh;
+    /// [`EditError::Volume`] for media that disagree on η at the surface; [`EditError::Light`],
+    /// [`EditError::Diffusion`], [`EditError::Gpu`] from the first solve.
+    pub(crate) fn from_tets(
+        original: TetMesh,
+        table: &[Medium],
+        fluence: Vec<[f64; 3]>,
+        user_surface: bool,
+        mm_per_unit: f64,
         lights: &[Light],
         options: &EditOptions,
-        progress: Progress,
     ) -> Result<Self, EditError> {
         options.validate()?;
-        let scene = Scene { objects: vec![object.clone()], lights: lights.to_vec() };
-        let bake = scene::bake_with(&scene, &options.bake_options(), progress).map_err(|e| match e {
-            scene::SceneError::Cancelled(c) => EditError::Cancelled(c),
-            other => EditError::Scene(other),
-        })?;
-        Self::from_bake(&bake.objects[0], object.mm_per_unit, lights, options)
-    }
-
-    /// From a finished bake of a scene object: the original mesh is the bake's world-space tet
-    /// mesh, its media become one entry per tet. The solve starts from the bake's φ: when the
-    /// editor's source equals the bake's (e.g. shadows off), it takes no iteration.
-    ///
-    /// # Errors
-    /// [`EditError::InvalidOptions`] for bad options or a bake whose fluence does not match its
-    /// mesh; [`EditError::Volume`] for media that disagree on η at the surface;
-    /// [`EditError::Light`], [`EditError::Diffusion`], [`EditError::Gpu`] from the first solve.
-    pub fn from_bake(bake: &ObjectBake, mm_per_unit: f64, lights: &[Light], options: &EditOptions) -> Result<Self, EditError> {
-        options.validate()?;
         light::validate_lights(lights)?;
-        let original = bake.tet_mesh.clone();
-        if bake.fluence.len() != original.vertex_count() {
+        if fluence.len() != original.vertex_count() {
             return Err(EditError::InvalidOptions(format!(
                 "the bake has {} fluence values for {} tet-mesh vertices",
-                bake.fluence.len(),
+                fluence.len(),
                 original.vertex_count()
             )));
         }
-        let media = PerTetMedia::from_materials(&original, &bake.media)?;
-        let map = original.surface_map().len();
-        let user_surface = map > 0 && bake.radiance.len() == map;
+        let media = PerTetMedia::from_materials(&original, table)?;
         let backend = match options.backend {
             Some(b) => b,
             None => Backend::from_env_or(Backend::Auto)?,
@@ -329,15 +304,14 @@ impl Editor {
         let setup = SolveSetup {
             tolerance: options.tolerance,
             max_iterations: options.max_iterations,
-            method: options.method,
+            solver: options.solver,
             backend,
             mm_per_unit,
         };
         let centroids = centroids(&original);
         let mut timings = Timings::default();
         let all: Vec<u32> = (0..original.tet_count() as u32).collect();
-        let piece =
-            piece::build(original.clone(), all, DMat4::IDENTITY, &media, &setup, Some(bake.fluence.clone()), &mut timings)?;
+        let piece = piece::build(original.clone(), all, DMat4::IDENTITY, &media, &setup, Some(fluence), &mut timings)?;
         let mut pieces = vec![piece];
         let occluder = piece::light_and_solve(&mut pieces, lights, &options.source, options.shadows, &setup, &mut timings)?;
         let located = locate(original.tet_count(), &pieces);
@@ -431,17 +405,22 @@ impl Editor {
     /// editor's last update (after another update the pieces' φ would not match their media or
     /// meshes).
     ///
-    /// # Panics
-    /// When the pieces are not those the relight saw (their number or meshes changed since).
-    pub fn undo_relight(&mut self, undo: RelightUndo) {
-        assert!(
-            undo.meshes.len() == self.pieces.len() && undo.meshes.iter().zip(&self.pieces).all(|(m, p)| Arc::ptr_eq(m, &p.mesh)),
-            "undo_relight: the editor's pieces changed since the relight"
-        );
+    /// # Errors
+    /// [`EditError::InvalidOptions`] when the pieces are not those the relight saw (their
+    /// number or meshes changed since); the editor is then unchanged.
+    pub fn undo_relight(&mut self, undo: RelightUndo) -> Result<(), EditError> {
+        let same =
+            undo.meshes.len() == self.pieces.len() && undo.meshes.iter().zip(&self.pieces).all(|(m, p)| Arc::ptr_eq(m, &p.mesh));
+        if !same {
+            return Err(EditError::InvalidOptions(
+                "undo_relight: the editor's pieces changed since the relight that made this undo".into(),
+            ));
+        }
         for (piece, replaced) in self.pieces.iter_mut().zip(undo.pieces) {
             replaced.restore(piece);
         }
         self.lights = undo.lights;
+        Ok(())
     }
 
     /// Applies a material edit to the original tets of its region ([`Region::select`]) and
@@ -524,7 +503,7 @@ impl Editor {
 
     /// Refills piece `index`'s rows for `entries` (local tet, new medium) in place, pushing the
     /// undo record onto `undo` first thing, refreshes the solver in place for the new matrix
-    /// ([`crate::diffusion::MultiresSolver::refresh_rows`]: SSOR rescales its triangles, MG-PCG
+    /// ([`crate::diffusion::Solver::refresh_rows`]: SSOR rescales its triangles, MG-PCG
     /// recomputes only what the rows reach) and solves; the piece's φ and radiance are left as they were.
     fn refill_and_solve(
         &mut self,

@@ -10,8 +10,8 @@ use rayon::prelude::*;
 
 use super::error::EditError;
 use crate::diffusion::assembly::SourceState;
-use crate::diffusion::{self, DiffusionError, DiffusionSystem, Method, MultiresSolver, Solution};
-use crate::gpu::{self, Backend, GpuError};
+use crate::diffusion::{self, DiffusionError, DiffusionSystem, Solution, Solver, SolverKind};
+use crate::gpu::{self, Backend, GpuError, SolveWith};
 use crate::light::{self, Light, SourceOptions};
 use crate::mesh::{TetMesh, TriMesh, TriangleBvh};
 use crate::optics::Medium;
@@ -27,7 +27,7 @@ pub struct Piece {
     pub(crate) original_tets: Arc<[u32]>,
     pub(crate) transform: DMat4,
     pub(crate) system: DiffusionSystem,
-    pub(crate) solver: MultiresSolver,
+    pub(crate) solver: Solver,
     pub(crate) fluence: Vec<[f64; 3]>,
     pub(crate) radiance: Vec<[f64; 3]>,
 }
@@ -119,7 +119,7 @@ pub(crate) struct Timings {
 pub(crate) struct SolveSetup {
     pub tolerance: f64,
     pub max_iterations: usize,
-    pub method: Method,
+    pub solver: SolverKind,
     pub backend: Backend,
     pub mm_per_unit: f64,
 }
@@ -153,7 +153,7 @@ pub(crate) fn build(
     system.keep_coefficients();
     timings.assembly_ms += ms(t);
     let t = Instant::now();
-    let solver = MultiresSolver::new(&system, setup.method, &HierarchyOptions::default())?;
+    let solver = Solver::new(&system, setup.solver, &HierarchyOptions::default())?;
     timings.hierarchy_ms += ms(t);
     let n = mesh.vertex_count();
     let fluence = match warm {
@@ -310,23 +310,23 @@ impl Solved {
 }
 
 /// Solves `system` from the warm start `warm` (the piece's last φ) and derives the radiance:
-/// with [`Method::Pcg`] on a backend other than the CPU through [`gpu::solve_on`], otherwise
-/// with `solver` (prepared for `system`'s matrix).
+/// with `solver` (prepared for `system`'s matrix): [`SolverKind::Pcg`] on the editor's backend
+/// ([`gpu::solve_on`]), the other kinds on the CPU.
 ///
 /// # Errors
 /// [`EditError::Diffusion`] (not converged, …); [`EditError::Gpu`] when the GPU was required
 /// and failed.
 pub(crate) fn solution(
     system: &DiffusionSystem,
-    solver: &MultiresSolver,
+    solver: &Solver,
     warm: &[[f64; 3]],
     setup: &SolveSetup,
     timings: &mut Timings,
 ) -> Result<Solved, EditError> {
     let t = Instant::now();
     let options = SolveOptions { tolerance: setup.tolerance, max_iterations: setup.max_iterations, ..SolveOptions::default() };
-    let solution: Solution = if setup.method == Method::Pcg && setup.backend != Backend::Cpu {
-        gpu::solve_on(setup.backend, system, Some(warm), &options)
+    let solution: Solution = if solver.kind() == SolverKind::Pcg && setup.backend != Backend::Cpu {
+        gpu::solve_on(setup.backend, SolveWith::Solver(solver), system, Some(warm), &options)
             .map_err(|e| match e {
                 GpuError::Diffusion(d) => EditError::Diffusion(d),
                 other => EditError::Gpu(other),

@@ -211,7 +211,9 @@ pub fn weld(
     for (fa, face) in a.boundary_faces().iter().enumerate() {
         let mapped: Option<Vec<u32>> = face.vertices.iter().map(|v| a_to_b.get(v).copied()).collect();
         let Some(mapped) = mapped else { continue };
-        let Some(&fb) = b_faces.get(&key([mapped[0], mapped[1], mapped[2]])) else { continue };
+        let Some(&fb) = b_faces.get(&key([mapped[0], mapped[1], mapped[2]])) else {
+            continue;
+        };
         if a.boundary_normal(fa).dot(b.boundary_normal(fb)) >= 0.0 {
             continue;
         }

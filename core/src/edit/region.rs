@@ -1,5 +1,5 @@
-//! Material edits (issue 6 item 3): where ([`Region`]) and how ([`MediumOp`]) the σa and σ′s of
-//! the ORIGINAL mesh's tets change. Selection and the new values are computed here, purely;
+//! Material edits: where ([`Region`]) and how ([`MediumOp`]) the σa and σ′s of the ORIGINAL
+//! mesh's tets change. Selection and the new values are computed here, purely;
 //! [`super::Editor::edit_medium`] applies them to the pieces and re-solves.
 
 use glam::DVec3;
@@ -31,6 +31,8 @@ pub enum Region {
 pub enum MediumOp {
     /// σa, σ′s replaced (η, g must match the object: one η per object).
     Assign(Medium),
+    /// σa, σ′s replaced, the object's η and g kept.
+    Set { sigma_a: [f64; 3], sigma_s: [f64; 3] },
     /// σa, σ′s multiplied per channel (factors finite, ≥ 0; the result must stay valid).
     Scale { sigma_a: [f64; 3], sigma_s: [f64; 3] },
     /// σa, σ′s added per channel (finite; the result must stay valid).
@@ -109,7 +111,8 @@ impl MediumOp {
     /// Checks the operation against the object's η and g.
     ///
     /// # Errors
-    /// [`EditError::Medium`] for an invalid assigned medium; [`EditError::InvalidOptions`] for
+    /// [`EditError::Medium`] for an invalid assigned medium or coefficients;
+    /// [`EditError::InvalidOptions`] for
     /// an assigned η or g other than the object's, or a factor / term that is not finite (or a
     /// negative factor).
     pub fn validate(&self, eta: f64, g: f64) -> Result<(), EditError> {
@@ -125,6 +128,7 @@ impl MediumOp {
                 }
                 Ok(())
             }
+            Self::Set { sigma_a, sigma_s } => Ok(Coefficients::new(*sigma_a, *sigma_s).validate()?),
             Self::Scale { sigma_a, sigma_s } => check_terms("scale factor", sigma_a, sigma_s, true),
             Self::Add { sigma_a, sigma_s } => check_terms("added value", sigma_a, sigma_s, false),
         }
@@ -136,6 +140,7 @@ impl MediumOp {
         let f = |a: [f64; 3], b: [f64; 3], op: fn(f64, f64) -> f64| [0, 1, 2].map(|c| op(a[c], b[c]));
         match self {
             Self::Assign(m) => Coefficients::from(m),
+            Self::Set { sigma_a, sigma_s } => Coefficients::new(*sigma_a, *sigma_s),
             Self::Scale { sigma_a, sigma_s } => {
                 Coefficients::new(f(old.sigma_a, *sigma_a, |x, y| x * y), f(old.sigma_s_prime, *sigma_s, |x, y| x * y))
             }

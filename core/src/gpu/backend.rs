@@ -1,11 +1,13 @@
 //! The choice between the CPU and GPU paths: [`Backend`] (`TRANSCUT_BACKEND=cpu|gpu|auto`) and
-//! [`solve`], which runs the diffusion solve on the chosen one and reports which one ran.
+//! [`solve_on`], the one entry of a diffusion solve that may run on either: it runs a
+//! [`Solver`] (or a [`SolverKind`] it prepares) on the chosen backend and reports which ran.
 
 use std::fmt;
 use std::str::FromStr;
 
 use super::error::GpuError;
-use crate::diffusion::{self, DiffusionSystem, Method, MultiresSolver, Solution};
+use crate::diffusion::{DiffusionSystem, Solution, Solver, SolverKind};
+use crate::sparse::hierarchy::HierarchyOptions;
 use crate::sparse::SolveOptions;
 
 /// The environment variable that chooses the backend when the caller does not.
@@ -85,27 +87,93 @@ pub struct BackendReport {
     pub gpu: Option<super::GpuStats>,
 }
 
-/// Solves the diffusion system on `backend`: [`Backend::Cpu`] is [`diffusion::solve`];
-/// [`Backend::Gpu`] is [`super::solve`] on the process-wide device ([`super::GpuContext::shared`]);
-/// [`Backend::Auto`] tries the GPU and, if no device can be had or the only one is a software
-/// rasteriser (lavapipe), solves on the CPU and says so in [`BackendReport::fallback`]. Errors of the solve itself (not converged, bad warm start)
-/// are returned as they are, never hidden by a fallback.
+/// What [`solve_on`] solves with.
+#[derive(Debug, Clone, Copy)]
+pub enum SolveWith<'a> {
+    /// A solver of this kind, prepared for the backend that runs: on the CPU
+    /// [`Solver::new`] (default hierarchy options), on the device its twin.
+    Kind(SolverKind),
+    /// A solver the caller prepared (and keeps) for this system's matrix.
+    Solver(&'a Solver),
+}
+
+impl SolveWith<'_> {
+    /// The kind of solver.
+    #[must_use]
+    pub fn kind(&self) -> SolverKind {
+        match self {
+            Self::Kind(k) => *k,
+            Self::Solver(s) => s.kind(),
+        }
+    }
+}
+
+/// Solves the diffusion system on `backend` with `with`, from `warm_start` or cold.
+///
+/// - [`Backend::Cpu`]: [`Solver::solve`].
+/// - [`Backend::Gpu`]: on the process-wide device ([`super::GpuContext::shared`]) the device
+///   twin of the kind: the single-level kinds ([`SolverKind::Pcg`], [`SolverKind::SsorPcg`])
+///   run Jacobi PCG ([`super::solve`]; SSOR's sweeps are sequential within each level set, so
+///   it has no device path), the multigrid kinds CG preconditioned by their V-cycle
+///   ([`super::GpuSolver::with_multigrid`], the hierarchy and Galerkin operators built on the
+///   CPU and uploaded once per call). [`SolverKind::Cascade`] has no device path: an error.
+/// - [`Backend::Auto`]: the device unless none can be had, the only one is a software
+///   rasteriser (lavapipe) or the kind is the cascade; then the CPU, with the reason in
+///   [`BackendReport::fallback`].
+///
+/// Every path meets the same f64 tolerance. Errors of the solve itself (not converged, bad warm
+/// start) are returned as they are, never hidden by a fallback.
 ///
 /// # Errors
 /// [`GpuError::NoAdapter`], [`GpuError::DeviceRequest`] or [`GpuError::NotBuilt`] when the GPU
-/// was required and cannot be had; [`GpuError::Diffusion`] for the errors of
-/// [`diffusion::solve`]; the other variants for a failing device.
-pub fn solve(
+/// was required and cannot be had; [`GpuError::Unsupported`] for the cascade on
+/// [`Backend::Gpu`]; [`GpuError::Diffusion`] for the errors of [`Solver::solve`]; the other
+/// variants for a failing device.
+pub fn solve_on(
     backend: Backend,
+    with: SolveWith<'_>,
     system: &DiffusionSystem,
     warm_start: Option<&[[f64; 3]]>,
     options: &SolveOptions<'_>,
 ) -> Result<(Solution, BackendReport), GpuError> {
+    let on_cpu = || -> Result<Solution, GpuError> {
+        Ok(match with {
+            SolveWith::Kind(kind) => {
+                Solver::new(system, kind, &HierarchyOptions::default())?.solve(system, warm_start, options)?
+            }
+            SolveWith::Solver(solver) => solver.solve(system, warm_start, options)?,
+        })
+    };
+    if with.kind() == SolverKind::Cascade {
+        return match backend {
+            Backend::Cpu => Ok((on_cpu()?, cpu_report(backend, None))),
+            Backend::Auto => {
+                Ok((on_cpu()?, cpu_report(backend, Some("the multiresolution cascade runs on the CPU only".into()))))
+            }
+            Backend::Gpu => {
+                Err(GpuError::Unsupported { what: "the multiresolution cascade on the GPU (every other solver kind runs there)" })
+            }
+        };
+    }
     on_backend(
         backend,
-        || Ok(diffusion::solve(system, warm_start, options)?),
+        on_cpu,
         #[cfg(feature = "gpu")]
-        |context| super::solve(context, system, warm_start, options),
+        |context| {
+            if with.kind().is_single_level() {
+                return super::solve(context, system, warm_start, options);
+            }
+            let prepared;
+            let solver = match with {
+                SolveWith::Solver(solver) => solver,
+                SolveWith::Kind(kind) => {
+                    prepared = Solver::new(system, kind, &HierarchyOptions::default())?;
+                    &prepared
+                }
+            };
+            let mg = solver.multigrid().ok_or(GpuError::Unsupported { what: "a multigrid solver without its multigrid" })?;
+            super::GpuSolver::with_multigrid(context, system, mg)?.solve(system, warm_start, options)
+        },
     )
 }
 
@@ -121,7 +189,7 @@ fn cpu_report(requested: Backend, fallback: Option<String>) -> BackendReport {
     }
 }
 
-/// Where a solve runs, shared by [`solve`] and [`solve_multires`]: `on_cpu` for
+/// Where a solve runs: `on_cpu` for
 /// [`Backend::Cpu`], `on_gpu` on the process-wide device for [`Backend::Gpu`]; for
 /// [`Backend::Auto`] the device unless none can be had or the only one is a software
 /// rasteriser, then `on_cpu` with the reason in [`BackendReport::fallback`].
@@ -166,50 +234,5 @@ fn on_backend(
             Backend::Auto => cpu(Some(GpuError::NotBuilt.to_string())),
             _ => Err(GpuError::NotBuilt),
         }
-    }
-}
-
-/// [`MultiresSolver::solve`] on `backend`, like [`solve`]: [`Method::Pcg`] is [`solve`];
-/// [`Method::MultigridPcg`] and [`Method::AggregationPcg`] run CG preconditioned by the solver's V-cycle on the device
-/// ([`super::GpuSolver::with_multigrid`]: smoothing, restriction, prolongation and the coarsest
-/// solve as kernels, the hierarchy and Galerkin operators of the solver uploaded once per call)
-/// on the GPU, [`MultiresSolver::solve`] on the CPU; [`Method::Cascade`] and
-/// [`Method::SsorPcg`] have no GPU path: `Auto` runs them on the CPU and says so, `Gpu` is an
-/// error. `Auto` skips a software adapter as [`solve`] does.
-///
-/// # Errors
-/// As [`solve`]; [`GpuError::Unsupported`] for the cascade or SSOR on [`Backend::Gpu`].
-pub fn solve_multires(
-    backend: Backend,
-    solver: &MultiresSolver,
-    system: &DiffusionSystem,
-    warm_start: Option<&[[f64; 3]]>,
-    options: &SolveOptions<'_>,
-) -> Result<(Solution, BackendReport), GpuError> {
-    let on_cpu = || Ok(solver.solve(system, warm_start, options)?);
-    match (backend, solver.method()) {
-        (Backend::Cpu, _) => Ok((on_cpu()?, cpu_report(backend, None))),
-        (_, Method::Pcg) => solve(backend, system, warm_start, options),
-        (Backend::Auto, Method::Cascade) => {
-            Ok((on_cpu()?, cpu_report(backend, Some("the multiresolution cascade runs on the CPU only".into()))))
-        }
-        (_, Method::Cascade) => Err(GpuError::Unsupported {
-            what: "the multiresolution cascade on the GPU (Method::MultigridPcg and Method::Pcg run there)",
-        }),
-        (Backend::Auto, Method::SsorPcg) => {
-            Ok((on_cpu()?, cpu_report(backend, Some("SSOR-preconditioned CG runs on the CPU only".into()))))
-        }
-        (_, Method::SsorPcg) => Err(GpuError::Unsupported {
-            what: "SSOR-preconditioned CG on the GPU (its sweeps are sequential within each part; Method::MultigridPcg and Method::Pcg run there)",
-        }),
-        (_, Method::MultigridPcg | Method::AggregationPcg) => on_backend(
-            backend,
-            on_cpu,
-            #[cfg(feature = "gpu")]
-            |context| {
-                let mg = solver.multigrid().ok_or(GpuError::Unsupported { what: "a multigrid solver without its multigrid" })?;
-                super::GpuSolver::with_multigrid(context, system, mg)?.solve(system, warm_start, options)
-            },
-        ),
     }
 }

@@ -72,7 +72,9 @@ impl GpuContext {
                     (_, true) => {
                         format!("no adapter on backends {:?}", wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY))
                     }
-                    (Some(f), false) => format!("none of [{}] matches {ADAPTER_ENV}={f:?}", seen.join(", ")),
+                    (Some(f), false) => {
+                        format!("none of [{}] matches {ADAPTER_ENV}={f:?}", seen.join(", "))
+                    }
                     (None, false) => format!("adapters seen: {}", seen.join(", ")),
                 },
             })?;

@@ -2,9 +2,11 @@
 //! three-channel PCG and the radiance query on the device, each the twin of a CPU path that is
 //! always available.
 //!
-//! - [`Backend`] (`TRANSCUT_BACKEND=cpu|gpu|auto`) and [`solve_on`]: run a diffusion solve on
-//!   the chosen backend; `Auto` falls back to the CPU when no adapter exists or the only one is
-//!   a software rasteriser (lavapipe), and says so in the [`BackendReport`].
+//! - [`Backend`] (`TRANSCUT_BACKEND=cpu|gpu|auto`) and [`solve_on`]: run a diffusion solve
+//!   ([`SolveWith`] a [`crate::diffusion::SolverKind`] or a prepared
+//!   [`crate::diffusion::Solver`]) on the chosen backend; `Auto` falls back to the CPU when no
+//!   adapter exists or the only one is a software rasteriser (lavapipe), and says so in the
+//!   [`BackendReport`].
 //! - [`GpuContext`]: a headless device (adapter choice: discrete > integrated > virtual > CPU
 //!   device such as Mesa's lavapipe; `WGPU_BACKEND`, `TRANSCUT_GPU_ADAPTER` narrow it), the
 //!   compiled kernels and a buffer pool reused across solves.
@@ -13,7 +15,7 @@
 //!   Jacobi-preconditioned CG in f32 entirely on the device, inside an f64 iterative refinement
 //!   on the host so the result meets the same f64 tolerance as [`crate::diffusion::solve`]
 //!   (see [`pcg`](mod@pcg)).
-//! - [`GpuSolver::with_multigrid`] / [`solve_multires_on`]: the same refinement around CG
+//! - [`GpuSolver::with_multigrid`]: the same refinement around CG
 //!   preconditioned by the multigrid V-cycle of [`crate::sparse::hierarchy`] on the device
 //!   (Chebyshev–Jacobi smoothing, restriction `Pᵀ`, prolongation `P` of TransCut eq. 16, the
 //!   coarsest solve as kernels; `core/src/gpu/multigrid.rs`).
@@ -23,15 +25,17 @@
 //!
 //! Kernels ([`Kernel`]) are one WGSL file each with `shaders/common.wgsl` prepended, embedded
 //! with `include_str!` and validated by naga in the tests. Without the `gpu` cargo feature only
-//! [`Backend`] and [`solve_on`] exist (the GPU then reports [`GpuError::NotBuilt`]).
+//! [`Backend`], [`SolveWith`] and [`solve_on`] exist (the GPU then reports [`GpuError::NotBuilt`]).
 //!
 //! # Example
 //!
 //! ```no_run
-//! use transcut::gpu::{self, Backend};
+//! use transcut::diffusion::SolverKind;
+//! use transcut::gpu::{self, Backend, SolveWith};
 //! # fn demo(system: &transcut::diffusion::DiffusionSystem) -> Result<(), transcut::gpu::GpuError> {
 //! let backend = Backend::from_env_or(Backend::Auto)?;
-//! let (solution, report) = gpu::solve_on(backend, system, None, &Default::default())?;
+//! let with = SolveWith::Kind(SolverKind::SsorPcg);
+//! let (solution, report) = gpu::solve_on(backend, with, system, None, &Default::default())?;
 //! println!("solved on {:?} ({:?}), fallback: {:?}", report.used, report.device, report.fallback);
 //! # let _ = solution; Ok(()) }
 //! ```
@@ -39,7 +43,7 @@
 mod backend;
 mod error;
 
-pub use backend::{solve as solve_on, solve_multires as solve_multires_on, Backend, BackendReport, BACKEND_ENV};
+pub use backend::{solve_on, Backend, BackendReport, SolveWith, BACKEND_ENV};
 pub use error::GpuError;
 
 #[cfg(feature = "gpu")]

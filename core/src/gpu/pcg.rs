@@ -144,8 +144,8 @@ impl<'c> GpuSolver<'c> {
     }
 
     /// Like [`GpuSolver::new`], with CG preconditioned by a V-cycle of `mg` (built on the CPU for
-    /// the system's matrix, e.g. by [`crate::diffusion::MultiresSolver`] with
-    /// [`crate::diffusion::Method::MultigridPcg`]) on the device instead of Jacobi: the twin of
+    /// the system's matrix, e.g. by [`crate::diffusion::Solver`] with
+    /// [`crate::diffusion::SolverKind::MultigridPcg`]) on the device instead of Jacobi: the twin of
     /// [`crate::sparse::hierarchy::mg_pcg`] inside the same f64 refinement.
     ///
     /// # Errors

@@ -73,7 +73,13 @@ impl Lattice {
         let ([i, j, k], corner) = self.coords(v);
         let c = [i as isize, j as isize, k as isize];
         let mut count = 0;
-        let limit = |axis: usize| if corner { self.n[axis] as isize } else { self.n[axis] as isize - 1 };
+        let limit = |axis: usize| {
+            if corner {
+                self.n[axis] as isize
+            } else {
+                self.n[axis] as isize - 1
+            }
+        };
         for axis in 0..3 {
             for step in [-1isize, 1] {
                 let mut d = c;

@@ -41,7 +41,9 @@ fn project_exposed(
         if !mesh.is_boundary_vertex(v as usize) {
             continue;
         }
-        let Some(target) = surface.closest_point(positions[v as usize]) else { continue };
+        let Some(target) = surface.closest_point(positions[v as usize]) else {
+            continue;
+        };
         if target.distance <= 1e-9 * scale {
             continue;
         }

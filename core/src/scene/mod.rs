@@ -1,28 +1,44 @@
-//! The one public entry of every method: a [`Scene`] (objects with a surface mesh, a medium and a
-//! transform; lights) goes in, per-vertex radiance comes out, in each user's own vertex order.
-//!
-//! ```text
-//! Scene ──► per object: surface → world space → tetrahedralize → assemble M (eqs. 10–14)
-//!      └──► all objects' surfaces → occluder BVH ──► q(x) at boundary vertices → solve → Lo(x, n)
-//!                                                                    → user vertices (surface map)
-//! ```
-//!
-//! What a bake returns (ARCHITECTURE.md): the multiple-scattering radiance leaving along the
-//! surface normal, Lo(x, n), linear RGB, in the units of the lights' radiance. The diffusion
-//! approximation can give a slightly negative Lo where φ < 2q (very absorbing media, coarse
-//! meshes); such values are clamped to zero and counted in the statistics.
+//! What a bake is asked for: a [`Scene`] (objects with a shape, a medium and a transform;
+//! lights), the [`Method`] that bakes it and the [`BakeOptions`] every method shares. The bake
+//! itself is [`crate::bake()`] (every object, one method) and its result a
+//! [`crate::methods::ObjectBake`] per object: the multiple-scattering radiance leaving along the
+//! surface normal, Lo(x, n), linear RGB, in the units of the lights' radiance, at the user's
+//! vertices in their order (ARCHITECTURE.md, "What a bake returns").
 
-mod bake;
+mod error;
+mod method;
 mod object;
+mod options;
 
-pub use bake::{bake, bake_with, Bake, BakeOptions, ObjectBake, ObjectStats, SceneError};
+pub use error::SceneError;
+pub use method::{Method, TransCutOptions};
 pub use object::{MediumSource, Object, Shape};
+pub use options::BakeOptions;
 
-use crate::light::Light;
+use crate::light::{self, Light};
 
 /// Objects and the lights that shine on them.
 #[derive(Debug, Clone, Default)]
 pub struct Scene {
     pub objects: Vec<Object>,
     pub lights: Vec<Light>,
+}
+
+impl Scene {
+    /// Checks what every method needs before any work: at least one object, the method's
+    /// options, each object's scale, transform and medium, and the lights.
+    ///
+    /// # Errors
+    /// [`SceneError`] naming the option, object or light at fault.
+    pub fn validate(&self, options: &BakeOptions) -> Result<(), SceneError> {
+        if self.objects.is_empty() {
+            return Err(SceneError::NoObjects);
+        }
+        options.method.validate().map_err(SceneError::InvalidOptions)?;
+        for (index, o) in self.objects.iter().enumerate() {
+            o.validate().map_err(|message| SceneError::InvalidObject { index, name: o.name.clone(), message })?;
+        }
+        light::validate_lights(&self.lights)?;
+        Ok(())
+    }
 }

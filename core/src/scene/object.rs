@@ -162,6 +162,20 @@ impl Object {
         Self { name: name.into(), shape, transform: DMat4::IDENTITY, mm_per_unit, medium }
     }
 
+    /// Checks the scale, the transform and the medium (what can be checked without meshing).
+    ///
+    /// # Errors
+    /// A message naming what is invalid.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.mm_per_unit.is_finite() && self.mm_per_unit > 0.0) {
+            return Err(format!("mm_per_unit must be positive and finite, got {}", self.mm_per_unit));
+        }
+        if !self.transform.is_finite() || self.transform.determinant().abs() < 1e-300 {
+            return Err("the transform is singular or not finite".into());
+        }
+        self.medium.validate(&self.shape)
+    }
+
     /// The surface in world space (the boundary of a tet mesh), for shadows and rendering. Its
     /// user vertices are the ones the bake returns radiance for ([`Shape::output_vertex_count`]).
     ///

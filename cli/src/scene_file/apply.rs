@@ -1,23 +1,20 @@
-//! Applies a scene file's `[[edit]]` list ([`crate::scene_edits`]) to the baked objects with the
-//! core's [`Editor`] and hands `transcut render` what to draw: every piece of every edited
+//! Applies a scene file's `[[edit]]` list ([`super::edits`]) to a baked scene through the
+//! core's [`Session`] and hands `transcut render` what to draw: every piece of every edited
 //! object, in world space, with its radiance.
 //!
-//! An editor is started from each edited object's bake ([`Editor::from_bake`], no second solve)
-//! under the scene's lights; with a `relight` in the list every object gets one. Each editor
-//! solves its own object: shadows cast by the other objects of the scene are not seen by edits.
+//! A relight applies to every object, all or none ([`Session::relight`]); every other edit to
+//! its object. Each object is solved with its own shadows: shadows cast by the other objects of
+//! the scene are not seen by edits.
 
 use anyhow::{anyhow, Context};
 use glam::DMat4;
 use serde::Serialize;
-use transcut::edit::cut::{Cutter, SweptStroke};
-use transcut::edit::{EditOptions, Editor, MediumEdit, MediumOp, PaintStroke, Region, UpdateStats};
-use transcut::light::Light;
+use transcut::edit::{Cutter, Editor, MediumEdit, MediumOp, PaintStroke, Region, SweptStroke, UpdateStats};
 use transcut::mesh::TriMesh;
 use transcut::render::Camera;
-use transcut::scene::{Object, ObjectBake};
-use transcut::DVec3;
+use transcut::{DVec3, Progress, Session};
 
-use crate::scene_edits::{EditKind, EditStep, Keep, OpSpec, RegionSpec};
+use super::edits::{EditKind, EditStep, Keep, OpSpec, RegionSpec};
 
 /// What one edit did to one object (a relight gives one per object).
 #[derive(Debug, Clone, Serialize)]
@@ -31,70 +28,46 @@ pub struct EditReport {
     pub stats: UpdateStats,
 }
 
-/// The edited scene: one editor per edited object, the lights after the last relight and a
-/// report per edit and object.
-pub struct Edited {
-    pub editors: Vec<Option<Editor>>,
-    pub lights: Vec<Light>,
-    pub reports: Vec<EditReport>,
-}
-
-/// Runs `steps` in order. `camera` is the scene file's camera (cut strokes are in its pixels).
-/// `each` is called after every edit with its report.
+/// Runs `steps` in order on `session` (objects named `names`). `camera` is the scene file's
+/// camera (cut strokes are in its pixels). `each` is called after every edit with its report.
 ///
 /// # Errors
 /// The first failing edit, named by its index and kind (the core error says what is wrong).
 pub fn apply(
     steps: &[EditStep],
-    objects: &[Object],
-    baked: &[ObjectBake],
-    lights: &[Light],
+    session: &mut Session,
+    names: &[String],
     camera: &Camera,
-    options: &EditOptions,
     mut each: impl FnMut(&EditReport),
-) -> anyhow::Result<Edited> {
-    let relight = steps.iter().any(|s| s.object.is_none());
-    let mut editors: Vec<Option<Editor>> = (0..objects.len()).map(|_| None).collect();
-    for (i, (object, bake)) in objects.iter().zip(baked).enumerate() {
-        if relight || steps.iter().any(|s| s.object == Some(i)) {
-            let editor = Editor::from_bake(bake, object.mm_per_unit, lights, options)
-                .with_context(|| format!("starting the editor of object {} ({})", i + 1, object.name))?;
-            editors[i] = Some(editor);
-        }
-    }
-    let mut current_lights = lights.to_vec();
+) -> anyhow::Result<Vec<EditReport>> {
     let mut reports = Vec::new();
     for step in steps {
         let label = || format!("edit {} (kind = \"{}\")", step.index, step.kind_name);
-        let targets: Vec<usize> = match step.object {
-            Some(o) => vec![o],
-            None => (0..objects.len()).collect(),
+        let updated: Vec<(usize, UpdateStats)> = match (&step.kind, step.object) {
+            (EditKind::Relight(lights), _) => {
+                session.relight(lights, Progress::none()).with_context(label)?.into_iter().enumerate().collect()
+            }
+            (kind, Some(o)) => {
+                let stats =
+                    run(session, o, kind, camera).with_context(|| format!("{}: object {} ({})", label(), o + 1, names[o]))?;
+                vec![(o, stats)]
+            }
+            (_, None) => return Err(anyhow!("internal: {} names no object", label())),
         };
-        for o in targets {
-            let editor = editors[o].as_mut().ok_or_else(|| anyhow!("internal: object {} has no editor", o + 1))?;
-            let stats = run(editor, &step.kind, camera)
-                .with_context(|| format!("{}: object {} ({})", label(), o + 1, objects[o].name))?;
-            let report = EditReport {
-                edit: step.index,
-                kind: step.kind_name.clone(),
-                object: objects[o].name.clone(),
-                pieces: editor.pieces().len(),
-                stats,
-            };
+        for (o, stats) in updated {
+            let pieces = session.editor(o)?.map_or(1, |e| e.pieces().len());
+            let report = EditReport { edit: step.index, kind: step.kind_name.clone(), object: names[o].clone(), pieces, stats };
             each(&report);
             reports.push(report);
         }
-        if let EditKind::Relight(l) = &step.kind {
-            current_lights.clone_from(l);
-        }
     }
-    Ok(Edited { editors, lights: current_lights, reports })
+    Ok(reports)
 }
 
-/// One edit on one editor.
-fn run(editor: &mut Editor, kind: &EditKind, camera: &Camera) -> anyhow::Result<UpdateStats> {
+/// One edit (not a relight) on object `o`.
+fn run(session: &mut Session, o: usize, kind: &EditKind, camera: &Camera) -> anyhow::Result<UpdateStats> {
     Ok(match kind {
-        EditKind::Relight(lights) => editor.relight(lights)?,
+        EditKind::Relight(lights) => session.relight(lights, Progress::none())?[o].clone(),
         EditKind::Medium { region, op } => {
             let region = match region {
                 RegionSpec::All => Region::All,
@@ -106,48 +79,53 @@ fn run(editor: &mut Editor, kind: &EditKind, camera: &Camera) -> anyhow::Result<
                 OpSpec::Scale { sigma_a, sigma_s } => MediumOp::Scale { sigma_a: *sigma_a, sigma_s: *sigma_s },
                 OpSpec::Add { sigma_a, sigma_s } => MediumOp::Add { sigma_a: *sigma_a, sigma_s: *sigma_s },
             };
-            editor.edit_medium(&MediumEdit { region, op })?
+            session.edit_medium(o, &MediumEdit { region, op })?.clone()
         }
-        EditKind::Paint { points, radius, medium, strength } => {
-            editor.paint(&PaintStroke { points: points.clone(), radius: *radius, medium: *medium, strength: *strength })?
-        }
+        EditKind::Paint { points, radius, medium, strength } => session
+            .paint(o, &PaintStroke { points: points.clone(), radius: *radius, medium: *medium, strength: *strength })?
+            .clone(),
         EditKind::CutPlane { point, normal, keep } => {
             // The core's plane removes the side its normal points into; the file's normal points
             // to the side that is kept.
             let n = normal.normalize();
             let cutter = Cutter::Plane { point: *point, normal: if *keep == Keep::Back { n } else { -n } };
             if *keep == Keep::Both {
-                editor.split(&cutter)?
+                session.split(o, &cutter)?.clone()
             } else {
-                editor.cut(&cutter)?
+                session.cut(o, &cutter)?.clone()
             }
         }
         EditKind::CutStroke { pixels, keep } => {
             let cutter = Cutter::Stroke(stroke(camera, pixels)?);
             match keep {
-                Keep::Both => editor.split(&cutter)?,
-                Keep::Left => editor.cut(&cutter.flipped())?,
-                _ => editor.cut(&cutter)?,
+                Keep::Both => session.split(o, &cutter)?.clone(),
+                Keep::Left => session.cut(o, &cutter.flipped())?.clone(),
+                _ => session.cut(o, &cutter)?.clone(),
             }
         }
-        EditKind::Fracture => editor.fracture()?,
+        EditKind::Fracture => session.fracture(o)?.clone(),
         EditKind::MovePiece { piece, translate, axis, angle_deg, pivot } => {
-            let count = editor.pieces().len();
-            let current = editor
-                .pieces()
-                .get(*piece)
-                .ok_or_else(|| anyhow!("'piece': piece {piece} does not exist (there are {count})"))?;
-            let transform = current.transform();
-            let pivot = pivot.unwrap_or_else(|| centroid(current.mesh().positions(), transform));
+            let (transform, pivot) = piece_placement(session, o, *piece, *pivot)?;
             let rotation = match axis {
                 Some(a) => DMat4::from_axis_angle(a.normalize(), angle_deg.to_radians()),
                 None => DMat4::IDENTITY,
             };
             let moved = DMat4::from_translation(*translate + pivot) * rotation * DMat4::from_translation(-pivot) * transform;
-            editor.set_piece_transform(*piece, moved)?
+            session.set_piece_transform(o, *piece, moved)?.clone()
         }
-        EditKind::Recombine => editor.recombine()?,
+        EditKind::Recombine => session.recombine(o)?.clone(),
     })
+}
+
+/// Piece `piece`'s transform and the pivot of a rotation of it: `pivot`, or its centroid.
+fn piece_placement(session: &mut Session, o: usize, piece: usize, pivot: Option<DVec3>) -> anyhow::Result<(DMat4, DVec3)> {
+    session.start(o)?;
+    let editor = session.editor(o)?.ok_or_else(|| anyhow!("'piece': the object's method has no pieces"))?;
+    let count = editor.pieces().len();
+    let current =
+        editor.pieces().get(piece).ok_or_else(|| anyhow!("'piece': piece {piece} does not exist (there are {count})"))?;
+    let transform = current.transform();
+    Ok((transform, pivot.unwrap_or_else(|| centroid(current.mesh().positions(), transform))))
 }
 
 /// The stroke's pixels swept along the rays of `camera` (TransCut §5.1). The core's stroke

@@ -1,45 +1,27 @@
-//! `transcut bench multires`: TransCut Fig. 7 — relative error against time with and without
-//! the multiresolution scheme — plus the warm start after moving the sun by 5°.
+//! TransCut Fig. 7 — relative error against time with and without the multiresolution
+//! scheme — plus the warm start after moving the sun by 5°, on one system.
 //!
-//! On each size: the bunny (60 mm, marble, an unshadowed sun from (0, 1, 1), as `bench solve`)
-//! is assembled; a reference φ* is solved to 1e-12. For each method (single-level Jacobi PCG
-//! and SSOR-PCG, the paper's cascade, multigrid-preconditioned CG on the paper's hierarchy and
-//! on a smoothed-aggregation one) the setup (hierarchy and
-//! coarse operators, or the single-level preconditioner) is timed, then cold solves to the tolerances
-//! 10^(−k/2), k = 2..12, each giving one point (solve ms, ‖φ − φ*‖/‖φ*‖, worst channel) of the
-//! error–time curve; runs are interleaved method by method and the medians reported, so ratios
-//! between methods are measured back to back. Time to 1% is the fastest tolerance whose error
-//! is ≤ 1%; the ratio of the faster multiresolution method's to the faster single-level
-//! solver's is the Fig. 7 figure (goal ≤ 0.5). [`fig7`] does this on one system; `bench edit` reuses it
-//! with a reference solved to 1e-10.
+//! A reference φ* is solved to a tight tolerance. For each solver (single-level Jacobi PCG and
+//! SSOR-PCG, the paper's cascade, multigrid-preconditioned CG on the paper's hierarchy and on a
+//! smoothed-aggregation one) the setup (hierarchy and coarse operators, or the single-level
+//! preconditioner) is timed, then cold solves to the tolerances 10^(−k/2), k = 2..12, each
+//! giving one point (solve ms, ‖φ − φ*‖/‖φ*‖, worst channel) of the error–time curve; runs are
+//! interleaved solver by solver and the medians reported, so ratios between solvers are measured
+//! back to back. Time to 1% is the fastest tolerance whose error is ≤ 1%; the figure of merit
+//! is the ratio of the faster multiresolution solver's to the faster single-level solver's.
 
 use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Context;
 use serde::Serialize;
-use transcut::diffusion::multires::hierarchy;
-use transcut::diffusion::{assemble, DiffusionSystem, Method, MultiresSolver};
-use transcut::mesh;
-use transcut::mesher::{tetrahedralize, MesherOptions};
-use transcut::optics::Medium;
+use transcut::diffusion::solver::hierarchy;
+use transcut::diffusion::{DiffusionSystem, Solver, SolverKind};
 use transcut::sparse::hierarchy::{HierarchyKind, HierarchyOptions};
 use transcut::sparse::SolveOptions;
 use transcut::DVec3;
 
-use crate::bench::BenchArgs;
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        f64::NAN
-    } else if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
+use super::stats::{median, ms};
 
 #[derive(Serialize)]
 struct CurvePoint {
@@ -95,15 +77,6 @@ pub(crate) struct Fig7 {
     solve_1e6_ratio_sa_vs_pcg: f64,
 }
 
-#[derive(Serialize)]
-struct SizeEntry {
-    target_tets: usize,
-    tets: usize,
-    vertices: usize,
-    #[serde(flatten)]
-    fig7: Fig7,
-}
-
 /// An unshadowed sun from `dir` (towards the light), irradiance 3: q = 3 max(n·l, 0).
 pub(crate) fn light(system: &mut DiffusionSystem, dir: DVec3) -> anyhow::Result<()> {
     let l = dir.normalize();
@@ -122,45 +95,15 @@ fn rel_error(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
-
 /// The methods, single-level first: Jacobi PCG (the baseline), SSOR-PCG, then the three
 /// multiresolution methods.
-const METHODS: [(Method, &str); 5] = [
-    (Method::Pcg, "pcg"),
-    (Method::SsorPcg, "ssor_pcg"),
-    (Method::Cascade, "cascade"),
-    (Method::MultigridPcg, "mg_pcg"),
-    (Method::AggregationPcg, "sa_pcg"),
+const SOLVERS: [(SolverKind, &str); 5] = [
+    (SolverKind::Pcg, "pcg"),
+    (SolverKind::SsorPcg, "ssor_pcg"),
+    (SolverKind::Cascade, "cascade"),
+    (SolverKind::MultigridPcg, "mg_pcg"),
+    (SolverKind::AggregationPcg, "sa_pcg"),
 ];
-
-pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
-    let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
-    let (lo, hi) = input.bounds();
-    let mm_per_unit = 60.0 / (hi - lo).max_element();
-    let medium = Medium::preset("marble")?;
-    let sun = DVec3::new(0.0, 1.0, 1.0).normalize();
-    let mut entries = Vec::new();
-    for &target in &args.tets {
-        let tet_mesh = tetrahedralize(&input, &MesherOptions::with_tets(target))?;
-        let mut system = assemble(&tet_mesh, &[medium], mm_per_unit)?;
-        let fig7 = fig7(&mut system, sun, args.runs as usize, 1e-12)?;
-        entries.push(SizeEntry { target_tets: target, tets: tet_mesh.tets().len(), vertices: system.vertex_count(), fig7 });
-    }
-    let report = serde_json::json!({
-        "suite": "multires",
-        "input": args.input.display().to_string(),
-        "mm_per_unit": mm_per_unit,
-        "medium": "marble",
-        "threads": rayon::current_num_threads(),
-        "error": "max over channels of ||phi - phi*|| / ||phi*||, phi* solved to 1e-12",
-        "entries": entries,
-    });
-    println!("{}", serde_json::to_string_pretty(&report)?);
-    Ok(())
-}
 
 /// `sun` rotated by `degrees` about the x axis.
 pub(crate) fn rotate_about_x(sun: DVec3, degrees: f64) -> DVec3 {
@@ -178,7 +121,7 @@ pub(crate) fn fig7(system: &mut DiffusionSystem, sun: DVec3, runs: usize, refere
     let tolerances: Vec<f64> = (2..=12).map(|k| 10f64.powf(-(k as f64) / 2.0)).collect();
     let runs = runs.max(1);
     light(system, sun)?;
-    let reference = MultiresSolver::new(system, Method::Pcg, &HierarchyOptions::default())?.solve(
+    let reference = Solver::new(system, SolverKind::Pcg, &HierarchyOptions::default())?.solve(
         system,
         None,
         &SolveOptions::default().with_tolerance(reference_tolerance),
@@ -192,27 +135,27 @@ pub(crate) fn fig7(system: &mut DiffusionSystem, sun: DVec3, runs: usize, refere
     }
     let h = h.context("at least one run")?;
     // Interleaved runs: per run, every method back to back.
-    let mut setup = vec![Vec::new(); METHODS.len()];
-    let mut solve6 = vec![Vec::new(); METHODS.len()];
-    let mut its6 = [[0; 3]; METHODS.len()];
-    let mut err6 = [0.0; METHODS.len()];
-    let mut curve_ms = vec![vec![Vec::new(); tolerances.len()]; METHODS.len()];
-    let mut curve_its = vec![vec![[0; 3]; tolerances.len()]; METHODS.len()];
-    let mut curve_err = vec![vec![0.0; tolerances.len()]; METHODS.len()];
-    let mut warm_cold_ms = vec![Vec::new(); METHODS.len()];
-    let mut warm_ms = vec![Vec::new(); METHODS.len()];
-    let mut warm_its = vec![([0; 3], [0; 3]); METHODS.len()];
+    let mut setup = vec![Vec::new(); SOLVERS.len()];
+    let mut solve6 = vec![Vec::new(); SOLVERS.len()];
+    let mut its6 = [[0; 3]; SOLVERS.len()];
+    let mut err6 = [0.0; SOLVERS.len()];
+    let mut curve_ms = vec![vec![Vec::new(); tolerances.len()]; SOLVERS.len()];
+    let mut curve_its = vec![vec![[0; 3]; tolerances.len()]; SOLVERS.len()];
+    let mut curve_err = vec![vec![0.0; tolerances.len()]; SOLVERS.len()];
+    let mut warm_cold_ms = vec![Vec::new(); SOLVERS.len()];
+    let mut warm_ms = vec![Vec::new(); SOLVERS.len()];
+    let mut warm_its = vec![([0; 3], [0; 3]); SOLVERS.len()];
     for _ in 0..runs {
-        for (m, &(method, _)) in METHODS.iter().enumerate() {
+        for (m, &(kind, _)) in SOLVERS.iter().enumerate() {
             light(system, sun)?;
             let t = Instant::now();
-            let solver = if method.hierarchy_kind() != Some(HierarchyKind::IndependentSets) {
+            let solver = if kind.hierarchy_kind() != Some(HierarchyKind::IndependentSets) {
                 // Single level, or the aggregation built from the matrix (timed whole).
-                MultiresSolver::new(system, method, &HierarchyOptions::default())?
+                Solver::new(system, kind, &HierarchyOptions::default())?
             } else {
                 // The hierarchy is timed with the setup (its own median is reported too).
                 let hh = Arc::new(hierarchy(system, &HierarchyOptions::default())?);
-                MultiresSolver::with_hierarchy(system, hh, method)?
+                Solver::with_hierarchy(system, hh, kind)?
             };
             setup[m].push(ms(t));
             let t = Instant::now();
@@ -238,7 +181,7 @@ pub(crate) fn fig7(system: &mut DiffusionSystem, sun: DVec3, runs: usize, refere
         }
     }
     let mut methods = Vec::new();
-    for (m, &(_, name)) in METHODS.iter().enumerate() {
+    for (m, &(_, name)) in SOLVERS.iter().enumerate() {
         let curve: Vec<CurvePoint> = tolerances
             .iter()
             .enumerate()

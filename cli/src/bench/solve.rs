@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use serde::Serialize;
-use transcut::diffusion::{assemble, solve, DiffusionSystem, Method, MultiresSolver, Solution};
+use transcut::diffusion::{assemble, solve, DiffusionSystem, Solution, Solver, SolverKind};
 use transcut::gpu::Backend;
 use transcut::mesh;
 use transcut::mesher::{tetrahedralize, MesherOptions};
@@ -16,7 +16,8 @@ use transcut::optics::Medium;
 use transcut::sparse::hierarchy::{HierarchyOptions, Multigrid};
 use transcut::sparse::SolveOptions;
 
-use crate::bench::{median, BenchArgs};
+use super::stats::median;
+use super::BenchArgs;
 
 #[derive(Serialize)]
 struct GpuEntry {
@@ -159,7 +160,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             Ok(ctx) => {
                 let jacobi = gpu_entry(ctx, &system, None, args.runs, &cpu, cpu_ms, &options)?;
                 let start = Instant::now();
-                let multires = MultiresSolver::new(&system, Method::MultigridPcg, &HierarchyOptions::default())?;
+                let multires = Solver::new(&system, SolverKind::MultigridPcg, &HierarchyOptions::default())?;
                 let cpu_setup_ms = 1e3 * start.elapsed().as_secs_f64();
                 let mg = multires.multigrid().context("a multigrid solver has its multigrid")?;
                 let cpu_mg = multires.solve(&system, None, &options)?;

@@ -3,18 +3,19 @@
 //! The input (default the Stanford bunny) is scaled to 60 mm, marble, lit by one sun from
 //! (0, 1, 1) (irradiance 3, with shadows, as `transcut bake`), tetrahedralised once per size.
 //! Per run, back to back:
-//! - **cold bake**: `scene::bake` of the tet mesh (assembly, source, cold PCG solve);
+//! - **cold bake**: TransCut's bake of the tet mesh ([`transcut::bake()`]: assembly, source,
+//!   cold SSOR-PCG solve);
 //! - **relight**: an [`Editor`] started from that bake (its default solver, aggregation
-//!   MG-PCG, or `--method`) relights
-//!   after the sun moved 5° about x (warm start from the previous fluence): iterations and their
-//!   ratio (issue 6 goal ≤ 1/3) against a cold solve of the same system with the same method,
-//!   and times against a cold bake under the moved sun (the bake's SSOR-PCG from zero);
+//!   MG-PCG, or `--solver`) relights after the sun moved 5° about x (warm start from the
+//!   previous fluence): iterations and their ratio against a cold solve of the same system with
+//!   the same solver, and times against a cold bake under the moved sun (the bake's SSOR-PCG
+//!   from zero);
 //! - **paint**: a stroke of 8 points across the front of the surface, Gaussian radius 2 mm, of
 //!   an absorbing marble-like ink (rows rebuilt, tets changed, ms);
 //! - **cut**: a plane through the centre of the bounds removing the back half (rebuild of the
 //!   topology, hierarchy and matrix and the solve included, ms).
 //!
-//! Medians over `--runs`. Then Fig. 7 ([`crate::bench_multires::fig7`]) on the same tet mesh
+//! Medians over `--runs`. Then Fig. 7 ([`super::fig7`]) on the same tet mesh
 //! (unshadowed sun, the reference solved to 1e-10): relative error against time for Jacobi
 //! PCG, SSOR-PCG, the cascade and MG-PCG on the paper's hierarchy and on the aggregation, the
 //! time to 1% and its ratio to the best single-level solver.
@@ -23,21 +24,21 @@ use std::time::Instant;
 
 use anyhow::Context;
 use serde::Serialize;
-use transcut::diffusion::{assemble, Method, MultiresSolver};
-use transcut::edit::cut::Cutter;
-use transcut::edit::{EditOptions, Editor, PaintStroke, UpdateStats};
+use transcut::diffusion::{assemble, Solver, SolverKind};
+use transcut::edit::{Cutter, EditOptions, Editor, PaintStroke, UpdateStats};
 use transcut::gpu::Backend;
 use transcut::light::Light;
 use transcut::mesh;
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
-use transcut::scene::{bake, BakeOptions, MediumSource, Object, ObjectStats, Scene};
 use transcut::sparse::hierarchy::HierarchyOptions;
 use transcut::sparse::SolveOptions;
 use transcut::DVec3;
+use transcut::{bake, BakeOptions, MediumSource, Object, ObjectStats, Scene, TransCutOptions};
 
-use crate::bench::{median, BenchArgs};
-use crate::bench_multires::{fig7, rotate_about_x, Fig7};
+use super::fig7::{fig7, rotate_about_x, Fig7};
+use super::stats::{median, ms};
+use super::BenchArgs;
 
 /// A bake's solve, medians over runs.
 #[derive(Serialize)]
@@ -61,18 +62,18 @@ struct EditEntry {
 #[derive(Serialize)]
 struct RelightEntry {
     /// The editor's solver.
-    method: Method,
+    solver: SolverKind,
     /// The cold bake under the moved sun (the same system, solved from zero by the bake's
     /// SSOR-PCG).
     cold: ColdEntry,
     /// The editor's relight (warm start).
     warm: EditEntry,
-    /// The same system (the last run's) solved from zero with the editor's method.
-    cold_same_method_iterations: [usize; 3],
-    /// Σ warm iterations / Σ cold iterations of the same method over the channels (goal ≤ 1/3).
+    /// The same system (the last run's) solved from zero with the editor's solver.
+    cold_same_solver_iterations: [usize; 3],
+    /// Σ warm iterations / Σ cold iterations of the same solver over the channels.
     iteration_ratio: f64,
     /// Σ warm iterations / Σ cold-bake (SSOR-PCG) iterations: not a warm-start measure when
-    /// the methods differ.
+    /// the solvers differ.
     iteration_ratio_vs_cold_bake: f64,
     /// Warm solve ms / cold solve ms (medians).
     solve_time_ratio: f64,
@@ -102,10 +103,6 @@ struct SizeEntry {
     fig7: Fig7,
 }
 
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
-
 fn cold_entry(stats: &[ObjectStats]) -> anyhow::Result<ColdEntry> {
     let last = stats.last().context("at least one run")?;
     let pick = |f: fn(&ObjectStats) -> f64| median(stats.iter().map(f).collect());
@@ -127,10 +124,10 @@ fn edit_entry(stats: Vec<UpdateStats>) -> anyhow::Result<EditEntry> {
     })
 }
 
-/// Iterations of a cold solve of `system` (its matrix and current b) with the editor's method
+/// Iterations of a cold solve of `system` (its matrix and current b) with the editor's solver
 /// and tolerance.
 fn cold_iterations(system: &transcut::diffusion::DiffusionSystem, options: &EditOptions) -> anyhow::Result<[usize; 3]> {
-    let solver = MultiresSolver::new(system, options.method, &HierarchyOptions::default())?;
+    let solver = Solver::new(system, options.solver, &HierarchyOptions::default())?;
     let solve = SolveOptions::default().with_tolerance(options.tolerance).with_max_iterations(options.max_iterations);
     Ok(solver.solve(system, None, &solve)?.stats.iterations)
 }
@@ -180,16 +177,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let ink = Medium::new([0.5, 0.8, 1.2], marble.sigma_s_prime, marble.eta, marble.g)?;
     let sun = DVec3::new(0.0, 1.0, 1.0).normalize();
     let sun5 = rotate_about_x(sun, 5.0);
-    let bake_options = BakeOptions { backend: Some(Backend::Cpu), ..BakeOptions::default() };
-    let edit_options = EditOptions {
-        tolerance: bake_options.tolerance,
-        max_iterations: bake_options.max_iterations,
-        backend: Some(Backend::Cpu),
-        source: bake_options.source,
-        shadows: bake_options.shadows,
-        ..EditOptions::default()
-    };
-    let edit_options = EditOptions { method: args.method.map_or(edit_options.method, Into::into), ..edit_options };
+    let transcut = TransCutOptions { backend: Some(Backend::Cpu), ..TransCutOptions::default() };
+    let transcut = TransCutOptions { edit_solver: args.solver.unwrap_or(transcut.edit_solver), ..transcut };
+    let bake_options = BakeOptions::with_method(transcut.clone());
+    let edit_options = EditOptions::from_bake_options(&bake_options, &transcut);
     let radius_mm = 2.0;
     let runs = args.runs as usize;
     let mut entries = Vec::new();
@@ -211,10 +202,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             cold5.push(baked5.objects[0].stats.clone());
 
             let t = Instant::now();
-            let mut editor = Editor::from_bake(&baked.objects[0], mm_per_unit, &[sun_light(sun)], &edit_options)?;
+            let mut editor = Editor::from_bake(&baked.objects[0], &[sun_light(sun)], &edit_options)?;
             setup.push(ms(t));
             relight.push(editor.relight(&[sun_light(sun5)])?);
-            difference = relative_difference(editor.pieces()[0].fluence(), &baked5.objects[0].fluence);
+            let fluence5 = &baked5.objects[0].transcut().context("a TransCut bake")?.fluence;
+            difference = relative_difference(editor.pieces()[0].fluence(), fluence5);
             cold_same = cold_iterations(editor.pieces()[0].system(), &edit_options)?;
 
             let surface = editor.pieces()[0].surface();
@@ -230,8 +222,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         let warm = edit_entry(relight)?;
         let sum = |v: [usize; 3]| v.iter().sum::<usize>() as f64;
         let relight_5deg = RelightEntry {
-            method: edit_options.method,
-            cold_same_method_iterations: cold_same,
+            solver: edit_options.solver,
+            cold_same_solver_iterations: cold_same,
             iteration_ratio: sum(warm.last.iterations) / sum(cold_same).max(1.0),
             iteration_ratio_vs_cold_bake: sum(warm.last.iterations) / sum(cold5.iterations).max(1.0),
             solve_time_ratio: warm.median_solve_ms / cold5.median_solve_ms,

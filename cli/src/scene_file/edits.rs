@@ -42,7 +42,8 @@ use transcut::light::{Environment, Light};
 use transcut::optics::Medium;
 use transcut::DVec3;
 
-use crate::scene_file::{self, LightSpec, Rgb};
+use super::media::medium;
+use super::schema::{LightSpec, Rgb};
 
 /// Which side of a cut stays.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -188,7 +189,7 @@ fn step(
             };
             let ops: Vec<&str> = ["assign", "scale", "add"].into_iter().filter(|k| t.contains_key(*k)).collect();
             let op = match ops.as_slice() {
-                ["assign"] => OpSpec::Assign(scene_file::medium(&t["assign"], mm).context("'assign'")?),
+                ["assign"] => OpSpec::Assign(medium(&t["assign"], mm).context("'assign'")?),
                 ["scale"] => {
                     let (sigma_a, sigma_s) = coefficients(&t["scale"], 1.0).context("'scale'")?;
                     if sigma_a.iter().chain(&sigma_s).any(|&f| f < 0.0) {
@@ -211,8 +212,7 @@ fn step(
                 bail!("'points' must hold at least one point");
             }
             let radius = positive(t, "radius")?;
-            let medium =
-                scene_file::medium(t.get("medium").ok_or_else(|| anyhow!("missing key 'medium'"))?, mm).context("'medium'")?;
+            let medium = medium(t.get("medium").ok_or_else(|| anyhow!("missing key 'medium'"))?, mm).context("'medium'")?;
             let strength = match t.get("strength") {
                 None => 1.0,
                 Some(_) => number(t, "strength")?,
@@ -278,7 +278,9 @@ fn object_index(t: &toml::Table, names: &[String]) -> anyhow::Result<usize> {
             let mut found = names.iter().enumerate().filter(|(_, n)| *n == name).map(|(i, _)| i);
             match (found.next(), found.next()) {
                 (Some(i), None) => Ok(i),
-                (Some(_), Some(_)) => bail!("'object': several objects are named '{name}' (give them distinct names)"),
+                (Some(_), Some(_)) => {
+                    bail!("'object': several objects are named '{name}' (give them distinct names)")
+                }
                 (None, _) => bail!("'object': no object named '{name}' (the objects: {})", names.join(", ")),
             }
         }

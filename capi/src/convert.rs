@@ -1,0 +1,106 @@
+//! The conversions between the core's types and the C ABI's that several entry points share:
+//! the medium struct, and the status of each core error.
+
+use transcut_core::edit::EditError;
+use transcut_core::mesh::MeshError;
+use transcut_core::optics::Medium;
+use transcut_core::{SceneError, SessionError};
+
+use super::status::{
+    Failure, TC_CANCELLED, TC_GPU_UNAVAILABLE, TC_INVALID_ARGUMENT, TC_INVALID_HANDLE, TC_INVALID_MESH, TC_IO_ERROR,
+    TC_MESHING_FAILED, TC_NOTHING_LEFT, TC_NOT_FOUND, TC_SOLVE_FAILED, TC_UNSUPPORTED,
+};
+
+/// A homogeneous medium. Coefficients per RGB channel in mm⁻¹ (whatever the scene unit; see
+/// `tc_object_set_scale`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcMedium {
+    /// Absorption coefficient σa (mm⁻¹), ≥ 0.
+    pub sigma_a: [f64; 3],
+    /// Reduced scattering coefficient σ′s = (1 − g) σs (mm⁻¹), ≥ 0; σa + σ′s > 0.
+    pub sigma_s_prime: [f64; 3],
+    /// Refractive index relative to air, in [1, 4).
+    pub eta: f64,
+    /// Scattering anisotropy (Henyey–Greenstein g), in (−1, 1).
+    pub g: f64,
+}
+
+impl From<Medium> for TcMedium {
+    fn from(m: Medium) -> Self {
+        Self { sigma_a: m.sigma_a, sigma_s_prime: m.sigma_s_prime, eta: m.eta, g: m.g }
+    }
+}
+
+/// A validated core medium from the caller's struct.
+pub(crate) fn medium_from(m: &TcMedium, what: &str) -> Result<Medium, Failure> {
+    Medium::new(m.sigma_a, m.sigma_s_prime, m.eta, m.g).map_err(|e| Failure::invalid(format!("{what}: {e}")))
+}
+
+/// The status of a failed bake.
+pub(crate) fn scene_failure(e: &SceneError) -> Failure {
+    let status = match e {
+        SceneError::Cancelled(_) => TC_CANCELLED,
+        SceneError::Mesher { .. } => TC_MESHING_FAILED,
+        SceneError::Diffusion { .. } => TC_SOLVE_FAILED,
+        SceneError::Gpu { .. } => TC_GPU_UNAVAILABLE,
+        SceneError::Unsupported { .. } => TC_UNSUPPORTED,
+        SceneError::NoObjects | SceneError::InvalidOptions(_) | SceneError::InvalidObject { .. } | SceneError::Light(_) => {
+            TC_INVALID_ARGUMENT
+        }
+        _ => TC_SOLVE_FAILED,
+    };
+    Failure::new(status, e.to_string())
+}
+
+/// The status of a failed edit (`EditError` variants; new ones default to `TC_SOLVE_FAILED`).
+pub(crate) fn edit_failure(e: &EditError) -> Failure {
+    match e {
+        EditError::Scene(s) => scene_failure(s),
+        _ => Failure::new(edit_status(e), e.to_string()),
+    }
+}
+
+fn edit_status(e: &EditError) -> super::status::TcStatus {
+    match e {
+        EditError::InvalidCutter(_)
+        | EditError::InvalidStroke(_)
+        | EditError::InvalidRegion(_)
+        | EditError::InvalidOptions(_)
+        | EditError::NotRigid(_)
+        | EditError::Medium(_)
+        | EditError::Volume(_)
+        | EditError::Light(_) => TC_INVALID_ARGUMENT,
+        EditError::NothingLeft { .. } => TC_NOTHING_LEFT,
+        EditError::NoSuchPiece { .. } => TC_INVALID_HANDLE,
+        EditError::Mesh(_) => TC_INVALID_MESH,
+        EditError::Gpu(_) => TC_GPU_UNAVAILABLE,
+        EditError::Cancelled(_) => TC_CANCELLED,
+        EditError::Scene(s) => scene_failure(s).status,
+        _ => TC_SOLVE_FAILED,
+    }
+}
+
+/// The status of a failed session call: the update's own status, `TC_INVALID_HANDLE` for an
+/// object that does not exist, `TC_UNSUPPORTED` for a capability the object's method lacks.
+pub(crate) fn session_failure(e: &SessionError) -> Failure {
+    let status = match e {
+        SessionError::NoSuchObject { .. } => TC_INVALID_HANDLE,
+        SessionError::Unsupported { .. } => TC_UNSUPPORTED,
+        SessionError::Edit { source, .. } => edit_status(source),
+        SessionError::Cancelled(_) => TC_CANCELLED,
+        _ => TC_INVALID_ARGUMENT,
+    };
+    Failure::new(status, e.to_string())
+}
+
+/// A status for a surface mesh error: files that are missing or unreadable, or invalid data.
+pub(crate) fn mesh_failure(e: &MeshError) -> Failure {
+    match e {
+        MeshError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+            Failure::new(TC_NOT_FOUND, e.to_string())
+        }
+        MeshError::Io { .. } => Failure::new(TC_IO_ERROR, e.to_string()),
+        _ => Failure::new(TC_INVALID_MESH, e.to_string()),
+    }
+}

@@ -1,0 +1,253 @@
+//! What `tc_scene_bake` is asked for: the options structs, their defaults, and their reading
+//! into the core's [`BakeOptions`].
+//!
+//! `TcBakeOptions` holds what every method shares (and the options of TransCut that predate
+//! the method choice); `method_options` points to the chosen method's own size-prefixed
+//! struct, `TcTransCutOptions` for `TC_METHOD_TRANSCUT` (NULL: its defaults).
+
+use std::ffi::c_void;
+
+use transcut_core::diffusion::SolverKind;
+use transcut_core::gpu::Backend;
+use transcut_core::light::SourceOptions;
+use transcut_core::{BakeOptions, Method, TransCutOptions};
+
+use super::status::Failure;
+
+/// The TransCut method (Li et al. 2012): the diffusion equation on a tetrahedral mesh.
+/// `tc_method_count`, `tc_method_name` and `tc_method_from_name` list and name the methods;
+/// new ones are appended.
+pub const TC_METHOD_TRANSCUT: u32 = 0;
+
+/// `TcBakeOptions.backend`: as the environment variable `TRANSCUT_BACKEND` says (`cpu`, `gpu`,
+/// `auto`; an unknown value fails the bake with `TC_INVALID_ARGUMENT`), `TC_BACKEND_AUTO` when
+/// it is unset or empty. The default.
+pub const TC_BACKEND_DEFAULT: u32 = 0;
+/// `TcBakeOptions.backend`: solve on the CPU (always available).
+pub const TC_BACKEND_CPU: u32 = 1;
+/// `TcBakeOptions.backend`: solve on the GPU (wgpu: Vulkan, Metal or DX12), also on a software
+/// adapter such as Mesa's lavapipe; `tc_scene_bake` returns `TC_GPU_UNAVAILABLE` when no
+/// adapter can be used. `TRANSCUT_GPU_ADAPTER=substring` restricts the adapters to those whose
+/// name contains it.
+pub const TC_BACKEND_GPU: u32 = 2;
+/// `TcBakeOptions.backend`: the GPU when a hardware adapter exists, else the CPU (a software
+/// adapter is slower than the CPU path and is not used); `tc_object_backend_fallback` says why
+/// the CPU ran.
+pub const TC_BACKEND_AUTO: u32 = 3;
+
+/// `TcTransCutOptions.solver` and `.edit_solver`: the method's default (SSOR-PCG for the bake,
+/// the smoothed-aggregation V-cycle for edits).
+pub const TC_SOLVER_DEFAULT: u32 = 0;
+/// CG with the Jacobi preconditioner (mixed precision).
+pub const TC_SOLVER_PCG: u32 = 1;
+/// CG with the SSOR preconditioner.
+pub const TC_SOLVER_SSOR_PCG: u32 = 2;
+/// TransCut §4.2's coarse-to-fine cascade (CPU only).
+pub const TC_SOLVER_CASCADE: u32 = 3;
+/// CG preconditioned by a V-cycle on TransCut's §4.1 hierarchy.
+pub const TC_SOLVER_MG_PCG: u32 = 4;
+/// CG preconditioned by a V-cycle on a smoothed-aggregation hierarchy.
+pub const TC_SOLVER_SA_PCG: u32 = 5;
+
+/// How to bake. Fill it with `tc_bake_options_default` (which also sets `size`), then change
+/// fields. `size` lets later versions append fields: a library reads only the fields that it
+/// and the caller both know.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcBakeOptions {
+    /// `sizeof(TcBakeOptions)`, set by `tc_bake_options_default`.
+    pub size: u32,
+    /// The subsurface method: `TC_METHOD_TRANSCUT` (default).
+    pub method: u32,
+    /// TransCut: target number of tetrahedra per surface object (default 200 000).
+    pub tets: u64,
+    /// Relative residual ‖b − Mφ‖/‖b‖ at which the solver stops, in (0, 1) (default 1e-6).
+    pub tolerance: f64,
+    /// Iteration cap of the solver, ≥ 1 (default 10 000).
+    pub max_iterations: u32,
+    /// Worker threads; 0 = one per core (default).
+    pub threads: u32,
+    /// Non-zero: objects shadow themselves and each other (default 1).
+    pub shadows: u32,
+    /// Samples per point for area lights and suns with a non-zero diameter (default 64).
+    pub area_samples: u32,
+    /// Samples per point for shadowed environments (default 256).
+    pub environment_samples: u32,
+    /// Where the solve runs: `TC_BACKEND_DEFAULT` (default), `TC_BACKEND_CPU`,
+    /// `TC_BACKEND_GPU` or `TC_BACKEND_AUTO`; another value fails with `TC_INVALID_ARGUMENT`.
+    /// `tc_object_stats` says which backend ran (`TcBakeStats.backend_used`).
+    pub backend: u32,
+    /// NULL (the default: the method's own defaults), or the chosen method's options: for
+    /// `TC_METHOD_TRANSCUT` a `const TcTransCutOptions *` (filled by
+    /// `tc_transcut_options_default`). Read during `tc_scene_bake` only. (A caller built
+    /// against the 48-byte struct without this field gets NULL.)
+    pub method_options: *const c_void,
+}
+
+/// TransCut's own options (`TcBakeOptions.method_options` with `TC_METHOD_TRANSCUT`). Fill it
+/// with `tc_transcut_options_default`, which sets `size`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TcTransCutOptions {
+    /// `sizeof(TcTransCutOptions)`.
+    pub size: u32,
+    /// The bake's solver on the CPU: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a `TC_SOLVER_*` (on the
+    /// GPU the single-level solvers run Jacobi PCG).
+    pub solver: u32,
+    /// The solver of edits after the bake (relight, material edits, cuts):
+    /// `TC_SOLVER_DEFAULT` (the smoothed-aggregation V-cycle) or a `TC_SOLVER_*`.
+    pub edit_solver: u32,
+}
+
+/// The size of `TcBakeOptions` before `method_options` was appended.
+pub(crate) const BAKE_OPTIONS_SIZE_V1: usize = std::mem::offset_of!(TcBakeOptions, method_options);
+
+/// The defaults, as `tc_bake_options_default` writes them.
+pub(crate) fn default_bake_options() -> TcBakeOptions {
+    let core = BakeOptions::default();
+    let transcut = TransCutOptions::default();
+    let source = SourceOptions::default();
+    TcBakeOptions {
+        size: std::mem::size_of::<TcBakeOptions>() as u32,
+        method: TC_METHOD_TRANSCUT,
+        tets: transcut.tets as u64,
+        tolerance: transcut.tolerance,
+        max_iterations: u32::try_from(transcut.max_iterations).unwrap_or(u32::MAX),
+        threads: u32::try_from(core.threads).unwrap_or(0),
+        shadows: u32::from(core.shadows),
+        area_samples: u32::try_from(source.area_samples).unwrap_or(u32::MAX),
+        environment_samples: u32::try_from(source.environment_samples).unwrap_or(u32::MAX),
+        backend: TC_BACKEND_DEFAULT,
+        method_options: std::ptr::null(),
+    }
+}
+
+/// The defaults, as `tc_transcut_options_default` writes them.
+pub(crate) fn default_transcut_options() -> TcTransCutOptions {
+    TcTransCutOptions {
+        size: std::mem::size_of::<TcTransCutOptions>() as u32,
+        solver: TC_SOLVER_DEFAULT,
+        edit_solver: TC_SOLVER_DEFAULT,
+    }
+}
+
+/// The core's backend choice for `TcBakeOptions.backend` (`None`: the environment decides).
+pub(crate) fn backend_from(value: u32, what: &str) -> Result<Option<Backend>, Failure> {
+    match value {
+        TC_BACKEND_DEFAULT => Ok(None),
+        TC_BACKEND_CPU => Ok(Some(Backend::Cpu)),
+        TC_BACKEND_GPU => Ok(Some(Backend::Gpu)),
+        TC_BACKEND_AUTO => Ok(Some(Backend::Auto)),
+        other => Err(Failure::invalid(format!(
+            "{what} = {other}: unknown backend (TC_BACKEND_DEFAULT = 0, TC_BACKEND_CPU = 1, TC_BACKEND_GPU = 2, TC_BACKEND_AUTO = 3)"
+        ))),
+    }
+}
+
+/// `TC_BACKEND_CPU` or `TC_BACKEND_GPU` for the backend that ran.
+pub(crate) fn backend_used(b: Backend) -> u32 {
+    match b {
+        Backend::Gpu => TC_BACKEND_GPU,
+        Backend::Cpu | Backend::Auto => TC_BACKEND_CPU,
+    }
+}
+
+/// The solver of a `TC_SOLVER_*` value (`None`: the default).
+fn solver_from(value: u32, what: &str) -> Result<Option<SolverKind>, Failure> {
+    Ok(Some(match value {
+        TC_SOLVER_DEFAULT => return Ok(None),
+        TC_SOLVER_PCG => SolverKind::Pcg,
+        TC_SOLVER_SSOR_PCG => SolverKind::SsorPcg,
+        TC_SOLVER_CASCADE => SolverKind::Cascade,
+        TC_SOLVER_MG_PCG => SolverKind::MultigridPcg,
+        TC_SOLVER_SA_PCG => SolverKind::AggregationPcg,
+        other => {
+            return Err(Failure::invalid(format!(
+                "{what} = {other}: unknown solver (TC_SOLVER_DEFAULT 0, PCG 1, SSOR_PCG 2, CASCADE 3, MG_PCG 4, SA_PCG 5)"
+            )))
+        }
+    }))
+}
+
+/// Reads a size-prefixed struct of which the library knows the first `size_of::<T>()` bytes:
+/// `size` must be at least `min` (the first version's size); a shorter known prefix is
+/// completed from `defaults`.
+///
+/// # Safety
+/// `ptr` must be non-NULL, aligned, and point to at least `*ptr.size` readable bytes.
+unsafe fn read_sized<T: Copy>(ptr: *const T, min: usize, defaults: T, what: &str) -> Result<T, Failure> {
+    // SAFETY: the caller's contract; `size` is the first field of every such struct.
+    let size = unsafe { ptr.cast::<u32>().read() } as usize;
+    let ours = std::mem::size_of::<T>();
+    if size < min {
+        return Err(Failure::invalid(format!(
+            "{what}->size = {size}, expected sizeof = {ours} (fill the struct with its tc_*_default function)"
+        )));
+    }
+    let mut value = defaults;
+    let known = size.min(ours);
+    // SAFETY: `known` bytes are readable (≤ size) and writable in `value` (≤ size_of::<T>); a
+    // byte copy of a prefix of a plain `repr(C)` struct whose later fields keep their defaults.
+    unsafe { std::ptr::copy_nonoverlapping(ptr.cast::<u8>(), std::ptr::from_mut(&mut value).cast::<u8>(), known) };
+    Ok(value)
+}
+
+/// The caller's options (NULL = defaults), checked and converted.
+///
+/// # Safety
+/// A non-NULL `options` must point to at least `options->size` readable bytes, and a non-NULL
+/// `method_options` to the chosen method's struct of at least its `size` bytes.
+pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<BakeOptions, Failure> {
+    let o = if options.is_null() {
+        default_bake_options()
+    } else {
+        check_not_null!(options);
+        let mut defaults = default_bake_options();
+        defaults.method_options = std::ptr::null();
+        // SAFETY: forwarded.
+        unsafe { read_sized(options, BAKE_OPTIONS_SIZE_V1, defaults, "options")? }
+    };
+    let source = SourceOptions {
+        area_samples: o.area_samples as usize,
+        environment_samples: o.environment_samples as usize,
+        ..SourceOptions::default()
+    };
+    let method = match o.method {
+        TC_METHOD_TRANSCUT => {
+            let t = if o.method_options.is_null() {
+                default_transcut_options()
+            } else {
+                let t = o.method_options.cast::<TcTransCutOptions>();
+                if !t.is_aligned() {
+                    return Err(Failure::invalid("`options->method_options` is not aligned for TcTransCutOptions"));
+                }
+                // SAFETY: the caller's contract, checked for NULL and alignment.
+                unsafe {
+                    read_sized(
+                        t,
+                        std::mem::size_of::<TcTransCutOptions>(),
+                        default_transcut_options(),
+                        "options->method_options",
+                    )?
+                }
+            };
+            let d = TransCutOptions::default();
+            Method::TransCut(TransCutOptions {
+                tets: usize::try_from(o.tets)
+                    .map_err(|_| Failure::invalid(format!("options->tets = {} is too large", o.tets)))?,
+                tolerance: o.tolerance,
+                max_iterations: o.max_iterations as usize,
+                solver: solver_from(t.solver, "options->method_options->solver")?.unwrap_or(d.solver),
+                edit_solver: solver_from(t.edit_solver, "options->method_options->edit_solver")?.unwrap_or(d.edit_solver),
+                backend: backend_from(o.backend, "options->backend")?,
+            })
+        }
+        other => {
+            return Err(Failure::invalid(format!(
+                "options->method = {other}: unknown method (the methods are {})",
+                Method::NAMES.iter().enumerate().map(|(i, n)| format!("{i} = {n}")).collect::<Vec<_>>().join(", ")
+            )))
+        }
+    };
+    Ok(BakeOptions { method, threads: o.threads as usize, shadows: o.shadows != 0, source })
+}

@@ -1,0 +1,38 @@
+//! Relighting a baked scene: every object re-solved for the scene's current lights.
+
+use std::ffi::c_void;
+
+use super::convert::session_failure;
+use super::handle::{with_scene, TcScene};
+use super::progress::{Callback, TcProgressFn};
+use super::status::{run, TcStatus};
+
+/// Re-solves every object for the scene's CURRENT lights (after `tc_scene_clear_lights` /
+/// `tc_scene_add_*`), warm-started from its last solution, without meshing or assembling again:
+/// the interactive counterpart of `tc_scene_bake` after a change of lights. The matrices, media,
+/// cuts and pieces stay; afterwards `tc_object_radiance` returns the new radiance (of objects
+/// not cut or moved) and `tc_object_edit_stats` what each object's update did.
+///
+/// Each object is lit by the scene's lights with its own shadows (the pieces of that object);
+/// unlike `tc_scene_bake`, other objects cast no shadows on it. `progress` (nullable) is called
+/// with `user` as objects finish, as for `tc_scene_bake`; a non-zero return cancels
+/// (`TC_CANCELLED`). On any failure no object changes.
+///
+/// Errors: `TC_NOT_BAKED` before a bake (or after a change other than lights), `TC_INVALID_ARGUMENT`
+/// (an invalid light), `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`, `TC_CANCELLED`.
+#[no_mangle]
+pub unsafe extern "C" fn tc_scene_relight(scene: *mut TcScene, progress: TcProgressFn, user: *mut c_void) -> TcStatus {
+    run("tc_scene_relight", || {
+        Callback::with(progress, user, |progress| {
+            // SAFETY: the caller's contract.
+            unsafe {
+                with_scene(scene, |s| {
+                    let lights = s.scene.lights.clone();
+                    s.session_mut()?.relight(&lights, progress).map_err(|e| session_failure(&e))?;
+                    s.current = true;
+                    Ok(())
+                })
+            }
+        })
+    })
+}

@@ -1,0 +1,85 @@
+//! `transcut bench mesh`: the mesher at several sizes, time and quality.
+
+use std::time::Instant;
+
+use anyhow::Context;
+use serde::Serialize;
+use transcut::mesh;
+use transcut::mesher::{tetrahedralize_with, MesherOptions};
+use transcut::Progress;
+
+use super::stats::median;
+use super::BenchArgs;
+
+#[derive(Serialize)]
+struct MeshEntry {
+    target_tets: usize,
+    tets: usize,
+    vertices: usize,
+    min_dihedral_deg: f64,
+    max_dihedral_deg: f64,
+    tets_below_10_deg: usize,
+    passes: usize,
+    lattice_vertices: usize,
+    hausdorff: f64,
+    median_ms: f64,
+    runs_ms: Vec<f64>,
+    median_stage_ms: transcut::mesher::MesherTimings,
+}
+
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    let load_start = Instant::now();
+    let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
+    let load_ms = load_start.elapsed().as_secs_f64() * 1e3;
+    let mut entries = Vec::new();
+    for &target in &args.tets {
+        let mut runs = Vec::new();
+        let mut stages = Vec::new();
+        let mut last = None;
+        for _ in 0..args.runs {
+            let start = Instant::now();
+            let t = tetrahedralize_with(&input, &MesherOptions::with_tets(target), Progress::none())?;
+            runs.push(start.elapsed().as_secs_f64() * 1e3);
+            stages.push(t.stats.timings);
+            last = Some(t);
+        }
+        let t = last.context("at least one run")?;
+        let q = &t.stats.quality;
+        let pick = |f: fn(&transcut::mesher::MesherTimings) -> f64| median(stages.iter().map(f).collect());
+        entries.push(MeshEntry {
+            target_tets: target,
+            tets: t.stats.tets,
+            vertices: t.stats.vertices,
+            min_dihedral_deg: q.min_dihedral_deg,
+            max_dihedral_deg: q.max_dihedral_deg,
+            tets_below_10_deg: q.min_angle_histogram[0],
+            passes: t.stats.passes,
+            lattice_vertices: t.stats.lattice_vertices,
+            hausdorff: t.stats.hausdorff.max,
+            median_ms: median(runs.clone()),
+            runs_ms: runs,
+            median_stage_ms: transcut::mesher::MesherTimings {
+                winding_tree_ms: pick(|s| s.winding_tree_ms),
+                stuffing_ms: pick(|s| s.stuffing_ms),
+                topology_ms: pick(|s| s.topology_ms),
+                mapping_ms: pick(|s| s.mapping_ms),
+                total_ms: pick(|s| s.total_ms),
+                final_pass: transcut::mesher::PhaseTimings {
+                    labels_ms: pick(|s| s.final_pass.labels_ms),
+                    cuts_ms: pick(|s| s.final_pass.cuts_ms),
+                    warp_ms: pick(|s| s.final_pass.warp_ms),
+                    stencils_ms: pick(|s| s.final_pass.stencils_ms),
+                },
+            },
+        });
+    }
+    let report = serde_json::json!({
+        "suite": "mesh",
+        "input": args.input.display().to_string(),
+        "load_ms": load_ms,
+        "threads": rayon::current_num_threads(),
+        "entries": entries,
+    });
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}

@@ -1,0 +1,172 @@
+//! The TOML scene format of `transcut render`.
+//!
+//! ```toml
+//! [camera]                  # required
+//! position = [0, 0, 150]    # scene units
+//! target = [0, 0, 0]
+//! up = [0, 1, 0]            # optional (default +Y)
+//! fov_deg = 35              # vertical field of view
+//! width = 800
+//! height = 600
+//!
+//! [render]                  # optional
+//! exposure_ev = 0           # stops
+//! samples = 3               # n × n supersamples per pixel (1 = none)
+//! ground = true             # a grey floor under the objects
+//! background = [0, 0, 0]    # linear RGB
+//! specular = true           # GGX highlights of the sun, point and spot lights
+//! roughness = 0.3           # perceptual roughness of the highlights
+//!
+//! [bake]                    # optional
+//! method = "transcut"       # the subsurface method (`transcut bake --method help`)
+//! tets = 50000              # transcut: target tetrahedra per object
+//! tolerance = 1e-6          # solver relative residual
+//! solver = "ssor-pcg"       # transcut: the bake's solver (pcg, ssor-pcg, cascade, mg-pcg, sa-pcg)
+//!
+//! [[object]]                # one or more
+//! mesh = "bunny.obj"        # OBJ or PLY, relative to the scene file
+//! name = "bunny"            # optional (default: the mesh file's stem)
+//! medium = "marble"         # a preset (`transcut bake --medium help`), or a table:
+//! # medium = { sigma_a = [0.0021, 0.0041, 0.0071], sigma_s = [2.19, 2.62, 3.00], eta = 1.3, g = 0 }  (mm⁻¹)
+//! # medium = { albedo = [0.8, 0.6, 0.5], radius = [1.0, 0.5, 0.3], scale = 1, ior = 1.4, g = 0 }  (artist)
+//! # heterogeneous (each `medium` inside is again a preset name or a table as above):
+//! # medium = { layers = [{ depth_mm = 1.5, medium = "skin1" }, { medium = "skin2" }], blend_mm = 0.3 }
+//! #   layers from the surface in; each ends at depth_mm below the surface (the last one: nowhere)
+//! # medium = { base = "marble", vein = { sigma_a = [...], sigma_s = [...], eta = 1.5 }, seed = 7,
+//! #            period = 10, direction = [1, 0, 0], turbulence = 4, noise_scale = 10, octaves = 5,
+//! #            sharpness = 3 }   marble veins, in the mesh's own units (they move with the object)
+//! # medium = { voxels = "block.tcvox", eta = 1.3, g = 0 }   a voxel grid file (core/src/volume/VOXEL_FORMAT.md)
+//! #   placed in the mesh's own units, relative to the scene file
+//! mm_per_unit = 1           # millimetres per scene unit (default 1)
+//! fit_size_mm = 60          # optional: centre the mesh and scale it to this bounding-box diagonal
+//! scale = 1.0               # optional uniform scale (not with fit_size_mm)
+//! rotate_deg = [0, 0, 0]    # optional rotation about X, then Y, then Z
+//! translate = [0, 0, 0]     # optional
+//!
+//! [[light]]                 # zero or more (none: a white sky of radiance 1)
+//! kind = "sun"              # sun | point | spot | env | rect | disc
+//! dir = [0, 0, -1]          # the direction the light travels
+//! irradiance = 3            # a number or [r, g, b]
+//!
+//! [[edit]]                  # zero or more, applied in order after the bake (every kind
+//! kind = "cut_plane"        # and key: `edits`)
+//! point = [0, 0, 0]
+//! normal = [0, 0, 1]
+//! ```
+//!
+//! Light keys per kind: `sun`: `dir`, `irradiance`, `angle_deg`; `point`: `pos`, `intensity`;
+//! `spot`: `pos`, `dir`, `intensity`, `angle_deg` (half-angle, default 30), `blend` (0.15);
+//! `env`: `radiance`, or `file` (an equirectangular .hdr/.exr, relative to the scene file) and
+//! `strength` (1); `rect`: `center`, `half_u`, `half_v`, `radiance`, `two_sided`; `disc`:
+//! `center`, `normal`, `radius`, `radiance`, `two_sided`.
+//!
+//! The object transform is `translate · rotate · scale`, applied after the centring and fitting
+//! of `fit_size_mm`. Every key not listed here is an error that names it; every error names the
+//! scene file.
+
+pub mod apply;
+pub mod edits;
+pub mod media;
+pub mod schema;
+
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Context};
+use glam::DMat4;
+use transcut::light::{Environment, Light};
+use transcut::mesh::TriMesh;
+use transcut::{DVec3, Object, Shape};
+
+use edits::EditStep;
+use media::object_medium;
+use schema::{ObjectSpec, SceneFile};
+
+/// A scene file read and resolved: objects with their meshes and media, lights.
+pub struct LoadedScene {
+    pub file: SceneFile,
+    pub objects: Vec<Object>,
+    pub lights: Vec<Light>,
+    /// The `[[edit]]` list, in file order.
+    pub edits: Vec<EditStep>,
+}
+
+/// Reads, parses and resolves a scene file. Every error names `path`.
+pub fn load(path: &Path) -> anyhow::Result<LoadedScene> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading scene file {}", path.display()))?;
+    let file = SceneFile::parse(&text).with_context(|| format!("scene file {}", path.display()))?;
+    resolve(file, path).with_context(|| format!("scene file {}", path.display()))
+}
+
+fn resolve(file: SceneFile, path: &Path) -> anyhow::Result<LoadedScene> {
+    let base = path.parent().unwrap_or(Path::new("."));
+    if file.objects.is_empty() {
+        bail!("no [[object]] given");
+    }
+    let mut objects = Vec::new();
+    for (i, spec) in file.objects.iter().enumerate() {
+        objects.push(object(spec, base).with_context(|| format!("object {} ({})", i + 1, spec.mesh.display()))?);
+    }
+    let mut lights = Vec::new();
+    for (i, spec) in file.lights.iter().enumerate() {
+        let light = spec.to_light(base).with_context(|| format!("light {} (kind = \"{}\")", i + 1, spec.kind))?;
+        light.validate(i).map_err(|e| anyhow!("light {} (kind = \"{}\"): {e}", i + 1, spec.kind))?;
+        lights.push(light);
+    }
+    if lights.is_empty() {
+        lights.push(Light::Environment(Environment::Constant([1.0; 3])));
+    }
+    let names: Vec<String> = objects.iter().map(|o| o.name.clone()).collect();
+    let mm_per_unit: Vec<f64> = objects.iter().map(|o| o.mm_per_unit).collect();
+    let edits = edits::resolve(&file.edits, &names, &mm_per_unit, base)?;
+    Ok(LoadedScene { file, objects, lights, edits })
+}
+
+fn object(spec: &ObjectSpec, base: &Path) -> anyhow::Result<Object> {
+    let mesh_path = base.join(&spec.mesh);
+    if !mesh_path.exists() {
+        bail!("mesh file {} not found", mesh_path.display());
+    }
+    let mesh = transcut::mesh::load(&mesh_path).with_context(|| format!("loading {}", mesh_path.display()))?;
+    if !(spec.mm_per_unit.is_finite() && spec.mm_per_unit > 0.0) {
+        bail!("mm_per_unit must be a positive number, got {}", spec.mm_per_unit);
+    }
+    let medium = object_medium(&spec.medium, spec.mm_per_unit, base).context("medium")?;
+    let transform = transform(spec, &mesh)?;
+    let name = spec
+        .name
+        .clone()
+        .unwrap_or_else(|| spec.mesh.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned()));
+    let mut object = Object::with_shape(name, Shape::Surface(mesh), medium, spec.mm_per_unit);
+    object.transform = transform;
+    Ok(object)
+}
+
+fn transform(spec: &ObjectSpec, mesh: &TriMesh) -> anyhow::Result<DMat4> {
+    let mut pre = DMat4::IDENTITY;
+    if let Some(size) = spec.fit_size_mm {
+        if spec.scale.is_some() {
+            bail!("give fit_size_mm or scale, not both");
+        }
+        if !(size.is_finite() && size > 0.0) {
+            bail!("fit_size_mm must be a positive number, got {size}");
+        }
+        let (lo, hi) = mesh.bounds();
+        let diagonal = (hi - lo).length();
+        if !(diagonal > 0.0) {
+            bail!("the mesh is empty or flat: cannot fit it to {size} mm");
+        }
+        let s = size / spec.mm_per_unit / diagonal;
+        pre = DMat4::from_scale(DVec3::splat(s)) * DMat4::from_translation(-0.5 * (lo + hi));
+    }
+    let scale = spec.scale.unwrap_or(1.0);
+    if !(scale.is_finite() && scale > 0.0) {
+        bail!("scale must be a positive number, got {scale}");
+    }
+    let [rx, ry, rz] = spec.rotate_deg.map(f64::to_radians);
+    let rotation = DMat4::from_rotation_z(rz) * DMat4::from_rotation_y(ry) * DMat4::from_rotation_x(rx);
+    let m = DMat4::from_translation(DVec3::from(spec.translate)) * rotation * DMat4::from_scale(DVec3::splat(scale)) * pre;
+    if !m.is_finite() {
+        bail!("the transform is not finite");
+    }
+    Ok(m)
+}

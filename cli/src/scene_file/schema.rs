@@ -1,0 +1,265 @@
+//! The serde types of the scene file: one struct per table, unknown keys refused.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context};
+use serde::Deserialize;
+use transcut::light::{Environment, EquirectMap, Light};
+use transcut::DVec3;
+
+/// A colour: one number for grey or three for RGB.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(untagged)]
+pub enum Rgb {
+    Grey(f64),
+    Rgb([f64; 3]),
+}
+
+impl Rgb {
+    pub fn get(self) -> [f64; 3] {
+        match self {
+            Rgb::Grey(v) => [v; 3],
+            Rgb::Rgb(c) => c,
+        }
+    }
+}
+
+/// The `[camera]` table.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    pub position: [f64; 3],
+    pub target: [f64; 3],
+    #[serde(default = "default_up")]
+    pub up: [f64; 3],
+    pub fov_deg: f64,
+    pub width: u32,
+    pub height: u32,
+}
+
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+/// The `[render]` table.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderSpec {
+    pub exposure_ev: f64,
+    pub samples: u32,
+    pub ground: bool,
+    pub background: Rgb,
+    pub specular: bool,
+    pub roughness: f64,
+}
+
+impl Default for RenderSpec {
+    fn default() -> Self {
+        Self { exposure_ev: 0.0, samples: 3, ground: true, background: Rgb::Grey(0.0), specular: true, roughness: 0.3 }
+    }
+}
+
+/// The `[bake]` table.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BakeSpec {
+    /// The subsurface method's name (default `transcut`).
+    pub method: Option<String>,
+    pub tets: Option<u64>,
+    pub tolerance: Option<f64>,
+    /// The solver's name ([`transcut::diffusion::SolverKind::name`]).
+    pub solver: Option<String>,
+}
+
+/// One `[[object]]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectSpec {
+    pub mesh: PathBuf,
+    pub name: Option<String>,
+    pub medium: toml::Value,
+    #[serde(default = "one")]
+    pub mm_per_unit: f64,
+    pub fit_size_mm: Option<f64>,
+    pub scale: Option<f64>,
+    #[serde(default)]
+    pub rotate_deg: [f64; 3],
+    #[serde(default)]
+    pub translate: [f64; 3],
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// One `[[light]]`: every key of every kind; [`LightSpec::to_light`] checks which apply.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSpec {
+    pub kind: String,
+    pub dir: Option<[f64; 3]>,
+    pub pos: Option<[f64; 3]>,
+    pub irradiance: Option<Rgb>,
+    pub intensity: Option<Rgb>,
+    pub radiance: Option<Rgb>,
+    pub angle_deg: Option<f64>,
+    pub blend: Option<f64>,
+    pub file: Option<PathBuf>,
+    pub strength: Option<f64>,
+    pub center: Option<[f64; 3]>,
+    pub half_u: Option<[f64; 3]>,
+    pub half_v: Option<[f64; 3]>,
+    pub normal: Option<[f64; 3]>,
+    pub radius: Option<f64>,
+    pub two_sided: Option<bool>,
+}
+
+/// A whole scene file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    pub camera: CameraSpec,
+    #[serde(default)]
+    pub render: RenderSpec,
+    #[serde(default)]
+    pub bake: BakeSpec,
+    #[serde(default, rename = "object")]
+    pub objects: Vec<ObjectSpec>,
+    #[serde(default, rename = "light")]
+    pub lights: Vec<LightSpec>,
+    /// `[[edit]]` tables, checked by [`super::edits::resolve`] (so errors name the edit).
+    #[serde(default, rename = "edit")]
+    pub edits: Vec<toml::Table>,
+}
+
+impl SceneFile {
+    /// Parses TOML text (no file access).
+    ///
+    /// # Errors
+    /// The TOML error, which names the key and shows the line.
+    pub fn parse(text: &str) -> anyhow::Result<SceneFile> {
+        toml::from_str(text).map_err(|e| {
+            // Name the table the offending key is in: the last header before the error.
+            let table = e.span().and_then(|span| {
+                text[..span.start.min(text.len())].lines().rev().map(str::trim).find(|l| l.starts_with('[')).map(str::to_string)
+            });
+            match table {
+                Some(t) => anyhow!("in table {t}: {}", e.to_string().trim_end()),
+                None => anyhow!("at the top level: {}", e.to_string().trim_end()),
+            }
+        })
+    }
+}
+
+impl LightSpec {
+    pub(crate) fn to_light(&self, base: &Path) -> anyhow::Result<Light> {
+        let kind = self.kind.to_ascii_lowercase();
+        let allowed: &[&str] = match kind.as_str() {
+            "sun" | "directional" => &["dir", "irradiance", "angle_deg"],
+            "point" => &["pos", "intensity"],
+            "spot" => &["pos", "dir", "intensity", "angle_deg", "blend"],
+            "env" | "environment" => &["radiance", "file", "strength"],
+            "rect" => &["center", "half_u", "half_v", "radiance", "two_sided"],
+            "disc" => &["center", "normal", "radius", "radiance", "two_sided"],
+            other => bail!("unknown light kind '{other}' (sun, point, spot, env, rect, disc)"),
+        };
+        for (key, present) in [
+            ("dir", self.dir.is_some()),
+            ("pos", self.pos.is_some()),
+            ("irradiance", self.irradiance.is_some()),
+            ("intensity", self.intensity.is_some()),
+            ("radiance", self.radiance.is_some()),
+            ("angle_deg", self.angle_deg.is_some()),
+            ("blend", self.blend.is_some()),
+            ("file", self.file.is_some()),
+            ("strength", self.strength.is_some()),
+            ("center", self.center.is_some()),
+            ("half_u", self.half_u.is_some()),
+            ("half_v", self.half_v.is_some()),
+            ("normal", self.normal.is_some()),
+            ("radius", self.radius.is_some()),
+            ("two_sided", self.two_sided.is_some()),
+        ] {
+            if present && !allowed.contains(&key) {
+                bail!("key '{key}' does not apply to this kind of light (its keys: {})", allowed.join(", "));
+            }
+        }
+        fn need<T: Copy>(v: Option<T>, key: &str) -> anyhow::Result<T> {
+            v.ok_or_else(|| anyhow!("missing key '{key}'"))
+        }
+        let v3 = |v: Option<[f64; 3]>, key: &str| need(v, key).map(DVec3::from);
+        let c3 = |v: Option<Rgb>, key: &str| need(v, key).map(Rgb::get);
+        Ok(match kind.as_str() {
+            "sun" | "directional" => Light::Directional {
+                direction: v3(self.dir, "dir")?,
+                irradiance: c3(self.irradiance, "irradiance")?,
+                angular_diameter_deg: self.angle_deg.unwrap_or(0.0),
+            },
+            "point" => Light::Point { position: v3(self.pos, "pos")?, intensity: c3(self.intensity, "intensity")? },
+            "spot" => Light::Spot {
+                position: v3(self.pos, "pos")?,
+                direction: v3(self.dir, "dir")?,
+                intensity: c3(self.intensity, "intensity")?,
+                cone_half_angle_deg: self.angle_deg.unwrap_or(30.0),
+                blend: self.blend.unwrap_or(0.15),
+            },
+            "env" | "environment" => match &self.file {
+                Some(file) => {
+                    if self.radiance.is_some() {
+                        bail!("give radiance or file, not both");
+                    }
+                    let path = base.join(file);
+                    let map = EquirectMap::load(&path, self.strength.unwrap_or(1.0))
+                        .with_context(|| format!("loading {}", path.display()))?;
+                    Light::Environment(Environment::Equirect(map))
+                }
+                None => {
+                    if self.strength.is_some() {
+                        bail!("'strength' applies only with 'file'");
+                    }
+                    Light::Environment(Environment::Constant(c3(self.radiance, "radiance")?))
+                }
+            },
+            "rect" => Light::RectArea {
+                center: v3(self.center, "center")?,
+                half_u: v3(self.half_u, "half_u")?,
+                half_v: v3(self.half_v, "half_v")?,
+                radiance: c3(self.radiance, "radiance")?,
+                two_sided: self.two_sided.unwrap_or(false),
+            },
+            _ => Light::DiscArea {
+                center: v3(self.center, "center")?,
+                normal: v3(self.normal, "normal")?,
+                radius: need(self.radius, "radius")?,
+                radiance: c3(self.radiance, "radiance")?,
+                two_sided: self.two_sided.unwrap_or(false),
+            },
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = "[camera]\nposition = [0, 0, 150]\ntarget = [0, 0, 0]\nfov_deg = 35\nwidth = 80\nheight = 60\n";
+
+    #[test]
+    fn parses_defaults_and_integers_as_floats() {
+        let f = SceneFile::parse(&format!("{MINIMAL}[[object]]\nmesh = \"a.obj\"\nmedium = \"marble\"\n[[light]]\nkind = \"sun\"\ndir = [0,0,-1]\nirradiance = 3\n")).unwrap();
+        assert_eq!(f.camera.up, [0.0, 1.0, 0.0]);
+        assert_eq!(f.render.samples, 3);
+        assert_eq!(f.objects[0].mm_per_unit, 1.0);
+        assert!(matches!(f.lights[0].irradiance, Some(Rgb::Grey(v)) if v == 3.0));
+        let l = f.lights[0].to_light(Path::new(".")).unwrap();
+        assert!(matches!(l, Light::Directional { irradiance: [3.0, 3.0, 3.0], .. }));
+    }
+
+    #[test]
+    fn unknown_keys_are_named() {
+        let err = SceneFile::parse(&format!("{MINIMAL}[render]\nexposure = 1\n")).unwrap_err().to_string();
+        assert!(err.contains("exposure") && err.contains("render"), "{err}");
+        let err = SceneFile::parse(&MINIMAL.replace("fov_deg", "fov")).unwrap_err().to_string();
+        assert!(err.contains("fov"), "{err}");
+    }
+}

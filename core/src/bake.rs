@@ -1,0 +1,108 @@
+//! The bake driver: every object of a scene baked by one method.
+//!
+//! ```text
+//! Scene ──► validate (options, objects, lights) ──► every object: check (can the method bake it?)
+//!      └──► world surfaces ──► occluder BVH ──► Lighting
+//!      └──► per object: prepare (light-independent) ──► solve (Lighting) ──► Lo(x, n) at the
+//!           user's vertices, statistics, the method's state
+//! ```
+//!
+//! The driver owns what every method shares: validation, the worker threads, progress (stages
+//! named `"<object>: <stage>"`, fractions of the whole bake that never decrease), the check that
+//! a method's radiance is finite, non-negative and one value per output vertex, and the
+//! timings. The methods are in [`crate::methods`].
+
+use std::sync::Mutex;
+use std::time::Instant;
+
+use crate::mesh::TriMesh;
+use crate::methods::{bake_object, object_stage, Lighting, ObjectBake, SubsurfaceMethod, Target, TransCut};
+use crate::progress::Progress;
+use crate::scene::{BakeOptions, Method, Scene, SceneError};
+
+/// The result of [`bake`]: one entry per object, in scene order.
+#[derive(Debug, Clone)]
+pub struct Bake {
+    pub objects: Vec<ObjectBake>,
+    /// Wall time of the whole bake.
+    pub total_ms: f64,
+}
+
+/// Bakes per-vertex radiance for every object of `scene` with `options.method`.
+///
+/// # Errors
+/// [`SceneError`] naming the object or light at fault; [`SceneError::Unsupported`] when the
+/// method cannot bake an object.
+pub fn bake(scene: &Scene, options: &BakeOptions) -> Result<Bake, SceneError> {
+    bake_with(scene, options, Progress::none())
+}
+
+/// [`bake`] with progress reporting and cancellation: stages named `"<object>: <stage>"`,
+/// fractions of the whole bake that never decrease and end at 1; the callback returning
+/// `false` cancels at the next check (during meshing, between stages, or at a solver
+/// iteration).
+///
+/// # Errors
+/// As [`bake`], plus [`SceneError::Cancelled`].
+pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<Bake, SceneError> {
+    scene.validate(options)?;
+    with_threads(options.threads, || match &options.method {
+        Method::TransCut(o) => bake_all::<TransCut>(scene, options, o, progress),
+    })
+    .map_err(SceneError::InvalidOptions)?
+}
+
+/// Runs `f` on `threads` worker threads (0: the global pool).
+///
+/// # Errors
+/// A message when the threads cannot be started.
+pub(crate) fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> Result<R, String> {
+    if threads == 0 {
+        return Ok(f());
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+    Ok(pool.install(f))
+}
+
+/// Every object of `scene` through method `M`: all checked first, then each prepared and solved
+/// under the scene's lighting.
+fn bake_all<M: SubsurfaceMethod>(
+    scene: &Scene,
+    options: &BakeOptions,
+    method: &M::Options,
+    progress: Progress,
+) -> Result<Bake, SceneError> {
+    let start = Instant::now();
+    // World-space surfaces: the methods bake them, and together they shadow.
+    let world = scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(index, o)| {
+            o.world_surface().map_err(|e| SceneError::InvalidObject { index, name: o.name.clone(), message: e.to_string() })
+        })
+        .collect::<Result<Vec<TriMesh>, _>>()?;
+    let targets: Vec<Target<'_>> =
+        scene.objects.iter().zip(&world).enumerate().map(|(index, (object, world))| Target { index, object, world }).collect();
+    for target in &targets {
+        M::check(target, method)?;
+    }
+    let occluder = options.shadows.then(|| Lighting::occluder_of(&world));
+    let lighting = Lighting { lights: &scene.lights, occluder: occluder.as_ref(), source: &options.source };
+    let name = options.method.name();
+    let furthest = Mutex::new(0.0f64);
+    let mut objects = Vec::with_capacity(targets.len());
+    for target in &targets {
+        let stage = object_stage(&progress, &furthest, target, scene.objects.len());
+        objects.push(bake_object::<M>(target, method, name, &lighting, &stage)?);
+        stage("done", 1.0)?;
+    }
+    Ok(Bake { objects, total_ms: ms(start) })
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}

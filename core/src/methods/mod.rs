@@ -1,0 +1,161 @@
+//! The subsurface methods, siblings behind one contract: a scene object in, the radiance
+//! Lo(x, n) at its vertices out (ARCHITECTURE.md, "What a bake returns").
+//!
+//! A method implements the crate-private [`SubsurfaceMethod`] trait in three steps, so the
+//! light-independent work is done once and kept ([`ObjectBake::state`]):
+//!
+//! 1. `check`: can the method bake this object with these options? If not, an error that names
+//!    the method and the reason ([`crate::scene::SceneError::Unsupported`]), before any work;
+//! 2. `prepare`: the light-independent part (TransCut: the tet mesh, its media and the matrix
+//!    M of eqs. 10–14);
+//! 3. `solve`: the radiance under a [`Lighting`] (TransCut: the source q, the solve of
+//!    M φ = b, eq. 3 at the user's vertices).
+//!
+//! What only some methods can do after a bake is a capability trait of their state
+//! ([`capability`]): [`capability::Relight`], [`capability::EditMedium`], [`capability::Cut`],
+//! [`capability::Deform`]. [`crate::session::Session`] offers them for every method and answers
+//! with [`crate::session::SessionError::Unsupported`], naming the method, where one lacks it.
+//!
+//! The driver above ([`crate::bake()`]) validates, builds the shared [`Lighting`], runs the
+//! steps per object with progress, and collects the statistics.
+//!
+//! # How a method joins
+//!
+//! 1. a variant of [`crate::scene::Method`] with its options struct, a name in
+//!    [`crate::scene::Method::NAMES`];
+//! 2. a folder `methods/<name>/` whose `mod.rs` implements [`SubsurfaceMethod`] (and the
+//!    capability traits it offers), and a variant of [`BakedState`] for its state;
+//! 3. one arm in the driver's dispatch (`bake.rs`) and in the session's ([`crate::session`]);
+//! 4. one line in the conformance suite `core/tests/methods.rs`.
+
+pub mod capability;
+mod lighting;
+mod result;
+pub mod transcut;
+
+pub use lighting::Lighting;
+pub use result::{BakedState, ObjectBake, ObjectStats};
+pub use transcut::{TransCut, TransCutState};
+
+use std::sync::Mutex;
+use std::time::Instant;
+
+use crate::mesh::TriMesh;
+use crate::progress::{Cancelled, Progress};
+use crate::scene::{Object, SceneError};
+
+/// The object a method bakes: its place in the scene (for error messages) and its surface in
+/// world space.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Target<'a> {
+    /// The object's index in the scene.
+    pub index: usize,
+    pub object: &'a Object,
+    /// The object's surface in world space ([`Object::world_surface`]).
+    pub world: &'a TriMesh,
+}
+
+impl Target<'_> {
+    /// [`SceneError::InvalidObject`] for this object.
+    pub(crate) fn invalid(&self, message: impl Into<String>) -> SceneError {
+        SceneError::InvalidObject { index: self.index, name: self.object.name.clone(), message: message.into() }
+    }
+}
+
+/// Reports a stage of one object's bake: a stage name and the fraction of the object done, in
+/// [0, 1]; `Err(Cancelled)` when the caller asked to stop.
+pub(crate) type Stage<'a> = &'a (dyn Fn(&str, f64) -> Result<(), Cancelled> + Sync);
+
+/// The contract of every subsurface method (see the module documentation).
+pub(crate) trait SubsurfaceMethod {
+    /// The method's options ([`crate::scene::Method`]'s variant).
+    type Options;
+    /// What `prepare` computes and `solve` keeps: everything later solves and edits start from.
+    type State: Send;
+
+    /// Whether the method can bake `target` with `options`.
+    ///
+    /// # Errors
+    /// [`SceneError::Unsupported`] naming the method and the reason, or
+    /// [`SceneError::InvalidObject`] for an object the method finds invalid.
+    fn check(target: &Target<'_>, options: &Self::Options) -> Result<(), SceneError>;
+
+    /// The light-independent part of the bake, filling its statistics into `stats`.
+    ///
+    /// # Errors
+    /// [`SceneError`] naming the object; [`SceneError::Cancelled`] through `stage`.
+    fn prepare(
+        target: &Target<'_>,
+        options: &Self::Options,
+        stats: &mut ObjectStats,
+        stage: Stage<'_>,
+    ) -> Result<Self::State, SceneError>;
+
+    /// The radiance Lo(x, n) under `lighting` at every vertex the object returns radiance for
+    /// ([`crate::scene::Shape::output_vertex_count`], finite and ≥ 0), keeping in `state` what
+    /// a later solve starts from; fills its statistics into `stats`.
+    ///
+    /// # Errors
+    /// [`SceneError`] naming the object; [`SceneError::Cancelled`] through `stage`.
+    fn solve(
+        target: &Target<'_>,
+        state: &mut Self::State,
+        lighting: &Lighting<'_>,
+        options: &Self::Options,
+        stats: &mut ObjectStats,
+        stage: Stage<'_>,
+    ) -> Result<Vec<[f64; 3]>, SceneError>;
+
+    /// The state as kept in an [`ObjectBake`].
+    fn into_baked(state: Self::State) -> BakedState;
+}
+
+/// The stage reporter of `target`'s bake, one of `count` objects: its fractions mapped onto the
+/// whole bake, reported under `furthest` (the furthest fraction so far, held while the callback
+/// runs) so that reports from parallel tasks reach the callback in increasing order and a
+/// fraction never goes back (a second mesher pass, a CG residual going up).
+pub(crate) fn object_stage<'a>(
+    progress: &'a Progress<'a>,
+    furthest: &'a Mutex<f64>,
+    target: &'a Target<'a>,
+    count: usize,
+) -> impl Fn(&str, f64) -> Result<(), Cancelled> + Sync + 'a {
+    move |s: &str, f: f64| {
+        let f = ((target.index as f64 + f) / count as f64).clamp(0.0, 1.0);
+        let mut furthest = furthest.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        *furthest = furthest.max(f);
+        progress.report(&format!("{}: {s}", target.object.name), *furthest)
+    }
+}
+
+/// One object through method `M` (named `name`): prepare, solve, and the check that the
+/// radiance is one finite, non-negative value per output vertex.
+///
+/// # Errors
+/// The method's; [`SceneError::InvalidObject`] when its radiance breaks the contract.
+pub(crate) fn bake_object<M: SubsurfaceMethod>(
+    target: &Target<'_>,
+    options: &M::Options,
+    name: &'static str,
+    lighting: &Lighting<'_>,
+    stage: Stage<'_>,
+) -> Result<ObjectBake, SceneError> {
+    let t0 = Instant::now();
+    let mut stats = ObjectStats::new(name);
+    let mut state = M::prepare(target, options, &mut stats, stage)?;
+    let radiance = M::solve(target, &mut state, lighting, options, &mut stats, stage)?;
+    let expected = target.object.shape.output_vertex_count();
+    if radiance.len() != expected {
+        return Err(target
+            .invalid(format!("the {name} method returned {} radiance values for {expected} output vertices", radiance.len())));
+    }
+    if let Some(v) = radiance.iter().position(|l| l.iter().any(|x| !(x.is_finite() && *x >= 0.0))) {
+        return Err(target.invalid(format!("the {name} method returned the radiance {:?} at vertex {v}", radiance[v])));
+    }
+    stats.total_ms = ms(t0);
+    Ok(ObjectBake { radiance, stats, state: M::into_baked(state) })
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}

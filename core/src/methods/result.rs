@@ -1,0 +1,114 @@
+//! What a bake returns per object, whatever the method.
+
+use crate::gpu::Backend;
+use crate::mesher::MesherStats;
+
+use super::transcut::TransCutState;
+
+/// One object's bake: the radiance, what was measured, and what the method prepared.
+#[derive(Debug, Clone)]
+pub struct ObjectBake {
+    /// Lo(x, n), linear RGB, one per vertex of the object's input mesh, in the user's order
+    /// (for a ready tet mesh: one per tet-mesh vertex, 0 inside): finite and ≥ 0.
+    pub radiance: Vec<[f64; 3]>,
+    pub stats: ObjectStats,
+    /// What the method prepared and solved: later solves and edits start from it.
+    pub state: BakedState,
+}
+
+impl ObjectBake {
+    /// The refractive index at the object's surface, for renderers' Fresnel and specular terms.
+    #[must_use]
+    pub fn eta(&self) -> f64 {
+        match &self.state {
+            BakedState::TransCut(s) => s.eta,
+        }
+    }
+
+    /// TransCut's state, when TransCut baked the object.
+    #[must_use]
+    pub fn transcut(&self) -> Option<&TransCutState> {
+        match &self.state {
+            BakedState::TransCut(s) => Some(s),
+        }
+    }
+
+    /// The name of the method that baked the object ([`crate::scene::Method::name`]).
+    #[must_use]
+    pub fn method(&self) -> &'static str {
+        self.stats.method
+    }
+}
+
+/// What a method prepared for one object, one variant per method.
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub enum BakedState {
+    /// TransCut: the tet mesh, its media and system, the fluence.
+    TransCut(TransCutState),
+}
+
+/// What was measured for one object. Fields that a method does not have are 0 (or `None`); the
+/// meaning of each per method is in its documentation.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ObjectStats {
+    /// The method that baked the object ([`crate::scene::Method::name`]).
+    pub method: &'static str,
+    /// TransCut: the tetrahedra solved on.
+    pub tets: usize,
+    /// The nodes the method solved for (TransCut: tet-mesh vertices).
+    pub vertices: usize,
+    /// The nodes on the surface (TransCut: boundary vertices of the tet mesh).
+    pub boundary_vertices: usize,
+    /// Solver iterations per channel.
+    pub iterations: [usize; 3],
+    /// Final relative residual per channel.
+    pub relative_residual: [f64; 3],
+    /// Surface nodes whose radiance came out negative and was clamped to zero before it was
+    /// interpolated at the user's vertices (the diffusion approximation can give Lo < 0 where
+    /// φ < 2q: very absorbing media, coarse meshes).
+    pub clamped_vertices: usize,
+    /// Building the method's geometry (TransCut: tetrahedralisation).
+    pub meshing_ms: f64,
+    /// Assembling the method's light-independent operators (TransCut: M).
+    pub assembly_ms: f64,
+    /// The light transmitted into the surface, with shadows.
+    pub source_ms: f64,
+    /// The solve and the radiance at the user's vertices.
+    pub solve_ms: f64,
+    /// The whole object.
+    pub total_ms: f64,
+    /// The backend the solve ran on (`cpu` or `gpu`).
+    pub backend: Backend,
+    /// The GPU adapter's name when the GPU ran.
+    pub device: Option<String>,
+    /// Why `auto` solved on the CPU, when it did.
+    pub backend_fallback: Option<String>,
+    /// The mesher's own statistics (`None` for an object given as a ready tet mesh).
+    pub meshing: Option<MesherStats>,
+}
+
+impl ObjectStats {
+    /// Empty statistics of `method` (every count and time 0, the CPU backend).
+    #[must_use]
+    pub fn new(method: &'static str) -> Self {
+        Self {
+            method,
+            tets: 0,
+            vertices: 0,
+            boundary_vertices: 0,
+            iterations: [0; 3],
+            relative_residual: [0.0; 3],
+            clamped_vertices: 0,
+            meshing_ms: 0.0,
+            assembly_ms: 0.0,
+            source_ms: 0.0,
+            solve_ms: 0.0,
+            total_ms: 0.0,
+            backend: Backend::Cpu,
+            device: None,
+            backend_fallback: None,
+            meshing: None,
+        }
+    }
+}

@@ -1,0 +1,246 @@
+//! TransCut (Li et al. 2012, §3) behind the method contract: each object's surface filled with
+//! quality tetrahedra, the diffusion system M φ = b of eqs. 10–14 assembled on them, solved on
+//! the CPU or the GPU, and eq. 3 read at the user's vertices.
+//!
+//! - `prepare`: tetrahedralise a surface ([`crate::mesher`]; a ready tet mesh is only moved to
+//!   world space), put the medium on the tets ([`crate::scene::MediumSource`]) and assemble M
+//!   ([`crate::diffusion::assemble`]);
+//! - `solve`: q at the boundary vertices ([`super::Lighting`]), the solve
+//!   ([`crate::gpu::solve_on`] with [`TransCutOptions::solver`]), Lo(x, n) at the boundary
+//!   ([`crate::diffusion::surface_radiance`]), clamped at 0 and interpolated at the user's
+//!   vertices through the tet mesh's surface map.
+//!
+//! The state kept after the bake ([`TransCutState`]) is what the editor
+//! ([`crate::edit::Editor::from_bake`]) starts from: the tet mesh, its media and the fluence.
+//! The capabilities (relight, medium edits and paint, cuts) are the editor's (TransCut §5,
+//! [`capabilities`]).
+
+mod capabilities;
+mod editor;
+
+use std::time::Instant;
+
+use super::{BakedState, Lighting, ObjectStats, Stage, SubsurfaceMethod, Target};
+use crate::diffusion::{self, DiffusionError, DiffusionSystem};
+use crate::gpu::{self, Backend, GpuError, SolveWith};
+use crate::mesh::{TetMesh, TetMeshError, TriMesh};
+use crate::mesher::{self, MesherError, MesherOptions, MesherStats};
+use crate::optics::Medium;
+use crate::progress::{Cancelled, Progress};
+use crate::scene::{Object, SceneError, Shape, TransCutOptions};
+use crate::sparse::{SolveOptions, SparseError};
+
+/// The TransCut method ([`SubsurfaceMethod`]).
+pub struct TransCut;
+
+/// What a TransCut bake keeps of one object ([`super::ObjectBake::state`]).
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub struct TransCutState {
+    /// The tet mesh the object was solved on (world space), its material ids indexing `media`.
+    pub tet_mesh: TetMesh,
+    /// The media table the system was assembled with (`diffusion::assemble(&tet_mesh, &media,
+    /// mm_per_unit)` rebuilds it).
+    pub media: Vec<Medium>,
+    /// Millimetres per scene unit of the object.
+    pub mm_per_unit: f64,
+    /// The refractive index at the surface.
+    pub eta: f64,
+    /// The fluence φ at every tet-mesh vertex (a warm start for later solves).
+    pub fluence: Vec<[f64; 3]>,
+}
+
+/// TransCut between `prepare` and the end of the bake: the state and the assembled system.
+pub(crate) struct Prepared {
+    tet_mesh: TetMesh,
+    media: Vec<Medium>,
+    system: DiffusionSystem,
+    fluence: Vec<[f64; 3]>,
+}
+
+impl SubsurfaceMethod for TransCut {
+    type Options = TransCutOptions;
+    type State = Prepared;
+
+    /// TransCut bakes every shape and medium; only its options and the backend named by
+    /// `TRANSCUT_BACKEND` are checked.
+    fn check(target: &Target<'_>, options: &TransCutOptions) -> Result<(), SceneError> {
+        backend(options).map(|_| ()).map_err(|e| target.invalid(e.to_string()))
+    }
+
+    fn prepare(
+        target: &Target<'_>,
+        options: &TransCutOptions,
+        stats: &mut ObjectStats,
+        stage: Stage<'_>,
+    ) -> Result<Prepared, SceneError> {
+        let (index, object) = (target.index, target.object);
+        let name = || object.name.clone();
+        let t = Instant::now();
+        let (mut tet_mesh, meshing) = world_tets(object, target.world, options, stage).map_err(|e| e.at(index, name()))?;
+        stats.meshing_ms = ms(t);
+        stats.meshing = meshing;
+        stage("assembly", 0.6)?;
+
+        let t = Instant::now();
+        let to_object = object.transform.inverse();
+        let media = object.medium.apply(&mut tet_mesh, &to_object, object.mm_per_unit).map_err(|source| SceneError::Medium {
+            index,
+            name: name(),
+            source,
+        })?;
+        let system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(|source| SceneError::Diffusion {
+            index,
+            name: name(),
+            source,
+        })?;
+        stats.assembly_ms = ms(t);
+        stats.tets = tet_mesh.tet_count();
+        stats.vertices = tet_mesh.vertex_count();
+        stats.boundary_vertices = system.boundary().len();
+        let fluence = vec![[0.0; 3]; tet_mesh.vertex_count()];
+        Ok(Prepared { tet_mesh, media, system, fluence })
+    }
+
+    fn solve(
+        target: &Target<'_>,
+        state: &mut Prepared,
+        lighting: &Lighting<'_>,
+        options: &TransCutOptions,
+        stats: &mut ObjectStats,
+        stage: Stage<'_>,
+    ) -> Result<Vec<[f64; 3]>, SceneError> {
+        let (index, name) = (target.index, || target.object.name.clone());
+        let diffusion_error = |source| SceneError::Diffusion { index, name: name(), source };
+        stage("light", 0.7)?;
+        let t = Instant::now();
+        let Prepared { tet_mesh, system, fluence, .. } = state;
+        let boundary = system.boundary();
+        let points: Vec<_> = boundary.ids.iter().map(|&v| tet_mesh.positions()[v as usize]).collect();
+        let q = lighting.transmitted_source(&points, &boundary.normal, system.boundary_terms().eta)?;
+        system.set_source(&q).map_err(diffusion_error)?;
+        stats.source_ms = ms(t);
+        stage("solve", 0.8)?;
+
+        let t = Instant::now();
+        // Progress through the solve: the residual's way from 1 down to the tolerance, in decades.
+        let decades = -options.tolerance.log10();
+        let monitor = |_: usize, residual: [f64; 3]| {
+            let worst = residual.iter().fold(0.0f64, |m, &r| m.max(r)).max(options.tolerance);
+            stage("solve", 0.8 + 0.19 * (-worst.log10() / decades).clamp(0.0, 1.0)).is_ok()
+        };
+        let solve_options =
+            SolveOptions { tolerance: options.tolerance, max_iterations: options.max_iterations, ..SolveOptions::default() }
+                .with_monitor(&monitor);
+        let backend = backend(options).map_err(|e| target.invalid(e.to_string()))?;
+        let (solution, report) =
+            gpu::solve_on(backend, SolveWith::Kind(options.solver), system, None, &solve_options).map_err(|e| match e {
+                GpuError::Diffusion(DiffusionError::Sparse(SparseError::Cancelled { .. })) => SceneError::Cancelled(Cancelled),
+                GpuError::Diffusion(source) => diffusion_error(source),
+                source => SceneError::Gpu { index, name: name(), source },
+            })?;
+        let lo = diffusion::surface_radiance(system, &solution.phi).map_err(diffusion_error)?;
+        stats.solve_ms = ms(t);
+
+        // Per tet-mesh vertex (boundary entries only), clamped, then at the user's vertices.
+        let mut per_vertex = vec![[0.0; 3]; tet_mesh.vertex_count()];
+        let mut clamped = 0;
+        for (&v, l) in system.boundary().ids.iter().zip(&lo) {
+            if l.iter().any(|&x| x < 0.0) {
+                clamped += 1;
+            }
+            per_vertex[v as usize] = l.map(|x| x.max(0.0));
+        }
+        stats.iterations = solution.stats.iterations;
+        stats.relative_residual = solution.stats.relative_residual;
+        stats.clamped_vertices = clamped;
+        stats.backend = report.used;
+        stats.device = report.device;
+        stats.backend_fallback = report.fallback;
+        *fluence = solution.phi;
+        Ok(match target.object.shape {
+            Shape::Surface(_) => tet_mesh.sample_at_user_vertices(&per_vertex),
+            Shape::Tetrahedra(_) => per_vertex,
+        })
+    }
+
+    fn into_baked(state: Prepared) -> BakedState {
+        let Prepared { tet_mesh, media, system, fluence } = state;
+        BakedState::TransCut(TransCutState {
+            tet_mesh,
+            media,
+            mm_per_unit: system.mm_per_unit(),
+            eta: system.boundary_terms().eta,
+            fluence,
+        })
+    }
+}
+
+/// The backend the options ask for: theirs, else `TRANSCUT_BACKEND`, else [`Backend::Auto`].
+fn backend(options: &TransCutOptions) -> Result<Backend, GpuError> {
+    match options.backend {
+        Some(b) => Ok(b),
+        None => Backend::from_env_or(Backend::Auto),
+    }
+}
+
+/// Why an object's world-space tet mesh could not be made (the object is named by the caller).
+enum TetsError {
+    Mesher(MesherError),
+    Transform(TetMeshError),
+}
+
+impl TetsError {
+    fn at(self, index: usize, name: String) -> SceneError {
+        match self {
+            Self::Mesher(MesherError::Cancelled(c)) => SceneError::Cancelled(c),
+            Self::Mesher(source) => SceneError::Mesher { index, name, source },
+            Self::Transform(e) => {
+                SceneError::InvalidObject { index, name, message: format!("the transformed tet mesh is invalid: {e}") }
+            }
+        }
+    }
+}
+
+/// How far the meshing is when mesher stage `stage` is `f` done: the stages' shares of the time
+/// measured on the test meshes (winding numbers about half, stencils a quarter).
+fn mesher_fraction(stage: &str, f: f64) -> f64 {
+    let (start, end) = match stage {
+        "winding numbers" => (0.0, 0.5),
+        "cut points" => (0.5, 0.6),
+        "warping" => (0.6, 0.65),
+        "stencils" => (0.65, 0.9),
+        "topology" => (0.9, 0.95),
+        _ => (0.95, 1.0),
+    };
+    start + (end - start) * f.clamp(0.0, 1.0)
+}
+
+/// The object's tets in world space: its surface meshed (progress 0 → 0.6 of the object), or its
+/// ready tet mesh transformed.
+fn world_tets(
+    object: &Object,
+    surface: &TriMesh,
+    options: &TransCutOptions,
+    stage: Stage<'_>,
+) -> Result<(TetMesh, Option<MesherStats>), TetsError> {
+    match &object.shape {
+        Shape::Surface(_) => {
+            // The mesher reports each of its stages from 0 to 1: one fraction of the meshing.
+            let mesh_progress = |s: &str, f: f64| stage(s, 0.6 * mesher_fraction(s, f)).is_ok();
+            let meshed =
+                mesher::tetrahedralize_with(surface, &MesherOptions::with_tets(options.tets), Progress::new(&mesh_progress))
+                    .map_err(TetsError::Mesher)?;
+            Ok((meshed.mesh, Some(meshed.stats)))
+        }
+        Shape::Tetrahedra(mesh) => {
+            let m = object.transform;
+            let world = mesh.clone().map_positions(move |p| m.transform_point3(p)).map_err(TetsError::Transform)?;
+            Ok((world, None))
+        }
+    }
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}

@@ -1,0 +1,180 @@
+//! Which subsurface method bakes a scene, with its typed options.
+//!
+//! Every method answers the same question — a [`super::Scene`] in, the radiance Lo(x, n) per
+//! vertex of each object out (ARCHITECTURE.md, "What a bake returns") — so the front ends
+//! (C ABI, CLI, scene files, Blender) choose one by name ([`Method::from_name`]) and share
+//! everything else. The set is closed: a method is a variant here, a folder under
+//! `core/src/methods/`, and one line in the conformance suite `core/tests/methods.rs`.
+
+use crate::diffusion::SolverKind;
+use crate::gpu::Backend;
+
+/// The subsurface method of a bake, with its options.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Method {
+    /// TransCut (Li et al. 2012, §3): the diffusion equation on a tetrahedral mesh of each
+    /// object, heterogeneous media, interactive relighting, material edits and cuts (§5).
+    TransCut(TransCutOptions),
+}
+
+impl Default for Method {
+    fn default() -> Self {
+        Self::TransCut(TransCutOptions::default())
+    }
+}
+
+impl From<TransCutOptions> for Method {
+    fn from(options: TransCutOptions) -> Self {
+        Self::TransCut(options)
+    }
+}
+
+impl Method {
+    /// The names of every method this library has, in the order front ends list them (also
+    /// the order of the C ABI's `TC_METHOD_*` values).
+    pub const NAMES: &'static [&'static str] = &["transcut"];
+
+    /// Every method with its default options, in the order of [`Method::NAMES`].
+    #[must_use]
+    pub fn all() -> Vec<Method> {
+        Self::NAMES.iter().filter_map(|name| Self::from_name(name)).collect()
+    }
+
+    /// The name front ends use: `transcut` (later `polygrid`, `prt`, `radiosity`,
+    /// `hierarchical-dipole`).
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::TransCut(_) => "transcut",
+        }
+    }
+
+    /// One line saying what the method is, for `--method help` and user interfaces.
+    #[must_use]
+    pub fn description(&self) -> &'static str {
+        match self {
+            Self::TransCut(_) => {
+                "TransCut (Li et al. 2012): diffusion on a tetrahedral mesh; heterogeneous media, relight, paint, cut"
+            }
+        }
+    }
+
+    /// The method called `name` (any case, surrounding spaces ignored) with its default
+    /// options, or `None`.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Method> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "transcut" => Some(Self::TransCut(TransCutOptions::default())),
+            _ => None,
+        }
+    }
+
+    /// What front ends say for a name that is no method: the name and every valid one.
+    #[must_use]
+    pub fn unknown(name: &str) -> String {
+        format!("unknown method '{}' (the methods are: {})", name.trim(), Self::NAMES.join(", "))
+    }
+
+    /// TransCut's options, when this is TransCut.
+    #[must_use]
+    pub fn transcut(&self) -> Option<&TransCutOptions> {
+        match self {
+            Self::TransCut(o) => Some(o),
+        }
+    }
+
+    /// Checks the method's options.
+    ///
+    /// # Errors
+    /// A message naming the method and the option out of range.
+    pub fn validate(&self) -> Result<(), String> {
+        match self {
+            Self::TransCut(o) => o.validate(),
+        }
+        .map_err(|e| format!("{}: {e}", self.name()))
+    }
+}
+
+/// How TransCut bakes: the tet mesh it solves on, the solve, and where it runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TransCutOptions {
+    /// Target tetrahedra per surface object (objects given as a tet mesh are solved as given).
+    pub tets: usize,
+    /// Relative residual ‖b − Mφ‖/‖b‖ at which every solve stops, in (0, 1).
+    pub tolerance: f64,
+    /// Iteration cap of every solve, ≥ 1.
+    pub max_iterations: usize,
+    /// The bake's solver on the CPU (default [`SolverKind::SsorPcg`], the fastest single
+    /// solve). On the device the single-level kinds run Jacobi PCG ([`crate::gpu::solve_on`]).
+    pub solver: SolverKind,
+    /// The solver of interactive updates after the bake (relight, material edits, cuts;
+    /// default [`SolverKind::AggregationPcg`], whose hierarchy pays off over many solves).
+    pub edit_solver: SolverKind,
+    /// Where the solve runs; `None`: as `TRANSCUT_BACKEND` says (cpu, gpu, auto), else
+    /// [`Backend::Auto`] (the GPU when a hardware adapter exists, else the CPU; the statistics
+    /// say which ran and why).
+    pub backend: Option<Backend>,
+}
+
+impl Default for TransCutOptions {
+    fn default() -> Self {
+        Self {
+            tets: 200_000,
+            tolerance: 1e-6,
+            max_iterations: 10_000,
+            solver: SolverKind::SsorPcg,
+            edit_solver: SolverKind::AggregationPcg,
+            backend: None,
+        }
+    }
+}
+
+impl TransCutOptions {
+    /// Checks the options.
+    ///
+    /// # Errors
+    /// A message naming the option out of range.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.tets == 0 {
+            return Err("tets must be at least 1".into());
+        }
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return Err(format!("tolerance must lie in (0, 1), got {}", self.tolerance));
+        }
+        if self.max_iterations == 0 {
+            return Err("max_iterations must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_name_round_trips_and_unknown_names_list_the_valid_ones() {
+        for (method, name) in Method::all().iter().zip(Method::NAMES) {
+            assert_eq!(method.name(), *name);
+            assert_eq!(Method::from_name(&name.to_uppercase()).as_ref(), Some(method));
+            assert!(!method.description().is_empty());
+        }
+        assert_eq!(Method::all().len(), Method::NAMES.len());
+        assert_eq!(Method::from_name(" TransCut "), Some(Method::default()));
+        assert_eq!(Method::from_name("nonsense"), None);
+        let message = Method::unknown("nonsense");
+        assert!(message.contains("'nonsense'") && message.contains("transcut"), "{message}");
+    }
+
+    #[test]
+    fn options_out_of_range_are_named_with_the_method() {
+        let bad = |o: TransCutOptions| Method::TransCut(o).validate().unwrap_err();
+        let d = TransCutOptions::default;
+        assert!(bad(TransCutOptions { tets: 0, ..d() }).starts_with("transcut: tets"));
+        assert!(bad(TransCutOptions { tolerance: 1.0, ..d() }).contains("tolerance"));
+        assert!(bad(TransCutOptions { tolerance: f64::NAN, ..d() }).contains("tolerance"));
+        assert!(bad(TransCutOptions { max_iterations: 0, ..d() }).contains("max_iterations"));
+        assert_eq!(Method::default().validate(), Ok(()));
+    }
+}

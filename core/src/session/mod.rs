@@ -1,0 +1,473 @@
+//! A baked scene kept for interactive work: every object's bake and, from its first update on,
+//! its method's live state, with the lights they were solved under. The C ABI, the CLI and the
+//! tests all edit through it, so they share one behaviour:
+//!
+//! - every update of an object starts from its last solution (TransCut §4.2's warm start);
+//! - a failed update changes nothing (each capability leaves its state unchanged on error, and
+//!   a live state made for a failed update is not kept);
+//! - [`Session::relight`] relights every object or none: the objects relit before a failure or
+//!   a cancellation are undone, last first;
+//! - a capability an object's method lacks is refused with [`SessionError::Unsupported`],
+//!   naming the method ([`crate::methods::capability`]).
+//!
+//! Each object is lit by the session's lights with its own shadows: unlike a bake, other
+//! objects cast none on it in updates.
+
+use glam::DMat4;
+
+use crate::bake::{bake_with, with_threads, Bake};
+use crate::edit::{Cutter, EditError, EditOptions, Editor, MediumEdit, PaintStroke, RelightUndo, UpdateStats};
+use crate::light::Light;
+use crate::methods::capability::{Cut, EditMedium, Relight};
+use crate::methods::{BakedState, ObjectBake, ObjectStats};
+use crate::progress::{Cancelled, Progress};
+use crate::scene::{BakeOptions, Method, Scene, SceneError};
+
+/// Why a session call failed. Nothing changed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SessionError {
+    /// An object index is out of range.
+    #[error("object {index} does not exist (the session has {count} objects)")]
+    NoSuchObject { index: usize, count: usize },
+    /// The object's method cannot do what was asked.
+    #[error("object {index} ({name}): the {method} method cannot {capability}")]
+    Unsupported { index: usize, name: String, method: &'static str, capability: &'static str },
+    /// The update of an object failed.
+    #[error("object {index} ({name}): {source}")]
+    Edit {
+        index: usize,
+        name: String,
+        #[source]
+        source: EditError,
+    },
+    /// The worker threads could not be started.
+    #[error("invalid session option: {0}")]
+    InvalidOptions(String),
+    /// Cancelled through the progress callback.
+    #[error("{0}; nothing changed")]
+    Cancelled(#[from] Cancelled),
+}
+
+impl SessionError {
+    /// The update's own error, when an update failed.
+    #[must_use]
+    pub fn edit_error(&self) -> Option<&EditError> {
+        match self {
+            Self::Edit { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}
+
+/// A method's live state, made from its bake at the object's first update.
+#[derive(Debug)]
+enum Live {
+    TransCut(Box<Editor>),
+}
+
+impl Live {
+    /// The live state of `bake`, solved under `lights` (the lights the bake was solved under).
+    fn start(bake: &ObjectBake, lights: &[Light], options: &BakeOptions) -> Result<Self, EditError> {
+        match (&bake.state, &options.method) {
+            (BakedState::TransCut(_), Method::TransCut(transcut)) => {
+                let edit = EditOptions::from_bake_options(options, transcut);
+                Ok(Self::TransCut(Box::new(Editor::from_bake(bake, lights, &edit)?)))
+            }
+        }
+    }
+
+    fn relight(&mut self) -> &mut impl Relight<Undo = RelightUndo> {
+        match self {
+            Self::TransCut(e) => e.as_mut(),
+        }
+    }
+
+    fn user_radiance(&self) -> Option<Vec<[f64; 3]>> {
+        match self {
+            Self::TransCut(e) => Relight::user_radiance(e.as_ref()),
+        }
+    }
+
+    fn edit_medium(&mut self) -> Option<&mut dyn EditMedium> {
+        match self {
+            Self::TransCut(e) => Some(e.as_mut()),
+        }
+    }
+
+    fn cut(&mut self) -> Option<&mut dyn Cut> {
+        match self {
+            Self::TransCut(e) => Some(e.as_mut()),
+        }
+    }
+}
+
+/// One object of a session.
+#[derive(Debug)]
+struct Slot {
+    name: String,
+    method: &'static str,
+    state: State,
+    /// The bake's statistics.
+    bake_stats: ObjectStats,
+    /// The last update's.
+    last: Option<UpdateStats>,
+}
+
+/// What an object holds: its bake until its first update, then its method's live state (which
+/// holds all the bake had).
+#[derive(Debug)]
+enum State {
+    Baked(Box<ObjectBake>),
+    Live(Live),
+}
+
+/// What [`Session::relight`] did to one object, to undo it when a later object fails.
+enum Relit {
+    /// The object's live state was relit in place; this puts it back.
+    Existing(RelightUndo),
+    /// The object had no live state: one was made from its bake and relit; this is the state
+    /// it had (the bake).
+    Created(State),
+}
+
+/// A baked scene being edited (see the module documentation).
+#[derive(Debug)]
+pub struct Session {
+    /// The lights every object is solved under (of the bake, or of the last relight).
+    lights: Vec<Light>,
+    options: BakeOptions,
+    objects: Vec<Slot>,
+}
+
+impl Session {
+    /// Bakes `scene` ([`bake_with`]) and keeps the result for editing.
+    ///
+    /// # Errors
+    /// Those of [`bake_with`].
+    pub fn bake(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<Self, SceneError> {
+        let bake = bake_with(scene, options, progress)?;
+        Ok(Self::new(scene, bake, options))
+    }
+
+    /// The session of a finished bake of `scene` with `options`.
+    #[must_use]
+    pub fn new(scene: &Scene, bake: Bake, options: &BakeOptions) -> Self {
+        let objects = bake
+            .objects
+            .into_iter()
+            .zip(&scene.objects)
+            .map(|(b, object)| Slot {
+                name: object.name.clone(),
+                method: b.method(),
+                bake_stats: b.stats.clone(),
+                state: State::Baked(Box::new(b)),
+                last: None,
+            })
+            .collect();
+        Self { lights: scene.lights.clone(), options: options.clone(), objects }
+    }
+
+    /// The number of objects.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// Whether the session has no objects.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.objects.is_empty()
+    }
+
+    /// The lights the objects are solved under.
+    #[must_use]
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
+    /// The options of the bake.
+    #[must_use]
+    pub fn options(&self) -> &BakeOptions {
+        &self.options
+    }
+
+    fn slot(&self, index: usize) -> Result<&Slot, SessionError> {
+        let count = self.objects.len();
+        self.objects.get(index).ok_or(SessionError::NoSuchObject { index, count })
+    }
+
+    /// The statistics of object `index`'s bake.
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`].
+    pub fn bake_stats(&self, index: usize) -> Result<&ObjectStats, SessionError> {
+        Ok(&self.slot(index)?.bake_stats)
+    }
+
+    /// What the last update of object `index` did (`None` before its first).
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`].
+    pub fn last_update(&self, index: usize) -> Result<Option<&UpdateStats>, SessionError> {
+        Ok(self.slot(index)?.last.as_ref())
+    }
+
+    /// Object `index`'s bake, until its first update (then its live state holds what it had).
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`].
+    pub fn baked(&self, index: usize) -> Result<Option<&ObjectBake>, SessionError> {
+        Ok(match &self.slot(index)?.state {
+            State::Baked(b) => Some(b),
+            State::Live(_) => None,
+        })
+    }
+
+    /// The TransCut editor of object `index`, from its first update on.
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`].
+    pub fn editor(&self, index: usize) -> Result<Option<&Editor>, SessionError> {
+        Ok(match &self.slot(index)?.state {
+            State::Live(Live::TransCut(e)) => Some(e),
+            State::Baked(_) => None,
+        })
+    }
+
+    /// The refractive index at object `index`'s surface, for renderers.
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`].
+    pub fn eta(&self, index: usize) -> Result<f64, SessionError> {
+        Ok(match &self.slot(index)?.state {
+            State::Live(Live::TransCut(e)) => e.media().eta(),
+            State::Baked(b) => b.eta(),
+        })
+    }
+
+    /// Object `index`'s radiance at its user's vertices: the bake's, or the last update's while
+    /// the object still has them (`None` once it was cut or a piece moved).
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`].
+    pub fn radiance(&self, index: usize) -> Result<Option<Vec<[f64; 3]>>, SessionError> {
+        Ok(match &self.slot(index)?.state {
+            State::Live(live) => live.user_radiance(),
+            State::Baked(b) => Some(b.radiance.clone()),
+        })
+    }
+
+    /// Makes object `index`'s live state from its bake now (a solve under the session's
+    /// lights), as its first update would; nothing to do when it exists.
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`]; [`SessionError::Edit`] when the live state cannot be made.
+    pub fn start(&mut self, index: usize) -> Result<(), SessionError> {
+        self.update_with(index, |_| Ok(None)).map(|_| ())
+    }
+
+    /// Re-solves every object under `lights`, warm-started, without meshing or assembling
+    /// again; `progress` is called before each object and at the end. All or nothing: on a
+    /// failure (naming the object) or a cancellation the objects relit so far are undone, last
+    /// first. Returns each object's update statistics.
+    ///
+    /// # Errors
+    /// [`SessionError::Edit`] naming the object that failed; [`SessionError::Cancelled`].
+    pub fn relight(&mut self, lights: &[Light], progress: Progress) -> Result<Vec<UpdateStats>, SessionError> {
+        let threads = self.options.threads;
+        let Self { lights: baked, options, objects } = self;
+        let n = objects.len();
+        let stats = with_threads(threads, || -> Result<Vec<UpdateStats>, SessionError> {
+            let mut done: Vec<(UpdateStats, Relit)> = Vec::with_capacity(n);
+            let mut failure = None;
+            for (index, slot) in objects.iter_mut().enumerate() {
+                if let Err(c) = progress.report(&format!("{}: relight", slot.name), index as f64 / n as f64) {
+                    failure = Some(SessionError::Cancelled(c));
+                    break;
+                }
+                match relight_slot(slot, baked, lights, options) {
+                    Ok(r) => done.push(r),
+                    Err(source) => {
+                        failure = Some(SessionError::Edit { index, name: slot.name.clone(), source });
+                        break;
+                    }
+                }
+            }
+            if failure.is_none() {
+                if let Err(c) = progress.report("relight: done", 1.0) {
+                    failure = Some(SessionError::Cancelled(c));
+                }
+            }
+            if let Some(f) = failure {
+                for (slot, (_, relit)) in objects.iter_mut().zip(done).rev() {
+                    undo_relight(slot, relit);
+                }
+                return Err(f);
+            }
+            Ok(objects
+                .iter_mut()
+                .zip(done)
+                .map(|(slot, (stats, _))| {
+                    slot.last = Some(stats.clone());
+                    stats
+                })
+                .collect())
+        })
+        .map_err(SessionError::InvalidOptions)??;
+        *baked = lights.to_vec();
+        Ok(stats)
+    }
+
+    /// Applies a material edit to object `index` ([`EditMedium::edit_medium`]).
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
+    pub fn edit_medium(&mut self, index: usize, edit: &MediumEdit) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "edit the medium", |live| live.edit_medium().map(|c| c.edit_medium(edit)))
+    }
+
+    /// Paints a stroke into object `index` ([`EditMedium::paint`]).
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
+    pub fn paint(&mut self, index: usize, stroke: &PaintStroke) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "paint the medium", |live| live.edit_medium().map(|c| c.paint(stroke)))
+    }
+
+    /// Cuts object `index` ([`Cut::cut`]): what lies on the cutter's positive side goes.
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
+    pub fn cut(&mut self, index: usize, cutter: &Cutter) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "cut", |live| live.cut().map(|c| c.cut(cutter)))
+    }
+
+    /// Splits object `index` by a cutter ([`Cut::split`]).
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
+    pub fn split(&mut self, index: usize, cutter: &Cutter) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "split", |live| live.cut().map(|c| c.split(cutter)))
+    }
+
+    /// Separates object `index` into its connected parts ([`Cut::fracture`]).
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
+    pub fn fracture(&mut self, index: usize) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "fracture", |live| live.cut().map(|c| c.fracture()))
+    }
+
+    /// Places piece `piece` of object `index` ([`Cut::set_piece_transform`]).
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
+    pub fn set_piece_transform(&mut self, index: usize, piece: usize, transform: DMat4) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "move pieces", |live| live.cut().map(|c| c.set_piece_transform(piece, transform)))
+    }
+
+    /// Welds the pieces of object `index` whose faces touch again ([`Cut::recombine`]).
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
+    pub fn recombine(&mut self, index: usize) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "recombine pieces", |live| live.cut().map(|c| c.recombine()))
+    }
+
+    /// Runs `op` on object `index`'s live state (made from its bake if needed) on the session's
+    /// threads; keeps the new state and the update's statistics. `op` returns `None` when the
+    /// method lacks `capability`. Nothing changes when it fails.
+    fn update(
+        &mut self,
+        index: usize,
+        capability: &'static str,
+        op: impl FnOnce(&mut Live) -> Option<Result<UpdateStats, EditError>> + Send,
+    ) -> Result<&UpdateStats, SessionError> {
+        self.update_with(index, |live| match op(live) {
+            Some(result) => result.map(Some).map_err(Failed::Edit),
+            None => Err(Failed::Unsupported(capability)),
+        })?;
+        Ok(self.objects[index].last.as_ref().expect("an update that succeeded stored its statistics"))
+    }
+
+    /// Runs `op` on object `index`'s live state, made from its bake first if needed (and then
+    /// kept only if `op` succeeds); stores the statistics `op` returns.
+    fn update_with(
+        &mut self,
+        index: usize,
+        op: impl FnOnce(&mut Live) -> Result<Option<UpdateStats>, Failed> + Send,
+    ) -> Result<(), SessionError> {
+        let count = self.objects.len();
+        let threads = self.options.threads;
+        let Self { lights, options, objects } = self;
+        let slot = objects.get_mut(index).ok_or(SessionError::NoSuchObject { index, count })?;
+        let outcome = with_threads(threads, || -> Result<Option<UpdateStats>, Failed> {
+            match &mut slot.state {
+                State::Live(live) => op(live),
+                State::Baked(bake) => {
+                    let mut live = Live::start(bake, lights, options).map_err(Failed::Edit)?;
+                    let stats = op(&mut live)?;
+                    slot.state = State::Live(live);
+                    Ok(stats)
+                }
+            }
+        })
+        .map_err(SessionError::InvalidOptions)?;
+        match outcome {
+            Ok(stats) => {
+                if stats.is_some() {
+                    slot.last = stats;
+                }
+                Ok(())
+            }
+            Err(Failed::Edit(source)) => Err(SessionError::Edit { index, name: slot.name.clone(), source }),
+            Err(Failed::Unsupported(capability)) => {
+                Err(SessionError::Unsupported { index, name: slot.name.clone(), method: slot.method, capability })
+            }
+        }
+    }
+}
+
+/// Why an update of one object failed, before the object is named.
+enum Failed {
+    Edit(EditError),
+    Unsupported(&'static str),
+}
+
+/// Relights `slot` in place under `lights`, or makes its live state from its bake (solved under
+/// `baked`, the lights the bake was solved under) and relights that. Unchanged on error;
+/// [`undo_relight`] undoes a success.
+fn relight_slot(
+    slot: &mut Slot,
+    baked: &[Light],
+    lights: &[Light],
+    options: &BakeOptions,
+) -> Result<(UpdateStats, Relit), EditError> {
+    match &mut slot.state {
+        State::Live(live) => {
+            let (stats, undo) = live.relight().relight(lights)?;
+            Ok((stats, Relit::Existing(undo)))
+        }
+        State::Baked(bake) => {
+            let mut live = Live::start(bake, baked, options)?;
+            let (stats, _) = live.relight().relight(lights)?;
+            let before = std::mem::replace(&mut slot.state, State::Live(live));
+            Ok((stats, Relit::Created(before)))
+        }
+    }
+}
+
+/// Undoes [`relight_slot`]: the live state as before it, or the bake back.
+fn undo_relight(slot: &mut Slot, relit: Relit) {
+    match relit {
+        Relit::Existing(undo) => {
+            if let State::Live(live) = &mut slot.state {
+                // Cannot fail: the state is the one the relight changed, untouched since.
+                let undone = live.relight().undo_relight(undo);
+                debug_assert!(undone.is_ok(), "{undone:?}");
+            }
+        }
+        Relit::Created(before) => slot.state = before,
+    }
+}
