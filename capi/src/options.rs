@@ -169,19 +169,27 @@ fn solver_from(value: u32, what: &str) -> Result<Option<SolverKind>, Failure> {
     }))
 }
 
+/// A size-prefixed options struct: its C name and the function that fills its defaults.
+struct Sized {
+    what: &'static str,
+    type_name: &'static str,
+    filler: &'static str,
+}
+
 /// Reads a size-prefixed struct of which the library knows the first `size_of::<T>()` bytes:
 /// `size` must be at least `min` (the first version's size); a shorter known prefix is
 /// completed from `defaults`.
 ///
 /// # Safety
 /// `ptr` must be non-NULL, aligned, and point to at least `*ptr.size` readable bytes.
-unsafe fn read_sized<T: Copy>(ptr: *const T, min: usize, defaults: T, what: &str) -> Result<T, Failure> {
+unsafe fn read_sized<T: Copy>(ptr: *const T, min: usize, defaults: T, s: &Sized) -> Result<T, Failure> {
     // SAFETY: the caller's contract; `size` is the first field of every such struct.
     let size = unsafe { ptr.cast::<u32>().read() } as usize;
     let ours = std::mem::size_of::<T>();
     if size < min {
         return Err(Failure::invalid(format!(
-            "{what}->size = {size}, expected sizeof = {ours} (fill the struct with its tc_*_default function)"
+            "{}->size = {size}, expected sizeof({}) = {ours} (fill the struct with {})",
+            s.what, s.type_name, s.filler
         )));
     }
     let mut value = defaults;
@@ -204,8 +212,9 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
         check_not_null!(options);
         let mut defaults = default_bake_options();
         defaults.method_options = std::ptr::null();
+        let sized = Sized { what: "options", type_name: "TcBakeOptions", filler: "tc_bake_options_default" };
         // SAFETY: forwarded.
-        unsafe { read_sized(options, BAKE_OPTIONS_SIZE_V1, defaults, "options")? }
+        unsafe { read_sized(options, BAKE_OPTIONS_SIZE_V1, defaults, &sized)? }
     };
     let source = SourceOptions {
         area_samples: o.area_samples as usize,
@@ -221,15 +230,13 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
                 if !t.is_aligned() {
                     return Err(Failure::invalid("`options->method_options` is not aligned for TcTransCutOptions"));
                 }
+                let sized = Sized {
+                    what: "options->method_options",
+                    type_name: "TcTransCutOptions",
+                    filler: "tc_transcut_options_default",
+                };
                 // SAFETY: the caller's contract, checked for NULL and alignment.
-                unsafe {
-                    read_sized(
-                        t,
-                        std::mem::size_of::<TcTransCutOptions>(),
-                        default_transcut_options(),
-                        "options->method_options",
-                    )?
-                }
+                unsafe { read_sized(t, std::mem::size_of::<TcTransCutOptions>(), default_transcut_options(), &sized)? }
             };
             let d = TransCutOptions::default();
             Method::TransCut(TransCutOptions {

@@ -13,6 +13,7 @@ mod backend;
 mod bake;
 mod concurrency;
 mod edit;
+mod method;
 mod misuse;
 mod objects;
 mod tets;

@@ -10,8 +10,8 @@ use transcut::mesh;
 use transcut::optics::Medium;
 use transcut::{bake, BakeOptions, Object, ObjectStats, Scene, TransCutOptions};
 
+use super::args::BenchArgs;
 use super::stats::{median, peak_rss_mib};
-use super::BenchArgs;
 
 #[derive(Serialize)]
 struct BakeEntry {

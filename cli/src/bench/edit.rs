@@ -36,9 +36,9 @@ use transcut::sparse::SolveOptions;
 use transcut::DVec3;
 use transcut::{bake, BakeOptions, MediumSource, Object, ObjectStats, Scene, TransCutOptions};
 
+use super::args::BenchArgs;
 use super::fig7::{fig7, rotate_about_x, Fig7};
 use super::stats::{median, ms};
-use super::BenchArgs;
 
 /// A bake's solve, medians over runs.
 #[derive(Serialize)]

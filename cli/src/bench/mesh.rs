@@ -8,8 +8,8 @@ use transcut::mesh;
 use transcut::mesher::{tetrahedralize_with, MesherOptions};
 use transcut::Progress;
 
+use super::args::BenchArgs;
 use super::stats::median;
-use super::BenchArgs;
 
 #[derive(Serialize)]
 struct MeshEntry {

@@ -10,8 +10,8 @@ use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
 use transcut::DVec3;
 
+use super::args::BenchArgs;
 use super::fig7::{fig7, Fig7};
-use super::BenchArgs;
 
 #[derive(Serialize)]
 struct SizeEntry {

@@ -16,8 +16,8 @@ use transcut::optics::Medium;
 use transcut::sparse::hierarchy::{HierarchyOptions, Multigrid};
 use transcut::sparse::SolveOptions;
 
+use super::args::BenchArgs;
 use super::stats::median;
-use super::BenchArgs;
 
 #[derive(Serialize)]
 struct GpuEntry {

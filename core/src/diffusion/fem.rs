@@ -28,20 +28,8 @@
 //! the order of the P1 error itself, so both converge to the same φ at second order; for a
 //! constant q the two right-hand sides are identical.
 
-use super::assembly::{Coefficients, DiffusionSystem, Discretization};
-use super::error::DiffusionError;
-use super::structure::{fill_rows, hat_gradients, Structure, INTERIOR, OTHERS};
-use crate::mesh::TetMesh;
-use crate::optics::{BoundaryTerms, Medium};
-
-/// Assembles the consistent P1 system of `mesh` (see the module documentation), with the same
-/// inputs, units and scale as [`super::assemble`].
-///
-/// # Errors
-/// Those of [`super::assemble`].
-pub fn assemble_consistent(mesh: &TetMesh, media: &[Medium], mm_per_unit: f64) -> Result<DiffusionSystem, DiffusionError> {
-    DiffusionSystem::new(mesh, media, mm_per_unit, Discretization::ConsistentFem)
-}
+use super::structure::{fill_rows, hat_gradients, Coefficients, Structure, INTERIOR, OTHERS};
+use crate::optics::BoundaryTerms;
 
 /// Fills 4(K + C + B/(2A)) row by row (each row sums its tets, then its boundary triangles, in
 /// increasing order, so the matrix is bit-for-bit symmetric).
@@ -116,8 +104,10 @@ pub(crate) fn rhs_consistent(s: &Structure, terms: &BoundaryTerms, q: &[[f64; 3]
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)] // per-channel loops read best indexed
 mod tests {
-    use super::super::assemble;
+    use super::super::{assemble, assemble_consistent};
     use super::*;
+    use crate::mesh::TetMesh;
+    use crate::optics::Medium;
     use glam::DVec3;
 
     fn two_tets() -> TetMesh {

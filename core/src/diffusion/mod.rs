@@ -6,8 +6,10 @@
 //! with piecewise-constant media and piecewise-linear φ this becomes a symmetric positive definite
 //! system M φ = b per colour channel:
 //!
-//! - [`assemble`] ([`assembly`]): TransCut eqs. 10–14, cotangent edge weights and lumped masses;
-//! - [`assemble_consistent`] ([`fem`]): the consistent P1 Galerkin reference, scaled alike;
+//! - [`assemble`] ([`system`], kernel in `transcut.rs`): TransCut eqs. 10–14, cotangent edge
+//!   weights and lumped masses;
+//! - [`assemble_consistent`] (kernel in `fem.rs`): the consistent P1 Galerkin reference,
+//!   scaled alike;
 //! - [`Solver`] ([`solver`]): CG with a Jacobi, SSOR or multigrid preconditioner, or the §4
 //!   cascade ([`SolverKind`]), on the three channels, from warm starts; [`solve`] the bake's
 //!   cold solve;
@@ -52,16 +54,16 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod assembly;
 mod error;
-pub mod fem;
+mod fem;
 pub mod solve;
 pub mod solver;
 mod structure;
+pub mod system;
+mod transcut;
 
-pub use assembly::{assemble, rhs, DiffusionSystem, Discretization};
 pub use error::DiffusionError;
-pub use fem::assemble_consistent;
 pub use solve::{energy_balance, solve, surface_fluence, surface_radiance, EnergyBalance, Solution};
 pub use solver::{Solver, SolverKind};
 pub use structure::BoundaryVertices;
+pub use system::{assemble, assemble_consistent, rhs, DiffusionSystem, Discretization};

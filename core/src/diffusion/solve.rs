@@ -7,9 +7,9 @@
 //!   (ARCHITECTURE.md "What a bake returns"): Lo(x, n) = Ft(n)/(4π) · [(1 + 1/A) φ − 4q/(1 + Fdr)].
 //! - [`energy_balance`]: absorbed, exitant and incident power of a solution.
 
-use super::assembly::DiffusionSystem;
 use super::error::DiffusionError;
 use super::solver::{Solver, SolverKind};
+use super::system::DiffusionSystem;
 use crate::sparse::hierarchy::HierarchyOptions;
 use crate::sparse::{SolveOptions, SolveStats};
 
@@ -176,7 +176,7 @@ fn check_phi(system: &DiffusionSystem, phi: &[[f64; 3]]) -> Result<(), Diffusion
 
 #[cfg(test)]
 mod tests {
-    use super::super::assembly::tests::cube_mesh;
+    use super::super::system::tests::cube_mesh;
     use super::super::{assemble, assemble_consistent};
     use super::*;
     use crate::optics::Medium;

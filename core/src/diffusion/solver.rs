@@ -23,9 +23,9 @@
 
 use std::sync::Arc;
 
-use super::assembly::DiffusionSystem;
 use super::error::DiffusionError;
 use super::solve::Solution;
+use super::system::DiffusionSystem;
 use crate::sparse::hierarchy::{
     mg_pcg, Cascade, CascadeOptions, Hierarchy, HierarchyKind, HierarchyOptions, Multigrid, MultigridOptions,
 };

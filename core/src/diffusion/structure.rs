@@ -12,6 +12,7 @@ use rayon::prelude::*;
 
 use super::error::DiffusionError;
 use crate::mesh::TetMesh;
+use crate::optics::Medium;
 use crate::sparse::CsrPattern;
 
 /// The six edges of a tet as local vertex pairs, the order of the per-tet edge coefficients.
@@ -80,6 +81,25 @@ pub(crate) struct FaceIncidence {
     pub face: u32,
     pub others: [u32; 2],
     pub slots: [u32; 2],
+}
+
+/// Per-material coefficients (mm and mm⁻¹), per channel.
+#[derive(Debug, Clone)]
+pub(crate) struct Coefficients {
+    /// κ = 1/(3(σa + σ′s)).
+    pub kappa: Vec<[f64; 3]>,
+    /// μ = σa.
+    pub mu: Vec<[f64; 3]>,
+}
+
+impl Coefficients {
+    /// κ = 1/(3(σa + σ′s)) and μ = σa of every medium of a table.
+    pub(crate) fn of(media: &[Medium]) -> Self {
+        Self {
+            kappa: media.par_iter().map(Medium::diffusion_coefficient).collect(),
+            mu: media.par_iter().map(|m| m.sigma_a).collect(),
+        }
+    }
 }
 
 /// Mesh-only data shared by every system assembled on one mesh (see the module docs).

@@ -91,7 +91,7 @@ pub use paint::PaintStroke;
 pub use piece::Piece;
 pub use region::{MediumEdit, MediumOp, Region};
 
-use crate::diffusion::assembly::MediaUndo;
+use crate::diffusion::system::MediaUndo;
 use crate::diffusion::SolverKind;
 use crate::gpu::Backend;
 use crate::light::{self, Light, SourceOptions};

@@ -9,7 +9,7 @@ use glam::{DMat3, DMat4, DVec3};
 use rayon::prelude::*;
 
 use super::error::EditError;
-use crate::diffusion::assembly::SourceState;
+use crate::diffusion::system::SourceState;
 use crate::diffusion::{self, DiffusionError, DiffusionSystem, Solution, Solver, SolverKind};
 use crate::gpu::{self, Backend, GpuError, SolveWith};
 use crate::light::{self, Light, SourceOptions};

@@ -1,24 +1,12 @@
-//! Assembly of the TransCut linear system M φ = b (TransCut §3.2, eqs. 10–14, as restated in
-//! ARCHITECTURE.md "The equations").
+//! The diffusion system M φ = b on a tet mesh ([`DiffusionSystem`]): its assembly, the refills
+//! after media change (whole, row-local, single entries, with their undo) and after the light
+//! changes (the source q and the right-hand side b).
 //!
-//! Per tet t (κ_t, μ_t constant, per channel, lengths in mm):
-//!
-//! - κ_t = 1/(3(μ_t + σ′s_t)), μ_t = σa_t ([`Medium::diffusion_coefficient`]);
-//! - eq. 10: w_ij = −Σ_{t ∋ ij} (1/6) κ_t |kl| cot θ_kl (k, l the other two vertices of t,
-//!   θ_kl the dihedral angle at edge kl);
-//! - eq. 14: M_ij = 4 w_ij;
-//! - eq. 13: M_ii = −4 Σ_j w_ij + Σ_{t ∋ i} V_t μ_t (+ 2 S_i/(3A) on the boundary), S_i the
-//!   area of the boundary triangles around i;
-//! - eq. 12: b_i = 8 S_i q_i / (3A(1 − Fdr)) on the boundary, 0 inside.
-//!
-//! This is 4 × the P1 finite-element system of the weak form (see [`super::fem`]) with the volume
-//! mass and the boundary mass lumped to the diagonal: the edge weight is the P1 stiffness
-//! entry, w_ijt = κ_t V_t ∇β_i·∇β_j (TransCut §3.3), the lumped mass is ∫ μ β_i = Σ V_t μ_t / 4,
-//! and the lumped boundary mass is ∫ β_i dS = S_i/3.
-//!
-//! The values are filled row by row in parallel from the mesh-only [`Structure`]: every row sums
-//! its own tets in increasing tet order, so the matrix is bit-for-bit symmetric and identical for
-//! any thread count.
+//! The values are filled row by row in parallel from the mesh-only [`Structure`], by one of two
+//! kernels ([`Discretization`]): TransCut's eqs. 10–14 ([`super::transcut`]) or the consistent
+//! P1 reference ([`super::fem`]). Every row sums its own tets in increasing tet order, so the
+//! matrix is bit-for-bit symmetric and identical for any thread count, and a row refilled alone
+//! is bit-identical to the same row of a full fill.
 
 use std::sync::Arc;
 
@@ -26,7 +14,8 @@ use rayon::prelude::*;
 
 use super::error::DiffusionError;
 use super::fem;
-use super::structure::{fill_rows, fill_selected_rows, BoundaryVertices, Structure, EDGE_INDEX, INTERIOR, OTHERS};
+use super::structure::{fill_selected_rows, BoundaryVertices, Coefficients, Structure};
+use super::transcut;
 use crate::mesh::TetMesh;
 use crate::optics::{BoundaryTerms, Medium};
 use crate::sparse::{CsrMatrix3, CsrPattern};
@@ -41,15 +30,6 @@ pub enum Discretization {
     /// The P1 Galerkin reference with consistent volume and boundary mass and a consistent
     /// boundary load ([`super::fem`]), scaled by the same factor 4.
     ConsistentFem,
-}
-
-/// Per-material coefficients (mm and mm⁻¹), per channel.
-#[derive(Debug, Clone)]
-pub(crate) struct Coefficients {
-    /// κ = 1/(3(σa + σ′s)).
-    pub kappa: Vec<[f64; 3]>,
-    /// μ = σa.
-    pub mu: Vec<[f64; 3]>,
 }
 
 /// A diffusion system on a tet mesh: the sparsity pattern (shared), the three-channel matrix M,
@@ -125,14 +105,14 @@ pub fn rhs(system: &DiffusionSystem, q: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, Di
     let s = &system.structure;
     check_source(&s.boundary, q)?;
     Ok(match system.discretization {
-        Discretization::TransCut => rhs_transcut(s, &system.terms, q),
+        Discretization::TransCut => transcut::rhs_transcut(s, &system.terms, q),
         Discretization::ConsistentFem => fem::rhs_consistent(s, &system.terms, q),
     })
 }
 
 impl DiffusionSystem {
     /// Assembles a system with the chosen discretisation; see [`assemble`] (TransCut) and
-    /// [`super::fem::assemble_consistent`].
+    /// [`assemble_consistent`].
     ///
     /// # Errors
     /// Those of [`assemble`].
@@ -405,6 +385,15 @@ impl DiffusionSystem {
     }
 }
 
+/// Assembles the consistent P1 system of `mesh` (see the module documentation), with the same
+/// inputs, units and scale as [`assemble`].
+///
+/// # Errors
+/// Those of [`assemble`].
+pub fn assemble_consistent(mesh: &TetMesh, media: &[Medium], mm_per_unit: f64) -> Result<DiffusionSystem, DiffusionError> {
+    DiffusionSystem::new(mesh, media, mm_per_unit, Discretization::ConsistentFem)
+}
+
 /// Checks the material ids against the table, naming the first tet at fault.
 fn check_materials(materials: &[u32], media: &[Medium]) -> Result<(), DiffusionError> {
     if let Some(tet) = materials.par_iter().position_first(|&m| m as usize >= media.len()) {
@@ -444,18 +433,8 @@ pub(crate) fn prepare_media(s: &Structure, media: &[Medium]) -> Result<(Coeffici
     Ok((Coefficients::of(media), terms))
 }
 
-impl Coefficients {
-    /// κ = 1/(3(σa + σ′s)) and μ = σa of every medium of a table.
-    fn of(media: &[Medium]) -> Self {
-        Self {
-            kappa: media.par_iter().map(Medium::diffusion_coefficient).collect(),
-            mu: media.par_iter().map(|m| m.sigma_a).collect(),
-        }
-    }
-}
-
 /// Refills the matrix rows `rows` (increasing) of the chosen discretisation, each summed as in a
-/// full fill ([`transcut_row`], [`fem::consistent_row`]).
+/// full fill ([`transcut::transcut_row`], [`fem::consistent_row`]).
 fn refill_rows(
     s: &Structure,
     discretization: Discretization,
@@ -465,7 +444,7 @@ fn refill_rows(
     rows: &[u32],
 ) {
     fill_selected_rows(values, s.pattern.row_ptr(), rows, |i, row| match discretization {
-        Discretization::TransCut => transcut_row(s, c, terms, i, row),
+        Discretization::TransCut => transcut::transcut_row(s, c, terms, i, row),
         Discretization::ConsistentFem => fem::consistent_row(s, c, terms, i, row),
     });
 }
@@ -473,64 +452,9 @@ fn refill_rows(
 /// Fills the matrix values of the chosen discretisation.
 fn fill_matrix(s: &Structure, discretization: Discretization, c: &Coefficients, terms: &BoundaryTerms, values: &mut [[f64; 3]]) {
     match discretization {
-        Discretization::TransCut => fill_transcut(s, c, terms, values),
+        Discretization::TransCut => transcut::fill_transcut(s, c, terms, values),
         Discretization::ConsistentFem => fem::fill_consistent(s, c, terms, values),
     }
-}
-
-/// TransCut eqs. 10, 13 and 14, row by row ([`transcut_row`] for every row).
-pub(crate) fn fill_transcut(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, values: &mut [[f64; 3]]) {
-    fill_rows(values, s.pattern.row_ptr(), |i, row| transcut_row(s, c, terms, i, row));
-}
-
-/// Row `i` of TransCut eqs. 10, 13 and 14: for every tet t around vertex i and every other
-/// vertex j of t, the tet's part of the edge weight w_ijt = −(1/6)κ_t|kl| cot θ_kl (eq. 10) goes
-/// to M_ij as 4w_ijt (eq. 14) and to M_ii as −4w_ijt; V_t μ_t goes to M_ii (eq. 13, lumped
-/// absorption), and on boundary vertices 2S_i/(3A) ([`BoundaryTerms::matrix_diagonal`]). The
-/// tets are summed in increasing order, so a row refilled alone ([`DiffusionSystem::update_media_rows`])
-/// is bit-identical to the same row of a full fill.
-pub(crate) fn transcut_row(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, i: usize, row: &mut [[f64; 3]]) {
-    let row_ptr = s.pattern.row_ptr();
-    let diag = s.pattern.diagonal_positions();
-    row.fill([0.0; 3]);
-    let mut d = [0.0; 3];
-    for inc in s.tets_of(i) {
-        let t = inc.tet as usize;
-        let m = s.materials[t] as usize;
-        let (kappa, mu) = (c.kappa[m], c.mu[m]);
-        let a = inc.local as usize;
-        for (k, &b) in OTHERS[a].iter().enumerate() {
-            let coef = s.edge_coef[t][EDGE_INDEX[a][b]];
-            let v = &mut row[inc.slots[k] as usize];
-            for ch in 0..3 {
-                let w4 = -4.0 * kappa[ch] * coef;
-                v[ch] += w4;
-                d[ch] -= w4;
-            }
-        }
-        for ch in 0..3 {
-            d[ch] += s.volume[t] * mu[ch];
-        }
-    }
-    let b = s.boundary_index[i];
-    if b != INTERIOR {
-        let x = terms.matrix_diagonal(s.boundary.area_mm2[b as usize]);
-        for dc in &mut d {
-            *dc += x;
-        }
-    }
-    row[diag[i] - row_ptr[i]] = d;
-}
-
-/// TransCut eq. 12: b_i = 8 S_i q_i / (3A(1 − Fdr)) on boundary vertices
-/// ([`BoundaryTerms::rhs`]), 0 inside.
-fn rhs_transcut(s: &Structure, terms: &BoundaryTerms, q: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    let mut b = vec![[0.0; 3]; s.n()];
-    for (k, &v) in s.boundary.ids.iter().enumerate() {
-        let area = s.boundary.area_mm2[k];
-        b[v as usize] = q[k].map(|qc| terms.rhs(area, qc));
-    }
-    b
 }
 
 /// q must have one finite, non-negative entry per boundary vertex.
@@ -553,6 +477,7 @@ fn check_source(boundary: &BoundaryVertices, q: &[[f64; 3]]) -> Result<(), Diffu
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)] // per-channel loops read best indexed
 pub(crate) mod tests {
+    use super::super::structure::{EDGE_INDEX, INTERIOR};
     use super::*;
     use glam::DVec3;
 

@@ -1,0 +1,53 @@
+//! The arguments of `transcut bench`.
+
+use std::path::PathBuf;
+
+use clap::{Args, ValueEnum};
+use transcut::diffusion::SolverKind;
+
+use crate::method_args::solver_kind;
+
+/// Which benchmark to run.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Suite {
+    /// Tetrahedralise a mesh at several sizes: time and quality.
+    Mesh,
+    /// Bake a mesh (60 mm across, marble, one sun) at several sizes: meshing, assembly, light,
+    /// solve (iterations), total and peak memory.
+    Bake,
+    /// The diffusion solve alone (60 mm, marble, one sun) on the CPU and on the `--backend`
+    /// (GPU: upload, assembly, solve with read-back), their agreement and the device name.
+    Solve,
+    /// TransCut Fig. 7: relative error against time for the single-level solvers (Jacobi PCG,
+    /// SSOR-PCG), the multiresolution cascade and multigrid-preconditioned CG (on the paper's
+    /// hierarchy and on a smoothed aggregation), and the warm start after moving the sun 5°.
+    Multires,
+    /// Interactive edits (TransCut §5) on the bunny: the cold bake, a relight after moving the
+    /// sun 5° (warm start against a cold solve of the same system), a paint stroke, and the
+    /// Fig. 7 curve with its time-to-1% ratio.
+    Edit,
+}
+
+/// Arguments of `transcut bench`.
+#[derive(Args)]
+pub struct BenchArgs {
+    /// The benchmark suite.
+    #[arg(value_enum, default_value = "mesh")]
+    pub suite: Suite,
+    /// Input surface mesh (default: the shared Stanford bunny).
+    #[arg(long, default_value = "assets/meshes/stanford-bunny.obj")]
+    pub input: PathBuf,
+    /// Target tet counts, comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [100_000usize, 500_000, 1_000_000])]
+    pub tets: Vec<usize>,
+    /// Runs per size; the median is reported.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// Backend of the `solve` suite: cpu, gpu (fails without an adapter) or auto.
+    #[arg(long, default_value = "auto")]
+    pub backend: transcut::gpu::Backend,
+    /// Solver of the `edit` suite's updates: pcg, ssor-pcg, cascade, mg-pcg or sa-pcg
+    /// (default: the editor's own, sa-pcg).
+    #[arg(long, value_parser = solver_kind)]
+    pub solver: Option<SolverKind>,
+}

@@ -1,0 +1,232 @@
+//! The conformance suite of the subsurface methods. Every method answers the same question — a
+//! scene in, Lo(x, n) per user vertex out — so every method joins these checks with one line in
+//! [`METHODS`]:
+//!
+//! - the uniformly lit sphere against the closed form of the method's own model;
+//! - a sun-lit sphere: the lit side brighter, and energy balance where the method has one;
+//! - the radiance follows the user's vertex order (a permuted mesh gives permuted radiance);
+//! - the session's capabilities: a relight equals a fresh bake under the new lights, a material
+//!   edit that changes nothing changes nothing, and a capability the method lacks is refused
+//!   with an error that names the method;
+//! - bad input answered with an error that names the object (or the method) and the fault.
+
+use glam::{DMat4, DVec3};
+use transcut::diffusion::{assemble, energy_balance};
+use transcut::edit::{MediumEdit, MediumOp, Region};
+use transcut::light::{self, Environment, Light, SourceOptions};
+use transcut::optics::{f_ext, Medium, UniformSphere};
+use transcut::{
+    bake, BakeOptions, MediumSource, Method, Object, ObjectBake, Progress, Scene, SceneError, Session, SessionError,
+    TransCutOptions,
+};
+
+mod common;
+use common::uv_sphere;
+
+/// What the suite needs to know of a method.
+struct Conformance {
+    /// The method, with options that bake the test spheres in seconds.
+    method: Method,
+    /// Lo(x, n) on the surface of a homogeneous sphere of `radius` mm filled with `medium`
+    /// whose transmitted source is the constant `q`, in the method's own model.
+    closed_form: fn(medium: &Medium, radius: f64, q: f64) -> [f64; 3],
+    /// The largest relative error against `closed_form` the test sphere may show.
+    sphere_tolerance: f64,
+    /// (absorbed + exitant) / incident − 1 per channel of a bake without shadows, for a method
+    /// that conserves energy.
+    energy_defect: Option<fn(&Scene, &ObjectBake) -> [f64; 3]>,
+    /// Options of this method that are out of range (the error must name the method).
+    invalid: Method,
+}
+
+/// TransCut: the diffusion sphere of ARCHITECTURE.md ("Validation that needs no other
+/// program"), its energy balance through the diffusion system it solved.
+fn transcut() -> Conformance {
+    Conformance {
+        method: TransCutOptions { tets: 60_000, tolerance: 1e-8, ..TransCutOptions::default() }.into(),
+        closed_form: |medium, radius, q| UniformSphere::new(*medium, radius, [q; 3]).unwrap().surface_radiance(1.0),
+        sphere_tolerance: 0.01,
+        energy_defect: Some(|scene, baked| {
+            let state = baked.transcut().expect("a TransCut bake");
+            let mut system = assemble(&state.tet_mesh, &state.media, state.mm_per_unit).unwrap();
+            let boundary = system.boundary();
+            let points: Vec<DVec3> = boundary.ids.iter().map(|&v| state.tet_mesh.positions()[v as usize]).collect();
+            let q =
+                light::transmitted_source(&scene.lights, &points, &boundary.normal, state.eta, None, &SourceOptions::default())
+                    .unwrap();
+            system.set_source(&q).unwrap();
+            energy_balance(&system, &state.fluence).unwrap().relative_defect()
+        }),
+        invalid: TransCutOptions { tets: 0, ..TransCutOptions::default() }.into(),
+    }
+}
+
+/// Every method; a new one joins with one line.
+const METHODS: &[fn() -> Conformance] = &[transcut];
+
+fn options(c: &Conformance, shadows: bool) -> BakeOptions {
+    BakeOptions { method: c.method.clone(), shadows, ..BakeOptions::default() }
+}
+
+fn sun(direction: DVec3) -> Light {
+    Light::Directional { direction, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }
+}
+
+/// max over vertices and channels of |a − b| / max |b|.
+fn relative_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = b.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).abs())).fold(0.0, f64::max) / scale
+}
+
+#[test]
+fn every_method_is_in_the_suite_once() {
+    let names: Vec<&str> = METHODS.iter().map(|m| m().method.name()).collect();
+    assert_eq!(names, Method::NAMES, "each method of Method::NAMES joins the suite, in that order");
+}
+
+#[test]
+fn uniform_sphere_matches_its_models_closed_form() {
+    // R = 10 mm marble (η = 1.3) under a constant environment of radiance 1: q = π(1 − F_ext).
+    let medium = Medium::new([0.0021, 0.0041, 0.0071], [2.19, 2.62, 3.00], 1.3, 0.0).unwrap();
+    let q = std::f64::consts::PI * (1.0 - f_ext(1.3));
+    assert!((q - 2.9495).abs() < 1e-4, "ARCHITECTURE.md's q: {q}");
+    let scene = Scene {
+        objects: vec![Object::new("sphere", uv_sphere(10.0, 192, 96), medium, 1.0)],
+        lights: vec![Light::Environment(Environment::Constant([1.0; 3]))],
+    };
+    for make in METHODS {
+        let c = make();
+        let exact = (c.closed_form)(&medium, 10.0, q);
+        if c.method.name() == "transcut" {
+            // The diffusion sphere's worked numbers (ARCHITECTURE.md), computed independently.
+            for (e, w) in exact.iter().zip([0.9394, 0.9072, 0.8709]) {
+                assert!((e - w).abs() < 1e-3, "{exact:?}");
+            }
+        }
+        let baked = bake(&scene, &options(&c, true)).unwrap();
+        let lo = &baked.objects[0].radiance;
+        assert_eq!(lo.len(), scene.objects[0].shape.output_vertex_count());
+        for ch in 0..3 {
+            let worst = lo.iter().map(|l| (l[ch] / exact[ch] - 1.0).abs()).fold(0.0, f64::max);
+            assert!(worst < c.sphere_tolerance, "{}: channel {ch}: worst relative error {worst}", c.method.name());
+        }
+        assert_eq!(baked.objects[0].method(), c.method.name());
+    }
+}
+
+#[test]
+fn a_sun_lit_sphere_is_brighter_on_the_lit_side_and_balances_energy() {
+    let mesh = uv_sphere(20.0, 64, 32);
+    let scene = Scene {
+        objects: vec![Object::new("ball", mesh.clone(), Medium::preset("skin1").unwrap(), 1.0)],
+        lights: vec![sun(DVec3::NEG_Z)],
+    };
+    for make in METHODS {
+        let c = make();
+        let baked = bake(&scene, &options(&c, false)).unwrap();
+        let o = &baked.objects[0];
+        // Vertex 0 is the north pole, facing the sun; the last vertex the south pole.
+        let (top, bottom) = (o.radiance[0], o.radiance[mesh.user_vertex_count() - 1]);
+        assert!(top.iter().zip(bottom).all(|(t, b)| *t > 10.0 * b), "{}: top {top:?}, bottom {bottom:?}", c.method.name());
+        if let Some(defect) = c.energy_defect {
+            let d = defect(&scene, o);
+            assert!(d.iter().all(|x| x.abs() < 1e-5), "{}: energy defect {d:?}", c.method.name());
+        }
+    }
+}
+
+#[test]
+fn the_radiance_follows_the_users_vertex_order() {
+    let mesh = uv_sphere(15.0, 48, 24);
+    let n = mesh.user_vertex_count();
+    // A fixed permutation: vertex k of the permuted mesh is vertex order[k] of the original.
+    let order: Vec<usize> = (0..n).map(|k| (k * 7919 + 13) % n).collect();
+    assert_eq!(order.iter().collect::<std::collections::BTreeSet<_>>().len(), n, "a permutation");
+    let mut inverse = vec![0u32; n];
+    for (k, &v) in order.iter().enumerate() {
+        inverse[v] = k as u32;
+    }
+    let positions: Vec<[f64; 3]> =
+        order.iter().map(|&v| mesh.positions()[mesh.user_to_internal()[v] as usize].to_array()).collect();
+    let original: Vec<[f64; 3]> = (0..n).map(|v| mesh.positions()[mesh.user_to_internal()[v] as usize].to_array()).collect();
+    let triangles: Vec<u32> = mesh.triangles().iter().flatten().map(|&i| inverse[i as usize]).collect();
+    let identity: Vec<u32> = mesh.triangles().iter().flatten().copied().collect();
+    let a = transcut::mesh::TriMesh::from_triangles(&original, &identity).unwrap();
+    let b = transcut::mesh::TriMesh::from_triangles(&positions, &triangles).unwrap();
+    let scene = |m| Scene {
+        objects: vec![Object::new("ball", m, Medium::preset("marble").unwrap(), 1.0)],
+        lights: vec![sun(DVec3::new(0.3, -0.2, -1.0))],
+    };
+    for make in METHODS {
+        let c = make();
+        let ra = bake(&scene(a.clone()), &options(&c, true)).unwrap().objects.remove(0).radiance;
+        let rb = bake(&scene(b.clone()), &options(&c, true)).unwrap().objects.remove(0).radiance;
+        let permuted: Vec<[f64; 3]> = order.iter().map(|&v| ra[v]).collect();
+        let d = relative_difference(&rb, &permuted);
+        assert!(d < 1e-6, "{}: the permuted mesh's radiance differs by {d}", c.method.name());
+    }
+}
+
+#[test]
+fn session_capabilities_are_exact_or_refused_by_name() {
+    let object = Object::new("ball", uv_sphere(12.0, 48, 24), Medium::preset("marble").unwrap(), 1.0);
+    let before = Scene { objects: vec![object.clone()], lights: vec![sun(DVec3::new(0.0, -0.3, -1.0))] };
+    let after = Scene { objects: vec![object], lights: vec![sun(DVec3::new(0.5, 0.2, -1.0))] };
+    for make in METHODS {
+        let c = make();
+        let name = c.method.name();
+        let opts = options(&c, false);
+        let mut session = Session::bake(&before, &opts, Progress::none()).unwrap();
+        let fresh = bake(&after, &opts).unwrap().objects.remove(0).radiance;
+        let refused = |e: &SessionError| matches!(e, SessionError::Unsupported { method, .. } if *method == name);
+        match session.relight(&after.lights, Progress::none()) {
+            Ok(stats) => {
+                assert_eq!(stats.len(), 1);
+                let relit = session.radiance(0).unwrap().expect("an uncut object keeps its user radiance");
+                let d = relative_difference(&relit, &fresh);
+                assert!(d < 1e-5, "{name}: a relight differs from a fresh bake by {d}");
+            }
+            Err(e) => assert!(refused(&e), "{name}: {e}"),
+        }
+        let lit = session.radiance(0).unwrap().unwrap();
+        let unchanged = MediumEdit { region: Region::All, op: MediumOp::Scale { sigma_a: [1.0; 3], sigma_s: [1.0; 3] } };
+        match session.edit_medium(0, &unchanged) {
+            Ok(_) => {
+                let d = relative_difference(&session.radiance(0).unwrap().unwrap(), &lit);
+                assert!(d < 1e-6, "{name}: scaling the medium by 1 changed the radiance by {d}");
+            }
+            Err(e) => assert!(refused(&e), "{name}: {e}"),
+        }
+        assert!(matches!(session.fracture(7), Err(SessionError::NoSuchObject { index: 7, count: 1 })));
+    }
+}
+
+#[test]
+fn bad_input_is_answered_with_the_culprit_named() {
+    let ball = Object::new("ball", uv_sphere(5.0, 16, 8), Medium::preset("marble").unwrap(), 1.0);
+    let lights = vec![sun(DVec3::NEG_Z)];
+    for make in METHODS {
+        let c = make();
+        let name = c.method.name();
+        let opts = options(&c, true);
+        let fail = |objects: Vec<Object>, lights: Vec<Light>, o: &BakeOptions| bake(&Scene { objects, lights }, o).unwrap_err();
+        assert!(matches!(fail(vec![], lights.clone(), &opts), SceneError::NoObjects), "{name}");
+        let e = fail(vec![ball.clone()], lights.clone(), &BakeOptions { method: c.invalid.clone(), ..opts.clone() });
+        assert!(matches!(e, SceneError::InvalidOptions(_)) && e.to_string().contains(name), "{name}: {e}");
+        let mut bad = ball.clone();
+        bad.mm_per_unit = -1.0;
+        let e = fail(vec![ball.clone(), bad], lights.clone(), &opts);
+        assert!(e.to_string().contains("object 1 (ball)") && e.to_string().contains("mm_per_unit"), "{name}: {e}");
+        let mut bad = ball.clone();
+        bad.transform = DMat4::from_scale(DVec3::new(1.0, f64::NAN, 1.0));
+        let e = fail(vec![bad], lights.clone(), &opts);
+        assert!(e.to_string().contains("object 0 (ball)") && e.to_string().contains("transform"), "{name}: {e}");
+        let mut bad = ball.clone();
+        bad.medium = MediumSource::Table(Vec::new());
+        let e = fail(vec![bad], lights.clone(), &opts);
+        assert!(e.to_string().contains("object 0 (ball)") && e.to_string().contains("table is empty"), "{name}: {e}");
+        let nan = Light::Point { position: DVec3::new(f64::NAN, 0.0, 0.0), intensity: [1.0; 3] };
+        assert!(matches!(fail(vec![ball.clone()], vec![nan], &opts), SceneError::Light(_)), "{name}");
+    }
+}
