@@ -32,6 +32,8 @@ class Options(Structure):
         ("shadows", c_uint32),
         ("area_samples", c_uint32),
         ("environment_samples", c_uint32),
+        ("backend", c_uint32),
+        ("method_options", c_void_p),
     ]
 
 
