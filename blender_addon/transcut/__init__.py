@@ -6,7 +6,8 @@ library, which works with a plain ``pip install`` outside Blender.
 
 - :mod:`._abi`: the header's constants, structs and function prototypes;
 - :mod:`._loader`: where the shared library is looked for, :func:`load`, :class:`LibraryNotFound`;
-- :mod:`.scene`: :class:`Library` and :class:`Scene`, the checked calls, :class:`TranscutError`.
+- :mod:`.scene`: :class:`Library` (also the subsurface methods it has, :meth:`Library.methods`) and
+  :class:`Scene`, the checked calls, :class:`TranscutError`.
 
 Example (a unit cube of marble lit by a white sky)::
 
@@ -17,7 +18,7 @@ Example (a unit cube of marble lit by a white sky)::
         scene.set_scale(obj, 10.0)                      # 10 mm per unit
         scene.set_medium_preset(obj, "marble")
         scene.add_environment((1.0, 1.0, 1.0))
-        scene.bake(tets=20000)
+        scene.bake(tets=20000)                          # defaults: method="transcut", solver="ssor-pcg"
         rgb = scene.radiance(obj)                       # float32 (n, 3), linear RGB
 """
 

@@ -89,6 +89,22 @@ class Direct:
         ):
             getattr(c, name).restype = c_int32
 
+    def method_names(self) -> list:
+        """The names of the library's methods, by ``tc_method_count`` and ``tc_method_name``."""
+        c = self.c
+        c.tc_method_count.argtypes = []
+        c.tc_method_count.restype = c_uint32
+        c.tc_method_name.argtypes = [c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]
+        c.tc_method_name.restype = c_int32
+        names = []
+        for method in range(c.tc_method_count()):
+            needed = c_size_t()
+            self.ok(c.tc_method_name(method, None, 0, ctypes.byref(needed)), "method_name size")
+            buf = ctypes.create_string_buffer(needed.value)
+            self.ok(c.tc_method_name(method, buf, needed.value, None), "method_name")
+            names.append(buf.value.decode())
+        return names
+
     def ok(self, status, what):
         if status != 0:
             raise RuntimeError(f"{what}: status {status}: {self.c.tc_last_error_message().decode()}")
