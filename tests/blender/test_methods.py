@@ -1,5 +1,6 @@
 """Subsurface methods: the binding's list and choice of method and TransCut's solvers
-(``Library.methods``, ``Scene.bake(method=, solver=, edit_solver=)``).
+(``Library.methods``, ``Scene.bake(method=, solver=, edit_solver=)``), and the Method menu of
+``Scene.transcut`` that the bake and the editing operators pass to the library.
 
 The methods expected are the library's own, read by the tests' independent client
 (capi_direct: ``tc_method_count`` and ``tc_method_name`` through its own prototypes).
@@ -7,11 +8,26 @@ The methods expected are the library's own, read by the tests' independent clien
 
 from __future__ import annotations
 
+import math
+import re
+
 import numpy as np
 import pytest
+from mathutils import Vector
 
 from conftest import bpy, require_library
-from test_addon import TETS, TOL, evaluated_arrays
+from test_addon import (
+    TETS,
+    TOL,
+    add_light,
+    add_sphere,
+    assert_matches_direct,
+    attribute_rgb,
+    evaluated_arrays,
+    select_only,
+    snapshot,
+)
+from test_edit_ops import add_plane_cutter, add_stroke
 
 #: How far two converged solves may differ: both stop at the relative residual TOL, so their
 #: radiance agrees to a small multiple of TOL (measured: about 1 × TOL for this sphere).
@@ -141,3 +157,105 @@ def test_edit_solver_reaches_the_relight(addon, sphere_arrays):
     assert pcg_iterations != default_iterations
     scale = float(np.abs(default).max())
     assert float(np.abs(pcg - default).max()) <= SOLVER_AGREEMENT * scale
+
+
+# -- the Method menu -------------------------------------------------------------------------
+
+
+def listed_items(settings) -> list:
+    """The identifiers Blender offers for ``settings.method``, as its error for an unknown one
+    lists them (RNA's ``enum_items`` is empty for items from a function)."""
+    with pytest.raises(TypeError) as err:
+        settings.method = "no such method"
+    (listed,) = re.findall(r"not found in \((.*)\)", str(err.value))
+    return re.findall(r"'([^']*)'", listed)
+
+
+def test_method_menu_lists_exactly_the_library_methods(scene, addon, lib):
+    settings = scene.transcut
+    names = lib.method_names()
+    items = addon.properties.method_items(settings, bpy.context)
+    assert [item[0] for item in items] == names
+    assert [item[3] for item in items] == list(range(len(names)))  # the TC_METHOD_* values
+    assert items[0][1] == "TransCut" and all(item[2] for item in items)
+    assert listed_items(settings) == names
+    assert settings.method == "transcut"  # the default
+    # Blender keeps pointers to the item strings: the same list stays referenced and is reused.
+    assert addon.properties.method_items(settings, bpy.context) is items
+
+
+def test_method_menu_without_the_library_offers_transcut(scene, addon):
+    state = addon.library.state
+    settings = scene.transcut
+    settings.method = "transcut"
+    loaded = state.lib
+    state.lib = None
+    try:
+        items = addon.properties.method_items(settings, bpy.context)
+        assert [(item[0], item[3]) for item in items] == [("transcut", 0)]
+        assert listed_items(settings) == ["transcut"]
+        assert settings.method == "transcut"
+    finally:
+        state.lib = loaded
+    assert settings.method == "transcut"
+
+
+def test_a_stored_method_the_library_lacks_is_an_error(scene, addon, lib):
+    """A scene saved with a method this library does not have (its number is stored) bakes
+    nothing and says so."""
+    obj = add_sphere()
+    add_light("SUN", energy=3.0)
+    select_only(obj)
+    scene.transcut["method"] = len(lib.method_names())
+    try:
+        assert scene.transcut.method == ""
+        before = snapshot()
+        with pytest.raises(RuntimeError, match="Method chosen in the TransCut panel"):
+            bpy.ops.object.transcut_bake()
+        assert snapshot() == before
+    finally:
+        del scene.transcut["method"]  # the scene outlives the test
+    assert scene.transcut.method == "transcut"
+
+
+@pytest.fixture
+def bake_methods(addon, monkeypatch):
+    """The ``method`` of every ``Scene.bake`` call, recorded as the call goes on to the library."""
+    calls = []
+    bake = addon.transcut.Scene.bake
+
+    def recording(self, *args, **kwargs):
+        calls.append(kwargs.get("method"))
+        return bake(self, *args, **kwargs)
+
+    monkeypatch.setattr(addon.transcut.Scene, "bake", recording)
+    return calls
+
+
+def test_bake_operator_passes_the_method(scene, lib, bake_methods):
+    """A bake with the method chosen equals the default bake, which matches the C ABI called
+    directly with the library's default method."""
+    obj = add_sphere()
+    sun = add_light("SUN", rotation=(math.radians(30), 0.0, 0.0), energy=3.0)
+    select_only(obj)
+    assert bpy.ops.object.transcut_bake() == {"FINISHED"}
+    default = attribute_rgb(obj).copy()
+    scene.transcut.method = lib.method_names()[0]
+    assert bpy.ops.object.transcut_bake() == {"FINISHED"}
+    assert bake_methods == ["transcut", "transcut"]
+    np.testing.assert_array_equal(attribute_rgb(obj), default)
+    direction = np.array(sun.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0)))
+    assert_matches_direct(lib, obj, [("sun", (direction, [3.0] * 3, math.degrees(sun.data.angle)))], default)
+
+
+def test_editing_operators_pass_the_method(scene, lib, bake_methods):
+    obj = add_sphere()
+    add_light("SUN", energy=3.0)
+    scene.transcut.method = "transcut"
+    select_only(add_plane_cutter(), obj)
+    assert bpy.ops.transcut.cut_with_object() == {"FINISHED"}
+    cut = next(o for o in bpy.data.objects if o.name == "Sphere.cut")
+    stroke = add_stroke([(0.0, 0.0, 0.97), (0.3, 0.0, 0.92)])
+    select_only(stroke, cut)
+    assert bpy.ops.transcut.paint_medium(radius=0.1, preset="ketchup") == {"FINISHED"}
+    assert bake_methods == ["transcut", "transcut"]
