@@ -159,7 +159,7 @@ class Library:
         without ``tc_method_count``."""
         if self._methods is None:
             if all(self.has(n) for n in _METHOD_FUNCTIONS):
-                count = int(self.cdll.tc_method_count())
+                count = self.cdll.tc_method_count()
                 self._methods = tuple(
                     (self.text("tc_method_name", i), self.text("tc_method_description", i)) for i in range(count)
                 )
@@ -176,10 +176,11 @@ class Library:
             self.call("tc_method_from_name", name.encode("utf-8"), ctypes.byref(out))
             return int(out.value)
         names = [n for n, _ in self.methods()]
-        if name.strip().lower() not in names:
+        wanted = name.strip().lower()
+        if wanted not in names:
             message = f"unknown method '{name.strip()}' (the methods are: {', '.join(names)})"
             raise TranscutError(TC_NOT_FOUND, "tc_method_from_name", message)
-        return names.index(name.strip().lower())
+        return names.index(wanted)
 
     def medium_preset(self, name: str) -> TcMedium:
         """The named measured medium (``tc_medium_preset``)."""

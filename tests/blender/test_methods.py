@@ -40,7 +40,9 @@ def sphere_arrays():
     bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=1.0)
     obj = bpy.context.active_object
     pos, tri, _, _ = evaluated_arrays(obj)
+    mesh = obj.data
     bpy.data.objects.remove(obj)
+    bpy.data.meshes.remove(mesh)
     return pos, tri
 
 

@@ -164,7 +164,7 @@ def test_structs_match_the_header(struct):
 def layout_checks() -> dict:
     """struct name → {"__sizeof": bytes, field: offset} from the header's TC_LAYOUT_CHECK lines."""
     out: dict = {}
-    text = HEADER.read_text()
+    text = header_text()
     for name, size in re.findall(r"TC_LAYOUT_CHECK\(\w+, sizeof\((\w+)\) == (\d+)\)", text):
         out.setdefault(name, {})["__sizeof"] = int(size)
     for name, fname, offset in re.findall(r"TC_LAYOUT_CHECK\(\w+, offsetof\((\w+), (\w+)\) == (\d+)\)", text):
