@@ -7,7 +7,8 @@ and the modules:
 
 - ``preferences``: registered first and always; the library path, and where the library was
   looked for;
-- ``properties``: ``Scene.transcut`` (bake settings) and ``Object.transcut`` (medium);
+- ``properties``: ``Scene.transcut`` (the method, from the loaded library, and the bake settings)
+  and ``Object.transcut`` (medium);
 - ``operators``: ``object.transcut_bake`` and the run every operator shares (modal with progress
   and ESC, or synchronous);
 - ``edit_ops``: ``transcut.cut_with_object`` and ``transcut.paint_medium`` (bake, then cut or

@@ -27,14 +27,15 @@ class BakeJob:
 
     meshes: list  # [mesh_export.MeshJob]
     lights: list  # [lights.LightSpec]
-    options: dict  # TcBakeOptions fields
+    options: dict  # transcut.Scene.bake keywords (method name, TcBakeOptions fields)
     attribute_name: str
     warnings: list = field(default_factory=list)
 
 
 def prepare_job(context, objects: list | None = None) -> BakeJob:
     """The bake job for ``objects`` (default: the selected meshes), the scene's lights and world
-    and its TransCut settings; raises BakeError before any work when something is wrong."""
+    and its TransCut settings (the method by name: the menu's items are the loaded library's
+    methods, so load it first); raises BakeError before any work when something is wrong."""
     warnings: list = []
     meshes = gather(context, warnings, objects=objects)
     depsgraph = context.evaluated_depsgraph_get()
@@ -42,7 +43,12 @@ def prepare_job(context, objects: list | None = None) -> BakeJob:
     if not lights:
         raise BakeError("the scene has no lights (and the world is black); add a light to bake")
     settings = context.scene.transcut
+    if not settings.method:
+        raise BakeError(
+            "the Method chosen in the TransCut panel is not one the loaded libtranscut has; choose one of its methods"
+        )
     options = dict(
+        method=settings.method,
         tets=settings.tets,
         tolerance=settings.tolerance,
         shadows=1 if settings.shadows else 0,

@@ -142,8 +142,8 @@ class OBJECT_OT_transcut_bake(RunnerOperator, bpy.types.Operator):
         return context.mode == "OBJECT"
 
     def _runner_for(self, context):
+        lib = library.get(preferences.library_path(context))  # first: the Method menu lists its methods
         job = bake.prepare_job(context)
-        lib = library.get(preferences.library_path(context))
         return bake.BakeRunner(lib, job)
 
     def _write(self, context, runner) -> str:

@@ -1,4 +1,5 @@
-"""Settings: per scene (what a bake produces and how precisely) and per object (its medium).
+"""Settings: per scene (the method, what a bake produces and how precisely) and per object (its
+medium).
 
 ``Scene.transcut`` and ``Object.transcut`` attach at register and detach at unregister.
 """
@@ -15,6 +16,8 @@ from bpy.props import (
     PointerProperty,
     StringProperty,
 )
+
+from . import library, transcut
 
 #: The library's measured presets (``tc_medium_preset`` names; Jensen et al. 2001, and jade).
 PRESET_NAMES = (
@@ -35,7 +38,36 @@ PRESET_NAMES = (
 PRESET_ITEMS = tuple((n, n.capitalize(), f"Measured '{n}'") for n in PRESET_NAMES)
 
 
+#: The Method menu's labels of the library's method names (others: the name in title case).
+METHOD_LABELS = {"transcut": "TransCut"}
+
+# Blender keeps only pointers to the strings of dynamic enum items: every list handed out stays
+# referenced here (one per distinct set of methods, so repeated draws return the same list).
+_method_items: dict = {}
+
+
+def method_items(_settings, _context) -> list:
+    """The Method menu's items: the loaded library's methods (``Library.methods``), TransCut
+    alone when none is loaded. Identifiers are the library's names, item numbers its
+    ``TC_METHOD_*`` values, so a stored choice keeps meaning the same method."""
+    lib = library.state.lib
+    methods = tuple(lib.methods()) if lib is not None else transcut.scene.TRANSCUT_ONLY
+    items = _method_items.get(methods)
+    if items is None:
+        items = _method_items[methods] = [
+            (name, METHOD_LABELS.get(name, name.replace("-", " ").title()), description, number)
+            for number, (name, description) in enumerate(methods)
+        ]
+    return items
+
+
 class TranscutSceneSettings(bpy.types.PropertyGroup):
+    method: EnumProperty(
+        name="Method",
+        description="The subsurface method that bakes (the methods of the loaded library)",
+        items=method_items,
+        default=transcut.TC_METHOD_TRANSCUT,
+    )
     attribute_name: StringProperty(
         name="Attribute",
         description="Name of the FLOAT_COLOR point attribute the bake writes (and makes active)",
@@ -43,7 +75,7 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
     )
     tets: IntProperty(
         name="Resolution",
-        description="Target number of tetrahedra per object (more: finer detail, slower bake)",
+        description="TransCut: target number of tetrahedra per object (more: finer detail, slower bake)",
         default=100_000,
         min=1_000,
         soft_max=2_000_000,

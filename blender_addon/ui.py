@@ -1,6 +1,7 @@
-"""The "TransCut" tab of the 3D viewport's sidebar (N panel): bake settings, the active object's
-medium, the bake and editing buttons, and the library status when it is not loaded; the same
-operators in the Object menu."""
+"""The "TransCut" tab of the 3D viewport's sidebar (N panel): the method and the bake settings
+(TransCut's Resolution while TransCut is the method), the active object's medium, the bake and
+editing buttons, and the library status when it is not loaded; the same operators in the Object
+menu."""
 
 from __future__ import annotations
 
@@ -25,8 +26,10 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
         layout.use_property_decorate = False
         settings = context.scene.transcut
         col = layout.column()
+        col.prop(settings, "method")
         col.prop(settings, "attribute_name")
-        col.prop(settings, "tets")
+        if settings.method == "transcut":
+            col.prop(settings, "tets")
         col.prop(settings, "tolerance")
         col.prop(settings, "shadows")
         col.prop(settings, "backend")

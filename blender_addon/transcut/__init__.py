@@ -6,7 +6,8 @@ library, which works with a plain ``pip install`` outside Blender.
 
 - :mod:`._abi`: the header's constants, structs and function prototypes;
 - :mod:`._loader`: where the shared library is looked for, :func:`load`, :class:`LibraryNotFound`;
-- :mod:`.scene`: :class:`Library` and :class:`Scene`, the checked calls, :class:`TranscutError`.
+- :mod:`.scene`: :class:`Library` (also the subsurface methods it has, :meth:`Library.methods`) and
+  :class:`Scene`, the checked calls, :class:`TranscutError`.
 
 Example (a unit cube of marble lit by a white sky)::
 
@@ -17,13 +18,14 @@ Example (a unit cube of marble lit by a white sky)::
         scene.set_scale(obj, 10.0)                      # 10 mm per unit
         scene.set_medium_preset(obj, "marble")
         scene.add_environment((1.0, 1.0, 1.0))
-        scene.bake(tets=20000)
+        scene.bake(tets=20000)                          # defaults: method="transcut", solver="ssor-pcg"
         rgb = scene.radiance(obj)                       # float32 (n, 3), linear RGB
 """
 
 from ._abi import (
     ABI_MAJOR,
     BACKENDS,
+    SOLVERS,
     STATUS_NAMES,
     TC_BACKEND_AUTO,
     TC_BACKEND_CPU,
@@ -53,6 +55,13 @@ from ._abi import (
     TC_REGION_MASK,
     TC_REGION_SPHERE,
     TC_SOLVE_FAILED,
+    TC_SOLVER_CASCADE,
+    TC_SOLVER_DEFAULT,
+    TC_SOLVER_MG_PCG,
+    TC_SOLVER_PCG,
+    TC_SOLVER_SA_PCG,
+    TC_SOLVER_SSOR_PCG,
+    TC_UNSUPPORTED,
     TcArtistMedium,
     TcBakeOptions,
     TcBakeStats,
@@ -60,6 +69,7 @@ from ._abi import (
     TcMedium,
     TcMediumEdit,
     TcProgressFn,
+    TcTransCutOptions,
 )
 from ._loader import LibraryNotFound, library_candidates, library_file_name, load
 from .scene import Library, Scene, TranscutError, medium
@@ -67,6 +77,7 @@ from .scene import Library, Scene, TranscutError, medium
 __all__ = [
     "ABI_MAJOR",
     "BACKENDS",
+    "SOLVERS",
     "STATUS_NAMES",
     "TC_BACKEND_AUTO",
     "TC_BACKEND_CPU",
@@ -96,6 +107,13 @@ __all__ = [
     "TC_REGION_MASK",
     "TC_REGION_SPHERE",
     "TC_SOLVE_FAILED",
+    "TC_SOLVER_CASCADE",
+    "TC_SOLVER_DEFAULT",
+    "TC_SOLVER_MG_PCG",
+    "TC_SOLVER_PCG",
+    "TC_SOLVER_SA_PCG",
+    "TC_SOLVER_SSOR_PCG",
+    "TC_UNSUPPORTED",
     "Library",
     "LibraryNotFound",
     "Scene",
@@ -106,6 +124,7 @@ __all__ = [
     "TcMedium",
     "TcMediumEdit",
     "TcProgressFn",
+    "TcTransCutOptions",
     "TranscutError",
     "library_candidates",
     "library_file_name",

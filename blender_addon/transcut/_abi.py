@@ -42,6 +42,7 @@ TC_INTERNAL_ERROR = 12
 TC_BUSY = 13
 TC_GPU_UNAVAILABLE = 14
 TC_NOTHING_LEFT = 15
+TC_UNSUPPORTED = 16
 
 STATUS_NAMES = {
     TC_OK: "TC_OK",
@@ -60,8 +61,11 @@ STATUS_NAMES = {
     TC_BUSY: "TC_BUSY",
     TC_GPU_UNAVAILABLE: "TC_GPU_UNAVAILABLE",
     TC_NOTHING_LEFT: "TC_NOTHING_LEFT",
+    TC_UNSUPPORTED: "TC_UNSUPPORTED",
 }
 
+# TcBakeOptions.method: the subsurface method (tc_method_count, tc_method_name list them; new
+# ones are appended).
 TC_METHOD_TRANSCUT = 0
 
 # TcBakeOptions.backend: where the diffusion solve runs; TcBakeStats.backend_used: 1 or 2.
@@ -72,6 +76,24 @@ TC_BACKEND_AUTO = 3  # a hardware GPU if there is one, else the CPU (tc_object_b
 
 #: ``backend`` option names accepted by :meth:`Scene.bake` (besides the integer values).
 BACKENDS = {"default": TC_BACKEND_DEFAULT, "cpu": TC_BACKEND_CPU, "gpu": TC_BACKEND_GPU, "auto": TC_BACKEND_AUTO}
+
+# TcTransCutOptions.solver and .edit_solver.
+TC_SOLVER_DEFAULT = 0  # SSOR-PCG for the bake, the smoothed-aggregation V-cycle for edits
+TC_SOLVER_PCG = 1  # Jacobi-preconditioned CG (mixed precision)
+TC_SOLVER_SSOR_PCG = 2
+TC_SOLVER_CASCADE = 3  # TransCut §4.2's coarse-to-fine cascade (CPU only)
+TC_SOLVER_MG_PCG = 4  # CG preconditioned by a V-cycle on TransCut's §4.1 hierarchy
+TC_SOLVER_SA_PCG = 5  # CG preconditioned by a smoothed-aggregation V-cycle
+
+#: ``solver`` / ``edit_solver`` names accepted by :meth:`Scene.bake` (the CLI's ``--solver`` names).
+SOLVERS = {
+    "default": TC_SOLVER_DEFAULT,
+    "pcg": TC_SOLVER_PCG,
+    "ssor-pcg": TC_SOLVER_SSOR_PCG,
+    "cascade": TC_SOLVER_CASCADE,
+    "mg-pcg": TC_SOLVER_MG_PCG,
+    "sa-pcg": TC_SOLVER_SA_PCG,
+}
 
 # TcMediumEdit.region and .op (tc_object_edit_medium).
 TC_REGION_ALL = 0
@@ -120,6 +142,18 @@ class TcBakeOptions(Structure):
         ("area_samples", c_uint32),
         ("environment_samples", c_uint32),
         ("backend", c_uint32),
+        ("method_options", c_void_p),  # NULL, or the chosen method's options (TcTransCutOptions *)
+    ]
+
+
+class TcTransCutOptions(Structure):
+    """``TcTransCutOptions``: TransCut's own options, pointed to by ``TcBakeOptions.method_options``
+    (filled by ``tc_transcut_options_default``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("solver", c_uint32),
+        ("edit_solver", c_uint32),
     ]
 
 
@@ -246,6 +280,12 @@ OPTIONAL = {
     "tc_object_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcBakeStats)]),
     "tc_object_device": (c_int32, [ScenePtr, c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
     "tc_object_backend_fallback": (c_int32, [ScenePtr, c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
+    # The subsurface methods and their options.
+    "tc_method_count": (c_uint32, []),
+    "tc_method_name": (c_int32, [c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
+    "tc_method_description": (c_int32, [c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
+    "tc_method_from_name": (c_int32, [c_char_p, c_uint32_p]),
+    "tc_transcut_options_default": (None, [POINTER(TcTransCutOptions)]),
     # Editing (after a bake).
     "tc_scene_relight": (c_int32, [ScenePtr, TcProgressFn, c_void_p]),
     "tc_object_tet_count": (c_int32, [ScenePtr, c_uint32, POINTER(c_size_t)]),

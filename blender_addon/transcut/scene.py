@@ -22,7 +22,10 @@ from ._abi import (
     BACKENDS,
     OPTIONAL,
     REQUIRED,
+    SOLVERS,
     STATUS_NAMES,
+    TC_METHOD_TRANSCUT,
+    TC_NOT_FOUND,
     TC_OK,
     ScenePtr,
     TcArtistMedium,
@@ -31,6 +34,7 @@ from ._abi import (
     TcEditStats,
     TcMedium,
     TcProgressFn,
+    TcTransCutOptions,
     c_double_p,
     c_float_p,
     c_uint32_p,
@@ -45,7 +49,10 @@ class TranscutError(RuntimeError):
         self.status_name = STATUS_NAMES.get(status, f"status {status}")
         self.call = call
         self.message = message
-        super().__init__(f"{call}: {message or self.status_name} ({self.status_name})")
+        text = message or self.status_name
+        if not text.startswith(f"{call}: "):  # the library's messages name the function already
+            text = f"{call}: {text}"
+        super().__init__(f"{text} ({self.status_name})")
 
 
 def _vec3(values, what: str):
@@ -63,6 +70,25 @@ def medium(sigma_a, sigma_s_prime, eta: float, g: float = 0.0) -> TcMedium:
     return TcMedium(_vec3(sigma_a, "sigma_a"), _vec3(sigma_s_prime, "sigma_s_prime"), float(eta), float(g))
 
 
+#: What :meth:`Library.methods` says for a library without ``tc_method_count``: TransCut alone.
+TRANSCUT_ONLY = (
+    (
+        "transcut",
+        "TransCut (Li et al. 2012): diffusion on a tetrahedral mesh; heterogeneous media, relight, paint, cut",
+    ),
+)
+_METHOD_FUNCTIONS = ("tc_method_count", "tc_method_name", "tc_method_description")
+
+
+def _solver(value, what: str) -> int:
+    """A ``TC_SOLVER_*`` value from a name of :data:`SOLVERS` (any case) or the value itself."""
+    if isinstance(value, str):
+        if value.lower() not in SOLVERS:
+            raise ValueError(f"unknown {what} {value!r} (known: {', '.join(SOLVERS)})")
+        return SOLVERS[value.lower()]
+    return int(value)
+
+
 def _artist(albedo, radius, scale: float, ior: float, anisotropy: float) -> TcArtistMedium:
     return TcArtistMedium(_vec3(albedo, "albedo"), _vec3(radius, "radius"), float(scale), float(ior), float(anisotropy))
 
@@ -73,6 +99,7 @@ class Library:
     def __init__(self, path: str):
         self.path = os.path.abspath(path)
         self.cdll = ctypes.CDLL(self.path)
+        self._methods = None
         missing = []
         self.optional_missing = []
         for table, absent in ((REQUIRED, missing), (OPTIONAL, self.optional_missing)):
@@ -117,6 +144,44 @@ class Library:
         """Calls the C function ``name`` and checks its status."""
         self.check(self.function(name)(*args), name)
 
+    def text(self, name: str, *args) -> str:
+        """The text the C function ``name`` copies out (its last three parameters ``out``,
+        ``out_len``, ``out_needed``, as ``tc_object_device``): asks for the size, then copies."""
+        needed = c_size_t()
+        self.call(name, *args, None, 0, ctypes.byref(needed))
+        buf = ctypes.create_string_buffer(needed.value)
+        self.call(name, *args, buf, needed.value, None)
+        return buf.value.decode("utf-8", "replace")
+
+    def methods(self) -> list[tuple[str, str]]:
+        """The subsurface methods this library has, ``(name, description)`` in ``TC_METHOD_*``
+        order (the index is the ``TcBakeOptions.method`` value); TransCut alone for a library
+        without ``tc_method_count``."""
+        if self._methods is None:
+            if all(self.has(n) for n in _METHOD_FUNCTIONS):
+                count = self.cdll.tc_method_count()
+                self._methods = tuple(
+                    (self.text("tc_method_name", i), self.text("tc_method_description", i)) for i in range(count)
+                )
+            else:
+                self._methods = TRANSCUT_ONLY
+        return list(self._methods)
+
+    def method_number(self, name: str) -> int:
+        """The ``TC_METHOD_*`` value of the method called ``name`` (any case;
+        ``tc_method_from_name``). An unknown name raises :class:`TranscutError` (``TC_NOT_FOUND``)
+        listing the valid ones."""
+        if self.has("tc_method_from_name"):
+            out = c_uint32()
+            self.call("tc_method_from_name", name.encode("utf-8"), ctypes.byref(out))
+            return int(out.value)
+        names = [n for n, _ in self.methods()]
+        wanted = name.strip().lower()
+        if wanted not in names:
+            message = f"unknown method '{name.strip()}' (the methods are: {', '.join(names)})"
+            raise TranscutError(TC_NOT_FOUND, "tc_method_from_name", message)
+        return names.index(wanted)
+
     def medium_preset(self, name: str) -> TcMedium:
         """The named measured medium (``tc_medium_preset``)."""
         out = TcMedium()
@@ -137,6 +202,12 @@ class Library:
         """``tc_bake_options_default``."""
         options = TcBakeOptions()
         self.cdll.tc_bake_options_default(ctypes.byref(options))
+        return options
+
+    def default_transcut_options(self) -> TcTransCutOptions:
+        """``tc_transcut_options_default``."""
+        options = TcTransCutOptions()
+        self.function("tc_transcut_options_default")(ctypes.byref(options))
         return options
 
     def scene(self) -> Scene:
@@ -401,10 +472,24 @@ class Scene:
 
     # -- bake ------------------------------------------------------------------------------
 
-    def bake(self, progress: Callable[[str, float], bool] | None = None, **options) -> None:
-        """Bakes every object (``tc_scene_bake``).
+    def bake(
+        self,
+        progress: Callable[[str, float], bool] | None = None,
+        *,
+        method: str | int | None = None,
+        solver: str | int | None = None,
+        edit_solver: str | int | None = None,
+        **options,
+    ) -> None:
+        """Bakes every object (``tc_scene_bake``) with the subsurface ``method``.
 
-        ``options`` are :class:`TcBakeOptions` field names (``tets``, ``tolerance``,
+        ``method`` is a name of :meth:`Library.methods` (any case; an unknown one raises
+        :class:`TranscutError` with ``TC_NOT_FOUND`` listing the valid names) or a
+        ``TC_METHOD_*`` value; unset: the library's default, TransCut. TransCut's own options:
+        ``solver``, the bake's solver on the CPU, and ``edit_solver``, the solver of the edits
+        after it (relight, paint, cut), each a name of :data:`SOLVERS` (any case) or a
+        ``TC_SOLVER_*`` value; unset: the method's defaults.
+        ``options`` are the other :class:`TcBakeOptions` field names (``tets``, ``tolerance``,
         ``max_iterations``, ``threads``, ``shadows``, ``area_samples``,
         ``environment_samples``, ``backend``); unset fields keep the library's defaults.
         ``backend`` is a ``TC_BACKEND_*`` value or one of the names in :data:`BACKENDS`
@@ -414,16 +499,30 @@ class Scene:
         exception raised by ``progress`` cancels too and is re-raised here.
         """
         opts = self.lib.default_bake_options()
-        names = {f[0] for f in TcBakeOptions._fields_} - {"size"}
+        names = {f[0] for f in TcBakeOptions._fields_} - {"size", "method", "method_options"}
         for key, value in options.items():
             if key not in names:
-                raise TypeError(f"unknown bake option {key!r} (known: {', '.join(sorted(names))})")
+                known = sorted(names | {"method", "solver", "edit_solver"})
+                raise TypeError(f"unknown bake option {key!r} (known: {', '.join(known)})")
             if key == "backend" and isinstance(value, str):
                 if value.lower() not in BACKENDS:
                     raise ValueError(f"unknown backend {value!r} (known: {', '.join(BACKENDS)})")
                 value = BACKENDS[value.lower()]
             current = getattr(opts, key)
             setattr(opts, key, float(value) if isinstance(current, float) else int(value))
+        if method is not None:
+            opts.method = self.lib.method_number(method) if isinstance(method, str) else int(method)
+        # Kept alive by this frame until tc_scene_bake, which reads it, has returned.
+        transcut_options = None
+        if solver is not None or edit_solver is not None:
+            if opts.method != TC_METHOD_TRANSCUT:
+                raise ValueError(f"solver and edit_solver are options of transcut, not of method {method!r}")
+            transcut_options = self.lib.default_transcut_options()
+            if solver is not None:
+                transcut_options.solver = _solver(solver, "solver")
+            if edit_solver is not None:
+                transcut_options.edit_solver = _solver(edit_solver, "edit_solver")
+            opts.method_options = ctypes.addressof(transcut_options)
         self._call_with_progress("tc_scene_bake", progress, ctypes.byref(opts))
 
     def radiance(self, obj: int) -> np.ndarray:
@@ -439,19 +538,13 @@ class Scene:
         self._call("tc_object_stats", obj, ctypes.byref(st))
         return _stats_dict(st)
 
-    def _object_text(self, name: str, obj: int) -> str:
-        needed = self._count(name, obj, None, 0)
-        buf = ctypes.create_string_buffer(needed)
-        self._call(name, obj, buf, needed, None)
-        return buf.value.decode("utf-8", "replace")
-
     def device(self, obj: int) -> str:
         """The GPU adapter that solved the object in the last bake ('' when the CPU did)."""
-        return self._object_text("tc_object_device", obj)
+        return self.lib.text("tc_object_device", self._h(), obj)
 
     def backend_fallback(self, obj: int) -> str:
         """Why the ``auto`` backend solved the object on the CPU ('' when it did not)."""
-        return self._object_text("tc_object_backend_fallback", obj)
+        return self.lib.text("tc_object_backend_fallback", self._h(), obj)
 
     # -- editing (after a bake) ------------------------------------------------------------
 

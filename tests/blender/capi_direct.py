@@ -32,6 +32,8 @@ class Options(Structure):
         ("shadows", c_uint32),
         ("area_samples", c_uint32),
         ("environment_samples", c_uint32),
+        ("backend", c_uint32),
+        ("method_options", c_void_p),
     ]
 
 
@@ -71,6 +73,9 @@ class Direct:
         c.tc_scene_bake.argtypes = [c_void_p, POINTER(Options), Progress, c_void_p]
         c.tc_object_vertex_count.argtypes = [c_void_p, c_uint32, POINTER(c_size_t)]
         c.tc_object_radiance.argtypes = [c_void_p, c_uint32, POINTER(c_float), c_size_t]
+        c.tc_method_count.argtypes = []
+        c.tc_method_count.restype = c_uint32
+        c.tc_method_name.argtypes = [c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]
         for name in (
             "tc_scene_create",
             "tc_scene_add_mesh",
@@ -84,8 +89,21 @@ class Direct:
             "tc_scene_bake",
             "tc_object_vertex_count",
             "tc_object_radiance",
+            "tc_method_name",
         ):
             getattr(c, name).restype = c_int32
+
+    def method_names(self) -> list:
+        """The names of the library's methods, by ``tc_method_count`` and ``tc_method_name``."""
+        c = self.c
+        names = []
+        for method in range(c.tc_method_count()):
+            needed = c_size_t()
+            self.ok(c.tc_method_name(method, None, 0, ctypes.byref(needed)), "method_name size")
+            buf = ctypes.create_string_buffer(needed.value)
+            self.ok(c.tc_method_name(method, buf, needed.value, None), "method_name")
+            names.append(buf.value.decode())
+        return names
 
     def ok(self, status, what):
         if status != 0:

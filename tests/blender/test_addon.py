@@ -648,6 +648,7 @@ def test_panels_draw(scene, addon):
         panel_cls.draw(fake, bpy.context)
         assert ("operator", "object.transcut_bake") in log
         assert ("prop", "tets") in log and ("prop", "attribute_name") in log and ("prop", "backend") in log
+        assert log.index(("prop", "method")) < log.index(("prop", "tets"))  # TransCut's Resolution
         if source == "COEFFICIENTS":
             assert ("prop", "sigma_s_prime") in log
 

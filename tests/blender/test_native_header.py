@@ -1,7 +1,8 @@
 """The ctypes binding (``blender_addon/transcut``) mirrors include/transcut.h: every function its
 ``_abi`` module binds is declared there with the same parameter and return types, the structs
-have the same fields in the same order, and every constant has the same value and is exported by
-the package. Needs no library and no Blender; reads the committed header.
+have the same fields in the same order and the sizes and offsets of the header's layout checks,
+and every constant has the same value and is exported by the package. Needs no library and no
+Blender; reads the committed header.
 """
 
 from __future__ import annotations
@@ -137,17 +138,18 @@ def header_struct(name: str) -> list:
     return fields
 
 
-@pytest.mark.parametrize(
-    "struct",
-    [
-        binding.TcMedium,
-        binding.TcArtistMedium,
-        binding.TcBakeOptions,
-        binding.TcBakeStats,
-        binding.TcMediumEdit,
-        binding.TcEditStats,
-    ],
-)
+STRUCTS = [
+    binding.TcMedium,
+    binding.TcArtistMedium,
+    binding.TcBakeOptions,
+    binding.TcTransCutOptions,
+    binding.TcBakeStats,
+    binding.TcMediumEdit,
+    binding.TcEditStats,
+]
+
+
+@pytest.mark.parametrize("struct", STRUCTS)
 def test_structs_match_the_header(struct):
     want = header_struct(struct.__name__)
     got = []
@@ -157,6 +159,37 @@ def test_structs_match_the_header(struct):
         else:
             got.append((fname, normalise(ctypes_name(ftype)), None))
     assert got == [(f, normalise(t), n) for f, t, n in want]
+
+
+def layout_checks() -> dict:
+    """struct name → {"__sizeof": bytes, field: offset} from the header's TC_LAYOUT_CHECK lines."""
+    out: dict = {}
+    text = header_text()
+    for name, size in re.findall(r"TC_LAYOUT_CHECK\(\w+, sizeof\((\w+)\) == (\d+)\)", text):
+        out.setdefault(name, {})["__sizeof"] = int(size)
+    for name, fname, offset in re.findall(r"TC_LAYOUT_CHECK\(\w+, offsetof\((\w+), (\w+)\) == (\d+)\)", text):
+        out.setdefault(name, {})[fname] = int(offset)
+    return out
+
+
+def test_struct_layouts_match_the_header_checks():
+    """ctypes lays every struct out as the library's build does (the sizes and offsets the header
+    asserts), and every struct the header checks is mirrored: a struct shorter than the library's
+    would let the library write past its end (``tc_bake_options_default`` fills all of it)."""
+    checks = layout_checks()
+    assert "TcBakeOptions" in checks, "header parse failed"
+    assert sorted(checks) == sorted(s.__name__ for s in STRUCTS)
+    for struct in STRUCTS:
+        got = {"__sizeof": ctypes.sizeof(struct), **{f: getattr(struct, f).offset for f, _ in struct._fields_}}
+        assert got == checks[struct.__name__], struct.__name__
+
+
+def test_direct_client_options_fill_the_library_struct():
+    """The tests' independent client (capi_direct) lets ``tc_bake_options_default`` write a whole
+    ``TcBakeOptions`` into its own struct: it must be as large as the library's."""
+    import capi_direct
+
+    assert ctypes.sizeof(capi_direct.Options) == layout_checks()["TcBakeOptions"]["__sizeof"]
 
 
 def test_status_codes_match_the_header():
