@@ -166,13 +166,13 @@ typedef struct TcScene TcScene;
 typedef int32_t TcStatus;
 
 /**
- * How to bake. Fill it with `tc_bake_options_default` (which also sets `size`), then change
- * fields. `size` lets later versions append fields: a library reads only the fields that it
- * and the caller both know.
+ * How to bake. Fill it with `tc_bake_options_init(&options, sizeof options)` (which also sets
+ * `size`), then change fields. `size` lets later versions append fields: a library reads and
+ * writes only the fields that it and the caller both know.
  */
 typedef struct TcBakeOptions {
   /**
-   * `sizeof(TcBakeOptions)`, set by `tc_bake_options_default`.
+   * The bytes of the struct the caller has, set by `tc_bake_options_init`.
    */
   uint32_t size;
   /**
@@ -216,19 +216,19 @@ typedef struct TcBakeOptions {
   /**
    * NULL (the default: the method's own defaults), or the chosen method's options: for
    * `TC_METHOD_TRANSCUT` a `const TcTransCutOptions *` (filled by
-   * `tc_transcut_options_default`). Read during `tc_scene_bake` only. (A caller built
-   * against the 48-byte struct without this field gets NULL.)
+   * `tc_transcut_options_init`). Read during `tc_scene_bake` only, and only when `size`
+   * covers it (a struct of the first version, 48 bytes, has no such field).
    */
   const void *method_options;
 } TcBakeOptions;
 
 /**
  * TransCut's own options (`TcBakeOptions.method_options` with `TC_METHOD_TRANSCUT`). Fill it
- * with `tc_transcut_options_default`, which sets `size`.
+ * with `tc_transcut_options_init(&options, sizeof options)`, which sets `size`.
  */
 typedef struct TcTransCutOptions {
   /**
-   * `sizeof(TcTransCutOptions)`.
+   * The bytes of the struct the caller has, set by `tc_transcut_options_init`.
    */
   uint32_t size;
   /**
@@ -604,16 +604,32 @@ const char *tc_status_name(TcStatus status);
 const char *tc_last_error_message(void);
 
 /**
- * Fills `*options` with the defaults and sets `options->size`. Does nothing when `options` is
- * NULL.
+ * Fills `*options` with the defaults of the first version of `TcBakeOptions`: its first 48
+ * bytes (every field before `method_options`, which is not written) and `size` = 48, what a
+ * program built against that version allocates. Does nothing when `options` is NULL. A program
+ * that sets `method_options` fills the whole struct with
+ * `tc_bake_options_init(&options, sizeof options)` instead.
  */
 void tc_bake_options_default(struct TcBakeOptions *options);
 
 /**
- * Fills `*options` with TransCut's defaults (`TC_SOLVER_DEFAULT` for both solvers) and sets
- * `options->size`. Does nothing when `options` is NULL.
+ * Fills the first `size` bytes of `*options` with the defaults (at most
+ * `sizeof(TcBakeOptions)` of this library, the fields it knows) and sets `options->size` to
+ * the number of bytes written. Pass `sizeof(TcBakeOptions)` of the header the program was
+ * built with: the library never writes past it, and a newer header's fields beyond what this
+ * library knows are left as they are (zero them first). `TC_NULL_POINTER` for NULL,
+ * `TC_INVALID_ARGUMENT` for a size below the first version's 48 bytes; nothing is written on
+ * failure.
  */
-void tc_transcut_options_default(struct TcTransCutOptions *options);
+TcStatus tc_bake_options_init(struct TcBakeOptions *options, size_t size);
+
+/**
+ * Fills the first `size` bytes of `*options` with TransCut's defaults (`TC_SOLVER_DEFAULT`
+ * for both solvers), as `tc_bake_options_init` fills its struct; pass
+ * `sizeof(TcTransCutOptions)`. `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size
+ * below 12 bytes; nothing is written on failure.
+ */
+TcStatus tc_transcut_options_init(struct TcTransCutOptions *options, size_t size);
 
 /**
  * Bakes every object with the chosen method (`TcBakeOptions.method`; TransCut meshes surfaces

@@ -129,7 +129,7 @@ class TcArtistMedium(Structure):
 
 
 class TcBakeOptions(Structure):
-    """``TcBakeOptions`` (starts with its own ``size``; filled by ``tc_bake_options_default``)."""
+    """``TcBakeOptions`` (starts with its own ``size``; filled by ``tc_bake_options_init``)."""
 
     _fields_ = [
         ("size", c_uint32),
@@ -148,7 +148,7 @@ class TcBakeOptions(Structure):
 
 class TcTransCutOptions(Structure):
     """``TcTransCutOptions``: TransCut's own options, pointed to by ``TcBakeOptions.method_options``
-    (filled by ``tc_transcut_options_default``)."""
+    (filled by ``tc_transcut_options_init``)."""
 
     _fields_ = [
         ("size", c_uint32),
@@ -285,7 +285,8 @@ OPTIONAL = {
     "tc_method_name": (c_int32, [c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
     "tc_method_description": (c_int32, [c_uint32, c_char_p, c_size_t, POINTER(c_size_t)]),
     "tc_method_from_name": (c_int32, [c_char_p, c_uint32_p]),
-    "tc_transcut_options_default": (None, [POINTER(TcTransCutOptions)]),
+    "tc_bake_options_init": (c_int32, [POINTER(TcBakeOptions), c_size_t]),
+    "tc_transcut_options_init": (c_int32, [POINTER(TcTransCutOptions), c_size_t]),
     # Editing (after a bake).
     "tc_scene_relight": (c_int32, [ScenePtr, TcProgressFn, c_void_p]),
     "tc_object_tet_count": (c_int32, [ScenePtr, c_uint32, POINTER(c_size_t)]),

@@ -199,15 +199,19 @@ class Library:
         return out
 
     def default_bake_options(self) -> TcBakeOptions:
-        """``tc_bake_options_default``."""
+        """The library's defaults (``tc_bake_options_init`` with this binding's struct size; a
+        library without it: ``tc_bake_options_default``, the first version's fields)."""
         options = TcBakeOptions()
-        self.cdll.tc_bake_options_default(ctypes.byref(options))
+        if self.has("tc_bake_options_init"):
+            self.call("tc_bake_options_init", ctypes.byref(options), ctypes.sizeof(options))
+        else:
+            self.cdll.tc_bake_options_default(ctypes.byref(options))
         return options
 
     def default_transcut_options(self) -> TcTransCutOptions:
-        """``tc_transcut_options_default``."""
+        """``tc_transcut_options_init``."""
         options = TcTransCutOptions()
-        self.function("tc_transcut_options_default")(ctypes.byref(options))
+        self.call("tc_transcut_options_init", ctypes.byref(options), ctypes.sizeof(options))
         return options
 
     def scene(self) -> Scene:

@@ -8,6 +8,7 @@ use super::convert::scene_failure;
 use super::handle::{with_scene, TcScene};
 use super::options::{
     backend_used, default_bake_options, default_transcut_options, read_bake_options, TcBakeOptions, TcTransCutOptions,
+    BAKE_OPTIONS_SIZE_V1,
 };
 use super::progress::{Callback, TcProgressFn};
 use super::ptr;
@@ -51,34 +52,66 @@ pub struct TcBakeStats {
 /// still get the fields they know.
 const BAKE_STATS_SIZE_V1: usize = std::mem::offset_of!(TcBakeStats, backend_used);
 
-/// Fills `*options` with the defaults and sets `options->size`. Does nothing when `options` is
-/// NULL.
+/// Fills `*options` with the defaults of the first version of `TcBakeOptions`: its first 48
+/// bytes (every field before `method_options`, which is not written) and `size` = 48, what a
+/// program built against that version allocates. Does nothing when `options` is NULL. A program
+/// that sets `method_options` fills the whole struct with
+/// `tc_bake_options_init(&options, sizeof options)` instead.
 #[no_mangle]
 pub unsafe extern "C" fn tc_bake_options_default(options: *mut TcBakeOptions) {
     let _ = run("tc_bake_options_default", || {
         if options.is_null() {
             return Ok(());
         }
-        check_not_null!(options);
-        // SAFETY: checked; the caller's contract.
-        unsafe { ptr::write(options, default_bake_options()) };
-        Ok(())
+        // SAFETY: the caller's contract: at least the first version's bytes.
+        unsafe { init(options, BAKE_OPTIONS_SIZE_V1, BAKE_OPTIONS_SIZE_V1, default_bake_options()) }
     });
 }
 
-/// Fills `*options` with TransCut's defaults (`TC_SOLVER_DEFAULT` for both solvers) and sets
-/// `options->size`. Does nothing when `options` is NULL.
+/// Fills the first `size` bytes of `*options` with the defaults (at most
+/// `sizeof(TcBakeOptions)` of this library, the fields it knows) and sets `options->size` to
+/// the number of bytes written. Pass `sizeof(TcBakeOptions)` of the header the program was
+/// built with: the library never writes past it, and a newer header's fields beyond what this
+/// library knows are left as they are (zero them first). `TC_NULL_POINTER` for NULL,
+/// `TC_INVALID_ARGUMENT` for a size below the first version's 48 bytes; nothing is written on
+/// failure.
 #[no_mangle]
-pub unsafe extern "C" fn tc_transcut_options_default(options: *mut TcTransCutOptions) {
-    let _ = run("tc_transcut_options_default", || {
-        if options.is_null() {
-            return Ok(());
-        }
-        check_not_null!(options);
-        // SAFETY: checked; the caller's contract.
-        unsafe { ptr::write(options, default_transcut_options()) };
-        Ok(())
-    });
+pub unsafe extern "C" fn tc_bake_options_init(options: *mut TcBakeOptions, size: usize) -> TcStatus {
+    run("tc_bake_options_init", || {
+        // SAFETY: the caller's contract: `size` writable bytes.
+        unsafe { init(options, size, BAKE_OPTIONS_SIZE_V1, default_bake_options()) }
+    })
+}
+
+/// Fills the first `size` bytes of `*options` with TransCut's defaults (`TC_SOLVER_DEFAULT`
+/// for both solvers), as `tc_bake_options_init` fills its struct; pass
+/// `sizeof(TcTransCutOptions)`. `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size
+/// below 12 bytes; nothing is written on failure.
+#[no_mangle]
+pub unsafe extern "C" fn tc_transcut_options_init(options: *mut TcTransCutOptions, size: usize) -> TcStatus {
+    run("tc_transcut_options_init", || {
+        let first = size_of::<TcTransCutOptions>();
+        // SAFETY: the caller's contract: `size` writable bytes.
+        unsafe { init(options, size, first, default_transcut_options()) }
+    })
+}
+
+/// Writes the first `min(size, size_of::<T>())` bytes of `defaults` over `*out` with its leading
+/// `size` field set to that count; `size` must be at least `min`.
+///
+/// # Safety
+/// A non-NULL `out` must have `size` writable bytes; `T` starts with a `u32` size.
+unsafe fn init<T>(out: *mut T, size: usize, min: usize, mut defaults: T) -> Result<(), Failure> {
+    check_not_null!(out);
+    if size < min {
+        return Err(Failure::invalid(format!("size = {size}: the struct has at least {min} bytes (pass its sizeof)")));
+    }
+    let written = size.min(size_of::<T>());
+    // SAFETY: `T` starts with its `u32` size (every options struct does); `written` fits a u32.
+    unsafe { std::ptr::from_mut(&mut defaults).cast::<u32>().write(written as u32) };
+    // SAFETY: `written` ≤ size writable bytes (caller's contract) and ≤ size_of::<T>().
+    unsafe { ptr::write_prefix(out, &defaults, written) };
+    Ok(())
 }
 
 /// Bakes every object with the chosen method (`TcBakeOptions.method`; TransCut meshes surfaces
@@ -171,7 +204,7 @@ pub unsafe extern "C" fn tc_object_stats(scene: *const TcScene, object: u32, out
         check_not_null!(out);
         // SAFETY: checked; `size` is the first field.
         let size = unsafe { out.cast::<u32>().read() } as usize;
-        let ours = std::mem::size_of::<TcBakeStats>();
+        let ours = size_of::<TcBakeStats>();
         if size < BAKE_STATS_SIZE_V1 {
             return Err(Failure::invalid(format!("out->size = {size}, expected sizeof(TcBakeStats) = {ours}")));
         }

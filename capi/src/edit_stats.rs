@@ -59,7 +59,7 @@ pub unsafe extern "C" fn tc_object_edit_stats(scene: *const TcScene, object: u32
         check_not_null!(out);
         // SAFETY: checked; `size` is the first field.
         let size = unsafe { out.cast::<u32>().read() } as usize;
-        let ours = std::mem::size_of::<TcEditStats>();
+        let ours = size_of::<TcEditStats>();
         if size < ours {
             return Err(Failure::invalid(format!("out->size = {size}, expected sizeof(TcEditStats) = {ours}")));
         }
@@ -84,7 +84,7 @@ fn edit_stats(st: &UpdateStats) -> TcEditStats {
     let count = |n: usize| n as u64;
     let cut = st.cut.as_ref();
     TcEditStats {
-        size: std::mem::size_of::<TcEditStats>() as u32,
+        size: size_of::<TcEditStats>() as u32,
         pieces_solved: u32::try_from(st.pieces_solved).unwrap_or(u32::MAX),
         iterations: st.iterations.map(|i| u32::try_from(i).unwrap_or(u32::MAX)),
         cut: u32::from(cut.is_some()),

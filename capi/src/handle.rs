@@ -92,7 +92,7 @@ impl SceneState {
     /// The statistics of object `object`'s last bake (checked).
     pub(crate) fn bake_stats(&self, object: u32) -> Result<&ObjectStats, Failure> {
         let i = self.object_index(object)?;
-        Ok(self.results()?.bake_stats(i).map_err(|e| session_failure(&e))?)
+        self.results()?.bake_stats(i).map_err(|e| session_failure(&e))
     }
 
     /// The radiance at the user's vertices of object `object` (checked).

@@ -128,7 +128,7 @@ pub unsafe extern "C" fn tc_object_edit_medium(scene: *mut TcScene, object: u32,
         check_not_null!(edit);
         // SAFETY: checked; `size` is the first field.
         let size = unsafe { edit.cast::<u32>().read() } as usize;
-        let ours = std::mem::size_of::<TcMediumEdit>();
+        let ours = size_of::<TcMediumEdit>();
         if size < ours {
             return Err(Failure::invalid(format!("edit->size = {size}, expected sizeof(TcMediumEdit) = {ours}")));
         }

@@ -49,13 +49,13 @@ pub const TC_SOLVER_MG_PCG: u32 = 4;
 /// CG preconditioned by a V-cycle on a smoothed-aggregation hierarchy.
 pub const TC_SOLVER_SA_PCG: u32 = 5;
 
-/// How to bake. Fill it with `tc_bake_options_default` (which also sets `size`), then change
-/// fields. `size` lets later versions append fields: a library reads only the fields that it
-/// and the caller both know.
+/// How to bake. Fill it with `tc_bake_options_init(&options, sizeof options)` (which also sets
+/// `size`), then change fields. `size` lets later versions append fields: a library reads and
+/// writes only the fields that it and the caller both know.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TcBakeOptions {
-    /// `sizeof(TcBakeOptions)`, set by `tc_bake_options_default`.
+    /// The bytes of the struct the caller has, set by `tc_bake_options_init`.
     pub size: u32,
     /// The subsurface method: `TC_METHOD_TRANSCUT` (default).
     pub method: u32,
@@ -79,17 +79,17 @@ pub struct TcBakeOptions {
     pub backend: u32,
     /// NULL (the default: the method's own defaults), or the chosen method's options: for
     /// `TC_METHOD_TRANSCUT` a `const TcTransCutOptions *` (filled by
-    /// `tc_transcut_options_default`). Read during `tc_scene_bake` only. (A caller built
-    /// against the 48-byte struct without this field gets NULL.)
+    /// `tc_transcut_options_init`). Read during `tc_scene_bake` only, and only when `size`
+    /// covers it (a struct of the first version, 48 bytes, has no such field).
     pub method_options: *const c_void,
 }
 
 /// TransCut's own options (`TcBakeOptions.method_options` with `TC_METHOD_TRANSCUT`). Fill it
-/// with `tc_transcut_options_default`, which sets `size`.
+/// with `tc_transcut_options_init(&options, sizeof options)`, which sets `size`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TcTransCutOptions {
-    /// `sizeof(TcTransCutOptions)`.
+    /// The bytes of the struct the caller has, set by `tc_transcut_options_init`.
     pub size: u32,
     /// The bake's solver on the CPU: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a `TC_SOLVER_*` (on the
     /// GPU the single-level solvers run Jacobi PCG).
@@ -102,13 +102,13 @@ pub struct TcTransCutOptions {
 /// The size of `TcBakeOptions` before `method_options` was appended.
 pub(crate) const BAKE_OPTIONS_SIZE_V1: usize = std::mem::offset_of!(TcBakeOptions, method_options);
 
-/// The defaults, as `tc_bake_options_default` writes them.
+/// The defaults, as `tc_bake_options_init` writes them.
 pub(crate) fn default_bake_options() -> TcBakeOptions {
     let core = BakeOptions::default();
     let transcut = TransCutOptions::default();
     let source = SourceOptions::default();
     TcBakeOptions {
-        size: std::mem::size_of::<TcBakeOptions>() as u32,
+        size: size_of::<TcBakeOptions>() as u32,
         method: TC_METHOD_TRANSCUT,
         tets: transcut.tets as u64,
         tolerance: transcut.tolerance,
@@ -122,13 +122,9 @@ pub(crate) fn default_bake_options() -> TcBakeOptions {
     }
 }
 
-/// The defaults, as `tc_transcut_options_default` writes them.
+/// The defaults, as `tc_transcut_options_init` writes them.
 pub(crate) fn default_transcut_options() -> TcTransCutOptions {
-    TcTransCutOptions {
-        size: std::mem::size_of::<TcTransCutOptions>() as u32,
-        solver: TC_SOLVER_DEFAULT,
-        edit_solver: TC_SOLVER_DEFAULT,
-    }
+    TcTransCutOptions { size: size_of::<TcTransCutOptions>() as u32, solver: TC_SOLVER_DEFAULT, edit_solver: TC_SOLVER_DEFAULT }
 }
 
 /// The core's backend choice for `TcBakeOptions.backend` (`None`: the environment decides).
@@ -185,7 +181,7 @@ struct Sized {
 unsafe fn read_sized<T: Copy>(ptr: *const T, min: usize, defaults: T, s: &Sized) -> Result<T, Failure> {
     // SAFETY: the caller's contract; `size` is the first field of every such struct.
     let size = unsafe { ptr.cast::<u32>().read() } as usize;
-    let ours = std::mem::size_of::<T>();
+    let ours = size_of::<T>();
     if size < min {
         return Err(Failure::invalid(format!(
             "{}->size = {size}, expected sizeof({}) = {ours} (fill the struct with {})",
@@ -212,7 +208,7 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
         check_not_null!(options);
         let mut defaults = default_bake_options();
         defaults.method_options = std::ptr::null();
-        let sized = Sized { what: "options", type_name: "TcBakeOptions", filler: "tc_bake_options_default" };
+        let sized = Sized { what: "options", type_name: "TcBakeOptions", filler: "tc_bake_options_init" };
         // SAFETY: forwarded.
         unsafe { read_sized(options, BAKE_OPTIONS_SIZE_V1, defaults, &sized)? }
     };
@@ -230,13 +226,10 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
                 if !t.is_aligned() {
                     return Err(Failure::invalid("`options->method_options` is not aligned for TcTransCutOptions"));
                 }
-                let sized = Sized {
-                    what: "options->method_options",
-                    type_name: "TcTransCutOptions",
-                    filler: "tc_transcut_options_default",
-                };
+                let sized =
+                    Sized { what: "options->method_options", type_name: "TcTransCutOptions", filler: "tc_transcut_options_init" };
                 // SAFETY: the caller's contract, checked for NULL and alignment.
-                unsafe { read_sized(t, std::mem::size_of::<TcTransCutOptions>(), default_transcut_options(), &sized)? }
+                unsafe { read_sized(t, size_of::<TcTransCutOptions>(), default_transcut_options(), &sized)? }
             };
             let d = TransCutOptions::default();
             Method::TransCut(TransCutOptions {

@@ -21,9 +21,9 @@ pub(crate) unsafe fn slice<'a, T>(ptr: *const T, len: usize, name: &str) -> Resu
         return Err(Failure::new(TC_NULL_POINTER, format!("`{name}` is NULL but its length is {len}")));
     }
     if !ptr.is_aligned() {
-        return Err(Failure::invalid(format!("`{name}` is not aligned to {} bytes", std::mem::align_of::<T>())));
+        return Err(Failure::invalid(format!("`{name}` is not aligned to {} bytes", align_of::<T>())));
     }
-    if len.checked_mul(std::mem::size_of::<T>()).is_none_or(|bytes| bytes > isize::MAX as usize) {
+    if len.checked_mul(size_of::<T>()).is_none_or(|bytes| bytes > isize::MAX as usize) {
         return Err(Failure::invalid(format!("`{name}`: length {len} is too large")));
     }
     // SAFETY: non-null, aligned, size in range; validity of the memory is the caller's contract.
@@ -147,7 +147,7 @@ pub(crate) unsafe fn copy_text(text: &str, out: *mut c_char, out_len: usize, out
 /// `out` must be non-NULL and have at least `written` writable bytes; `written` must not exceed
 /// the size of `T`.
 pub(crate) unsafe fn write_prefix<T>(out: *mut T, value: &T, written: usize) {
-    debug_assert!(written <= std::mem::size_of::<T>());
+    debug_assert!(written <= size_of::<T>());
     // SAFETY: the caller's contract. A byte copy of a prefix (padding included) of a built value.
     unsafe { std::ptr::copy_nonoverlapping(std::ptr::from_ref(value).cast::<u8>(), out.cast::<u8>(), written) };
 }

@@ -64,7 +64,7 @@ fn gpu_required_fails_clearly_and_auto_falls_back_without_an_adapter() {
         o.backend = TC_BACKEND_AUTO;
         assert_eq!(tc_scene_bake(s, &o, None, ptr::null_mut()), TC_OK, "{}", message());
         let mut stats: TcBakeStats = std::mem::zeroed();
-        stats.size = std::mem::size_of::<TcBakeStats>() as u32;
+        stats.size = size_of::<TcBakeStats>() as u32;
         assert_eq!(tc_object_stats(s, object, &mut stats), TC_OK);
         assert_eq!(stats.backend_used, TC_BACKEND_CPU);
         let mut auto = vec![0f32; 18];

@@ -202,7 +202,7 @@ fn export_system(dir: &Path, scene: &Scene, object: &ObjectBake) -> anyhow::Resu
     let boundary = system.boundary();
     let points: Vec<_> = boundary.ids.iter().map(|&v| state.tet_mesh.positions()[v as usize]).collect();
     let surface = o.world_surface()?;
-    let bvh = transcut::mesh::TriangleBvh::from_indexed(surface.positions(), surface.triangles());
+    let bvh = mesh::TriangleBvh::from_indexed(surface.positions(), surface.triangles());
     let q = transcut::light::transmitted_source(
         &scene.lights,
         &points,

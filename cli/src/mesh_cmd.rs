@@ -69,7 +69,7 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn print_human(path: &std::path::Path, input: &transcut::mesh::TriMesh, s: &MesherStats, output: Option<&PathBuf>) {
+fn print_human(path: &std::path::Path, input: &mesh::TriMesh, s: &MesherStats, output: Option<&PathBuf>) {
     println!("{}: {} vertices, {} triangles", path.display(), input.user_vertex_count(), input.triangles().len());
     println!("tets        {:>10}   vertices {:>9}   boundary triangles {:>9}", s.tets, s.vertices, s.boundary_faces);
     println!("spacing     {:>10.4e}   passes {:>11}", s.spacing, s.passes);

@@ -6,13 +6,16 @@
 
 use std::fmt;
 
+/// A progress callback: `(stage, fraction) -> keep going?`, callable from several threads.
+pub type ProgressFn<'a> = dyn Fn(&str, f64) -> bool + Sync + 'a;
+
 /// A progress sink: `report(stage, fraction) -> keep going?`.
 ///
 /// `Progress::none()` ignores reports and never cancels. The callback may be called from several
 /// threads, hence `Sync`.
 #[derive(Clone, Copy)]
 pub struct Progress<'a> {
-    callback: Option<&'a (dyn Fn(&str, f64) -> bool + Sync)>,
+    callback: Option<&'a ProgressFn<'a>>,
 }
 
 /// The user cancelled the work through the progress callback.
@@ -29,7 +32,7 @@ impl<'a> Progress<'a> {
 
     /// Wraps a callback `(stage, fraction) -> continue?`.
     #[must_use]
-    pub fn new(callback: &'a (dyn Fn(&str, f64) -> bool + Sync)) -> Self {
+    pub fn new(callback: &'a ProgressFn<'a>) -> Self {
         Self { callback: Some(callback) }
     }
 

@@ -68,8 +68,7 @@ class Direct:
         c.tc_scene_add_point.argtypes = [c_void_p, PD, PD]
         c.tc_scene_add_rect.argtypes = [c_void_p, PD, PD, PD, PD, c_int32]
         c.tc_scene_add_environment.argtypes = [c_void_p, PD]
-        c.tc_bake_options_default.argtypes = [POINTER(Options)]
-        c.tc_bake_options_default.restype = None
+        c.tc_bake_options_init.argtypes = [POINTER(Options), c_size_t]
         c.tc_scene_bake.argtypes = [c_void_p, POINTER(Options), Progress, c_void_p]
         c.tc_object_vertex_count.argtypes = [c_void_p, c_uint32, POINTER(c_size_t)]
         c.tc_object_radiance.argtypes = [c_void_p, c_uint32, POINTER(c_float), c_size_t]
@@ -154,7 +153,7 @@ class Direct:
                 else:
                     raise ValueError(kind)
             opts = Options()
-            self.c.tc_bake_options_default(ctypes.byref(opts))
+            self.ok(self.c.tc_bake_options_init(ctypes.byref(opts), ctypes.sizeof(opts)), "options")
             opts.tets = tets
             opts.tolerance = tolerance
             opts.shadows = 1 if shadows else 0

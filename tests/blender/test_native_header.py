@@ -175,7 +175,7 @@ def layout_checks() -> dict:
 def test_struct_layouts_match_the_header_checks():
     """ctypes lays every struct out as the library's build does (the sizes and offsets the header
     asserts), and every struct the header checks is mirrored: a struct shorter than the library's
-    would let the library write past its end (``tc_bake_options_default`` fills all of it)."""
+    would be filled and read only in part (``tc_bake_options_init`` is given its size)."""
     checks = layout_checks()
     assert "TcBakeOptions" in checks, "header parse failed"
     assert sorted(checks) == sorted(s.__name__ for s in STRUCTS)
@@ -185,8 +185,8 @@ def test_struct_layouts_match_the_header_checks():
 
 
 def test_direct_client_options_fill_the_library_struct():
-    """The tests' independent client (capi_direct) lets ``tc_bake_options_default`` write a whole
-    ``TcBakeOptions`` into its own struct: it must be as large as the library's."""
+    """The tests' independent client (capi_direct) has the whole ``TcBakeOptions`` of the header, so
+    ``tc_bake_options_init`` fills every field the library knows."""
     import capi_direct
 
     assert ctypes.sizeof(capi_direct.Options) == layout_checks()["TcBakeOptions"]["__sizeof"]

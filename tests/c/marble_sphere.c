@@ -231,7 +231,7 @@ static TcScene *small_ball(const Mesh *m, const double sun[3]) {
     OK(tc_scene_add_mesh(scene, m->positions, m->vertex_count, m->indices, 3 * m->triangle_count, &ball));
     OK(tc_scene_add_sun(scene, sun, (const double[3]){3.0, 2.5, 2.0}, 0.0));
     TcBakeOptions options;
-    tc_bake_options_default(&options);
+    OK(tc_bake_options_init(&options, sizeof options));
     options.tets = 1500;
     options.shadows = 0;
     options.tolerance = 1e-9;
@@ -363,8 +363,26 @@ int main(void) {
     CHECK(tc_object_radiance(scene, ball, rgb, 3 * vertices) == TC_NOT_BAKED, "radiance before a bake");
 
     TcBakeOptions options;
-    tc_bake_options_default(&options);
+    OK(tc_bake_options_init(&options, sizeof options));
     CHECK(options.size == sizeof options, "options size");
+    CHECK(options.method == TC_METHOD_TRANSCUT && options.method_options == NULL, "default method");
+    /* The method by name, and its own options: TransCut with the SSOR-preconditioned solver. */
+    char method_name[16];
+    uint32_t method = 99;
+    CHECK(tc_method_count() >= 1, "at least one method");
+    OK(tc_method_name(TC_METHOD_TRANSCUT, method_name, sizeof method_name, NULL));
+    CHECK(strcmp(method_name, "transcut") == 0, "method name %s", method_name);
+    OK(tc_method_from_name("transcut", &method));
+    CHECK(method == TC_METHOD_TRANSCUT, "method number %u", method);
+    CHECK(tc_method_from_name("nonsense", &method) == TC_NOT_FOUND &&
+              strstr(tc_last_error_message(), "transcut") != NULL,
+          "unknown method: %s", tc_last_error_message());
+    TcTransCutOptions transcut;
+    OK(tc_transcut_options_init(&transcut, sizeof transcut));
+    CHECK(transcut.size == sizeof transcut && transcut.solver == TC_SOLVER_DEFAULT, "TransCut defaults");
+    transcut.solver = TC_SOLVER_SSOR_PCG;
+    options.method = method;
+    options.method_options = &transcut;
     CHECK(options.backend == TC_BACKEND_DEFAULT, "default backend");
     options.tets = 12000;
     options.shadows = 0; /* the exact (unsampled) constant-sky source */

@@ -33,7 +33,7 @@ fn bake_with_backend(backend: u32) -> (*mut TcScene, TcStatus) {
 fn stats(s: *mut TcScene) -> TcBakeStats {
     // SAFETY: an all-zero struct is a valid value to overwrite.
     let mut st: TcBakeStats = unsafe { std::mem::zeroed() };
-    st.size = std::mem::size_of::<TcBakeStats>() as u32;
+    st.size = size_of::<TcBakeStats>() as u32;
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_stats(s, 0, &mut st) }, "stats");
     st
@@ -176,8 +176,8 @@ fn an_unknown_backend_is_refused_naming_it() {
 /// after untouched.
 #[test]
 fn defaults_and_the_older_stats_size() {
-    assert_eq!(std::mem::size_of::<TcBakeOptions>(), 56);
-    assert_eq!(std::mem::size_of::<TcBakeStats>(), 96);
+    assert_eq!(size_of::<TcBakeOptions>(), 56);
+    assert_eq!(size_of::<TcBakeStats>(), 96);
     assert_eq!(options(1).backend, TC_BACKEND_DEFAULT);
     let (s, status) = bake_with_backend(TC_BACKEND_CPU);
     ok(status, "bake");

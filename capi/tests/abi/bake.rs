@@ -46,13 +46,13 @@ fn uniform_sphere_under_a_constant_sky_matches_the_closed_form() {
         assert!(worst < 0.04, "channel {c}: worst relative error {worst}");
     }
     let mut stats: TcBakeStats = unsafe { std::mem::zeroed() };
-    stats.size = std::mem::size_of::<TcBakeStats>() as u32;
+    stats.size = size_of::<TcBakeStats>() as u32;
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_stats(s, ball, &mut stats) }, "stats");
     assert!((10_000..40_000).contains(&stats.tets), "{} tets", stats.tets);
     assert!(stats.vertices > 0 && stats.iterations.iter().all(|&i| i > 0) && stats.total_ms > 0.0);
     assert_eq!(stats.clamped_vertices, 0);
-    assert_eq!(stats.size as usize, std::mem::size_of::<TcBakeStats>());
+    assert_eq!(stats.size as usize, size_of::<TcBakeStats>());
     destroy(s);
 }
 
@@ -207,7 +207,7 @@ fn options_are_checked() {
     o.size = 8;
     // SAFETY: valid pointers.
     unsafe {
-        fails(tc_scene_bake(s, &o, None, ptr::null_mut()), TC_INVALID_ARGUMENT, &["size", "tc_bake_options_default"]);
+        fails(tc_scene_bake(s, &o, None, ptr::null_mut()), TC_INVALID_ARGUMENT, &["size", "tc_bake_options_init"]);
         let mut o = options(2_000);
         o.method = 7;
         fails(tc_scene_bake(s, &o, None, ptr::null_mut()), TC_INVALID_ARGUMENT, &["method"]);
@@ -224,7 +224,7 @@ fn options_are_checked() {
             future: [u64; 4],
         }
         let mut newer = Newer { base: options(2_000), future: [u64::MAX; 4] };
-        newer.base.size = std::mem::size_of::<Newer>() as u32;
+        newer.base.size = size_of::<Newer>() as u32;
         ok(tc_scene_bake(s, (&raw const newer).cast(), None, ptr::null_mut()), "larger options struct");
     }
     destroy(s);

@@ -110,8 +110,8 @@ pub fn add(scene: *mut TcScene, mesh: &Mesh) -> u32 {
 pub fn options(tets: u64) -> TcBakeOptions {
     // SAFETY: an all-zero struct is a valid value to overwrite.
     let mut o: TcBakeOptions = unsafe { std::mem::zeroed() };
-    // SAFETY: a valid pointer.
-    unsafe { tc_bake_options_default(&mut o) };
+    // SAFETY: a valid pointer and its size.
+    ok(unsafe { tc_bake_options_init(&mut o, size_of::<TcBakeOptions>()) }, "options");
     o.tets = tets;
     o
 }

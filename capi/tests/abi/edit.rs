@@ -54,7 +54,7 @@ fn assert_close(a: &[f32], b: &[f32], tol: f64) -> f64 {
 fn edit_stats(s: *mut TcScene, object: u32) -> TcEditStats {
     // SAFETY: an all-zero struct is a valid value to overwrite.
     let mut st: TcEditStats = unsafe { std::mem::zeroed() };
-    st.size = std::mem::size_of::<TcEditStats>() as u32;
+    st.size = size_of::<TcEditStats>() as u32;
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_edit_stats(s, object, &mut st) }, "edit stats");
     st
@@ -104,7 +104,7 @@ fn relight_equals_a_fresh_bake_with_the_new_lights() {
     eprintln!("relight vs fresh bake: {worst:.2e}");
     assert!(assert_close(&before, &relit, 1.0) > 0.05, "the new sun changed the radiance");
     let st = edit_stats(s, 0);
-    assert_eq!(st.size as usize, std::mem::size_of::<TcEditStats>());
+    assert_eq!(st.size as usize, size_of::<TcEditStats>());
     assert_eq!((st.pieces_solved, st.rows_rebuilt, st.cut), (1, 0, 0));
     assert!(st.iterations.iter().all(|&i| i > 0) && st.total_ms > 0.0);
     // A relight under the same lights is a warm start at the solution: at most one iteration.
@@ -130,7 +130,7 @@ fn medium_edits_and_paint() {
     let skin = Medium::preset("skin1").unwrap();
     // SAFETY: an all-zero struct, then the fields used.
     let mut edit: TcMediumEdit = unsafe { std::mem::zeroed() };
-    edit.size = std::mem::size_of::<TcMediumEdit>() as u32;
+    edit.size = size_of::<TcMediumEdit>() as u32;
     edit.region = TC_REGION_ALL;
     edit.op = TC_MEDIUM_ASSIGN;
     edit.sigma_a = skin.sigma_a;
@@ -330,7 +330,7 @@ fn bad_edits_are_refused_naming_the_argument_and_change_nothing() {
         );
 
         let mut edit: TcMediumEdit = std::mem::zeroed();
-        edit.size = std::mem::size_of::<TcMediumEdit>() as u32;
+        edit.size = size_of::<TcMediumEdit>() as u32;
         edit.region = 9;
         fails(tc_object_edit_medium(s, 0, &edit), TC_INVALID_ARGUMENT, &["edit->region = 9"]);
         edit.region = TC_REGION_MASK;

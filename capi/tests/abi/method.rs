@@ -82,10 +82,10 @@ fn the_method_options_choose_the_solver_and_an_older_struct_bakes_as_before() {
     older.method_options = 8 as *const std::ffi::c_void; // past its size: never read
     assert_eq!(bake_ball(&older).unwrap(), reference);
     // TransCut's options with another solver: the same answer to the solver's tolerance.
-    let mut transcut = TcTransCutOptions { size: 0, solver: 0, edit_solver: 0 };
-    // SAFETY: a valid pointer.
-    unsafe { tc_transcut_options_default(&mut transcut) };
-    assert_eq!((transcut.size as usize, transcut.solver, transcut.edit_solver), (std::mem::size_of::<TcTransCutOptions>(), 0, 0));
+    let mut transcut = TcTransCutOptions { size: 0, solver: 7, edit_solver: 7 };
+    // SAFETY: a valid pointer and its size.
+    ok(unsafe { tc_transcut_options_init(&mut transcut, size_of::<TcTransCutOptions>()) }, "init");
+    assert_eq!((transcut.size as usize, transcut.solver, transcut.edit_solver), (size_of::<TcTransCutOptions>(), 0, 0));
     for solver in [TC_SOLVER_PCG, TC_SOLVER_MG_PCG, TC_SOLVER_SA_PCG, TC_SOLVER_CASCADE] {
         transcut.solver = solver;
         let mut o = cpu_options();
@@ -105,8 +105,8 @@ fn bad_method_choices_are_named() {
     assert_eq!(status, TC_INVALID_ARGUMENT);
     assert!(msg.contains("options->method") && msg.contains("0 = transcut"), "{msg}");
     let mut transcut = TcTransCutOptions { size: 0, solver: 0, edit_solver: 0 };
-    // SAFETY: a valid pointer.
-    unsafe { tc_transcut_options_default(&mut transcut) };
+    // SAFETY: a valid pointer and its size.
+    ok(unsafe { tc_transcut_options_init(&mut transcut, size_of::<TcTransCutOptions>()) }, "init");
     transcut.solver = 99;
     let mut o = cpu_options();
     o.method_options = (&raw const transcut).cast();
@@ -117,12 +117,59 @@ fn bad_method_choices_are_named() {
     o.method_options = (&raw const short).cast();
     let (status, msg) = bake_ball(&o).unwrap_err();
     assert_eq!(status, TC_INVALID_ARGUMENT);
-    assert!(msg.contains("sizeof(TcTransCutOptions)") && msg.contains("tc_transcut_options_default"), "{msg}");
+    assert!(msg.contains("sizeof(TcTransCutOptions)") && msg.contains("tc_transcut_options_init"), "{msg}");
     let bytes = [0u8; 32];
     o.method_options = bytes.as_ptr().wrapping_add(1).cast();
     let (status, msg) = bake_ball(&o).unwrap_err();
     assert_eq!(status, TC_INVALID_ARGUMENT);
     assert!(msg.contains("not aligned"), "{msg}");
-    // SAFETY: NULL is allowed.
-    unsafe { tc_transcut_options_default(ptr::null_mut()) };
+    // SAFETY: NULL and short sizes are refused.
+    unsafe {
+        fails(tc_transcut_options_init(ptr::null_mut(), 12), TC_NULL_POINTER, &["options"]);
+        let mut t = TcTransCutOptions { size: 5, solver: 5, edit_solver: 5 };
+        fails(tc_transcut_options_init(&mut t, 8), TC_INVALID_ARGUMENT, &["size = 8"]);
+        assert_eq!(t, TcTransCutOptions { size: 5, solver: 5, edit_solver: 5 }, "untouched on failure");
+    }
+}
+
+/// The first version's filler writes its 48 bytes and no more; the sized one writes what the
+/// caller's size says, up to what the library knows, and refuses sizes below the first version.
+#[test]
+fn options_are_filled_only_as_far_as_the_callers_struct_goes() {
+    #[repr(C)]
+    struct Guarded {
+        options: TcBakeOptions,
+        after: [u64; 2],
+    }
+    let pattern = |g: &Guarded| -> Vec<u8> {
+        // SAFETY: plain bytes of a repr(C) value.
+        unsafe { std::slice::from_raw_parts((&raw const *g).cast::<u8>(), size_of::<Guarded>()).to_vec() }
+    };
+    // SAFETY: every byte pattern is a valid value of these plain structs except the pointer,
+    // which is never dereferenced here.
+    let mut g: Guarded = unsafe { std::mem::transmute([0xABu8; size_of::<Guarded>()]) };
+    let before = pattern(&g);
+    // SAFETY: a valid pointer with at least 48 bytes.
+    unsafe { tc_bake_options_default(&mut g.options) };
+    let after = pattern(&g);
+    assert_eq!(g.options.size, 48);
+    assert_eq!(g.options.tets, 200_000);
+    assert_eq!(after[48..], before[48..], "tc_bake_options_default wrote past the first version's 48 bytes");
+    // SAFETY: as above.
+    ok(unsafe { tc_bake_options_init(&mut g.options, size_of::<TcBakeOptions>()) }, "init");
+    assert_eq!(g.options.size as usize, size_of::<TcBakeOptions>());
+    assert!(g.options.method_options.is_null());
+    assert_eq!(g.after, [0xABAB_ABAB_ABAB_ABAB; 2], "nothing past the struct");
+    // A newer, larger struct: only what this library knows is written.
+    // SAFETY: `Guarded` has that many writable bytes.
+    ok(unsafe { tc_bake_options_init(&mut g.options, size_of::<Guarded>()) }, "init larger");
+    assert_eq!(g.options.size as usize, size_of::<TcBakeOptions>());
+    assert_eq!(g.after, [0xABAB_ABAB_ABAB_ABAB; 2]);
+    // SAFETY: valid pointers; the short size is refused before anything is written.
+    unsafe {
+        let snapshot = pattern(&g);
+        fails(tc_bake_options_init(&mut g.options, 40), TC_INVALID_ARGUMENT, &["size = 40"]);
+        assert_eq!(pattern(&g), snapshot);
+        fails(tc_bake_options_init(ptr::null_mut(), 56), TC_NULL_POINTER, &["options"]);
+    }
 }

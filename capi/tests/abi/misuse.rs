@@ -245,7 +245,7 @@ fn short_buffers_and_missing_results() {
         // Any change discards the results.
         ok(tc_object_set_scale(s, ball, 2.0), "scale");
         fails(tc_object_radiance(s, ball, long.as_mut_ptr(), long.len()), TC_NOT_BAKED, &[]);
-        stats.size = std::mem::size_of::<TcBakeStats>() as u32;
+        stats.size = size_of::<TcBakeStats>() as u32;
         fails(tc_object_stats(s, ball, &mut stats), TC_NOT_BAKED, &[]);
     }
     destroy(s);

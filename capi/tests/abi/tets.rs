@@ -116,7 +116,7 @@ fn a_tet_mesh_is_solved_as_given() {
     let lo = bake_sky(s);
     assert_eq!(lo.len(), 3 * n);
     let mut stats: TcBakeStats = unsafe { std::mem::zeroed() };
-    stats.size = std::mem::size_of::<TcBakeStats>() as u32;
+    stats.size = size_of::<TcBakeStats>() as u32;
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_stats(s, 0, &mut stats) }, "stats");
     assert_eq!((stats.tets as usize, stats.vertices as usize), (cube.tet_count(), n), "solved on the given tets");

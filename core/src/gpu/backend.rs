@@ -110,14 +110,14 @@ impl SolveWith<'_> {
 
 /// Solves the diffusion system on `backend` with `with`, from `warm_start` or cold.
 ///
-/// - [`Backend::Cpu`]: [`Solver::solve`].
-/// - [`Backend::Gpu`]: on the process-wide device ([`super::GpuContext::shared`]) the device
-///   twin of the kind: the single-level kinds ([`SolverKind::Pcg`], [`SolverKind::SsorPcg`])
+/// - [`Backend::Cpu`] runs [`Solver::solve`].
+/// - [`Backend::Gpu`] runs, on the process-wide device ([`super::GpuContext::shared`]), the
+///   device twin of the kind: the single-level kinds ([`SolverKind::Pcg`], [`SolverKind::SsorPcg`])
 ///   run Jacobi PCG ([`super::solve`]; SSOR's sweeps are sequential within each level set, so
 ///   it has no device path), the multigrid kinds CG preconditioned by their V-cycle
 ///   ([`super::GpuSolver::with_multigrid`], the hierarchy and Galerkin operators built on the
 ///   CPU and uploaded once per call). [`SolverKind::Cascade`] has no device path: an error.
-/// - [`Backend::Auto`]: the device unless none can be had, the only one is a software
+/// - [`Backend::Auto`] runs on the device unless none can be had, the only one is a software
 ///   rasteriser (lavapipe) or the kind is the cascade; then the CPU, with the reason in
 ///   [`BackendReport::fallback`].
 ///

@@ -72,9 +72,9 @@ mod tests {
     #[test]
     fn struct_sizes_match_the_wgsl_layouts() {
         // WGSL: Params 12 × 4 bytes, Scalars 8 × vec4, Row 8 × 4, Incidence 5 × 4.
-        assert_eq!(std::mem::size_of::<Params>(), 48);
-        assert_eq!(std::mem::size_of::<Scalars>(), 128);
-        assert_eq!(std::mem::size_of::<RowInfo>(), 32);
-        assert_eq!(std::mem::size_of::<Incidence>(), 20);
+        assert_eq!(size_of::<Params>(), 48);
+        assert_eq!(size_of::<Scalars>(), 128);
+        assert_eq!(size_of::<RowInfo>(), 32);
+        assert_eq!(size_of::<Incidence>(), 20);
     }
 }

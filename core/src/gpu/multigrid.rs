@@ -414,7 +414,7 @@ mod tests {
     #[test]
     fn cheb_matches_the_wgsl_layout() {
         // WGSL Cheb: two vec4<f32> and four u32.
-        assert_eq!(std::mem::size_of::<Cheb>(), 48);
+        assert_eq!(size_of::<Cheb>(), 48);
     }
 
     #[test]

@@ -242,7 +242,7 @@ impl<'c> GpuSolver<'c> {
         let y = ctx.storage(vec_bytes, "iterate")?;
         let out = ctx.storage(vec_bytes, "correction")?;
         let partials = ctx.storage(32 * u64::from(m.n_groups), "partial sums")?;
-        let scalars = ctx.storage(std::mem::size_of::<Scalars>() as u64, "scalars")?;
+        let scalars = ctx.storage(size_of::<Scalars>() as u64, "scalars")?;
         // Jacobi: the scaled system (Â, S). Multigrid: the unscaled one (M, S = 1), with z = B r.
         let mg = self.multigrid.as_ref();
         let sdiag: &wgpu::Buffer = mg.map_or(&m.sdiag, |g| &g.ones);
@@ -362,7 +362,7 @@ impl<'c> GpuSolver<'c> {
                     }
                 }
                 stats.dispatched_iterations += check_every;
-                let bytes = ctx.read_back(encoder, &scalars, std::mem::size_of::<Scalars>() as u64, "PCG iterations")?;
+                let bytes = ctx.read_back(encoder, &scalars, size_of::<Scalars>() as u64, "PCG iterations")?;
                 stats.readbacks += 1;
                 let sc: Scalars = bytemuck::pod_read_unaligned(&bytes);
                 for c in 0..3 {

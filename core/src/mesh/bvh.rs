@@ -55,6 +55,10 @@ pub struct TriangleBvh {
     pub(crate) corners: Vec<[DVec3; 3]>,
 }
 
+/// What a ray traversal calls for every triangle it hits: (distance, triangle, barycentrics,
+/// the current far limit, which it may lower) → keep going?
+type HitVisitor<'a> = dyn FnMut(f64, u32, [f64; 3], &mut f64) -> bool + 'a;
+
 impl TriangleBvh {
     /// Builds the hierarchy over triangles given by corner positions. An empty input gives an
     /// empty tree whose queries find nothing.
@@ -168,14 +172,7 @@ impl TriangleBvh {
 
     /// Visits triangles hit by the ray within `(t_min, *t_far)`; `visit(t, tri, bary, t_far)`
     /// returns `true` to stop. The visitor may shrink `t_far`.
-    fn traverse_ray(
-        &self,
-        origin: DVec3,
-        dir: DVec3,
-        t_min: f64,
-        t_far: &mut f64,
-        visit: &mut dyn FnMut(f64, u32, [f64; 3], &mut f64) -> bool,
-    ) {
+    fn traverse_ray(&self, origin: DVec3, dir: DVec3, t_min: f64, t_far: &mut f64, visit: &mut HitVisitor<'_>) {
         if self.nodes.is_empty() {
             return;
         }

@@ -84,7 +84,7 @@ impl TriMesh {
     /// [`MeshError::IndexCountNotMultipleOf3`] if `indices.len() % 3 != 0`, and every error of
     /// [`from_polygons`](Self::from_polygons).
     pub fn from_triangles<T: Copy + Into<f64>>(positions: &[[T; 3]], indices: &[u32]) -> Result<TriMesh, MeshError> {
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(MeshError::IndexCountNotMultipleOf3 { len: indices.len() });
         }
         let positions: Vec<DVec3> = positions.iter().map(|p| DVec3::new(p[0].into(), p[1].into(), p[2].into())).collect();

@@ -41,7 +41,7 @@ impl Frame {
     }
 
     /// Maps a local point back to world coordinates.
-    pub fn to_world(&self, p: DVec3) -> DVec3 {
+    pub fn to_world(self, p: DVec3) -> DVec3 {
         self.rotation * p + self.origin
     }
 }

@@ -39,7 +39,7 @@ pub enum SessionError {
         index: usize,
         name: String,
         #[source]
-        source: EditError,
+        source: Box<EditError>,
     },
     /// The worker threads could not be started.
     #[error("invalid session option: {0}")]
@@ -289,7 +289,7 @@ impl Session {
                 match relight_slot(slot, baked, lights, options) {
                     Ok(r) => done.push(r),
                     Err(source) => {
-                        failure = Some(SessionError::Edit { index, name: slot.name.clone(), source });
+                        failure = Some(SessionError::Edit { index, name: slot.name.clone(), source: Box::new(source) });
                         break;
                     }
                 }
@@ -421,7 +421,7 @@ impl Session {
                 }
                 Ok(())
             }
-            Err(Failed::Edit(source)) => Err(SessionError::Edit { index, name: slot.name.clone(), source }),
+            Err(Failed::Edit(source)) => Err(SessionError::Edit { index, name: slot.name.clone(), source: Box::new(source) }),
             Err(Failed::Unsupported(capability)) => {
                 Err(SessionError::Unsupported { index, name: slot.name.clone(), method: slot.method, capability })
             }
