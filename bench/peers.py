@@ -1,9 +1,8 @@
 #!/usr/bin/env python3
 """Times peer sparse solvers on exactly the system `transcut bake --export-system DIR` wrote.
 
-Not part of the test suite: a benchmark for the closing notes (issue 3, "Benchmark"), run by
-hand beside `transcut bench bake` so that our numbers and the peers' come from the same machine
-at the same time.
+Not part of the test suite: a benchmark run by hand beside `transcut bench bake`, so that our
+numbers and the peers' come from the same machine at the same time (docs/benchmarks.md).
 
 What it measures, per colour channel c (M_c differs per channel: kappa and mu depend on c), on
 M_c x = b[:, c] with the Matrix Market files M_red.mtx, M_green.mtx, M_blue.mtx and b.mtx:
@@ -185,7 +184,11 @@ def main():
             except ImportError as e:
                 entry["cholmod"] = {"skipped": f"scikit-sparse not importable: {e}"}
         report["channels"][name] = entry
-        print(f"{name}: " + json.dumps({k: {kk: v for kk, v in d.items() if not kk.endswith("runs_s")} for k, d in entry.items()}), file=sys.stderr)
+        print(
+            f"{name}: "
+            + json.dumps({k: {kk: v for kk, v in d.items() if not kk.endswith("runs_s")} for k, d in entry.items()}),
+            file=sys.stderr,
+        )
 
     totals = {}
     for peer, keys in [

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Writes box.obj: a 2 x 1 x 1 box whose faces are grids of quads (20 x 10 x 10), so the
 per-vertex radiance of a bake is resolved across each face; used by layered_block.toml."""
+
 N = {0: 20, 1: 10, 2: 10}
 SIZE = [2.0, 1.0, 1.0]
 
@@ -33,9 +34,9 @@ def main():
     with open("box.obj", "w") as f:
         f.write("# a 2 x 1 x 1 box, subdivided (gen_box.py) for layered_block.toml\n")
         for p in vl:
-            f.write("v %g %g %g\n" % p)
+            f.write("v {:g} {:g} {:g}\n".format(*p))
         for q in faces:
-            f.write("f %d %d %d %d\n" % tuple(q))
+            f.write("f {:d} {:d} {:d} {:d}\n".format(*q))
 
 
 if __name__ == "__main__":

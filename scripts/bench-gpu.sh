@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# GPU benchmark (issue 7): the Stanford bunny at 500k and 1M tets, diffusion solve on the CPU and
+# GPU benchmark: the Stanford bunny at 500k and 1M tets, diffusion solve on the CPU and
 # on the GPU (upload, assembly on the device, solve with read-back) with Jacobi PCG ("gpu") and
 # with multigrid-preconditioned CG, the V-cycle on the device ("gpu_multigrid", its CPU setup
 # timed apart), JSON on stdout with the device name. Run on a machine with a GPU; on one without, install lavapipe first

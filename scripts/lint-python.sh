@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Lints and format-checks the Python code (the Blender add-on, its tests, the scripts) with ruff,
+# Lints and format-checks the Python code (the Blender add-on, its tests, the scripts, the
+# benchmark and example generators) with ruff,
 # configured by ruff.toml at the repository root. The ruff is the exact version that
 # scripts/blender-venv.sh installs into the venv the Blender tests use (created if missing).
 # Exits non-zero on any lint finding or any file that `ruff format` would change.
@@ -10,7 +11,7 @@ cd "$(dirname "$0")/.."
 VENV="${TRANSCUT_BLENDER_VENV:-.venv}"
 bash scripts/blender-venv.sh "$VENV"
 RUFF="$VENV/bin/ruff"
-PATHS=(blender_addon tests/blender scripts/*.py)
+PATHS=(blender_addon tests/blender scripts/*.py bench/*.py examples/*.py)
 
 status=0
 "$RUFF" check "${PATHS[@]}" || status=1

@@ -11,9 +11,10 @@ use std::sync::OnceLock;
 
 use common::uv_sphere;
 use glam::DMat4;
-use transcut::edit::cut::{cut, CutOptions, CutResult, Cutter, SweptStroke};
+use transcut::edit::cut::{cut, CutOptions, CutResult};
 use transcut::edit::pieces::{check_rigid, connected_components, extract, weld};
 use transcut::edit::EditError;
+use transcut::edit::{Cutter, SweptStroke};
 use transcut::mesh::{tet_volume, TetMesh, TriMesh};
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::DVec3;

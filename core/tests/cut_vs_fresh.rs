@@ -1,5 +1,5 @@
-//! Issue 6's cutting check: "the radiance of the cut object equals a from-scratch bake of a
-//! freshly meshed cut solid within 5% RMS".
+//! A cut against a fresh bake: the radiance of the cut object equals a from-scratch bake of a
+//! freshly meshed cut solid within 5% RMS.
 //!
 //! # Set-up
 //!

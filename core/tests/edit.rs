@@ -1,4 +1,4 @@
-//! The editor (`transcut::edit`, issue 6 items 3–7) against from-scratch bakes: relighting,
+//! The editor (`transcut::edit`, TransCut §5) against from-scratch bakes: relighting,
 //! material edits and painting give the solution of a fresh assembly and solve; failed edits
 //! change nothing; warm starts save iterations.
 

@@ -1,4 +1,4 @@
-//! The GPU path against its CPU twin (issue 7): assembly entry by entry, SpMV and dot products,
+//! The GPU path against its CPU twin: assembly entry by entry, SpMV and dot products,
 //! the full solve within 1e-4 relative RMS of the CPU f64 solution on every shared mesh, an
 //! exact small case against a dense direct solve, the radiance query, backend choice and errors.
 //!

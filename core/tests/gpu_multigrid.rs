@@ -1,5 +1,5 @@
-//! The multigrid preconditioner on the GPU against its CPU twin (issue 7, "restriction /
-//! prolongation and coarse solves" on the device): the transfer kernels equal `Pᵀ` and `P` of
+//! The multigrid preconditioner on the GPU against its CPU twin (restriction, prolongation and
+//! the coarse solves on the device): the transfer kernels equal `Pᵀ` and `P` of
 //! TransCut eq. 16, one device V-cycle equals the CPU V-cycle on the same vector, and the device
 //! MG-PCG reaches the CPU f64 solution within 1e-4 relative RMS in about the CPU MG-PCG's
 //! iterations — far fewer than the device Jacobi PCG.

@@ -64,15 +64,17 @@ fn check(name: &str, input: &TriMesh, t: &Tetrahedralization, target: usize) {
 }
 
 #[test]
-fn every_shared_mesh_at_100k_tets() {
+fn every_test_mesh_at_100k_tets() {
     for name in MESHES {
         let input = shared_mesh(name);
         check(name, &input, &mesh_to(&input, 100_000), 100_000);
     }
 }
 
+/// The slow tier (`bash scripts/test.sh --slow`): every test mesh meshed at 500k and 1M tets.
 #[test]
-fn every_shared_mesh_at_500k_and_1m_tets() {
+#[ignore = "slow tier: bash scripts/test.sh --slow"]
+fn slow_every_test_mesh_at_500k_and_1m_tets() {
     for name in MESHES {
         let input = shared_mesh(name);
         for target in [500_000, 1_000_000] {

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The C ABI as a C program sees it (issue 4):
+# The C ABI as a C program sees it:
 #  1. builds libtranscut (.so and .a) with cargo,
 #  2. installs it with scripts/install.sh into a scratch prefix (lib, include, transcut.pc),
 #  3. compiles include/transcut.h as C99 and C++17 with -Wall -Wextra -Werror (its layout

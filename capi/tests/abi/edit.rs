@@ -5,7 +5,7 @@
 use std::ptr;
 
 use glam::{DMat4, DVec3};
-use transcut_core::edit::cut::Cutter;
+use transcut_core::edit::Cutter;
 use transcut_core::edit::{EditOptions, Editor};
 use transcut_core::gpu::Backend;
 use transcut_core::light::{Light, SourceOptions};

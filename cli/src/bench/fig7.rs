@@ -68,8 +68,8 @@ pub(crate) struct Fig7 {
     time_to_1pct_ratio_ssor_vs_pcg: Option<f64>,
     time_to_1pct_ratio_sa_vs_pcg: Option<f64>,
     /// The faster multiresolution method's time to 1% over the faster single-level solver's
-    /// (Jacobi PCG or SSOR-PCG): the goal is ≤ 0.5. Setups are not included (each
-    /// method's is reported on its own).
+    /// (Jacobi PCG or SSOR-PCG), TransCut Fig. 7's figure of merit. Setups are not included
+    /// (each solver's is reported on its own).
     pub(crate) time_to_1pct_ratio_best_multires_vs_best_single_level: Option<f64>,
     solve_1e6_ratio_cascade_vs_pcg: f64,
     solve_1e6_ratio_mg_vs_pcg: f64,

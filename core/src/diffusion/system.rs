@@ -255,7 +255,7 @@ impl DiffusionSystem {
 
     /// Derives now the κ and μ that row-local entry refills keep
     /// ([`DiffusionSystem::update_media_entries`]), so that the first refill does not pay for
-    /// them (about 12 ms at 500k tets): for systems that will be painted, such as an editor's.
+    /// them: for systems that will be painted, such as an editor's.
     pub(crate) fn keep_coefficients(&mut self) {
         if self.coefficients.is_none() {
             self.coefficients = Some(Coefficients::of(&self.media));

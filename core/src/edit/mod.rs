@@ -72,6 +72,7 @@
 //! difference of the two occluders (with shadows off it does not).
 
 pub mod cut;
+pub mod cutter;
 mod error;
 pub mod paint;
 mod piece;
@@ -85,7 +86,8 @@ use std::time::Instant;
 use glam::{DMat4, DVec3};
 use rayon::prelude::*;
 
-pub use cut::{CutOptions, CutResult, CutStats, Cutter, SweptStroke};
+pub use cut::{CutOptions, CutResult, CutStats};
+pub use cutter::{Cutter, SweptStroke};
 pub use error::EditError;
 pub use paint::PaintStroke;
 pub use piece::Piece;

@@ -1,4 +1,4 @@
-//! The editor's topology edits (TransCut §5.1 and issue 6 item 6): cut, split, fracture, move
+//! The editor's topology edits (TransCut §5.1): cut, split, fracture, move
 //! and recombine pieces. Each rebuilds the affected pieces (mesh, per-tet media table, system,
 //! hierarchy; φ carried over through the kept vertices as the warm start), re-lights every piece
 //! (the shadows change with any piece) and re-solves; the new pieces are swapped in only when all
@@ -9,7 +9,8 @@ use std::time::Instant;
 
 use glam::{DMat3, DMat4, DVec3};
 
-use super::cut::{self, CutResult, CutStats, Cutter, SweptStroke};
+use super::cut::{self, CutResult, CutStats};
+use super::cutter::{Cutter, SweptStroke};
 use super::error::EditError;
 use super::piece::{self, Piece, Timings};
 use super::pieces;

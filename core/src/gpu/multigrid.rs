@@ -20,8 +20,7 @@
 //! f64 from the Cholesky factor, exactly symmetrised, rounded to f32; n_c² × 12 bytes, 4.3 MB at
 //! 600), one invocation per row reading row i as column i (symmetry), so neighbouring invocations
 //! read neighbouring entries, every row in parallel and without barriers (one workgroup per row
-//! with a tree reduction measured the same on lavapipe at 100k tets: the coarsest solve is not
-//! where a V-cycle's time goes). The rounding of `A_c⁻¹` (relative 6e-8 per
+//! with a tree reduction is no faster: the coarsest solve is not where a V-cycle's time goes). The rounding of `A_c⁻¹` (relative 6e-8 per
 //! entry) is far below the f32 V-cycle's own rounding, and `B` stays symmetric up to rounding, as
 //! CG needs. A fixed number of Jacobi-CG steps instead would make `B` depend on `r` nonlinearly
 //! (CG is not a linear map), which breaks the symmetry CG needs of its preconditioner.
