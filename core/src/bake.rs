@@ -17,7 +17,7 @@ use std::time::Instant;
 
 use crate::mesh::TriMesh;
 use crate::methods::{bake_object, object_stage, Lighting, ObjectBake, SubsurfaceMethod, Target, TransCut};
-use crate::progress::Progress;
+use crate::progress::{ms, Progress};
 use crate::scene::{BakeOptions, Method, Scene, SceneError};
 
 /// The result of [`bake`]: one entry per object, in scene order.
@@ -101,8 +101,4 @@ fn bake_all<M: SubsurfaceMethod>(
         stage("done", 1.0)?;
     }
     Ok(Bake { objects, total_ms: ms(start) })
-}
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }

@@ -5,6 +5,12 @@
 //! stops at its next check and returns [`Cancelled`].
 
 use std::fmt;
+use std::time::Instant;
+
+/// Milliseconds since `start`: the unit of every stage timing in the statistics.
+pub(crate) fn ms(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}
 
 /// A progress callback: `(stage, fraction) -> keep going?`, callable from several threads.
 pub type ProgressFn<'a> = dyn Fn(&str, f64) -> bool + Sync + 'a;

@@ -38,7 +38,7 @@ use transcut::{bake, BakeOptions, MediumSource, Object, ObjectStats, Scene, Tran
 
 use super::args::BenchArgs;
 use super::fig7::{fig7, rotate_about_x, Fig7};
-use super::stats::{median, ms};
+use super::stats::{median, ms, relative_error};
 
 /// A bake's solve, medians over runs.
 #[derive(Serialize)]
@@ -136,16 +136,9 @@ fn sun_light(towards: DVec3) -> Light {
     Light::Directional { direction: -towards, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }
 }
 
+/// [`relative_error`] of two fluences of one mesh (`None` for two meshes).
 fn relative_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> Option<f64> {
-    (a.len() == b.len()).then(|| {
-        (0..3)
-            .map(|c| {
-                let num: f64 = a.iter().zip(b).map(|(x, y)| (x[c] - y[c]).powi(2)).sum();
-                let den: f64 = b.iter().map(|y| y[c] * y[c]).sum();
-                (num / den.max(f64::MIN_POSITIVE)).sqrt()
-            })
-            .fold(0.0, f64::max)
-    })
+    (a.len() == b.len()).then(|| relative_error(a, b))
 }
 
 /// Eight surface vertices across the front (+z) of `positions`' bounds at mid height: for each

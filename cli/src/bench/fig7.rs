@@ -21,7 +21,7 @@ use transcut::sparse::hierarchy::{HierarchyKind, HierarchyOptions};
 use transcut::sparse::SolveOptions;
 use transcut::DVec3;
 
-use super::stats::{median, ms};
+use super::stats::{median, ms, relative_error};
 
 #[derive(Serialize)]
 struct CurvePoint {
@@ -83,16 +83,6 @@ pub(crate) fn light(system: &mut DiffusionSystem, dir: DVec3) -> anyhow::Result<
     let q: Vec<[f64; 3]> = system.boundary().normal.iter().map(|n| [3.0 * n.dot(l).max(0.0); 3]).collect();
     system.set_source(&q)?;
     Ok(())
-}
-
-fn rel_error(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
-    (0..3)
-        .map(|c| {
-            let num: f64 = a.iter().zip(b).map(|(x, y)| (x[c] - y[c]).powi(2)).sum();
-            let den: f64 = b.iter().map(|y| y[c] * y[c]).sum();
-            (num / den.max(f64::MIN_POSITIVE)).sqrt()
-        })
-        .fold(0.0, f64::max)
 }
 
 /// The methods, single-level first: Jacobi PCG (the baseline), SSOR-PCG, then the three
@@ -162,13 +152,13 @@ pub(crate) fn fig7(system: &mut DiffusionSystem, sun: DVec3, runs: usize, refere
             let sol = solver.solve(system, None, &SolveOptions::default())?;
             solve6[m].push(ms(t));
             its6[m] = sol.stats.iterations;
-            err6[m] = rel_error(&sol.phi, &reference.phi);
+            err6[m] = relative_error(&sol.phi, &reference.phi);
             for (k, &tol) in tolerances.iter().enumerate() {
                 let t = Instant::now();
                 let s = solver.solve(system, None, &SolveOptions::default().with_tolerance(tol))?;
                 curve_ms[m][k].push(ms(t));
                 curve_its[m][k] = s.stats.iterations;
-                curve_err[m][k] = rel_error(&s.phi, &reference.phi);
+                curve_err[m][k] = relative_error(&s.phi, &reference.phi);
             }
             light(system, sun5)?;
             let t = Instant::now();

@@ -20,6 +20,17 @@ pub fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
+/// max over channels of ‖a − b‖ / ‖b‖ (per channel over all entries).
+pub fn relative_error(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    (0..3)
+        .map(|c| {
+            let num: f64 = a.iter().zip(b).map(|(x, y)| (x[c] - y[c]).powi(2)).sum();
+            let den: f64 = b.iter().map(|y| y[c] * y[c]).sum();
+            (num / den.max(f64::MIN_POSITIVE)).sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
 /// Peak resident memory of this process so far (Linux `VmHWM`), MiB.
 pub fn peak_rss_mib() -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;

@@ -64,6 +64,7 @@ mod transcut;
 
 pub use error::DiffusionError;
 pub use solve::{energy_balance, solve, surface_fluence, surface_radiance, EnergyBalance, Solution};
+pub(crate) use solver::start_vector;
 pub use solver::{Solver, SolverKind};
 pub use structure::BoundaryVertices;
 pub use system::{assemble, assemble_consistent, rhs, DiffusionSystem, Discretization};

@@ -99,9 +99,10 @@ use crate::gpu::Backend;
 use crate::light::{self, Light, SourceOptions};
 use crate::mesh::{TetMesh, TriangleBvh};
 use crate::optics::Medium;
+use crate::progress::ms;
 use crate::scene::{BakeOptions, TransCutOptions};
 use crate::volume::{Coefficients, PerTetMedia};
-use piece::{ms, SolveSetup, Timings};
+use piece::{SolveSetup, Timings};
 
 /// How the editor solves and lights.
 #[derive(Debug, Clone, PartialEq)]

@@ -15,6 +15,7 @@ use crate::gpu::{self, Backend, GpuError, SolveWith};
 use crate::light::{self, Light, SourceOptions};
 use crate::mesh::{TetMesh, TriMesh, TriangleBvh};
 use crate::optics::Medium;
+use crate::progress::ms;
 use crate::sparse::hierarchy::HierarchyOptions;
 use crate::sparse::SolveOptions;
 use crate::volume::PerTetMedia;
@@ -353,8 +354,4 @@ fn per_vertex_radiance(system: &DiffusionSystem, phi: &[[f64; 3]]) -> Result<Vec
         out[v as usize] = l.map(|x| x.max(0.0));
     }
     Ok(out)
-}
-
-pub(crate) fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }

@@ -39,7 +39,7 @@ use super::layout::{from_vec4, to_vec4, Scalars};
 use super::matrix::DeviceMatrix;
 use super::multigrid::DeviceMultigrid;
 use super::shaders::Kernel;
-use crate::diffusion::{DiffusionError, DiffusionSystem, Solution};
+use crate::diffusion::{start_vector, DiffusionError, DiffusionSystem, Solution};
 use crate::sparse::hierarchy::Multigrid;
 use crate::sparse::{SolveOptions, SolveStats, SparseError};
 
@@ -194,23 +194,10 @@ impl<'c> GpuSolver<'c> {
                 options.tolerance
             ))));
         }
-        let mut x = match warm_start {
-            Some(w) if w.len() != n => {
-                return Err(DiffusionError::LengthMismatch {
-                    what: "warm start (one entry per vertex)",
-                    expected: n,
-                    found: w.len(),
-                }
-                .into())
-            }
-            Some(w) => {
-                if let Some((row, channel, value)) = first_non_finite(w) {
-                    return Err(sparse(SparseError::NonFinite { what: "initial guess", row, channel, value }));
-                }
-                w.to_vec()
-            }
-            None => vec![[0.0; 3]; n],
-        };
+        let mut x = start_vector(system, warm_start)?;
+        if let Some((row, channel, value)) = warm_start.and_then(first_non_finite) {
+            return Err(sparse(SparseError::NonFinite { what: "initial guess", row, channel, value }));
+        }
         let b = system.rhs();
         let bn = norm3(b);
         for (c, &norm) in bn.iter().enumerate() {

@@ -29,7 +29,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::mesh::{QualityReport, SurfacePoint, TetMesh, TetMeshError, TriMesh, TriangleBvh};
-use crate::progress::{Cancelled, Progress};
+use crate::progress::{ms, Cancelled, Progress};
 use lattice::Lattice;
 pub use stuffing::PhaseTimings;
 pub use winding::{solid_angle, WindingNumber};
@@ -273,10 +273,6 @@ pub fn tetrahedralize_with(
         timings,
     };
     Ok(Tetrahedralization { mesh, stats })
-}
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// The BCC lattice of spacing `h` covering `[lo, hi]` with at least one and a half cells of

@@ -41,7 +41,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use crate::mesh::TriMesh;
-use crate::progress::{Cancelled, Progress};
+use crate::progress::{ms, Cancelled, Progress};
 use crate::scene::{Object, SceneError};
 
 /// The object a method bakes: its place in the scene (for error messages) and its surface in
@@ -154,8 +154,4 @@ pub(crate) fn bake_object<M: SubsurfaceMethod>(
     }
     stats.total_ms = ms(t0);
     Ok(ObjectBake { radiance, stats, state: M::into_baked(state) })
-}
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }

@@ -26,7 +26,7 @@ use crate::gpu::{self, Backend, GpuError, SolveWith};
 use crate::mesh::{TetMesh, TetMeshError, TriMesh};
 use crate::mesher::{self, MesherError, MesherOptions, MesherStats};
 use crate::optics::Medium;
-use crate::progress::{Cancelled, Progress};
+use crate::progress::{ms, Cancelled, Progress};
 use crate::scene::{Object, SceneError, Shape, TransCutOptions};
 use crate::sparse::{SolveOptions, SparseError};
 
@@ -239,8 +239,4 @@ fn world_tets(
             Ok((world, None))
         }
     }
-}
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }
