@@ -147,7 +147,7 @@ fn device_mg_pcg_matches_the_cpu_in_solution_and_iterations_and_beats_jacobi() {
         // The paper's hierarchy, then the smoothed aggregation (the same kernels, other `P`).
         for method in [SolverKind::MultigridPcg, SolverKind::AggregationPcg] {
             let solver = Solver::new(&sys, method, &HierarchyOptions::default()).unwrap();
-            let levels = solver.hierarchy().levels();
+            let levels = solver.hierarchy().expect("a multigrid kind").levels();
             let device_mg = GpuSolver::with_multigrid(ctx, &sys, solver.multigrid().unwrap()).unwrap();
             let device_pcg = GpuSolver::new(ctx, &sys).unwrap();
             for tol in [1e-6, 1e-9] {

@@ -211,7 +211,7 @@ fn multiresolution_solutions_equal_pcg_on_every_shared_mesh() {
             eprintln!(
                 "{name}: {} vertices, levels {:?}, {method:?} iterations {:?} (PCG {:?}), difference {d:.2e}",
                 sys.vertex_count(),
-                solver.hierarchy().vertex_counts(),
+                solver.hierarchy().expect("built on a hierarchy").vertex_counts(),
                 sol.stats.iterations,
                 reference.stats.iterations
             );
@@ -277,7 +277,7 @@ fn aggregation_hierarchy_coarsens_fast_and_kinds_are_checked() {
     let sys = lit_system(&mesh, mm, DVec3::new(0.0, 1.0, 1.0));
     let options = SolveOptions::default().with_tolerance(1e-8);
     let sa = Solver::new(&sys, SolverKind::AggregationPcg, &HierarchyOptions::default()).unwrap();
-    let h = sa.hierarchy();
+    let h = sa.hierarchy().expect("the aggregation");
     assert_eq!(h.kind(), HierarchyKind::Aggregation);
     let counts = h.vertex_counts();
     eprintln!("aggregation levels {counts:?}");

@@ -167,7 +167,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                 let device = gpu_entry(ctx, &system, Some(mg), args.runs, &cpu, cpu_ms, &options)?;
                 let entry = GpuMultigridEntry {
                     cpu_setup_ms,
-                    levels: multires.hierarchy().vertex_counts(),
+                    levels: multires.hierarchy().map(|h| h.vertex_counts()).unwrap_or_default(),
                     cpu_mg_pcg_iterations: cpu_mg.stats.iterations,
                     device,
                 };

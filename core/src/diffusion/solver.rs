@@ -128,15 +128,16 @@ enum Prepared {
 /// [`DiffusionSystem::set_media`]; a new source needs nothing).
 #[derive(Debug, Clone)]
 pub struct Solver {
-    hierarchy: Arc<Hierarchy>,
+    /// `None` for a single-level kind made by [`Solver::new`], which needs none.
+    hierarchy: Option<Arc<Hierarchy>>,
     kind: SolverKind,
     prepared: Prepared,
 }
 
 impl Solver {
-    /// Builds the hierarchy of `system` (one level for a single-level kind,
-    /// [`SolverKind::Pcg`] or [`SolverKind::SsorPcg`]; [`SolverKind::AggregationPcg`]
-    /// aggregates the matrix itself) and prepares `kind` for its matrix.
+    /// Builds the hierarchy of `system` (none for a single-level kind, [`SolverKind::Pcg`] or
+    /// [`SolverKind::SsorPcg`]; [`SolverKind::AggregationPcg`] aggregates the matrix itself) and
+    /// prepares `kind` for its matrix.
     ///
     /// # Errors
     /// [`DiffusionError::Sparse`] from the hierarchy or the coarse operators.
@@ -144,14 +145,12 @@ impl Solver {
         if kind == SolverKind::AggregationPcg {
             let mg =
                 Multigrid::aggregated(system.matrix(), &system.structure().positions_mm, options, MultigridOptions::default())?;
-            return Ok(Self { hierarchy: Arc::clone(mg.hierarchy()), kind, prepared: Prepared::Multigrid(mg) });
+            return Ok(Self { hierarchy: Some(Arc::clone(mg.hierarchy())), kind, prepared: Prepared::Multigrid(mg) });
         }
-        let h = if kind.is_single_level() {
-            Hierarchy::build(system.pattern(), &system.structure().positions_mm, &HierarchyOptions { max_levels: 1, ..*options })?
-        } else {
-            hierarchy(system, options)?
-        };
-        Self::with_hierarchy(system, Arc::new(h), kind)
+        if kind.is_single_level() {
+            return Ok(Self { hierarchy: None, kind, prepared: prepare(system, None, kind)? });
+        }
+        Self::with_hierarchy(system, Arc::new(hierarchy(system, options)?), kind)
     }
 
     /// Prepares `kind` for `system` on a ready hierarchy of its mesh, of the kind the solver
@@ -178,8 +177,8 @@ impl Solver {
                 .into());
             }
         }
-        let prepared = prepare(system, &hierarchy, kind)?;
-        Ok(Self { hierarchy, kind, prepared })
+        let prepared = prepare(system, Some(&hierarchy), kind)?;
+        Ok(Self { hierarchy: Some(hierarchy), kind, prepared })
     }
 
     /// Rebuilds the matrix-dependent parts after the media changed (the hierarchy is kept; for
@@ -189,7 +188,7 @@ impl Solver {
     /// # Errors
     /// As [`Self::with_hierarchy`].
     pub fn update_matrix(&mut self, system: &DiffusionSystem) -> Result<(), DiffusionError> {
-        self.prepared = prepare(system, &self.hierarchy, self.kind)?;
+        self.prepared = prepare(system, self.hierarchy.as_ref(), self.kind)?;
         Ok(())
     }
 
@@ -213,10 +212,10 @@ impl Solver {
         Ok(())
     }
 
-    /// The hierarchy.
+    /// The hierarchy (`None` for a single-level kind made by [`Solver::new`]).
     #[must_use]
-    pub fn hierarchy(&self) -> &Arc<Hierarchy> {
-        &self.hierarchy
+    pub fn hierarchy(&self) -> Option<&Arc<Hierarchy>> {
+        self.hierarchy.as_ref()
     }
 
     /// The kind.
@@ -275,14 +274,17 @@ pub(crate) fn start_vector(system: &DiffusionSystem, warm_start: Option<&[[f64; 
     }
 }
 
-fn prepare(system: &DiffusionSystem, h: &Arc<Hierarchy>, kind: SolverKind) -> Result<Prepared, DiffusionError> {
+/// The matrix-dependent parts of `kind` for `system`, on the hierarchy `h` (which every kind but
+/// the single-level ones has).
+fn prepare(system: &DiffusionSystem, h: Option<&Arc<Hierarchy>>, kind: SolverKind) -> Result<Prepared, DiffusionError> {
     let a = system.matrix();
+    let h = || h.cloned().ok_or_else(|| SparseError::InvalidOption(format!("{kind} needs a hierarchy")));
     Ok(match kind {
         SolverKind::Pcg => Prepared::Pcg(Preconditioner::new(a, PreconditionerKind::Jacobi)?),
-        SolverKind::Cascade => Prepared::Cascade(Cascade::new(Arc::clone(h), a, CascadeOptions::default())?),
-        SolverKind::MultigridPcg | SolverKind::AggregationPcg => {
-            Prepared::Multigrid(Multigrid::new(Arc::clone(h), a, MultigridOptions::default())?)
-        }
         SolverKind::SsorPcg => Prepared::Pcg(Preconditioner::new(a, PreconditionerKind::Ssor)?),
+        SolverKind::Cascade => Prepared::Cascade(Cascade::new(h()?, a, CascadeOptions::default())?),
+        SolverKind::MultigridPcg | SolverKind::AggregationPcg => {
+            Prepared::Multigrid(Multigrid::new(h()?, a, MultigridOptions::default())?)
+        }
     })
 }
