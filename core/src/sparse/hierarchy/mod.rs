@@ -78,7 +78,7 @@ mod coarse;
 pub mod codes;
 mod edges;
 mod interpolation;
-mod vcycle;
+mod multigrid;
 
 use std::sync::Arc;
 
@@ -89,7 +89,7 @@ pub use cascade::{Cascade, CascadeOptions, CascadeStats};
 pub use coarse::{galerkin, galerkin_rows, substituted};
 pub use edges::lost_connections;
 pub use interpolation::Prolongation;
-pub use vcycle::{mg_pcg, Multigrid, MultigridOptions};
+pub use multigrid::{mg_pcg, Multigrid, MultigridOptions};
 
 use super::{CsrPattern, SparseError};
 
