@@ -74,7 +74,10 @@
 
 mod bicgstab;
 mod csr;
+mod eisenstat_cg;
 mod error;
+#[cfg(test)]
+mod fixtures;
 pub mod hierarchy;
 mod mm;
 mod ops;

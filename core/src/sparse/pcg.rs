@@ -69,7 +69,7 @@ pub fn pcg(
         (Precision::Mixed, Preconditioner::Jacobi(j)) => (j.operator(), None),
         (Precision::Mixed, Preconditioner::Chebyshev(c)) => (c.operator(), Some(c)),
         (Precision::Mixed, Preconditioner::Ssor(m)) => {
-            return match super::ssor::pcg_eisenstat(a, b, x, m, options, bn)? {
+            return match super::eisenstat_cg::pcg_eisenstat(a, b, x, m, options, bn)? {
                 Mixed::Done(stats) => Ok(stats),
                 Mixed::Stagnated { x: x0, progress } => pcg_double(a, b, &x0, x, precond, options, bn, progress),
             };
