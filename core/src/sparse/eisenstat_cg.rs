@@ -42,7 +42,7 @@ use super::error::SparseError;
 use super::ops::{row_mul, sum_partials, CHUNK};
 use super::pcg::{check_rho, end_iteration, make_stats, p_update, step_lengths, Mixed, Progress, DRIFT_LIMIT, RELIABLE_PERIOD};
 use super::ssor::{mul3, Ssor};
-use super::{relative, SolveOptions};
+use super::{relative, unconverged, SolveOptions};
 
 /// Scratch vectors of [`pcg_eisenstat`], in the new numbering.
 struct Work {
@@ -210,7 +210,7 @@ pub(crate) fn pcg_eisenstat(
         (y, residual)
     };
     let mut rel = relative(rr, bn);
-    let mut active = [0, 1, 2].map(|c| nonzero[c] && rel[c] > tol);
+    let mut active = unconverged(rel, bn, tol);
     // Channels whose x is rewritten (the others keep the caller's bits exactly).
     let touched = [0, 1, 2].map(|c| active[c] || !nonzero[c]);
     let mut iterations = [0usize; 3];

@@ -177,6 +177,17 @@ impl<'a> SolveOptions<'a> {
         self
     }
 
+    /// Calls the monitor, if any, after iteration `it` with the relative residuals `rel`.
+    ///
+    /// # Errors
+    /// [`SparseError::Cancelled`] when it returns `false`.
+    fn report(&self, it: usize, rel: [f64; 3]) -> Result<(), SparseError> {
+        match self.monitor {
+            Some(m) if !m(it, rel) => Err(SparseError::Cancelled { iteration: it }),
+            _ => Ok(()),
+        }
+    }
+
     fn validate(&self) -> Result<(), SparseError> {
         if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
             return Err(SparseError::InvalidOption(format!("tolerance {} must be finite and non-negative", self.tolerance)));
@@ -249,31 +260,35 @@ fn check_inputs(
 
 /// `r = b − A x`; returns `‖r‖²` per channel.
 fn residual(a: &CsrMatrix3, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) -> [f64; 3] {
-    use rayon::prelude::*;
-    let p = a.pattern();
-    let vals = a.values();
-    let parts: Vec<[f64; 3]> = (r.par_chunks_mut(ops::CHUNK), b.par_chunks(ops::CHUNK))
-        .into_par_iter()
-        .enumerate()
-        .map(|(ci, (rc, bc))| {
-            let r0 = ci * ops::CHUNK;
-            let mut s = [0.0; 3];
-            for (li, (ri, bi)) in rc.iter_mut().zip(bc).enumerate() {
-                let i = r0 + li;
-                let (s0, e0) = (p.row_ptr()[i], p.row_ptr()[i + 1]);
-                let ax = ops::row_mul(&p.col_idx()[s0..e0], &vals[s0..e0], x);
-                for c in 0..3 {
-                    ri[c] = bi[c] - ax[c];
-                    s[c] += ri[c] * ri[c];
-                }
-            }
-            s
-        })
-        .collect();
-    ops::sum_partials(&parts)
+    ops::spmv_fold(a.pattern(), a.values(), x, r, |i, ax, ri| {
+        let bi = b[i];
+        *ri = [bi[0] - ax[0], bi[1] - ax[1], bi[2] - ax[2]];
+        [ri[0] * ri[0], ri[1] * ri[1], ri[2] * ri[2]]
+    })
 }
 
 /// `‖r‖ / ‖b‖` per channel, 0 where `b = 0`.
 fn relative(rr: [f64; 3], bn: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|c| if bn[c] > 0.0 { rr[c].sqrt() / bn[c] } else { 0.0 })
+}
+
+/// The channels whose relative residual `rel` misses the tolerance (never one whose
+/// right-hand side is zero: `‖b‖ = bn = 0`).
+fn unconverged(rel: [f64; 3], bn: [f64; 3], tol: f64) -> [bool; 3] {
+    [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > tol)
+}
+
+/// How often a solve may restart channels after checking its true residual.
+const MAX_RESTARTS: usize = 3;
+
+/// After a check of the true residuals `rel` (once the recursive ones met the tolerance): the
+/// channels to restart from it, those that miss the tolerance, or `None` when none does or the
+/// solve has restarted [`MAX_RESTARTS`] times already (`restarts`, counted here).
+fn restart(rel: [f64; 3], bn: [f64; 3], tol: f64, restarts: &mut usize) -> Option<[bool; 3]> {
+    let again = unconverged(rel, bn, tol);
+    if !again.iter().any(|&t| t) || *restarts == MAX_RESTARTS {
+        return None;
+    }
+    *restarts += 1;
+    Some(again)
 }

@@ -28,13 +28,12 @@
 
 use rayon::prelude::*;
 
-use super::ops::{row_mul, sum_partials, CHUNK};
+use super::ops::{spmv_dot, sum_partials, Load3, CHUNK};
 use super::precond::{Chebyshev, PrecondWork, Preconditioner};
 use super::scaled::{reliable_residual, ScaledOperator};
-use super::{check_inputs, relative, residual, CsrMatrix3, Precision, SolveOptions, SolveStats, SparseError};
-
-/// How often the true-residual check may restart channels before giving up.
-const MAX_RESTARTS: usize = 3;
+use super::{
+    check_inputs, relative, residual, restart, unconverged, CsrMatrix3, Precision, SolveOptions, SolveStats, SparseError,
+};
 
 /// Solves `A x = b` for the three channels by preconditioned CG, starting from the given `x`
 /// (a warm start; pass zeros for a cold one). `A` must be symmetric positive definite on every
@@ -124,7 +123,7 @@ fn pcg_double(
     zero_channels(&mut xw, bn);
     let mut r = vec![[0.0; 3]; n];
     let mut rel = relative(residual(a, b, &xw, &mut r), bn);
-    let mut active = [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > tol);
+    let mut active = unconverged(rel, bn, tol);
     let mut iterations = start.iterations;
     if active.iter().any(|&t| t) {
         let jacobi = match precond {
@@ -142,10 +141,10 @@ fn pcg_double(
         let mut rel_is_true = false;
         while it < max_it {
             it += 1;
-            let pq = spmv_dot(a, &p, &mut q);
+            let pq = spmv_dot(a.pattern(), a.values(), &p, &mut q, &p);
             let alpha = step_lengths(rho, pq, active, it)?;
             let (rr, rz) = match jacobi {
-                Some(d) => update_jacobi(&mut xw, &mut r, &p, &q, d, alpha),
+                Some(d) => update_weighted(&mut xw, &mut r, &p, &q, d, alpha),
                 None => (update(&mut xw, &mut r, &p, &q, alpha), [0.0; 3]),
             };
             rel_is_true = false;
@@ -158,20 +157,12 @@ fn pcg_double(
                     }
                 }
             }
-            if let Some(m) = options.monitor {
-                if !m(it, rel) {
-                    return Err(SparseError::Cancelled { iteration: it });
-                }
-            }
+            options.report(it, rel)?;
             if !active.iter().any(|&t| t) {
                 // Every channel met the tolerance by its recursive residual: check the true one.
                 rel = relative(residual(a, b, &xw, &mut r), bn);
                 rel_is_true = true;
-                let again = [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > tol);
-                if !again.iter().any(|&t| t) || restarts == MAX_RESTARTS {
-                    break;
-                }
-                restarts += 1;
+                let Some(again) = restart(rel, bn, tol, &mut restarts) else { break };
                 active = again;
                 rho = precond.apply_dot(&r, &mut p, &mut work);
                 check_rho(rho, active, it)?;
@@ -243,7 +234,7 @@ fn pcg_mixed(
     let mut rh = vec![[0.0; 3]; n];
     let (rr, mut rho_plain) = reliable_residual(a, b, s, &y, &mut rh, [true; 3]);
     let mut rel = relative(rr, bn);
-    let mut active = [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > tol);
+    let mut active = unconverged(rel, bn, tol);
     // Channels whose x is rewritten from ŷ (the others keep the caller's bits exactly).
     let touched = [0, 1, 2].map(|c| active[c] || bn[c] == 0.0);
     let mut iterations = [0usize; 3];
@@ -268,7 +259,8 @@ fn pcg_mixed(
             it += 1;
             let pq = op.spmv_dot(&p, &mut q);
             let alpha = step_lengths(rho, pq, active, it)?;
-            let (rr_est, rhrh) = update_scaled(&mut y, &mut rh, &p, &q, &op.d, alpha);
+            // `‖r‖² = Σ D r̂²` (the unscaled norm) and `‖r̂‖²`.
+            let (rhrh, rr_est) = update_weighted(&mut y, &mut rh, &p, &q, &op.d, alpha);
             rho_plain = rhrh;
             let est = relative(rr_est, bn);
             // Per channel, so that each channel's iterates do not depend on the others.
@@ -336,36 +328,6 @@ fn pcg_mixed(
     Ok(Mixed::Done(make_stats(iterations, rel, tol)))
 }
 
-/// `ŷ += α p`, `r̂ −= α q`; returns `(Σ D r̂², Σ r̂²)` (the unscaled `‖r‖²` and the scaled one).
-fn update_scaled(
-    y: &mut [[f64; 3]],
-    rh: &mut [[f64; 3]],
-    p: &[[f64; 3]],
-    q: &[[f64; 3]],
-    d: &[[f32; 3]],
-    alpha: [f64; 3],
-) -> ([f64; 3], [f64; 3]) {
-    let parts: Vec<[f64; 6]> =
-        (y.par_chunks_mut(CHUNK), rh.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), q.par_chunks(CHUNK), d.par_chunks(CHUNK))
-            .into_par_iter()
-            .map(|(y, r, p, q, d)| {
-                let mut s = [0.0; 6];
-                for ((((y, r), p), q), d) in y.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(d) {
-                    for c in 0..3 {
-                        y[c] += alpha[c] * p[c];
-                        r[c] -= alpha[c] * q[c];
-                        let r2 = r[c] * r[c];
-                        s[c] += r2 * f64::from(d[c]);
-                        s[3 + c] += r2;
-                    }
-                }
-                s
-            })
-            .collect();
-    let s = sum_partials(&parts);
-    ([s[0], s[1], s[2]], [s[3], s[4], s[5]])
-}
-
 pub(crate) fn make_stats(iterations: [usize; 3], rel: [f64; 3], tol: f64) -> SolveStats {
     let converged_channels = rel.map(|r| r <= tol);
     SolveStats { iterations, relative_residual: rel, converged_channels, converged: converged_channels.iter().all(|&c| c) }
@@ -429,10 +391,7 @@ pub(super) fn end_iteration(
             }
         }
     }
-    match options.monitor {
-        Some(m) if !m(it, *rel) => Err(SparseError::Cancelled { iteration: it }),
-        _ => Ok(()),
-    }
+    options.report(it, *rel)
 }
 
 pub(super) fn check_rho(rho: [f64; 3], active: [bool; 3], iteration: usize) -> Result<(), SparseError> {
@@ -449,53 +408,29 @@ pub(super) fn check_rho(rho: [f64; 3], active: [bool; 3], iteration: usize) -> R
     Ok(())
 }
 
-/// `q = A p`; returns `pᵀq` per channel.
-pub(crate) fn spmv_dot(a: &CsrMatrix3, p: &[[f64; 3]], q: &mut [[f64; 3]]) -> [f64; 3] {
-    let pat = a.pattern();
-    let vals = a.values();
-    let (rp, ci) = (pat.row_ptr(), pat.col_idx());
-    let parts: Vec<[f64; 3]> = q
-        .par_chunks_mut(CHUNK)
-        .enumerate()
-        .map(|(k, qc)| {
-            let r0 = k * CHUNK;
-            let mut s = [0.0; 3];
-            for (li, qi) in qc.iter_mut().enumerate() {
-                let i = r0 + li;
-                let (s0, e0) = (rp[i], rp[i + 1]);
-                let v = row_mul(&ci[s0..e0], &vals[s0..e0], p);
-                let pi = p[i];
-                for c in 0..3 {
-                    s[c] += pi[c] * v[c];
-                }
-                *qi = v;
-            }
-            s
-        })
-        .collect();
-    sum_partials(&parts)
-}
-
-/// `x += α p`, `r −= α q`; returns `(‖r‖², rᵀD⁻¹r)`.
-fn update_jacobi(
+/// `x += α p`, `r −= α q`; returns `(‖r‖², Σ w r²)` per channel: with `w = D⁻¹` (Jacobi)
+/// `rᵀD⁻¹r`, with `w = D` (`f32`, the scaled system) the unscaled `‖r‖²` of `r = S⁻¹ r̂`.
+fn update_weighted<W: Load3>(
     x: &mut [[f64; 3]],
     r: &mut [[f64; 3]],
     p: &[[f64; 3]],
     q: &[[f64; 3]],
-    dinv: &[[f64; 3]],
+    w: &[W],
     alpha: [f64; 3],
 ) -> ([f64; 3], [f64; 3]) {
     let parts: Vec<[f64; 6]> =
-        (x.par_chunks_mut(CHUNK), r.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), q.par_chunks(CHUNK), dinv.par_chunks(CHUNK))
+        (x.par_chunks_mut(CHUNK), r.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), q.par_chunks(CHUNK), w.par_chunks(CHUNK))
             .into_par_iter()
-            .map(|(x, r, p, q, d)| {
+            .map(|(x, r, p, q, w)| {
                 let mut s = [0.0; 6];
-                for ((((x, r), p), q), d) in x.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(d) {
+                for ((((x, r), p), q), w) in x.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(w) {
+                    let w = w.load();
                     for c in 0..3 {
                         x[c] += alpha[c] * p[c];
                         r[c] -= alpha[c] * q[c];
-                        s[c] += r[c] * r[c];
-                        s[3 + c] += r[c] * r[c] * d[c];
+                        let r2 = r[c] * r[c];
+                        s[c] += r2;
+                        s[3 + c] += r2 * w[c];
                     }
                 }
                 s

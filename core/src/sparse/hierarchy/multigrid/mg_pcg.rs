@@ -4,20 +4,9 @@ use rayon::prelude::*;
 
 use super::workspace::{Outer, Workspace};
 use super::{Multigrid, ROWS};
-use crate::sparse::ops::{dot3, norm3, row_mul, CHUNK};
-use crate::sparse::pcg::{spmv_dot, update};
-use crate::sparse::{CsrMatrix3, SolveOptions, SolveStats, SparseError};
-
-/// `r = b − A x`.
-fn residual(a: &CsrMatrix3, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) {
-    let p = a.pattern();
-    let v = a.values();
-    r.par_iter_mut().enumerate().with_min_len(CHUNK / 4).for_each(|(i, ri)| {
-        let (s, e) = (p.row_ptr()[i], p.row_ptr()[i + 1]);
-        let ax = row_mul(&p.col_idx()[s..e], &v[s..e], x);
-        *ri = [0, 1, 2].map(|c| b[i][c] - ax[c]);
-    });
-}
+use crate::sparse::ops::{dot3, first_non_finite, norm3, spmv_dot};
+use crate::sparse::pcg::{make_stats, update, zero_channels};
+use crate::sparse::{relative, residual, restart, unconverged, CsrMatrix3, SolveOptions, SolveStats, SparseError};
 
 /// Solves `a x = b` (three SPD channels) by CG preconditioned with one V-cycle of `mg` per
 /// iteration, from the given `x` (a warm start; zeros for a cold one). Conventions as for
@@ -44,7 +33,7 @@ pub fn mg_pcg(
     }
     options.validate()?;
     for (what, v) in [("right-hand side", &*b), ("initial guess", &*x)] {
-        if let Some((row, channel, value)) = crate::sparse::ops::first_non_finite(v) {
+        if let Some((row, channel, value)) = first_non_finite(v) {
             return Err(SparseError::NonFinite { what, row, channel, value });
         }
     }
@@ -64,24 +53,20 @@ fn mg_pcg_in(
     let tol = options.tolerance;
     let bn = norm3(b);
     xw.copy_from_slice(x);
-    for c in 0..3 {
-        if bn[c] == 0.0 {
-            xw.par_iter_mut().for_each(|v| v[c] = 0.0);
-        }
-    }
-    let rel = |rr: [f64; 3]| [0, 1, 2].map(|c| if bn[c] > 0.0 { rr[c].sqrt() / bn[c] } else { 0.0 });
+    zero_channels(xw, bn);
     // `b − A·0` is `b` bit for bit (each row's product sums to +0).
-    if xw.par_iter().all(|v| v.iter().all(|&t| t == 0.0)) {
+    let rr = if xw.par_iter().all(|v| v.iter().all(|&t| t == 0.0)) {
         r.copy_from_slice(b);
+        dot3(r, r)
     } else {
-        residual(a, b, xw, r);
-    }
-    let mut relres = rel(dot3(r, r));
-    let mut active = [0, 1, 2].map(|c| bn[c] > 0.0 && relres[c] > tol);
+        residual(a, b, xw, r)
+    };
+    let mut relres = relative(rr, bn);
+    let mut active = unconverged(relres, bn, tol);
     let mut iterations = [0usize; 3];
     let mut it = 0;
     let mut restarts = 0;
-    'outer: while active.iter().any(|&t| t) && it < options.max_iterations {
+    while active.iter().any(|&t| t) && it < options.max_iterations {
         mg.cycle(0, r, z, levels);
         let mut rz = dot3(r, z);
         p.copy_from_slice(z);
@@ -97,7 +82,7 @@ fn mg_pcg_in(
                     });
                 }
             }
-            let pq = spmv_dot(a, p, q);
+            let pq = spmv_dot(a.pattern(), a.values(), p, q, p);
             let mut alpha = [0.0; 3];
             for c in 0..3 {
                 if active[c] {
@@ -113,12 +98,8 @@ fn mg_pcg_in(
                     iterations[c] += 1;
                 }
             }
-            relres = rel(update(xw, r, p, q, alpha));
-            if let Some(m) = options.monitor {
-                if !m(it, relres) {
-                    return Err(SparseError::Cancelled { iteration: it });
-                }
-            }
+            relres = relative(update(xw, r, p, q, alpha), bn);
+            options.report(it, relres)?;
             for c in 0..3 {
                 if active[c] && relres[c] <= tol {
                     active[c] = false;
@@ -138,22 +119,15 @@ fn mg_pcg_in(
             });
         }
         // Confirm on the true residual; restart the channels that drifted.
-        residual(a, b, xw, r);
-        relres = rel(dot3(r, r));
-        active = [0, 1, 2].map(|c| bn[c] > 0.0 && relres[c] > tol);
-        if !active.iter().any(|&t| t) {
-            break 'outer;
-        }
-        restarts += 1;
-        if restarts > 3 {
-            break;
+        relres = relative(residual(a, b, xw, r), bn);
+        match restart(relres, bn, tol, &mut restarts) {
+            Some(again) => active = again,
+            None => break,
         }
     }
-    // `r` holds the true residual of `xw` here (the initial one, or the last confirmation).
-    let relative_residual = relres;
-    let converged_channels = [0, 1, 2].map(|c| bn[c] == 0.0 || relative_residual[c] <= tol);
+    // `relres` is the true residual of `xw` here (the initial one, or the last confirmation).
     x.copy_from_slice(xw);
-    Ok(SolveStats { iterations, relative_residual, converged_channels, converged: converged_channels.iter().all(|&t| t) })
+    Ok(make_stats(iterations, relres, tol))
 }
 
 #[cfg(test)]
@@ -181,8 +155,7 @@ mod tests {
         assert!(rel_diff(&ax, &b) <= 1e-10 * 1.01);
         assert_eq!(stats.relative_residual, {
             let mut r = vec![[0.0; 3]; a.n()];
-            residual(a, &b, &x, &mut r);
-            let (rr, bb) = (dot3(&r, &r), dot3(&b, &b));
+            let (rr, bb) = (residual(a, &b, &x, &mut r), dot3(&b, &b));
             [0, 1, 2].map(|c| rr[c].sqrt() / bb[c].sqrt())
         });
         // Bit-identical: again (reused workspace), on a clone (fresh workspace), on one and on
