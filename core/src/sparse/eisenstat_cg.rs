@@ -40,7 +40,9 @@ use rayon::prelude::*;
 use super::csr::CsrMatrix3;
 use super::error::SparseError;
 use super::ops::{row_mul, sum_partials, CHUNK};
-use super::pcg::{check_rho, end_iteration, make_stats, p_update, step_lengths, Mixed, Progress, DRIFT_LIMIT, RELIABLE_PERIOD};
+use super::pcg::{
+    check_rho, end_iteration, make_stats, next_beta, p_update, step_lengths, Mixed, Progress, DRIFT_LIMIT, RELIABLE_PERIOD,
+};
 use super::ssor::{mul3, Ssor};
 use super::{relative, unconverged, SolveOptions};
 
@@ -279,13 +281,7 @@ pub(crate) fn pcg_eisenstat(
             if !active.iter().any(|&t| t) || it == max_it {
                 break;
             }
-            check_rho(fresh, active, it)?;
-            for c in 0..3 {
-                beta[c] = if active[c] { fresh[c] / rtrt[c] } else { 0.0 };
-                if active[c] {
-                    rtrt[c] = fresh[c];
-                }
-            }
+            beta = next_beta(&mut rtrt, fresh, active, it)?;
         }
     }
     // The reported residual is recomputed from `A` and the final `x` (the checks above used the
@@ -307,12 +303,12 @@ pub(crate) fn pcg_eisenstat(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sparse::fixtures::{grid, rhs};
+    use crate::sparse::fixtures::{grid_matrix, rhs};
     use crate::sparse::{pcg, Precision, Preconditioner};
 
     #[test]
     fn eisenstat_cg_takes_the_iterations_of_plain_ssor_pcg_and_far_fewer_than_jacobi() {
-        let a = grid(14);
+        let a = grid_matrix(14);
         let b = rhs(a.n());
         let m = Preconditioner::Ssor(Ssor::new(&a).unwrap());
         let jacobi = Preconditioner::new(&a, crate::sparse::PreconditionerKind::Jacobi).unwrap();
@@ -347,7 +343,7 @@ mod tests {
 
     #[test]
     fn warm_starts_and_zero_channels() {
-        let a = grid(8);
+        let a = grid_matrix(8);
         let n = a.n();
         let mut b = rhs(n);
         for v in &mut b {
@@ -366,7 +362,7 @@ mod tests {
 
     #[test]
     fn the_residual_of_a_cold_start_needs_no_product_and_is_the_same_bits() {
-        let a = grid(9);
+        let a = grid_matrix(9);
         let m = Ssor::new(&a).unwrap();
         let n = a.n();
         let b = rhs(n);

@@ -62,8 +62,7 @@ pub(crate) fn row_mul<E: Load3>(cols: &[u32], vals: &[E], x: &[[f64; 3]]) -> [f6
 /// every row `i`, `row(i, (A x)_i, &mut out[i])` writes `out[i]` and returns the row's terms of
 /// the `K` sums, which are added per fixed block of [`CHUNK`] rows and then block by block
 /// (deterministic). The SpMVs with dot products and the residuals of the solvers are all this
-/// pass; `row` is inlined into it.
-#[inline(always)]
+/// pass, each with its own `row` compiled into it.
 pub(crate) fn spmv_fold<E: Load3, const K: usize>(
     pat: &CsrPattern,
     vals: &[E],

@@ -175,14 +175,7 @@ fn pcg_double(
                 Some(_) => rz,
                 None => precond.apply_dot(&r, &mut z, &mut work),
             };
-            check_rho(rho_new, active, it)?;
-            let mut beta = [0.0; 3];
-            for c in 0..3 {
-                if active[c] {
-                    beta[c] = rho_new[c] / rho[c];
-                    rho[c] = rho_new[c];
-                }
-            }
+            let beta = next_beta(&mut rho, rho_new, active, it)?;
             match jacobi {
                 Some(d) => p_update_jacobi(&mut p, &r, d, beta),
                 None => p_update(&mut p, &z, beta),
@@ -298,14 +291,7 @@ fn pcg_mixed(
                 None => rho_plain,
                 Some(c) => c.apply_scaled(&rh, &mut z, None, &mut work),
             };
-            check_rho(rho_new, active, it)?;
-            let mut beta = [0.0; 3];
-            for c in 0..3 {
-                if active[c] {
-                    beta[c] = rho_new[c] / rho[c];
-                    rho[c] = rho_new[c];
-                }
-            }
+            let beta = next_beta(&mut rho, rho_new, active, it)?;
             p_update(&mut p, if cheb.is_some() { &z } else { &rh }, beta);
         }
         if !rel_is_true {
@@ -392,6 +378,28 @@ pub(super) fn end_iteration(
         }
     }
     options.report(it, *rel)
+}
+
+/// `β = ρ_new / ρ` for the active channels (0 for the others), which then take `ρ_new` as
+/// their `ρ`.
+///
+/// # Errors
+/// [`SparseError::Breakdown`] as [`check_rho`] for `ρ_new`.
+pub(super) fn next_beta(
+    rho: &mut [f64; 3],
+    rho_new: [f64; 3],
+    active: [bool; 3],
+    iteration: usize,
+) -> Result<[f64; 3], SparseError> {
+    check_rho(rho_new, active, iteration)?;
+    let mut beta = [0.0; 3];
+    for c in 0..3 {
+        if active[c] {
+            beta[c] = rho_new[c] / rho[c];
+            rho[c] = rho_new[c];
+        }
+    }
+    Ok(beta)
 }
 
 pub(super) fn check_rho(rho: [f64; 3], active: [bool; 3], iteration: usize) -> Result<(), SparseError> {

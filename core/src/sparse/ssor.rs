@@ -375,13 +375,13 @@ mod tests {
     use nalgebra::{DMatrix, DVector};
 
     use super::*;
-    use crate::sparse::fixtures::{grid, rhs};
+    use crate::sparse::fixtures::{grid_matrix, rhs};
 
     /// `M⁻¹` applied by the parallel sweeps equals the dense SSOR formula in the sweep ordering:
     /// `M = (D̃ + L) D̃⁻¹ (D̃ + U) / (ω (2 − ω))` on `Â = S A S` renumbered.
     #[test]
     fn apply_equals_the_dense_ssor_formula() {
-        let a = grid(7);
+        let a = grid_matrix(7);
         let n = a.n();
         for omega in [1.0, 1.5] {
             let m = Ssor::with_omega(&a, omega).unwrap();
@@ -419,7 +419,7 @@ mod tests {
 
     #[test]
     fn a_refresh_equals_a_fresh_build_and_bad_input_is_an_error() {
-        let a = grid(8);
+        let a = grid_matrix(8);
         // New values, same pattern: a refresh equals a fresh build, bit for bit.
         let mut a2 = a.clone();
         for v in a2.values_mut() {
@@ -435,7 +435,7 @@ mod tests {
         let before = old.clone();
         assert!(matches!(old.refresh(&bad), Err(SparseError::NonPositiveDiagonal { row: 5, channel: 0, .. })));
         assert_eq!(old, before);
-        assert!(matches!(old.refresh(&grid(5)), Err(SparseError::PatternMismatch(_))));
+        assert!(matches!(old.refresh(&grid_matrix(5)), Err(SparseError::PatternMismatch(_))));
         for omega in [0.0, 2.0, f64::NAN] {
             assert!(matches!(Ssor::with_omega(&a, omega), Err(SparseError::InvalidOption(_))));
         }

@@ -74,8 +74,9 @@ impl CoarseFactor {
 mod tests {
     use nalgebra::{DMatrix, DVector};
 
-    use super::super::fixtures::{random_vector, system};
+    use super::super::fixtures::system;
     use super::*;
+    use crate::sparse::fixtures::random_vector;
 
     #[test]
     fn coarse_factor_solves_like_nalgebra() {

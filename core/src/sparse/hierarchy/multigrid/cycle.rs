@@ -37,38 +37,27 @@ impl Multigrid {
         let LevelWork { alt, d, res, .. } = here;
         let (op, sm) = (&self.ops32[l], &self.smoothers[l]);
         let degree = sm.steps.len();
-        // The iterate alternates between `alt` and `z`, one switch per step after the first:
-        // 2·degree − 1 switches, so starting in `alt` ends in `z`.
-        let mut in_alt = true;
-        sm.first_from_zero(r, alt, d);
+        // The iterate switches buffers at every step after the first, 2·degree − 1 times, so
+        // starting in `alt` it ends in `z`.
+        let z_out = z.as_ptr();
+        let (mut cur, mut next): (&mut [[f64; 3]], &mut [[f64; 3]]) = (alt, z);
+        sm.first_from_zero(r, cur, d);
         for k in 1..degree {
-            if in_alt {
-                sm.step(op, k, r, alt, z, d);
-            } else {
-                sm.step(op, k, r, z, alt, d);
-            }
-            in_alt = !in_alt;
+            sm.step(op, k, r, cur, next, d);
+            std::mem::swap(&mut cur, &mut next);
         }
+        op.residual(r, cur, res);
         let p = self.hierarchy.prolongation(l);
-        {
-            let cur: &mut [[f64; 3]] = if in_alt { alt } else { z };
-            op.residual(r, cur, res);
-            let next = &mut coarser[0];
-            let (mut rc, mut zc) = (std::mem::take(&mut next.r), std::mem::take(&mut next.z));
-            p.restrict(res, &mut rc);
-            self.cycle(l + 1, &rc, &mut zc, coarser);
-            p.prolong_add(&zc, cur);
-            (coarser[0].r, coarser[0].z) = (rc, zc);
-        }
+        let (mut rc, mut zc) = (std::mem::take(&mut coarser[0].r), std::mem::take(&mut coarser[0].z));
+        p.restrict(res, &mut rc);
+        self.cycle(l + 1, &rc, &mut zc, coarser);
+        p.prolong_add(&zc, cur);
+        (coarser[0].r, coarser[0].z) = (rc, zc);
         for k in 0..degree {
-            if in_alt {
-                sm.step(op, k, r, alt, z, d);
-            } else {
-                sm.step(op, k, r, z, alt, d);
-            }
-            in_alt = !in_alt;
+            sm.step(op, k, r, cur, next, d);
+            std::mem::swap(&mut cur, &mut next);
         }
-        debug_assert!(!in_alt, "the V-cycle ends in z");
+        debug_assert!(std::ptr::eq(cur.as_ptr(), z_out), "the V-cycle ends in z");
     }
 }
 
@@ -78,10 +67,11 @@ mod tests {
 
     use nalgebra::{Cholesky, DVector};
 
-    use super::super::fixtures::{random_vector, rel_diff, system};
+    use super::super::fixtures::{rel_diff, system};
     use super::super::MultigridOptions;
     use super::*;
     use crate::sparse::dot3;
+    use crate::sparse::fixtures::random_vector;
 
     fn with_degree(degree: usize) -> MultigridOptions {
         MultigridOptions { smoothing_degree: degree, ..MultigridOptions::default() }

@@ -134,9 +134,10 @@ fn mg_pcg_in(
 mod tests {
     use std::sync::Arc;
 
-    use super::super::fixtures::{random_vector, rel_diff, system};
+    use super::super::fixtures::{rel_diff, system};
     use super::super::MultigridOptions;
     use super::*;
+    use crate::sparse::fixtures::random_vector;
 
     #[test]
     fn mg_pcg_solves_and_is_reproducible_across_threads_clones_and_reuse() {
