@@ -15,25 +15,22 @@
 //! # Precision and stopping
 //!
 //! Everything is `f64`. The triangles are rounded from the same product for an entry and its
-//! transpose, so `Ã` is exactly symmetric. (With `f32` triangles the bunny solve took 12% less
-//! time, but on a badly conditioned channel, a 14³ grid with little absorption, the `f32`
-//! operator's rounding slowed CG from 54 to 69 iterations: `f64` was kept.) The residual of `Ã`
-//! is `r̃ = K S r`, `r = b − A x`. Its recursive norm, scaled to `‖r‖` at the last check, drives
-//! the iteration; the true residual (the only one that can declare a channel converged) is
-//! recomputed for every active channel at once, when *all* their estimates have reached 4× the
-//! tolerance, then the tolerance, or after `RELIABLE_PERIOD` iterations without a check. A sweep
-//! costs the same for one active channel as for three, so a channel that meets the tolerance
-//! early goes on iterating (and gets more accurate) until the others are due too, and reports
-//! the iterations to the check that found it converged. A check at each channel's arrival took 4
-//! checks per solve (at 21, 24, 30 and 35 iterations on the 500k-tet bunny), 1.5 iterations'
-//! work each; this schedule takes 2. It is
-//! recomputed in the new numbering from the `f64` triangles (which hold `a_ij s_i s_j`): an
-//! upper sweep, one product and a lower sweep, no permutation. Checking each channel on its own
-//! schedule, in the original numbering, as the Jacobi PCG does, took 9 recomputations of 9.5 ms
-//! on the bunny, 40% of the solve. The reported residual is computed from `A` and the final `x`;
-//! if rounding makes it miss the tolerance where the scaled one met it (near the limit of
-//! `f64`), or a recomputed residual exceeds the estimate fourfold, plain PCG with the same
-//! preconditioner finishes the solve.
+//! transpose, so `Ã` is exactly symmetric. (`f32` triangles would stream less, but their
+//! rounding slows CG on badly conditioned channels.) The residual of `Ã` is `r̃ = K S r`,
+//! `r = b − A x`. Its recursive norm, scaled to `‖r‖` at the last check, drives the iteration;
+//! the true residual (the only one that can declare a channel converged) is recomputed for
+//! every active channel at once, when *all* their estimates have reached [`EARLY_CHECK`] times
+//! the tolerance, then the tolerance, or after `RELIABLE_PERIOD` iterations without a check. A
+//! sweep costs the same for one active channel as for three, so a channel that meets the
+//! tolerance early goes on iterating (and gets more accurate) until the others are due too,
+//! and reports the iterations to the check that found it converged; one check for all channels
+//! replaces one per channel, each costing more than an iteration. It is recomputed in the new
+//! numbering from the `f64` triangles (which hold `a_ij s_i s_j`): an upper sweep, one product
+//! and a lower sweep, no permutation, which is cheaper than a residual from `A` in the original
+//! numbering. The reported residual is computed from `A` and the final `x`; if rounding makes
+//! it miss the tolerance where the scaled one met it (near the limit of `f64`), or a recomputed
+//! residual exceeds the estimate fourfold, plain PCG with the same preconditioner finishes the
+//! solve.
 
 use rayon::prelude::*;
 
@@ -329,7 +326,7 @@ mod tests {
             assert!(fast.iterations[c] + 1 >= plain.iterations[c], "{fast:?} vs {plain:?}");
         }
         // On this small grid SSOR saves a third to a half of Jacobi's iterations (more on larger
-        // meshes: a quarter of them on the 500k-tet bunny).
+        // meshes).
         assert!(4 * most(&fast) <= 3 * most(&jac), "{fast:?} vs Jacobi {jac:?}");
         for c in 0..3 {
             assert!(fast.relative_residual[c] <= 1e-6);

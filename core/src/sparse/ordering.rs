@@ -12,8 +12,7 @@
 //! ordering. Graph-only (no positions), sequential, `O(nnz)`, deterministic.
 //!
 //! The search order also gives the sweeps their locality: a row's neighbours lie within about
-//! two levels of it. (The mesher's vertex numbering is far from that: on the 500k-tet bunny,
-//! half the nonzeros lie more than 32 768 rows from the diagonal.)
+//! two levels of it, where a mesher's vertex numbering scatters them across the whole matrix.
 
 use std::ops::Range;
 

@@ -11,28 +11,18 @@
 //! [`pcg`](super::pcg) applies it with Eisenstat's trick (`eisenstat_cg.rs`) in mixed precision
 //! and as `z = M⁻¹ r` ([`Preconditioner::apply`](super::Preconditioner::apply)) in `f64`.
 //!
-//! # Measured (bunny, 60 mm, marble, one sun)
+//! # Cost
 //!
-//! Iterations to 1e-6 (R/G/B) on the 500k-tet system (93 481 vertices): Jacobi 125/106/86; SSOR
-//! in this ordering with 8 parts: ω = 1.0: 45, 1.2: 38, 1.4: 33/29/24, 1.5: 32/28/23, 1.6:
-//! 32/28/23, 1.7: 34/29/25 (prototype); as built, ω = 1.5: 35/30/25 (reported as 35/31/31
-//! with the check schedule above). One part (sequential) needs 30 at ω = 1.4, 16 parts 37: the
-//! separators cost little. In the mesher's own vertex
-//! numbering SSOR needs 62 (ω = 1), and block-Jacobi SSOR on row blocks of it no fewer than
-//! Jacobi (123): that numbering scatters neighbours across the whole matrix.
-//!
-//! Time, `transcut bench multires --tets 500000 --runs 3` (2 cores under a load of about 1.7,
-//! medians): SSOR setup 89 ms (ordering, triangles
-//! and values; Jacobi's 22 ms), solve to 1e-6 160 ms against Jacobi's 243 ms (0.66), warm start
-//! after a 5° sun move 133 against 195 ms, time to 1% error 106 against 114 ms. A cold setup and
-//! solve together gain only ~6% at 500k (at 1M, from the exported system before the in-place
-//! residual: setup 177–237 ms, solve 452–474 against 626–779 ms). An iteration costs about two
-//! Jacobi iterations, not one: a sweep waits on the row just computed (taking the nearest column
-//! last cut a one-thread solve from 532 to 418 ms), and the fixed cost of a solve (first and
-//! last residuals, the conversions) is about 45 ms. So SSOR is not the default
-//! ([`super::PreconditionerKind::Jacobi`] is) and serves where one matrix is solved repeatedly
-//! ([`crate::diffusion::Method::SsorPcg`], the editor's default: its paints and cuts beat the
-//! multigrid's, whose setup is ten times longer; see [`crate::edit`]).
+//! SSOR takes far fewer CG iterations than Jacobi, but an iteration costs about two Jacobi
+//! iterations, not one: a sweep waits on the row just computed (each row takes the column
+//! nearest the diagonal last, so its other products run while that one is awaited), and the
+//! setup (the ordering, the reordered triangles and their values) costs more than Jacobi's.
+//! The ordering is what makes SSOR effective: in a mesher's vertex numbering, which scatters
+//! neighbours across the matrix, SSOR needs many more iterations, and block-Jacobi SSOR on row
+//! blocks of it no fewer than Jacobi. The separators between the parts cost few iterations.
+//! So SSOR is not the default ([`super::PreconditionerKind::Jacobi`] is); it serves where one
+//! matrix is solved repeatedly, and the diffusion solver uses it for bakes and for the
+//! editor's paints and cuts, where its setup is far shorter than the multigrid's.
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -101,12 +91,13 @@ fn split_ranges<'a, T>(mut v: &'a mut [T], ranges: &[Range<usize>], offset: usiz
 }
 
 impl Ssor {
-    /// Over-relaxation factor of [`Self::new`]; measured best on the bunny (module
-    /// documentation): 1.5 and 1.6 tie, 1.4 and 1.7 take one or two iterations more.
+    /// Over-relaxation factor of [`Self::new`], chosen on the iteration counts of diffusion
+    /// systems (they vary little around it).
     pub const DEFAULT_OMEGA: f64 = 1.5;
 
-    /// Parts the sweeps are cut into (fixed, so results do not depend on the thread count).
-    /// Eight parts cost about one iteration in 32 against one part (module documentation).
+    /// Parts the sweeps are cut into (fixed, so results do not depend on the thread count):
+    /// enough parallelism for a desktop's cores, while each separator costs the sweeps only a
+    /// little of their coupling.
     pub const PARTS: usize = 8;
 
     /// Builds SSOR with [`Self::DEFAULT_OMEGA`] for `a` (symmetric, positive diagonal).

@@ -40,6 +40,11 @@
 //!
 //! Every kernel is a fixed-order parallel loop (each row summed in column order, reductions in
 //! fixed blocks), so results are bit-identical for any thread count.
+//!
+//! The parts: the `f32` level operators (`operator32.rs`), the Chebyshev smoother
+//! (`smoother.rs`), the dense solve at the coarsest level (`coarse_solve.rs`), the reused
+//! vectors (`workspace.rs`), the cycle itself (`cycle.rs`) and the outer CG (`mg_pcg.rs`); this
+//! file holds the options and builds and refreshes the [`Multigrid`].
 
 mod coarse_solve;
 mod cycle;
@@ -76,11 +81,12 @@ const ROWS: usize = CHUNK / 4;
 #[non_exhaustive]
 pub struct MultigridOptions {
     /// Degree of the Chebyshev smoother (matrix products per smoothing). Default 1 (damped
-    /// Jacobi `z += D⁻¹ res / θ`, θ the interval's centre), which reaches a given error in the
-    /// least time (see the module documentation of [`crate::sparse::hierarchy`]).
+    /// Jacobi `z += D⁻¹ res / θ`, θ the interval's centre): a higher degree saves fewer MG-PCG
+    /// iterations than the products it adds cost.
     pub smoothing_degree: usize,
-    /// The smoothing interval is `[λmax / ratio, λmax]`. Default 4 (30, the value of earlier
-    /// versions, damped too little: 10 iterations to 1e-6 instead of 7 on the 500k-tet bunny).
+    /// The smoothing interval is `[λmax / ratio, λmax]`. Default 4: the smoother has to damp
+    /// the high frequencies, which the coarse correction does not reach; a wider interval
+    /// spreads its damping over the low ones and costs MG-PCG iterations.
     pub smoothing_ratio: f64,
     /// Largest coarsest level factored densely; coarser hierarchies beyond it are an error.
     /// Default 4000.
@@ -274,7 +280,8 @@ impl Multigrid {
     }
 
     /// The smoother of level `l` (below the coarsest): `D⁻¹` of the level's operator and the
-    /// `λmax` estimate of `D⁻¹A` (×1.1), for the GPU twin of the V-cycle.
+    /// upper end `λmax` of its interval (the Gershgorin bound of `D⁻¹Ã`), for the GPU twin of
+    /// the V-cycle.
     #[cfg(feature = "gpu")]
     pub(crate) fn smoother(&self, l: usize) -> (&[[f64; 3]], [f64; 3]) {
         (&self.smoothers[l].inv_diag, self.smoothers[l].lambda_max)

@@ -36,11 +36,9 @@ fn chebyshev_steps(lambda_max: [f64; 3], degree: usize, ratio: f64) -> Vec<Step>
 /// `λmax` of the interval, the Gershgorin bound `max_i Σ_j |ã_ij| / a_ii` of the spectrum of
 /// `D⁻¹Ã` (`Ã` the `f32` operator the smoothing multiplies by). A true bound, so the smoother
 /// contracts and the V-cycle is SPD with no safety factor, and a per-row one, so a change of
-/// some rows updates it exactly ([`Multigrid::refresh`](super::Multigrid::refresh)). On the 500k-tet bunny it lies 15% (level
-/// 0) to 45% (level 1) above the power-iteration estimate earlier versions used (×1.1), so it
-/// damps a little less: the error after 2 MG-PCG iterations went from 0.27% to 0.37%, with the
-/// same iteration counts (7 to 1e-6 cold, 6 after a 5° relight, 2 to 1% error). Widening the
-/// interval to make up for it (ratio 8, 16, 64 instead of 4) gained no iteration.
+/// some rows updates it exactly ([`Multigrid::refresh`](super::Multigrid::refresh)). It can lie
+/// well above the largest eigenvalue, which moves the interval up and damps a little less than
+/// an estimate of the eigenvalue would; the guaranteed contraction is worth that.
 #[derive(Debug, Clone)]
 pub(super) struct Smoother {
     pub(super) inv_diag: Vec<[f64; 3]>,
