@@ -66,7 +66,8 @@ impl<T: Entry> CsrMatrix<T> {
 }
 
 /// The lines of `lines` that hold data (neither blank nor `%` comments), each with its 1-based
-/// line number; `before` lines of the file were read already.
+/// line number; `before` lines of the file were read already. (Their words are read with
+/// `split_whitespace`, which needs no trimming.)
 fn data_lines<'a>(
     path: &'a Path,
     lines: impl Iterator<Item = std::io::Result<String>> + 'a,
@@ -75,7 +76,7 @@ fn data_lines<'a>(
     lines.enumerate().filter_map(move |(k, l)| match l {
         Ok(l) => {
             let t = l.trim();
-            (!t.is_empty() && !t.starts_with('%')).then(|| Ok((before + k + 1, t.to_owned())))
+            (!t.is_empty() && !t.starts_with('%')).then(|| Ok((before + k + 1, l)))
         }
         Err(e) => Some(Err(io_err(path)(e))),
     })

@@ -19,8 +19,8 @@
 //!   tolerance near `f32`'s limit for the conditioning, or a badly scaled system) and the solve
 //!   continues in `f64` from the current iterate.
 //! * **Mixed with [`super::Ssor`]**: CG on the SSOR-split system with Eisenstat's trick, in
-//!   `f64` (two sweeps per iteration; see the `ssor` module), reusing this module's stopping
-//!   machinery.
+//!   `f64` (two sweeps per iteration; see the `eisenstat_cg` module), reusing this module's
+//!   stopping machinery.
 //! * **Double**: everything in `f64` on `A`: `q = A p` with `pᵀq`; `x += α p`, `r −= α q` with
 //!   `‖r‖²` and, for Jacobi, `rᵀD⁻¹r` (z is never stored); `p = z + β p`. When every channel's
 //!   recursive residual meets the tolerance, the true residual is computed once and a channel
@@ -251,7 +251,7 @@ fn pcg_mixed(
             it += 1;
             let pq = op.spmv_dot(&p, &mut q);
             let alpha = step_lengths(rho, pq, active, it)?;
-            // `‖r‖² = Σ D r̂²` (the unscaled norm) and `‖r̂‖²`.
+            // `‖r̂‖²` and `Σ D r̂²`, the unscaled `‖r‖²`.
             let (rhrh, rr_est) = update_weighted(&mut y, &mut rh, &p, &q, &op.d, alpha);
             rho_plain = rhrh;
             let est = relative(rr_est, bn);

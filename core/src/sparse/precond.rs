@@ -10,7 +10,7 @@
 //!   `[λmax/RATIO, λmax]`, `λmax` a Gershgorin bound of `Â`, so that `p > 0` on the whole
 //!   spectrum and the preconditioner is SPD. Fully parallel.
 //! * [`Ssor`]: symmetric SOR in a level-set ordering whose parts are swept in parallel, applied
-//!   with Eisenstat's trick (module `ssor`).
+//!   with Eisenstat's trick (modules `ssor` and `eisenstat_cg`).
 //!
 //! Jacobi and Chebyshev keep the scaled operator `Â` in `f32` (16 bytes per nonzero with its
 //! column index), built in one parallel pass. Which to use is discussed in the [module
