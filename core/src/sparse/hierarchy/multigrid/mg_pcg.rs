@@ -32,7 +32,7 @@ pub fn mg_pcg(
         }
     }
     options.validate()?;
-    for (what, v) in [("right-hand side", &*b), ("initial guess", &*x)] {
+    for (what, v) in [("right-hand side", b), ("initial guess", &*x)] {
         if let Some((row, channel, value)) = first_non_finite(v) {
             return Err(SparseError::NonFinite { what, row, channel, value });
         }
