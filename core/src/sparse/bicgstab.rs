@@ -7,12 +7,10 @@
 
 use rayon::prelude::*;
 
-use super::ops::{row_mul, sum_partials, CHUNK};
+use super::ops::{spmv_dot, spmv_fold, sum_partials, CHUNK};
 use super::pcg::{make_stats, zero_channels};
 use super::precond::{PrecondWork, Preconditioner};
-use super::{check_inputs, relative, residual, CsrMatrix3, SolveOptions, SolveStats, SparseError};
-
-const MAX_RESTARTS: usize = 3;
+use super::{check_inputs, relative, residual, restart, unconverged, CsrMatrix3, SolveOptions, SolveStats, SparseError};
 
 fn breakdown(channel: usize, iteration: usize, reason: String) -> SparseError {
     SparseError::Breakdown { method: "BiCGSTAB", channel, iteration, reason }
@@ -50,7 +48,7 @@ pub fn bicgstab(
     let mut r = vec![[0.0; 3]; n];
     let rr0 = residual(a, b, &xw, &mut r);
     let mut rel = relative(rr0, bn);
-    let mut active = [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > tol);
+    let mut active = unconverged(rel, bn, tol);
     let mut iterations = [0usize; 3];
     if active.iter().any(|&t| t) {
         let zeros = || vec![[0.0; 3]; n];
@@ -86,7 +84,7 @@ pub fn bicgstab(
                 }
             });
             precond.apply_dot(&p, &mut phat, &mut work);
-            let rv = spmv_dot_with(a, &phat, &mut v, &rhat);
+            let rv = spmv_dot(a.pattern(), a.values(), &phat, &mut v, &rhat);
             let mut half = [false; 3];
             for c in 0..3 {
                 alpha[c] = 0.0;
@@ -131,19 +129,11 @@ pub fn bicgstab(
                 }
             }
             rho_new = rhr;
-            if let Some(m) = options.monitor {
-                if !m(it, rel) {
-                    return Err(SparseError::Cancelled { iteration: it });
-                }
-            }
+            options.report(it, rel)?;
             if !active.iter().any(|&t| t) {
                 rel = relative(residual(a, b, &xw, &mut r), bn);
                 rel_is_true = true;
-                let again = [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > tol);
-                if !again.iter().any(|&t| t) || restarts == MAX_RESTARTS {
-                    break;
-                }
-                restarts += 1;
+                let Some(again) = restart(rel, bn, tol, &mut restarts) else { break };
                 active = again;
                 rhat.copy_from_slice(&r);
                 p.fill([0.0; 3]);
@@ -162,55 +152,13 @@ pub fn bicgstab(
     Ok(make_stats(iterations, rel, tol))
 }
 
-/// `y = A x`; returns `wᵀy` per channel.
-fn spmv_dot_with(a: &CsrMatrix3, x: &[[f64; 3]], y: &mut [[f64; 3]], w: &[[f64; 3]]) -> [f64; 3] {
-    let pat = a.pattern();
-    let vals = a.values();
-    let parts: Vec<[f64; 3]> = y
-        .par_chunks_mut(CHUNK)
-        .enumerate()
-        .map(|(k, yc)| {
-            let r0 = k * CHUNK;
-            let mut s = [0.0; 3];
-            for (li, yi) in yc.iter_mut().enumerate() {
-                let i = r0 + li;
-                let (s0, e0) = (pat.row_ptr()[i], pat.row_ptr()[i + 1]);
-                let v = row_mul(&pat.col_idx()[s0..e0], &vals[s0..e0], x);
-                for c in 0..3 {
-                    s[c] += w[i][c] * v[c];
-                }
-                *yi = v;
-            }
-            s
-        })
-        .collect();
-    sum_partials(&parts)
-}
-
 /// `y = A x`; returns `[yᵀw, yᵀy]` per channel.
 fn spmv_two_dots(a: &CsrMatrix3, x: &[[f64; 3]], y: &mut [[f64; 3]], w: &[[f64; 3]]) -> [[f64; 3]; 2] {
-    let pat = a.pattern();
-    let vals = a.values();
-    let parts: Vec<[f64; 6]> = y
-        .par_chunks_mut(CHUNK)
-        .enumerate()
-        .map(|(k, yc)| {
-            let r0 = k * CHUNK;
-            let mut s = [0.0; 6];
-            for (li, yi) in yc.iter_mut().enumerate() {
-                let i = r0 + li;
-                let (s0, e0) = (pat.row_ptr()[i], pat.row_ptr()[i + 1]);
-                let v = row_mul(&pat.col_idx()[s0..e0], &vals[s0..e0], x);
-                for c in 0..3 {
-                    s[c] += w[i][c] * v[c];
-                    s[3 + c] += v[c] * v[c];
-                }
-                *yi = v;
-            }
-            s
-        })
-        .collect();
-    let s = sum_partials(&parts);
+    let s = spmv_fold(a.pattern(), a.values(), x, y, |i, v, yi| {
+        *yi = v;
+        let wi = w[i];
+        [wi[0] * v[0], wi[1] * v[1], wi[2] * v[2], v[0] * v[0], v[1] * v[1], v[2] * v[2]]
+    });
     [[s[0], s[1], s[2]], [s[3], s[4], s[5]]]
 }
 

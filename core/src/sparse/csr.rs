@@ -82,8 +82,8 @@ pub struct CsrPattern {
     col_idx: Vec<u32>,
     diag: Vec<usize>,
     /// Whether the constructor made the pattern symmetric ([`Self::from_edges`]), so that
-    /// [`Self::is_structurally_symmetric`] need not search (8 ms at 1M tets); otherwise it
-    /// searches on demand.
+    /// [`Self::is_structurally_symmetric`] need not search every row; otherwise it searches on
+    /// demand.
     symmetric_by_construction: bool,
 }
 

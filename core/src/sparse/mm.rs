@@ -65,31 +65,46 @@ impl<T: Entry> CsrMatrix<T> {
     }
 }
 
+/// The lines of `lines` that hold data (neither blank nor `%` comments), each with its 1-based
+/// line number; `before` lines of the file were read already. (Their words are read with
+/// `split_whitespace`, which needs no trimming.)
+fn data_lines<'a>(
+    path: &'a Path,
+    lines: impl Iterator<Item = std::io::Result<String>> + 'a,
+    before: usize,
+) -> impl Iterator<Item = Result<(usize, String), SparseError>> + 'a {
+    lines.enumerate().filter_map(move |(k, l)| match l {
+        Ok(l) => {
+            let t = l.trim();
+            (!t.is_empty() && !t.starts_with('%')).then(|| Ok((before + k + 1, l)))
+        }
+        Err(e) => Some(Err(io_err(path)(e))),
+    })
+}
+
+/// The value `s` of line `line_no`, which must be a finite number.
+fn parse_value(path: &Path, line_no: usize, s: &str) -> Result<f64, SparseError> {
+    let v: f64 = s.parse().map_err(|e| mm_err(path, line_no, format!("bad value `{s}`: {e}")))?;
+    if !v.is_finite() {
+        return Err(mm_err(path, line_no, format!("non-finite value `{s}`")));
+    }
+    Ok(v)
+}
+
 /// Reads the header line and the size line; returns (format words, size numbers, line number).
 fn read_header(
     path: &Path,
     lines: &mut impl Iterator<Item = std::io::Result<String>>,
 ) -> Result<(Vec<String>, Vec<usize>, usize), SparseError> {
-    let mut line_no = 0;
-    let mut next = |line_no: &mut usize| -> Result<Option<String>, SparseError> {
-        *line_no += 1;
-        lines.next().transpose().map_err(io_err(path))
-    };
-    let header = next(&mut line_no)?.ok_or_else(|| mm_err(path, 0, "empty file"))?;
+    let header = lines.next().transpose().map_err(io_err(path))?.ok_or_else(|| mm_err(path, 0, "empty file"))?;
     let words: Vec<String> = header.split_whitespace().map(str::to_ascii_lowercase).collect();
     if words.len() != 5 || words[0] != "%%matrixmarket" || words[1] != "matrix" {
         return Err(mm_err(path, 1, "expected a `%%MatrixMarket matrix <format> <field> <symmetry>` header"));
     }
-    loop {
-        let l = next(&mut line_no)?.ok_or_else(|| mm_err(path, 0, "file ends before the size line"))?;
-        let t = l.trim();
-        if t.is_empty() || t.starts_with('%') {
-            continue;
-        }
-        let sizes: Result<Vec<usize>, _> = t.split_whitespace().map(str::parse::<usize>).collect();
-        let sizes = sizes.map_err(|e| mm_err(path, line_no, format!("bad size line: {e}")))?;
-        return Ok((words, sizes, line_no));
-    }
+    let (line_no, t) = data_lines(path, lines, 1).next().ok_or_else(|| mm_err(path, 0, "file ends before the size line"))??;
+    let sizes: Result<Vec<usize>, _> = t.split_whitespace().map(str::parse::<usize>).collect();
+    let sizes = sizes.map_err(|e| mm_err(path, line_no, format!("bad size line: {e}")))?;
+    Ok((words, sizes, line_no))
 }
 
 impl CsrMatrix<f64> {
@@ -105,7 +120,7 @@ impl CsrMatrix<f64> {
         let path = path.as_ref();
         let file = File::open(path).map_err(io_err(path))?;
         let mut lines = BufReader::new(file).lines();
-        let (words, sizes, mut line_no) = read_header(path, &mut lines)?;
+        let (words, sizes, line_no) = read_header(path, &mut lines)?;
         if words[2] != "coordinate" {
             return Err(mm_err(path, 1, format!("format `{}` is not supported for matrices (need coordinate)", words[2])));
         }
@@ -128,13 +143,8 @@ impl CsrMatrix<f64> {
         let n = rows;
         let mut triplets = Vec::with_capacity(if symmetric { 2 * count } else { count });
         let mut seen = 0;
-        for l in lines {
-            line_no += 1;
-            let l = l.map_err(io_err(path))?;
-            let t = l.trim();
-            if t.is_empty() || t.starts_with('%') {
-                continue;
-            }
+        for l in data_lines(path, lines, line_no) {
+            let (line_no, t) = l?;
             if seen == count {
                 return Err(mm_err(path, line_no, format!("more than the {count} declared entries")));
             }
@@ -152,12 +162,7 @@ impl CsrMatrix<f64> {
             let v = if field_pattern {
                 1.0
             } else {
-                let s = it.next().ok_or_else(|| mm_err(path, line_no, "missing value"))?;
-                let v: f64 = s.parse().map_err(|e| mm_err(path, line_no, format!("bad value `{s}`: {e}")))?;
-                if !v.is_finite() {
-                    return Err(mm_err(path, line_no, format!("non-finite value `{s}`")));
-                }
-                v
+                parse_value(path, line_no, it.next().ok_or_else(|| mm_err(path, line_no, "missing value"))?)?
             };
             triplets.push(Triplet::new(i, j, v));
             if symmetric && i != j {
@@ -247,7 +252,7 @@ pub fn read_array_matrix_market(path: impl AsRef<Path>) -> Result<MmArray, Spars
     let path = path.as_ref();
     let file = File::open(path).map_err(io_err(path))?;
     let mut lines = BufReader::new(file).lines();
-    let (words, sizes, mut line_no) = read_header(path, &mut lines)?;
+    let (words, sizes, line_no) = read_header(path, &mut lines)?;
     if words[2] != "array" || !matches!(words[3].as_str(), "real" | "integer" | "double") || words[4] != "general" {
         return Err(mm_err(path, 1, "only `array real general` is supported for vectors"));
     }
@@ -255,18 +260,10 @@ pub fn read_array_matrix_market(path: impl AsRef<Path>) -> Result<MmArray, Spars
         return Err(mm_err(path, line_no, "the size line needs `rows cols`"));
     };
     let mut data = Vec::with_capacity(rows * cols);
-    for l in lines {
-        line_no += 1;
-        let l = l.map_err(io_err(path))?;
-        let t = l.trim();
-        if t.is_empty() || t.starts_with('%') {
-            continue;
-        }
+    for l in data_lines(path, lines, line_no) {
+        let (line_no, t) = l?;
         for s in t.split_whitespace() {
-            let v: f64 = s.parse().map_err(|e| mm_err(path, line_no, format!("bad value `{s}`: {e}")))?;
-            if !v.is_finite() {
-                return Err(mm_err(path, line_no, format!("non-finite value `{s}`")));
-            }
+            let v = parse_value(path, line_no, s)?;
             if data.len() == rows * cols {
                 return Err(mm_err(path, line_no, format!("more than the {} declared values", rows * cols)));
             }

@@ -25,48 +25,24 @@
 //! (see [`dot3`]); every SpMV row is summed in column order. Results are bit-identical run to
 //! run and for any number of rayon threads.
 //!
-//! # Choosing a preconditioner (measured)
+//! # Choosing a preconditioner
 //!
-//! Proxy: the vertex graph of a Kuhn-tetrahedralised 44³ grid (n = 85 184, 14.5 nonzeros per
-//! row, like a tet mesh), the TransCut matrix shape (edge weights ∝ κ h, lumped σa V mass,
-//! Robin term on the boundary) with marble's per-channel σa, σ′s on a 20 mm cube, `b` nonzero on
-//! the boundary only; cold start, tolerance 1e-6, release build (`cargo test --release -p
-//! transcut --test sparse -- --ignored --nocapture bench_`). The machine was shared with other
-//! builds (load 4–8 on 2 cores), so the stable figure is the CPU time of a one-thread solve
-//! (per-thread accounting, min of 3–7 interleaved rounds; the range over the runs, whose
-//! ranking never changed; Chebyshev with its interval ratio 60, tuned on iteration counts, see
-//! [`Chebyshev::RATIO`]):
+//! The iteration is bound by memory traffic, so a preconditioner pays off only where it saves
+//! more traffic in iterations than it adds per iteration:
 //!
-//! | preconditioner | iterations R/G/B | Mixed: 1-thread CPU ms | Double: 1-thread CPU ms |
-//! |----------------|------------------|------------------------|-------------------------|
-//! | Jacobi         | 117/112/106      | **246–281**            | 288–352                 |
-//! | Chebyshev 1    | 70/67/64         | 305–310                | 360–362                 |
-//! | Chebyshev 2    | 47/45/43         | 317–318                | 337–381                 |
-//! | Chebyshev 3    | 36/34/33         | 311–345                | 332–351                 |
-//! | Chebyshev 4    | 29/28/27         | 306–333                | 319–351                 |
+//! * [`Jacobi`] (the default) streams the least per iteration: the scaled operator and the
+//!   vectors, the preconditioner itself folded into the scaling.
+//! * [`Chebyshev`] of degree `d` adds `d` passes of the `f32` operator per iteration (each
+//!   fused with its vector updates) and removes iterations at about the rate it adds passes.
+//! * [`Ssor`] takes far fewer iterations than Jacobi, but each costs about two Jacobi
+//!   iterations (its sweeps are sequential within each part of the ordering: a row waits on
+//!   the row just computed), and its setup (a level-set ordering and the reordered triangles)
+//!   costs more than Jacobi's: it pays off most where one matrix is solved repeatedly.
 //!
-//! Every solve met 1e-6 on the `f64` residual; mixed and double iteration counts agree to ±1.
-//! **Jacobi is the default**: a Chebyshev step removes iterations at about the rate it adds
-//! matrix passes (`degree` passes of the `f32` operator per iteration, each with its vector
-//! updates), the iteration is bound by memory traffic, and Jacobi does the fewest flops. By
-//! bytes streamed per solve (the model below) Chebyshev 4 would be about 5% ahead of Jacobi
-//! (≈ 5.2 against 5.5 GB), within the noise of these measurements; worth re-measuring on a quiet
-//! machine, 2 threads. The traffic per Jacobi iteration is 43.8 MB mixed (f32 operator
-//! 16 B/nonzero: 20.4 MB; vectors 23.4 MB) against 61.8 MB in `f64`; a three-channel f64 SpMV
-//! alone streams 39 MB and took 0.90–1.0 ms on 2 threads (≈ 40 GB/s) in the quietest moments,
-//! 2.0 ms on one. A quiet 2-core cold solve should thus take about 5.5 GB / 40 GB/s ≈ 135 ms
-//! (mixed, Jacobi, including ~9 `f64` residual recomputations), above the 100 ms goal; wall times
-//! measured under the load were 280–400 ms. Preconditioner setup (inverse diagonal and the
-//! `f32` scaled copy) takes 8–35 ms and is reused while the matrix values do not change.
-//! Rounding the matrix itself to `f32` leaves a residual floor of 1e-6 to 2.2e-6 on this system,
-//! which is why `f32` is only used inside the iteration, with `f64` residuals (see
-//! [`Precision`]).
-//!
-//! **SSOR** ([`Ssor`], added later and measured on the real 500k-tet bunny system rather than
-//! this proxy) takes a quarter of Jacobi's iterations, but each costs about two Jacobi
-//! iterations (its sweeps wait on the row just computed) and its setup (a level-set ordering
-//! and the reordered triangles) about 90 ms: its solve takes 0.66 of Jacobi's time, a cold
-//! bake's setup and solve together only ~6% less. Jacobi stays the default.
+//! Rounding the matrix itself to `f32` would leave a residual floor near the `f32` resolution
+//! of the system, which is why `f32` is only used inside the iteration, with `f64` residuals
+//! (see [`Precision`]). The measurements behind these choices are collected in
+//! `docs/benchmarks.md`.
 //!
 //! # Errors
 //!
@@ -74,7 +50,10 @@
 
 mod bicgstab;
 mod csr;
+mod eisenstat_cg;
 mod error;
+#[cfg(test)]
+mod fixtures;
 pub mod hierarchy;
 mod mm;
 mod ops;
@@ -129,9 +108,9 @@ pub enum Precision {
     /// CG on the Jacobi-scaled matrix `S A S` (`S = D^-½`) stored in `f32`, vectors and scalars
     /// in `f64`, with the residual recomputed in `f64` from `A` whenever it has dropped 100-fold
     /// ("reliable updates") and before a channel is declared converged; continues in `f64` by
-    /// itself if the `f32` operator stops resolving the residual. Streams about 30% fewer bytes
-    /// per iteration for the same iteration count, 15–30% less time (see the module
-    /// documentation). With [`Preconditioner::Identity`] the solve runs in
+    /// itself if the `f32` operator stops resolving the residual. Streams fewer bytes per
+    /// iteration (the operator in 16 instead of 28 bytes per nonzero) for about the same
+    /// iteration count. With [`Preconditioner::Identity`] the solve runs in
     /// [`Precision::Double`].
     #[default]
     Mixed,
@@ -172,6 +151,17 @@ impl<'a> SolveOptions<'a> {
     pub fn with_monitor(mut self, monitor: Monitor<'a>) -> Self {
         self.monitor = Some(monitor);
         self
+    }
+
+    /// Calls the monitor, if any, after iteration `it` with the relative residuals `rel`.
+    ///
+    /// # Errors
+    /// [`SparseError::Cancelled`] when it returns `false`.
+    fn report(&self, it: usize, rel: [f64; 3]) -> Result<(), SparseError> {
+        match self.monitor {
+            Some(m) if !m(it, rel) => Err(SparseError::Cancelled { iteration: it }),
+            _ => Ok(()),
+        }
     }
 
     fn validate(&self) -> Result<(), SparseError> {
@@ -246,31 +236,35 @@ fn check_inputs(
 
 /// `r = b − A x`; returns `‖r‖²` per channel.
 fn residual(a: &CsrMatrix3, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) -> [f64; 3] {
-    use rayon::prelude::*;
-    let p = a.pattern();
-    let vals = a.values();
-    let parts: Vec<[f64; 3]> = (r.par_chunks_mut(ops::CHUNK), b.par_chunks(ops::CHUNK))
-        .into_par_iter()
-        .enumerate()
-        .map(|(ci, (rc, bc))| {
-            let r0 = ci * ops::CHUNK;
-            let mut s = [0.0; 3];
-            for (li, (ri, bi)) in rc.iter_mut().zip(bc).enumerate() {
-                let i = r0 + li;
-                let (s0, e0) = (p.row_ptr()[i], p.row_ptr()[i + 1]);
-                let ax = ops::row_mul(&p.col_idx()[s0..e0], &vals[s0..e0], x);
-                for c in 0..3 {
-                    ri[c] = bi[c] - ax[c];
-                    s[c] += ri[c] * ri[c];
-                }
-            }
-            s
-        })
-        .collect();
-    ops::sum_partials(&parts)
+    ops::spmv_fold(a.pattern(), a.values(), x, r, |i, ax, ri| {
+        let bi = b[i];
+        *ri = [bi[0] - ax[0], bi[1] - ax[1], bi[2] - ax[2]];
+        [ri[0] * ri[0], ri[1] * ri[1], ri[2] * ri[2]]
+    })
 }
 
 /// `‖r‖ / ‖b‖` per channel, 0 where `b = 0`.
 fn relative(rr: [f64; 3], bn: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|c| if bn[c] > 0.0 { rr[c].sqrt() / bn[c] } else { 0.0 })
+}
+
+/// The channels whose relative residual `rel` misses the tolerance (never one whose
+/// right-hand side is zero: `‖b‖ = bn = 0`).
+fn unconverged(rel: [f64; 3], bn: [f64; 3], tol: f64) -> [bool; 3] {
+    [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > tol)
+}
+
+/// How often a solve may restart channels after checking its true residual.
+const MAX_RESTARTS: usize = 3;
+
+/// After a check of the true residuals `rel` (once the recursive ones met the tolerance): the
+/// channels to restart from it, those that miss the tolerance, or `None` when none does or the
+/// solve has restarted [`MAX_RESTARTS`] times already (`restarts`, counted here).
+fn restart(rel: [f64; 3], bn: [f64; 3], tol: f64, restarts: &mut usize) -> Option<[bool; 3]> {
+    let again = unconverged(rel, bn, tol);
+    if !again.iter().any(|&t| t) || *restarts == MAX_RESTARTS {
+        return None;
+    }
+    *restarts += 1;
+    Some(again)
 }

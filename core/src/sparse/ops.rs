@@ -7,6 +7,8 @@
 
 use rayon::prelude::*;
 
+use super::CsrPattern;
+
 /// Rows per parallel task and per reduction block. Fixed (not derived from the thread count) so
 /// that reductions are reproducible.
 pub(crate) const CHUNK: usize = 2048;
@@ -54,6 +56,48 @@ pub(crate) fn row_mul<E: Load3>(cols: &[u32], vals: &[E], x: &[[f64; 3]]) -> [f6
         a2 += v[2] * xj[2];
     }
     [a0, a1, a2]
+}
+
+/// One parallel pass over the rows of the matrix `(pat, vals)` fused with `K` reductions: for
+/// every row `i`, `row(i, (A x)_i, &mut out[i])` writes `out[i]` and returns the row's terms of
+/// the `K` sums, which are added per fixed block of [`CHUNK`] rows and then block by block
+/// (deterministic). The SpMVs with dot products and the residuals of the solvers are all this
+/// pass, each with its own `row` compiled into it.
+pub(crate) fn spmv_fold<E: Load3, const K: usize>(
+    pat: &CsrPattern,
+    vals: &[E],
+    x: &[[f64; 3]],
+    out: &mut [[f64; 3]],
+    row: impl Fn(usize, [f64; 3], &mut [f64; 3]) -> [f64; K] + Sync,
+) -> [f64; K] {
+    let (rp, ci) = (pat.row_ptr(), pat.col_idx());
+    let parts: Vec<[f64; K]> = out
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .map(|(k, oc)| {
+            let r0 = k * CHUNK;
+            let mut s = [0.0; K];
+            for (li, oi) in oc.iter_mut().enumerate() {
+                let i = r0 + li;
+                let (s0, e0) = (rp[i], rp[i + 1]);
+                let terms = row(i, row_mul(&ci[s0..e0], &vals[s0..e0], x), oi);
+                for (a, t) in s.iter_mut().zip(terms) {
+                    *a += t;
+                }
+            }
+            s
+        })
+        .collect();
+    sum_partials(&parts)
+}
+
+/// `y = A x` on the matrix `(pat, vals)`; returns `wᵀy` per channel (`pᵀAp` for `w = x = p`).
+pub(crate) fn spmv_dot<E: Load3>(pat: &CsrPattern, vals: &[E], x: &[[f64; 3]], y: &mut [[f64; 3]], w: &[[f64; 3]]) -> [f64; 3] {
+    spmv_fold(pat, vals, x, y, |i, v, yi| {
+        *yi = v;
+        let wi = w[i];
+        [wi[0] * v[0], wi[1] * v[1], wi[2] * v[2]]
+    })
 }
 
 /// Per-channel dot product `Σ_i a_i · b_i`, deterministic.

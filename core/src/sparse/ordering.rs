@@ -12,8 +12,7 @@
 //! ordering. Graph-only (no positions), sequential, `O(nnz)`, deterministic.
 //!
 //! The search order also gives the sweeps their locality: a row's neighbours lie within about
-//! two levels of it. (The mesher's vertex numbering is far from that: on the 500k-tet bunny,
-//! half the nonzeros lie more than 32 768 rows from the diagonal.)
+//! two levels of it, where a mesher's vertex numbering scatters them across the whole matrix.
 
 use std::ops::Range;
 
@@ -141,22 +140,12 @@ pub(crate) fn sweep_ordering(p: &CsrPattern, max_parts: usize) -> SweepOrdering 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sparse::fixtures::Grid;
 
     /// The vertex graph of an `nx × ny` grid (4-neighbour), plus `extra` isolated vertices.
     fn grid(nx: usize, ny: usize, extra: usize) -> CsrPattern {
-        let id = |x: usize, y: usize| (y * nx + x) as u32;
-        let mut e = Vec::new();
-        for y in 0..ny {
-            for x in 0..nx {
-                if x + 1 < nx {
-                    e.push([id(x, y), id(x + 1, y)]);
-                }
-                if y + 1 < ny {
-                    e.push([id(x, y), id(x, y + 1)]);
-                }
-            }
-        }
-        CsrPattern::from_edges(nx * ny + extra, &e).unwrap()
+        let g = Grid::new(nx, ny, 1);
+        CsrPattern::from_edges(g.n() + extra, &g.edges(false)).unwrap()
     }
 
     /// The dependency structure the parallel sweeps rely on.

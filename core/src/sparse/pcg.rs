@@ -19,8 +19,8 @@
 //!   tolerance near `f32`'s limit for the conditioning, or a badly scaled system) and the solve
 //!   continues in `f64` from the current iterate.
 //! * **Mixed with [`super::Ssor`]**: CG on the SSOR-split system with Eisenstat's trick, in
-//!   `f64` (two sweeps per iteration; see the `ssor` module), reusing this module's stopping
-//!   machinery.
+//!   `f64` (two sweeps per iteration; see the `eisenstat_cg` module), reusing this module's
+//!   stopping machinery.
 //! * **Double**: everything in `f64` on `A`: `q = A p` with `pᵀq`; `x += α p`, `r −= α q` with
 //!   `‖r‖²` and, for Jacobi, `rᵀD⁻¹r` (z is never stored); `p = z + β p`. When every channel's
 //!   recursive residual meets the tolerance, the true residual is computed once and a channel
@@ -28,13 +28,12 @@
 
 use rayon::prelude::*;
 
-use super::ops::{row_mul, sum_partials, CHUNK};
+use super::ops::{spmv_dot, sum_partials, Load3, CHUNK};
 use super::precond::{Chebyshev, PrecondWork, Preconditioner};
 use super::scaled::{reliable_residual, ScaledOperator};
-use super::{check_inputs, relative, residual, CsrMatrix3, Precision, SolveOptions, SolveStats, SparseError};
-
-/// How often the true-residual check may restart channels before giving up.
-const MAX_RESTARTS: usize = 3;
+use super::{
+    check_inputs, relative, residual, restart, unconverged, CsrMatrix3, Precision, SolveOptions, SolveStats, SparseError,
+};
 
 /// Solves `A x = b` for the three channels by preconditioned CG, starting from the given `x`
 /// (a warm start; pass zeros for a cold one). `A` must be symmetric positive definite on every
@@ -69,7 +68,7 @@ pub fn pcg(
         (Precision::Mixed, Preconditioner::Jacobi(j)) => (j.operator(), None),
         (Precision::Mixed, Preconditioner::Chebyshev(c)) => (c.operator(), Some(c)),
         (Precision::Mixed, Preconditioner::Ssor(m)) => {
-            return match super::ssor::pcg_eisenstat(a, b, x, m, options, bn)? {
+            return match super::eisenstat_cg::pcg_eisenstat(a, b, x, m, options, bn)? {
                 Mixed::Done(stats) => Ok(stats),
                 Mixed::Stagnated { x: x0, progress } => pcg_double(a, b, &x0, x, precond, options, bn, progress),
             };
@@ -124,7 +123,7 @@ fn pcg_double(
     zero_channels(&mut xw, bn);
     let mut r = vec![[0.0; 3]; n];
     let mut rel = relative(residual(a, b, &xw, &mut r), bn);
-    let mut active = [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > tol);
+    let mut active = unconverged(rel, bn, tol);
     let mut iterations = start.iterations;
     if active.iter().any(|&t| t) {
         let jacobi = match precond {
@@ -142,10 +141,10 @@ fn pcg_double(
         let mut rel_is_true = false;
         while it < max_it {
             it += 1;
-            let pq = spmv_dot(a, &p, &mut q);
+            let pq = spmv_dot(a.pattern(), a.values(), &p, &mut q, &p);
             let alpha = step_lengths(rho, pq, active, it)?;
             let (rr, rz) = match jacobi {
-                Some(d) => update_jacobi(&mut xw, &mut r, &p, &q, d, alpha),
+                Some(d) => update_weighted(&mut xw, &mut r, &p, &q, d, alpha),
                 None => (update(&mut xw, &mut r, &p, &q, alpha), [0.0; 3]),
             };
             rel_is_true = false;
@@ -158,20 +157,12 @@ fn pcg_double(
                     }
                 }
             }
-            if let Some(m) = options.monitor {
-                if !m(it, rel) {
-                    return Err(SparseError::Cancelled { iteration: it });
-                }
-            }
+            options.report(it, rel)?;
             if !active.iter().any(|&t| t) {
                 // Every channel met the tolerance by its recursive residual: check the true one.
                 rel = relative(residual(a, b, &xw, &mut r), bn);
                 rel_is_true = true;
-                let again = [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > tol);
-                if !again.iter().any(|&t| t) || restarts == MAX_RESTARTS {
-                    break;
-                }
-                restarts += 1;
+                let Some(again) = restart(rel, bn, tol, &mut restarts) else { break };
                 active = again;
                 rho = precond.apply_dot(&r, &mut p, &mut work);
                 check_rho(rho, active, it)?;
@@ -184,14 +175,7 @@ fn pcg_double(
                 Some(_) => rz,
                 None => precond.apply_dot(&r, &mut z, &mut work),
             };
-            check_rho(rho_new, active, it)?;
-            let mut beta = [0.0; 3];
-            for c in 0..3 {
-                if active[c] {
-                    beta[c] = rho_new[c] / rho[c];
-                    rho[c] = rho_new[c];
-                }
-            }
+            let beta = next_beta(&mut rho, rho_new, active, it)?;
             match jacobi {
                 Some(d) => p_update_jacobi(&mut p, &r, d, beta),
                 None => p_update(&mut p, &z, beta),
@@ -206,9 +190,8 @@ fn pcg_double(
 }
 
 /// In mixed precision, the residual is recomputed in `f64` when its estimate has dropped by
-/// this factor since the last recomputation.
-/// Measured on the 86k proxy: factors 0.1, 0.01 and 0.001 give the same iteration counts with
-/// 14–18, 9 and 6 recomputations per three-channel solve.
+/// this factor since the last recomputation: a smaller factor recomputes less often and lets
+/// the recursive residual drift further between recomputations.
 const RELIABLE_FACTOR: f64 = 0.01;
 
 /// In mixed precision, a channel's residual is also recomputed after this many iterations
@@ -243,7 +226,7 @@ fn pcg_mixed(
     let mut rh = vec![[0.0; 3]; n];
     let (rr, mut rho_plain) = reliable_residual(a, b, s, &y, &mut rh, [true; 3]);
     let mut rel = relative(rr, bn);
-    let mut active = [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > tol);
+    let mut active = unconverged(rel, bn, tol);
     // Channels whose x is rewritten from ŷ (the others keep the caller's bits exactly).
     let touched = [0, 1, 2].map(|c| active[c] || bn[c] == 0.0);
     let mut iterations = [0usize; 3];
@@ -268,7 +251,8 @@ fn pcg_mixed(
             it += 1;
             let pq = op.spmv_dot(&p, &mut q);
             let alpha = step_lengths(rho, pq, active, it)?;
-            let (rr_est, rhrh) = update_scaled(&mut y, &mut rh, &p, &q, &op.d, alpha);
+            // `‖r̂‖²` and `Σ D r̂²`, the unscaled `‖r‖²`.
+            let (rhrh, rr_est) = update_weighted(&mut y, &mut rh, &p, &q, &op.d, alpha);
             rho_plain = rhrh;
             let est = relative(rr_est, bn);
             // Per channel, so that each channel's iterates do not depend on the others.
@@ -306,14 +290,7 @@ fn pcg_mixed(
                 None => rho_plain,
                 Some(c) => c.apply_scaled(&rh, &mut z, None, &mut work),
             };
-            check_rho(rho_new, active, it)?;
-            let mut beta = [0.0; 3];
-            for c in 0..3 {
-                if active[c] {
-                    beta[c] = rho_new[c] / rho[c];
-                    rho[c] = rho_new[c];
-                }
-            }
+            let beta = next_beta(&mut rho, rho_new, active, it)?;
             p_update(&mut p, if cheb.is_some() { &z } else { &rh }, beta);
         }
         if !rel_is_true {
@@ -334,36 +311,6 @@ fn pcg_mixed(
         }
     });
     Ok(Mixed::Done(make_stats(iterations, rel, tol)))
-}
-
-/// `ŷ += α p`, `r̂ −= α q`; returns `(Σ D r̂², Σ r̂²)` (the unscaled `‖r‖²` and the scaled one).
-fn update_scaled(
-    y: &mut [[f64; 3]],
-    rh: &mut [[f64; 3]],
-    p: &[[f64; 3]],
-    q: &[[f64; 3]],
-    d: &[[f32; 3]],
-    alpha: [f64; 3],
-) -> ([f64; 3], [f64; 3]) {
-    let parts: Vec<[f64; 6]> =
-        (y.par_chunks_mut(CHUNK), rh.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), q.par_chunks(CHUNK), d.par_chunks(CHUNK))
-            .into_par_iter()
-            .map(|(y, r, p, q, d)| {
-                let mut s = [0.0; 6];
-                for ((((y, r), p), q), d) in y.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(d) {
-                    for c in 0..3 {
-                        y[c] += alpha[c] * p[c];
-                        r[c] -= alpha[c] * q[c];
-                        let r2 = r[c] * r[c];
-                        s[c] += r2 * f64::from(d[c]);
-                        s[3 + c] += r2;
-                    }
-                }
-                s
-            })
-            .collect();
-    let s = sum_partials(&parts);
-    ([s[0], s[1], s[2]], [s[3], s[4], s[5]])
 }
 
 pub(crate) fn make_stats(iterations: [usize; 3], rel: [f64; 3], tol: f64) -> SolveStats {
@@ -429,10 +376,29 @@ pub(super) fn end_iteration(
             }
         }
     }
-    match options.monitor {
-        Some(m) if !m(it, *rel) => Err(SparseError::Cancelled { iteration: it }),
-        _ => Ok(()),
+    options.report(it, *rel)
+}
+
+/// `β = ρ_new / ρ` for the active channels (0 for the others), which then take `ρ_new` as
+/// their `ρ`.
+///
+/// # Errors
+/// [`SparseError::Breakdown`] as [`check_rho`] for `ρ_new`.
+pub(super) fn next_beta(
+    rho: &mut [f64; 3],
+    rho_new: [f64; 3],
+    active: [bool; 3],
+    iteration: usize,
+) -> Result<[f64; 3], SparseError> {
+    check_rho(rho_new, active, iteration)?;
+    let mut beta = [0.0; 3];
+    for c in 0..3 {
+        if active[c] {
+            beta[c] = rho_new[c] / rho[c];
+            rho[c] = rho_new[c];
+        }
     }
+    Ok(beta)
 }
 
 pub(super) fn check_rho(rho: [f64; 3], active: [bool; 3], iteration: usize) -> Result<(), SparseError> {
@@ -449,53 +415,29 @@ pub(super) fn check_rho(rho: [f64; 3], active: [bool; 3], iteration: usize) -> R
     Ok(())
 }
 
-/// `q = A p`; returns `pᵀq` per channel.
-pub(crate) fn spmv_dot(a: &CsrMatrix3, p: &[[f64; 3]], q: &mut [[f64; 3]]) -> [f64; 3] {
-    let pat = a.pattern();
-    let vals = a.values();
-    let (rp, ci) = (pat.row_ptr(), pat.col_idx());
-    let parts: Vec<[f64; 3]> = q
-        .par_chunks_mut(CHUNK)
-        .enumerate()
-        .map(|(k, qc)| {
-            let r0 = k * CHUNK;
-            let mut s = [0.0; 3];
-            for (li, qi) in qc.iter_mut().enumerate() {
-                let i = r0 + li;
-                let (s0, e0) = (rp[i], rp[i + 1]);
-                let v = row_mul(&ci[s0..e0], &vals[s0..e0], p);
-                let pi = p[i];
-                for c in 0..3 {
-                    s[c] += pi[c] * v[c];
-                }
-                *qi = v;
-            }
-            s
-        })
-        .collect();
-    sum_partials(&parts)
-}
-
-/// `x += α p`, `r −= α q`; returns `(‖r‖², rᵀD⁻¹r)`.
-fn update_jacobi(
+/// `x += α p`, `r −= α q`; returns `(‖r‖², Σ w r²)` per channel: with `w = D⁻¹` (Jacobi)
+/// `rᵀD⁻¹r`, with `w = D` (`f32`, the scaled system) the unscaled `‖r‖²` of `r = S⁻¹ r̂`.
+fn update_weighted<W: Load3>(
     x: &mut [[f64; 3]],
     r: &mut [[f64; 3]],
     p: &[[f64; 3]],
     q: &[[f64; 3]],
-    dinv: &[[f64; 3]],
+    w: &[W],
     alpha: [f64; 3],
 ) -> ([f64; 3], [f64; 3]) {
     let parts: Vec<[f64; 6]> =
-        (x.par_chunks_mut(CHUNK), r.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), q.par_chunks(CHUNK), dinv.par_chunks(CHUNK))
+        (x.par_chunks_mut(CHUNK), r.par_chunks_mut(CHUNK), p.par_chunks(CHUNK), q.par_chunks(CHUNK), w.par_chunks(CHUNK))
             .into_par_iter()
-            .map(|(x, r, p, q, d)| {
+            .map(|(x, r, p, q, w)| {
                 let mut s = [0.0; 6];
-                for ((((x, r), p), q), d) in x.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(d) {
+                for ((((x, r), p), q), w) in x.iter_mut().zip(r.iter_mut()).zip(p).zip(q).zip(w) {
+                    let w = w.load();
                     for c in 0..3 {
                         x[c] += alpha[c] * p[c];
                         r[c] -= alpha[c] * q[c];
-                        s[c] += r[c] * r[c];
-                        s[3 + c] += r[c] * r[c] * d[c];
+                        let r2 = r[c] * r[c];
+                        s[c] += r2;
+                        s[3 + c] += r2 * w[c];
                     }
                 }
                 s

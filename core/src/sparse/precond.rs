@@ -10,10 +10,10 @@
 //!   `[λmax/RATIO, λmax]`, `λmax` a Gershgorin bound of `Â`, so that `p > 0` on the whole
 //!   spectrum and the preconditioner is SPD. Fully parallel.
 //! * [`Ssor`]: symmetric SOR in a level-set ordering whose parts are swept in parallel, applied
-//!   with Eisenstat's trick (module `ssor`).
+//!   with Eisenstat's trick (modules `ssor` and `eisenstat_cg`).
 //!
-//! Both keep the scaled operator `Â` in `f32` (16 bytes per nonzero with its column index), built
-//! in one parallel pass. Which to use, with measurements, is in the [module
+//! Jacobi and Chebyshev keep the scaled operator `Â` in `f32` (16 bytes per nonzero with its
+//! column index), built in one parallel pass. Which to use is discussed in the [module
 //! documentation](super); in short, Jacobi: each Chebyshev degree cuts the iterations about as
 //! much as it adds matrix passes, and the iteration is bound by memory traffic.
 
@@ -31,7 +31,7 @@ use super::ssor::Ssor;
 pub enum PreconditionerKind {
     /// No preconditioning (`z = r`).
     Identity,
-    /// Diagonal scaling. The default: see the module documentation for the measurements.
+    /// Diagonal scaling. The default (the module documentation says why).
     #[default]
     Jacobi,
     /// A Chebyshev polynomial of degree `degree` (≥ 1) over Jacobi: `degree` extra
@@ -41,10 +41,10 @@ pub enum PreconditionerKind {
         degree: usize,
     },
     /// Symmetric successive over-relaxation ([`Ssor`], ω = [`Ssor::DEFAULT_OMEGA`]) in a
-    /// level-set ordering swept in parallel, applied with Eisenstat's trick: a quarter of
-    /// Jacobi's iterations on the bunny, each costing about two of Jacobi's, after a setup of
-    /// about 90 ms at 500k tets (measurements in [`Ssor`]). With [`crate::sparse::Precision::Double`]
-    /// it is applied as `z = M⁻¹ r` (two sweeps) in plain PCG.
+    /// level-set ordering swept in parallel, applied with Eisenstat's trick: far fewer
+    /// iterations than Jacobi, each costing about two of Jacobi's, after a longer setup (see
+    /// [`Ssor`]). With [`crate::sparse::Precision::Double`] it is applied as `z = M⁻¹ r` (two
+    /// sweeps) in plain PCG.
     Ssor,
 }
 
@@ -131,10 +131,9 @@ impl PrecondWork {
 impl Chebyshev {
     /// The largest supported degree.
     pub const MAX_DEGREE: usize = 16;
-    /// The interval is `[λmax / RATIO, λmax]`. On the 86k proxy (module documentation) the
-    /// iteration counts for degrees 1/2/3/4 were 73/53/43/38 at ratio 8, 71/50/39/33 at 16,
-    /// 70/47/36/29 at 60, 69/46/35/29 at 120, 69/46/37/31 at 300 and 69/52/51/44 at 1000
-    /// (channel R).
+    /// The interval is `[λmax / RATIO, λmax]`, chosen on iteration counts: a narrower one
+    /// leaves the low end of the spectrum undamped, a much wider one spreads the polynomial's
+    /// damping too thin.
     pub const RATIO: f64 = 60.0;
 
     /// Builds the preconditioner for `a`: the scaled operator `S A S` in `f32` (`S = D^-½`) and a

@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use super::csr::{split_row_blocks, CsrMatrix3, CsrPattern, ROW_BLOCK};
 use super::error::SparseError;
-use super::ops::{row_mul, sum_partials, CHUNK};
+use super::ops::{spmv_dot, sum_partials, CHUNK};
 use super::precond::inverse_diagonal;
 
 /// `Â = S A S` in `f32`, with `S = D^-½` and `D` kept for residual norms.
@@ -92,33 +92,8 @@ impl ScaledOperator {
 
     /// `q = Â p`; returns `pᵀq` per channel.
     pub(crate) fn spmv_dot(&self, p: &[[f64; 3]], q: &mut [[f64; 3]]) -> [f64; 3] {
-        spmv_dot_raw(&self.pattern, &self.values, p, q)
+        spmv_dot(&self.pattern, &self.values, p, q, p)
     }
-}
-
-/// `q = A p` on raw parts; returns `pᵀq` per channel (deterministic).
-pub(crate) fn spmv_dot_raw<E: super::ops::Load3>(pat: &CsrPattern, vals: &[E], p: &[[f64; 3]], q: &mut [[f64; 3]]) -> [f64; 3] {
-    let (rp, ci) = (pat.row_ptr(), pat.col_idx());
-    let parts: Vec<[f64; 3]> = q
-        .par_chunks_mut(CHUNK)
-        .enumerate()
-        .map(|(k, qc)| {
-            let r0 = k * CHUNK;
-            let mut s = [0.0; 3];
-            for (li, qi) in qc.iter_mut().enumerate() {
-                let i = r0 + li;
-                let (s0, e0) = (rp[i], rp[i + 1]);
-                let v = row_mul(&ci[s0..e0], &vals[s0..e0], p);
-                let pi = p[i];
-                for c in 0..3 {
-                    s[c] += pi[c] * v[c];
-                }
-                *qi = v;
-            }
-            s
-        })
-        .collect();
-    sum_partials(&parts)
 }
 
 /// The true residual of the scaled iterate: `r = b − A S ŷ` (in `f64`, original matrix) and

@@ -195,39 +195,14 @@ impl Hierarchy {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sparse::Triplet;
+    use crate::sparse::fixtures::{diffusion_matrix, Grid};
 
-    /// The 7-point Laplacian plus `shift` on an `nx × ny × nz` grid, channels scaled 1, 2, 3.
+    /// The 7-point Laplacian plus `shift` on an `nx × ny × nz` grid, channels scaled 1, 2, 3,
+    /// and the grid's positions.
     fn grid(nx: usize, ny: usize, nz: usize, shift: f64) -> (CsrMatrix3, Vec<DVec3>) {
-        let id = |x: usize, y: usize, z: usize| (x + nx * (y + ny * z)) as u32;
-        let mut t = Vec::new();
-        let mut positions = Vec::new();
-        for z in 0..nz {
-            for y in 0..ny {
-                for x in 0..nx {
-                    let i = id(x, y, z);
-                    positions.push(DVec3::new(x as f64, y as f64, z as f64));
-                    let mut degree = 0.0;
-                    for (dx, dy, dz) in [(1, 0, 0), (0, 1, 0), (0, 0, 1)] {
-                        let (x2, y2, z2) = (x + dx, y + dy, z + dz);
-                        if x2 < nx && y2 < ny && z2 < nz {
-                            let j = id(x2, y2, z2);
-                            t.push(Triplet::new(i, j, [-1.0, -2.0, -3.0]));
-                            t.push(Triplet::new(j, i, [-1.0, -2.0, -3.0]));
-                        }
-                    }
-                    for (dx, dy, dz) in [(1i64, 0i64, 0i64), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)] {
-                        let (x2, y2, z2) = (x as i64 + dx, y as i64 + dy, z as i64 + dz);
-                        if (0..nx as i64).contains(&x2) && (0..ny as i64).contains(&y2) && (0..nz as i64).contains(&z2) {
-                            degree += 1.0;
-                        }
-                    }
-                    let d = degree + shift;
-                    t.push(Triplet::new(i, i, [d, 2.0 * d, 3.0 * d]));
-                }
-            }
-        }
-        (CsrMatrix3::from_triplets(nx * ny * nz, &t).unwrap(), positions)
+        let g = Grid::new(nx, ny, nz);
+        let a = diffusion_matrix(g.n(), &g.edges(false), |_, _| [1.0, 2.0, 3.0], [shift, 2.0 * shift, 3.0 * shift]);
+        (a, g.positions(0.0))
     }
 
     #[test]

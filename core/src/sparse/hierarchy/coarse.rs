@@ -320,6 +320,7 @@ mod tests {
     use glam::DVec3;
 
     use super::*;
+    use crate::sparse::fixtures::diffusion_matrix;
     use crate::sparse::Triplet;
 
     /// Sums `(column, value)` terms per column in list order (a stable sort by column).
@@ -384,23 +385,11 @@ mod tests {
                 edges.push([i, i + 301]);
             }
         }
-        let graph = Arc::new(CsrPattern::from_edges(n, &edges).unwrap());
         let positions: Vec<DVec3> =
             (0..n).map(|i| DVec3::new((i % 300) as f64 + 0.1 * ((i * 37) % 7) as f64, (i / 300) as f64, 0.0)).collect();
-        let mut trips = Vec::new();
-        for (e, &[i, j]) in edges.iter().enumerate() {
-            let w = [1.0, 0.5, 0.25].map(|k| -k * (1.0 + ((e * 13) % 11) as f64 / 7.0));
-            trips.extend([
-                Triplet::new(i, j, w),
-                Triplet::new(j, i, w),
-                Triplet::new(i, i, w.map(|t| -t)),
-                Triplet::new(j, j, w.map(|t| -t)),
-            ]);
-        }
-        for i in 0..n as u32 {
-            trips.push(Triplet::new(i, i, [0.1, 0.2, 0.3]));
-        }
-        let a = CsrMatrix3::from_triplets_with_pattern(Arc::clone(&graph), &trips).unwrap();
+        let coupling = |e: usize, _| [1.0, 0.5, 0.25].map(|k| k * (1.0 + ((e * 13) % 11) as f64 / 7.0));
+        let a = diffusion_matrix(n, &edges, coupling, [0.1, 0.2, 0.3]);
+        let graph = Arc::clone(a.pattern());
         // Every other vertex of each rail retained, the rest interpolated from retained neighbours.
         let retained: Vec<u32> = (0..n as u32).filter(|i| (i % 300) % 2 == 0).collect();
         let p = Prolongation::new(&graph, &positions, &retained).unwrap();

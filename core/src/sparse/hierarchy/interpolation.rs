@@ -167,32 +167,28 @@ impl Prolongation {
         (&self.cols[s..e], &self.weights[s..e])
     }
 
+    /// `start + (P coarse)_i`, the terms added to `start` in column order.
+    #[inline(always)]
+    fn add_row(&self, i: usize, start: [f64; 3], coarse: &[[f64; 3]]) -> [f64; 3] {
+        let (c, w) = self.row(i);
+        let mut s = start;
+        for (&j, &wj) in c.iter().zip(w) {
+            let x = coarse[j as usize];
+            for k in 0..3 {
+                s[k] += wj * x[k];
+            }
+        }
+        s
+    }
+
     /// `fine = P coarse` (eq. 16).
     pub fn prolong(&self, coarse: &[[f64; 3]], fine: &mut [[f64; 3]]) {
-        fine.par_iter_mut().enumerate().for_each(|(i, f)| {
-            let (c, w) = self.row(i);
-            let mut s = [0.0; 3];
-            for (&j, &wj) in c.iter().zip(w) {
-                let x = coarse[j as usize];
-                for k in 0..3 {
-                    s[k] += wj * x[k];
-                }
-            }
-            *f = s;
-        });
+        fine.par_iter_mut().enumerate().for_each(|(i, f)| *f = self.add_row(i, [0.0; 3], coarse));
     }
 
     /// `fine += P coarse`.
     pub fn prolong_add(&self, coarse: &[[f64; 3]], fine: &mut [[f64; 3]]) {
-        fine.par_iter_mut().enumerate().for_each(|(i, f)| {
-            let (c, w) = self.row(i);
-            for (&j, &wj) in c.iter().zip(w) {
-                let x = coarse[j as usize];
-                for k in 0..3 {
-                    f[k] += wj * x[k];
-                }
-            }
-        });
+        fine.par_iter_mut().enumerate().for_each(|(i, f)| *f = self.add_row(i, *f, coarse));
     }
 
     /// `coarse = Pᵀ fine` (the multigrid restriction).

@@ -15,62 +15,22 @@
 //!   (Galerkin operators, Chebyshev–Jacobi smoothing, dense Cholesky at the coarsest level) to
 //!   precondition CG.
 //! * [`Hierarchy::aggregated`] / [`Multigrid::aggregated`]: an algebraic alternative to §4.1,
-//!   smoothed aggregation (`aggregation.rs`), on which the same V-cycle runs: levels that
-//!   shrink about 20-fold (93 481 → 4 253 → 85 on the 500k-tet bunny, coarse operators adding
-//!   12% to the level-0 nonzeros), built in about 0.1 s; CG needs 15/14/13 iterations to 1e-6.
+//!   smoothed aggregation (`aggregation.rs`), on which the same V-cycle runs: each level
+//!   shrinks by about the size of a vertex neighbourhood and its Galerkin operator stays
+//!   sparse, so the hierarchy costs far less to build than the §4.1 one.
 //!
 //! Everything is deterministic for a given seed, for any number of rayon threads.
 //!
-//! # Measured (bunny, 60 mm, marble, one sun; 507 851 tets, 93 481 vertices)
+//! # Which solver
 //!
-//! `transcut bench multires --tets 500000 --runs 3`, release build, 2 shared cores, methods
-//! interleaved run by run, medians of 3. Levels 93 481 → 32 941 → 9 476 → 2 425 → 540; the
-//! Galerkin operators have 1.33 M (level 0), 1.68 M, 1.04 M, 0.40 M and 0.09 M nonzeros (they
-//! fill in: level 1 has more than level 0).
-//!
-//! **MG-PCG after the V-cycle rework** (`f32` level operators, fused smoothing passes, a reused
-//! workspace, degree-1 smoothing over `[λmax/4, λmax]`, sort-free Galerkin products; see
-//! `vcycle.rs`) against the version before it, whole benchmarks alternated old/new under a
-//! load of 5–6 (other builds on the 2 cores; absolute times are 2–3× those of a quiet machine,
-//! the ratios within one run hold):
-//!
-//! | MG-PCG          | setup ms | to 1e-6: ms, iterations | ms per iteration | error after 2 / 3 iterations | time to 1% ms | PCG's time to 1% ms (same run) | ratio |
-//! |-----------------|----------|-------------------------|------------------|------------------------------|---------------|--------------------------------|-------|
-//! | before (3 runs) | 5413 / 6056 / 6177 | 647 / 856 / 970, 10 | 65 / 86 / 97 | 1.61% / 0.39% | 205 / 267 / 263 | 207 / 262 / 193 | 0.99 / 1.02 / 1.36 |
-//! | after (4 runs)  | 4229 / 4772 / 3071 / 3082 | 155 / 154 / 240 / 259, 7 | 22 / 22 / 34 / 37 | 0.27% / 0.03% | 48 / 48 / 70 / 78 | 161 / 170 / 231 / 309 | 0.30 / 0.28 / 0.30 / 0.25 |
-//!
-//! (The last two "after" runs include the sort-free Galerkin product, setup −1.5 s.) Two more
-//! runs at commit a2fe343, whose PCG then kept its search direction in `f32` (since reverted:
-//! measured slower, which flatters these two ratios), under a load of 6:
-//! MG-PCG 1% in 76 / 77 ms, PCG in 347 / 318 ms, ratio 0.22 / 0.24; 7 iterations to 1e-6 in
-//! 258 / 251 ms; setup 3115 / 3220 ms. MG-PCG now
-//! reaches 1% error in 2 iterations at 0.25–0.30 of single-level PCG's time, the goal
-//! being ≤ 0.5; the error at tolerance 1e-6 is 7e-8, and the warm start after moving the sun 5°
-//! takes 6/6/5 iterations against 7 cold. Where the time went before: the degree-2 smoother
-//! over `[λmax/30, λmax]` damped the high frequencies too little (10 iterations, 1.6% after 2;
-//! the interval ratio alone, measured 30 → 10 → 5 → 4 → 3 → 2 at degree 1, took the iterations
-//! to 1e-6 from 13 to 9, 7, 7, 7, 8, and degree 2 at ratio 5 needs 5 iterations but twice the
-//! products), every V-cycle allocated its vectors afresh, and the operators were `f64`.
-//! Lumping the weak Galerkin entries onto the diagonal to curb the fill-in was tried and
-//! dropped: dropping entries below 0.5% / 1% of `√(a_ii a_jj)` cut the nonzeros of levels 1–3
-//! by 48% / 65% but raised the error after 2 iterations from 0.26% to 0.55% / 3.3% (ratio 5).
-//!
-//! **Before the rework**, two whole-benchmark runs, A under a load of 10–12 and B under 2.5–5
-//! (the 5° rotation exact in B only):
-//!
-//! | method (run)  | setup ms | solve to 1e-6 ms | iterations R/G/B | time to 1% error ms |
-//! |---------------|----------|------------------|------------------|---------------------|
-//! | PCG (A / B)     | 91 / 35 | 888 / 658 | 125/107/86 (level 0) | 504 / 281 |
-//! | cascade (A / B) | 1158 / 1094 | 703 / 732 | 105/90/75 (level 0) | 319 / 294 |
-//! | MG-PCG (A / B)  | 12 071 / 6520 | 1320 / 1033 | 10/10/10 | 415 / 327 |
-//!
-//! The hierarchy takes 0.7–1.2 s. The cascade's time to 1% is 0.63 (A) / 1.05 (B) of PCG's. The
-//! error at tolerance 1e-6 is 2e-6 for PCG and the cascade (‖φ − φ*‖/‖φ*‖). Warm start after
-//! moving the sun 5° (B): 99/83/69 iterations against 125/107/86 cold for PCG (and the cascade,
-//! whose warm start is level-0 PCG). MG-PCG's setup (hierarchy and Galerkin operators, 3–6 s
-//! under load) still costs far more than a PCG solve, so it pays off for repeated solves on one
-//! matrix (relighting, §5 edits that keep the matrix), and a single-level PCG stays the solver
-//! of [`crate::diffusion::solve()`] (SSOR-preconditioned since session 7).
+//! All of them meet the tolerance on the level-0 system. The Galerkin operators of the §4.1
+//! levels fill in (a coarse level can have more nonzeros than the level above), so the
+//! multigrid's setup costs far more than a single-level PCG solve, while MG-PCG needs only a
+//! few iterations where PCG needs many: it pays off for repeated solves on one matrix
+//! (relighting, the §5 edits that keep the matrix), and [`Multigrid::refresh`] follows a local
+//! change of the matrix without a rebuild. The cascade's coarse levels only give level-0 PCG a
+//! start, and a warm start skips them. The diffusion solver's cold solve of a bake is a
+//! single-level PCG.
 
 mod aggregation;
 mod cascade;
@@ -78,7 +38,7 @@ mod coarse;
 pub mod codes;
 mod edges;
 mod interpolation;
-mod vcycle;
+mod multigrid;
 
 use std::sync::Arc;
 
@@ -89,7 +49,7 @@ pub use cascade::{Cascade, CascadeOptions, CascadeStats};
 pub use coarse::{galerkin, galerkin_rows, substituted};
 pub use edges::lost_connections;
 pub use interpolation::Prolongation;
-pub use vcycle::{mg_pcg, Multigrid, MultigridOptions};
+pub use multigrid::{mg_pcg, Multigrid, MultigridOptions};
 
 use super::{CsrPattern, SparseError};
 
@@ -100,11 +60,9 @@ pub struct HierarchyOptions {
     /// Seed of the random vertex codes (§4.1.1). Default 1.
     pub seed: u32,
     /// Stop coarsening once a level has at most this many vertices. Default 150: the
-    /// multigrid factors the coarsest Galerkin operator densely (three channels, `n³/3` each),
-    /// on setup and whenever a paint reaches it ([`Multigrid::refresh`]); on the 500k-tet bunny
-    /// a stop at 600 left 540 vertices (27 ms per factorisation, a fifth of a refresh), a stop
-    /// at 150 one level more with 110 (0.3 ms), with the same iteration counts (the error
-    /// after 2 MG-PCG iterations rises from 0.37% to 0.59%; 1% is still reached in 2).
+    /// multigrid factors the coarsest Galerkin operator densely (three channels, `n³/3` flops
+    /// each), on setup and whenever a paint reaches it ([`Multigrid::refresh`]), so a small
+    /// coarsest level keeps a refresh cheap; one more level costs the V-cycle little.
     pub min_vertices: usize,
     /// Stop coarsening when a level keeps more than this fraction of the vertices of the level
     /// above (the graph no longer shrinks usefully). Default 0.8.
