@@ -8,7 +8,7 @@
 //! use transcut::light::Light;
 //! use transcut::optics::Medium;
 //! # fn demo() -> Result<(), Box<dyn std::error::Error>> {
-//! let mesh = transcut::mesh::load("assets/meshes/spot.obj".as_ref())?;
+//! let mesh = transcut::mesh::load(std::path::Path::new("assets/meshes/spot.obj"))?;
 //! let scene = Scene {
 //!     objects: vec![Object::new("spot", mesh, Medium::preset("marble")?, 30.0)],
 //!     lights: vec![Light::Directional { direction: transcut::DVec3::NEG_Z, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }],

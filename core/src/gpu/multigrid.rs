@@ -53,7 +53,7 @@ struct Cheb {
 }
 
 /// The coefficients of the `degree` steps of a Chebyshev smoothing over `[λmax/ratio, λmax]`
-/// of `D⁻¹A`, per channel, as `chebyshev_steps` of the CPU V-cycle (`sparse/hierarchy/vcycle.rs`)
+/// of `D⁻¹A`, per channel, as `chebyshev_steps` of the CPU V-cycle (`sparse/hierarchy/multigrid/smoother.rs`)
 /// computes them: step 0 `d = D⁻¹ res / θ`; step `k > 0` `ρ_k = 1/(2σ − ρ_{k−1})`, `d = ρ_k ρ_{k−1} d + 2ρ_k/δ D⁻¹ res`
 /// (θ, δ the interval's centre and half-width, σ = θ/δ, ρ_0 = 1/σ). `pre`: the first step starts
 /// from `z = 0`.

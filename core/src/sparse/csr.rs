@@ -787,9 +787,10 @@ mod tests {
             let mirror = p.mirror_positions();
             let mut unmatched = 0;
             for i in 0..p.n() {
-                for k in p.row_ptr()[i]..p.row_ptr()[i + 1] {
+                let row = p.row_ptr()[i]..p.row_ptr()[i + 1];
+                for (k, &m) in mirror.iter().enumerate().take(row.end).skip(row.start) {
                     let expected = p.position(p.col_idx()[k] as usize, i);
-                    assert_eq!(mirror[k], expected.unwrap_or(usize::MAX), "entry {k} of row {i}");
+                    assert_eq!(m, expected.unwrap_or(usize::MAX), "entry {k} of row {i}");
                     unmatched += usize::from(expected.is_none());
                 }
             }

@@ -372,8 +372,8 @@ mod tests {
         assert_eq!(rt, rt0);
         // ‖r‖ of x = 0 is ‖b‖.
         let bn = crate::sparse::norm3(&b);
-        for c in 0..3 {
-            assert!((cold.0[c].sqrt() - bn[c]).abs() <= 1e-14 * bn[c]);
+        for (r2, n) in cold.0.iter().zip(bn) {
+            assert!((r2.sqrt() - n).abs() <= 1e-14 * n);
         }
     }
 }

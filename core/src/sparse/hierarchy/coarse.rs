@@ -52,10 +52,9 @@ pub fn substituted(a: &CsrMatrix3, p: &Prolongation, coarse_pattern: &Arc<CsrPat
             let i = p.retained()[c] as usize;
             let cols = coarse_pattern.row(c);
             let mut out = vec![[0.0; 3]; cols.len()];
-            for k in ap.row_ptr()[i]..ap.row_ptr()[i + 1] {
-                let j = ap.col_idx()[k] as usize;
-                let m = vals[k];
-                let (pc, pw) = p.row(j);
+            let row = ap.row_ptr()[i]..ap.row_ptr()[i + 1];
+            for (&j, &m) in ap.col_idx()[row.clone()].iter().zip(&vals[row]) {
+                let (pc, pw) = p.row(j as usize);
                 for (&d, &w) in pc.iter().zip(pw) {
                     let pos = cols.binary_search(&d).map_err(|_| SparseError::NotInPattern { row: c, col: d as usize })?;
                     for ch in 0..3 {
@@ -170,9 +169,9 @@ fn ap_rows(a: &CsrMatrix3, p: &Prolongation, rows: &[u32]) -> Rows {
     let (ap, vals) = (a.pattern(), a.values());
     Rows::build(rows.len(), p.n_coarse(), |r, acc, out| {
         let u = rows[r] as usize;
-        for k in ap.row_ptr()[u]..ap.row_ptr()[u + 1] {
-            let m = vals[k];
-            let (pc, pw) = p.row(ap.col_idx()[k] as usize);
+        let row = ap.row_ptr()[u]..ap.row_ptr()[u + 1];
+        for (&j, &m) in ap.col_idx()[row.clone()].iter().zip(&vals[row]) {
+            let (pc, pw) = p.row(j as usize);
             for (&d, &w) in pc.iter().zip(pw) {
                 acc.add(d, [m[0] * w, m[1] * w, m[2] * w], out);
             }
@@ -344,9 +343,10 @@ mod tests {
         let mp: Vec<Vec<(u32, [f64; 3])>> = (0..a.n())
             .map(|u| {
                 let mut terms = Vec::new();
-                for k in ap.row_ptr()[u]..ap.row_ptr()[u + 1] {
-                    let (pc, pw) = p.row(ap.col_idx()[k] as usize);
-                    terms.extend(pc.iter().zip(pw).map(|(&d, &w)| (d, vals[k].map(|x| x * w))));
+                let row = ap.row_ptr()[u]..ap.row_ptr()[u + 1];
+                for (&j, v) in ap.col_idx()[row.clone()].iter().zip(&vals[row]) {
+                    let (pc, pw) = p.row(j as usize);
+                    terms.extend(pc.iter().zip(pw).map(|(&d, &w)| (d, v.map(|x| x * w))));
                 }
                 merged(terms)
             })
