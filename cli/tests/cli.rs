@@ -134,3 +134,47 @@ fn bake_rejects_bad_specs_clearly() {
         assert!(err.contains(words), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn methods_are_chosen_by_name_and_listed_by_help() {
+    for command in [&["bake", "unused.obj"][..], &["render", "unused.toml", "-o", "unused.png"]] {
+        let out = transcut().args(command).args(["--method", "help"]).output().unwrap();
+        assert!(out.status.success(), "{command:?}: {}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.lines().any(|l| l.trim_start().starts_with("transcut ") && l.contains("TransCut")), "{command:?}: {text}");
+    }
+    let spot = shared_mesh("spot.obj");
+    let out = transcut().args(["bake", spot.to_str().unwrap(), "--scale", "30", "--method", "nonsense"]).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("unknown method 'nonsense'") && err.contains("transcut"), "{err}");
+    let out = transcut().args(["bake", spot.to_str().unwrap(), "--solver", "gauss"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("gauss") && err.contains("ssor-pcg"), "{err}");
+    // The method by name, with another solver: the same radiance to the solver's tolerance.
+    let bake = |extra: &[&str]| -> Vec<f64> {
+        let out = transcut()
+            .args([
+                "bake",
+                spot.to_str().unwrap(),
+                "--scale",
+                "30",
+                "--tets",
+                "8000",
+                "--tolerance",
+                "1e-10",
+                "--backend",
+                "cpu",
+                "--json",
+            ])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(json["stats"]["method"], "transcut");
+        json["stats"]["relative_residual"].as_array().unwrap().iter().map(|r| r.as_f64().unwrap()).collect()
+    };
+    assert!(bake(&["--method", "TransCut"]).iter().all(|&r| r <= 1e-10));
+    assert!(bake(&["--method", "transcut", "--solver", "mg-pcg"]).iter().all(|&r| r <= 1e-10));
+}
