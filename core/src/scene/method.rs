@@ -76,14 +76,6 @@ impl Method {
         format!("unknown method '{}' (the methods are: {})", name.trim(), Self::NAMES.join(", "))
     }
 
-    /// TransCut's options, when this is TransCut.
-    #[must_use]
-    pub fn transcut(&self) -> Option<&TransCutOptions> {
-        match self {
-            Self::TransCut(o) => Some(o),
-        }
-    }
-
     /// Checks the method's options.
     ///
     /// # Errors

@@ -49,17 +49,6 @@ pub enum SessionError {
     Cancelled(#[from] Cancelled),
 }
 
-impl SessionError {
-    /// The update's own error, when an update failed.
-    #[must_use]
-    pub fn edit_error(&self) -> Option<&EditError> {
-        match self {
-            Self::Edit { source, .. } => Some(source),
-            _ => None,
-        }
-    }
-}
-
 /// A method's live state, made from its bake at the object's first update.
 #[derive(Debug)]
 enum Live {
