@@ -100,7 +100,7 @@ pub(crate) fn mesh_failure(e: &MeshError) -> Failure {
         MeshError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
             Failure::new(TC_NOT_FOUND, e.to_string())
         }
-        MeshError::Io { .. } => Failure::new(TC_IO_ERROR, e.to_string()),
+        MeshError::Io { .. } | MeshError::Refused { .. } => Failure::new(TC_IO_ERROR, e.to_string()),
         _ => Failure::new(TC_INVALID_MESH, e.to_string()),
     }
 }

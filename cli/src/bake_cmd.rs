@@ -77,7 +77,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
         lights.push(transcut::light::Light::Environment(transcut::light::Environment::Constant([1.0; 3])));
     }
     if !(args.scale.is_finite() && args.scale > 0.0) {
-        bail!("--scale must be a positive number of millimetres per unit, got {}", args.scale);
+        bail!("--scale must be a positive number of millimetres per unit, got {}", transcut::input::fmt_num(args.scale));
     }
     let name = args.input.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned());
     let scene = Scene { objects: vec![Object::new(name, input.clone(), medium, args.scale)], lights };
@@ -101,7 +101,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
             "total_ms": baked.total_ms,
             "stats": object.stats,
         });
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        crate::output::print_json(&report)?;
     } else {
         let s = &object.stats;
         println!("{}: {} vertices baked by {}", args.input.display(), object.radiance.len(), s.method);

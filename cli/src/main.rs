@@ -4,6 +4,7 @@ mod bake_cmd;
 mod bench;
 mod mesh_cmd;
 mod method_args;
+mod output;
 mod progress;
 mod render_cmd;
 mod scene_file;
@@ -45,10 +46,28 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("transcut: error: {}", error_chain(&e));
+            eprintln!("transcut: error: {}", cap_message(&error_chain(&e)));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The longest error message printed, in bytes.
+const MAX_MESSAGE_BYTES: usize = 1024;
+
+/// `message` cut to at most [`MAX_MESSAGE_BYTES`] on a character boundary, ending in `…` and
+/// the full length when cut: every part of a message quotes its input short already, so this
+/// only bounds what several long parts add up to.
+fn cap_message(message: &str) -> String {
+    if message.len() <= MAX_MESSAGE_BYTES {
+        return message.to_owned();
+    }
+    let suffix = format!("… ({} bytes)", message.len());
+    let mut end = MAX_MESSAGE_BYTES - suffix.len();
+    while !message.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}{suffix}", &message[..end])
 }
 
 /// The error and its causes joined by ": ", skipping a cause whose text the previous message
@@ -65,4 +84,19 @@ fn error_chain(e: &anyhow::Error) -> String {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_are_capped_at_1_kib() {
+        assert_eq!(cap_message("short"), "short");
+        let long = "é".repeat(2000); // 4000 bytes
+        let capped = cap_message(&long);
+        assert!(capped.len() <= MAX_MESSAGE_BYTES, "{}", capped.len());
+        assert!(capped.ends_with("… (4000 bytes)"), "{capped}");
+        assert!(capped.len() > MAX_MESSAGE_BYTES - 20);
+    }
 }

@@ -1,7 +1,7 @@
 //! `transcut mesh`: surface → tetrahedra, with statistics.
 
 use std::fs::File;
-use std::io::BufWriter;
+use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -52,7 +52,9 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.output {
         let file = File::create(path).with_context(|| format!("creating {}", path.display()))?;
         let mut out = BufWriter::new(file);
-        mesh::write_vtk(&meshed.mesh, &mut out, !args.ascii).with_context(|| format!("writing {}", path.display()))?;
+        mesh::write_vtk(&meshed.mesh, &mut out, !args.ascii)
+            .and_then(|()| out.flush())
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     if args.json {
         let report = serde_json::json!({
@@ -62,7 +64,7 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
             "output": args.output.as_ref().map(|p| p.display().to_string()),
             "stats": meshed.stats,
         });
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        crate::output::print_json(&report)?;
     } else {
         print_human(&args.input, &input, &meshed.stats, args.output.as_ref());
     }

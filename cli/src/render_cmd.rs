@@ -184,8 +184,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let image = render(&render_scene, &render_options).with_context(|| format!("rendering {}", args.scene.display()))?;
     let render_ms = t_render.elapsed().as_secs_f64() * 1e3;
     let t_save = Instant::now();
-    if ext == "png" { image.save_png(&args.output) } else { image.save_exr(&args.output) }
-        .with_context(|| format!("writing {}", args.output.display()))?;
+    // The error names the file already.
+    if ext == "png" { image.save_png(&args.output) } else { image.save_exr(&args.output) }?;
     let save_ms = t_save.elapsed().as_secs_f64() * 1e3;
     let total_ms = start.elapsed().as_secs_f64() * 1e3;
 
@@ -204,7 +204,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "objects": scene.objects.iter().zip(&bake_stats).map(|(o, s)| serde_json::json!({"name": o.name, "stats": s})).collect::<Vec<_>>(),
             "edits": reports,
         });
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        crate::output::print_json(&report)?;
     } else {
         for (o, s) in scene.objects.iter().zip(&bake_stats) {
             println!("{}: {} ({} tets), solve iterations {:?}, {:.0} ms", o.name, s.method, s.tets, s.iterations, s.total_ms);

@@ -5,6 +5,7 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
+use transcut::input::quote;
 
 use anyhow::{anyhow, bail, Context};
 use transcut::light::{Environment, EquirectMap, Light};
@@ -20,14 +21,14 @@ fn parameters(text: &str) -> anyhow::Result<BTreeMap<String, Vec<String>>> {
             Some((k, v)) => {
                 let key = k.trim().to_ascii_lowercase();
                 if out.contains_key(&key) {
-                    bail!("parameter '{key}' given twice");
+                    bail!("parameter {key} given twice", key = quote(key));
                 }
                 out.insert(key.clone(), vec![v.trim().to_string()]);
                 current = Some(key);
             }
             None => match &current {
                 Some(k) => out.get_mut(k).map(|v| v.push(token.to_string())).unwrap_or_default(),
-                None => bail!("'{token}' is not of the form key=value"),
+                None => bail!("{token} is not of the form key=value", token = quote(token)),
             },
         }
     }
@@ -35,7 +36,7 @@ fn parameters(text: &str) -> anyhow::Result<BTreeMap<String, Vec<String>>> {
 }
 
 fn numbers(key: &str, values: &[String]) -> anyhow::Result<Vec<f64>> {
-    values.iter().map(|v| v.parse::<f64>().map_err(|_| anyhow!("{key}: '{v}' is not a number"))).collect()
+    values.iter().map(|v| v.parse::<f64>().map_err(|_| anyhow!("{key}: {v} is not a number", v = quote(v)))).collect()
 }
 
 fn vec3(p: &BTreeMap<String, Vec<String>>, key: &str) -> anyhow::Result<DVec3> {
@@ -68,14 +69,14 @@ fn scalar(p: &BTreeMap<String, Vec<String>>, key: &str, default: Option<f64>) ->
 
 fn reject_unknown(p: &BTreeMap<String, Vec<String>>, known: &[&str], kind: &str) -> anyhow::Result<()> {
     if let Some(k) = p.keys().find(|k| !known.contains(&k.as_str())) {
-        bail!("{kind} light has no parameter '{k}' (known: {})", known.join(", "));
+        bail!("{kind} light has no parameter {k} (known: {})", known.join(", "), k = quote(k));
     }
     Ok(())
 }
 
 /// Parses a `--light` spec (see the `bake --help` text for the forms).
 pub fn light(spec: &str) -> anyhow::Result<Light> {
-    let (kind, rest) = spec.split_once(':').ok_or_else(|| anyhow!("'{spec}': expected KIND:key=value,…"))?;
+    let (kind, rest) = spec.split_once(':').ok_or_else(|| anyhow!("{spec}: expected KIND:key=value,…", spec = quote(spec)))?;
     let p = parameters(rest).with_context(|| format!("in --light {spec}"))?;
     let kind = kind.trim().to_ascii_lowercase();
     let light = match kind.as_str() {
@@ -113,7 +114,7 @@ pub fn light(spec: &str) -> anyhow::Result<Light> {
                 None => Light::Environment(Environment::Constant(rgb(&p, "radiance")?)),
             }
         }
-        other => bail!("unknown light kind '{other}' (sun, point, spot, env)"),
+        other => bail!("unknown light kind {other} (sun, point, spot, env)", other = quote(other)),
     };
     light.validate(0).map_err(|e| anyhow!("--light {spec}: {e}"))?;
     Ok(light)
@@ -129,12 +130,12 @@ pub fn medium(spec: &str) -> anyhow::Result<Medium> {
     for part in spec.split(':') {
         for (k, v) in parameters(part)? {
             if p.insert(k.clone(), v).is_some() {
-                bail!("parameter '{k}' given twice");
+                bail!("parameter {k} given twice", k = quote(k));
             }
         }
     }
     if let Some(k) = p.keys().find(|k| !["sigma_a", "sigma_s", "eta", "g"].contains(&k.as_str())) {
-        bail!("a medium has no parameter '{k}' (sigma_a, sigma_s, eta, g)");
+        bail!("a medium has no parameter {k} (sigma_a, sigma_s, eta, g)", k = quote(k));
     }
     let medium =
         Medium::new(rgb(&p, "sigma_a")?, rgb(&p, "sigma_s")?, scalar(&p, "eta", Some(1.3))?, scalar(&p, "g", Some(0.0))?)

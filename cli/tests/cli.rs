@@ -178,3 +178,60 @@ fn methods_are_chosen_by_name_and_listed_by_help() {
     assert!(bake(&["--method", "TransCut"]).iter().all(|&r| r <= 1e-10));
     assert!(bake(&["--method", "transcut", "--solver", "mg-pcg"]).iter().all(|&r| r <= 1e-10));
 }
+
+/// Runs `transcut` with `args` and returns (exit code, stderr); a signal (an abort) fails here.
+fn run_status(args: &[&std::ffi::OsStr]) -> (i32, String) {
+    let out = transcut().args(args).output().unwrap();
+    let code = out.status.code().unwrap_or_else(|| panic!("killed by a signal: {:?}", out.status));
+    (code, String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn unbounded_inputs_are_refused_with_short_messages() {
+    let dir = std::env::temp_dir().join(format!("transcut-cli-bounded-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A file of one 1 GiB line (sparse: NUL bytes) and one whose first line is wrong.
+    let line = dir.join("one_line.obj");
+    let f = std::fs::File::create(&line).unwrap();
+    f.set_len(1 << 30).unwrap();
+    let bad = dir.join("bad_first_line.obj");
+    let mut text = b"1 2 3 ".repeat(1 << 17);
+    text.push(b'\n');
+    std::fs::write(&bad, &text).unwrap();
+    let cases: [(&std::path::Path, &str); 4] = [
+        ("/dev/zero".as_ref(), "it is a character device, not a regular file"),
+        (dir.as_ref(), "it is a directory, not a regular file"),
+        (&line, "line 1 is longer than 1048576 bytes"),
+        (&bad, ":1: unexpected '1'"),
+    ];
+    for (input, expect) in cases {
+        let (code, stderr) = run_status(&["mesh".as_ref(), input.as_os_str()]);
+        assert_ne!(code, 0, "{}", input.display());
+        assert!(stderr.contains(expect), "{}: {stderr}", input.display());
+        assert!(stderr.len() <= 1024 + 1, "{}: {} bytes", input.display(), stderr.len());
+    }
+    // The 768 KiB first line is quoted short.
+    let (_, stderr) = run_status(&["mesh".as_ref(), bad.as_os_str()]);
+    assert!(stderr.len() < 300, "{stderr}");
+    // A scene file that is a device.
+    let (code, stderr) = run_status(&["render".as_ref(), "/dev/zero".as_ref(), "-o".as_ref(), dir.join("x.png").as_os_str()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("reading scene file /dev/zero: it is a character device"), "{stderr}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn mesh_to_a_full_device_fails() {
+    let (code, stderr) = run_status(&[
+        "mesh".as_ref(),
+        shared_mesh("spot.obj").as_os_str(),
+        "--tets".as_ref(),
+        "2000".as_ref(),
+        "-o".as_ref(),
+        "/dev/full".as_ref(),
+    ]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("writing /dev/full") && stderr.contains("No space left on device"), "{stderr}");
+}

@@ -142,6 +142,26 @@ fn scene_file_errors_name_the_file_and_problem() {
     expect_error("no_camera.toml", &object, &["camera"]);
 }
 
+/// `render` to a full device fails, naming the file once; so does `samples = 0`.
+#[cfg(target_os = "linux")]
+#[test]
+fn write_errors_and_zero_samples_fail() {
+    let block = examples().join("box.obj");
+    let object = format!("[[object]]\nmesh = \"{}\"\nmedium = \"marble\"\n", block.display());
+    let scene = write_scene("full_device.toml", &format!("{HEAD}{object}"));
+    for ext in ["png", "exr"] {
+        // A symlink named .png / .exr to /dev/full: the extension chooses the format.
+        let link = out_dir().join(format!("full.{ext}"));
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink("/dev/full", &link).unwrap();
+        let (ok, stderr) = transcut_render(&scene, &link, &[]);
+        assert!(!ok, "{ext}: writing to /dev/full succeeded");
+        assert!(stderr.contains("No space left on device"), "{ext}: {stderr}");
+        assert_eq!(stderr.matches(&format!("full.{ext}")).count(), 1, "{ext}: {stderr}");
+    }
+    expect_error("zero_samples.toml", &format!("{HEAD}[render]\nsamples = 0\n{object}"), &["samples = 0", "[render]"]);
+}
+
 /// An example with its `[[edit]]` tables dropped and its mesh path made absolute, written to the
 /// output folder: the same scene, unedited.
 fn unedited(name: &str) -> PathBuf {

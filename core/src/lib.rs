@@ -46,6 +46,7 @@ pub mod bake;
 pub mod diffusion;
 pub mod edit;
 pub mod gpu;
+pub mod input;
 pub mod light;
 pub mod mesh;
 pub mod mesher;

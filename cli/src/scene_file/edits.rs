@@ -38,6 +38,7 @@
 
 use anyhow::{anyhow, bail, Context};
 use serde::Deserialize;
+use transcut::input::{fmt_num, quote};
 use transcut::light::{Environment, Light};
 use transcut::optics::Medium;
 use transcut::DVec3;
@@ -149,11 +150,11 @@ fn step(
         "cut_stroke" => &["stroke", "keep"],
         "fracture" | "recombine" => &[],
         "move_piece" => &["piece", "translate", "axis", "angle_deg", "pivot"],
-        other => bail!("unknown edit kind '{other}' ({})", KINDS.join(", ")),
+        other => bail!("unknown edit kind {other} ({})", KINDS.join(", "), other = quote(other)),
     };
     if let Some(k) = t.keys().find(|k| !(k.as_str() == "kind" || k.as_str() == "object" || allowed.contains(&k.as_str()))) {
         let keys = if allowed.is_empty() { "only object".to_string() } else { format!("object, {}", allowed.join(", ")) };
-        bail!("unknown key '{k}' for this kind of edit (its keys: {keys})");
+        bail!("unknown key {k} for this kind of edit (its keys: {keys})", k = quote(k));
     }
     let object = if kind == "relight" {
         if t.contains_key("object") {
@@ -218,7 +219,7 @@ fn step(
                 Some(_) => number(t, "strength")?,
             };
             if !(strength > 0.0 && strength <= 1.0) {
-                bail!("'strength' must lie in (0, 1], got {strength}");
+                bail!("'strength' must lie in (0, 1], got {}", fmt_num(strength));
             }
             EditKind::Paint { points, radius, medium, strength }
         }
@@ -279,9 +280,9 @@ fn object_index(t: &toml::Table, names: &[String]) -> anyhow::Result<usize> {
             match (found.next(), found.next()) {
                 (Some(i), None) => Ok(i),
                 (Some(_), Some(_)) => {
-                    bail!("'object': several objects are named '{name}' (give them distinct names)")
+                    bail!("'object': several objects are named {name} (give them distinct names)", name = quote(name))
                 }
-                (None, _) => bail!("'object': no object named '{name}' (the objects: {})", names.join(", ")),
+                (None, _) => bail!("'object': no object named {name} (the objects: {})", names.join(", "), name = quote(name)),
             }
         }
     }
@@ -289,13 +290,13 @@ fn object_index(t: &toml::Table, names: &[String]) -> anyhow::Result<usize> {
 
 fn number(t: &toml::Table, key: &str) -> anyhow::Result<f64> {
     let v = match t.get(key) {
-        None => bail!("missing key '{key}'"),
+        None => bail!("missing key {key}", key = quote(key)),
         Some(toml::Value::Float(v)) => *v,
         Some(toml::Value::Integer(v)) => *v as f64,
-        Some(other) => bail!("'{key}' must be a number, got {}", other.type_str()),
+        Some(other) => bail!("{key} must be a number, got {}", other.type_str(), key = quote(key)),
     };
     if !v.is_finite() {
-        bail!("'{key}' must be finite, got {v}");
+        bail!("{key} must be finite, got {}", fmt_num(v), key = quote(key));
     }
     Ok(v)
 }
@@ -303,25 +304,26 @@ fn number(t: &toml::Table, key: &str) -> anyhow::Result<f64> {
 fn positive(t: &toml::Table, key: &str) -> anyhow::Result<f64> {
     let v = number(t, key)?;
     if v <= 0.0 {
-        bail!("'{key}' must be positive, got {v}");
+        bail!("{key} must be positive, got {}", fmt_num(v), key = quote(key));
     }
     Ok(v)
 }
 
 fn vec3(t: &toml::Table, key: &str) -> anyhow::Result<DVec3> {
-    let v = t.get(key).ok_or_else(|| anyhow!("missing key '{key}'"))?;
-    let a = <[f64; 3]>::deserialize(v.clone()).map_err(|_| anyhow!("'{key}' must be [x, y, z]"))?;
+    let v = t.get(key).ok_or_else(|| anyhow!("missing key {key}", key = quote(key)))?;
+    let a = <[f64; 3]>::deserialize(v.clone()).map_err(|_| anyhow!("{key} must be [x, y, z]", key = quote(key)))?;
     if !a.iter().all(|x| x.is_finite()) {
-        bail!("'{key}' must be finite");
+        bail!("{key} must be finite", key = quote(key));
     }
     Ok(DVec3::from(a))
 }
 
 fn vec3_list(t: &toml::Table, key: &str) -> anyhow::Result<Vec<DVec3>> {
-    let v = t.get(key).ok_or_else(|| anyhow!("missing key '{key}'"))?;
-    let list = <Vec<[f64; 3]>>::deserialize(v.clone()).map_err(|_| anyhow!("'{key}' must be a list of [x, y, z]"))?;
+    let v = t.get(key).ok_or_else(|| anyhow!("missing key {key}", key = quote(key)))?;
+    let list =
+        <Vec<[f64; 3]>>::deserialize(v.clone()).map_err(|_| anyhow!("{key} must be a list of [x, y, z]", key = quote(key)))?;
     if let Some(k) = list.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
-        bail!("'{key}' point {} is not finite", k + 1);
+        bail!("{key} point {} is not finite", k + 1, key = quote(key));
     }
     Ok(list.into_iter().map(DVec3::from).collect())
 }
@@ -336,7 +338,7 @@ fn keep(t: &toml::Table, options: &[(&str, Keep)]) -> anyhow::Result<Keep> {
                 .iter()
                 .find(|o| o.0.eq_ignore_ascii_case(s))
                 .map(|o| o.1)
-                .ok_or_else(|| anyhow!("'keep' must be one of {}, got '{s}'", names.join(", ")))
+                .ok_or_else(|| anyhow!("'keep' must be one of {}, got {s}", names.join(", "), s = quote(s)))
         }
     }
 }
@@ -346,7 +348,7 @@ fn region(v: &toml::Value) -> anyhow::Result<RegionSpec> {
         return if s.eq_ignore_ascii_case("all") {
             Ok(RegionSpec::All)
         } else {
-            bail!("expected \"all\" or a table with kind = \"sphere\" or \"depth\", got '{s}'")
+            bail!("expected \"all\" or a table with kind = \"sphere\" or \"depth\", got {s}", s = quote(s))
         };
     }
     let t = v.as_table().ok_or_else(|| anyhow!("expected \"all\" or a table, got {}", v.type_str()))?;
@@ -357,14 +359,14 @@ fn region(v: &toml::Value) -> anyhow::Result<RegionSpec> {
         "depth" => {
             let (min_mm, max_mm) = (number(t, "min_mm")?, number(t, "max_mm")?);
             if !(min_mm >= 0.0 && max_mm > min_mm) {
-                bail!("need 0 ≤ min_mm < max_mm, got min_mm = {min_mm}, max_mm = {max_mm}");
+                bail!("need 0 ≤ min_mm < max_mm, got min_mm = {}, max_mm = {}", fmt_num(min_mm), fmt_num(max_mm));
             }
             (&["min_mm", "max_mm"], RegionSpec::Depth { min_mm, max_mm })
         }
-        other => bail!("unknown region kind '{other}' (all, sphere, depth)"),
+        other => bail!("unknown region kind {other} (all, sphere, depth)", other = quote(other)),
     };
     if let Some(k) = t.keys().find(|k| !(k.as_str() == "kind" || allowed.contains(&k.as_str()))) {
-        bail!("unknown key '{k}' in a {kind} region");
+        bail!("unknown key {k} in a {kind} region", k = quote(k));
     }
     Ok(region)
 }
@@ -373,18 +375,19 @@ fn region(v: &toml::Value) -> anyhow::Result<RegionSpec> {
 fn coefficients(v: &toml::Value, default: f64) -> anyhow::Result<([f64; 3], [f64; 3])> {
     let t = v.as_table().ok_or_else(|| anyhow!("expected a table {{ sigma_a = .., sigma_s = .. }}"))?;
     if let Some(k) = t.keys().find(|k| !["sigma_a", "sigma_s"].contains(&k.as_str())) {
-        bail!("unknown key '{k}' (its keys: sigma_a, sigma_s)");
+        bail!("unknown key {k} (its keys: sigma_a, sigma_s)", k = quote(k));
     }
     let rgb = |key: &str| -> anyhow::Result<[f64; 3]> {
         match t.get(key) {
             None => Ok([default; 3]),
             Some(v) => {
-                let c =
-                    Rgb::deserialize(v.clone()).map(Rgb::get).map_err(|_| anyhow!("'{key}' must be a number or [r, g, b]"))?;
+                let c = Rgb::deserialize(v.clone())
+                    .map(Rgb::get)
+                    .map_err(|_| anyhow!("{key} must be a number or [r, g, b]", key = quote(key)))?;
                 if c.iter().all(|x| x.is_finite()) {
                     Ok(c)
                 } else {
-                    bail!("'{key}' must be finite")
+                    bail!("{key} must be finite", key = quote(key))
                 }
             }
         }

@@ -2,6 +2,7 @@
 //! (layers, veins, voxel files).
 
 use std::path::Path;
+use transcut::input::quote;
 
 use anyhow::{anyhow, bail, Context};
 use serde::Deserialize;
@@ -19,13 +20,13 @@ pub fn object_medium(value: &toml::Value, mm_per_unit: f64, base_dir: &Path) -> 
     };
     let check_keys = |what: &str, known: &[&str]| -> anyhow::Result<()> {
         match table.keys().find(|k| !known.contains(&k.as_str())) {
-            Some(k) => bail!("unknown key '{k}' in the {what} medium (its keys: {})", known.join(", ")),
+            Some(k) => bail!("unknown key {k} in the {what} medium (its keys: {})", known.join(", "), k = quote(k)),
             None => Ok(()),
         }
     };
     let number = |key: &str, default: f64| table_number(table, key, Some(default));
     let inner = |key: &str| -> anyhow::Result<Medium> {
-        let v = table.get(key).ok_or_else(|| anyhow!("missing key '{key}'"))?;
+        let v = table.get(key).ok_or_else(|| anyhow!("missing key {key}", key = quote(key)))?;
         medium(v, mm_per_unit).with_context(|| format!("'{key}'"))
     };
     if let Some(layers) = table.get("layers") {
@@ -35,7 +36,7 @@ pub fn object_medium(value: &toml::Value, mm_per_unit: f64, base_dir: &Path) -> 
         for (i, layer) in list.iter().enumerate() {
             let layer = layer.as_table().ok_or_else(|| anyhow!("layer {}: expected a table", i + 1))?;
             if let Some(k) = layer.keys().find(|k| !["depth_mm", "medium"].contains(&k.as_str())) {
-                bail!("layer {}: unknown key '{k}' (its keys: depth_mm, medium)", i + 1);
+                bail!("layer {}: unknown key {k} (its keys: depth_mm, medium)", i + 1, k = quote(k));
             }
             let depth = match layer.get("depth_mm") {
                 None if i + 1 == list.len() => f64::INFINITY,
@@ -60,7 +61,10 @@ pub fn object_medium(value: &toml::Value, mm_per_unit: f64, base_dir: &Path) -> 
         let integer = |key: &str, default: i64| -> anyhow::Result<i64> {
             match table.get(key) {
                 None => Ok(default),
-                Some(v) => v.as_integer().filter(|x| *x >= 0).ok_or_else(|| anyhow!("'{key}' must be a non-negative integer")),
+                Some(v) => v
+                    .as_integer()
+                    .filter(|x| *x >= 0)
+                    .ok_or_else(|| anyhow!("{key} must be a non-negative integer", key = quote(key))),
             }
         };
         let params = VeinParams {
@@ -87,10 +91,10 @@ pub fn object_medium(value: &toml::Value, mm_per_unit: f64, base_dir: &Path) -> 
 /// The number under `key` (an integer is read as a float), or `default` when the key is absent.
 fn table_number(table: &toml::Table, key: &str, default: Option<f64>) -> anyhow::Result<f64> {
     match table.get(key) {
-        None => default.ok_or_else(|| anyhow!("missing key '{key}'")),
+        None => default.ok_or_else(|| anyhow!("missing key {key}", key = quote(key))),
         Some(toml::Value::Float(v)) => Ok(*v),
         Some(toml::Value::Integer(v)) => Ok(*v as f64),
-        Some(other) => bail!("'{key}' must be a number, got {}", other.type_str()),
+        Some(other) => bail!("{key} must be a number, got {}", other.type_str(), key = quote(key)),
     }
 }
 
@@ -104,8 +108,10 @@ pub fn medium(value: &toml::Value, mm_per_unit: f64) -> anyhow::Result<Medium> {
     let number = |key: &str, default: Option<f64>| table_number(table, key, default);
     let rgb = |key: &str| -> anyhow::Result<[f64; 3]> {
         match table.get(key) {
-            None => bail!("missing key '{key}'"),
-            Some(v) => Rgb::deserialize(v.clone()).map(Rgb::get).map_err(|_| anyhow!("'{key}' must be a number or [r, g, b]")),
+            None => bail!("missing key {key}", key = quote(key)),
+            Some(v) => Rgb::deserialize(v.clone())
+                .map(Rgb::get)
+                .map_err(|_| anyhow!("{key} must be a number or [r, g, b]", key = quote(key))),
         }
     };
     let artist = table.contains_key("albedo") || table.contains_key("radius");

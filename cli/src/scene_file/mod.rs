@@ -70,6 +70,8 @@ pub mod media;
 pub mod schema;
 
 use std::path::Path;
+use transcut::input::fmt_num;
+use transcut::input::{BoundedFile, Limits};
 
 use anyhow::{anyhow, bail, Context};
 use glam::DMat4;
@@ -90,11 +92,27 @@ pub struct LoadedScene {
     pub edits: Vec<EditStep>,
 }
 
+/// The largest scene file read, in bytes (16 MiB).
+pub const MAX_SCENE_FILE_BYTES: u64 = 16 << 20;
+
+/// The longest line of a scene file, in bytes (64 KiB).
+pub const MAX_SCENE_LINE_BYTES: usize = 64 << 10;
+
 /// Reads, parses and resolves a scene file. Every error names `path`.
+///
+/// The file is read through [`transcut::input`]: only a regular file of at most
+/// [`MAX_SCENE_FILE_BYTES`] with lines of at most [`MAX_SCENE_LINE_BYTES`].
 pub fn load(path: &Path) -> anyhow::Result<LoadedScene> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading scene file {}", path.display()))?;
+    let text = read_text(path).with_context(|| format!("reading scene file {}", path.display()))?;
     let file = SceneFile::parse(&text).with_context(|| format!("scene file {}", path.display()))?;
     resolve(file, path).with_context(|| format!("scene file {}", path.display()))
+}
+
+/// The scene file's text, read within the scene file limits.
+fn read_text(path: &Path) -> anyhow::Result<String> {
+    let limits = Limits { max_bytes: MAX_SCENE_FILE_BYTES, max_line: Some(MAX_SCENE_LINE_BYTES) };
+    let bytes = BoundedFile::open(path, limits)?.read_all()?;
+    String::from_utf8(bytes).map_err(|e| anyhow!("it is not UTF-8 text (byte {} is not)", e.utf8_error().valid_up_to()))
 }
 
 fn resolve(file: SceneFile, path: &Path) -> anyhow::Result<LoadedScene> {
@@ -128,7 +146,7 @@ fn object(spec: &ObjectSpec, base: &Path) -> anyhow::Result<Object> {
     }
     let mesh = transcut::mesh::load(&mesh_path).with_context(|| format!("loading {}", mesh_path.display()))?;
     if !(spec.mm_per_unit.is_finite() && spec.mm_per_unit > 0.0) {
-        bail!("mm_per_unit must be a positive number, got {}", spec.mm_per_unit);
+        bail!("mm_per_unit must be a positive number, got {}", fmt_num(spec.mm_per_unit));
     }
     let medium = object_medium(&spec.medium, spec.mm_per_unit, base).context("medium")?;
     let transform = transform(spec, &mesh)?;
@@ -148,19 +166,19 @@ fn transform(spec: &ObjectSpec, mesh: &TriMesh) -> anyhow::Result<DMat4> {
             bail!("give fit_size_mm or scale, not both");
         }
         if !(size.is_finite() && size > 0.0) {
-            bail!("fit_size_mm must be a positive number, got {size}");
+            bail!("fit_size_mm must be a positive number, got {}", fmt_num(size));
         }
         let (lo, hi) = mesh.bounds();
         let diagonal = (hi - lo).length();
         if !(diagonal > 0.0) {
-            bail!("the mesh is empty or flat: cannot fit it to {size} mm");
+            bail!("the mesh is empty or flat: cannot fit it to {} mm", fmt_num(size));
         }
         let s = size / spec.mm_per_unit / diagonal;
         pre = DMat4::from_scale(DVec3::splat(s)) * DMat4::from_translation(-0.5 * (lo + hi));
     }
     let scale = spec.scale.unwrap_or(1.0);
     if !(scale.is_finite() && scale > 0.0) {
-        bail!("scale must be a positive number, got {scale}");
+        bail!("scale must be a positive number, got {}", fmt_num(scale));
     }
     let [rx, ry, rz] = spec.rotate_deg.map(f64::to_radians);
     let rotation = DMat4::from_rotation_z(rz) * DMat4::from_rotation_y(ry) * DMat4::from_rotation_x(rx);
@@ -169,4 +187,62 @@ fn transform(spec: &ObjectSpec, mesh: &TriMesh) -> anyhow::Result<DMat4> {
         bail!("the transform is not finite");
     }
     Ok(m)
+}
+
+/// The body of the `scene_toml` fuzz target, which the tests run on the fuzz corpus.
+#[cfg(test)]
+#[allow(dead_code)]
+#[path = "../../../fuzz/src/scene_target.rs"]
+mod fuzz_scene;
+
+/// The stable-Rust fuzzer of the fuzz corpus.
+#[cfg(test)]
+#[allow(dead_code)]
+#[path = "../../../fuzz/src/mutate.rs"]
+mod mutate;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The `scene_toml` fuzz corpus through the fuzz target's body: no panic, every message at
+    /// most 1 KiB, `ok_*` seeds parsed (with at least one object), `bad_*` seeds refused.
+    #[test]
+    fn every_scene_corpus_file_gets_its_answer() {
+        let (mut ok, mut bad) = (0, 0);
+        for (path, bytes) in mutate::corpus("scene_toml") {
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            let answer = fuzz_scene::scene_toml(&bytes);
+            if name.starts_with("ok_") {
+                assert!(matches!(answer, Ok(n) if n >= 1), "{name}: {answer:?}");
+                ok += 1;
+            } else {
+                assert!(name.starts_with("bad_"), "{name}: name it ok_* or bad_*");
+                let message = answer.expect_err(&name);
+                assert!(message.len() <= 1024, "{name}: {} bytes", message.len());
+                bad += 1;
+            }
+        }
+        assert!(ok >= 2 && bad >= 3, "{ok} ok and {bad} bad seeds");
+    }
+
+    /// Mutates the corpus at random for `TRANSCUT_FUZZ_SECONDS` (default 60).
+    #[test]
+    #[ignore = "a fuzzing run: TRANSCUT_FUZZ_SECONDS (default 60)"]
+    fn fuzz_scene_mutations() {
+        let out = std::env::temp_dir().join("transcut-fuzz-findings");
+        let runs = mutate::run("scene_toml", mutate::seconds(), &out, fuzz_scene::scene_toml);
+        println!("scene_toml: {runs} inputs, no finding");
+    }
+
+    /// A scene path that is a device, a FIFO or a directory is refused before it is opened.
+    #[cfg(unix)]
+    #[test]
+    fn scene_files_that_are_not_regular_files_are_refused() {
+        for p in ["/dev/zero", "/"] {
+            let e = format!("{:#}", load(Path::new(p)).err().unwrap());
+            assert!(e.starts_with(&format!("reading scene file {p}: it is a ")), "{e}");
+            assert!(e.len() < 200, "{e}");
+        }
+    }
 }

@@ -1,6 +1,7 @@
 //! The serde types of the scene file: one struct per table, unknown keys refused.
 
 use std::path::{Path, PathBuf};
+use transcut::input::{clip, quote};
 
 use anyhow::{anyhow, bail, Context};
 use serde::Deserialize;
@@ -136,19 +137,44 @@ impl SceneFile {
     /// Parses TOML text (no file access).
     ///
     /// # Errors
-    /// The TOML error, which names the key and shows the line.
+    /// The TOML error with the table, line and column it is at (the offending text quoted
+    /// short, see [`transcut::input::quote`]); a `[render]` table with `samples = 0`.
     pub fn parse(text: &str) -> anyhow::Result<SceneFile> {
-        toml::from_str(text).map_err(|e| {
-            // Name the table the offending key is in: the last header before the error.
-            let table = e.span().and_then(|span| {
-                text[..span.start.min(text.len())].lines().rev().map(str::trim).find(|l| l.starts_with('[')).map(str::to_string)
-            });
-            match table {
-                Some(t) => anyhow!("in table {t}: {}", e.to_string().trim_end()),
-                None => anyhow!("at the top level: {}", e.to_string().trim_end()),
-            }
-        })
+        let file: SceneFile = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
+        if file.render.samples == 0 {
+            bail!("in table [render]: samples = 0: the supersampling grid is n × n with n ≥ 1 (1 = one sample per pixel)");
+        }
+        Ok(file)
     }
+}
+
+/// A TOML error as one short line: the table the offending key is in (the last header before
+/// the error), the line and column, and the parser's message without its excerpt of the file.
+fn toml_error(text: &str, e: &toml::de::Error) -> anyhow::Error {
+    let at = e.span().map(|span| span.start.min(text.len()));
+    let before = at.map_or("", |i| &text[..floor_char_boundary(text, i)]);
+    let table = at.and_then(|_| before.lines().rev().map(str::trim).find(|l| l.starts_with('[')));
+    let place = match at {
+        Some(_) => {
+            let line = before.matches('\n').count() + 1;
+            let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+            format!("line {line}, column {column}: ")
+        }
+        None => String::new(),
+    };
+    let message = clip(e.message().trim_end());
+    match table {
+        Some(t) => anyhow!("in table {}: {place}{message}", clip(t)),
+        None => anyhow!("at the top level: {place}{message}"),
+    }
+}
+
+/// The largest char boundary of `text` at or before `i`.
+fn floor_char_boundary(text: &str, mut i: usize) -> usize {
+    while !text.is_char_boundary(i) {
+        i -= 1;
+    }
+    i
 }
 
 impl LightSpec {
@@ -161,7 +187,7 @@ impl LightSpec {
             "env" | "environment" => &["radiance", "file", "strength"],
             "rect" => &["center", "half_u", "half_v", "radiance", "two_sided"],
             "disc" => &["center", "normal", "radius", "radiance", "two_sided"],
-            other => bail!("unknown light kind '{other}' (sun, point, spot, env, rect, disc)"),
+            other => bail!("unknown light kind {other} (sun, point, spot, env, rect, disc)", other = quote(other)),
         };
         for (key, present) in [
             ("dir", self.dir.is_some()),
@@ -181,11 +207,11 @@ impl LightSpec {
             ("two_sided", self.two_sided.is_some()),
         ] {
             if present && !allowed.contains(&key) {
-                bail!("key '{key}' does not apply to this kind of light (its keys: {})", allowed.join(", "));
+                bail!("key {key} does not apply to this kind of light (its keys: {})", allowed.join(", "), key = quote(key));
             }
         }
         fn need<T: Copy>(v: Option<T>, key: &str) -> anyhow::Result<T> {
-            v.ok_or_else(|| anyhow!("missing key '{key}'"))
+            v.ok_or_else(|| anyhow!("missing key {key}", key = quote(key)))
         }
         let v3 = |v: Option<[f64; 3]>, key: &str| need(v, key).map(DVec3::from);
         let c3 = |v: Option<Rgb>, key: &str| need(v, key).map(Rgb::get);
@@ -261,5 +287,25 @@ mod tests {
         assert!(err.contains("exposure") && err.contains("render"), "{err}");
         let err = SceneFile::parse(&MINIMAL.replace("fov_deg", "fov")).unwrap_err().to_string();
         assert!(err.contains("fov"), "{err}");
+    }
+
+    #[test]
+    fn zero_samples_are_refused() {
+        let text = format!("{MINIMAL}[render]\nsamples = 0\n[[object]]\nmesh = \"a.obj\"\nmedium = \"marble\"\n");
+        let err = SceneFile::parse(&text).unwrap_err().to_string();
+        assert!(err.contains("samples = 0") && err.contains("[render]"), "{err}");
+        assert_eq!(SceneFile::parse(&text.replace("samples = 0", "samples = 1")).unwrap().render.samples, 1);
+    }
+
+    #[test]
+    fn errors_on_long_lines_are_short_and_placed() {
+        // A 100 000-byte bad value on line 8: the message names the line, not the whole text.
+        let text = format!("{MINIMAL}[render]\nexposure_ev = {}\n", "x".repeat(100_000));
+        let err = SceneFile::parse(&text).unwrap_err().to_string();
+        assert!(err.len() < 300, "{} bytes: {}", err.len(), &err[..300]);
+        assert!(err.starts_with("in table [render]: line 8, column 15: "), "{err}");
+        let key = "k".repeat(5000);
+        let err = SceneFile::parse(&format!("{MINIMAL}{key} = 1\n")).unwrap_err().to_string();
+        assert!(err.len() < 400, "{} bytes", err.len());
     }
 }

@@ -1,5 +1,7 @@
 //! Errors of the diffusion solver.
 
+use crate::input::fmt_num;
+
 use crate::optics::OpticsError;
 use crate::sparse::SparseError;
 
@@ -18,7 +20,7 @@ fn channel_name(channel: usize) -> &'static str {
 #[non_exhaustive]
 pub enum DiffusionError {
     /// The length scale `mm_per_unit` is not finite and > 0.
-    #[error("mm_per_unit = {value}: must be finite and > 0 (millimetres per scene unit)")]
+    #[error("mm_per_unit = {value_g}: must be finite and > 0 (millimetres per scene unit)", value_g = fmt_num(*.value))]
     InvalidScale {
         /// The value given.
         value: f64,
@@ -46,8 +48,7 @@ pub enum DiffusionError {
     /// the boundary condition and the radiance query use a single Fdr, A and Ft).
     #[error(
         "the surface media disagree on the refractive index: material {first} has eta = \
-         {first_eta}, material {other} has eta = {other_eta} (one eta per object)"
-    )]
+         {first_eta_g}, material {other} has eta = {other_eta_g} (one eta per object)", first_eta_g = fmt_num(*.first_eta), other_eta_g = fmt_num(*.other_eta))]
     MixedRefractiveIndex {
         /// The first material found on the boundary.
         first: u32,
@@ -60,7 +61,7 @@ pub enum DiffusionError {
     },
     /// A tet whose geometry gives a non-finite coefficient (a numerically degenerate tet whose
     /// dihedral angle is 0 or π), after scaling to millimetres.
-    #[error("tet {tet} is numerically degenerate: its {what} is {value} (in mm units)")]
+    #[error("tet {tet} is numerically degenerate: its {what} is {value_g} (in mm units)", value_g = fmt_num(*.value))]
     DegenerateTet {
         /// The tet.
         tet: usize,
@@ -82,8 +83,7 @@ pub enum DiffusionError {
     /// A source value is negative, NaN or infinite.
     #[error(
         "source q at boundary vertex {index} (mesh vertex {vertex}), channel {channel} ({}) \
-         = {value}: must be finite and >= 0", channel_name(*.channel)
-    )]
+         = {value_g}: must be finite and >= 0", channel_name(*.channel), value_g = fmt_num(*.value))]
     InvalidSource {
         /// Index into the boundary vertex list.
         index: usize,
@@ -95,7 +95,7 @@ pub enum DiffusionError {
         value: f64,
     },
     /// A fluence value given to a query is NaN or infinite.
-    #[error("{what} at vertex {vertex}, channel {channel} ({}) = {value}: must be finite", channel_name(*.channel))]
+    #[error("{what} at vertex {vertex}, channel {channel} ({}) = {value_g}: must be finite", channel_name(*.channel), value_g = fmt_num(*.value))]
     NonFinite {
         /// The array, e.g. `"initial guess"`.
         what: &'static str,
@@ -109,8 +109,7 @@ pub enum DiffusionError {
     /// The iterative solve stopped before meeting its tolerance.
     #[error(
         "the diffusion solve did not converge: relative residuals {residual:?} after \
-         {iterations:?} iterations (tolerance {tolerance})"
-    )]
+         {iterations:?} iterations (tolerance {tolerance_g})", tolerance_g = fmt_num(*.tolerance))]
     NotConverged {
         /// Iterations per channel.
         iterations: [usize; 3],
@@ -123,9 +122,8 @@ pub enum DiffusionError {
     /// refractive index at the surface, which changes the boundary terms of every boundary row
     /// and the right-hand side: use [`super::DiffusionSystem::set_media`].
     #[error(
-        "the media change the refractive index at the surface from {old} to {new}: a row-local \
-         refill cannot change the boundary terms (refill the whole matrix)"
-    )]
+        "the media change the refractive index at the surface from {old_g} to {new_g}: a row-local \
+         refill cannot change the boundary terms (refill the whole matrix)", old_g = fmt_num(*.old), new_g = fmt_num(*.new))]
     RefractiveIndexChanged {
         /// The η the system holds.
         old: f64,

@@ -25,6 +25,31 @@ use rayon::prelude::*;
 
 use super::error::LightError;
 use super::sh::{AzimuthFactors, PolarFactors};
+use crate::input::{quote, BoundedFile, Limits};
+
+/// The largest environment map file [`EquirectMap::load`] reads, in bytes (1 GiB).
+pub const MAX_ENVIRONMENT_FILE_BYTES: u64 = 1 << 30;
+
+/// Why a file whose first bytes are `head` is not an environment map.
+fn not_an_image(head: &[u8]) -> String {
+    let start = String::from_utf8_lossy(&head[..head.len().min(16)]).into_owned();
+    format!("not a Radiance HDR or OpenEXR file: it starts with {}", quote(&start))
+}
+
+/// The first bytes of an OpenEXR file.
+const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
+/// The image format a file's first bytes announce: `#?` (`#?RADIANCE`, `#?RGBE`) for Radiance
+/// HDR, the OpenEXR magic number for EXR; `None` for anything else.
+fn image_format(head: &[u8]) -> Option<image::ImageFormat> {
+    if head.starts_with(b"#?") {
+        Some(image::ImageFormat::Hdr)
+    } else if head.starts_with(&EXR_MAGIC) {
+        Some(image::ImageFormat::OpenExr)
+    } else {
+        None
+    }
+}
 
 /// Rec. 709 / sRGB luminance weights for linear RGB.
 pub const LUMINANCE: [f64; 3] = [0.2126, 0.7152, 0.0722];
@@ -177,22 +202,48 @@ impl EquirectMap {
         Self::from_texels(width, height, texels, intensity)
     }
 
-    /// Loads a Radiance `.hdr` or OpenEXR file (format from the extension, else from the
-    /// content) as linear RGB; an alpha channel is dropped.
+    /// Loads a Radiance `.hdr` or OpenEXR file (the format from its magic number) as linear
+    /// RGB; an alpha channel is dropped.
     ///
+    /// The file is read through [`crate::input`]: only a regular file of at most
+    /// [`MAX_ENVIRONMENT_FILE_BYTES`], and its magic number is checked before the rest is read.
     /// Negative values, which some EXR tools write as filter ringing, are clamped to 0;
     /// NaN or infinite texels are an error.
     ///
     /// # Errors
-    /// [`LightError::ImageLoad`] when the file cannot be opened or decoded,
+    /// [`LightError::ImageLoad`] when the file is refused, cannot be read or decoded,
     /// [`LightError::ImageTexel`] for a non-finite texel, [`LightError::ImageIntensity`].
     pub fn load(path: impl AsRef<Path>, intensity: f64) -> Result<Self, LightError> {
         let path = path.as_ref();
-        let load_err = |reason: String| LightError::ImageLoad { path: path.display().to_string(), reason };
-        let reader = image::ImageReader::open(path)
-            .map_err(|e| load_err(e.to_string()))?
-            .with_guessed_format()
-            .map_err(|e| load_err(e.to_string()))?;
+        let name = path.display().to_string();
+        let load_err = |reason: String| LightError::ImageLoad { path: name.clone(), reason };
+        let limits = Limits { max_bytes: MAX_ENVIRONMENT_FILE_BYTES, max_line: None };
+        let mut file = BoundedFile::open(path, limits).map_err(|e| load_err(e.to_string()))?;
+        let (head, _) = file.head().map_err(|e| load_err(e.to_string()))?;
+        let format = image_format(head).ok_or_else(|| load_err(not_an_image(head)))?;
+        let bytes = file.read_all().map_err(|e| load_err(e.to_string()))?;
+        Self::decode(&bytes, format, intensity).map_err(|e| match e {
+            LightError::ImageLoad { reason, .. } => load_err(reason),
+            other => other,
+        })
+    }
+
+    /// Decodes a Radiance `.hdr` or OpenEXR file held in memory, as [`EquirectMap::load`] does
+    /// (the format from the magic number).
+    ///
+    /// # Errors
+    /// As [`EquirectMap::load`]; [`LightError::ImageLoad`] names the source `(memory)`.
+    pub fn from_file_bytes(bytes: &[u8], intensity: f64) -> Result<Self, LightError> {
+        let load_err = |reason: String| LightError::ImageLoad { path: "(memory)".into(), reason };
+        let head = &bytes[..bytes.len().min(crate::input::HEAD_BYTES)];
+        let format = image_format(head).ok_or_else(|| load_err(not_an_image(head)))?;
+        Self::decode(bytes, format, intensity)
+    }
+
+    /// Decodes `bytes` of the given format (with the `image` crate's default memory limits).
+    fn decode(bytes: &[u8], format: image::ImageFormat, intensity: f64) -> Result<Self, LightError> {
+        let load_err = |reason: String| LightError::ImageLoad { path: "(memory)".into(), reason };
+        let reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
         let img = reader.decode().map_err(|e| load_err(e.to_string()))?.into_rgb32f();
         let (width, height) = (img.width() as usize, img.height() as usize);
         check_size(width, height)?;

@@ -1,5 +1,7 @@
 //! Errors of lights, environment maps and source queries.
 
+use crate::input::fmt_num;
+
 /// What is wrong with a light, an environment map, or the arguments of a source query.
 ///
 /// Every variant names what is at fault: the light's index in the caller's list and the field,
@@ -42,7 +44,7 @@ pub enum LightError {
         normals: usize,
     },
     /// The refractive index is unusable.
-    #[error("eta = {value}: the refractive index must be finite and in [{min}, {max})")]
+    #[error("eta = {value_g}: the refractive index must be finite and in [{min_g}, {max_g})", value_g = fmt_num(*.value), min_g = fmt_num(*.min), max_g = fmt_num(*.max))]
     InvalidEta {
         /// The value given.
         value: f64,
@@ -92,7 +94,7 @@ pub enum LightError {
         value: [f32; 3],
     },
     /// The intensity multiplier of an environment map is NaN, infinite or negative.
-    #[error("environment map intensity = {value}: must be finite and ≥ 0")]
+    #[error("environment map intensity = {value_g}: must be finite and ≥ 0", value_g = fmt_num(*.value))]
     ImageIntensity {
         /// The value given.
         value: f64,

@@ -54,6 +54,8 @@ mod source;
 
 use glam::DVec3;
 
+use crate::input::{fmt_num, fmt_vec};
+
 pub use environment::{direction_to_equirect, equirect_to_direction, luminance, EnvSample, Environment, EquirectMap, LUMINANCE};
 pub use error::LightError;
 pub use source::{irradiance, spot_falloff, transmitted_source, EnvironmentMethod, SourceOptions};
@@ -172,14 +174,14 @@ impl Light {
             if p.is_finite() {
                 Ok(())
             } else {
-                Err(err(field, format!("{p}"), "must be finite"))
+                Err(err(field, fmt_vec(&p.to_array()), "must be finite"))
             }
         };
         let direction = |field: &'static str, d: DVec3| {
             if !d.is_finite() {
-                Err(err(field, format!("{d}"), "must be finite"))
+                Err(err(field, fmt_vec(&d.to_array()), "must be finite"))
             } else if d.length_squared() < f64::MIN_POSITIVE {
-                Err(err(field, format!("{d}"), "must be a non-zero vector"))
+                Err(err(field, fmt_vec(&d.to_array()), "must be a non-zero vector"))
             } else {
                 Ok(())
             }
@@ -196,7 +198,7 @@ impl Light {
                 direction("direction", *d)?;
                 colour("irradiance", *irradiance)?;
                 if !(0.0..180.0).contains(angular_diameter_deg) {
-                    return Err(err("angular_diameter_deg", angular_diameter_deg.to_string(), "must be in [0, 180) degrees"));
+                    return Err(err("angular_diameter_deg", fmt_num(*angular_diameter_deg), "must be in [0, 180) degrees"));
                 }
             }
             Light::Point { position, intensity } => {
@@ -208,10 +210,10 @@ impl Light {
                 direction("direction", *d)?;
                 colour("intensity", *intensity)?;
                 if !(*cone_half_angle_deg > 0.0 && *cone_half_angle_deg <= 90.0) {
-                    return Err(err("cone_half_angle_deg", cone_half_angle_deg.to_string(), "must be in (0, 90] degrees"));
+                    return Err(err("cone_half_angle_deg", fmt_num(*cone_half_angle_deg), "must be in (0, 90] degrees"));
                 }
                 if !(0.0..=1.0).contains(blend) {
-                    return Err(err("blend", blend.to_string(), "must be in [0, 1]"));
+                    return Err(err("blend", fmt_num(*blend), "must be in [0, 1]"));
                 }
             }
             Light::RectArea { center, half_u, half_v, radiance, .. } => {
@@ -222,7 +224,7 @@ impl Light {
                 if !has_area {
                     return Err(err(
                         "half_v",
-                        format!("{half_v}"),
+                        fmt_vec(&half_v.to_array()),
                         "must not be parallel to half_u (the rectangle has zero area)",
                     ));
                 }
@@ -232,7 +234,7 @@ impl Light {
                 finite_point("center", *center)?;
                 direction("normal", *normal)?;
                 if !(radius.is_finite() && *radius > 0.0) {
-                    return Err(err("radius", radius.to_string(), "must be finite and > 0"));
+                    return Err(err("radius", fmt_num(*radius), "must be finite and > 0"));
                 }
                 colour("radiance", *radiance)?;
             }

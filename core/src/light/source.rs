@@ -1,6 +1,7 @@
 //! The transmitted source q(x) = ∫ Li(x, ω) (n·ω)⁺ T(η, ω) dω and the irradiance
 //! E(x) = ∫ Li(x, ω) (n·ω)⁺ dω at surface points, with optional shadows.
 
+use crate::input::{fmt_num, fmt_vec};
 use std::f64::consts::PI;
 
 use glam::DVec3;
@@ -495,7 +496,7 @@ fn check_inputs(points: &[DVec3], normals: &[DVec3]) -> Result<Vec<DVec3>, Light
         return Err(LightError::InvalidPoint {
             index,
             field: "position",
-            value: format!("{}", points[index]),
+            value: fmt_vec(&points[index].to_array()),
             requirement: "must be finite",
         });
     }
@@ -510,7 +511,7 @@ fn check_inputs(points: &[DVec3], normals: &[DVec3]) -> Result<Vec<DVec3>, Light
                 Err(LightError::InvalidPoint {
                     index,
                     field: "normal",
-                    value: format!("{n}"),
+                    value: fmt_vec(&n.to_array()),
                     requirement: "must be finite and non-zero",
                 })
             }
@@ -522,7 +523,7 @@ fn check_options(prepared: &[Prepared<'_>], options: &SourceOptions, shadowed: b
     if !(options.shadow_bias.is_finite() && options.shadow_bias >= 0.0) {
         return Err(LightError::InvalidOption {
             field: "shadow_bias",
-            value: options.shadow_bias.to_string(),
+            value: fmt_num(options.shadow_bias),
             requirement: "must be finite and ≥ 0".into(),
         });
     }

@@ -1,5 +1,7 @@
 //! Errors of mesh input and validation.
 
+use crate::input::{fmt_num, InputError};
+
 /// What is wrong with a surface mesh or the file it came from.
 ///
 /// Every variant names the file (where there is one) and the line, face or vertex at fault.
@@ -19,6 +21,26 @@ pub enum MeshError {
         /// The operating system's error.
         #[source]
         source: std::io::Error,
+    },
+    /// The file was refused before it was parsed: it is not a regular file, it is larger than
+    /// [`MAX_MESH_FILE_BYTES`](super::MAX_MESH_FILE_BYTES), or an OBJ line is longer than
+    /// [`MAX_OBJ_LINE_BYTES`](super::MAX_OBJ_LINE_BYTES).
+    #[error("cannot read {path}: {source}")]
+    Refused {
+        /// The file.
+        path: String,
+        /// Which bound it broke.
+        #[source]
+        source: InputError,
+    },
+    /// A PLY header that does not end within the first [`HEAD_BYTES`](crate::input::HEAD_BYTES)
+    /// bytes of the file.
+    #[error("{path}: the PLY header does not end within the first {max} bytes")]
+    HeaderTooLong {
+        /// The file.
+        path: String,
+        /// The longest header read.
+        max: usize,
     },
     /// The file is neither OBJ nor PLY.
     #[error("{path}: not an OBJ or PLY file")]
@@ -56,7 +78,7 @@ pub enum MeshError {
     #[error("empty mesh: {0}")]
     Empty(String),
     /// A coordinate is NaN or infinite.
-    #[error("{}vertex {vertex} has a non-finite coordinate ({x}, {y}, {z})", at(path, line))]
+    #[error("{}vertex {vertex} has a non-finite coordinate ({}, {}, {})", at(path, line), fmt_num(*x), fmt_num(*y), fmt_num(*z))]
     NonFinite {
         /// 0-based vertex number.
         vertex: usize,
@@ -113,7 +135,7 @@ pub enum MeshError {
         len: usize,
     },
     /// The weld tolerance is negative, NaN or infinite.
-    #[error("weld tolerance {value} is invalid: it must be finite and >= 0")]
+    #[error("weld tolerance {} is invalid: it must be finite and >= 0", fmt_num(*value))]
     InvalidTolerance {
         /// The tolerance given.
         value: f64,
@@ -127,5 +149,15 @@ fn at(path: &Option<String>, line: &Option<usize>) -> String {
         (Some(p), None) => format!("{p}: "),
         (None, Some(l)) => format!("line {l}: "),
         (None, None) => String::new(),
+    }
+}
+
+impl MeshError {
+    /// The error for an input file that `path` names and [`crate::input`] refused.
+    pub(crate) fn input(path: &str, e: InputError) -> Self {
+        match e {
+            InputError::Io(source) => MeshError::Io { path: path.to_owned(), source },
+            source => MeshError::Refused { path: path.to_owned(), source },
+        }
     }
 }

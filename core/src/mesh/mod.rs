@@ -26,11 +26,25 @@ pub use vtk::write_vtk;
 
 use std::path::Path;
 
+use crate::input::{BoundedFile, Limits};
+
+/// The largest mesh file [`load`], [`load_obj`] and [`load_ply`] read, in bytes (4 GiB).
+pub const MAX_MESH_FILE_BYTES: u64 = 4 << 30;
+
+/// The longest line of an OBJ file, in bytes (1 MiB): an n-gon of ten thousand corners fits.
+pub const MAX_OBJ_LINE_BYTES: usize = 1 << 20;
+
 /// Loads a triangle mesh from an OBJ or PLY file (chosen by extension, or by content when the
 /// extension is unknown), triangulating n-gons and welding duplicate positions.
 ///
+/// The file is read through [`crate::input`]: a directory, device or FIFO is refused unopened,
+/// and the first bytes are checked (the `ply` magic and header, or the first OBJ statement)
+/// before the rest is read.
+///
 /// # Errors
-/// [`MeshError`] naming the file and line/element for I/O, parse and validation failures.
+/// [`MeshError`] naming the file and line/element for I/O, parse and validation failures;
+/// [`MeshError::Refused`] for a file that is not a regular file, is larger than
+/// [`MAX_MESH_FILE_BYTES`], or has an OBJ line longer than [`MAX_OBJ_LINE_BYTES`].
 pub fn load(path: impl AsRef<Path>) -> Result<TriMesh, MeshError> {
     let path = path.as_ref();
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
@@ -38,13 +52,17 @@ pub fn load(path: impl AsRef<Path>) -> Result<TriMesh, MeshError> {
         Some("obj") => load_obj(path),
         Some("ply") => load_ply(path),
         _ => {
-            let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: path.display().to_string(), source })?;
             let name = path.display().to_string();
-            if bytes.starts_with(b"ply") {
-                parse_ply(&bytes, &name)
-            } else if looks_like_obj(&bytes) {
-                let text = String::from_utf8_lossy(&bytes);
-                parse_obj(&text, &name)
+            // The OBJ line cap: a PLY header's lines are within the head anyway, and its body
+            // is read with no line cap once the magic has chosen PLY.
+            let mut file = open_mesh(path, &name, Some(MAX_OBJ_LINE_BYTES))?;
+            let (head, _) = file.head().map_err(|e| MeshError::input(&name, e))?;
+            if head.starts_with(b"ply") {
+                drop(file);
+                load_ply(path)
+            } else if looks_like_obj(head) {
+                drop(file);
+                load_obj(path)
             } else {
                 Err(MeshError::UnknownFormat { path: name })
             }
@@ -52,14 +70,30 @@ pub fn load(path: impl AsRef<Path>) -> Result<TriMesh, MeshError> {
     }
 }
 
-/// Whether the text starts like an OBJ file: its first statement (after comments and blank
-/// lines) is an OBJ keyword followed by whitespace.
+/// Opens a mesh file with the mesh limits and the given line cap.
+fn open_mesh(path: &Path, name: &str, max_line: Option<usize>) -> Result<BoundedFile, MeshError> {
+    BoundedFile::open(path, Limits { max_bytes: MAX_MESH_FILE_BYTES, max_line }).map_err(|e| MeshError::input(name, e))
+}
+
+/// Whether the text starts like an OBJ file: its first statement (after a byte-order mark,
+/// comments and blank lines) is an OBJ keyword followed by whitespace.
 fn looks_like_obj(bytes: &[u8]) -> bool {
     const KEYWORDS: [&str; 10] = ["v", "vt", "vn", "f", "o", "g", "s", "usemtl", "mtllib", "l"];
+    let bytes = bytes.strip_prefix("\u{FEFF}".as_bytes()).unwrap_or(bytes);
     let text = String::from_utf8_lossy(&bytes[..bytes.len().min(1 << 16)]);
-    text.lines()
-        .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with('#'))
-        .and_then(|l| l.split_whitespace().next())
-        .is_some_and(|k| KEYWORDS.contains(&k))
+    let first = obj::lines(&text).map(str::trim).find(|l| !l.is_empty() && !l.starts_with('#'));
+    first.and_then(|l| l.split_whitespace().next()).is_some_and(|k| KEYWORDS.contains(&k))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn obj_is_recognised_after_a_bom_and_cr_line_ends() {
+        assert!(looks_like_obj(b"\xEF\xBB\xBF# c\rv 0 0 0\r"));
+        assert!(looks_like_obj(b"\n\n  f 1 2 3"));
+        assert!(!looks_like_obj(b"1 2 3\nv 0 0 0"));
+        assert!(!looks_like_obj(b"\0\0\0"));
+    }
 }

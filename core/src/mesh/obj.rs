@@ -7,14 +7,16 @@
 //! later in the file. Texture coordinates, normals, groups, materials, smoothing groups, lines,
 //! points and free-form geometry are accepted and ignored, as are statements this reader does not
 //! know. `#` starts a comment (to the end of the line), a `\` at the end of a line continues the
-//! statement on the next one, and CRLF line ends are fine.
+//! statement on the next one. Lines end in LF, CRLF or a lone CR (old Mac files), and a UTF-8
+//! byte-order mark at the start is skipped.
 
 use std::path::Path;
 
 use glam::DVec3;
 
 use super::trimesh::{build, WeldOptions};
-use super::{MeshError, TriMesh};
+use super::{open_mesh, MeshError, TriMesh, MAX_OBJ_LINE_BYTES};
+use crate::input::quote;
 
 /// Loads an OBJ file, triangulating n-gons and welding duplicate positions with the default
 /// [`WeldOptions`].
@@ -22,8 +24,14 @@ use super::{MeshError, TriMesh};
 /// Bytes that are not UTF-8 (e.g. Latin-1 object names in comments) are tolerated: only the
 /// ASCII numbers and keywords matter.
 ///
+/// The first statement is checked before more than the file's first
+/// [`HEAD_BYTES`](crate::input::HEAD_BYTES) are read, and lines are capped at
+/// [`MAX_OBJ_LINE_BYTES`] as they are read.
+///
 /// # Errors
-/// [`MeshError::Io`] if the file cannot be read, and every error of [`parse_obj`].
+/// [`MeshError::Io`] if the file cannot be read, [`MeshError::Refused`] for a file that is not a
+/// regular file, is larger than [`MAX_MESH_FILE_BYTES`](super::MAX_MESH_FILE_BYTES) or has a
+/// line longer than [`MAX_OBJ_LINE_BYTES`], and every error of [`parse_obj`].
 pub fn load_obj(path: &Path) -> Result<TriMesh, MeshError> {
     load_obj_with(path, &WeldOptions::default())
 }
@@ -34,9 +42,53 @@ pub fn load_obj(path: &Path) -> Result<TriMesh, MeshError> {
 /// As [`load_obj`], and [`MeshError::InvalidTolerance`] for a bad tolerance.
 pub fn load_obj_with(path: &Path, weld: &WeldOptions) -> Result<TriMesh, MeshError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: name.clone(), source })?;
+    let mut file = open_mesh(path, &name, Some(MAX_OBJ_LINE_BYTES))?;
+    let (head, all) = file.head().map_err(|e| MeshError::input(&name, e))?;
+    check_head(head, all, &name)?;
+    let bytes = file.read_all().map_err(|e| MeshError::input(&name, e))?;
     let text = String::from_utf8_lossy(&bytes);
     parse_obj_with(&text, &name, weld)
+}
+
+/// Checks the first statement of the file from its first bytes (`all`: they are the whole
+/// file), so that a file that is not OBJ is refused before the rest is read. A statement that
+/// is continued (`\`), or does not end within `head`, is left to the full parse.
+fn check_head(head: &[u8], all: bool, path: &str) -> Result<(), MeshError> {
+    let text = String::from_utf8_lossy(head);
+    let text = text.strip_prefix('\u{FEFF}').unwrap_or(&text);
+    let mut reader = ObjReader::new(path, 0);
+    let mut pieces = lines(text).enumerate().peekable();
+    while let Some((i, raw)) = pieces.next() {
+        let complete = all || pieces.peek().is_some();
+        let line = strip_comment(raw);
+        if !complete || line.trim_end().ends_with('\\') {
+            return Ok(());
+        }
+        if !line.trim().is_empty() {
+            return reader.statement(line, i + 1);
+        }
+    }
+    Ok(())
+}
+
+/// The lines of `text`, split at LF, CRLF or a lone CR (the line ends are not included); like
+/// `str::split('\n')`, a text ending in a line end gives a last, empty line.
+pub(super) fn lines(text: &str) -> impl Iterator<Item = &str> {
+    let mut rest = Some(text);
+    std::iter::from_fn(move || {
+        let t = rest?;
+        match t.find(['\n', '\r']) {
+            Some(i) => {
+                let end = if t[i..].starts_with("\r\n") { i + 2 } else { i + 1 };
+                rest = Some(&t[end..]);
+                Some(&t[..i])
+            }
+            None => {
+                rest = None;
+                Some(t)
+            }
+        }
+    })
 }
 
 /// Parses OBJ text; `path_for_messages` names the source in errors.
@@ -61,8 +113,9 @@ pub fn parse_obj(text: &str, path_for_messages: &str) -> Result<TriMesh, MeshErr
 /// # Errors
 /// As [`parse_obj`], and [`MeshError::InvalidTolerance`] for a bad tolerance.
 pub fn parse_obj_with(text: &str, path_for_messages: &str, weld: &WeldOptions) -> Result<TriMesh, MeshError> {
+    let text = text.strip_prefix('\u{FEFF}').unwrap_or(text);
     let mut reader = ObjReader::new(path_for_messages, text.len());
-    let mut lines = text.split('\n');
+    let mut lines = lines(text);
     let mut line_no = 0usize;
     let mut joined = String::new();
     while let Some(raw) = lines.next() {
@@ -98,9 +151,8 @@ pub fn parse_obj_with(text: &str, path_for_messages: &str, weld: &WeldOptions) -
     reader.finish(weld)
 }
 
-/// The line without its comment and line end.
-fn strip_comment(raw: &str) -> &str {
-    let line = raw.strip_suffix('\r').unwrap_or(raw);
+/// The line without its comment.
+fn strip_comment(line: &str) -> &str {
     match line.find('#') {
         Some(i) => &line[..i],
         None => line,
@@ -187,10 +239,10 @@ impl<'a> ObjReader<'a> {
             k if k.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_') => {
                 Ok(()) // an extension statement some other program writes
             }
-            k => {
-                Err(self
-                    .parse_error(line_no, format!("unexpected '{k}': an OBJ statement starts with a keyword such as 'v' or 'f'")))
-            }
+            k => Err(self.parse_error(
+                line_no,
+                format!("unexpected {}: an OBJ statement starts with a keyword such as 'v' or 'f'", quote(k)),
+            )),
         }
     }
 
@@ -200,15 +252,15 @@ impl<'a> ObjReader<'a> {
             let Some(tok) = tokens.next() else {
                 return Err(self.parse_error(line_no, format!("vertex has {k} coordinates; 'v' needs x, y and z")));
             };
-            xyz[k] = tok
-                .parse::<f64>()
-                .map_err(|_| self.parse_error(line_no, format!("cannot read '{tok}' as the {axis} coordinate of a vertex")))?;
+            xyz[k] = tok.parse::<f64>().map_err(|_| {
+                self.parse_error(line_no, format!("cannot read {} as the {axis} coordinate of a vertex", quote(tok)))
+            })?;
         }
         // An optional weight w, or vertex colours r g b (some exporters write them): ignored,
         // but they must be numbers.
         for tok in tokens {
             if tok.parse::<f64>().is_err() {
-                return Err(self.parse_error(line_no, format!("cannot read '{tok}' as a number after a vertex's x y z")));
+                return Err(self.parse_error(line_no, format!("cannot read {} as a number after a vertex's x y z", quote(tok))));
             }
         }
         let p = DVec3::from_array(xyz);
@@ -238,11 +290,16 @@ impl<'a> ObjReader<'a> {
             for part in parts {
                 extra += 1;
                 if extra > 2 || (!part.is_empty() && parse_int(part).is_none()) {
-                    return Err(self.parse_error(line_no, format!("bad face corner '{tok}': expected i, i/t, i//n or i/t/n")));
+                    return Err(
+                        self.parse_error(line_no, format!("bad face corner {}: expected i, i/t, i//n or i/t/n", quote(tok)))
+                    );
                 }
             }
             let Some(index) = parse_int(first) else {
-                return Err(self.parse_error(line_no, format!("cannot read '{first}' in face corner '{tok}' as a vertex index")));
+                return Err(self.parse_error(
+                    line_no,
+                    format!("cannot read {} in face corner {} as a vertex index", quote(first), quote(tok)),
+                ));
             };
             let resolved = if index > 0 {
                 index - 1
@@ -261,7 +318,7 @@ impl<'a> ObjReader<'a> {
             } else {
                 return Err(self.parse_error(
                     line_no,
-                    format!("vertex index 0 in face corner '{tok}': OBJ indices start at 1 (or -1 for the last vertex)"),
+                    format!("vertex index 0 in face corner {}: OBJ indices start at 1 (or -1 for the last vertex)", quote(tok)),
                 ));
             };
             let Ok(resolved) = u32::try_from(resolved) else {
@@ -385,6 +442,46 @@ mod tests {
     fn too_few_coordinates() {
         let e = parse_obj("v 0 0\n", "t.obj").unwrap_err();
         assert_eq!(e.to_string(), "t.obj:1: vertex has 2 coordinates; 'v' needs x, y and z");
+    }
+
+    #[test]
+    fn bom_and_lone_cr_line_ends() {
+        let m = parse_obj("\u{FEFF}# mac\rv 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r", "t.obj").unwrap();
+        assert_eq!(m.user_vertex_count(), 3);
+        assert_eq!(m.triangles(), &[[0, 1, 2]]);
+        // Line numbers count a lone CR, a CRLF and an LF once each.
+        let e = parse_obj("v 0 0 0\rv 1 0 0\r\nv 0 1 0\nv 1 x 0\n", "t.obj").unwrap_err();
+        assert!(matches!(e, MeshError::Parse { line: 4, .. }), "{e}");
+    }
+
+    #[test]
+    fn lines_split_at_every_line_end() {
+        assert_eq!(lines("a\rb\r\nc\nd").collect::<Vec<_>>(), ["a", "b", "c", "d"]);
+        assert_eq!(lines("a\n").collect::<Vec<_>>(), ["a", ""]);
+        assert_eq!(lines("\r\r").collect::<Vec<_>>(), ["", "", ""]);
+    }
+
+    #[test]
+    fn head_check_reads_the_first_statement_only() {
+        // A bad first statement is refused from the head alone.
+        let e = check_head(b"# c\n1 2 3\n", false, "t.obj").unwrap_err();
+        assert!(matches!(e, MeshError::Parse { line: 2, .. }), "{e}");
+        // A good one passes, whatever follows.
+        check_head(b"v 0 0 0\nzz", false, "t.obj").unwrap();
+        // A statement cut off by the end of the head is not judged.
+        check_head(b"v 0 0", false, "t.obj").unwrap();
+        assert!(check_head(b"v 0 0", true, "t.obj").is_err());
+        // Nor is a continued one.
+        check_head(b"v 0 \\\n 0 0\n", false, "t.obj").unwrap();
+    }
+
+    #[test]
+    fn long_tokens_are_quoted_short() {
+        let text = format!("v 0 0 {}\n", "9".repeat(5000) + "x");
+        let e = parse_obj(&text, "t.obj").unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.len() < 200, "{msg}");
+        assert!(msg.contains("(5001 bytes)"), "{msg}");
     }
 
     #[test]

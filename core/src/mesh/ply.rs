@@ -13,13 +13,18 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::trimesh::{build, WeldOptions};
-use super::{MeshError, TriMesh};
+use super::{open_mesh, MeshError, TriMesh};
+use crate::input::{clip, quote, HEAD_BYTES};
 
 /// Loads a PLY file, triangulating n-gons and welding duplicate positions with the default
 /// [`WeldOptions`].
 ///
+/// The header is checked from the file's first [`HEAD_BYTES`] before the body is read.
+///
 /// # Errors
-/// [`MeshError::Io`] if the file cannot be read, and every error of [`parse_ply`].
+/// [`MeshError::Io`] if the file cannot be read, [`MeshError::Refused`] for a file that is not a
+/// regular file or is larger than [`MAX_MESH_FILE_BYTES`](super::MAX_MESH_FILE_BYTES), and every
+/// error of [`parse_ply`].
 pub fn load_ply(path: &Path) -> Result<TriMesh, MeshError> {
     load_ply_with(path, &WeldOptions::default())
 }
@@ -30,7 +35,10 @@ pub fn load_ply(path: &Path) -> Result<TriMesh, MeshError> {
 /// As [`load_ply`], and [`MeshError::InvalidTolerance`] for a bad tolerance.
 pub fn load_ply_with(path: &Path, weld: &WeldOptions) -> Result<TriMesh, MeshError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: name.clone(), source })?;
+    let mut file = open_mesh(path, &name, None)?;
+    let (head, _) = file.head().map_err(|e| MeshError::input(&name, e))?;
+    parse_header(head, &name)?;
+    let bytes = file.read_all().map_err(|e| MeshError::input(&name, e))?;
     parse_ply_with(&bytes, &name, weld)
 }
 
@@ -43,6 +51,7 @@ pub fn load_ply_with(path: &Path, weld: &WeldOptions) -> Result<TriMesh, MeshErr
 ///   property);
 /// - [`MeshError::Truncated`] if the header has no `end_header` or the body ends early, naming
 ///   the element, e.g. "face 12 of 500";
+/// - [`MeshError::HeaderTooLong`] if the header does not end within the first [`HEAD_BYTES`];
 /// - [`MeshError::Malformed`] for a negative list length in a binary body;
 /// - [`MeshError::IndexOutOfRange`] for a negative index or one past the last vertex;
 /// - [`MeshError::TooFewVertices`] for a face with fewer than 3 indices;
@@ -240,6 +249,9 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
             });
         }
         let end = bytes[pos..].iter().position(|&b| b == b'\n').map_or(bytes.len(), |i| pos + i);
+        if end >= HEAD_BYTES {
+            return Err(MeshError::HeaderTooLong { path: path.to_owned(), max: HEAD_BYTES });
+        }
         let raw = &bytes[pos..end];
         pos = (end + 1).min(bytes.len());
         line_no += 1;
@@ -247,8 +259,7 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
         let text = String::from_utf8_lossy(raw);
         if line_no == 1 {
             if text.trim_end() != "ply" {
-                let shown: String = text.chars().take(40).collect();
-                return Err(err(1, format!("not a PLY file: the first line is '{shown}', not 'ply'")));
+                return Err(err(1, format!("not a PLY file: the first line is {}, not 'ply'", quote(&text))));
             }
             continue;
         }
@@ -260,7 +271,7 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
             "comment" | "obj_info" => {}
             "format" => {
                 let (Some(kind), Some(version)) = (tokens.next(), tokens.next()) else {
-                    return Err(err(line_no, format!("incomplete format line '{}'", text.trim())));
+                    return Err(err(line_no, format!("incomplete format line {}", quote(text.trim()))));
                 };
                 format = Some(match kind {
                     "ascii" => Format::Ascii,
@@ -269,23 +280,23 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
                     other => {
                         return Err(err(
                             line_no,
-                            format!("unknown format '{other}': expected ascii, binary_little_endian or binary_big_endian"),
+                            format!("unknown format {}: expected ascii, binary_little_endian or binary_big_endian", quote(other)),
                         ))
                     }
                 });
                 if version != "1.0" && version != "1" {
-                    return Err(err(line_no, format!("unsupported PLY version '{version}': expected 1.0")));
+                    return Err(err(line_no, format!("unsupported PLY version {}: expected 1.0", quote(version))));
                 }
             }
             "element" => {
                 let (Some(name), Some(count)) = (tokens.next(), tokens.next()) else {
-                    return Err(err(line_no, format!("incomplete element line '{}'", text.trim())));
+                    return Err(err(line_no, format!("incomplete element line {}", quote(text.trim()))));
                 };
-                let count: usize = count
-                    .parse()
-                    .map_err(|_| err(line_no, format!("cannot read '{count}' as the number of '{name}' elements")))?;
+                let count: usize = count.parse().map_err(|_| {
+                    err(line_no, format!("cannot read {} as the number of {} elements", quote(count), quote(name)))
+                })?;
                 if elements.iter().any(|e| e.name == name) {
-                    return Err(err(line_no, format!("element '{name}' is declared twice")));
+                    return Err(err(line_no, format!("element {} is declared twice", quote(name))));
                 }
                 elements.push(Element { name: name.to_owned(), count, properties: Vec::new(), line: line_no });
             }
@@ -298,25 +309,28 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
                 };
                 let property = if first == "list" {
                     let (Some(ct), Some(it), Some(name)) = (tokens.next(), tokens.next(), tokens.next()) else {
-                        return Err(err(line_no, format!("incomplete list property '{}'", text.trim())));
+                        return Err(err(line_no, format!("incomplete list property {}", quote(text.trim()))));
                     };
-                    let count = Scalar::parse(ct).ok_or_else(|| err(line_no, format!("unknown type '{ct}' of a list length")))?;
-                    let item = Scalar::parse(it).ok_or_else(|| err(line_no, format!("unknown type '{it}' of list items")))?;
+                    let count =
+                        Scalar::parse(ct).ok_or_else(|| err(line_no, format!("unknown type {} of a list length", quote(ct))))?;
+                    let item =
+                        Scalar::parse(it).ok_or_else(|| err(line_no, format!("unknown type {} of list items", quote(it))))?;
                     if !count.is_integer() {
-                        return Err(err(line_no, format!("list length type '{ct}' is not an integer type")));
+                        return Err(err(line_no, format!("list length type {} is not an integer type", quote(ct))));
                     }
                     Property::List { name: name.to_owned(), count, item }
                 } else {
                     let Some(name) = tokens.next() else {
-                        return Err(err(line_no, format!("property of type '{first}' has no name")));
+                        return Err(err(line_no, format!("property of type {} has no name", quote(first))));
                     };
-                    let ty = Scalar::parse(first).ok_or_else(|| err(line_no, format!("unknown property type '{first}'")))?;
+                    let ty =
+                        Scalar::parse(first).ok_or_else(|| err(line_no, format!("unknown property type {}", quote(first))))?;
                     Property::Scalar { name: name.to_owned(), ty }
                 };
                 if element.properties.iter().any(|p| p.name() == property.name()) {
                     return Err(err(
                         line_no,
-                        format!("property '{}' of element '{}' is declared twice", property.name(), element.name),
+                        format!("property {} of element {} is declared twice", quote(property.name()), quote(&element.name)),
                     ));
                 }
                 element.properties.push(property);
@@ -325,7 +339,7 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
             other => {
                 return Err(err(
                     line_no,
-                    format!("unknown header keyword '{other}': expected format, element, property, comment or end_header"),
+                    format!("unknown header keyword {}: expected format, element, property, comment or end_header", quote(other)),
                 ))
             }
         }
@@ -355,10 +369,13 @@ fn parse_header(bytes: &[u8], path: &str) -> Result<Header, MeshError> {
             }
             "face" | "tristrips" => {
                 let Some(list) = find("vertex_indices").or_else(|| find("vertex_index")) else {
-                    return Err(err(e.line, format!("element '{}' has no list property 'vertex_indices'", e.name)));
+                    return Err(err(e.line, format!("element {} has no list property 'vertex_indices'", quote(&e.name))));
                 };
                 let Property::List { item, .. } = e.properties[list] else {
-                    return Err(err(e.line, format!("'{}' of element '{}' is not a list", e.properties[list].name(), e.name)));
+                    return Err(err(
+                        e.line,
+                        format!("{} of element {} is not a list", quote(e.properties[list].name()), quote(&e.name)),
+                    ));
                 };
                 if !item.is_integer() {
                     return Err(err(e.line, format!("vertex indices of type '{}' are not integers", item.name())));
@@ -554,16 +571,16 @@ fn read_body(header: &Header, src: &mut impl Source, mesh: &mut MeshData, path: 
     let mut values: Vec<f64> = Vec::new();
     let mut strip: Vec<i64> = Vec::new();
     for (element, role) in header.elements.iter().zip(&header.roles) {
-        let of = |i: usize| format!("{} {i} of {}", element.name, element.count);
+        let of = |i: usize| format!("{} {i} of {}", clip(&element.name), element.count);
         let fail = |e: ReadError, i: usize, property: &str| match e {
             ReadError::End => MeshError::Truncated {
                 path: path.to_owned(),
-                message: format!("the data ends in {} (property '{property}')", of(i)),
+                message: format!("the data ends in {} (property {})", of(i), quote(property)),
             },
             ReadError::Bad(token, line) => MeshError::Parse {
                 path: path.to_owned(),
                 line,
-                message: format!("cannot read '{token}' as a number ({}, property '{property}')", of(i)),
+                message: format!("cannot read {} as a number ({}, property {})", quote(&token), of(i), quote(property)),
             },
         };
         if *role == Role::Skip {
@@ -587,7 +604,7 @@ fn read_body(header: &Header, src: &mut impl Source, mesh: &mut MeshData, path: 
                         let n = src.read(count).map_err(|e| fail(e, i, name))?.as_i64();
                         let line = src.line();
                         if n < 0 {
-                            let message = format!("negative list length {n} in {} (property '{name}')", of(i));
+                            let message = format!("negative list length {n} in {} (property {})", of(i), quote(name));
                             return Err(match line {
                                 Some(line) => MeshError::Parse { path: path.to_owned(), line, message },
                                 None => MeshError::Malformed { path: path.to_owned(), message },

@@ -1,5 +1,7 @@
 //! Errors of optical parameters.
 
+use crate::input::fmt_num;
+
 /// Names of the colour channels, in storage order, for error messages.
 pub const CHANNEL_NAMES: [&str; 3] = ["red", "green", "blue"];
 
@@ -16,7 +18,7 @@ fn channel_name(channel: usize) -> &'static str {
 #[non_exhaustive]
 pub enum OpticsError {
     /// A per-channel quantity is out of its valid range (or NaN / infinite).
-    #[error("{field}[{channel}] ({}) = {value}: {requirement}", channel_name(*.channel))]
+    #[error("{field}[{channel}] ({}) = {value_g}: {requirement}", channel_name(*.channel), value_g = fmt_num(*.value))]
     InvalidChannel {
         /// The field, e.g. `"sigma_a"`.
         field: &'static str,
@@ -28,7 +30,7 @@ pub enum OpticsError {
         requirement: &'static str,
     },
     /// A scalar quantity is out of its valid range (or NaN / infinite).
-    #[error("{field} = {value}: {requirement}")]
+    #[error("{field} = {value_g}: {requirement}", value_g = fmt_num(*.value))]
     InvalidScalar {
         /// The field, e.g. `"eta"`.
         field: &'static str,

@@ -1,5 +1,6 @@
 //! The perspective camera and its projection to pixels.
 
+use crate::input::{fmt_num, fmt_vec};
 use glam::{DMat4, DVec2, DVec3};
 
 use super::{RenderError, MAX_DIMENSION};
@@ -211,7 +212,7 @@ impl Camera {
 }
 
 fn camera_err(field: &'static str, value: DVec3, requirement: &'static str) -> RenderError {
-    RenderError::InvalidCamera { field, value: format!("{value}"), requirement }
+    RenderError::InvalidCamera { field, value: fmt_vec(&value.to_array()), requirement }
 }
 
 fn check_size(width: u32, height: u32) -> Result<(), RenderError> {
@@ -229,7 +230,7 @@ fn check_fov(fov: f64) -> Result<(), RenderError> {
     } else {
         Err(RenderError::InvalidCamera {
             field: "vertical_fov_deg",
-            value: format!("{fov}"),
+            value: fmt_num(fov),
             requirement: "the field of view must be finite and strictly between 0 and 180 degrees",
         })
     }

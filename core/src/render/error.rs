@@ -1,5 +1,7 @@
 //! Errors of the renderer.
 
+use crate::input::{fmt_num, fmt_vec};
+
 use std::path::PathBuf;
 
 use glam::DVec3;
@@ -33,7 +35,7 @@ pub enum RenderError {
         requirement: &'static str,
     },
     /// The bounds given to [`Camera::frame`](super::Camera::frame) enclose nothing.
-    #[error("bounds {min} .. {max}: {requirement}")]
+    #[error("bounds {min_g} .. {max_g}: {requirement}", min_g = fmt_vec(&.min.to_array()), max_g = fmt_vec(&.max.to_array()))]
     InvalidBounds {
         /// Lower corner given.
         min: DVec3,
@@ -86,7 +88,7 @@ pub enum RenderError {
         vertex_count: usize,
     },
     /// The refractive index of an object is unusable.
-    #[error("object {object}: eta = {value}: the refractive index must be finite and in [{min}, {max})")]
+    #[error("object {object}: eta = {value_g}: the refractive index must be finite and in [{min_g}, {max_g})", value_g = fmt_num(*.value), min_g = fmt_num(*.min), max_g = fmt_num(*.max))]
     InvalidEta {
         /// Index of the object in the scene.
         object: usize,

@@ -1,5 +1,7 @@
 //! The rendered image, tone mapping, and PNG / OpenEXR output.
 
+use std::fs::File;
+use std::io::{Cursor, ErrorKind, Write};
 use std::path::Path;
 
 use image::{ImageBuffer, ImageFormat, Rgba};
@@ -132,28 +134,50 @@ impl Image {
 
     /// Writes an 8-bit sRGB PNG with alpha using the given tone curve ([`to_srgb8`](Self::to_srgb8)).
     ///
+    /// The image is encoded in memory and then written with every write error reported (a
+    /// full disk, `/dev/full`): a call that returns `Ok` has handed all bytes to the file.
+    ///
     /// # Errors
-    /// [`RenderError::Write`] when the file cannot be created or encoded.
+    /// [`RenderError::Write`] when the file cannot be created, encoded or written.
     pub fn save_png_with(&self, path: impl AsRef<Path>, tone: ToneMap) -> Result<(), RenderError> {
         let path = path.as_ref();
         let buffer: ImageBuffer<Rgba<u8>, Vec<u8>> = ImageBuffer::from_raw(self.width, self.height, self.to_srgb8(tone))
             .expect("to_srgb8 returns width × height × 4 bytes");
-        buffer.save_with_format(path, ImageFormat::Png).map_err(|source| RenderError::Write { path: path.to_path_buf(), source })
+        let mut bytes = Cursor::new(Vec::new());
+        buffer
+            .write_to(&mut bytes, ImageFormat::Png)
+            .map_err(|source| RenderError::Write { path: path.to_path_buf(), source })?;
+        write_file(path, bytes.get_ref()).map_err(|e| RenderError::Write { path: path.to_path_buf(), source: e.into() })
     }
 
     /// Writes a linear RGBA 32-bit float OpenEXR file: the image's values as they are (exposure
-    /// applied, no tone curve), alpha the coverage matte.
+    /// applied, no tone curve), alpha the coverage matte. Write errors are reported as for
+    /// [`save_png_with`](Self::save_png_with).
     ///
     /// # Errors
-    /// [`RenderError::Write`] when the file cannot be created or encoded.
+    /// [`RenderError::Write`] when the file cannot be created, encoded or written.
     pub fn save_exr(&self, path: impl AsRef<Path>) -> Result<(), RenderError> {
         let path = path.as_ref();
         let data: Vec<f32> = self.rgba.iter().flatten().copied().collect();
         let buffer: ImageBuffer<Rgba<f32>, Vec<f32>> =
             ImageBuffer::from_raw(self.width, self.height, data).expect("rgba has width × height pixels");
+        let mut bytes = Cursor::new(Vec::new());
         buffer
-            .save_with_format(path, ImageFormat::OpenExr)
-            .map_err(|source| RenderError::Write { path: path.to_path_buf(), source })
+            .write_to(&mut bytes, ImageFormat::OpenExr)
+            .map_err(|source| RenderError::Write { path: path.to_path_buf(), source })?;
+        write_file(path, bytes.get_ref()).map_err(|e| RenderError::Write { path: path.to_path_buf(), source: e.into() })
+    }
+}
+
+/// Creates `path` and writes `bytes` to it, then asks the system to commit them so that a
+/// deferred write error is reported too; a file that cannot be committed (a device such as
+/// `/dev/stdout`) is not an error once every byte has been written.
+fn write_file(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut file = File::create(path)?;
+    file.write_all(bytes)?;
+    match file.sync_all() {
+        Err(e) if matches!(e.kind(), ErrorKind::InvalidInput | ErrorKind::Unsupported) => Ok(()),
+        other => other,
     }
 }
 
@@ -191,6 +215,18 @@ mod tests {
         let c: f64 = 0.003_130_8;
         assert!((12.92 * c - (1.055 * c.powf(1.0 / 2.4) - 0.055)).abs() < 1e-6);
         assert_eq!(srgb_oetf(2.0), srgb_oetf(1.0));
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_full_device_is_a_write_error() {
+        let img = Image { width: 2, height: 2, rgba: vec![[0.5, 0.5, 0.5, 1.0]; 4] };
+        for e in [img.save_png("/dev/full").unwrap_err(), img.save_exr("/dev/full").unwrap_err()] {
+            let RenderError::Write { path, source: image::ImageError::IoError(io) } = &e else { panic!("{e:?}") };
+            assert_eq!(path, Path::new("/dev/full"));
+            assert_eq!(io.raw_os_error(), Some(28), "{io}"); // ENOSPC
+            assert_eq!(e.to_string().matches("/dev/full").count(), 1, "{e}");
+        }
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! What a render draws (objects, lights, ground plane) and how (options), with validation.
 
+use crate::input::fmt_vec;
 use std::borrow::Cow;
 
 use glam::DVec3;
@@ -306,7 +307,7 @@ impl RenderScene<'_> {
                 return Err(RenderError::InvalidLight {
                     index,
                     field: "direction_to_light",
-                    value: format!("{d}"),
+                    value: fmt_vec(&d.to_array()),
                     requirement: "must be finite and non-zero",
                 });
             }

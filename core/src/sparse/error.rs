@@ -1,5 +1,7 @@
 //! Errors of the sparse module.
 
+use crate::input::fmt_num;
+
 /// The colour channel names, by channel index (0 = R, 1 = G, 2 = B).
 pub const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
 
@@ -34,7 +36,7 @@ pub enum SparseError {
         n: usize,
     },
     /// A NaN or infinite value in an input.
-    #[error("{what} has a non-finite value {value} at row {row}, channel {channel} ({})", channel_label(.channel))]
+    #[error("{what} has a non-finite value {value_g} at row {row}, channel {channel} ({})", channel_label(.channel), value_g = fmt_num(*.value))]
     NonFinite {
         /// The input at fault: `"right-hand side"`, `"initial guess"`, `"matrix"`, …
         what: &'static str,
@@ -57,7 +59,7 @@ pub enum SparseError {
     #[error("the sparsity patterns differ: {0}")]
     PatternMismatch(String),
     /// A preconditioner needs a positive diagonal and found a non-positive (or NaN) one.
-    #[error("diagonal entry at row {row} is {value} on channel {channel} ({}); the preconditioner needs a positive diagonal (is the matrix SPD?)", channel_label(.channel))]
+    #[error("diagonal entry at row {row} is {value_g} on channel {channel} ({}); the preconditioner needs a positive diagonal (is the matrix SPD?)", channel_label(.channel), value_g = fmt_num(*.value))]
     NonPositiveDiagonal {
         /// The row.
         row: usize,

@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use crate::input::{fmt_num, InputError};
 use crate::optics::OpticsError;
 
 /// Names of the six voxel channels, in storage order (σa RGB, then σ′s RGB).
@@ -30,6 +31,17 @@ pub enum VolumeError {
         /// The I/O error.
         #[source]
         source: std::io::Error,
+    },
+    /// A voxel file was refused before it was read: it is not a regular file, or its size is
+    /// not the one its header declares, or larger than
+    /// [`MAX_VOXEL_FILE_BYTES`](super::MAX_VOXEL_FILE_BYTES).
+    #[error("voxel file {}: {source}", .path.display())]
+    Refused {
+        /// The file.
+        path: PathBuf,
+        /// Which bound it broke.
+        #[source]
+        source: InputError,
     },
     /// An error in the contents of a voxel file (the inner error says what).
     #[error("voxel file {}: {source}", .path.display())]
@@ -85,7 +97,7 @@ pub enum VolumeError {
         found: u32,
     },
     /// The grid origin or voxel size is invalid.
-    #[error("{field} = [{}, {}, {}]: {requirement}", .value[0], .value[1], .value[2])]
+    #[error("{field} = [{}, {}, {}]: {requirement}", fmt_num(.value[0]), fmt_num(.value[1]), fmt_num(.value[2]))]
     InvalidGeometry {
         /// `"origin"` or `"voxel_size"`.
         field: &'static str,
@@ -96,8 +108,8 @@ pub enum VolumeError {
     },
     /// A voxel value is invalid (NaN, infinite or negative, or σa + σ′s = 0 in a colour channel).
     #[error(
-        "voxel ({}, {}, {}) (linear index {index}), channel {channel} ({}): value {value}: {requirement}",
-        .voxel[0], .voxel[1], .voxel[2], voxel_channel_name(*.channel)
+        "voxel ({}, {}, {}) (linear index {index}), channel {channel} ({}): value {}: {requirement}",
+        .voxel[0], .voxel[1], .voxel[2], voxel_channel_name(*.channel), fmt_num(*.value)
     )]
     InvalidVoxel {
         /// The voxel (i, j, k).
@@ -161,7 +173,8 @@ pub enum VolumeError {
     /// Media that must share the object's η (or g) disagree: one η per object, because the
     /// boundary condition and the radiance query use a single Fdr, A and Ft.
     #[error(
-        "{what} {first} has {field} = {first_value} but {what} {other} has {field} = {other_value} (one {field} per object)"
+        "{what} {first} has {field} = {} but {what} {other} has {field} = {} (one {field} per object)",
+        fmt_num(*.first_value), fmt_num(*.other_value)
     )]
     MixedObjectParameter {
         /// `"eta"` or `"g"`.
@@ -178,7 +191,7 @@ pub enum VolumeError {
         other_value: f64,
     },
     /// A scalar parameter of a procedural field is out of range.
-    #[error("{field} = {value}: {requirement}")]
+    #[error("{field} = {}: {requirement}", fmt_num(*.value))]
     InvalidParameter {
         /// The parameter, e.g. `"blend_mm"`.
         field: &'static str,

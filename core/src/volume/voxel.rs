@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use super::error::VolumeError;
 use super::field::{Coefficients, MediumField, TetSampling};
 use super::per_tet::PerTetMedia;
+use crate::input::{BoundedFile, InputError, Limits};
 use crate::mesh::TetMesh;
 
 /// The first 8 bytes of a TCVOX1 file.
@@ -17,6 +18,8 @@ pub const MAGIC: [u8; 8] = *b"TCVOX1\0\0";
 pub const HEADER_BYTES: usize = 72;
 /// Channels per voxel: σa R, G, B, σ′s R, G, B.
 pub const CHANNELS: usize = 6;
+/// The largest voxel file [`VoxelGrid::read`] reads, in bytes (4 GiB: about 179 million voxels).
+pub const MAX_VOXEL_FILE_BYTES: u64 = 4 << 30;
 
 /// A dense grid of σa and σ′s (`f32`, mm⁻¹) over a box in scene units; see the
 /// [module documentation](self) for the geometry, the sampling rule and the file format.
@@ -79,13 +82,27 @@ impl VoxelGrid {
 
     /// Reads a TCVOX1 file (see the [module documentation](self)).
     ///
+    /// The header is checked, and the file's size compared with the size it declares, before
+    /// the voxel data is read.
+    ///
     /// # Errors
-    /// [`VolumeError::Io`] if the file cannot be read; otherwise [`VolumeError::VoxelFile`]
-    /// naming the file around the error of [`VoxelGrid::from_bytes`].
+    /// [`VolumeError::Io`] if the file cannot be read; [`VolumeError::Refused`] if it is not a
+    /// regular file or is larger than [`MAX_VOXEL_FILE_BYTES`]; otherwise
+    /// [`VolumeError::VoxelFile`] naming the file around the error of [`VoxelGrid::from_bytes`].
     pub fn read(path: impl AsRef<Path>) -> Result<Self, VolumeError> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| VolumeError::Io { path: path.to_path_buf(), source })?;
-        Self::from_bytes(&bytes).map_err(|source| VolumeError::VoxelFile { path: path.to_path_buf(), source: Box::new(source) })
+        let refused = |e: InputError| match e {
+            InputError::Io(source) => VolumeError::Io { path: path.to_path_buf(), source },
+            source => VolumeError::Refused { path: path.to_path_buf(), source },
+        };
+        let in_file = |source: VolumeError| VolumeError::VoxelFile { path: path.to_path_buf(), source: Box::new(source) };
+        let mut file = BoundedFile::open(path, Limits { max_bytes: MAX_VOXEL_FILE_BYTES, max_line: None }).map_err(refused)?;
+        let found = file.len();
+        let (head, _) = file.head().map_err(refused)?;
+        let expected = declared_len(head).map_err(in_file)?;
+        check_len(expected, found).map_err(in_file)?;
+        let bytes = file.read_all().map_err(refused)?;
+        Self::from_bytes(&bytes).map_err(in_file)
     }
 
     /// Parses the bytes of a TCVOX1 file.
@@ -97,13 +114,8 @@ impl VoxelGrid {
     /// [`VolumeError::TrailingBytes`] unless the length is 72 + 24·nx·ny·nz (both name the
     /// expected and the found byte counts); then the checks of [`VoxelGrid::new`].
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, VolumeError> {
-        let head = &bytes[..bytes.len().min(MAGIC.len())];
-        if head != &MAGIC[..head.len()] {
-            return Err(VolumeError::BadMagic { found: head.to_vec() });
-        }
-        if bytes.len() < HEADER_BYTES {
-            return Err(VolumeError::Truncated { part: "header", expected: HEADER_BYTES as u64, found: bytes.len() as u64 });
-        }
+        let expected = declared_len(bytes)?;
+        check_len(expected, bytes.len() as u64)?;
         let u32_at = |o: usize| u32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
         let f64_at = |o: usize| {
             let mut b = [0u8; 8];
@@ -111,25 +123,6 @@ impl VoxelGrid {
             f64::from_le_bytes(b)
         };
         let dims = [u32_at(8), u32_at(12), u32_at(16)];
-        let channels = u32_at(20);
-        if channels as usize != CHANNELS {
-            return Err(VolumeError::UnsupportedChannels { found: channels });
-        }
-        if dims.contains(&0) {
-            return Err(VolumeError::ZeroDimension { dims });
-        }
-        let expected = dims
-            .iter()
-            .try_fold(4 * CHANNELS as u64, |acc, &d| acc.checked_mul(u64::from(d)))
-            .and_then(|data| data.checked_add(HEADER_BYTES as u64))
-            .ok_or(VolumeError::TooLarge { dims, channels })?;
-        let found = bytes.len() as u64;
-        if found < expected {
-            return Err(VolumeError::Truncated { part: "voxel data", expected, found });
-        }
-        if found > expected {
-            return Err(VolumeError::TrailingBytes { expected, found });
-        }
         let origin = DVec3::new(f64_at(24), f64_at(32), f64_at(40));
         let voxel_size = DVec3::new(f64_at(48), f64_at(56), f64_at(64));
         check_shape(dims, origin, voxel_size)?;
@@ -286,6 +279,42 @@ impl MediumField for VoxelGrid {
 
 /// The two voxel indices along one axis and the weight t of the second, for the continuous
 /// voxel-centre coordinate `u` clamped to [0, n − 1].
+/// The total length in bytes the header at the start of `bytes` declares, after the checks of
+/// [`VoxelGrid::from_bytes`] up to [`VolumeError::TooLarge`], in its order.
+fn declared_len(bytes: &[u8]) -> Result<u64, VolumeError> {
+    let head = &bytes[..bytes.len().min(MAGIC.len())];
+    if head != &MAGIC[..head.len()] {
+        return Err(VolumeError::BadMagic { found: head.to_vec() });
+    }
+    if bytes.len() < HEADER_BYTES {
+        return Err(VolumeError::Truncated { part: "header", expected: HEADER_BYTES as u64, found: bytes.len() as u64 });
+    }
+    let u32_at = |o: usize| u32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
+    let dims = [u32_at(8), u32_at(12), u32_at(16)];
+    let channels = u32_at(20);
+    if channels as usize != CHANNELS {
+        return Err(VolumeError::UnsupportedChannels { found: channels });
+    }
+    if dims.contains(&0) {
+        return Err(VolumeError::ZeroDimension { dims });
+    }
+    dims.iter()
+        .try_fold(4 * CHANNELS as u64, |acc, &d| acc.checked_mul(u64::from(d)))
+        .and_then(|data| data.checked_add(HEADER_BYTES as u64))
+        .ok_or(VolumeError::TooLarge { dims, channels })
+}
+
+/// [`VolumeError::Truncated`] or [`VolumeError::TrailingBytes`] unless `found == expected`.
+fn check_len(expected: u64, found: u64) -> Result<(), VolumeError> {
+    if found < expected {
+        return Err(VolumeError::Truncated { part: "voxel data", expected, found });
+    }
+    if found > expected {
+        return Err(VolumeError::TrailingBytes { expected, found });
+    }
+    Ok(())
+}
+
 fn axis(u: f64, n: u32) -> (usize, usize, f64) {
     let max = f64::from(n - 1);
     // `u >= 0.0` is false for NaN: NaN samples the first layer.
