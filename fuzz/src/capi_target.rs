@@ -56,11 +56,12 @@ pub fn capi_mesh(data: &[u8]) -> [TcStatus; 2] {
         if status == TC_OK {
             assert_eq!(count(scene), before + 1);
         } else {
-            assert_eq!(count(scene), before, "a failed call added an object");
+            // The message first: the next call (the count) replaces it.
             // SAFETY: never NULL; copied at once.
             let message = unsafe { CStr::from_ptr(tc_last_error_message()) }.to_string_lossy().into_owned();
             assert!(!message.is_empty(), "status {status:?} without a message");
             assert!(message.len() <= MAX_MESSAGE_BYTES, "a message of {} bytes", message.len());
+            assert_eq!(count(scene), before, "a failed call added an object");
         }
     };
     let mut object = u32::MAX;

@@ -93,6 +93,19 @@ pub enum MeshError {
         /// The 1-based line, for text files.
         line: Option<usize>,
     },
+    /// A coordinate's magnitude exceeds [`MAX_COORDINATE`](super::MAX_COORDINATE): the mesh's
+    /// extent would overflow in squared lengths.
+    #[error("{}vertex {vertex} has a coordinate of magnitude {}, more than the {} supported", at(path, &None), fmt_num(*value), fmt_num(*max))]
+    CoordinateTooLarge {
+        /// 0-based vertex number.
+        vertex: usize,
+        /// The largest magnitude among its coordinates.
+        value: f64,
+        /// The limit.
+        max: f64,
+        /// The file, if the mesh came from one.
+        path: Option<String>,
+    },
     /// A face refers to a vertex that does not exist.
     #[error("{}face {face} refers to vertex {index}, but there are {vertex_count} vertices", at(path, line))]
     IndexOutOfRange {

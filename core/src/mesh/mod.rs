@@ -21,7 +21,7 @@ pub use obj::{load_obj, load_obj_with, parse_obj, parse_obj_with};
 pub use ply::{load_ply, load_ply_with, parse_ply, parse_ply_with};
 pub use quality::{dihedral_angles, dihedral_cotangents, tet_volume, QualityReport};
 pub use tetmesh::{BoundaryFace, BoundaryTopology, TetMesh, TetMeshError};
-pub use trimesh::{TriMesh, WeldOptions};
+pub use trimesh::{TriMesh, WeldOptions, MAX_COORDINATE};
 pub use vtk::write_vtk;
 
 use std::path::Path;

@@ -485,6 +485,15 @@ mod tests {
     }
 
     #[test]
+    fn coordinates_whose_extent_overflows_are_refused() {
+        // 1e190 is finite, but the bounding-box diagonal (its square) would overflow.
+        let e = parse_obj("v 0 0 1e190\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "t.obj").unwrap_err();
+        assert!(matches!(e, MeshError::CoordinateTooLarge { vertex: 0, value, .. } if value == 1e190), "{e}");
+        assert_eq!(e.to_string(), "t.obj: vertex 0 has a coordinate of magnitude 1e190, more than the 1e30 supported");
+        parse_obj("v 0 0 -1e30\nv 1e30 0 0\nv 0 1e30 0\nf 1 2 3\n", "t.obj").unwrap();
+    }
+
+    #[test]
     fn garbage_line_is_rejected() {
         let e = parse_obj("v 0 0 0\n1 2 3\n", "t.obj").unwrap_err();
         assert!(matches!(e, MeshError::Parse { line: 2, .. }));

@@ -61,6 +61,7 @@ impl TriMesh {
     /// - [`MeshError::Empty`]: no vertices or no polygons;
     /// - [`MeshError::InvalidTolerance`]: a negative or non-finite weld tolerance;
     /// - [`MeshError::NonFinite`]: a NaN or infinite coordinate (naming the first such vertex);
+    /// - [`MeshError::CoordinateTooLarge`]: a coordinate beyond [`MAX_COORDINATE`] in magnitude;
     /// - [`MeshError::TooFewVertices`]: a polygon with fewer than 3 indices;
     /// - [`MeshError::IndexOutOfRange`]: an index `>= user_positions.len()`;
     /// - [`MeshError::AllFacesDegenerate`]: no triangle with a non-zero area is left.
@@ -293,12 +294,20 @@ impl TriMesh {
 }
 
 pub(crate) fn check_finite(vertex: usize, p: DVec3) -> Result<(), MeshError> {
-    if p.is_finite() {
-        Ok(())
-    } else {
-        Err(MeshError::NonFinite { vertex, x: p.x, y: p.y, z: p.z, path: None, line: None })
+    if !p.is_finite() {
+        return Err(MeshError::NonFinite { vertex, x: p.x, y: p.y, z: p.z, path: None, line: None });
     }
+    let value = p.abs().max_element();
+    if value > MAX_COORDINATE {
+        return Err(MeshError::CoordinateTooLarge { vertex, value, max: MAX_COORDINATE, path: None });
+    }
+    Ok(())
 }
+
+/// The largest coordinate magnitude a surface mesh may have (1e30 in any unit): squared
+/// lengths, areas and volumes of the mesh then stay far from `f64` overflow, so the weld
+/// tolerance, the degeneracy thresholds and the mesher's measures are finite.
+pub const MAX_COORDINATE: f64 = 1e30;
 
 /// Builds a [`TriMesh`] from user positions and polygons given as `indices[offsets[f] ..
 /// offsets[f + 1]]`; `path` names the file in errors. Readers validate with line numbers first
@@ -337,6 +346,9 @@ pub(crate) fn build(
         check_finite(i, *p).map_err(|e| match e {
             MeshError::NonFinite { vertex, x, y, z, .. } => {
                 MeshError::NonFinite { vertex, x, y, z, path: owned_path(), line: None }
+            }
+            MeshError::CoordinateTooLarge { vertex, value, max, .. } => {
+                MeshError::CoordinateTooLarge { vertex, value, max, path: owned_path() }
             }
             other => other,
         })?;
