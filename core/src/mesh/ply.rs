@@ -571,6 +571,11 @@ fn read_body(header: &Header, src: &mut impl Source, mesh: &mut MeshData, path: 
     let mut values: Vec<f64> = Vec::new();
     let mut strip: Vec<i64> = Vec::new();
     for (element, role) in header.elements.iter().zip(&header.roles) {
+        if element.properties.is_empty() {
+            // Nothing to read, however many instances it declares (an ASCII body would
+            // otherwise loop over them one by one).
+            continue;
+        }
         let of = |i: usize| format!("{} {i} of {}", clip(&element.name), element.count);
         let fail = |e: ReadError, i: usize, property: &str| match e {
             ReadError::End => MeshError::Truncated {
@@ -699,6 +704,15 @@ fn push_strip(strip: &[i64], mesh: &mut MeshData) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_element_without_properties_is_skipped_whatever_its_count() {
+        let text = "ply\nformat ascii 1.0\nelement empty 18446744073709551615\nelement vertex 3\nproperty float x\n\
+                    property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+                    0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+        let m = parse_ply(text.as_bytes(), "t.ply").unwrap();
+        assert_eq!(m.triangles().len(), 1);
+    }
 
     const CUBE_ASCII: &str = "ply\nformat ascii 1.0\ncomment unit cube\n\
         element vertex 8\nproperty float x\nproperty float y\nproperty float z\n\
