@@ -2,11 +2,11 @@
 //! well-wound one (every `TriMesh` is oriented when it is built), the bake says how many it
 //! reversed, and a surface that cannot be oriented is refused by name.
 
+use glam::{DMat4, DVec3};
 use transcut::light::Light;
 use transcut::mesh::{MeshError, TriMesh};
 use transcut::optics::Medium;
 use transcut::{bake, BakeOptions, Object, Scene, TransCutOptions};
-use glam::{DMat4, DVec3};
 
 mod common;
 use common::uv_sphere;
@@ -39,12 +39,19 @@ fn sun_lit(mesh: TriMesh) -> Scene {
     let marble = Medium::preset("marble").unwrap();
     Scene {
         objects: vec![Object::new("sphere", mesh, marble, 1.0)],
-        lights: vec![Light::Directional { direction: DVec3::new(0.3, -0.2, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 }],
+        lights: vec![Light::Directional {
+            direction: DVec3::new(0.3, -0.2, -1.0),
+            irradiance: [3.0; 3],
+            angular_diameter_deg: 0.0,
+        }],
     }
 }
 
 fn options() -> BakeOptions {
-    BakeOptions { method: TransCutOptions { tets: 6_000, tolerance: 1e-10, ..TransCutOptions::default() }.into(), ..BakeOptions::default() }
+    BakeOptions {
+        method: TransCutOptions { tets: 6_000, tolerance: 1e-10, ..TransCutOptions::default() }.into(),
+        ..BakeOptions::default()
+    }
 }
 
 #[test]

@@ -236,7 +236,8 @@ mod tests {
     fn every_subset_of_reversed_cube_triangles_is_restored_exactly() {
         let (p, t) = cube(DVec3::new(3.0, -2.0, 7.0), 0.5);
         for mask in 0u32..(1 << 12) {
-            let bad: Vec<[u32; 3]> = t.iter().enumerate().map(|(i, &x)| if mask >> i & 1 == 1 { reversed(x) } else { x }).collect();
+            let bad: Vec<[u32; 3]> =
+                t.iter().enumerate().map(|(i, &x)| if mask >> i & 1 == 1 { reversed(x) } else { x }).collect();
             let o = orient(&p, &bad).unwrap();
             assert_eq!(o.count, mask.count_ones() as usize, "mask {mask:#x}");
             assert_eq!(apply(&bad, &o), t, "mask {mask:#x}");

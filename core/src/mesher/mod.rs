@@ -220,7 +220,9 @@ pub fn tetrahedralize_with(
     };
     timings.stuffing_ms = ms(t);
     if stuffed.tets.is_empty() {
-        return Err(MesherError::NoInterior { detail: format!(" at the lattice spacing {spacing:.3e} (an open sheet or thinner than that)") });
+        return Err(MesherError::NoInterior {
+            detail: format!(" at the lattice spacing {spacing:.3e} (an open sheet or thinner than that)"),
+        });
     }
 
     let t = Instant::now();

@@ -94,8 +94,9 @@ impl SubsurfaceMethod for TransCut {
             source,
         })?;
         let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
-        let measured = resolution::resolution(resolution::surface_sigma_tr(&tet_mesh, &media), spacing);
-        stats.resolution = resolution::check(index, &object.name, measured, spacing, tet_mesh.tet_count())?;
+        let surface_media = resolution::surface_media(&tet_mesh, &media);
+        stats.resolution = resolution::resolution(&surface_media, spacing);
+        resolution::check(index, &object.name, &surface_media, spacing, tet_mesh.tet_count())?;
         let system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(|source| SceneError::Diffusion {
             index,
             name: name(),
