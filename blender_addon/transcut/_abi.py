@@ -43,6 +43,7 @@ TC_BUSY = 13
 TC_GPU_UNAVAILABLE = 14
 TC_NOTHING_LEFT = 15
 TC_UNSUPPORTED = 16
+TC_UNRESOLVED = 17
 
 STATUS_NAMES = {
     TC_OK: "TC_OK",
@@ -62,6 +63,7 @@ STATUS_NAMES = {
     TC_GPU_UNAVAILABLE: "TC_GPU_UNAVAILABLE",
     TC_NOTHING_LEFT: "TC_NOTHING_LEFT",
     TC_UNSUPPORTED: "TC_UNSUPPORTED",
+    TC_UNRESOLVED: "TC_UNRESOLVED",
 }
 
 # TcBakeOptions.method: the subsurface method (tc_method_count, tc_method_name list them; new
@@ -172,6 +174,8 @@ class TcBakeStats(Structure):
         ("total_ms", c_double),
         ("clamped_vertices", c_uint64),
         ("backend_used", c_uint32),
+        ("flipped_faces", c_uint64),
+        ("resolution", c_double * 3),
     ]
 
 

@@ -223,6 +223,8 @@ def _stats_dict(st) -> dict:
     """A ``TcBakeStats`` / ``TcEditStats`` as a dict (``size`` left out, ``iterations`` a list)."""
     out = {name: getattr(st, name) for name, _ in st._fields_ if name != "size"}
     out["iterations"] = list(st.iterations)
+    if "resolution" in out:
+        out["resolution"] = list(st.resolution)
     return out
 
 

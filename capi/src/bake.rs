@@ -38,19 +38,36 @@ pub struct TcBakeStats {
     pub solve_ms: f64,
     /// Wall time of the whole object.
     pub total_ms: f64,
-    /// Surface vertices whose diffusion radiance came out negative and was clamped to 0 (very
-    /// absorbing media on coarse meshes).
+    /// The caller's vertices whose radiance the clamp at 0 changed: interpolated from a surface
+    /// node whose diffusion radiance came out negative (very absorbing media on coarse meshes).
     pub clamped_vertices: u64,
     /// Where the solve ran: `TC_BACKEND_CPU` (1) or `TC_BACKEND_GPU` (2). See
     /// `tc_object_device` for the GPU's name and `tc_object_backend_fallback` for why
     /// `TC_BACKEND_AUTO` chose the CPU. (Appended: a caller passing the older size, 88, gets the
     /// fields before this one and `size` = 88.)
     pub backend_used: u32,
+    /// Triangles of the object's mesh whose winding the library reversed to orient every shell
+    /// consistently and every closed one outwards (0 for a well-wound mesh). (Appended: a
+    /// caller passing the older size, 96, gets the fields before this one and `size` = 96.)
+    pub flipped_faces: u64,
+    /// How well the method resolves the medium, per channel (R, G, B): TransCut's σtr·h at the
+    /// surface (transport coefficient × mean boundary edge length in mm); a bake above the
+    /// method's bound fails with `TC_UNRESOLVED` instead. 0 where a method has no such measure.
+    pub resolution: [f64; 3],
 }
 
 /// The size of `TcBakeStats` before `backend_used` was appended: callers built against it
 /// still get the fields they know.
 const BAKE_STATS_SIZE_V1: usize = std::mem::offset_of!(TcBakeStats, backend_used);
+
+/// The size of `TcBakeStats` before `flipped_faces` and `resolution` were appended.
+const BAKE_STATS_SIZE_V2: usize = std::mem::offset_of!(TcBakeStats, flipped_faces);
+
+/// How many bytes of `TcBakeStats` to write for a caller whose struct has `size` bytes: the
+/// largest version that fits (`None` below the first).
+fn stats_bytes(size: usize) -> Option<usize> {
+    [size_of::<TcBakeStats>(), BAKE_STATS_SIZE_V2, BAKE_STATS_SIZE_V1].into_iter().find(|&v| v <= size)
+}
 
 /// Fills `*options` with the defaults of the first version of `TcBakeOptions`: its first 48
 /// bytes (every field before `method_options`, which is not written) and `size` = 48, what a
@@ -195,8 +212,9 @@ pub unsafe extern "C" fn tc_object_radiance(scene: *const TcScene, object: u32, 
 
 /// Writes an object's statistics of the last bake into `*out`. Set `out->size =
 /// sizeof(TcBakeStats)` first; on return it holds the number of bytes written: all of the
-/// struct, or the first 88 bytes (the fields before `backend_used`) for a caller built against
-/// that older struct, whose `size` is 88. A smaller size is `TC_INVALID_ARGUMENT`.
+/// struct, or for a caller built against an older struct its bytes: 96 (the fields before
+/// `flipped_faces`) or 88 (those before `backend_used`). A smaller size is
+/// `TC_INVALID_ARGUMENT`.
 /// `TC_NOT_BAKED` before a successful bake or after the scene changed.
 #[no_mangle]
 pub unsafe extern "C" fn tc_object_stats(scene: *const TcScene, object: u32, out: *mut TcBakeStats) -> TcStatus {
@@ -205,10 +223,9 @@ pub unsafe extern "C" fn tc_object_stats(scene: *const TcScene, object: u32, out
         // SAFETY: checked; `size` is the first field.
         let size = unsafe { out.cast::<u32>().read() } as usize;
         let ours = size_of::<TcBakeStats>();
-        if size < BAKE_STATS_SIZE_V1 {
+        let Some(written) = stats_bytes(size) else {
             return Err(Failure::invalid(format!("out->size = {size}, expected sizeof(TcBakeStats) = {ours}")));
-        }
-        let written = if size >= ours { ours } else { BAKE_STATS_SIZE_V1 };
+        };
         // SAFETY: the caller's contract.
         let stats = unsafe {
             with_scene(scene, |s| {
@@ -227,6 +244,8 @@ pub unsafe extern "C" fn tc_object_stats(scene: *const TcScene, object: u32, out
                     total_ms: st.total_ms,
                     clamped_vertices: count(st.clamped_vertices),
                     backend_used: backend_used(st.backend),
+                    flipped_faces: count(st.flipped_faces),
+                    resolution: st.resolution,
                 })
             })?
         };

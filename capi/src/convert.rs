@@ -8,7 +8,7 @@ use transcut_core::{SceneError, SessionError};
 
 use super::status::{
     Failure, TC_CANCELLED, TC_GPU_UNAVAILABLE, TC_INVALID_ARGUMENT, TC_INVALID_HANDLE, TC_INVALID_MESH, TC_IO_ERROR,
-    TC_MESHING_FAILED, TC_NOTHING_LEFT, TC_NOT_FOUND, TC_SOLVE_FAILED, TC_UNSUPPORTED,
+    TC_MESHING_FAILED, TC_NOTHING_LEFT, TC_NOT_FOUND, TC_SOLVE_FAILED, TC_UNRESOLVED, TC_UNSUPPORTED,
 };
 
 /// A homogeneous medium. Coefficients per RGB channel in mm⁻¹ (whatever the scene unit; see
@@ -45,6 +45,7 @@ pub(crate) fn scene_failure(e: &SceneError) -> Failure {
         SceneError::Diffusion { .. } => TC_SOLVE_FAILED,
         SceneError::Gpu { .. } => TC_GPU_UNAVAILABLE,
         SceneError::Unsupported { .. } => TC_UNSUPPORTED,
+        SceneError::Unresolved { .. } => TC_UNRESOLVED,
         SceneError::NoObjects | SceneError::InvalidOptions(_) | SceneError::InvalidObject { .. } | SceneError::Light(_) => {
             TC_INVALID_ARGUMENT
         }

@@ -67,6 +67,11 @@ pub const TC_NOTHING_LEFT: TcStatus = TcStatus(15);
 /// The chosen method cannot do what was asked (bake this object, or this kind of edit); the
 /// message names the method and the reason. Nothing changed.
 pub const TC_UNSUPPORTED: TcStatus = TcStatus(16);
+/// The method cannot resolve the object's medium at this mesh size (TransCut: σtr·h at the
+/// surface above its bound), so its radiance would be wrong (too dark or zero); the message
+/// names the channel, σtr·h, the mesh spacing in mm and the tet count or object scale that
+/// would resolve it. Nothing changed.
+pub const TC_UNRESOLVED: TcStatus = TcStatus(17);
 
 impl TcStatus {
     /// The constant's name, e.g. `"TC_NULL_POINTER"`, or `"unknown status"`.
@@ -90,6 +95,7 @@ impl TcStatus {
             14 => c"TC_GPU_UNAVAILABLE",
             15 => c"TC_NOTHING_LEFT",
             16 => c"TC_UNSUPPORTED",
+            17 => c"TC_UNRESOLVED",
             _ => c"unknown status",
         }
     }

@@ -120,8 +120,15 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
             (None, Some(why)) => println!("solved on the CPU ({why})"),
             (None, None) => println!("solved on the CPU"),
         }
+        println!(
+            "resolution σtr·h {:.3} {:.3} {:.3} (R G B; the method refuses more than it can resolve)",
+            s.resolution[0], s.resolution[1], s.resolution[2]
+        );
+        if s.flipped_faces > 0 {
+            println!("note: {} triangles were wound inwards or inconsistently and were reversed", s.flipped_faces);
+        }
         if s.clamped_vertices > 0 {
-            println!("note: {} surface vertices had a negative diffusion radiance, clamped to 0", s.clamped_vertices);
+            println!("note: {} of your vertices had a negative diffusion radiance, clamped to 0", s.clamped_vertices);
         }
     }
     Ok(())

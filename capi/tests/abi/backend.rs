@@ -171,18 +171,31 @@ fn an_unknown_backend_is_refused_naming_it() {
 
 /// Defaults: backend TC_BACKEND_DEFAULT; sizes: the options struct grew to 56 (the
 /// `method_options` pointer; a caller of the 48-byte struct bakes with the method's defaults:
-/// see `bake::an_older_options_struct_bakes_as_before`), the stats grew to 96, and a caller
-/// built against the older stats (size 88) gets exactly those 88 bytes and size 88, the bytes
-/// after untouched.
+/// see `bake::an_older_options_struct_bakes_as_before`), the stats grew to 96 and then to 128,
+/// and a caller built against an older stats struct (size 88 or 96) gets exactly those bytes
+/// and that size, the bytes after untouched.
 #[test]
 fn defaults_and_the_older_stats_size() {
     assert_eq!(size_of::<TcBakeOptions>(), 56);
-    assert_eq!(size_of::<TcBakeStats>(), 96);
+    assert_eq!(size_of::<TcBakeStats>(), 128);
     assert_eq!(options(1).backend, TC_BACKEND_DEFAULT);
     let (s, status) = bake_with_backend(TC_BACKEND_CPU);
     ok(status, "bake");
     let full = stats(s);
-    assert_eq!(full.size, 96);
+    assert_eq!(full.size, 128);
+    // The 96-byte struct (before flipped_faces and resolution): backend_used, nothing after.
+    #[repr(C)]
+    struct Before {
+        stats: [u64; 12],
+        guard: [u64; 4],
+    }
+    let mut before = Before { stats: [0; 12], guard: [0xA5A5_A5A5_A5A5_A5A5; 4] };
+    before.stats[0] = 96;
+    // SAFETY: 96 writable bytes at the start, as the size says (aligned as TcBakeStats).
+    ok(unsafe { tc_object_stats(s, 0, (&raw mut before).cast()) }, "stats, size 96");
+    assert_eq!(before.stats[0] & 0xFFFF_FFFF, 96, "size written back");
+    assert_eq!(before.stats[11] & 0xFFFF_FFFF, u64::from(full.backend_used), "backend_used at byte 88");
+    assert_eq!(before.guard, [0xA5A5_A5A5_A5A5_A5A5; 4], "bytes beyond the older size were written");
     // An older caller's struct: 88 bytes, then memory the library must not touch.
     #[repr(C)]
     struct Older {

@@ -60,7 +60,9 @@ fn uniform_sphere_under_a_constant_sky_matches_the_closed_form() {
 /// object with a transform moves the result with it (same values at the same user vertices).
 #[test]
 fn sun_lights_the_facing_side_and_results_follow_the_callers_vertices() {
-    let mesh = Mesh::uv_sphere(20.0, 48, 24);
+    // Skin's blue channel needs the mesh to resolve 0.7 mm: a 10 mm radius at 60k tets does
+    // (a 20 mm radius at 8k is refused as TC_UNRESOLVED).
+    let mesh = Mesh::uv_sphere(10.0, 48, 24);
     let bake = |matrix: Option<[f32; 16]>| {
         let s = scene();
         let ball = add(s, &mesh);
@@ -71,7 +73,7 @@ fn sun_lights_the_facing_side_and_results_follow_the_callers_vertices() {
                 ok(tc_object_set_transform(s, ball, m.as_ptr()), "transform");
             }
             ok(tc_scene_add_sun(s, [0.0, 0.0, -1.0].as_ptr(), [3.0; 3].as_ptr(), 0.0), "sun");
-            ok(tc_scene_bake(s, &options(8_000), None, ptr::null_mut()), "bake");
+            ok(tc_scene_bake(s, &options(60_000), None, ptr::null_mut()), "bake");
         }
         let lo = radiance(s, ball);
         destroy(s);
@@ -95,6 +97,56 @@ fn sun_lights_the_facing_side_and_results_follow_the_callers_vertices() {
     for (a, b) in lo.iter().zip(&moved) {
         assert!((a - b).abs() <= 1e-4 * a.abs().max(1e-3), "{a} vs {b}");
     }
+}
+
+/// A marble sphere modelled in metres (radius 1, `mm_per_unit` 1000) at 5,000 tets cannot be
+/// resolved: `TC_UNRESOLVED`, naming the channel and what would resolve it, and no results. The
+/// same sphere in millimetres with a tenth of its triangles wound the other way bakes, and the
+/// statistics say how many were reversed and how well each channel is resolved.
+#[test]
+fn an_unresolved_bake_fails_and_the_stats_report_flips_and_resolution() {
+    let metres = Mesh::uv_sphere(1.0, 32, 16);
+    let s = scene();
+    let ball = add(s, &metres);
+    // SAFETY: valid pointers.
+    unsafe {
+        ok(tc_object_set_medium_preset(s, ball, cstr(c"marble")), "preset");
+        ok(tc_object_set_scale(s, ball, 1000.0), "scale");
+        ok(tc_scene_add_sun(s, [0.0, 0.0, -1.0].as_ptr(), [3.0; 3].as_ptr(), 0.0), "sun");
+        fails(tc_scene_bake(s, &options(5_000), None, ptr::null_mut()), TC_UNRESOLVED, &["blue", "σtr·h", "mm", "tets"]);
+        let mut stats: TcBakeStats = std::mem::zeroed();
+        stats.size = size_of::<TcBakeStats>() as u32;
+        fails(tc_object_stats(s, ball, &mut stats), TC_NOT_BAKED, &[]);
+    }
+    assert_eq!(name(TC_UNRESOLVED), "TC_UNRESOLVED");
+    destroy(s);
+
+    let mut mesh = Mesh::uv_sphere(10.0, 32, 16);
+    let triangles = mesh.indices.len() / 3;
+    for t in (0..triangles).step_by(10) {
+        mesh.indices.swap(3 * t + 1, 3 * t + 2);
+    }
+    let s = scene();
+    let ball = add(s, &mesh);
+    // SAFETY: valid pointers.
+    let stats = unsafe {
+        ok(tc_object_set_medium_preset(s, ball, cstr(c"marble")), "preset");
+        ok(tc_scene_add_sun(s, [0.0, 0.0, -1.0].as_ptr(), [3.0; 3].as_ptr(), 0.0), "sun");
+        ok(tc_scene_bake(s, &options(5_000), None, ptr::null_mut()), "bake");
+        let mut stats: TcBakeStats = std::mem::zeroed();
+        stats.size = size_of::<TcBakeStats>() as u32;
+        ok(tc_object_stats(s, ball, &mut stats), "stats");
+        stats
+    };
+    assert_eq!(stats.flipped_faces as usize, triangles.div_ceil(10));
+    // Marble's σtr grows from red to blue (0.118, 0.180, 0.253 mm⁻¹), and so does σtr·h; the
+    // ratios are the σtr ratios whatever h is.
+    let r = stats.resolution;
+    assert!(r[0] > 0.0 && r[0] < r[1] && r[1] < r[2] && r[2] < 1.0, "{r:?}");
+    assert!((r[2] / r[0] - 0.253_083 / 0.117_517).abs() < 1e-4, "{r:?}");
+    let lo = radiance(s, ball);
+    assert!(lo[0] > 10.0 * lo[lo.len() - 3], "the lit pole is the bright one");
+    destroy(s);
 }
 
 /// What the progress callback saw.

@@ -83,6 +83,7 @@ impl Cutter {
                 positions: m.positions.clone(),
                 triangles: m.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect(),
                 user_to_internal: m.user_to_internal.clone(),
+                flipped_faces: m.flipped_faces,
             }),
         }
     }

@@ -147,6 +147,26 @@ pub enum MeshError {
         /// Length of the index array.
         len: usize,
     },
+    /// The surface cannot be wound consistently: walking across its edges from triangle to
+    /// triangle comes back to `triangle` needing the opposite winding (a Möbius strip, a Klein
+    /// bottle), so it has no inside and outside. Triangles are numbered after triangulation.
+    #[error(
+        "{}the surface is not orientable (like a Möbius strip or a Klein bottle): triangles {other} and {triangle} \
+         at the edge ({}, {}, {})–({}, {}, {}) cannot be wound consistently, so it has no inside and outside",
+        at(path, &None), from[0], from[1], from[2], to[0], to[1], to[2]
+    )]
+    NonOrientable {
+        /// The triangle reached a second time with the opposite winding.
+        triangle: usize,
+        /// The triangle it was reached from.
+        other: usize,
+        /// One end of the edge they share.
+        from: [f64; 3],
+        /// The other end.
+        to: [f64; 3],
+        /// The file, if the mesh came from one.
+        path: Option<String>,
+    },
     /// The weld tolerance is negative, NaN or infinite.
     #[error("weld tolerance {} is invalid: it must be finite and >= 0", fmt_num(*value))]
     InvalidTolerance {

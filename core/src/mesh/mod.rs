@@ -1,5 +1,6 @@
 //! Surface and volume meshes: loading user meshes (OBJ, PLY), welding, triangulating n-gons,
-//! shells, the tetrahedral mesh topology and quality measures, and spatial queries (BVH).
+//! orienting shells consistently (outwards where closed), shells, the tetrahedral mesh topology
+//! and quality measures, and spatial queries (BVH).
 //!
 //! Results are always returned in the user's own vertex order: a [`TriMesh`] keeps, for every
 //! vertex of the file it came from, the internal (welded) vertex that stands for it.
@@ -7,6 +8,7 @@
 mod bvh;
 mod error;
 mod obj;
+mod orient;
 mod ply;
 mod quality;
 mod tetmesh;

@@ -2,6 +2,7 @@
 
 use glam::{DMat4, DVec3, DVec4};
 
+use super::orient::{orient, reversed};
 use super::triangulate::triangulate;
 use super::weld::weld;
 use super::MeshError;
@@ -39,6 +40,8 @@ pub struct TriMesh {
     pub(crate) positions: Vec<DVec3>,
     pub(crate) triangles: Vec<[u32; 3]>,
     pub(crate) user_to_internal: Vec<u32>,
+    /// Triangles whose winding [`build`] reversed to orient the surface consistently.
+    pub(crate) flipped_faces: usize,
 }
 
 impl TriMesh {
@@ -55,7 +58,12 @@ impl TriMesh {
     ///    convex polygons as a fan, non-convex ones by ear clipping in the plane of their Newell
     ///    normal), keeping each polygon's winding;
     /// 4. dropping triangles that are degenerate: a corner repeated after welding, or an area
-    ///    below `1e-14 ×` diagonal².
+    ///    below `1e-14 ×` diagonal²;
+    /// 5. orientation: every shell wound consistently (across its manifold edges), each closed
+    ///    shell outwards by its own signed volume, each open one keeping the winding of the
+    ///    larger part of its area; a reversed triangle swaps its last two corners, and
+    ///    [`flipped_faces`](Self::flipped_faces) counts them (0 for a consistent, outward input,
+    ///    which is kept exactly).
     ///
     /// # Errors
     /// - [`MeshError::Empty`]: no vertices or no polygons;
@@ -64,7 +72,9 @@ impl TriMesh {
     /// - [`MeshError::CoordinateTooLarge`]: a coordinate beyond [`MAX_COORDINATE`] in magnitude;
     /// - [`MeshError::TooFewVertices`]: a polygon with fewer than 3 indices;
     /// - [`MeshError::IndexOutOfRange`]: an index `>= user_positions.len()`;
-    /// - [`MeshError::AllFacesDegenerate`]: no triangle with a non-zero area is left.
+    /// - [`MeshError::AllFacesDegenerate`]: no triangle with a non-zero area is left;
+    /// - [`MeshError::NonOrientable`]: the surface cannot be wound consistently (a Möbius strip,
+    ///   a Klein bottle).
     pub fn from_polygons(user_positions: Vec<DVec3>, polygons: &[Vec<u32>], weld: &WeldOptions) -> Result<TriMesh, MeshError> {
         let mut offsets = Vec::with_capacity(polygons.len() + 1);
         offsets.push(0);
@@ -194,7 +204,7 @@ impl TriMesh {
         } else {
             self.triangles.clone()
         };
-        TriMesh { positions, triangles, user_to_internal: self.user_to_internal.clone() }
+        TriMesh { positions, triangles, user_to_internal: self.user_to_internal.clone(), flipped_faces: self.flipped_faces }
     }
 
     /// Every triangle edge as (undirected key, triangle, corner where it starts), sorted by key.
@@ -217,8 +227,8 @@ impl TriMesh {
         &self.positions
     }
 
-    /// Triangles over internal vertices, counter-clockwise seen from outside where the input was
-    /// consistently oriented.
+    /// Triangles over internal vertices, counter-clockwise seen from outside (each closed shell
+    /// outwards; an open one in the winding of the larger part of its area).
     #[must_use]
     pub fn triangles(&self) -> &[[u32; 3]] {
         &self.triangles
@@ -228,6 +238,13 @@ impl TriMesh {
     #[must_use]
     pub fn user_to_internal(&self) -> &[u32] {
         &self.user_to_internal
+    }
+
+    /// Triangles whose winding was reversed when the mesh was built, to wind every shell
+    /// consistently and every closed shell outwards (0 when the input already was).
+    #[must_use]
+    pub fn flipped_faces(&self) -> usize {
+        self.flipped_faces
     }
 
     /// Number of vertices in the user's input.
@@ -414,5 +431,17 @@ pub(crate) fn build(
     if triangles.is_empty() {
         return Err(MeshError::AllFacesDegenerate { faces, path: owned_path() });
     }
-    Ok(TriMesh { positions, triangles, user_to_internal: map })
+    let orientation = orient(&positions, &triangles).map_err(|e| MeshError::NonOrientable {
+        triangle: e.triangle,
+        other: e.other,
+        from: e.edge[0].to_array(),
+        to: e.edge[1].to_array(),
+        path: owned_path(),
+    })?;
+    for (tri, &flip) in triangles.iter_mut().zip(&orientation.reverse) {
+        if flip {
+            *tri = reversed(*tri);
+        }
+    }
+    Ok(TriMesh { positions, triangles, user_to_internal: map, flipped_faces: orientation.count })
 }

@@ -76,10 +76,10 @@ pub enum MesherError {
     /// The options are invalid.
     #[error("invalid mesher options: {0}")]
     InvalidOptions(String),
-    /// The surface encloses no volume (e.g. a single open sheet): no lattice point is inside.
-    #[error(
-        "the surface encloses no volume (winding number below 1/2 everywhere{detail}): a single open sheet cannot be filled"
-    )]
+    /// The surface encloses no volume: no lattice point has a winding number of magnitude ½ or
+    /// more (an open sheet, a flat surface, or a solid thinner than the lattice); `detail` says
+    /// which was measured.
+    #[error("the surface encloses no volume{detail}: no point has a winding number of magnitude 1/2 or more")]
     NoInterior { detail: String },
     /// The requested size needs a lattice larger than `max_lattice_vertices`.
     #[error("a lattice of {vertices} vertices would be needed (limit {limit}); ask for fewer tets or a larger spacing")]
@@ -191,10 +191,12 @@ pub fn tetrahedralize_with(
     let extent = hi - lo;
     let diagonal = extent.length();
     if surface.triangles().is_empty() || !(diagonal > 0.0) {
-        return Err(MesherError::NoInterior { detail: ": the surface has no area".into() });
+        return Err(MesherError::NoInterior { detail: " (it has no area)".into() });
     }
     if extent.min_element() <= 1e-9 * diagonal {
-        return Err(MesherError::NoInterior { detail: ": the surface is flat".into() });
+        return Err(MesherError::NoInterior {
+            detail: format!(" (it is flat: {:.3e} thick across a diagonal of {diagonal:.3e})", extent.min_element()),
+        });
     }
 
     let t = Instant::now();
@@ -218,7 +220,9 @@ pub fn tetrahedralize_with(
     };
     timings.stuffing_ms = ms(t);
     if stuffed.tets.is_empty() {
-        return Err(MesherError::NoInterior { detail: format!(" on a lattice of spacing {spacing:.3e}") });
+        return Err(MesherError::NoInterior {
+            detail: format!(" at the lattice spacing {spacing:.3e} (an open sheet or thinner than that)"),
+        });
     }
 
     let t = Instant::now();
@@ -359,7 +363,9 @@ fn size_to_count(
         let count = stuffed.tets.len();
         if count == 0 {
             if passes >= 2 {
-                return Err(MesherError::NoInterior { detail: format!(" on a lattice of spacing {h:.3e}") });
+                return Err(MesherError::NoInterior {
+                    detail: format!(" at the lattice spacing {h:.3e} (an open sheet or thinner than that)"),
+                });
             }
             h *= 0.25;
             continue;
@@ -419,7 +425,7 @@ mod tests {
             }
         }
         let user_to_internal = (0..positions.len() as u32).collect();
-        TriMesh { positions, triangles, user_to_internal }
+        TriMesh { positions, triangles, user_to_internal, flipped_faces: 0 }
     }
 
     #[test]

@@ -52,27 +52,36 @@ fn ms_since(t: std::time::Instant) -> f64 {
 }
 
 /// The winding number, re-evaluated with a stricter far-field criterion (β = 5, errors about 4×
-/// smaller) where the fast value is within 0.05 of the ½ threshold, so that labels of points
+/// smaller) where its magnitude is within 0.05 of the ½ threshold, so that labels of points
 /// close to the threshold do not depend on the far-field error.
 pub(crate) fn accurate_winding(surface: &WindingNumber, p: DVec3) -> f64 {
     let w = surface.at(p);
-    if (w - 0.5).abs() < 0.05 {
+    if (w.abs() - 0.5).abs() < 0.05 {
         surface.at_with_accuracy(p, 5.0)
     } else {
         w
     }
 }
 
-/// Labels of lattice vertices: +1 inside, 0 on the surface (warped), −1 outside.
+/// Labels of lattice vertices: +1 inside, 0 on the surface (warped), −1 outside. Inside is
+/// `|w| ≥ ½`: the magnitude, so that an open shell wound inwards (whose winding the mesh's
+/// orientation keeps, see [`crate::mesh::TriMesh::flipped_faces`]) encloses the same solid as
+/// one wound outwards; a consistently outward surface has `w > −½` everywhere, where the
+/// magnitude changes nothing.
 fn label(w: f64) -> i8 {
-    if w >= 0.5 {
+    if inside(w) {
         1
     } else {
         -1
     }
 }
 
-/// Runs isosurface stuffing of the solid `w ≥ ½` on `lattice`.
+/// Whether winding number `w` is inside the solid: `|w| ≥ ½`.
+pub(crate) fn inside(w: f64) -> bool {
+    w.abs() >= 0.5
+}
+
+/// Runs isosurface stuffing of the solid `|w| ≥ ½` on `lattice`.
 pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progress) -> Result<Stuffed, Cancelled> {
     let nv = lattice.vertex_count();
     let mut timings = PhaseTimings::default();
@@ -229,7 +238,7 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
                         verts.clear();
                         let centroid = || {
                             let c = ids.iter().map(|&v| positions[v as usize]).sum::<DVec3>() / 4.0;
-                            accurate_winding(surface, c) >= 0.5
+                            inside(accurate_winding(surface, c))
                         };
                         fill(&ctx, ids, l, centroid, &mut verts);
                         for t in &verts {
@@ -312,7 +321,7 @@ impl StencilContext for Context<'_> {
 
 /// Where the surface crosses the lattice edge from `a` (inside, winding number `w_a`) to `b`
 /// (outside). Walks the surface crossings along the edge, updating the winding number by ∓1 at
-/// each (−1 leaving through an outward face), and returns the crossing where it drops below ½,
+/// each (−1 leaving through an outward face), and returns the crossing where its magnitude drops below ½,
 /// exactly on the input surface. Where no crossing explains the change (the edge passes through
 /// a hole of an open surface) the point is found by bisection of the winding number; the flag
 /// says so.
@@ -325,7 +334,7 @@ fn cut_point(surface: &WindingNumber, a: DVec3, b: DVec3, w_a: f64, hits: &mut V
         let [p0, p1, p2] = surface.bvh().corners[tri as usize];
         let n = (p1 - p0).cross(p2 - p0);
         w -= n.dot(d).signum();
-        if w < 0.5 {
+        if !inside(w) {
             return (a + t.clamp(0.0, 1.0) * d, false);
         }
     }
@@ -334,7 +343,7 @@ fn cut_point(surface: &WindingNumber, a: DVec3, b: DVec3, w_a: f64, hits: &mut V
     let (mut lo, mut hi) = (0.0, 1.0);
     for _ in 0..12 {
         let mid = 0.5 * (lo + hi);
-        if surface.at(a + mid * d) >= 0.5 {
+        if inside(surface.at(a + mid * d)) {
             lo = mid;
         } else {
             hi = mid;

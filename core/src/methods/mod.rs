@@ -142,6 +142,7 @@ pub(crate) fn bake_object<M: SubsurfaceMethod>(
 ) -> Result<ObjectBake, SceneError> {
     let t0 = Instant::now();
     let mut stats = ObjectStats::new(name);
+    stats.flipped_faces = target.world.flipped_faces();
     let mut state = M::prepare(target, options, &mut stats, stage)?;
     let radiance = M::solve(target, &mut state, lighting, options, &mut stats, stage)?;
     let expected = target.object.shape.output_vertex_count();

@@ -64,10 +64,19 @@ pub struct ObjectStats {
     pub iterations: [usize; 3],
     /// Final relative residual per channel.
     pub relative_residual: [f64; 3],
-    /// Surface nodes whose radiance came out negative and was clamped to zero before it was
-    /// interpolated at the user's vertices (the diffusion approximation can give Lo < 0 where
-    /// φ < 2q: very absorbing media, coarse meshes).
+    /// The user's vertices whose radiance the clamp at zero changed: those interpolated from a
+    /// surface node (with a non-zero weight) whose radiance came out negative in a channel and
+    /// was clamped to zero (the diffusion approximation can give Lo < 0 where φ < 2q: very
+    /// absorbing media, coarse meshes). For a ready tet mesh, the clamped boundary vertices.
     pub clamped_vertices: usize,
+    /// Triangles of the object's surface whose winding was reversed to orient it consistently
+    /// and outwards ([`crate::mesh::TriMesh::flipped_faces`]); 0 for a well-wound input.
+    pub flipped_faces: usize,
+    /// How well the method's discretisation resolves the medium, per channel, against the
+    /// method's own validity limit (TransCut: σtr · h at the surface, the transport coefficient
+    /// times the mean boundary edge length in mm; a bake is refused above
+    /// [`crate::methods::transcut::MAX_RESOLUTION`]). 0 where the method has no such measure.
+    pub resolution: [f64; 3],
     /// Building the method's geometry (TransCut: tetrahedralisation).
     pub meshing_ms: f64,
     /// Assembling the method's light-independent operators (TransCut: M).
@@ -100,6 +109,8 @@ impl ObjectStats {
             iterations: [0; 3],
             relative_residual: [0.0; 3],
             clamped_vertices: 0,
+            flipped_faces: 0,
+            resolution: [0.0; 3],
             meshing_ms: 0.0,
             assembly_ms: 0.0,
             source_ms: 0.0,

@@ -59,6 +59,34 @@ pub enum SceneError {
         #[source]
         source: GpuError,
     },
+    /// The method's discretisation cannot resolve the object's medium, so its radiance would be
+    /// wrong (TransCut: `σtr · h` at the surface above the bound; too dark, then zero): never a
+    /// wrong picture instead. Names the worst channel and what would resolve it.
+    #[error(
+        "object {index} ({name}): the mesh does not resolve the medium's {channel} channel: σtr·h = {sigma_tr_h:.3} at the \
+         surface (mesh spacing {spacing_mm:.4} mm) is above the bound {bound}, where the radiance would be too dark or \
+         zero; about {tets_needed:.0} tets instead of {tets} would resolve it, or the object at {scale:.3e} times its \
+         size (mm_per_unit)"
+    )]
+    Unresolved {
+        index: usize,
+        name: String,
+        /// `red`, `green` or `blue`.
+        channel: &'static str,
+        /// σtr · h of that channel.
+        sigma_tr_h: f64,
+        /// The largest σtr · h the method bakes.
+        bound: f64,
+        /// The mesh's spacing at the surface in mm (TransCut: the mean boundary edge length).
+        spacing_mm: f64,
+        /// The tets the bake had.
+        tets: usize,
+        /// About how many tets would resolve the channel.
+        tets_needed: f64,
+        /// The factor on the object's size (its `mm_per_unit`) that would resolve it at the
+        /// same tet count.
+        scale: f64,
+    },
     /// Cancelled through the progress callback.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),

@@ -4,7 +4,8 @@
 //!
 //! - `prepare`: tetrahedralise a surface ([`crate::mesher`]; a ready tet mesh is only moved to
 //!   world space), put the medium on the tets ([`crate::scene::MediumSource`]) and assemble M
-//!   ([`crate::diffusion::assemble`]);
+//!   ([`crate::diffusion::assemble`]), after checking the method's validity limit: the mesh
+//!   must resolve the medium's diffusion length at the surface ([`MAX_RESOLUTION`]);
 //! - `solve`: q at the boundary vertices ([`super::Lighting`]), the solve
 //!   ([`crate::gpu::solve_on`] with [`TransCutOptions::solver`]), Lo(x, n) at the boundary
 //!   ([`crate::diffusion::surface_radiance`]), clamped at 0 and interpolated at the user's
@@ -17,6 +18,9 @@
 
 mod capabilities;
 mod editor;
+mod resolution;
+
+pub use resolution::MAX_RESOLUTION;
 
 use std::time::Instant;
 
@@ -89,6 +93,10 @@ impl SubsurfaceMethod for TransCut {
             name: name(),
             source,
         })?;
+        let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
+        let surface_media = resolution::surface_media(&tet_mesh, &media);
+        stats.resolution = resolution::resolution(&surface_media, spacing);
+        resolution::check(index, &object.name, &surface_media, spacing, tet_mesh.tet_count())?;
         let system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(|source| SceneError::Diffusion {
             index,
             name: name(),
@@ -144,16 +152,19 @@ impl SubsurfaceMethod for TransCut {
 
         // Per tet-mesh vertex (boundary entries only), clamped, then at the user's vertices.
         let mut per_vertex = vec![[0.0; 3]; tet_mesh.vertex_count()];
-        let mut clamped = 0;
+        let mut clamped = vec![[0.0]; tet_mesh.vertex_count()];
         for (&v, l) in system.boundary().ids.iter().zip(&lo) {
             if l.iter().any(|&x| x < 0.0) {
-                clamped += 1;
+                clamped[v as usize] = [1.0];
             }
             per_vertex[v as usize] = l.map(|x| x.max(0.0));
         }
         stats.iterations = solution.stats.iterations;
         stats.relative_residual = solution.stats.relative_residual;
-        stats.clamped_vertices = clamped;
+        stats.clamped_vertices = match target.object.shape {
+            Shape::Surface(_) => clamped_user_vertices(tet_mesh, &clamped),
+            Shape::Tetrahedra(_) => clamped.iter().filter(|c| c[0] > 0.0).count(),
+        };
         stats.backend = report.used;
         stats.device = report.device;
         stats.backend_fallback = report.fallback;
@@ -174,6 +185,12 @@ impl SubsurfaceMethod for TransCut {
             fluence,
         })
     }
+}
+
+/// The user's vertices interpolated (with a non-zero weight) from a tet-mesh vertex that
+/// `clamped` marks with 1.
+fn clamped_user_vertices(tet_mesh: &TetMesh, clamped: &[[f64; 1]]) -> usize {
+    tet_mesh.sample_at_user_vertices(clamped).iter().filter(|c| c[0] > 0.0).count()
 }
 
 /// The backend the options ask for: theirs, else `TRANSCUT_BACKEND`, else [`Backend::Auto`].

@@ -1,0 +1,235 @@
+//! TransCut's validity limit: a bake knows how well its tet mesh resolves each channel's
+//! diffusion length (σtr · h at the surface, `ObjectStats::resolution`) and refuses one it
+//! cannot resolve (`SceneError::Unresolved`) instead of returning a picture that is too dark or
+//! black.
+//!
+//! h here is computed by the test itself: the mean length of the boundary triangles' edges of
+//! the tet mesh the bake kept, in mm; σtr = √(3 σa (σa + σ′s)) from the preset's coefficients.
+
+use glam::DVec3;
+use transcut::diffusion::{assemble, solve, surface_radiance};
+use transcut::light::{Environment, Light};
+use transcut::mesh::TetMesh;
+use transcut::mesher::{tetrahedralize, MesherOptions};
+use transcut::methods::transcut::MAX_RESOLUTION;
+use transcut::optics::{f_ext, Medium, UniformSphere};
+use transcut::sparse::SolveOptions;
+use transcut::{bake, BakeOptions, Object, Scene, SceneError, TransCutOptions};
+
+mod common;
+use common::uv_sphere;
+
+/// Mean boundary edge length of `mesh` in its own units (each boundary triangle's three edges).
+fn mean_boundary_edge(mesh: &TetMesh) -> f64 {
+    let p = mesh.positions();
+    let mut sum = 0.0;
+    for f in mesh.boundary_faces() {
+        for k in 0..3 {
+            sum += p[f.vertices[k] as usize].distance(p[f.vertices[(k + 1) % 3] as usize]);
+        }
+    }
+    sum / (3 * mesh.boundary_faces().len()) as f64
+}
+
+/// σtr per channel, by hand.
+fn sigma_tr(m: &Medium) -> [f64; 3] {
+    [0, 1, 2].map(|c| (3.0 * m.sigma_a[c] * (m.sigma_a[c] + m.sigma_s_prime[c])).sqrt())
+}
+
+/// The radiance amplification of eq. 3 for the uniformly lit half-space, by hand:
+/// φ(0) = Q/(1 + 2Aκσtr), κσtr = √(σa/(3σ′t)), amp = 1/(1 − (1 − Fdr)(1 + 2Aκσtr)/2), capped at 5.
+fn amplification(m: &Medium) -> [f64; 3] {
+    let fdr = -1.440 / (m.eta * m.eta) + 0.710 / m.eta + 0.668 + 0.0636 * m.eta;
+    let a = (1.0 + fdr) / (1.0 - fdr);
+    [0, 1, 2].map(|c| {
+        let ks = (m.sigma_a[c] / (3.0 * (m.sigma_a[c] + m.sigma_s_prime[c]))).sqrt();
+        let d = 1.0 - (1.0 - fdr) * (1.0 + 2.0 * a * ks) / 2.0;
+        if d > 0.2 {
+            1.0 / d
+        } else {
+            5.0
+        }
+    })
+}
+
+/// A channel's bound on σtr·h: `MAX_RESOLUTION / amp`.
+fn bound(m: &Medium) -> [f64; 3] {
+    amplification(m).map(|a| MAX_RESOLUTION / a)
+}
+
+fn sun() -> Light {
+    Light::Directional { direction: DVec3::new(0.0, 0.0, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 }
+}
+
+fn at(tets: usize) -> BakeOptions {
+    BakeOptions { method: TransCutOptions { tets, ..TransCutOptions::default() }.into(), ..BakeOptions::default() }
+}
+
+#[test]
+fn the_bake_reports_sigma_tr_h_per_channel() {
+    let marble = Medium::preset("marble").unwrap();
+    let scene = Scene { objects: vec![Object::new("sphere", uv_sphere(10.0, 64, 32), marble, 1.0)], lights: vec![sun()] };
+    let baked = bake(&scene, &at(5_000)).unwrap();
+    let object = &baked.objects[0];
+    let h = mean_boundary_edge(&object.transcut().unwrap().tet_mesh);
+    let s = sigma_tr(&marble);
+    for c in 0..3 {
+        assert!((object.stats.resolution[c] / (s[c] * h) - 1.0).abs() < 1e-12, "{:?} vs {h}", object.stats.resolution);
+    }
+    // 5000 tets in a sphere of radius 10 mm: h ≈ (12 V / N)^(1/3) = 2.9 mm by the lattice's
+    // count, so blue (σtr = 0.253 mm⁻¹) is resolved, σtr·h well below 1.
+    assert!(h > 1.5 && h < 3.5, "{h}");
+    assert!(object.stats.resolution[2] < 1.0);
+    // The same sphere modelled in cm has the same spacing in mm; one twice the size has twice
+    // the spacing.
+    for (radius, mm_per_unit, expected) in [(1.0, 10.0, 1.0), (2.0, 10.0, 2.0)] {
+        let other =
+            Scene { objects: vec![Object::new("sphere", uv_sphere(radius, 64, 32), marble, mm_per_unit)], lights: vec![sun()] };
+        let baked = bake(&other, &at(5_000)).unwrap();
+        let ratio = baked.objects[0].stats.resolution[2] / object.stats.resolution[2];
+        assert!((ratio / expected - 1.0).abs() < 0.02, "{ratio}");
+    }
+}
+
+#[test]
+fn metre_scale_marble_spheres_at_5000_tets_are_refused_not_black() {
+    let marble = Medium::preset("marble").unwrap();
+    for radius_m in [1.0, 10.0] {
+        // Modelled in metres: mm_per_unit = 1000.
+        let scene =
+            Scene { objects: vec![Object::new("statue", uv_sphere(radius_m, 64, 32), marble, 1000.0)], lights: vec![sun()] };
+        let err = bake(&scene, &at(5_000)).unwrap_err();
+        let SceneError::Unresolved { channel, sigma_tr_h, bound, spacing_mm, tets, tets_needed, scale, .. } = &err else {
+            panic!("R = {radius_m} m: {err}");
+        };
+        // Blue has the shortest diffusion length of marble.
+        assert_eq!(*channel, "blue");
+        assert!((bound / self::bound(&marble)[2] - 1.0).abs() < 1e-3, "{bound}");
+        // Marble's blue bound: amp = 1.327 (by hand in the unit test), 5 / 1.327 = 3.77.
+        assert!((bound - 3.77).abs() < 0.01, "{bound}");
+        // The spacing against the lattice's own estimate (interior tets h³/12 fill the volume).
+        let volume_mm3 = 4.0 / 3.0 * std::f64::consts::PI * (radius_m * 1000.0).powi(3);
+        let lattice = (12.0 * volume_mm3 / *tets as f64).cbrt();
+        assert!(*spacing_mm > 0.5 * lattice && *spacing_mm < 1.2 * lattice, "{spacing_mm} vs {lattice}");
+        assert!((sigma_tr_h / (sigma_tr(&marble)[2] * spacing_mm) - 1.0).abs() < 1e-12);
+        assert!(*sigma_tr_h > 20.0 * radius_m, "{sigma_tr_h}");
+        // What would resolve it: h ∝ N^(−1/3), aiming at 0.9 × the bound.
+        let ratio = sigma_tr_h / (0.9 * bound);
+        assert_eq!(*tets_needed, (*tets as f64 * ratio.powi(3)).ceil());
+        assert!((scale * ratio - 1.0).abs() < 1e-12);
+        let text = err.to_string();
+        for part in ["statue", "blue", "σtr·h", "mm", "tets"] {
+            assert!(text.contains(part), "{part}: {text}");
+        }
+    }
+}
+
+/// Lo(x, n) of a uniformly lit sphere on `mesh` (of radius `mesh_radius` in its units, scaled by
+/// `mm_per_unit`) against the closed form: the area-weighted mean relative error per channel,
+/// the largest over the boundary and channels, and the fraction of boundary nodes whose
+/// radiance came out negative (compared as 0).
+fn sphere_error(mesh: &TetMesh, mesh_radius: f64, m: Medium, mm_per_unit: f64) -> ([f64; 3], f64, f64) {
+    let q = std::f64::consts::PI * (1.0 - f_ext(m.eta));
+    let mut sys = assemble(mesh, &[m], mm_per_unit).unwrap();
+    sys.set_source(&vec![[q; 3]; sys.boundary().len()]).unwrap();
+    let mut options = SolveOptions::default();
+    options.tolerance = 1e-9;
+    let sol = solve(&sys, None, &options).unwrap();
+    let lo = surface_radiance(&sys, &sol.phi).unwrap();
+    let exact = UniformSphere::new(m, mesh_radius * mm_per_unit, [q; 3]).unwrap().surface_radiance(1.0);
+    let b = sys.boundary();
+    let area: f64 = b.area_mm2.iter().sum();
+    let (mut worst, mut negative) = (0.0f64, 0usize);
+    let mut means = [0.0; 3];
+    for (k, l) in lo.iter().enumerate() {
+        for c in 0..3 {
+            let e = l[c].max(0.0) / exact[c] - 1.0;
+            means[c] += b.area_mm2[k] / area * e;
+            worst = worst.max(e.abs());
+        }
+        if l.iter().any(|&x| x < 0.0) {
+            negative += 1;
+        }
+    }
+    (means, worst, negative as f64 / lo.len() as f64)
+}
+
+/// The measurement behind [`MAX_RESOLUTION`]: the uniformly lit sphere (the mesher's sphere of
+/// radius 10 units) at 5k–200k tets, six presets from wholemilk to ketchup, scaled from 5 mm to
+/// 10 m, solved without the bake's guard; prints the error of Lo against σtr·h and asserts what the
+/// bound promises per channel: at or below it the mean error is under 25%, at 3× it at least 25%.
+#[test]
+#[ignore = "slow: meshes the sphere at up to 300k tets; run with --ignored slow_"]
+fn slow_sphere_error_against_sigma_tr_h() {
+    let surface = uv_sphere(10.0, 192, 96);
+    eprintln!("tets      medium  R mm     σtr·h (r, g, b)        mean err  max err  negative");
+    // (σtr·h / bound, mean relative error, case) per channel.
+    let mut rows: Vec<(f64, f64, String)> = Vec::new();
+    for tets in [5_000, 20_000, 60_000, 200_000] {
+        let mesh = tetrahedralize(&surface, &MesherOptions::with_tets(tets)).unwrap();
+        let h = mean_boundary_edge(&mesh);
+        for name in ["marble", "skin1", "ketchup", "apple", "chicken1", "wholemilk"] {
+            let m = Medium::preset(name).unwrap();
+            for mm_per_unit in [0.5, 1.0, 2.0, 4.0, 10.0, 100.0, 1000.0] {
+                let s = sigma_tr(&m).map(|x| x * h * mm_per_unit);
+                let b = bound(&m);
+                let (means, max, negative) = sphere_error(&mesh, 10.0, m, mm_per_unit);
+                let mean = means.iter().fold(0.0f64, |a, &b| if b.abs() > a.abs() { b } else { a });
+                eprintln!(
+                    "{:7} {name:7} {:8.0} ({:7.3}, {:7.3}, {:7.3}) {mean:+9.4} {max:8.4} {negative:8.4}",
+                    mesh.tet_count(),
+                    10.0 * mm_per_unit,
+                    s[0],
+                    s[1],
+                    s[2]
+                );
+                for c in 0..3 {
+                    let closed_form_positive = !(name == "ketchup" && c > 0);
+                    if closed_form_positive {
+                        rows.push((
+                            s[c] / b[c],
+                            means[c],
+                            format!("{name} {} tets, R {} mm, channel {c}", mesh.tet_count(), 10.0 * mm_per_unit),
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (ratio, mean, case) in &rows {
+        eprintln!("{ratio:7.3} {mean:+8.4} {case}");
+        if *ratio <= 1.0 {
+            assert!(mean.abs() < 0.25, "accepted but {mean:+.3} off: {case}");
+        }
+        if *ratio >= 3.0 {
+            assert!(mean.abs() >= 0.25, "refused at only {mean:+.3}: {case}");
+        }
+    }
+}
+
+/// The environment light of the closed form, through the bake: a sphere the bound accepts bakes
+/// within the accuracy the table promises (the guard does not refuse what it should not).
+#[test]
+fn a_resolved_bake_is_accepted_and_near_the_closed_form() {
+    let skin = Medium::preset("skin1").unwrap();
+    let scene = Scene {
+        objects: vec![Object::new("sphere", uv_sphere(10.0, 96, 48), skin, 1.0)],
+        lights: vec![Light::Environment(Environment::Constant([1.0; 3]))],
+    };
+    // Blue at about 0.9 of its bound (σtr·h 1.1 against 5 / 4.02 = 1.24): accepted, and within
+    // the 25% the bound promises.
+    let baked = bake(&scene, &at(60_000)).unwrap();
+    let object = &baked.objects[0];
+    let (s, b) = (object.stats.resolution, bound(&skin));
+    assert!(s[2] > 0.75 * b[2] && s[2] <= b[2], "{s:?} vs {b:?}");
+    // At a third of the tets the same sphere is refused, naming blue.
+    let err = bake(&scene, &at(20_000)).unwrap_err();
+    assert!(matches!(&err, SceneError::Unresolved { channel: "blue", .. }), "{err}");
+    let q = std::f64::consts::PI * (1.0 - f_ext(skin.eta));
+    let exact = UniformSphere::new(skin, 10.0, [q; 3]).unwrap().surface_radiance(1.0);
+    for c in 0..3 {
+        let mean = object.radiance.iter().map(|l| l[c] / exact[c] - 1.0).sum::<f64>() / object.radiance.len() as f64;
+        assert!(mean.abs() < 0.25, "channel {c}: mean error {mean}");
+    }
+}
