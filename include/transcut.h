@@ -297,8 +297,8 @@ typedef struct TcBakeStats {
    */
   double total_ms;
   /**
-   * Surface vertices whose diffusion radiance came out negative and was clamped to 0 (very
-   * absorbing media on coarse meshes).
+   * The caller's vertices whose radiance the clamp at 0 changed: interpolated from a surface
+   * node whose diffusion radiance came out negative (very absorbing media on coarse meshes).
    */
   uint64_t clamped_vertices;
   /**
@@ -308,6 +308,18 @@ typedef struct TcBakeStats {
    * fields before this one and `size` = 88.)
    */
   uint32_t backend_used;
+  /**
+   * Triangles of the object's mesh whose winding the library reversed to orient every shell
+   * consistently and every closed one outwards (0 for a well-wound mesh). (Appended: a
+   * caller passing the older size, 96, gets the fields before this one and `size` = 96.)
+   */
+  uint64_t flipped_faces;
+  /**
+   * How well the method resolves the medium, per channel (R, G, B): TransCut's σtr·h at the
+   * surface (transport coefficient × mean boundary edge length in mm); a bake above the
+   * method's bound fails with `TC_UNRESOLVED` instead. 0 where a method has no such measure.
+   */
+  double resolution[3];
 } TcBakeStats;
 
 /**
@@ -586,6 +598,14 @@ typedef struct TcArtistMedium {
  */
 #define TC_UNSUPPORTED 16
 
+/**
+ * The method cannot resolve the object's medium at this mesh size (TransCut: σtr·h at the
+ * surface above its bound), so its radiance would be wrong (too dark or zero); the message
+ * names the channel, σtr·h, the mesh spacing in mm and the tet count or object scale that
+ * would resolve it. Nothing changed.
+ */
+#define TC_UNRESOLVED 17
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -675,8 +695,9 @@ TcStatus tc_object_radiance(const struct TcScene *scene,
 /**
  * Writes an object's statistics of the last bake into `*out`. Set `out->size =
  * sizeof(TcBakeStats)` first; on return it holds the number of bytes written: all of the
- * struct, or the first 88 bytes (the fields before `backend_used`) for a caller built against
- * that older struct, whose `size` is 88. A smaller size is `TC_INVALID_ARGUMENT`.
+ * struct, or for a caller built against an older struct its bytes: 96 (the fields before
+ * `flipped_faces`) or 88 (those before `backend_used`). A smaller size is
+ * `TC_INVALID_ARGUMENT`.
  * `TC_NOT_BAKED` before a successful bake or after the scene changed.
  */
 TcStatus tc_object_stats(const struct TcScene *scene, uint32_t object, struct TcBakeStats *out);
@@ -1270,7 +1291,7 @@ TC_LAYOUT_CHECK(TcTransCutOptions__sizeof, sizeof(TcTransCutOptions) == 12);
 TC_LAYOUT_CHECK(TcTransCutOptions_size, offsetof(TcTransCutOptions, size) == 0);
 TC_LAYOUT_CHECK(TcTransCutOptions_solver, offsetof(TcTransCutOptions, solver) == 4);
 TC_LAYOUT_CHECK(TcTransCutOptions_edit_solver, offsetof(TcTransCutOptions, edit_solver) == 8);
-TC_LAYOUT_CHECK(TcBakeStats__sizeof, sizeof(TcBakeStats) == 96);
+TC_LAYOUT_CHECK(TcBakeStats__sizeof, sizeof(TcBakeStats) == 128);
 TC_LAYOUT_CHECK(TcBakeStats_size, offsetof(TcBakeStats, size) == 0);
 TC_LAYOUT_CHECK(TcBakeStats_tets, offsetof(TcBakeStats, tets) == 8);
 TC_LAYOUT_CHECK(TcBakeStats_vertices, offsetof(TcBakeStats, vertices) == 16);
@@ -1282,6 +1303,8 @@ TC_LAYOUT_CHECK(TcBakeStats_solve_ms, offsetof(TcBakeStats, solve_ms) == 64);
 TC_LAYOUT_CHECK(TcBakeStats_total_ms, offsetof(TcBakeStats, total_ms) == 72);
 TC_LAYOUT_CHECK(TcBakeStats_clamped_vertices, offsetof(TcBakeStats, clamped_vertices) == 80);
 TC_LAYOUT_CHECK(TcBakeStats_backend_used, offsetof(TcBakeStats, backend_used) == 88);
+TC_LAYOUT_CHECK(TcBakeStats_flipped_faces, offsetof(TcBakeStats, flipped_faces) == 96);
+TC_LAYOUT_CHECK(TcBakeStats_resolution, offsetof(TcBakeStats, resolution) == 104);
 TC_LAYOUT_CHECK(TcMediumEdit__sizeof, sizeof(TcMediumEdit) == 128);
 TC_LAYOUT_CHECK(TcMediumEdit_size, offsetof(TcMediumEdit, size) == 0);
 TC_LAYOUT_CHECK(TcMediumEdit_region, offsetof(TcMediumEdit, region) == 4);

@@ -77,7 +77,9 @@ fn layouts() -> Vec<Layout> {
             solve_ms,
             total_ms,
             clamped_vertices,
-            backend_used
+            backend_used,
+            flipped_faces,
+            resolution
         }),
         layout!(TcMediumEdit { size, region, center, radius, min_mm, max_mm, mask, mask_len, op, sigma_a, sigma_s_prime }),
         layout!(TcEditStats {

@@ -21,7 +21,7 @@ fn parameters(text: &str) -> anyhow::Result<BTreeMap<String, Vec<String>>> {
             Some((k, v)) => {
                 let key = k.trim().to_ascii_lowercase();
                 if out.contains_key(&key) {
-                    bail!("parameter {key} given twice", key = quote(key));
+                    bail!("parameter {key} given twice", key = quote(&key));
                 }
                 out.insert(key.clone(), vec![v.trim().to_string()]);
                 current = Some(key);
@@ -130,7 +130,7 @@ pub fn medium(spec: &str) -> anyhow::Result<Medium> {
     for part in spec.split(':') {
         for (k, v) in parameters(part)? {
             if p.insert(k.clone(), v).is_some() {
-                bail!("parameter {k} given twice", k = quote(k));
+                bail!("parameter {k} given twice", k = quote(&k));
             }
         }
     }

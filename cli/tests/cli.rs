@@ -76,7 +76,7 @@ fn bake_writes_ply_npy_and_the_system() {
     let spot = shared_mesh("spot.obj");
     let ply = dir.join("spot.ply");
     let out = transcut()
-        .args(["bake", spot.to_str().unwrap(), "--medium", "skin1", "--scale", "50", "--tets", "15000", "--json"])
+        .args(["bake", spot.to_str().unwrap(), "--medium", "skin1", "--scale", "10", "--tets", "15000", "--json"])
         .args(["--light", "sun:dir=0,-1,0,irradiance=3", "-o"])
         .arg(&ply)
         .arg("--export-system")
@@ -87,6 +87,10 @@ fn bake_writes_ply_npy_and_the_system() {
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(json["stats"]["tets"].as_u64().unwrap() > 10_000);
     assert!(json["stats"]["iterations"].as_array().unwrap().iter().all(|i| i.as_u64().unwrap() > 0));
+    // Spot is wound consistently; skin's σtr grows from red to blue, and so does σtr·h.
+    assert_eq!(json["stats"]["flipped_faces"].as_u64(), Some(0));
+    let resolution: Vec<f64> = json["stats"]["resolution"].as_array().unwrap().iter().map(|r| r.as_f64().unwrap()).collect();
+    assert!(resolution.len() == 3 && resolution[0] > 0.0 && resolution[0] < resolution[1] && resolution[1] < resolution[2]);
     // The PLY has the user's 2,930 vertices with float colours, all finite and non-negative.
     let bytes = std::fs::read(&ply).unwrap();
     let end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
@@ -105,7 +109,7 @@ fn bake_writes_ply_npy_and_the_system() {
     // The same radiance as .npy: the header names the shape.
     let npy = dir.join("spot.npy");
     let out = transcut()
-        .args(["bake", spot.to_str().unwrap(), "--medium", "skin1", "--scale", "50", "--tets", "15000"])
+        .args(["bake", spot.to_str().unwrap(), "--medium", "skin1", "--scale", "10", "--tets", "15000"])
         .args(["--light", "sun:dir=0,-1,0,irradiance=3", "-o"])
         .arg(&npy)
         .output()
@@ -123,6 +127,14 @@ fn bake_writes_ply_npy_and_the_system() {
 #[test]
 fn bake_rejects_bad_specs_clearly() {
     let spot = shared_mesh("spot.obj");
+    // Spot in skin at 2 m (mm_per_unit 1000) on 15k tets: refused, naming what would resolve it.
+    let out = transcut()
+        .args(["bake", spot.to_str().unwrap(), "--medium", "skin1", "--scale", "1000", "--tets", "15000"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("does not resolve") && err.contains("blue") && err.contains("tets"), "{err}");
     for (args, words) in [
         (vec!["--light", "laser:pos=0,0,0"], "unknown light kind"),
         (vec!["--medium", "jello"], "marble"),

@@ -138,3 +138,18 @@ fn a_moebius_strip_is_refused_as_not_orientable() {
     let ring = TriMesh::from_triangles(&positions, &indices).unwrap();
     assert_eq!(ring.flipped_faces(), 0);
 }
+
+/// The test meshes are wound consistently (closed ones outwards) already: orientation reverses
+/// nothing, so every bake of them is exactly what it was before meshes were oriented.
+#[test]
+fn the_test_meshes_need_no_flips() {
+    let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes");
+    let mut names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    names.retain(|p| p.extension().is_some_and(|x| x == "obj"));
+    names.sort();
+    assert!(names.len() >= 8, "{names:?}");
+    for path in names {
+        let mesh = transcut::mesh::load(&path).unwrap();
+        assert_eq!(mesh.flipped_faces(), 0, "{}", path.display());
+    }
+}

@@ -21,7 +21,8 @@ unsafe impl Sync for Handle {}
 fn build(k: usize) -> (*mut TcScene, u32) {
     let s = scene();
     let ball = add(s, &Mesh::uv_sphere(8.0 + 2.0 * k as f32, 24, 12));
-    let preset = [c"marble", c"skin1", c"apple", c"ketchup"][k % 4];
+    // Media the 4k-tet mesh resolves (skin or ketchup would be refused as TC_UNRESOLVED).
+    let preset = [c"marble", c"skimmilk", c"apple", c"wholemilk"][k % 4];
     let dir = [[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [-1.0, -1.0, -1.0]][k % 4];
     // SAFETY: valid pointers.
     unsafe {

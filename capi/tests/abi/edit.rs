@@ -127,27 +127,27 @@ fn medium_edits_and_paint() {
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_tet_count(s, 0, &mut tets) }, "tet count");
     assert!(tets > 1000);
-    let skin = Medium::preset("skin1").unwrap();
+    let potato = Medium::preset("potato").unwrap();
     // SAFETY: an all-zero struct, then the fields used.
     let mut edit: TcMediumEdit = unsafe { std::mem::zeroed() };
     edit.size = size_of::<TcMediumEdit>() as u32;
     edit.region = TC_REGION_ALL;
     edit.op = TC_MEDIUM_ASSIGN;
-    edit.sigma_a = skin.sigma_a;
-    edit.sigma_s_prime = skin.sigma_s_prime;
+    edit.sigma_a = potato.sigma_a;
+    edit.sigma_s_prime = potato.sigma_s_prime;
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_edit_medium(s, 0, &edit) }, "assign");
     let st = edit_stats(s, 0);
     assert_eq!(st.tets_changed as usize, tets);
     let assigned = radiance(s, 0);
-    // The fresh bake: skin coefficients with marble's η and g (the edit keeps the object's).
+    // The fresh bake: potato coefficients with marble's η and g (the edit keeps the object's).
     let fresh = scene();
     add(fresh, &mesh);
     let mut marble = TcMedium { sigma_a: [0.0; 3], sigma_s_prime: [0.0; 3], eta: 0.0, g: 0.0 };
     // SAFETY: valid pointers.
     unsafe {
         ok(tc_medium_preset(cstr(c"marble"), &mut marble), "marble");
-        let m = TcMedium { sigma_a: skin.sigma_a, sigma_s_prime: skin.sigma_s_prime, eta: marble.eta, g: marble.g };
+        let m = TcMedium { sigma_a: potato.sigma_a, sigma_s_prime: potato.sigma_s_prime, eta: marble.eta, g: marble.g };
         ok(tc_object_set_medium(fresh, 0, &m), "medium");
         ok(tc_scene_add_sun(fresh, [0.0, 0.0, -1.0].as_ptr(), [3.0, 2.5, 2.0].as_ptr(), 0.0), "sun");
         ok(tc_scene_bake(fresh, &bake_options(), None, ptr::null_mut()), "bake");
@@ -169,7 +169,7 @@ fn medium_edits_and_paint() {
     let scaled = radiance(s, 0);
     assert!(scaled[0] < 0.9 * assigned[0], "the north pole (vertex 0) darkened: {} vs {}", scaled[0], assigned[0]);
 
-    let ink = TcMedium { sigma_a: [2.0, 2.0, 0.01], sigma_s_prime: skin.sigma_s_prime, eta: marble.eta, g: marble.g };
+    let ink = TcMedium { sigma_a: [2.0, 2.0, 0.01], sigma_s_prime: potato.sigma_s_prime, eta: marble.eta, g: marble.g };
     let stroke = [10.0, 0.0, 0.0, 7.07, 7.07, 0.0];
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_paint(s, 0, stroke.as_ptr(), 2, 1.5, &ink, 1.0) }, "paint");

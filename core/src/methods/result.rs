@@ -74,8 +74,9 @@ pub struct ObjectStats {
     pub flipped_faces: usize,
     /// How well the method's discretisation resolves the medium, per channel, against the
     /// method's own validity limit (TransCut: σtr · h at the surface, the transport coefficient
-    /// times the mean boundary edge length in mm; a bake is refused above
-    /// [`crate::methods::transcut::MAX_RESOLUTION`]). 0 where the method has no such measure.
+    /// times the mean boundary edge length in mm; a bake is refused where a channel is above
+    /// [`crate::methods::transcut::MAX_RESOLUTION`] over the radiance amplification of its
+    /// albedo). 0 where the method has no such measure.
     pub resolution: [f64; 3],
     /// Building the method's geometry (TransCut: tetrahedralisation).
     pub meshing_ms: f64,

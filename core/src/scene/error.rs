@@ -64,9 +64,9 @@ pub enum SceneError {
     /// wrong picture instead. Names the worst channel and what would resolve it.
     #[error(
         "object {index} ({name}): the mesh does not resolve the medium's {channel} channel: σtr·h = {sigma_tr_h:.3} at the \
-         surface (mesh spacing {spacing_mm:.4} mm) is above the bound {bound}, where the radiance would be too dark or \
-         zero; about {tets_needed:.0} tets instead of {tets} would resolve it, or the object at {scale:.3e} times its \
-         size (mm_per_unit)"
+         surface (mesh spacing {spacing_mm:.4} mm) is above its bound {bound:.3}, where the radiance would be too dark \
+         or zero; about {tets_needed:.0} tets instead of {tets} would resolve it, or the object at {scale:.3e} times \
+         its size (mm_per_unit)"
     )]
     Unresolved {
         index: usize,
@@ -75,7 +75,8 @@ pub enum SceneError {
         channel: &'static str,
         /// σtr · h of that channel.
         sigma_tr_h: f64,
-        /// The largest σtr · h the method bakes.
+        /// The largest σtr · h the method bakes in this channel of this medium (TransCut:
+        /// `MAX_RESOLUTION` over the radiance amplification of the channel's albedo).
         bound: f64,
         /// The mesh's spacing at the surface in mm (TransCut: the mean boundary edge length).
         spacing_mm: f64,
