@@ -14,20 +14,21 @@ type Table = &'static [(&'static str, &'static [&'static str])];
 
 /// The core, bottom to top. A module's row names every module below it that it uses.
 const CORE: Table = &[
+    ("workers", &[]),
     ("progress", &[]),
     ("mesh", &[]),
     ("optics", &[]),
     ("mesher", &["mesh", "progress"]),
     ("volume", &["mesh", "optics"]),
-    ("light", &["mesh", "optics"]),
+    ("light", &["mesh", "optics", "progress"]),
     ("sparse", &["progress"]),
     ("diffusion", &["mesh", "optics", "sparse", "volume"]),
     ("gpu", &["diffusion", "sparse"]),
     ("render", &["light", "optics"]),
-    ("scene", &["diffusion", "gpu", "light", "mesh", "mesher", "optics", "progress", "volume"]),
+    ("scene", &["diffusion", "gpu", "light", "mesh", "mesher", "optics", "progress", "volume", "workers"]),
     ("edit", &["diffusion", "gpu", "light", "mesh", "mesher", "optics", "progress", "scene", "sparse", "volume"]),
     ("methods", &["diffusion", "edit", "gpu", "light", "mesh", "mesher", "optics", "progress", "scene", "sparse", "volume"]),
-    ("bake", &["mesh", "methods", "progress", "scene"]),
+    ("bake", &["mesh", "methods", "progress", "scene", "workers"]),
     ("session", &["bake", "edit", "light", "methods", "progress", "scene"]),
 ];
 
