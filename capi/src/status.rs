@@ -152,15 +152,17 @@ pub(crate) fn run_on_workers(name: &str, body: impl FnOnce() -> Result<(), Failu
     struct OnWorker<F>(F);
     // SAFETY: see above; the pointers are only used while the caller is blocked in this call.
     unsafe impl<F> Send for OnWorker<F> {}
+    impl<F> OnWorker<F> {
+        /// Takes the whole wrapper into a closure (a closure would otherwise capture the field).
+        fn into_inner(self) -> F {
+            self.0
+        }
+    }
     let body = OnWorker(body);
     run(name, move || {
-        let body = body;
-        transcut_core::workers::with_workers(0, move || {
-            let OnWorker(f) = body;
-            OnWorker(f())
-        })
-        .map_err(|e| Failure::new(TC_INTERNAL_ERROR, e.to_string()))?
-        .0
+        transcut_core::workers::with_workers(0, move || OnWorker(body.into_inner()()))
+            .map_err(|e| Failure::new(TC_INTERNAL_ERROR, e.to_string()))?
+            .into_inner()
     })
 }
 
