@@ -82,11 +82,23 @@ fn a_bake_cancelled_at_any_report_returns_cancelled() {
         };
         let result = bake_with(&scene, &options, Progress::new(&cancel));
         let returned = Instant::now();
-        assert!(matches!(result, Err(SceneError::Cancelled(_))), "cancel at report {k} of {n}: {:?}", result.map(|_| ()));
-        let (stage, at) = cancelled_at.into_inner().unwrap().expect("the callback asked to stop");
+        // The light stage reports by time, so a run may make fewer reports than the first did:
+        // then the callback never asked to stop and the bake finished.
+        let Some((stage, at)) = cancelled_at.into_inner().unwrap() else {
+            assert!(result.is_ok(), "no cancel asked, yet: {:?}", result.map(|_| ()));
+            continue;
+        };
+        assert!(
+            matches!(result, Err(SceneError::Cancelled(_))),
+            "cancel at report {k} of {n} (in {stage}): {:?}",
+            result.map(|_| ())
+        );
         let ms = returned.duration_since(at).as_secs_f64() * 1e3;
         let w = worst.entry(stage).or_insert(0.0);
         *w = w.max(ms);
+    }
+    for stage in ["winding numbers", "assembly", "light", "solve"] {
+        assert!(worst.contains_key(stage), "never cancelled in {stage}: {worst:?}");
     }
     for (stage, ms) in &worst {
         eprintln!("cancel → return, worst over {} instants: {stage}: {ms:.2} ms", picks.len());
