@@ -378,7 +378,7 @@ impl<'a> Ticker<'a> {
     /// Inside a point's samples: whether to go on after sample `k` (looks every
     /// [`SAMPLES_PER_CHECK`] samples).
     fn keep_sampling(&self, k: usize) -> bool {
-        (k + 1) % SAMPLES_PER_CHECK != 0 || self.tick(0)
+        !(k + 1).is_multiple_of(SAMPLES_PER_CHECK) || self.tick(0)
     }
 
     fn stopped(&self) -> bool {
