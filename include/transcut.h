@@ -109,6 +109,28 @@
 #define TC_SOLVER_SA_PCG 5
 
 /**
+ * The most worker threads `TcBakeOptions.threads` may ask for (above it:
+ * `TC_INVALID_ARGUMENT`).
+ */
+#define TC_MAX_THREADS 256
+
+/**
+ * The most samples per point `TcBakeOptions.area_samples` and `environment_samples` may ask
+ * for, 2^20 (above it: `TC_INVALID_ARGUMENT`).
+ */
+#define TC_MAX_SAMPLES (1 << 20)
+
+/**
+ * The largest `TcBakeOptions.tets` (above it: `TC_INVALID_ARGUMENT`).
+ */
+#define TC_MAX_TETS 20000000
+
+/**
+ * The largest `TcBakeOptions.max_iterations` (above it: `TC_INVALID_ARGUMENT`).
+ */
+#define TC_MAX_ITERATIONS 1000000
+
+/**
  * `TcMediumEdit.region`: every tet of the object.
  */
 #define TC_REGION_ALL 0
@@ -180,7 +202,8 @@ typedef struct TcBakeOptions {
    */
   uint32_t method;
   /**
-   * TransCut: target number of tetrahedra per surface object (default 200 000).
+   * TransCut: target number of tetrahedra per surface object, 1 to `TC_MAX_TETS` (default
+   * 200 000).
    */
   uint64_t tets;
   /**
@@ -188,11 +211,12 @@ typedef struct TcBakeOptions {
    */
   double tolerance;
   /**
-   * Iteration cap of the solver, ≥ 1 (default 10 000).
+   * Iteration cap of the solver, 1 to `TC_MAX_ITERATIONS` (default 10 000).
    */
   uint32_t max_iterations;
   /**
-   * Worker threads; 0 = one per core (default).
+   * Worker threads, at most `TC_MAX_THREADS`; 0 = one per core (default). The threads are
+   * started for each call that uses them and have ended when it returns.
    */
   uint32_t threads;
   /**
@@ -200,11 +224,12 @@ typedef struct TcBakeOptions {
    */
   uint32_t shadows;
   /**
-   * Samples per point for area lights and suns with a non-zero diameter (default 64).
+   * Samples per point for area lights and suns with a non-zero diameter, at most
+   * `TC_MAX_SAMPLES` (default 64).
    */
   uint32_t area_samples;
   /**
-   * Samples per point for shadowed environments (default 256).
+   * Samples per point for shadowed environments, at most `TC_MAX_SAMPLES` (default 256).
    */
   uint32_t environment_samples;
   /**
@@ -943,8 +968,11 @@ TcStatus tc_object_paint(struct TcScene *scene,
 /**
  * Writes the named preset medium into `*out`. Names (case-insensitive): apple, chicken1,
  * chicken2, cream, ketchup, marble, potato, skimmilk, skin1, skin2, wholemilk (measured by
- * Jensen et al. 2001, g = 0) and jade. `TC_NOT_FOUND` (listing the valid names) for any other
- * name; `*out` is then unchanged.
+ * Jensen et al. 2001, g = 0) and jade. The measured presets have Jensen's η = 1.3, except
+ * marble, whose η is 1.5 (Jensen's value for it); jade's is 1.66. The worked example of
+ * docs/ARCHITECTURE.md (and tests/c/marble_sphere.c) uses marble's coefficients with
+ * η = 1.3 set explicitly. `TC_NOT_FOUND` (listing the valid names) for any other name; `*out`
+ * is then unchanged.
  */
 TcStatus tc_medium_preset(const char *name, struct TcMedium *out);
 

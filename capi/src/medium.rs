@@ -50,8 +50,11 @@ fn set_homogeneous(state: &mut SceneState, object: u32, medium: Medium) -> Resul
 
 /// Writes the named preset medium into `*out`. Names (case-insensitive): apple, chicken1,
 /// chicken2, cream, ketchup, marble, potato, skimmilk, skin1, skin2, wholemilk (measured by
-/// Jensen et al. 2001, g = 0) and jade. `TC_NOT_FOUND` (listing the valid names) for any other
-/// name; `*out` is then unchanged.
+/// Jensen et al. 2001, g = 0) and jade. The measured presets have Jensen's η = 1.3, except
+/// marble, whose η is 1.5 (Jensen's value for it); jade's is 1.66. The worked example of
+/// docs/ARCHITECTURE.md (and tests/c/marble_sphere.c) uses marble's coefficients with
+/// η = 1.3 set explicitly. `TC_NOT_FOUND` (listing the valid names) for any other name; `*out`
+/// is then unchanged.
 #[no_mangle]
 pub unsafe extern "C" fn tc_medium_preset(name: *const c_char, out: *mut TcMedium) -> TcStatus {
     run("tc_medium_preset", || {

@@ -49,6 +49,17 @@ pub const TC_SOLVER_MG_PCG: u32 = 4;
 /// CG preconditioned by a V-cycle on a smoothed-aggregation hierarchy.
 pub const TC_SOLVER_SA_PCG: u32 = 5;
 
+/// The most worker threads `TcBakeOptions.threads` may ask for (above it:
+/// `TC_INVALID_ARGUMENT`).
+pub const TC_MAX_THREADS: u32 = 256;
+/// The most samples per point `TcBakeOptions.area_samples` and `environment_samples` may ask
+/// for, 2^20 (above it: `TC_INVALID_ARGUMENT`).
+pub const TC_MAX_SAMPLES: u32 = 1 << 20;
+/// The largest `TcBakeOptions.tets` (above it: `TC_INVALID_ARGUMENT`).
+pub const TC_MAX_TETS: u64 = 20_000_000;
+/// The largest `TcBakeOptions.max_iterations` (above it: `TC_INVALID_ARGUMENT`).
+pub const TC_MAX_ITERATIONS: u32 = 1_000_000;
+
 /// How to bake. Fill it with `tc_bake_options_init(&options, sizeof options)` (which also sets
 /// `size`), then change fields. `size` lets later versions append fields: a library reads and
 /// writes only the fields that it and the caller both know.
@@ -59,19 +70,22 @@ pub struct TcBakeOptions {
     pub size: u32,
     /// The subsurface method: `TC_METHOD_TRANSCUT` (default).
     pub method: u32,
-    /// TransCut: target number of tetrahedra per surface object (default 200 000).
+    /// TransCut: target number of tetrahedra per surface object, 1 to `TC_MAX_TETS` (default
+    /// 200 000).
     pub tets: u64,
     /// Relative residual ‖b − Mφ‖/‖b‖ at which the solver stops, in (0, 1) (default 1e-6).
     pub tolerance: f64,
-    /// Iteration cap of the solver, ≥ 1 (default 10 000).
+    /// Iteration cap of the solver, 1 to `TC_MAX_ITERATIONS` (default 10 000).
     pub max_iterations: u32,
-    /// Worker threads; 0 = one per core (default).
+    /// Worker threads, at most `TC_MAX_THREADS`; 0 = one per core (default). The threads are
+    /// started for each call that uses them and have ended when it returns.
     pub threads: u32,
     /// Non-zero: objects shadow themselves and each other (default 1).
     pub shadows: u32,
-    /// Samples per point for area lights and suns with a non-zero diameter (default 64).
+    /// Samples per point for area lights and suns with a non-zero diameter, at most
+    /// `TC_MAX_SAMPLES` (default 64).
     pub area_samples: u32,
-    /// Samples per point for shadowed environments (default 256).
+    /// Samples per point for shadowed environments, at most `TC_MAX_SAMPLES` (default 256).
     pub environment_samples: u32,
     /// Where the solve runs: `TC_BACKEND_DEFAULT` (default), `TC_BACKEND_CPU`,
     /// `TC_BACKEND_GPU` or `TC_BACKEND_AUTO`; another value fails with `TC_INVALID_ARGUMENT`.
@@ -249,5 +263,29 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
             )))
         }
     };
+    let bounded = [
+        ("threads", u64::from(o.threads), u64::from(TC_MAX_THREADS)),
+        ("area_samples", u64::from(o.area_samples), u64::from(TC_MAX_SAMPLES)),
+        ("environment_samples", u64::from(o.environment_samples), u64::from(TC_MAX_SAMPLES)),
+        ("tets", o.tets, TC_MAX_TETS),
+        ("max_iterations", u64::from(o.max_iterations), u64::from(TC_MAX_ITERATIONS)),
+    ];
+    if let Some((field, value, max)) = bounded.iter().find(|(_, value, max)| value > max) {
+        return Err(Failure::invalid(format!("options->{field} = {value} is above the maximum of {max}")));
+    }
     Ok(BakeOptions { method, threads: o.threads as usize, shadows: o.shadows != 0, source })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The header's bounds are the core's.
+    #[test]
+    fn bounds_are_the_cores() {
+        assert_eq!(TC_MAX_THREADS as usize, transcut_core::workers::MAX_THREADS);
+        assert_eq!(TC_MAX_SAMPLES as usize, SourceOptions::MAX_SAMPLES);
+        assert_eq!(TC_MAX_TETS as usize, TransCutOptions::MAX_TETS);
+        assert_eq!(TC_MAX_ITERATIONS as usize, TransCutOptions::MAX_ITERATIONS);
+    }
 }

@@ -4,7 +4,7 @@ use transcut_core::edit::{Editor, Piece};
 
 use super::handle::{with_scene, TcScene};
 use super::ptr;
-use super::status::{run, Failure, TcStatus, TC_BUFFER_TOO_SHORT, TC_INVALID_HANDLE};
+use super::status::{run, run_on_workers, Failure, TcStatus, TC_BUFFER_TOO_SHORT, TC_INVALID_HANDLE};
 
 /// Piece `piece` of an editor, checked.
 fn piece_of(editor: &Editor, piece: u32) -> Result<&Piece, Failure> {
@@ -87,7 +87,7 @@ pub unsafe extern "C" fn tc_object_piece_sizes(
     out_vertex_count: *mut usize,
     out_triangle_count: *mut usize,
 ) -> TcStatus {
-    run("tc_object_piece_sizes", || {
+    run_on_workers("tc_object_piece_sizes", || {
         check_not_null!(out_vertex_count, out_triangle_count);
         // SAFETY: the caller's contract.
         let (v, t) = unsafe {
@@ -125,7 +125,7 @@ pub unsafe extern "C" fn tc_object_piece_mesh(
     radiance: *mut f32,
     radiance_len: usize,
 ) -> TcStatus {
-    run("tc_object_piece_mesh", || {
+    run_on_workers("tc_object_piece_mesh", || {
         check_not_null!(positions, triangles, radiance);
         // SAFETY: the caller's contract.
         unsafe {

@@ -8,7 +8,7 @@ use transcut_core::{MediumSource, Object};
 use super::convert::mesh_failure;
 use super::handle::{self, with_scene, SceneState, TcScene};
 use super::ptr;
-use super::status::{run, Failure, TcStatus, TC_INTERNAL_ERROR, TC_INVALID_MESH};
+use super::status::{run, run_on_workers, Failure, TcStatus, TC_INTERNAL_ERROR, TC_INVALID_MESH};
 
 /// The medium of a new object until one is set: the "marble" preset.
 pub(crate) fn default_medium() -> Result<Medium, Failure> {
@@ -160,7 +160,7 @@ pub unsafe extern "C" fn tc_scene_add_tet_mesh(
     tet_medium: *const u32,
     out_object: *mut u32,
 ) -> TcStatus {
-    run("tc_scene_add_tet_mesh", || {
+    run_on_workers("tc_scene_add_tet_mesh", || {
         check_not_null!(out_object);
         let floats = ptr::times(vertex_count, 3, "vertex_count")?;
         let corners = ptr::times(tet_count, 4, "tet_count")?;

@@ -8,12 +8,17 @@
 //! - [`run`] and [`value`]: every body runs inside `catch_unwind` (a panic must never unwind into
 //!   C, where it would abort the host application) and a failure becomes a status plus the
 //!   message (metatensor's `c_api/status.rs` does the same); `check_not_null!` names a NULL or
-//!   misaligned pointer argument.
+//!   misaligned pointer argument;
+//! - the panic hook: a library must not write to its host's stderr, so a panic raised inside
+//!   the guard (or on one of the library's worker threads) prints nothing: its message and
+//!   location go into the last-error text instead. Panics anywhere else in the process reach
+//!   the hook that was installed before (the host's, or Rust's default).
 
 use std::any::Any;
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::ffi::{c_char, CStr, CString};
-use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::panic::{catch_unwind, AssertUnwindSafe, PanicHookInfo};
+use std::sync::{Mutex, Once, PoisonError};
 
 /// The result of a call: `TC_OK` (0) on success, another `TC_*` code on failure, with a message
 /// from `tc_last_error_message()`.
@@ -131,23 +136,103 @@ impl Failure {
 /// failure's status (`TC_INTERNAL_ERROR` for a panic).
 pub(crate) fn run(name: &str, body: impl FnOnce() -> Result<(), Failure>) -> TcStatus {
     clear_last_error();
-    match catch_unwind(AssertUnwindSafe(body)) {
+    match guarded(body) {
         Ok(Ok(())) => TC_OK,
         Ok(Err(failure)) => {
             set_last_error(&format!("{name}: {}", failure.message));
             failure.status
         }
-        Err(payload) => {
-            set_last_error(&format!("{name}: internal error (a bug in libtranscut): {}", panic_message(payload.as_ref())));
+        Err(panic) => {
+            set_last_error(&format!("{name}: internal error (a bug in libtranscut): {panic}"));
             TC_INTERNAL_ERROR
         }
     }
 }
 
+/// As [`run`], with the body on the library's worker threads (one per core, joined before the
+/// call returns), for entry points whose work is parallel outside a bake: without a pool of
+/// the library's, rayon would start its global pool, whose threads are never joined.
+pub(crate) fn run_on_workers(name: &str, body: impl FnOnce() -> Result<(), Failure>) -> TcStatus {
+    /// Lets the body, which may hold the caller's raw pointers, run on a worker: the calling
+    /// thread waits inside `with_workers` until it has returned, as with a scoped thread.
+    struct OnWorker<F>(F);
+    // SAFETY: see above; the pointers are only used while the caller is blocked in this call.
+    unsafe impl<F> Send for OnWorker<F> {}
+    impl<F> OnWorker<F> {
+        /// Takes the whole wrapper into a closure (a closure would otherwise capture the field).
+        fn into_inner(self) -> F {
+            self.0
+        }
+    }
+    let body = OnWorker(body);
+    run(name, move || {
+        transcut_core::workers::with_workers(0, move || OnWorker(body.into_inner()()))
+            .map_err(|e| Failure::new(TC_INTERNAL_ERROR, e.to_string()))?
+            .into_inner()
+    })
+}
+
 /// Runs the body of an entry point that returns a value instead of a status and cannot fail;
 /// a panic (a bug) returns `fallback`. The last error is left alone.
 pub(crate) fn value<T>(fallback: T, body: impl FnOnce() -> T) -> T {
-    catch_unwind(AssertUnwindSafe(body)).unwrap_or(fallback)
+    guarded(body).unwrap_or(fallback)
+}
+
+thread_local! {
+    /// How many guarded bodies this thread is inside (a callback may call into the library).
+    static GUARD_DEPTH: Cell<u32> = const { Cell::new(0) };
+    /// Where the last panic inside the guard on this thread was raised (`file:line:column`).
+    static PANIC_LOCATION: RefCell<Option<String>> = const { RefCell::new(None) };
+}
+
+/// Where the last panic on one of the library's worker threads was raised: the hook runs on the
+/// panicking thread, and the guard that catches the panic on the calling thread reads it.
+static WORKER_PANIC_LOCATION: Mutex<Option<String>> = Mutex::new(None);
+
+/// Runs `body` with the silent panic hook in place and this thread marked as inside the guard;
+/// a panic comes back as its text: the message and, when known, where it was raised.
+fn guarded<T>(body: impl FnOnce() -> T) -> Result<T, String> {
+    install_panic_hook();
+    let _ = PANIC_LOCATION.try_with(|l| l.borrow_mut().take());
+    let _ = GUARD_DEPTH.try_with(|d| d.set(d.get() + 1));
+    let result = catch_unwind(AssertUnwindSafe(body));
+    let _ = GUARD_DEPTH.try_with(|d| d.set(d.get().saturating_sub(1)));
+    result.map_err(|payload| {
+        let location = PANIC_LOCATION
+            .try_with(|l| l.borrow_mut().take())
+            .ok()
+            .flatten()
+            .or_else(|| WORKER_PANIC_LOCATION.lock().unwrap_or_else(PoisonError::into_inner).take());
+        panic_text(panic_message(payload.as_ref()), location.as_deref())
+    })
+}
+
+/// A panic's message followed by where it was raised, when that is known.
+fn panic_text(message: &str, location: Option<&str>) -> String {
+    match location {
+        Some(at) => format!("{message} (at {at})"),
+        None => message.to_owned(),
+    }
+}
+
+/// Installs, once per process, the hook that keeps the library's panics off the host's stderr:
+/// silent while the panicking thread is inside the guard or is one of the library's worker
+/// threads (recording the location for the guard's message), the previous hook otherwise.
+fn install_panic_hook() {
+    static INSTALL: Once = Once::new();
+    INSTALL.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info: &PanicHookInfo<'_>| {
+            let location = info.location().map(|l| format!("{}:{}:{}", l.file(), l.line(), l.column()));
+            if GUARD_DEPTH.try_with(Cell::get).unwrap_or(0) > 0 {
+                let _ = PANIC_LOCATION.try_with(|l| *l.borrow_mut() = location);
+            } else if transcut_core::workers::is_worker_thread() {
+                *WORKER_PANIC_LOCATION.lock().unwrap_or_else(PoisonError::into_inner) = location;
+            } else {
+                previous(info);
+            }
+        }));
+    });
 }
 
 /// The text of a panic payload (`panic!` gives a `&str` or a `String`).

@@ -1,6 +1,7 @@
 //! Heterogeneous media: a material table for a tet mesh's ids, per-tet coefficients, voxel
-//! grids (in memory or a TCVOX1 file). Each is checked against the object's shape when it is
-//! set; the object keeps its previous medium on any error.
+//! grids (in memory or a TCVOX1 file). Each call checks the scene and the object index before
+//! it reads any of the caller's data or files, and the medium against the object's shape when
+//! it is set; the object keeps its previous medium on any error.
 
 use std::ffi::c_char;
 
@@ -26,19 +27,27 @@ pub unsafe extern "C" fn tc_object_set_media_table(
     count: usize,
 ) -> TcStatus {
     run("tc_object_set_media_table", || {
-        check_not_null!(table);
-        // SAFETY: the caller's contract (`count` media).
-        let table = unsafe { ptr::slice(table, count, "table")? };
-        let media =
-            table.iter().enumerate().map(|(i, m)| medium_from(m, &format!("table[{i}]"))).collect::<Result<Vec<_>, _>>()?;
-        if let Some((i, m)) = media.iter().enumerate().find(|(_, m)| m.eta != media[0].eta) {
-            return Err(Failure::invalid(format!(
-                "table[{i}].eta = {} but table[0].eta = {}: one refractive index per object",
-                m.eta, media[0].eta
-            )));
-        }
         // SAFETY: the caller's contract.
-        unsafe { with_scene(scene, |s| s.set_medium(object, MediumSource::Table(media))) }
+        unsafe {
+            with_scene(scene, |s| {
+                s.object_index(object)?;
+                check_not_null!(table);
+                // SAFETY: the caller's contract (`count` media).
+                let table = ptr::slice(table, count, "table")?;
+                let media = table
+                    .iter()
+                    .enumerate()
+                    .map(|(i, m)| medium_from(m, &format!("table[{i}]")))
+                    .collect::<Result<Vec<_>, _>>()?;
+                if let Some((i, m)) = media.iter().enumerate().find(|(_, m)| m.eta != media[0].eta) {
+                    return Err(Failure::invalid(format!(
+                        "table[{i}].eta = {} but table[0].eta = {}: one refractive index per object",
+                        m.eta, media[0].eta
+                    )));
+                }
+                s.set_medium(object, MediumSource::Table(media))
+            })
+        }
     })
 }
 
@@ -59,15 +68,20 @@ pub unsafe extern "C" fn tc_object_set_media_per_tet(
     g: f64,
 ) -> TcStatus {
     run("tc_object_set_media_per_tet", || {
-        check_not_null!(sigma_a, sigma_s_prime);
-        let floats = ptr::times(tet_count, 3, "tet_count")?;
-        // SAFETY: the caller's contract (3 × tet_count floats each).
-        let (a, s) = unsafe { (ptr::slice(sigma_a, floats, "sigma_a")?, ptr::slice(sigma_s_prime, floats, "sigma_s_prime")?) };
-        let f = |v: &[f32]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
-        let coefficients = a.chunks_exact(3).zip(s.chunks_exact(3)).map(|(a, s)| Coefficients::new(f(a), f(s))).collect();
-        let media = PerTetMedia::new(coefficients, eta, g).map_err(|e| Failure::invalid(e.to_string()))?;
         // SAFETY: the caller's contract.
-        unsafe { with_scene(scene, |st| st.set_medium(object, MediumSource::PerTet(media))) }
+        unsafe {
+            with_scene(scene, |st| {
+                st.object_index(object)?;
+                check_not_null!(sigma_a, sigma_s_prime);
+                let floats = ptr::times(tet_count, 3, "tet_count")?;
+                // SAFETY: the caller's contract (3 × tet_count floats each).
+                let (a, s) = (ptr::slice(sigma_a, floats, "sigma_a")?, ptr::slice(sigma_s_prime, floats, "sigma_s_prime")?);
+                let f = |v: &[f32]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
+                let coefficients = a.chunks_exact(3).zip(s.chunks_exact(3)).map(|(a, s)| Coefficients::new(f(a), f(s))).collect();
+                let media = PerTetMedia::new(coefficients, eta, g).map_err(|e| Failure::invalid(e.to_string()))?;
+                st.set_medium(object, MediumSource::PerTet(media))
+            })
+        }
     })
 }
 
@@ -91,21 +105,21 @@ pub unsafe extern "C" fn tc_object_set_medium_voxels(
     g: f64,
 ) -> TcStatus {
     run("tc_object_set_medium_voxels", || {
-        check_not_null!(dims, data);
-        // SAFETY: the caller's contract (3 values each; `data_len` floats).
-        let (dims, origin, voxel_size, data) = unsafe {
-            let d = ptr::slice(dims, 3, "dims")?;
-            (
-                [d[0], d[1], d[2]],
-                ptr::vec3(origin, "origin")?,
-                ptr::vec3(voxel_size, "voxel_size")?,
-                ptr::slice(data, data_len, "data")?,
-            )
-        };
-        let grid = VoxelGrid::new(dims, DVec3::from_array(origin), DVec3::from_array(voxel_size), data.to_vec())
-            .map_err(|e| Failure::invalid(e.to_string()))?;
         // SAFETY: the caller's contract.
-        unsafe { with_scene(scene, |s| s.set_medium(object, MediumSource::Voxels { grid, eta, g })) }
+        unsafe {
+            with_scene(scene, |s| {
+                s.object_index(object)?;
+                check_not_null!(dims, data);
+                // SAFETY: the caller's contract (3 values each; `data_len` floats).
+                let d = ptr::slice(dims, 3, "dims")?;
+                let (origin, voxel_size) = (ptr::vec3(origin, "origin")?, ptr::vec3(voxel_size, "voxel_size")?);
+                let data = ptr::slice(data, data_len, "data")?;
+                let grid =
+                    VoxelGrid::new([d[0], d[1], d[2]], DVec3::from_array(origin), DVec3::from_array(voxel_size), data.to_vec())
+                        .map_err(|e| Failure::invalid(e.to_string()))?;
+                s.set_medium(object, MediumSource::Voxels { grid, eta, g })
+            })
+        }
     })
 }
 
@@ -122,14 +136,19 @@ pub unsafe extern "C" fn tc_object_set_medium_voxel_file(
 ) -> TcStatus {
     run("tc_object_set_medium_voxel_file", || {
         // SAFETY: the caller's contract.
-        let path = unsafe { ptr::path(path, "path")? };
-        let grid = VoxelGrid::read(path).map_err(|e| match &e {
-            VolumeError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
-                Failure::new(TC_NOT_FOUND, e.to_string())
-            }
-            _ => Failure::new(TC_IO_ERROR, e.to_string()),
-        })?;
-        // SAFETY: the caller's contract.
-        unsafe { with_scene(scene, |s| s.set_medium(object, MediumSource::Voxels { grid, eta, g })) }
+        unsafe {
+            with_scene(scene, |s| {
+                s.object_index(object)?;
+                // SAFETY: the caller's contract.
+                let path = ptr::path(path, "path")?;
+                let grid = VoxelGrid::read(path).map_err(|e| match &e {
+                    VolumeError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+                        Failure::new(TC_NOT_FOUND, e.to_string())
+                    }
+                    _ => Failure::new(TC_IO_ERROR, e.to_string()),
+                })?;
+                s.set_medium(object, MediumSource::Voxels { grid, eta, g })
+            })
+        }
     })
 }

@@ -46,6 +46,8 @@ fn gpu_required_fails_clearly_and_auto_falls_back_without_an_adapter() {
         let m = message();
         assert_eq!(status, TC_GPU_UNAVAILABLE, "{m}");
         assert!(m.contains("no GPU adapter") && m.contains("no-such-adapter-anywhere") && m.contains("object 0"), "{m}");
+        assert_eq!(m.matches("no GPU adapter found").count(), 1, "said once: {m}");
+        assert_eq!(m.matches("install a Vulkan driver").count(), 1, "said once: {m}");
         // A failed bake of an unchanged scene keeps the previous results.
         let mut kept = vec![0f32; 18];
         assert_eq!(tc_object_radiance(s, object, kept.as_mut_ptr(), kept.len()), TC_OK);
@@ -76,6 +78,7 @@ fn gpu_required_fails_clearly_and_auto_falls_back_without_an_adapter() {
         let why = CStr::from_bytes_until_nul(&why).unwrap().to_str().unwrap();
         assert_eq!(needed, why.len() + 1);
         assert!(why.contains("no GPU adapter"), "{why}");
+        assert_eq!(why.matches("no GPU adapter found").count(), 1, "said once: {why}");
         let mut device = [0x55u8; 8];
         assert_eq!(tc_object_device(s, object, device.as_mut_ptr().cast(), device.len(), ptr::null_mut()), TC_OK);
         assert_eq!(device[0], 0, "no device ran");

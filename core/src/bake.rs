@@ -19,6 +19,7 @@ use crate::mesh::TriMesh;
 use crate::methods::{bake_object, object_stage, Lighting, ObjectBake, SubsurfaceMethod, Target, TransCut};
 use crate::progress::{ms, Progress};
 use crate::scene::{BakeOptions, Method, Scene, SceneError};
+use crate::workers::with_workers;
 
 /// The result of [`bake`]: one entry per object, in scene order.
 #[derive(Debug, Clone)]
@@ -52,19 +53,14 @@ pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Re
     .map_err(SceneError::InvalidOptions)?
 }
 
-/// Runs `f` on `threads` worker threads (0: the global pool).
+/// Runs `f` on `threads` worker threads (0: one per core), started for the call and joined
+/// before it returns ([`crate::workers`]).
 ///
 /// # Errors
-/// A message when the threads cannot be started.
+/// A message when the count is above [`crate::workers::MAX_THREADS`] or the threads cannot be
+/// started.
 pub(crate) fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> Result<R, String> {
-    if threads == 0 {
-        return Ok(f());
-    }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
-    Ok(pool.install(f))
+    with_workers(threads, f).map_err(|e| e.to_string())
 }
 
 /// Every object of `scene` through method `M`: all checked first, then each prepared and solved
@@ -85,6 +81,9 @@ fn bake_all<M: SubsurfaceMethod>(
             o.world_surface().map_err(|e| SceneError::InvalidObject { index, name: o.name.clone(), message: e.to_string() })
         })
         .collect::<Result<Vec<TriMesh>, _>>()?;
+    for (index, (o, world)) in scene.objects.iter().zip(&world).enumerate() {
+        o.check_size(world).map_err(|message| SceneError::InvalidObject { index, name: o.name.clone(), message })?;
+    }
     let targets: Vec<Target<'_>> =
         scene.objects.iter().zip(&world).enumerate().map(|(index, (object, world))| Target { index, object, world }).collect();
     for target in &targets {

@@ -58,6 +58,7 @@ pub mod scene;
 pub mod session;
 pub mod sparse;
 pub mod volume;
+pub mod workers;
 
 pub use bake::{bake, bake_with, Bake};
 pub use glam::DVec3;

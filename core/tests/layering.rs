@@ -14,21 +14,22 @@ type Table = &'static [(&'static str, &'static [&'static str])];
 
 /// The core, bottom to top. A module's row names every module below it that it uses.
 const CORE: Table = &[
+    ("workers", &[]),
     ("progress", &[]),
     ("input", &[]),
     ("mesh", &["input"]),
     ("optics", &["input"]),
     ("mesher", &["mesh", "progress"]),
     ("volume", &["input", "mesh", "optics"]),
-    ("light", &["input", "mesh", "optics"]),
+    ("light", &["input", "mesh", "optics", "progress"]),
     ("sparse", &["input", "progress"]),
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
     ("gpu", &["diffusion", "sparse"]),
     ("render", &["input", "light", "optics"]),
-    ("scene", &["diffusion", "gpu", "light", "mesh", "mesher", "optics", "progress", "volume"]),
+    ("scene", &["diffusion", "gpu", "light", "mesh", "mesher", "optics", "progress", "volume", "workers"]),
     ("edit", &["diffusion", "gpu", "light", "mesh", "mesher", "optics", "progress", "scene", "sparse", "volume"]),
     ("methods", &["diffusion", "edit", "gpu", "light", "mesh", "mesher", "optics", "progress", "scene", "sparse", "volume"]),
-    ("bake", &["mesh", "methods", "progress", "scene"]),
+    ("bake", &["mesh", "methods", "progress", "scene", "workers"]),
     ("session", &["bake", "edit", "light", "methods", "progress", "scene"]),
 ];
 

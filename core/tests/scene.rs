@@ -66,6 +66,33 @@ fn bad_scenes_are_rejected_with_the_culprit_named() {
     let ball = Object::new("ball", uv_sphere(5.0, 16, 8), Medium::preset("marble").unwrap(), 1.0);
     let err = bake(&Scene::default(), &BakeOptions::default()).unwrap_err();
     assert!(matches!(err, SceneError::NoObjects));
+    // A 1e-30 mm ball: refused up front as too small, not a solver failure.
+    let mut tiny = ball.clone();
+    tiny.mm_per_unit = 1e-31;
+    let err = bake(&Scene { objects: vec![tiny], lights: vec![] }, &BakeOptions::default()).unwrap_err();
+    assert!(matches!(err, SceneError::InvalidObject { index: 0, .. }), "{err}");
+    assert!(err.to_string().contains("too small to bake") && err.to_string().contains("1e-6 mm"), "{err}");
+    // Threads and samples above their bounds, named with the value and the bound.
+    for (options, words) in [
+        (BakeOptions { threads: 1000, ..BakeOptions::default() }, ["threads = 1000", "maximum of 256"]),
+        (
+            BakeOptions {
+                source: transcut::light::SourceOptions { area_samples: u32::MAX as usize, ..Default::default() },
+                ..BakeOptions::default()
+            },
+            ["area_samples = 4294967295", "at most 1048576"],
+        ),
+        (
+            BakeOptions {
+                source: transcut::light::SourceOptions { environment_samples: (1 << 20) + 1, ..Default::default() },
+                ..BakeOptions::default()
+            },
+            ["environment_samples = 1048577", "at most 1048576"],
+        ),
+    ] {
+        let err = bake(&Scene { objects: vec![ball.clone()], lights: vec![] }, &options).unwrap_err();
+        assert!(words.iter().all(|w| err.to_string().contains(w)), "{err}");
+    }
     let mut bad = ball.clone();
     bad.mm_per_unit = -1.0;
     let err = bake(&Scene { objects: vec![bad], lights: vec![] }, &BakeOptions::default()).unwrap_err();

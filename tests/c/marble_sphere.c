@@ -211,6 +211,8 @@ static void check_misuse(void) {
     CHECK(object == 12345, "out_object untouched on failure");
     CHECK(tc_scene_bake(scene, NULL, NULL, NULL) == TC_INVALID_ARGUMENT, "bake without objects");
     CHECK(tc_scene_add_environment(NULL, (const double[3]){1, 1, 1}) == TC_NULL_POINTER, "NULL scene");
+    CHECK(tc_object_set_medium_voxel_file(NULL, 0, "/no/such/file.tcvox", 1.3, 0.0) == TC_NULL_POINTER,
+          "NULL scene before the file: %s", tc_last_error_message());
 
     TcStatus panic_status = tc_debug_panic();
     CHECK(panic_status == TC_INTERNAL_ERROR, "a panic becomes TC_INTERNAL_ERROR, got %d", (int)panic_status);
@@ -352,6 +354,7 @@ int main(void) {
     TcMedium marble;
     OK(tc_medium_preset("marble", &marble));
     CHECK(marble.sigma_s_prime[0] == 2.19 && marble.sigma_a[2] == 0.0071, "marble preset coefficients");
+    CHECK(marble.eta == 1.5, "the marble preset has Jensen's eta 1.5, got %g", marble.eta);
     marble.eta = 1.3; /* the worked example's index */
     OK(tc_object_set_medium(scene, ball, &marble));
     size_t vertices = 0;

@@ -5,8 +5,13 @@
 #  3. compiles include/transcut.h as C99 and C++17 with -Wall -Wextra -Werror (its layout
 #     checks compare every struct with the library's),
 #  4. compiles tests/c/marble_sphere.c against the shared and against the static library
-#     (through pkg-config) and runs both under valgrind memcheck: zero errors, no
-#     definitely-lost bytes.
+#     (through pkg-config) and runs both under valgrind memcheck with no suppression file:
+#     zero errors, no definitely or possibly lost bytes (the library joins its worker threads
+#     before each call returns, so nothing of it is left running when the program exits;
+#     "still reachable" is not counted: it is the C runtime's and the dynamic loader's own),
+#     and nothing written to the program's stderr by the library (a panic included);
+#  5. builds it again with gcc's AddressSanitizer and runs it with leak detection
+#     (ASAN_OPTIONS=detect_leaks=1), against the static library: no leak, no error.
 # Prints the path of the built shared library (reused by the Blender add-on tests).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -59,10 +64,40 @@ gcc $warn $cflags tests/c/marble_sphere.c -o "$work/marble_static" "$work/prefix
 
 # Under valgrind: the CPU path (software Vulkan drivers are not what is being checked here),
 # and no panic backtraces (symbolising one caches the library's debug info: ~90 MB "still
-# reachable", and slow under valgrind).
+# reachable", and slow under valgrind). Valgrind's own report goes to a log file, so that the
+# program's stderr holds only what the program (or the library) wrote: it must stay empty.
 for exe in marble_shared marble_static; do
     echo "tests/c/run.sh: valgrind $exe"
-    env -u RUST_BACKTRACE TRANSCUT_BACKEND=cpu valgrind --tool=memcheck --error-exitcode=1 --leak-check=full --errors-for-leak-kinds=definite \
-        --show-leak-kinds=definite "$work/$exe"
+    if ! env -u RUST_BACKTRACE TRANSCUT_BACKEND=cpu valgrind --tool=memcheck --error-exitcode=1 --leak-check=full \
+        --errors-for-leak-kinds=definite,possible --show-leak-kinds=definite,possible --log-file="$work/$exe.valgrind" \
+        "$work/$exe" 2>"$work/$exe.stderr"; then
+        cat "$work/$exe.valgrind" "$work/$exe.stderr"
+        echo "tests/c/run.sh: $exe failed under valgrind" >&2
+        exit 1
+    fi
+    grep -E "ERROR SUMMARY|definitely lost|possibly lost" "$work/$exe.valgrind" || true
+    if [ -s "$work/$exe.stderr" ]; then
+        cat "$work/$exe.stderr"
+        echo "tests/c/run.sh: $exe wrote to stderr (the library must print nothing)" >&2
+        exit 1
+    fi
 done
-echo "tests/c/run.sh: C program passed under valgrind (shared and static)"
+echo "tests/c/run.sh: C program passed under valgrind (shared and static), stderr empty"
+
+# Under AddressSanitizer's leak checker: the same program, built with -fsanitize=address.
+# shellcheck disable=SC2086
+gcc $warn -fsanitize=address -fno-omit-frame-pointer $cflags tests/c/marble_sphere.c -o "$work/marble_asan" \
+    "$work/prefix/lib/libtranscut.a" $static_libs -lm
+echo "tests/c/run.sh: AddressSanitizer + LeakSanitizer marble_asan"
+if ! env -u RUST_BACKTRACE TRANSCUT_BACKEND=cpu ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 "$work/marble_asan" \
+    >"$work/marble_asan.stdout" 2>"$work/marble_asan.stderr"; then
+    cat "$work/marble_asan.stdout" "$work/marble_asan.stderr"
+    echo "tests/c/run.sh: marble_asan failed (a leak or a memory error)" >&2
+    exit 1
+fi
+if [ -s "$work/marble_asan.stderr" ]; then
+    cat "$work/marble_asan.stderr"
+    echo "tests/c/run.sh: marble_asan wrote to stderr" >&2
+    exit 1
+fi
+echo "tests/c/run.sh: C program passed under LeakSanitizer, stderr empty"

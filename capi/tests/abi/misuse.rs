@@ -37,6 +37,11 @@ fn null_scene_handles() {
             ("clear_lights", tc_scene_clear_lights(null)),
             ("bake", tc_scene_bake(null, ptr::null(), None, ptr::null_mut())),
             ("radiance", tc_object_radiance(null, 0, rgb.as_mut_ptr(), 3)),
+            // The scene is checked before any data or file is read.
+            ("voxel_file", tc_object_set_medium_voxel_file(null, 0, cstr(c"/no/such/grid.tcvox"), 1.3, 0.0)),
+            ("voxels", tc_object_set_medium_voxels(null, 0, ptr::null(), ptr::null(), ptr::null(), ptr::null(), 0, 1.3, 0.0)),
+            ("per_tet", tc_object_set_media_per_tet(null, 0, ptr::null(), ptr::null(), 7, 1.3, 0.0)),
+            ("media_table", tc_object_set_media_table(null, 0, ptr::null(), 3)),
         ];
         for (what, status) in calls {
             assert_eq!(status, TC_NULL_POINTER, "{what}");
@@ -138,6 +143,16 @@ fn object_indices_out_of_range() {
         fails(tc_object_set_scale(s, u32::MAX, 2.0), TC_INVALID_HANDLE, &["4294967295"]);
         fails(tc_object_set_name(s, 3, cstr(c"x")), TC_INVALID_HANDLE, &["object 3"]);
         fails(tc_object_radiance(s, 1, rgb.as_mut_ptr(), 12), TC_INVALID_HANDLE, &["object 1"]);
+        // The object index is checked before the file or the data: a missing file, NULL data.
+        fails(tc_object_set_medium_voxel_file(s, 1, cstr(c"/no/such/grid.tcvox"), 1.3, 0.0), TC_INVALID_HANDLE, &["object 1"]);
+        fails(tc_object_set_media_per_tet(s, 1, ptr::null(), ptr::null(), 7, 1.3, 0.0), TC_INVALID_HANDLE, &["object 1"]);
+        fails(tc_object_set_media_table(s, 1, ptr::null(), 3), TC_INVALID_HANDLE, &["object 1"]);
+        let f = [1.0f32; 6];
+        let (dims, v3) = ([1u32; 3], [1.0f64; 3]);
+        let voxels = tc_object_set_medium_voxels(s, 1, dims.as_ptr(), v3.as_ptr(), v3.as_ptr(), f.as_ptr(), 6, 1.3, 0.0);
+        fails(voxels, TC_INVALID_HANDLE, &["object 1"]);
+        // With a valid object, the file is read: a missing one is TC_NOT_FOUND.
+        fails(tc_object_set_medium_voxel_file(s, 0, cstr(c"/no/such/grid.tcvox"), 1.3, 0.0), TC_NOT_FOUND, &["grid.tcvox"]);
     }
     assert_eq!((z, rgb), (5, [3.0; 12]));
     destroy(s);
@@ -309,6 +324,65 @@ fn an_internal_panic_is_an_error_status() {
     destroy(s);
 }
 
+/// A panic inside the guard prints nothing on the host's stderr: its message and location go
+/// into the last error instead. Checked in a child process (this test binary, running only
+/// this test with `TRANSCUT_TEST_PANIC_CHILD` set), whose stderr is captured.
+#[test]
+fn a_panic_prints_nothing_on_stderr() {
+    if std::env::var_os("TRANSCUT_TEST_PANIC_CHILD").is_some() {
+        let status = tc_debug_panic();
+        assert_eq!(status, TC_INTERNAL_ERROR);
+        let m = message();
+        assert!(m.contains("deliberate panic") && m.contains("test_hooks.rs:"), "{m}");
+        println!("child: {m}");
+        // A panic outside the guard still reaches the previous hook (the default one prints).
+        let outside = std::panic::catch_unwind(|| panic!("a host panic, outside the library"));
+        assert!(outside.is_err());
+        return;
+    }
+    let exe = std::env::current_exe().unwrap();
+    let out = std::process::Command::new(exe)
+        .args(["--exact", "misuse::a_panic_prints_nothing_on_stderr", "--nocapture", "--test-threads=1"])
+        .env("TRANSCUT_TEST_PANIC_CHILD", "1")
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "child failed:\n{stdout}\n{stderr}");
+    assert!(stdout.contains("child: tc_debug_panic: internal error (a bug in libtranscut): deliberate panic"), "{stdout}");
+    assert!(!stderr.contains("deliberate panic"), "the library's panic reached stderr:\n{stderr}");
+    // Everything before the host's own panic (which prints, with its backtrace) is silent.
+    let (before, host) = stderr.split_once("a host panic, outside the library").expect("the host's own panics still print");
+    assert!(!before.contains("stack backtrace") && !before.contains("test_hooks.rs"), "the library printed:\n{stderr}");
+    assert!(host.contains("stack backtrace"), "the previous hook still runs for the host's panics:\n{stderr}");
+}
+
+/// Threads, samples, tets and iterations above their documented bounds are refused with
+/// `TC_INVALID_ARGUMENT`, naming the field, the value and the bound; at the bound they pass
+/// the check.
+#[test]
+fn bake_options_above_their_bounds_are_refused() {
+    let s = scene();
+    add(s, &tetrahedron_surface());
+    type Set = fn(&mut TcBakeOptions);
+    let cases: [(Set, &str); 6] = [
+        (|o| o.threads = 1000, "options->threads = 1000 is above the maximum of 256"),
+        (|o| o.threads = TC_MAX_THREADS + 1, "options->threads = 257"),
+        (|o| o.area_samples = u32::MAX, "options->area_samples = 4294967295 is above the maximum of 1048576"),
+        (|o| o.environment_samples = TC_MAX_SAMPLES + 1, "options->environment_samples = 1048577"),
+        (|o| o.tets = TC_MAX_TETS + 1, "options->tets = 20000001 is above the maximum of 20000000"),
+        (|o| o.max_iterations = TC_MAX_ITERATIONS + 1, "options->max_iterations = 1000001"),
+    ];
+    for (set, needle) in cases {
+        let mut o = options(500);
+        set(&mut o);
+        // SAFETY: valid pointers.
+        fails(unsafe { tc_scene_bake(s, &o, None, ptr::null_mut()) }, TC_INVALID_ARGUMENT, &["tc_scene_bake", needle]);
+    }
+    destroy(s);
+}
+
 /// Status names, the message lifetime rule (empty after a success), UTF-8 checks.
 #[test]
 fn status_names_and_messages() {
@@ -326,4 +400,46 @@ fn status_names_and_messages() {
     }
     assert_eq!(message(), "");
     destroy(s);
+}
+
+/// No thread of the library outlives a call: after a bake, a relight and the scene's
+/// destruction the process has the threads it had before (rayon's global pool, which is never
+/// joined, is not used). In a child process (this test alone), so that no other test's threads
+/// are counted.
+#[cfg(target_os = "linux")]
+#[test]
+fn no_library_thread_outlives_a_call() {
+    let threads = || std::fs::read_dir("/proc/self/task").unwrap().count();
+    if std::env::var_os("TRANSCUT_TEST_THREADS_CHILD").is_some() {
+        let before = threads();
+        let s = scene();
+        add(s, &Mesh::uv_sphere(5.0, 16, 8));
+        let sun = ([0.0f64, 0.0, -1.0], [2.0f64; 3]);
+        // SAFETY: valid pointers.
+        unsafe {
+            ok(tc_scene_add_sun(s, sun.0.as_ptr(), sun.1.as_ptr(), 0.0), "sun");
+            let mut o = options(2_000);
+            o.backend = TC_BACKEND_CPU;
+            ok(tc_scene_bake(s, &o, None, ptr::null_mut()), "bake");
+            o.threads = 3;
+            ok(tc_scene_bake(s, &o, None, ptr::null_mut()), "bake on 3 threads");
+            assert_eq!(threads(), before, "after the bakes");
+            ok(tc_scene_relight(s, None, ptr::null_mut()), "relight");
+        }
+        let _ = radiance(s, 0);
+        destroy(s);
+        assert_eq!(threads(), before, "after the relight and the destruction");
+        println!("child: {before} threads before and after");
+        return;
+    }
+    let exe = std::env::current_exe().unwrap();
+    let out = std::process::Command::new(exe)
+        .args(["--exact", "misuse::no_library_thread_outlives_a_call", "--nocapture", "--test-threads=1"])
+        .env("TRANSCUT_TEST_THREADS_CHILD", "1")
+        .env("TRANSCUT_BACKEND", "cpu")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "child failed:\n{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("threads before and after"), "{stdout}");
 }

@@ -125,6 +125,8 @@ impl GpuContext {
         let slot = SHARED.get_or_init(|| {
             GpuContext::new().map_err(|e| match e {
                 GpuError::DeviceRequest { adapter, message } => (true, adapter, message),
+                // The detail alone: the error is rebuilt around it on every call.
+                GpuError::NoAdapter { detail } => (false, String::new(), detail),
                 other => (false, String::new(), other.to_string()),
             })
         });

@@ -53,6 +53,9 @@ pub enum LightError {
         /// Accepted indices are strictly below this.
         max: f64,
     },
+    /// The caller's progress check asked to stop ([`super::transmitted_source_with`]).
+    #[error(transparent)]
+    Cancelled(#[from] crate::progress::Cancelled),
     /// A source option is out of range, or too small for the lights given.
     #[error("source option {field} = {value}: {requirement}")]
     InvalidOption {

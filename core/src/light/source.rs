@@ -3,6 +3,9 @@
 
 use crate::input::{fmt_num, fmt_vec};
 use std::f64::consts::PI;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -14,6 +17,18 @@ use super::sh::{cosine_lobe, fresnel_cosine_lobe, sh9_convolve};
 use super::{validate_lights, Light};
 use crate::mesh::TriangleBvh;
 use crate::optics::{fresnel_transmittance, ETA_MAX, ETA_MIN};
+use crate::progress::Cancelled;
+
+/// A progress check: called with the fraction of the points done, `Err` stops the work.
+pub type Poll<'a> = &'a (dyn Fn(f64) -> Result<(), Cancelled> + Sync);
+
+/// Samples drawn between two looks at the stop flag and the clock inside one point's estimate,
+/// so that a point of a million samples is interrupted too.
+const SAMPLES_PER_CHECK: usize = 1024;
+
+/// The least time between two calls of the progress check: often enough that a cancel is seen
+/// well within 0.1 s, seldom enough that the callback costs nothing next to the sampling.
+const POLL_EVERY: Duration = Duration::from_millis(10);
 
 /// Shadow rays towards a light at a finite distance stop this fraction short of it, so that
 /// geometry coinciding with the light's own surface does not shadow it.
@@ -38,10 +53,11 @@ pub enum EnvironmentMethod {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SourceOptions {
     /// Samples per point for each area light and each sun with a non-zero angular diameter
-    /// (≥ 1 when there are such lights).
+    /// (≥ 1 when there are such lights), at most [`SourceOptions::MAX_SAMPLES`].
     pub area_samples: usize,
     /// Samples per point for each environment that is sampled: every environment when there is
-    /// an occluder, equirect maps also with [`EnvironmentMethod::Sampled`] (≥ 1 then).
+    /// an occluder, equirect maps also with [`EnvironmentMethod::Sampled`] (≥ 1 then), at most
+    /// [`SourceOptions::MAX_SAMPLES`].
     pub environment_samples: usize,
     /// Offset of the shadow-ray origins along the normal, as a fraction of the occluder's
     /// bounding-box diagonal (finite, ≥ 0).
@@ -63,6 +79,38 @@ impl Default for SourceOptions {
             seed: 0,
             unshadowed_environment: EnvironmentMethod::Sh9,
         }
+    }
+}
+
+impl SourceOptions {
+    /// The most area or environment samples per point: 2²⁰. The noise of N stratified samples
+    /// falls like 1/N or faster, so a million is far past visible noise, and a bake of 100k
+    /// boundary points at this count is already hours of shadow rays.
+    pub const MAX_SAMPLES: usize = 1 << 20;
+
+    /// Checks what does not depend on the lights: a finite bias ≥ 0 and sample counts at most
+    /// [`Self::MAX_SAMPLES`].
+    ///
+    /// # Errors
+    /// [`LightError::InvalidOption`] naming the option, its value and the bound.
+    pub fn validate(&self) -> Result<(), LightError> {
+        if !(self.shadow_bias.is_finite() && self.shadow_bias >= 0.0) {
+            return Err(LightError::InvalidOption {
+                field: "shadow_bias",
+                value: fmt_num(self.shadow_bias),
+                requirement: "must be finite and ≥ 0".into(),
+            });
+        }
+        for (field, value) in [("area_samples", self.area_samples), ("environment_samples", self.environment_samples)] {
+            if value > Self::MAX_SAMPLES {
+                return Err(LightError::InvalidOption {
+                    field,
+                    value: value.to_string(),
+                    requirement: format!("must be at most {} (2^20)", Self::MAX_SAMPLES),
+                });
+            }
+        }
+        Ok(())
     }
 }
 
@@ -132,10 +180,29 @@ pub fn transmitted_source(
     occluder: Option<&TriangleBvh>,
     options: &SourceOptions,
 ) -> Result<Vec<[f64; 3]>, LightError> {
+    transmitted_source_with(lights, points, normals, eta, occluder, options, &|_| Ok(()))
+}
+
+/// [`transmitted_source`] with a progress check: `poll` is called with the fraction of the
+/// points done, at most every 10 ms and at least that often while the work goes on (also inside
+/// one point's samples); when it returns `Err` the work stops within a few thousand samples per
+/// thread and the call returns [`LightError::Cancelled`].
+///
+/// # Errors
+/// As [`transmitted_source`], plus [`LightError::Cancelled`].
+pub fn transmitted_source_with(
+    lights: &[Light],
+    points: &[DVec3],
+    normals: &[DVec3],
+    eta: f64,
+    occluder: Option<&TriangleBvh>,
+    options: &SourceOptions,
+    poll: Poll<'_>,
+) -> Result<Vec<[f64; 3]>, LightError> {
     if !(ETA_MIN..ETA_MAX).contains(&eta) {
         return Err(LightError::InvalidEta { value: eta, min: ETA_MIN, max: ETA_MAX });
     }
-    evaluate(lights, points, normals, Response::Transmitted(eta), occluder, options)
+    evaluate(lights, points, normals, Response::Transmitted(eta), occluder, options, poll)
 }
 
 /// The irradiance E(x) = ∫ Li(x, ω) (n·ω)⁺ dω (per RGB channel) at every point: exactly
@@ -151,7 +218,7 @@ pub fn irradiance(
     occluder: Option<&TriangleBvh>,
     options: &SourceOptions,
 ) -> Result<Vec<[f64; 3]>, LightError> {
-    evaluate(lights, points, normals, Response::Irradiance, occluder, options)
+    evaluate(lights, points, normals, Response::Irradiance, occluder, options, &|_| Ok(()))
 }
 
 /// What is integrated against the incident radiance.
@@ -267,6 +334,59 @@ impl<'a> Prepared<'a> {
     }
 }
 
+/// The progress of one call shared by its threads: points done, when the check was last
+/// called, and whether it asked to stop.
+struct Ticker<'a> {
+    poll: Poll<'a>,
+    points: usize,
+    done: AtomicUsize,
+    last: Mutex<Instant>,
+    stop: AtomicBool,
+}
+
+impl<'a> Ticker<'a> {
+    fn new(poll: Poll<'a>, points: usize) -> Self {
+        Self {
+            poll,
+            points: points.max(1),
+            done: AtomicUsize::new(0),
+            last: Mutex::new(Instant::now()),
+            stop: AtomicBool::new(false),
+        }
+    }
+
+    /// Counts `points` more points done and calls the check when it is due; `false` once the
+    /// check asked to stop. The fraction is read under the lock, so it never goes back.
+    fn tick(&self, points: usize) -> bool {
+        if self.stop.load(Ordering::Relaxed) {
+            return false;
+        }
+        self.done.fetch_add(points, Ordering::Relaxed);
+        if let Ok(mut last) = self.last.try_lock() {
+            if last.elapsed() >= POLL_EVERY {
+                *last = Instant::now();
+                #[allow(clippy::cast_precision_loss)]
+                let fraction = self.done.load(Ordering::Relaxed) as f64 / self.points as f64;
+                if (self.poll)(fraction).is_err() {
+                    self.stop.store(true, Ordering::Relaxed);
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// Inside a point's samples: whether to go on after sample `k` (looks every
+    /// [`SAMPLES_PER_CHECK`] samples).
+    fn keep_sampling(&self, k: usize) -> bool {
+        !(k + 1).is_multiple_of(SAMPLES_PER_CHECK) || self.tick(0)
+    }
+
+    fn stopped(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+}
+
 /// Per-call state shared by all points.
 struct Context<'a> {
     response: Response,
@@ -275,6 +395,7 @@ struct Context<'a> {
     /// Absolute shadow-ray offset along the normal.
     bias: f64,
     options: SourceOptions,
+    ticker: Ticker<'a>,
 }
 
 impl Context<'_> {
@@ -313,6 +434,9 @@ impl Context<'_> {
                     if w > 0.0 && cos_a > 0.0 && self.visible(origin, omega, f64::INFINITY) {
                         sum += w / cos_a;
                     }
+                    if !self.ticker.keep_sampling(k) {
+                        break;
+                    }
                 }
                 scale(e, sum / count as f64)
             }
@@ -341,6 +465,9 @@ impl Context<'_> {
                 let count = self.options.environment_samples;
                 let mut sum = 0.0;
                 for k in 0..count {
+                    if !self.ticker.keep_sampling(k) {
+                        break;
+                    }
                     let local = cosine_hemisphere(pattern.get(k));
                     if local.z <= 0.0 {
                         continue;
@@ -408,6 +535,9 @@ impl Context<'_> {
         let count = self.options.area_samples;
         let mut sum = 0.0;
         for k in 0..count {
+            if !self.ticker.keep_sampling(k) {
+                break;
+            }
             let y = at(pattern.get(k));
             let d = y - p;
             let d2 = d.length_squared();
@@ -452,12 +582,18 @@ impl Context<'_> {
         };
         let map_pattern = Pattern::new(hash_combine(key, 1));
         for k in 0..n_map {
+            if !self.ticker.keep_sampling(k) {
+                break;
+            }
             if let Some(s) = map.sample(map_pattern.get(k)) {
                 add(s.direction, n.dot(s.direction), s.pdf);
             }
         }
         let cos_pattern = Pattern::new(hash_combine(key, 2));
         for k in 0..n_cos {
+            if !self.ticker.keep_sampling(k) {
+                break;
+            }
             let local = cosine_hemisphere(cos_pattern.get(k));
             let omega = local.x * t + local.y * b + local.z * n;
             add(omega, local.z, map.pdf(omega));
@@ -520,13 +656,7 @@ fn check_inputs(points: &[DVec3], normals: &[DVec3]) -> Result<Vec<DVec3>, Light
 }
 
 fn check_options(prepared: &[Prepared<'_>], options: &SourceOptions, shadowed: bool) -> Result<(), LightError> {
-    if !(options.shadow_bias.is_finite() && options.shadow_bias >= 0.0) {
-        return Err(LightError::InvalidOption {
-            field: "shadow_bias",
-            value: fmt_num(options.shadow_bias),
-            requirement: "must be finite and ≥ 0".into(),
-        });
-    }
+    options.validate()?;
     if options.area_samples == 0 {
         if let Some(i) = prepared.iter().position(Prepared::needs_area_samples) {
             return Err(LightError::InvalidOption {
@@ -555,6 +685,7 @@ fn evaluate(
     response: Response,
     occluder: Option<&TriangleBvh>,
     options: &SourceOptions,
+    poll: Poll<'_>,
 ) -> Result<Vec<[f64; 3]>, LightError> {
     validate_lights(lights)?;
     let normals = check_inputs(points, normals)?;
@@ -567,24 +698,34 @@ fn evaluate(
         occluder,
         bias: occluder.map_or(0.0, |b| options.shadow_bias * bounding_diagonal(b)),
         options: *options,
+        ticker: Ticker::new(poll, points.len()),
     };
     let light_keys: Vec<u64> = (0..prepared.len()).map(|li| hash_combine(options.seed, li as u64)).collect();
-    Ok(points
+    let q: Vec<[f64; 3]> = points
         .par_iter()
         .zip(normals.par_iter())
         .enumerate()
         .map(|(i, (&p, &n))| {
             let origin = p + ctx.bias * n;
             let mut q = [0.0; 3];
+            if ctx.ticker.stopped() {
+                return q;
+            }
             for (light, &lk) in prepared.iter().zip(&light_keys) {
                 let c = ctx.evaluate(light, p, n, origin, hash_combine(lk, i as u64));
                 for (qc, cc) in q.iter_mut().zip(c) {
                     *qc += cc;
                 }
             }
+            ctx.ticker.tick(1);
             q
         })
-        .collect())
+        .collect();
+    // A stopped call's values are incomplete: only the cancellation is returned.
+    if ctx.ticker.stopped() {
+        return Err(LightError::Cancelled(Cancelled));
+    }
+    Ok(q)
 }
 
 #[cfg(test)]
@@ -744,6 +885,58 @@ mod tests {
             irradiance(&point, &p, &n, None, &bad_bias),
             Err(LightError::InvalidOption { field: "shadow_bias", .. })
         ));
+    }
+
+    /// The check is called while the work goes on (also inside one point's samples), sees
+    /// fractions that never go back, and stops the work when it asks to; without a stop the
+    /// result is the one without a check.
+    #[test]
+    fn progress_is_polled_and_a_stop_is_honoured() {
+        let sun = [Light::Directional { direction: -DVec3::Z, irradiance: [1.0; 3], angular_diameter_deg: 5.0 }];
+        let far_triangle = [DVec3::new(5.0, 0.0, 0.0), DVec3::new(6.0, 0.0, 0.0), DVec3::new(5.0, 1.0, 0.0)];
+        let bvh = TriangleBvh::new(vec![far_triangle]);
+        let points: Vec<DVec3> = (0..64).map(|i| DVec3::new(f64::from(i) * 0.01, 0.0, 0.0)).collect();
+        let normals = vec![DVec3::Z; points.len()];
+        // Enough samples that one call lasts well over the 10 ms between checks.
+        let options = SourceOptions { area_samples: 1 << 16, ..Default::default() };
+        let seen = Mutex::new(Vec::new());
+        let record = |f: f64| {
+            seen.lock().unwrap().push(f);
+            Ok(())
+        };
+        let q = transmitted_source_with(&sun, &points, &normals, 1.3, Some(&bvh), &options, &record).unwrap();
+        let plain = transmitted_source(&sun, &points, &normals, 1.3, Some(&bvh), &options).unwrap();
+        assert_eq!(q, plain);
+        let seen = seen.into_inner().unwrap();
+        assert!(!seen.is_empty());
+        assert!(seen.windows(2).all(|w| w[1] >= w[0]), "{seen:?}");
+        assert!(seen.iter().all(|&f| (0.0..=1.0).contains(&f)));
+        // Cancel at the first check: the call stops and says so.
+        let calls = AtomicUsize::new(0);
+        let cancel = |_: f64| {
+            calls.fetch_add(1, Ordering::SeqCst);
+            Err(Cancelled)
+        };
+        let result = transmitted_source_with(&sun, &points, &normals, 1.3, Some(&bvh), &options, &cancel);
+        assert_eq!(result, Err(LightError::Cancelled(Cancelled)));
+        assert_eq!(calls.load(Ordering::SeqCst), 1, "one check asked to stop; nothing asks again after it");
+    }
+
+    #[test]
+    fn sample_counts_are_bounded() {
+        let (p, n) = at_origin_facing_up();
+        let point = [Light::Point { position: DVec3::Z, intensity: [1.0; 3] }];
+        let at_max = SourceOptions { area_samples: 1 << 20, environment_samples: 1 << 20, ..Default::default() };
+        assert_eq!(at_max.validate(), Ok(()));
+        irradiance(&point, &p, &n, None, &at_max).unwrap();
+        for (area, env, field, value) in
+            [((1 << 20) + 1, 1, "area_samples", "1048577"), (1, u32::MAX as usize, "environment_samples", "4294967295")]
+        {
+            let over = SourceOptions { area_samples: area, environment_samples: env, ..Default::default() };
+            let e = irradiance(&point, &p, &n, None, &over).unwrap_err();
+            assert_eq!(e, over.validate().unwrap_err());
+            assert_eq!(e.to_string(), format!("source option {field} = {value}: must be at most 1048576 (2^20)"));
+        }
     }
 
     #[test]

@@ -27,6 +27,20 @@ impl<'a> Lighting<'a> {
     /// # Errors
     /// [`LightError`] for an invalid light or η, or mismatched lengths.
     pub fn transmitted_source(&self, points: &[DVec3], normals: &[DVec3], eta: f64) -> Result<Vec<[f64; 3]>, LightError> {
-        light::transmitted_source(self.lights, points, normals, eta, self.occluder, self.source)
+        self.transmitted_source_with(points, normals, eta, &|_| Ok(()))
+    }
+
+    /// [`Lighting::transmitted_source`] with a progress check ([`light::transmitted_source_with`]).
+    ///
+    /// # Errors
+    /// As [`Lighting::transmitted_source`], plus [`LightError::Cancelled`].
+    pub fn transmitted_source_with(
+        &self,
+        points: &[DVec3],
+        normals: &[DVec3],
+        eta: f64,
+        poll: light::Poll<'_>,
+    ) -> Result<Vec<[f64; 3]>, LightError> {
+        light::transmitted_source_with(self.lights, points, normals, eta, self.occluder, self.source, poll)
     }
 }

@@ -91,11 +91,12 @@ impl Method {
 /// How TransCut bakes: the tet mesh it solves on, the solve, and where it runs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TransCutOptions {
-    /// Target tetrahedra per surface object (objects given as a tet mesh are solved as given).
+    /// Target tetrahedra per surface object (objects given as a tet mesh are solved as given),
+    /// in [1, [`TransCutOptions::MAX_TETS`]].
     pub tets: usize,
     /// Relative residual ‖b − Mφ‖/‖b‖ at which every solve stops, in (0, 1).
     pub tolerance: f64,
-    /// Iteration cap of every solve, ≥ 1.
+    /// Iteration cap of every solve, in [1, [`TransCutOptions::MAX_ITERATIONS`]].
     pub max_iterations: usize,
     /// The bake's solver on the CPU (default [`SolverKind::SsorPcg`], the fastest single
     /// solve). On the device the single-level kinds run Jacobi PCG ([`crate::gpu::solve_on`]).
@@ -123,19 +124,32 @@ impl Default for TransCutOptions {
 }
 
 impl TransCutOptions {
+    /// The largest `tets`: twenty million tetrahedra take about 10 GB to mesh, assemble and
+    /// solve, beyond what an interactive bake is for.
+    pub const MAX_TETS: usize = 20_000_000;
+    /// The largest `max_iterations`: a solve that has not converged in a million iterations
+    /// never will (every solver here converges in thousands on the test meshes).
+    pub const MAX_ITERATIONS: usize = 1_000_000;
+
     /// Checks the options.
     ///
     /// # Errors
-    /// A message naming the option out of range.
+    /// A message naming the option out of range, its value and the bound.
     pub fn validate(&self) -> Result<(), String> {
         if self.tets == 0 {
             return Err("tets must be at least 1".into());
+        }
+        if self.tets > Self::MAX_TETS {
+            return Err(format!("tets = {} is above the maximum of {}", self.tets, Self::MAX_TETS));
         }
         if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
             return Err(format!("tolerance must lie in (0, 1), got {}", self.tolerance));
         }
         if self.max_iterations == 0 {
             return Err("max_iterations must be at least 1".into());
+        }
+        if self.max_iterations > Self::MAX_ITERATIONS {
+            return Err(format!("max_iterations = {} is above the maximum of {}", self.max_iterations, Self::MAX_ITERATIONS));
         }
         Ok(())
     }
@@ -157,6 +171,15 @@ mod tests {
         assert_eq!(Method::from_name("nonsense"), None);
         let message = Method::unknown("nonsense");
         assert!(message.contains("'nonsense'") && message.contains("transcut"), "{message}");
+    }
+
+    #[test]
+    fn tets_and_iterations_are_bounded() {
+        let at = |tets, max_iterations| TransCutOptions { tets, max_iterations, ..TransCutOptions::default() }.validate();
+        assert_eq!(at(20_000_000, 1_000_000), Ok(()));
+        assert_eq!(at(20_000_001, 10), Err("tets = 20000001 is above the maximum of 20000000".into()));
+        assert_eq!(at(1000, 1_000_001), Err("max_iterations = 1000001 is above the maximum of 1000000".into()));
+        assert_eq!(at(0, 10), Err("tets must be at least 1".into()));
     }
 
     #[test]

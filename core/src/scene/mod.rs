@@ -26,7 +26,8 @@ pub struct Scene {
 
 impl Scene {
     /// Checks what every method needs before any work: at least one object, the method's
-    /// options, each object's scale, transform and medium, and the lights.
+    /// options, the thread count and sample counts (each at most its documented maximum),
+    /// each object's scale, transform and medium, and the lights.
     ///
     /// # Errors
     /// [`SceneError`] naming the option, object or light at fault.
@@ -35,6 +36,8 @@ impl Scene {
             return Err(SceneError::NoObjects);
         }
         options.method.validate().map_err(SceneError::InvalidOptions)?;
+        crate::workers::thread_count(options.threads).map_err(|e| SceneError::InvalidOptions(e.to_string()))?;
+        options.source.validate()?;
         for (index, o) in self.objects.iter().enumerate() {
             o.validate().map_err(|message| SceneError::InvalidObject { index, name: o.name.clone(), message })?;
         }

@@ -144,6 +144,23 @@ pub struct Object {
 }
 
 impl Object {
+    /// The smallest object a bake accepts: a bounding-box diagonal of 10⁻⁶ mm (a nanometre),
+    /// in world space. Far below any diffusing medium, and far above where the assembled
+    /// system's volumes and areas (size³, size²) would underflow f64.
+    pub const MIN_SIZE_MM: f64 = 1e-6;
+    /// The largest object a bake accepts: a bounding-box diagonal of 10⁹ mm (a thousand
+    /// kilometres), for the same reason from above.
+    pub const MAX_SIZE_MM: f64 = 1e9;
+
+    /// Checks the object's size, the bounding-box diagonal of its `world` surface times
+    /// `mm_per_unit`, against [`Self::MIN_SIZE_MM`] and [`Self::MAX_SIZE_MM`].
+    ///
+    /// # Errors
+    /// A message giving the size and the bound it breaks.
+    pub fn check_size(&self, world: &TriMesh) -> Result<(), String> {
+        size_in_range(world.diagonal() * self.mm_per_unit)
+    }
+
     /// A surface at the origin (identity transform) filled with one medium.
     #[must_use]
     pub fn new(name: impl Into<String>, mesh: TriMesh, medium: Medium, mm_per_unit: f64) -> Self {
@@ -189,10 +206,47 @@ impl Object {
     }
 }
 
+/// Whether an object whose bounding-box diagonal is `size_mm` millimetres can be baked.
+fn size_in_range(size_mm: f64) -> Result<(), String> {
+    if !(size_mm >= Object::MIN_SIZE_MM) {
+        return Err(format!(
+            "the object is too small to bake: its bounding-box diagonal is {size_mm:e} mm, below the minimum of {:e} mm \
+             (check mm_per_unit and the transform)",
+            Object::MIN_SIZE_MM
+        ));
+    }
+    if !(size_mm <= Object::MAX_SIZE_MM) {
+        return Err(format!(
+            "the object is too large to bake: its bounding-box diagonal is {size_mm:e} mm, above the maximum of {:e} mm \
+             (check mm_per_unit and the transform)",
+            Object::MAX_SIZE_MM
+        ));
+    }
+    Ok(())
+}
+
 /// The boundary of a tet mesh as a triangle mesh whose user vertices are all tet-mesh vertices
 /// (interior ones unreferenced), so per-vertex values index it directly.
 fn boundary_surface(mesh: &TetMesh) -> Result<TriMesh, MeshError> {
     let positions: Vec<[f64; 3]> = mesh.positions().iter().map(|p| p.to_array()).collect();
     let indices: Vec<u32> = mesh.boundary_faces().iter().flat_map(|f| f.vertices).collect();
     TriMesh::from_triangles(&positions, &indices)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_outside_the_bounds_are_refused_by_name() {
+        assert_eq!(size_in_range(1e-6), Ok(()));
+        assert_eq!(size_in_range(1e9), Ok(()));
+        assert_eq!(size_in_range(60.0), Ok(()));
+        let tiny = size_in_range(1.7e-30).unwrap_err();
+        assert!(tiny.starts_with("the object is too small to bake: its bounding-box diagonal is 1.7e-30 mm"), "{tiny}");
+        assert!(tiny.contains("minimum of 1e-6 mm"), "{tiny}");
+        let huge = size_in_range(2e12).unwrap_err();
+        assert!(huge.contains("too large") && huge.contains("2e12 mm") && huge.contains("1e9 mm"), "{huge}");
+        assert!(size_in_range(f64::NAN).unwrap_err().contains("too small"));
+    }
 }

@@ -340,7 +340,7 @@ pub(super) fn step_lengths(rho: [f64; 3], pq: [f64; 3], active: [bool; 3], itera
                     method: "PCG",
                     channel: c,
                     iteration,
-                    reason: format!("pᵀAp = {:e} ≤ 0: the matrix is not positive definite", pq[c]),
+                    reason: breakdown_reason("pᵀAp", pq[c], "the matrix is not positive definite"),
                 });
             }
             alpha[c] = rho[c] / pq[c];
@@ -401,6 +401,23 @@ pub(super) fn next_beta(
     Ok(beta)
 }
 
+/// Why a quantity that must be positive and finite is not: negative (or NaN) means `not_spd`;
+/// 0 or subnormal means it underflowed (a residual too small for `f64` to represent, from a
+/// system whose scale is far outside `f64`'s comfortable range), which says nothing about
+/// definiteness; infinite means it overflowed.
+pub(super) fn breakdown_reason(what: &str, value: f64, not_spd: &str) -> String {
+    if (0.0..f64::MIN_POSITIVE).contains(&value) {
+        format!(
+            "{what} = {value:e} underflowed (below the smallest normal f64): the system is scaled far outside the range \
+             of f64 (a tiny object or extreme coefficients), not indefinite"
+        )
+    } else if value == f64::INFINITY {
+        format!("{what} overflowed to infinity: the system is scaled far outside the range of f64")
+    } else {
+        format!("{what} = {value:e} ≤ 0: {not_spd}")
+    }
+}
+
 pub(super) fn check_rho(rho: [f64; 3], active: [bool; 3], iteration: usize) -> Result<(), SparseError> {
     for c in 0..3 {
         if active[c] && !(rho[c] > 0.0 && rho[c].is_finite()) {
@@ -408,7 +425,7 @@ pub(super) fn check_rho(rho: [f64; 3], active: [bool; 3], iteration: usize) -> R
                 method: "PCG",
                 channel: c,
                 iteration,
-                reason: format!("rᵀM⁻¹r = {:e} ≤ 0: the preconditioner is not positive definite", rho[c]),
+                reason: breakdown_reason("rᵀM⁻¹r", rho[c], "the preconditioner is not positive definite"),
             });
         }
     }
@@ -486,4 +503,31 @@ pub(super) fn p_update(p: &mut [[f64; 3]], z: &[[f64; 3]], beta: [f64; 3]) {
             }
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_underflowed_quantity_is_not_called_indefinite() {
+        let not_spd = "the preconditioner is not positive definite";
+        let under = breakdown_reason("rᵀM⁻¹r", 1e-320, not_spd);
+        assert!(under.contains("underflowed") && !under.contains("not positive definite"), "{under}");
+        let zero = breakdown_reason("rᵀM⁻¹r", 0.0, not_spd);
+        assert!(zero.contains("underflowed") && !zero.contains("not positive definite"), "{zero}");
+        assert_eq!(
+            breakdown_reason("pᵀAp", -2.0, "the matrix is not positive definite"),
+            "pᵀAp = -2e0 ≤ 0: the matrix is not positive definite"
+        );
+        assert!(breakdown_reason("rᵀM⁻¹r", f64::NAN, not_spd).ends_with(not_spd));
+        assert!(breakdown_reason("pᵀAp", f64::INFINITY, not_spd).contains("overflowed"));
+        match check_rho([1.0, 0.0, 1.0], [true; 3], 7) {
+            Err(SparseError::Breakdown { channel: 1, iteration: 7, reason, .. }) => {
+                assert!(reason.contains("underflowed"), "{reason}")
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(check_rho([1.0, 0.0, 1.0], [true, false, true], 7).is_ok(), "an inactive channel is not checked");
+    }
 }
