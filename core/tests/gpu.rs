@@ -291,7 +291,13 @@ fn backend_choice_reports_what_ran() {
     // Auto takes a hardware GPU, but not a software one (lavapipe), and says why.
     let (sol, report) = gpu::solve_on(Backend::Auto, SolveWith::Kind(SolverKind::SsorPcg), &sys, None, &options).unwrap();
     assert_eq!(report.requested, Backend::Auto);
-    if ctx.is_software() {
+    if let Some(no_gpu) = gpu::no_hardware_gpu() {
+        // No GPU device node: Auto does not load the drivers at all.
+        assert_eq!(report.used, Backend::Cpu);
+        assert_eq!(report.fallback.as_deref(), Some(no_gpu.as_str()));
+        assert!(no_gpu.contains("/dev/dri/renderD*"), "{no_gpu}");
+        assert_eq!(sol.phi, cpu.phi);
+    } else if ctx.is_software() {
         assert_eq!(report.used, Backend::Cpu);
         let why = report.fallback.as_deref().unwrap_or_default();
         assert!(why.contains("software") && why.contains(ctx.device_name()), "{why}");

@@ -23,7 +23,8 @@ pub enum Backend {
     Gpu,
     /// The GPU when a hardware adapter exists, else the CPU (the report says why). A software
     /// adapter (Mesa's lavapipe, device type CPU) is not used by `Auto`: it is many times slower
-    /// than the CPU path; [`Backend::Gpu`] still runs on it.
+    /// than the CPU path; [`Backend::Gpu`] still runs on it. On Linux, a machine with no GPU
+    /// device node ([`super::no_hardware_gpu`]) solves on the CPU without loading the drivers.
     #[default]
     Auto,
 }
@@ -117,8 +118,9 @@ impl SolveWith<'_> {
 ///   it has no device path), the multigrid kinds CG preconditioned by their V-cycle
 ///   ([`super::GpuSolver::with_multigrid`], the hierarchy and Galerkin operators built on the
 ///   CPU and uploaded once per call). [`SolverKind::Cascade`] has no device path: an error.
-/// - [`Backend::Auto`] runs on the device unless none can be had, the only one is a software
-///   rasteriser (lavapipe) or the kind is the cascade; then the CPU, with the reason in
+/// - [`Backend::Auto`] runs on the device unless none can be had (on Linux: no GPU device node,
+///   then the drivers are not even loaded), the only one is a software rasteriser (lavapipe) or
+///   the kind is the cascade; then the CPU, with the reason in
 ///   [`BackendReport::fallback`].
 ///
 /// Every path meets the same f64 tolerance. Errors of the solve itself (not converged, bad warm
@@ -204,6 +206,11 @@ fn on_backend(
     }
     #[cfg(feature = "gpu")]
     {
+        if backend == Backend::Auto {
+            if let Some(why) = super::no_hardware_gpu() {
+                return cpu(Some(why));
+            }
+        }
         let context = match super::GpuContext::shared() {
             Ok(c) => c,
             Err(e) if backend == Backend::Auto => return cpu(Some(e.to_string())),

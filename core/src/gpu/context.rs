@@ -15,6 +15,38 @@ use super::shaders::Kernel;
 /// Environment variable that restricts the adapter by a substring of its name.
 pub const ADAPTER_ENV: &str = "TRANSCUT_GPU_ADAPTER";
 
+/// The device nodes through which a hardware GPU driver shows itself on Linux: DRM render nodes
+/// (`/dev/dri/renderD*`: Mesa, AMDGPU, Intel, NVIDIA's DRM module), NVIDIA's proprietary
+/// driver (`/dev/nvidia0`) and WSL 2's GPU (`/dev/dxg`).
+const GPU_NODES: &str = "/dev/dri/renderD*, /dev/nvidia0, /dev/dxg";
+
+/// Whether any hardware GPU device node is among `dri` (the names in `/dev/dri`) and the
+/// files `exists` knows of: without one, a Vulkan driver can offer only a software adapter.
+fn has_gpu_node(dri: impl IntoIterator<Item = String>, exists: impl Fn(&str) -> bool) -> bool {
+    dri.into_iter().any(|name| name.starts_with("renderD")) || exists("/dev/nvidia0") || exists("/dev/dxg")
+}
+
+/// Why this machine cannot have a hardware GPU, or `None` when it may have one. On Linux a
+/// hardware GPU needs a device node ([`GPU_NODES`]); without any, [`super::Backend::Auto`]
+/// solves on the CPU without loading the drivers (which would only find a software adapter and
+/// may print to the host's stderr). Elsewhere `None`: the drivers are asked.
+#[must_use]
+pub fn no_hardware_gpu() -> Option<String> {
+    #[cfg(target_os = "linux")]
+    {
+        let dri = std::fs::read_dir("/dev/dri")
+            .map(|d| d.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect::<Vec<_>>())
+            .unwrap_or_default();
+        if !has_gpu_node(dri, |p| std::path::Path::new(p).exists()) {
+            return Some(format!(
+                "no GPU adapter can be a hardware one: this machine has no GPU device node ({GPU_NODES}), \
+                 so the drivers were not asked; TRANSCUT_BACKEND=gpu asks them anyway"
+            ));
+        }
+    }
+    None
+}
+
 /// Workgroup size of every kernel (`WG` in `shaders/common.wgsl`).
 pub(crate) const WORKGROUP: u32 = 256;
 
@@ -324,4 +356,19 @@ pub(crate) fn dispatch(
     pass.set_pipeline(ctx.pipeline(kernel));
     pass.set_bind_group(0, bind, &[]);
     pass.dispatch_workgroups(grid.0, grid.1, 1);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::has_gpu_node;
+
+    #[test]
+    fn a_render_node_or_a_vendor_node_is_a_gpu_node() {
+        let none = |_: &str| false;
+        assert!(!has_gpu_node(Vec::new(), none));
+        assert!(!has_gpu_node(vec!["card0".into(), "by-path".into()], none));
+        assert!(has_gpu_node(vec!["card0".into(), "renderD128".into()], none));
+        assert!(has_gpu_node(Vec::new(), |p| p == "/dev/nvidia0"));
+        assert!(has_gpu_node(Vec::new(), |p| p == "/dev/dxg"));
+    }
 }

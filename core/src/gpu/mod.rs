@@ -66,7 +66,7 @@ mod radiance;
 pub mod shaders;
 
 #[cfg(feature = "gpu")]
-pub use context::{GpuContext, ADAPTER_ENV};
+pub use context::{no_hardware_gpu, GpuContext, ADAPTER_ENV};
 #[cfg(feature = "gpu")]
 pub use matrix::assemble;
 #[cfg(feature = "gpu")]
