@@ -73,8 +73,8 @@ fn the_bake_reports_sigma_tr_h_per_channel() {
     let object = &baked.objects[0];
     let h = mean_boundary_edge(&object.transcut().unwrap().tet_mesh);
     let s = sigma_tr(&marble);
-    for c in 0..3 {
-        assert!((object.stats.resolution[c] / (s[c] * h) - 1.0).abs() < 1e-12, "{:?} vs {h}", object.stats.resolution);
+    for (r, s) in object.stats.resolution.iter().zip(s) {
+        assert!((r / (s * h) - 1.0).abs() < 1e-12, "{:?} vs {h}", object.stats.resolution);
     }
     // 5000 tets in a sphere of radius 10 mm: h ≈ (12 V / N)^(1/3) = 2.9 mm by the lattice's
     // count, so blue (σtr = 0.253 mm⁻¹) is resolved, σtr·h well below 1.
