@@ -57,7 +57,10 @@ fn a_bake_cancelled_at_any_report_returns_cancelled() {
         assert!(stages.contains(&stage), "no {stage} report in {stages:?}");
     }
     assert!(stages.iter().filter(|s| **s == "light").count() >= 2, "the light stage reports while it works: {stages:?}");
-    // Every stage's first and last report, and 24 more spread over the whole bake.
+    // Instants named by stage and the report's rank within it (the light stage reports by time,
+    // so a global report index would land in another stage on another run): every stage's
+    // first and last report, and 24 more spread over the whole bake.
+    let rank = |k: usize| (stages[k].to_owned(), stages[..k].iter().filter(|s| **s == stages[k]).count());
     let mut picks: Vec<usize> = (0..24).map(|i| i * n / 24).collect();
     for (i, w) in stages.windows(2).enumerate() {
         if w[0] != w[1] {
@@ -66,19 +69,22 @@ fn a_bake_cancelled_at_any_report_returns_cancelled() {
     }
     picks.sort_unstable();
     picks.dedup();
+    let picks: Vec<(String, usize)> = picks.into_iter().map(rank).collect();
     let mut worst: BTreeMap<String, f64> = BTreeMap::new();
-    for &k in &picks {
-        let calls = AtomicUsize::new(0);
+    for (target, nth) in &picks {
+        let seen = AtomicUsize::new(0);
         let cancelled_at = Mutex::new(None);
         let cancel = |s: &str, _: f64| {
-            let call = calls.fetch_add(1, Ordering::SeqCst);
-            if call >= k {
-                let mut at = cancelled_at.lock().unwrap();
-                at.get_or_insert((stage_of(s), Instant::now()));
-                false
-            } else {
-                true
+            let mut at = cancelled_at.lock().unwrap();
+            if at.is_some() {
+                return false;
             }
+            let stage = stage_of(s);
+            if stage == *target && seen.fetch_add(1, Ordering::SeqCst) == *nth {
+                *at = Some((stage, Instant::now()));
+                return false;
+            }
+            true
         };
         let result = bake_with(&scene, &options, Progress::new(&cancel));
         let returned = Instant::now();
@@ -90,7 +96,7 @@ fn a_bake_cancelled_at_any_report_returns_cancelled() {
         };
         assert!(
             matches!(result, Err(SceneError::Cancelled(_))),
-            "cancel at report {k} of {n} (in {stage}): {:?}",
+            "cancel at report {nth} of {target} ({n} reports in all, cancelled in {stage}): {:?}",
             result.map(|_| ())
         );
         let ms = returned.duration_since(at).as_secs_f64() * 1e3;

@@ -39,8 +39,8 @@ pub fn no_hardware_gpu() -> Option<String> {
             .unwrap_or_default();
         if !has_gpu_node(dri, |p| std::path::Path::new(p).exists()) {
             return Some(format!(
-                "no GPU adapter can be a hardware one: this machine has no GPU device node ({GPU_NODES}), \
-                 so the drivers were not asked; TRANSCUT_BACKEND=gpu asks them anyway"
+                "no GPU adapter found: this machine has no GPU device node ({GPU_NODES}), so the \
+                 drivers were not asked; TRANSCUT_BACKEND=gpu asks them anyway"
             ));
         }
     }

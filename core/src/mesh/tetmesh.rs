@@ -253,10 +253,11 @@ impl TetMesh {
         &self.on_boundary
     }
 
-    /// Total volume.
+    /// Total volume, summed in tet order (the same value whatever the thread schedule).
     #[must_use]
     pub fn volume(&self) -> f64 {
-        (0..self.tets.len()).into_par_iter().map(|t| self.tet_volume(t)).sum()
+        let volumes: Vec<f64> = (0..self.tets.len()).into_par_iter().map(|t| self.tet_volume(t)).collect();
+        volumes.iter().sum()
     }
 
     /// For each vertex of the user's surface mesh this was built from, its location on the

@@ -373,8 +373,11 @@ fn size_to_count(
         if (count as f64 / n - 1.0).abs() <= 0.1 || passes >= 3 {
             return Ok((stuffed, h, passes));
         }
-        let measured: f64 =
-            stuffed.tets.par_iter().map(|t| crate::mesh::tet_volume(t.map(|v| stuffed.positions[v as usize])).abs()).sum();
+        // Summed in tet order, not by rayon's `sum` (whose grouping follows the work stealing):
+        // the next spacing, and so the whole mesh, must not depend on the thread schedule.
+        let volumes: Vec<f64> =
+            stuffed.tets.par_iter().map(|t| crate::mesh::tet_volume(t.map(|v| stuffed.positions[v as usize])).abs()).collect();
+        let measured: f64 = volumes.iter().sum();
         h = spacing_for_count(measured, area, n);
     }
 }
