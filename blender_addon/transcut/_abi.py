@@ -87,6 +87,12 @@ TC_SOLVER_CASCADE = 3  # TransCut §4.2's coarse-to-fine cascade (CPU only)
 TC_SOLVER_MG_PCG = 4  # CG preconditioned by a V-cycle on TransCut's §4.1 hierarchy
 TC_SOLVER_SA_PCG = 5  # CG preconditioned by a smoothed-aggregation V-cycle
 
+# Upper bounds of TcBakeOptions (TC_INVALID_ARGUMENT above them).
+TC_MAX_THREADS = 256
+TC_MAX_SAMPLES = 1 << 20  # area_samples and environment_samples
+TC_MAX_TETS = 20_000_000
+TC_MAX_ITERATIONS = 1_000_000
+
 #: ``solver`` / ``edit_solver`` names accepted by :meth:`Scene.bake` (the CLI's ``--solver`` names).
 SOLVERS = {
     "default": TC_SOLVER_DEFAULT,
