@@ -52,7 +52,7 @@ fn edge_of(tri: [u32; 3], k: usize) -> (u32, u32) {
 }
 
 /// Every triangle edge as (undirected key, triangle, corner where it starts), sorted by key.
-fn sorted_edges(triangles: &[[u32; 3]]) -> Vec<(u64, u32, u8)> {
+pub(super) fn sorted_edges(triangles: &[[u32; 3]]) -> Vec<(u64, u32, u8)> {
     let mut edges = Vec::with_capacity(3 * triangles.len());
     for (t, tri) in triangles.iter().enumerate() {
         for k in 0..3 {

@@ -209,16 +209,7 @@ impl TriMesh {
 
     /// Every triangle edge as (undirected key, triangle, corner where it starts), sorted by key.
     fn sorted_edges(&self) -> Vec<(u64, u32, u8)> {
-        let mut edges = Vec::with_capacity(3 * self.triangles.len());
-        for (t, tri) in self.triangles.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                let key = (u64::from(a.min(b)) << 32) | u64::from(a.max(b));
-                edges.push((key, t as u32, k as u8));
-            }
-        }
-        edges.sort_unstable();
-        edges
+        super::orient::sorted_edges(&self.triangles)
     }
 
     /// Internal (welded) vertex positions.
