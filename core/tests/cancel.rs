@@ -138,12 +138,15 @@ fn edit_scene() -> (Scene, BakeOptions) {
     (scene, options)
 }
 
+/// A piece's radiance, fluence and transform.
+type PieceState = (Vec<[f64; 3]>, Vec<[f64; 3]>, glam::DMat4);
+
 /// What a session holds for its one object, bit for bit: its radiance, and per piece its
 /// radiance, fluence and transform; and the session's lights.
 #[derive(Debug, PartialEq)]
 struct Snapshot {
     radiance: Option<Vec<[f64; 3]>>,
-    pieces: Option<Vec<(Vec<[f64; 3]>, Vec<[f64; 3]>, glam::DMat4)>>,
+    pieces: Option<Vec<PieceState>>,
     lights: Vec<Light>,
 }
 

@@ -281,6 +281,7 @@ impl Editor {
     /// [`EditError::InvalidOptions`] for bad options or a fluence that does not match the mesh;
     /// [`EditError::Volume`] for media that disagree on η at the surface; [`EditError::Light`],
     /// [`EditError::Diffusion`], [`EditError::Gpu`] from the first solve.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn from_tets(
         original: TetMesh,
         table: &[Medium],

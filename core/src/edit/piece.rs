@@ -187,6 +187,7 @@ pub(crate) fn local_table(media: &PerTetMedia, original_tets: &[u32]) -> Vec<Med
 /// # Errors
 /// [`EditError::Mesh`] for a mesh whose ids cannot be set; [`EditError::Diffusion`] from the
 /// assembly or the hierarchy; [`EditError::InvalidOptions`] for a warm start of the wrong length.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn build(
     mut mesh: TetMesh,
     original_tets: Vec<u32>,
