@@ -1099,6 +1099,20 @@ TcStatus tc_object_piece_mesh(const struct TcScene *scene,
 TcStatus tc_scene_relight(struct TcScene *scene, TcProgressFn progress, void *user);
 
 /**
+ * Sets the progress callback of every edit call on `scene` (`tc_object_edit_medium`,
+ * `tc_object_paint`, the `tc_object_cut_*` calls, `tc_object_split_*`, `tc_object_fracture`,
+ * `tc_object_set_piece_transform`, `tc_object_recombine`) and of `tc_scene_relight` when its
+ * own `progress` is NULL; NULL clears it. The callback is called as `TcProgressFn` documents,
+ * with stages named "<object>: <stage>" (light, solve, cut, assembly, …) and the fraction of
+ * the one call; a non-zero return cancels the call, which then returns `TC_CANCELLED` with
+ * nothing changed. `user` is passed back to it unchanged and must stay valid until the
+ * callback is replaced or cleared or the scene is freed.
+ *
+ * Errors: `TC_NULL_POINTER`, `TC_INVALID_HANDLE`, `TC_BUSY`.
+ */
+TcStatus tc_scene_set_progress(struct TcScene *scene, TcProgressFn progress, void *user);
+
+/**
  * Creates an empty scene (no objects, no lights) and stores its handle in `*out`.
  *
  * The caller owns the scene and frees it with `tc_scene_destroy(&scene)`. On failure `*out` is

@@ -235,7 +235,8 @@ class TcScene(Structure):
 ScenePtr = POINTER(TcScene)
 
 #: ``typedef int32_t (*TcProgressFn)(void *user, const char *stage, double fraction)``;
-#: a non-zero return cancels the call that reports (``tc_scene_bake``, ``tc_scene_relight``).
+#: a non-zero return cancels the call that reports (``tc_scene_bake``, ``tc_scene_relight``, and the
+#: edit calls once ``tc_scene_set_progress`` set it).
 TcProgressFn = CFUNCTYPE(c_int32, c_void_p, c_char_p, c_double)
 
 c_double_p = POINTER(c_double)
@@ -299,6 +300,7 @@ OPTIONAL = {
     "tc_transcut_options_init": (c_int32, [POINTER(TcTransCutOptions), c_size_t]),
     # Editing (after a bake).
     "tc_scene_relight": (c_int32, [ScenePtr, TcProgressFn, c_void_p]),
+    "tc_scene_set_progress": (c_int32, [ScenePtr, TcProgressFn, c_void_p]),
     "tc_object_tet_count": (c_int32, [ScenePtr, c_uint32, POINTER(c_size_t)]),
     "tc_object_edit_medium": (c_int32, [ScenePtr, c_uint32, POINTER(TcMediumEdit)]),
     "tc_object_paint": (c_int32, [ScenePtr, c_uint32, c_double_p, c_size_t, c_double, POINTER(TcMedium), c_double]),

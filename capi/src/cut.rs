@@ -27,8 +27,8 @@ fn flag(value: i32, name: &str) -> Result<bool, Failure> {
 unsafe fn cut_with(scene: *mut TcScene, object: u32, cutter: Cutter, keep_both: bool) -> Result<(), Failure> {
     // SAFETY: forwarded.
     unsafe {
-        update(scene, object, |session, i| {
-            if keep_both { session.split(i, &cutter) } else { session.cut(i, &cutter) }.map(|_| ())
+        update(scene, object, |session, i, p| {
+            if keep_both { session.split(i, &cutter, p) } else { session.cut(i, &cutter, p) }.map(|_| ())
         })
     }
 }
@@ -41,7 +41,7 @@ unsafe fn counted(
     scene: *mut TcScene,
     object: u32,
     out: *mut u32,
-    op: impl FnOnce(&mut Session, usize) -> Result<(), SessionError>,
+    op: impl FnOnce(&mut Session, usize, transcut_core::Progress) -> Result<(), SessionError>,
 ) -> Result<(), Failure> {
     if !out.is_null() && !out.is_aligned() {
         return Err(Failure::invalid("`out_piece_count` is not aligned for its type"));
@@ -153,7 +153,7 @@ pub unsafe extern "C" fn tc_object_cut_mesh(
 pub unsafe extern "C" fn tc_object_fracture(scene: *mut TcScene, object: u32, out_piece_count: *mut u32) -> TcStatus {
     run("tc_object_fracture", || {
         // SAFETY: the caller's contract.
-        unsafe { counted(scene, object, out_piece_count, |session, i| session.fracture(i).map(|_| ())) }
+        unsafe { counted(scene, object, out_piece_count, |session, i, p| session.fracture(i, p).map(|_| ())) }
     })
 }
 
@@ -164,7 +164,7 @@ pub unsafe extern "C" fn tc_object_fracture(scene: *mut TcScene, object: u32, ou
 pub unsafe extern "C" fn tc_object_recombine(scene: *mut TcScene, object: u32, out_piece_count: *mut u32) -> TcStatus {
     run("tc_object_recombine", || {
         // SAFETY: the caller's contract.
-        unsafe { counted(scene, object, out_piece_count, |session, i| session.recombine(i).map(|_| ())) }
+        unsafe { counted(scene, object, out_piece_count, |session, i, p| session.recombine(i, p).map(|_| ())) }
     })
 }
 
@@ -198,6 +198,6 @@ pub unsafe extern "C" fn tc_object_set_piece_transform(
         // SAFETY: the caller's contract.
         let m = unsafe { matrix16(matrix)? };
         // SAFETY: the caller's contract.
-        unsafe { update(scene, object, |session, i| session.set_piece_transform(i, piece as usize, m).map(|_| ())) }
+        unsafe { update(scene, object, |session, i, p| session.set_piece_transform(i, piece as usize, m, p).map(|_| ())) }
     })
 }

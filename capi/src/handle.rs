@@ -16,6 +16,7 @@ use transcut_core::edit::Editor;
 use transcut_core::{MediumSource, ObjectStats, Scene, Session, SessionError};
 
 use super::convert::session_failure;
+use super::progress::{Callback, Sink};
 use super::status::{Failure, TC_BUSY, TC_INVALID_HANDLE, TC_NOT_BAKED, TC_NULL_POINTER};
 
 /// Marks a live `TcScene` ("TCSCENE\0" as little-endian bytes); zeroed when it is destroyed.
@@ -41,6 +42,8 @@ pub(crate) struct SceneState {
     /// Whether the session's results describe the scene's current lights: false after a change
     /// of lights until `tc_scene_relight`.
     pub current: bool,
+    /// The callback of every edit call (and of `tc_scene_relight` when it is given none).
+    pub progress: Sink,
 }
 
 impl SceneState {
@@ -204,13 +207,14 @@ pub(crate) unsafe fn with_scene<R>(
 pub(crate) unsafe fn update(
     scene: *mut TcScene,
     object: u32,
-    op: impl FnOnce(&mut Session, usize) -> Result<(), SessionError>,
+    op: impl FnOnce(&mut Session, usize, transcut_core::Progress) -> Result<(), SessionError>,
 ) -> Result<(), Failure> {
     // SAFETY: forwarded.
     unsafe {
         with_scene(scene, |s| {
             let i = s.object_index(object)?;
-            op(s.session_mut()?, i).map_err(|e| session_failure(&e))
+            let sink = s.progress;
+            Callback::with(sink.function, sink.user, |p| op(s.session_mut()?, i, p).map_err(|e| session_failure(&e)))
         })
     }
 }

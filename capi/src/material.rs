@@ -141,7 +141,7 @@ pub unsafe extern "C" fn tc_object_edit_medium(scene: *mut TcScene, object: u32,
         };
         let edit = MediumEdit { region, op };
         // SAFETY: the caller's contract.
-        unsafe { update(scene, object, |session, i| session.edit_medium(i, &edit).map(|_| ())) }
+        unsafe { update(scene, object, |session, i, p| session.edit_medium(i, &edit, p).map(|_| ())) }
     })
 }
 
@@ -174,6 +174,6 @@ pub unsafe extern "C" fn tc_object_paint(
         let medium = medium_from(unsafe { &*medium }, "medium")?;
         let stroke = PaintStroke { points, radius, medium, strength };
         // SAFETY: the caller's contract.
-        unsafe { update(scene, object, |session, i| session.paint(i, &stroke).map(|_| ())) }
+        unsafe { update(scene, object, |session, i, p| session.paint(i, &stroke, p).map(|_| ())) }
     })
 }

@@ -14,6 +14,19 @@ use std::sync::Mutex;
 /// `TC_BUSY`).
 pub type TcProgressFn = Option<unsafe extern "C" fn(user: *mut c_void, stage: *const c_char, fraction: f64) -> i32>;
 
+/// A scene's callback for its edit calls (`tc_scene_set_progress`): none by default.
+#[derive(Clone, Copy)]
+pub(crate) struct Sink {
+    pub function: TcProgressFn,
+    pub user: *mut c_void,
+}
+
+impl Default for Sink {
+    fn default() -> Self {
+        Self { function: None, user: std::ptr::null_mut() }
+    }
+}
+
 /// The caller's callback, wrapped.
 pub(crate) struct Callback {
     function: unsafe extern "C" fn(*mut c_void, *const c_char, f64) -> i32,

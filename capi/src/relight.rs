@@ -4,7 +4,7 @@ use std::ffi::c_void;
 
 use super::convert::session_failure;
 use super::handle::{with_scene, TcScene};
-use super::progress::{Callback, TcProgressFn};
+use super::progress::{Callback, Sink, TcProgressFn};
 use super::status::{run, TcStatus};
 
 /// Re-solves every object for the scene's CURRENT lights (after `tc_scene_clear_lights` /
@@ -23,6 +23,9 @@ use super::status::{run, TcStatus};
 #[no_mangle]
 pub unsafe extern "C" fn tc_scene_relight(scene: *mut TcScene, progress: TcProgressFn, user: *mut c_void) -> TcStatus {
     run("tc_scene_relight", || {
+        // SAFETY: the caller's contract.
+        let sink = unsafe { with_scene(scene, |s| Ok(s.progress))? };
+        let (progress, user) = if progress.is_some() { (progress, user) } else { (sink.function, sink.user) };
         Callback::with(progress, user, |progress| {
             // SAFETY: the caller's contract.
             unsafe {
@@ -34,5 +37,28 @@ pub unsafe extern "C" fn tc_scene_relight(scene: *mut TcScene, progress: TcProgr
                 })
             }
         })
+    })
+}
+
+/// Sets the progress callback of every edit call on `scene` (`tc_object_edit_medium`,
+/// `tc_object_paint`, the `tc_object_cut_*` calls, `tc_object_split_*`, `tc_object_fracture`,
+/// `tc_object_set_piece_transform`, `tc_object_recombine`) and of `tc_scene_relight` when its
+/// own `progress` is NULL; NULL clears it. The callback is called as `TcProgressFn` documents,
+/// with stages named "<object>: <stage>" (light, solve, cut, assembly, …) and the fraction of
+/// the one call; a non-zero return cancels the call, which then returns `TC_CANCELLED` with
+/// nothing changed. `user` is passed back to it unchanged and must stay valid until the
+/// callback is replaced or cleared or the scene is freed.
+///
+/// Errors: `TC_NULL_POINTER`, `TC_INVALID_HANDLE`, `TC_BUSY`.
+#[no_mangle]
+pub unsafe extern "C" fn tc_scene_set_progress(scene: *mut TcScene, progress: TcProgressFn, user: *mut c_void) -> TcStatus {
+    run("tc_scene_set_progress", || {
+        // SAFETY: the caller's contract.
+        unsafe {
+            with_scene(scene, |s| {
+                s.progress = Sink { function: progress, user: if progress.is_some() { user } else { std::ptr::null_mut() } };
+                Ok(())
+            })
+        }
     })
 }

@@ -1,6 +1,8 @@
-//! Cancellation at every instant of a bake and of a relight: a progress callback that asks to
-//! stop at its k-th call, for calls spread over every stage (meshing, assembly, light, solve),
-//! gets `Cancelled` back and nothing else. Prints the worst time from the cancel to the return
+//! Cancellation at every instant of a bake, of a relight and of the session's edits (medium
+//! edit, paint, cut, fracture): a progress callback that asks to stop at its k-th call, for
+//! calls spread over every stage (meshing, assembly, light, solve, cut…), gets `Cancelled` back
+//! and nothing else; a cancelled edit leaves the session bit for bit as it was, and the same
+//! edit run afterwards gives what it gives in a session that was never cancelled. Prints the worst time from the cancel to the return
 //! per stage (a measurement for the record, not an assertion: speed is never a unit test).
 
 use std::collections::BTreeMap;
@@ -8,6 +10,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
+use glam::DVec3;
+use transcut::edit::{Cutter, MediumEdit, MediumOp, PaintStroke, Region};
 use transcut::gpu::Backend;
 use transcut::light::{Light, SourceOptions};
 use transcut::optics::Medium;
@@ -21,13 +25,13 @@ use common::uv_sphere;
 fn scene() -> (Scene, BakeOptions) {
     let ball = Object::new("ball", uv_sphere(10.0, 32, 16), Medium::preset("marble").unwrap(), 1.0);
     let disc = Light::DiscArea {
-        center: glam::DVec3::new(0.0, 0.0, 30.0),
-        normal: -glam::DVec3::Z,
+        center: DVec3::new(0.0, 0.0, 30.0),
+        normal: -DVec3::Z,
         radius: 5.0,
         radiance: [2.0; 3],
         two_sided: false,
     };
-    let sun = Light::Directional { direction: glam::DVec3::new(0.3, 0.0, -1.0), irradiance: [1.0; 3], angular_diameter_deg: 2.0 };
+    let sun = Light::Directional { direction: DVec3::new(0.3, 0.0, -1.0), irradiance: [1.0; 3], angular_diameter_deg: 2.0 };
     let options = BakeOptions {
         source: SourceOptions { area_samples: 2048, ..SourceOptions::default() },
         ..BakeOptions::with_method(TransCutOptions { tets: 6_000, backend: Some(Backend::Cpu), ..TransCutOptions::default() })
@@ -116,7 +120,7 @@ fn a_relight_cancelled_at_any_report_changes_nothing() {
     let (scene, options) = scene();
     let mut session = Session::bake(&scene, &options, Progress::none()).unwrap();
     let before = session.radiance(0).unwrap();
-    let lights = vec![Light::Directional { direction: -glam::DVec3::Z, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }];
+    let lights = vec![Light::Directional { direction: -DVec3::Z, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }];
     for k in 0..2 {
         let calls = AtomicUsize::new(0);
         let cancel = |_: &str, _: f64| calls.fetch_add(1, Ordering::SeqCst) < k;
@@ -127,4 +131,205 @@ fn a_relight_cancelled_at_any_report_changes_nothing() {
     }
     session.relight(&lights, Progress::none()).unwrap();
     assert_ne!(session.radiance(0).unwrap(), before);
+}
+
+/// A smaller marble ball under the same lights, for the edits (each is run many times).
+fn edit_scene() -> (Scene, BakeOptions) {
+    let (mut scene, mut options) = scene();
+    scene.objects[0] = Object::new("ball", uv_sphere(10.0, 24, 12), Medium::preset("marble").unwrap(), 1.0);
+    options.source.area_samples = 512;
+    if let transcut::Method::TransCut(t) = &mut options.method {
+        t.tets = 3_000;
+    }
+    (scene, options)
+}
+
+/// A piece's radiance, fluence and transform.
+type PieceState = (Vec<[f64; 3]>, Vec<[f64; 3]>, glam::DMat4);
+
+/// What a session holds for its one object, bit for bit: its radiance, and per piece its
+/// radiance, fluence and transform; and the session's lights.
+#[derive(Debug, PartialEq)]
+struct Snapshot {
+    radiance: Option<Vec<[f64; 3]>>,
+    pieces: Option<Vec<PieceState>>,
+    lights: Vec<Light>,
+}
+
+fn snapshot(session: &Session) -> Snapshot {
+    Snapshot {
+        radiance: session.radiance(0).unwrap(),
+        pieces: session
+            .editor(0)
+            .unwrap()
+            .map(|e| e.pieces().iter().map(|p| (p.radiance().to_vec(), p.fluence().to_vec(), p.transform())).collect()),
+        lights: session.lights().to_vec(),
+    }
+}
+
+/// An edit of object 0 of a session.
+type Edit<'a> = dyn Fn(&mut Session, Progress) -> Result<(), SessionError> + 'a;
+
+/// The report indices to cancel at: the first and last report of every run of one stage, and
+/// `spread` more over the whole call.
+fn picks(stages: &[String], spread: usize) -> Vec<usize> {
+    let n = stages.len();
+    let mut picks: Vec<usize> = (0..spread).map(|i| i * n / spread).collect();
+    picks.extend([0, n - 1]);
+    for (i, w) in stages.windows(2).enumerate() {
+        if w[0] != w[1] {
+            picks.extend([i, i + 1]);
+        }
+    }
+    picks.sort_unstable();
+    picks.dedup();
+    picks
+}
+
+#[test]
+fn picks_cover_both_ends_of_every_stage() {
+    let stages: Vec<String> = ["a", "a", "a", "b", "c", "c"].iter().map(|s| (*s).to_owned()).collect();
+    assert_eq!(picks(&stages, 2), vec![0, 2, 3, 4, 5]);
+}
+
+/// Runs `edit` on a session made by `prepare` (from a fresh bake) once with every report
+/// recorded, then cancels a second such session at reports spread over every stage (the n-th
+/// report of a stage): each
+/// cancel returns `Cancelled` and leaves the session as it was; the edit then run to the end
+/// gives bit for bit the first run's result. Returns the worst cancel → return time per stage.
+fn cancel_everywhere(what: &str, prepare: &dyn Fn(&mut Session), edit: &Edit<'_>, stages: &[&str]) -> BTreeMap<String, f64> {
+    let (scene, options) = edit_scene();
+    let fresh = || {
+        let mut s = Session::bake(&scene, &options, Progress::none()).unwrap();
+        prepare(&mut s);
+        s
+    };
+    let mut reference = fresh();
+    let reports = Mutex::new(Vec::new());
+    let record = |s: &str, f: f64| {
+        assert!(s.starts_with("ball: ") || s.starts_with("relight"), "{what}: stage {s:?} does not name the object");
+        reports.lock().unwrap().push((stage_of(s), f));
+        true
+    };
+    edit(&mut reference, Progress::new(&record)).unwrap();
+    let expected = snapshot(&reference);
+    let reports = reports.into_inner().unwrap();
+    let names: Vec<String> = reports.iter().map(|(s, _)| s.clone()).collect();
+    for stage in stages {
+        assert!(names.iter().any(|s| s == stage), "{what}: no {stage} report in {names:?}");
+    }
+    assert!(reports.windows(2).all(|w| w[1].1 >= w[0].1), "{what}: the fraction went back: {reports:?}");
+
+    let mut session = fresh();
+    let before = snapshot(&session);
+    let mut worst: BTreeMap<String, f64> = BTreeMap::new();
+    // By stage and occurrence within it, not by index: the light stage reports by time, so the
+    // number of its reports differs from run to run.
+    let targets: Vec<(String, usize)> = picks(&names, 10)
+        .into_iter()
+        .map(|k| (names[k].clone(), names[..k].iter().filter(|s| **s == names[k]).count()))
+        .collect();
+    for (target, occurrence) in &targets {
+        let seen = Mutex::new(BTreeMap::<String, usize>::new());
+        let cancelled_at = Mutex::new(None);
+        let cancel = |s: &str, _: f64| {
+            let stage = stage_of(s);
+            let mut at = cancelled_at.lock().unwrap();
+            if at.is_some() {
+                return false;
+            }
+            let mut seen = seen.lock().unwrap();
+            let n = seen.entry(stage.clone()).or_insert(0);
+            *n += 1;
+            if stage == *target && *n > *occurrence {
+                *at = Some((stage, Instant::now()));
+                false
+            } else {
+                true
+            }
+        };
+        let result = edit(&mut session, Progress::new(&cancel));
+        let returned = Instant::now();
+        let Some((stage, at)) = cancelled_at.into_inner().unwrap() else {
+            // The light stage reports by time: this run made fewer reports than the first.
+            assert!(result.is_ok(), "{what}: no cancel asked, yet: {result:?}");
+            session = fresh();
+            continue;
+        };
+        assert!(matches!(result, Err(SessionError::Cancelled(_))), "{what}: cancel at {stage} #{occurrence}: {result:?}");
+        assert!(snapshot(&session) == before, "{what}: the cancel at {stage} #{occurrence} changed the session");
+        let ms = returned.duration_since(at).as_secs_f64() * 1e3;
+        let w = worst.entry(stage).or_insert(0.0);
+        *w = w.max(ms);
+    }
+    for stage in stages {
+        assert!(worst.contains_key(*stage), "{what}: never cancelled in {stage}: {worst:?}");
+    }
+    edit(&mut session, Progress::none()).unwrap();
+    assert!(snapshot(&session) == expected, "{what}: the edit after the cancels differs from one never cancelled");
+    for (stage, ms) in &worst {
+        eprintln!("{what}: cancel → return, worst over {} instants: {stage}: {ms:.2} ms", targets.len());
+    }
+    worst
+}
+
+/// Makes the object's live state, so that an edit is measured on its own.
+fn start(session: &mut Session) {
+    session.start(0, Progress::none()).unwrap();
+}
+
+#[test]
+fn a_relight_inside_an_object_cancelled_anywhere_changes_nothing() {
+    let lights =
+        vec![Light::Directional { direction: DVec3::new(0.2, 0.1, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 1.0 }];
+    let relight = |s: &mut Session, p: Progress| s.relight(&lights, p).map(|_| ());
+    cancel_everywhere("relight", &start, &relight, &["relight", "light", "solve"]);
+}
+
+#[test]
+fn the_first_update_cancelled_anywhere_keeps_the_bake() {
+    let lights =
+        vec![Light::Directional { direction: DVec3::new(0.2, 0.1, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 1.0 }];
+    let relight = |s: &mut Session, p: Progress| s.relight(&lights, p).map(|_| ());
+    cancel_everywhere("relight of a bake", &|_| {}, &relight, &["relight", "assembly", "hierarchy", "light", "solve"]);
+}
+
+#[test]
+fn a_medium_edit_cancelled_anywhere_changes_nothing() {
+    let edit = MediumEdit {
+        region: Region::Sphere { center: DVec3::new(0.0, 0.0, 8.0), radius: 4.0 },
+        op: MediumOp::Scale { sigma_a: [3.0, 2.0, 1.5], sigma_s: [0.5; 3] },
+    };
+    let op = |s: &mut Session, p: Progress| s.edit_medium(0, &edit, p).map(|_| ());
+    cancel_everywhere("edit_medium", &start, &op, &["select", "assembly", "solve"]);
+}
+
+#[test]
+fn a_paint_cancelled_anywhere_changes_nothing() {
+    let stroke = PaintStroke {
+        points: vec![DVec3::new(-5.0, 0.0, 8.0), DVec3::new(5.0, 0.0, 8.0)],
+        radius: 2.0,
+        medium: Medium { sigma_a: [0.2, 0.05, 0.01], ..Medium::preset("marble").unwrap() },
+        strength: 0.8,
+    };
+    let op = |s: &mut Session, p: Progress| s.paint(0, &stroke, p).map(|_| ());
+    cancel_everywhere("paint", &start, &op, &["select", "assembly", "solve"]);
+}
+
+#[test]
+fn a_cut_cancelled_anywhere_changes_nothing() {
+    let cutter = Cutter::Plane { point: DVec3::new(0.0, 0.0, 3.0), normal: DVec3::new(0.3, 0.0, 1.0).normalize() };
+    let op = |s: &mut Session, p: Progress| s.cut(0, &cutter, p).map(|_| ());
+    cancel_everywhere("cut", &start, &op, &["cut", "assembly", "hierarchy", "occluder", "light", "solve"]);
+}
+
+#[test]
+fn a_fracture_cancelled_anywhere_changes_nothing() {
+    // Split first, so that the fracture has work: split pieces are connected, but the session
+    // relights and re-solves them all.
+    let split = |s: &mut Session| {
+        s.split(0, &Cutter::Plane { point: DVec3::ZERO, normal: DVec3::X }, Progress::none()).unwrap();
+    };
+    let op = |s: &mut Session, p: Progress| s.fracture(0, p).map(|_| ());
+    cancel_everywhere("fracture", &split, &op, &["components", "occluder", "light", "solve"]);
 }

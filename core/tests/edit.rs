@@ -11,7 +11,7 @@ use transcut::mesh::TetMesh;
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
 use transcut::volume::{Coefficients, PerTetMedia};
-use transcut::{bake, BakeOptions, MediumSource, Object, Scene, TransCutOptions};
+use transcut::{bake, BakeOptions, MediumSource, Object, Progress, Scene, TransCutOptions};
 
 mod common;
 use common::uv_sphere;
@@ -380,7 +380,7 @@ fn undo_relight_restores_every_array_and_the_next_relight_is_as_if_never_relit()
     assert_eq!(ed.pieces().len(), 2);
     let never_relit = ed.clone();
     let before = snapshot(&ed);
-    let (stats, undo) = ed.relight_with_undo(&[sun(30.0)]).unwrap();
+    let (stats, undo) = ed.relight_with_undo(&[sun(30.0)], Progress::none()).unwrap();
     assert_eq!(stats.pieces_solved, 2);
     let relit = snapshot(&ed);
     assert_eq!(relit.2, [sun(30.0)]);
@@ -403,7 +403,7 @@ fn undo_relight_restores_every_array_and_the_next_relight_is_as_if_never_relit()
     assert!(a.iterations.iter().all(|&i| i > 0));
     assert!(snapshot(&ed) == snapshot(&reference), "a relight after an undone one differs");
     // An undo does not fit an editor whose pieces changed since the relight.
-    let (_, undo) = ed.relight_with_undo(&[sun(20.0)]).unwrap();
+    let (_, undo) = ed.relight_with_undo(&[sun(20.0)], Progress::none()).unwrap();
     ed.recombine().unwrap();
     let recombined = snapshot(&ed);
     assert!(ed.undo_relight(undo).is_err(), "undo_relight accepted an undo of other pieces");

@@ -41,7 +41,7 @@ const CAPI: Table = &[
     ("convert", &["status"]),
     ("options", &["status"]),
     ("progress", &[]),
-    ("handle", &["convert", "status"]),
+    ("handle", &["convert", "progress", "status"]),
     ("bake", &["convert", "handle", "options", "progress", "ptr", "status"]),
     ("cut", &["convert", "handle", "ptr", "status"]),
     ("edit_stats", &["convert", "handle", "ptr", "status"]),

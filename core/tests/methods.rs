@@ -193,14 +193,14 @@ fn session_capabilities_are_exact_or_refused_by_name() {
         }
         let lit = session.radiance(0).unwrap().unwrap();
         let unchanged = MediumEdit { region: Region::All, op: MediumOp::Scale { sigma_a: [1.0; 3], sigma_s: [1.0; 3] } };
-        match session.edit_medium(0, &unchanged) {
+        match session.edit_medium(0, &unchanged, Progress::none()) {
             Ok(_) => {
                 let d = relative_difference(&session.radiance(0).unwrap().unwrap(), &lit);
                 assert!(d < 1e-6, "{name}: scaling the medium by 1 changed the radiance by {d}");
             }
             Err(e) => assert!(refused(&e), "{name}: {e}"),
         }
-        assert!(matches!(session.fracture(7), Err(SessionError::NoSuchObject { index: 7, count: 1 })));
+        assert!(matches!(session.fracture(7, Progress::none()), Err(SessionError::NoSuchObject { index: 7, count: 1 })));
     }
 }
 

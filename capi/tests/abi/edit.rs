@@ -443,7 +443,10 @@ fn relight_progress_and_cancel_change_nothing() {
     let mut r = Relight { calls: 0, cancel_at: 0, fractions: Vec::new() };
     // SAFETY: as above.
     ok(unsafe { tc_scene_relight(s, Some(on_relight), (&raw mut r).cast()) }, "relight");
-    assert_eq!(r.fractions, [0.0, 1.0]);
+    // Before the object, through its light and solve stages, and at the end.
+    assert!(r.fractions.len() > 2, "{:?}", r.fractions);
+    assert_eq!((r.fractions[0], *r.fractions.last().unwrap()), (0.0, 1.0));
+    assert!(r.fractions.windows(2).all(|w| w[1] >= w[0]), "{:?}", r.fractions);
     let st = edit_stats(s, 0);
     assert_eq!(st.rows_rebuilt, 0);
     assert!(radiance(s, 0).iter().all(|x| x.is_finite() && *x > 0.0), "lit by the sky everywhere");
@@ -480,12 +483,21 @@ fn a_relight_stopped_after_the_first_object_changes_no_object() {
     let s = painted_and_baked_pair(&mesh);
     let painted = edit_stats(s, 0);
     let pieces = piece(s, 0, 0);
-    for cancel_at in [2, 3] {
+    // The reports of a whole relight (on a twin scene): object 1 starts at the first report at
+    // 0.5, the end is the last.
+    let twin = painted_and_baked_pair(&mesh);
+    let mut full = Relight { calls: 0, cancel_at: 0, fractions: Vec::new() };
+    // SAFETY: valid pointers; `full` outlives the call.
+    ok(unsafe { tc_scene_relight(twin, Some(on_relight), (&raw mut full).cast()) }, "relight");
+    destroy(twin);
+    let second = full.fractions.iter().position(|&f| f >= 0.5).unwrap() as u32 + 1;
+    for cancel_at in [second, full.calls] {
         let mut r = Relight { calls: 0, cancel_at, fractions: Vec::new() };
         // SAFETY: valid pointers; `r` outlives the call.
         let status = unsafe { tc_scene_relight(s, Some(on_relight), (&raw mut r).cast()) };
         fails(status, TC_CANCELLED, &["nothing changed"]);
-        assert_eq!(r.fractions, [0.0, 0.5, 1.0][..cancel_at as usize]);
+        assert_eq!(r.calls, cancel_at);
+        assert!(*r.fractions.last().unwrap() >= 0.5, "{:?}", r.fractions);
         assert_eq!(edit_stats(s, 0), painted, "cancelled at report {cancel_at}: object 0's statistics changed");
         assert!(piece(s, 0, 0) == pieces, "cancelled at report {cancel_at}: object 0's piece changed");
         let mut n = 0;
@@ -509,4 +521,47 @@ fn a_relight_stopped_after_the_first_object_changes_no_object() {
     assert!(radiance(s, 0) != radiance(s, 1), "the paint shows");
     destroy(s);
     destroy(reference);
+}
+
+/// The scene-wide callback of `tc_scene_set_progress` reaches a cut: it reports, and a cancel
+/// at its first, middle or last report returns TC_CANCELLED with the radiance and the piece
+/// count as before; cleared with NULL, the cut runs to the end and is the cut the callback saw.
+#[test]
+fn a_cut_cancelled_through_the_scene_callback_changes_nothing() {
+    let mesh = Mesh::uv_sphere(10.0, 24, 12);
+    let s = baked(&mesh, [0.0, 0.0, -1.0]);
+    let before = radiance(s, 0);
+    let (point, normal) = ([0.0, 0.0, 3.0], [0.0, 0.0, 1.0]);
+    let mut full = Relight { calls: 0, cancel_at: 0, fractions: Vec::new() };
+    // A cut of a second, identical scene with the callback never cancelling: the reports.
+    let t = baked(&mesh, [0.0, 0.0, -1.0]);
+    // SAFETY: valid pointers; `full` outlives the calls on `t`.
+    unsafe {
+        ok(tc_scene_set_progress(t, Some(on_relight), (&raw mut full).cast()), "set progress");
+        ok(tc_object_cut_plane(t, 0, point.as_ptr(), normal.as_ptr(), 0), "cut");
+        ok(tc_scene_set_progress(t, None, ptr::null_mut()), "clear progress");
+    }
+    assert!(full.calls > 3, "the cut reports while it works: {:?}", full.fractions);
+    assert_eq!(*full.fractions.last().unwrap(), 1.0);
+    for cancel_at in [1, full.calls / 2, full.calls] {
+        let mut r = Relight { calls: 0, cancel_at, fractions: Vec::new() };
+        // SAFETY: valid pointers; `r` outlives the call (cleared right after it).
+        unsafe {
+            ok(tc_scene_set_progress(s, Some(on_relight), (&raw mut r).cast()), "set progress");
+            fails(tc_object_cut_plane(s, 0, point.as_ptr(), normal.as_ptr(), 0), TC_CANCELLED, &["nothing changed"]);
+            ok(tc_scene_set_progress(s, None, ptr::null_mut()), "clear progress");
+        }
+        assert_eq!(r.calls, cancel_at, "no report after the cancel");
+        assert_eq!(radiance(s, 0), before, "a cancelled cut changed the radiance");
+        let mut n = 7;
+        // SAFETY: valid pointers. The object has had no update yet: no pieces to count.
+        fails(unsafe { tc_object_piece_count(s, 0, &mut n) }, TC_NOT_BAKED, &[]);
+        assert_eq!(n, 7);
+    }
+    // SAFETY: valid pointers; no callback is set.
+    ok(unsafe { tc_object_cut_plane(s, 0, point.as_ptr(), normal.as_ptr(), 0) }, "cut");
+    assert_eq!(piece(s, 0, 0), piece(t, 0, 0), "the cut after the cancels is the cut never cancelled");
+    assert_eq!(piece_count(s, 0), 1);
+    destroy(s);
+    destroy(t);
 }

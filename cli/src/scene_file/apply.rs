@@ -79,10 +79,14 @@ fn run(session: &mut Session, o: usize, kind: &EditKind, camera: &Camera) -> any
                 OpSpec::Scale { sigma_a, sigma_s } => MediumOp::Scale { sigma_a: *sigma_a, sigma_s: *sigma_s },
                 OpSpec::Add { sigma_a, sigma_s } => MediumOp::Add { sigma_a: *sigma_a, sigma_s: *sigma_s },
             };
-            session.edit_medium(o, &MediumEdit { region, op })?.clone()
+            session.edit_medium(o, &MediumEdit { region, op }, Progress::none())?.clone()
         }
         EditKind::Paint { points, radius, medium, strength } => session
-            .paint(o, &PaintStroke { points: points.clone(), radius: *radius, medium: *medium, strength: *strength })?
+            .paint(
+                o,
+                &PaintStroke { points: points.clone(), radius: *radius, medium: *medium, strength: *strength },
+                Progress::none(),
+            )?
             .clone(),
         EditKind::CutPlane { point, normal, keep } => {
             // The core's plane removes the side its normal points into; the file's normal points
@@ -90,20 +94,20 @@ fn run(session: &mut Session, o: usize, kind: &EditKind, camera: &Camera) -> any
             let n = normal.normalize();
             let cutter = Cutter::Plane { point: *point, normal: if *keep == Keep::Back { n } else { -n } };
             if *keep == Keep::Both {
-                session.split(o, &cutter)?.clone()
+                session.split(o, &cutter, Progress::none())?.clone()
             } else {
-                session.cut(o, &cutter)?.clone()
+                session.cut(o, &cutter, Progress::none())?.clone()
             }
         }
         EditKind::CutStroke { pixels, keep } => {
             let cutter = Cutter::Stroke(stroke(camera, pixels)?);
             match keep {
-                Keep::Both => session.split(o, &cutter)?.clone(),
-                Keep::Left => session.cut(o, &cutter.flipped())?.clone(),
-                _ => session.cut(o, &cutter)?.clone(),
+                Keep::Both => session.split(o, &cutter, Progress::none())?.clone(),
+                Keep::Left => session.cut(o, &cutter.flipped(), Progress::none())?.clone(),
+                _ => session.cut(o, &cutter, Progress::none())?.clone(),
             }
         }
-        EditKind::Fracture => session.fracture(o)?.clone(),
+        EditKind::Fracture => session.fracture(o, Progress::none())?.clone(),
         EditKind::MovePiece { piece, translate, axis, angle_deg, pivot } => {
             let (transform, pivot) = piece_placement(session, o, *piece, *pivot)?;
             let rotation = match axis {
@@ -111,15 +115,15 @@ fn run(session: &mut Session, o: usize, kind: &EditKind, camera: &Camera) -> any
                 None => DMat4::IDENTITY,
             };
             let moved = DMat4::from_translation(*translate + pivot) * rotation * DMat4::from_translation(-pivot) * transform;
-            session.set_piece_transform(o, *piece, moved)?.clone()
+            session.set_piece_transform(o, *piece, moved, Progress::none())?.clone()
         }
-        EditKind::Recombine => session.recombine(o)?.clone(),
+        EditKind::Recombine => session.recombine(o, Progress::none())?.clone(),
     })
 }
 
 /// Piece `piece`'s transform and the pivot of a rotation of it: `pivot`, or its centroid.
 fn piece_placement(session: &mut Session, o: usize, piece: usize, pivot: Option<DVec3>) -> anyhow::Result<(DMat4, DVec3)> {
-    session.start(o)?;
+    session.start(o, Progress::none())?;
     let editor = session.editor(o)?.ok_or_else(|| anyhow!("'piece': the object's method has no pieces"))?;
     let count = editor.pieces().len();
     let current =

@@ -99,10 +99,10 @@ use crate::gpu::Backend;
 use crate::light::{self, Light, SourceOptions};
 use crate::mesh::{TetMesh, TriangleBvh};
 use crate::optics::Medium;
-use crate::progress::ms;
+use crate::progress::{ms, Progress};
 use crate::scene::{BakeOptions, TransCutOptions};
 use crate::volume::{Coefficients, PerTetMedia};
-use piece::{SolveSetup, Timings};
+use piece::{SolveSetup, Span, Timings};
 
 /// How the editor solves and lights.
 #[derive(Debug, Clone, PartialEq)]
@@ -281,6 +281,7 @@ impl Editor {
     /// [`EditError::InvalidOptions`] for bad options or a fluence that does not match the mesh;
     /// [`EditError::Volume`] for media that disagree on η at the surface; [`EditError::Light`],
     /// [`EditError::Diffusion`], [`EditError::Gpu`] from the first solve.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn from_tets(
         original: TetMesh,
         table: &[Medium],
@@ -289,6 +290,7 @@ impl Editor {
         mm_per_unit: f64,
         lights: &[Light],
         options: &EditOptions,
+        progress: Progress,
     ) -> Result<Self, EditError> {
         options.validate()?;
         light::validate_lights(lights)?;
@@ -314,9 +316,27 @@ impl Editor {
         let centroids = centroids(&original);
         let mut timings = Timings::default();
         let all: Vec<u32> = (0..original.tet_count() as u32).collect();
-        let piece = piece::build(original.clone(), all, DMat4::IDENTITY, &media, &setup, Some(fluence), &mut timings)?;
+        let whole = Span::whole(&progress);
+        let piece = piece::build(
+            original.clone(),
+            all,
+            DMat4::IDENTITY,
+            &media,
+            &setup,
+            Some(fluence),
+            &mut timings,
+            whole.part(0.0, 0.3),
+        )?;
         let mut pieces = vec![piece];
-        let occluder = piece::light_and_solve(&mut pieces, lights, &options.source, options.shadows, &setup, &mut timings)?;
+        let occluder = piece::light_and_solve(
+            &mut pieces,
+            lights,
+            &options.source,
+            options.shadows,
+            &setup,
+            &mut timings,
+            whole.part(0.3, 1.0),
+        )?;
         let located = locate(original.tet_count(), &pieces);
         Ok(Self {
             original,
@@ -382,7 +402,16 @@ impl Editor {
     /// [`EditError::Light`] for an invalid light; [`EditError::Diffusion`] / [`EditError::Gpu`]
     /// from a solve. The editor is unchanged on error.
     pub fn relight(&mut self, lights: &[Light]) -> Result<UpdateStats, EditError> {
-        self.relight_with_undo(lights).map(|(stats, _)| stats)
+        self.relight_with_progress(lights, Progress::none())
+    }
+
+    /// [`Editor::relight`] reporting the stages `"light"` and `"solve"` to `progress`, which
+    /// can cancel it.
+    ///
+    /// # Errors
+    /// As [`Editor::relight`], plus [`EditError::Cancelled`]; the editor is unchanged on error.
+    pub fn relight_with_progress(&mut self, lights: &[Light], progress: Progress) -> Result<UpdateStats, EditError> {
+        self.relight_with_undo(lights, progress).map(|(stats, _)| stats)
     }
 
     /// [`Editor::relight`], also returning what it replaced, so that [`Editor::undo_relight`]
@@ -391,13 +420,21 @@ impl Editor {
     /// fails).
     ///
     /// # Errors
-    /// As [`Editor::relight`]; the editor is unchanged on error.
-    pub fn relight_with_undo(&mut self, lights: &[Light]) -> Result<(UpdateStats, RelightUndo), EditError> {
+    /// As [`Editor::relight_with_progress`]; the editor is unchanged on error.
+    pub fn relight_with_undo(&mut self, lights: &[Light], progress: Progress) -> Result<(UpdateStats, RelightUndo), EditError> {
         let start = Instant::now();
         light::validate_lights(lights)?;
         let mut timings = Timings::default();
-        let q = piece::sources(&self.pieces, lights, &self.options.source, self.occluder.as_deref(), &mut timings)?;
-        let pieces = piece::relight_all(&mut self.pieces, q, &self.setup, &mut timings)?;
+        let whole = Span::whole(&progress);
+        let q = piece::sources(
+            &self.pieces,
+            lights,
+            &self.options.source,
+            self.occluder.as_deref(),
+            &mut timings,
+            whole.part(0.0, 0.5),
+        )?;
+        let pieces = piece::relight_all(&mut self.pieces, q, &self.setup, &mut timings, whole.part(0.5, 1.0))?;
         let meshes = self.pieces.iter().map(|p| Arc::clone(&p.mesh)).collect();
         let lights = std::mem::replace(&mut self.lights, lights.to_vec());
         Ok((UpdateStats::new(&timings, 0, 0, start), RelightUndo { pieces, meshes, lights }))
@@ -434,11 +471,21 @@ impl Editor {
     /// fit the object), [`EditError::Medium`], [`EditError::Volume`] (a result that is not a
     /// valid medium, naming the tet); solve errors. The editor is unchanged on error.
     pub fn edit_medium(&mut self, edit: &MediumEdit) -> Result<UpdateStats, EditError> {
+        self.edit_medium_with_progress(edit, Progress::none())
+    }
+
+    /// [`Editor::edit_medium`] reporting the stages `"select"`, `"assembly"`, `"hierarchy"` and
+    /// `"solve"` to `progress`, which can cancel it.
+    ///
+    /// # Errors
+    /// As [`Editor::edit_medium`], plus [`EditError::Cancelled`]; the editor is unchanged on error.
+    pub fn edit_medium_with_progress(&mut self, edit: &MediumEdit, progress: Progress) -> Result<UpdateStats, EditError> {
         let start = Instant::now();
+        progress.report("select", 0.0)?;
         edit.op.validate(self.media.eta(), self.media.g())?;
         let tets = edit.region.select(&self.original, &self.centroids, self.setup.mm_per_unit)?;
         let changes = region::changes(&self.media, &tets, &edit.op)?;
-        self.apply_changes(&changes, start)
+        self.apply_changes(&changes, start, Span::whole(&progress))
     }
 
     /// Paints a stroke (TransCut §5.2): blends its medium into the original tets near it
@@ -448,10 +495,19 @@ impl Editor {
     /// # Errors
     /// [`EditError::InvalidStroke`]; solve errors. The editor is unchanged on error.
     pub fn paint(&mut self, stroke: &PaintStroke) -> Result<UpdateStats, EditError> {
+        self.paint_with_progress(stroke, Progress::none())
+    }
+
+    /// [`Editor::paint`] reporting as [`Editor::edit_medium_with_progress`] does.
+    ///
+    /// # Errors
+    /// As [`Editor::paint`], plus [`EditError::Cancelled`]; the editor is unchanged on error.
+    pub fn paint_with_progress(&mut self, stroke: &PaintStroke, progress: Progress) -> Result<UpdateStats, EditError> {
         let start = Instant::now();
+        progress.report("select", 0.0)?;
         stroke.validate(self.media.eta(), self.media.g())?;
         let changes = stroke.changes(&self.media, &self.centroids);
-        self.apply_changes(&changes, start)
+        self.apply_changes(&changes, start, Span::whole(&progress))
     }
 
     /// Sets the new coefficients of original tets, refills the rows of their vertices in the
@@ -459,7 +515,7 @@ impl Editor {
     /// media entries), prepares those pieces' solvers for the new matrices and re-solves them.
     /// Nothing is copied whole: the refills are undone if anything fails, and the new solvers,
     /// φ, radiance and media are stored only once everything succeeded.
-    fn apply_changes(&mut self, changes: &[(u32, Coefficients)], start: Instant) -> Result<UpdateStats, EditError> {
+    fn apply_changes(&mut self, changes: &[(u32, Coefficients)], start: Instant, span: Span) -> Result<UpdateStats, EditError> {
         check_changes(&self.media, changes)?;
         let (eta, g) = (self.media.eta(), self.media.g());
         let mut per_piece: Vec<Vec<(u32, Medium)>> = vec![Vec::new(); self.pieces.len()];
@@ -472,8 +528,10 @@ impl Editor {
         let mut undo = Vec::new();
         let mut solved = Vec::new();
         let mut failure = None;
-        for (index, entries) in per_piece.iter().enumerate().filter(|(_, e)| !e.is_empty()) {
-            match self.refill_and_solve(index, entries, &mut undo, &mut timings) {
+        let touched = per_piece.iter().filter(|e| !e.is_empty()).count();
+        let steps = per_piece.iter().enumerate().filter(|(_, e)| !e.is_empty()).enumerate();
+        for (step, (index, entries)) in steps {
+            match self.refill_and_solve(index, entries, &mut undo, &mut timings, span.item(step, touched)) {
                 Ok(s) => solved.push((index, s)),
                 Err(e) => {
                     failure = Some(e);
@@ -514,7 +572,9 @@ impl Editor {
         entries: &[(u32, Medium)],
         undo: &mut Vec<(usize, MediaUndo)>,
         timings: &mut Timings,
+        span: Span,
     ) -> Result<piece::Solved, EditError> {
+        span.report("assembly", 0.0)?;
         let p = &mut self.pieces[index];
         let t = Instant::now();
         let record = p.system.update_media_entries(entries)?;
@@ -524,7 +584,7 @@ impl Editor {
         let t = Instant::now();
         p.solver.refresh_rows(&p.system, &rows)?;
         timings.hierarchy_ms += ms(t);
-        piece::solution(&p.system, &p.solver, &p.fluence, &self.setup, timings)
+        piece::solution(&p.system, &p.solver, &p.fluence, &self.setup, timings, span.part(0.2, 1.0))
     }
 }
 

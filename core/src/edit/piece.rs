@@ -12,12 +12,12 @@ use super::error::EditError;
 use crate::diffusion::system::SourceState;
 use crate::diffusion::{self, DiffusionError, DiffusionSystem, Solution, Solver, SolverKind};
 use crate::gpu::{self, Backend, GpuError, SolveWith};
-use crate::light::{self, Light, SourceOptions};
+use crate::light::{self, Light, LightError, SourceOptions};
 use crate::mesh::{TetMesh, TriMesh, TriangleBvh};
 use crate::optics::Medium;
-use crate::progress::ms;
+use crate::progress::{ms, Cancelled, Progress};
 use crate::sparse::hierarchy::HierarchyOptions;
-use crate::sparse::SolveOptions;
+use crate::sparse::{SolveOptions, SparseError};
 use crate::volume::PerTetMedia;
 
 /// One connected piece: its tets (with ids in the original mesh), rest-space mesh, rigid
@@ -125,6 +125,55 @@ pub(crate) struct SolveSetup {
     pub mm_per_unit: f64,
 }
 
+/// Where one step of an update reports: the sink and the part `[lo, hi]` of the whole update
+/// that the step covers, so that the fraction a caller sees grows through the steps.
+#[derive(Clone, Copy)]
+pub(crate) struct Span<'p, 'a> {
+    pub progress: &'p Progress<'a>,
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl<'p, 'a> Span<'p, 'a> {
+    /// The whole update `[0, 1]` reporting to `progress`.
+    pub(crate) fn whole(progress: &'p Progress<'a>) -> Self {
+        Self { progress, lo: 0.0, hi: 1.0 }
+    }
+
+    /// The part `[a, b]` (fractions of this span) of this span.
+    pub(crate) fn part(self, a: f64, b: f64) -> Self {
+        Self { progress: self.progress, lo: self.at(a), hi: self.at(b) }
+    }
+
+    /// Item `i` of `n` equal parts of this span.
+    #[allow(clippy::cast_precision_loss)]
+    pub(crate) fn item(self, i: usize, n: usize) -> Self {
+        let n = n.max(1) as f64;
+        self.part(i as f64 / n, (i as f64 + 1.0) / n)
+    }
+
+    /// The fraction of the whole update at `f` of this span.
+    pub(crate) fn at(self, f: f64) -> f64 {
+        self.lo + (self.hi - self.lo) * f.clamp(0.0, 1.0)
+    }
+
+    /// Reports `stage` at `f` of this span.
+    ///
+    /// # Errors
+    /// [`Cancelled`] when the callback asked to stop.
+    pub(crate) fn report(self, stage: &str, f: f64) -> Result<(), Cancelled> {
+        self.progress.report(stage, self.at(f))
+    }
+}
+
+/// The fraction of a solve done at relative residual `residual`: its way from 1 down to
+/// `tolerance`, in decades (as a bake reports its solve).
+pub(crate) fn solve_fraction(residual: [f64; 3], tolerance: f64) -> f64 {
+    let decades = -tolerance.log10();
+    let worst = residual.iter().fold(0.0f64, |m, &r| m.max(r)).max(tolerance);
+    (-worst.log10() / decades).clamp(0.0, 1.0)
+}
+
 /// The media table of a piece: per local tet, the medium of its original tet
 /// ([`crate::volume::TableLayout::PerTet`]-style: material id = local tet index).
 pub(crate) fn local_table(media: &PerTetMedia, original_tets: &[u32]) -> Vec<Medium> {
@@ -138,6 +187,7 @@ pub(crate) fn local_table(media: &PerTetMedia, original_tets: &[u32]) -> Vec<Med
 /// # Errors
 /// [`EditError::Mesh`] for a mesh whose ids cannot be set; [`EditError::Diffusion`] from the
 /// assembly or the hierarchy; [`EditError::InvalidOptions`] for a warm start of the wrong length.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn build(
     mut mesh: TetMesh,
     original_tets: Vec<u32>,
@@ -146,16 +196,20 @@ pub(crate) fn build(
     setup: &SolveSetup,
     warm: Option<Vec<[f64; 3]>>,
     timings: &mut Timings,
+    span: Span<'_, '_>,
 ) -> Result<Piece, EditError> {
+    span.report("assembly", 0.0)?;
     let t = Instant::now();
     mesh.set_materials((0..mesh.tet_count() as u32).collect())?;
     let table = local_table(media, &original_tets);
     let mut system = diffusion::assemble(&mesh, &table, setup.mm_per_unit)?;
     system.keep_coefficients();
     timings.assembly_ms += ms(t);
+    span.report("hierarchy", 0.5)?;
     let t = Instant::now();
     let solver = Solver::new(&system, setup.solver, &HierarchyOptions::default())?;
     timings.hierarchy_ms += ms(t);
+    span.report("hierarchy", 1.0)?;
     let n = mesh.vertex_count();
     let fluence = match warm {
         Some(w) if w.len() != n => {
@@ -186,24 +240,36 @@ pub(crate) fn occluder(pieces: &[Piece], shadows: bool) -> Option<Arc<TriangleBv
 /// `lights`, shadowed by `occluder` (all pieces' world boundaries, see [`occluder`]); the pieces
 /// are not changed.
 ///
+/// Reports the stage `"light"` over `span` while it works ([`light::transmitted_source_with`]).
+///
 /// # Errors
-/// [`EditError::Light`] from the source.
+/// [`EditError::Light`] from the source; [`EditError::Cancelled`].
 pub(crate) fn sources(
     pieces: &[Piece],
     lights: &[Light],
     source: &SourceOptions,
     occluder: Option<&TriangleBvh>,
     timings: &mut Timings,
+    span: Span<'_, '_>,
 ) -> Result<Vec<Vec<[f64; 3]>>, EditError> {
     let t = Instant::now();
+    span.report("light", 0.0)?;
+    let n = pieces.len();
     let q = pieces
         .iter()
-        .map(|piece| {
+        .enumerate()
+        .map(|(i, piece)| {
             let (points, normals) = piece.world_boundary();
             let eta = piece.system.boundary_terms().eta;
-            light::transmitted_source(lights, &points, &normals, eta, occluder, source)
+            let part = span.item(i, n);
+            let poll = |f: f64| part.report("light", f);
+            light::transmitted_source_with(lights, &points, &normals, eta, occluder, source, &poll).map_err(|e| match e {
+                LightError::Cancelled(c) => EditError::Cancelled(c),
+                e => EditError::Light(e),
+            })
         })
         .collect::<Result<Vec<_>, _>>()?;
+    span.report("light", 1.0)?;
     timings.source_ms += ms(t);
     Ok(q)
 }
@@ -214,6 +280,8 @@ pub(crate) fn sources(
 /// before (the sources already replaced are put back; φ and radiance are only written at the
 /// end).
 ///
+/// The solves report over `span`, piece after piece.
+///
 /// # Errors
 /// [`EditError::Diffusion`] for an invalid q; those of [`solution`].
 pub(crate) fn relight_all(
@@ -221,11 +289,13 @@ pub(crate) fn relight_all(
     q: Vec<Vec<[f64; 3]>>,
     setup: &SolveSetup,
     timings: &mut Timings,
+    span: Span<'_, '_>,
 ) -> Result<Vec<Replaced>, EditError> {
-    let mut replaced = Vec::with_capacity(pieces.len());
-    let mut solved = Vec::with_capacity(pieces.len());
+    let n = pieces.len();
+    let mut replaced = Vec::with_capacity(n);
+    let mut solved = Vec::with_capacity(n);
     let mut failure = None;
-    for (piece, q) in pieces.iter_mut().zip(q) {
+    for (i, (piece, q)) in pieces.iter_mut().zip(q).enumerate() {
         match piece.system.replace_source(q) {
             Ok(old) => replaced.push(old),
             Err(e) => {
@@ -233,7 +303,7 @@ pub(crate) fn relight_all(
                 break;
             }
         }
-        match solution(&piece.system, &piece.solver, &piece.fluence, setup, timings) {
+        match solution(&piece.system, &piece.solver, &piece.fluence, setup, timings, span.item(i, n)) {
             Ok(s) => solved.push(s),
             Err(e) => {
                 failure = Some(e);
@@ -274,6 +344,8 @@ impl Replaced {
 /// Recomputes every piece's q with the occluder of their current placement ([`occluder`]) and
 /// solves them ([`relight_all`]); returns that occluder. On error every piece is as before.
 ///
+/// The light stage reports over the first half of `span`, the solves over the second.
+///
 /// # Errors
 /// Those of [`sources`] and [`relight_all`].
 pub(crate) fn light_and_solve(
@@ -283,12 +355,14 @@ pub(crate) fn light_and_solve(
     shadows: bool,
     setup: &SolveSetup,
     timings: &mut Timings,
+    span: Span<'_, '_>,
 ) -> Result<Option<Arc<TriangleBvh>>, EditError> {
+    span.report("occluder", 0.0)?;
     let t = Instant::now();
     let occluder = occluder(pieces, shadows);
     timings.source_ms += ms(t);
-    let q = sources(pieces, lights, source, occluder.as_deref(), timings)?;
-    relight_all(pieces, q, setup, timings)?;
+    let q = sources(pieces, lights, source, occluder.as_deref(), timings, span.part(0.0, 0.5))?;
+    relight_all(pieces, q, setup, timings, span.part(0.5, 1.0))?;
     Ok(occluder)
 }
 
@@ -314,27 +388,35 @@ impl Solved {
 /// with `solver` (prepared for `system`'s matrix): [`SolverKind::Pcg`] on the editor's backend
 /// ([`gpu::solve_on`]), the other kinds on the CPU.
 ///
+/// Reports the stage `"solve"` over `span` after every iteration, the residual's way down to
+/// the tolerance as the fraction ([`solve_fraction`]).
+///
 /// # Errors
 /// [`EditError::Diffusion`] (not converged, …); [`EditError::Gpu`] when the GPU was required
-/// and failed.
+/// and failed; [`EditError::Cancelled`].
 pub(crate) fn solution(
     system: &DiffusionSystem,
     solver: &Solver,
     warm: &[[f64; 3]],
     setup: &SolveSetup,
     timings: &mut Timings,
+    span: Span<'_, '_>,
 ) -> Result<Solved, EditError> {
+    span.report("solve", 0.0)?;
     let t = Instant::now();
-    let options = SolveOptions { tolerance: setup.tolerance, max_iterations: setup.max_iterations, ..SolveOptions::default() };
+    let tolerance = setup.tolerance;
+    let monitor = |_: usize, residual: [f64; 3]| span.report("solve", solve_fraction(residual, tolerance)).is_ok();
+    let options =
+        SolveOptions { tolerance, max_iterations: setup.max_iterations, ..SolveOptions::default() }.with_monitor(&monitor);
     let solution: Solution = if solver.kind() == SolverKind::Pcg && setup.backend != Backend::Cpu {
         gpu::solve_on(setup.backend, SolveWith::Solver(solver), system, Some(warm), &options)
             .map_err(|e| match e {
-                GpuError::Diffusion(d) => EditError::Diffusion(d),
+                GpuError::Diffusion(d) => diffusion_error(d),
                 other => EditError::Gpu(other),
             })?
             .0
     } else {
-        solver.solve(system, Some(warm), &options)?
+        solver.solve(system, Some(warm), &options).map_err(diffusion_error)?
     };
     let radiance = per_vertex_radiance(system, &solution.phi)?;
     timings.solve_ms += ms(t);
@@ -343,6 +425,14 @@ pub(crate) fn solution(
     }
     timings.pieces_solved += 1;
     Ok(Solved { fluence: solution.phi, radiance })
+}
+
+/// A solver's error as the editor's: a cancel by the monitor is [`EditError::Cancelled`].
+fn diffusion_error(e: DiffusionError) -> EditError {
+    match e {
+        DiffusionError::Sparse(SparseError::Cancelled { .. }) => EditError::Cancelled(Cancelled),
+        e => EditError::Diffusion(e),
+    }
 }
 
 /// Lo(x, n) per tet-mesh vertex: eq. 3 on the boundary ([`diffusion::surface_radiance`]),
@@ -354,4 +444,42 @@ fn per_vertex_radiance(system: &DiffusionSystem, phi: &[[f64; 3]]) -> Result<Vec
         out[v as usize] = l.map(|x| x.max(0.0));
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spans_nest_and_items_tile_their_span() {
+        let none = Progress::none();
+        let half = Span::whole(&none).part(0.5, 1.0);
+        assert_eq!(half.at(0.0), 0.5);
+        assert_eq!(half.at(0.5), 0.75);
+        assert_eq!(half.at(2.0), 1.0);
+        let third = half.item(1, 4);
+        assert_eq!((third.lo, third.hi), (0.625, 0.75));
+        assert_eq!(Span::whole(&none).item(0, 0).hi, 1.0);
+    }
+
+    #[test]
+    fn solve_fraction_counts_decades_down_to_the_tolerance() {
+        assert_eq!(solve_fraction([1.0; 3], 1e-6), 0.0);
+        assert!((solve_fraction([1e-3, 1e-2, 1e-4], 1e-6) - 2.0 / 6.0).abs() < 1e-12);
+        assert_eq!(solve_fraction([1e-9, 0.0, 1e-7], 1e-6), 1.0);
+    }
+
+    #[test]
+    fn a_span_reports_the_whole_fraction_and_passes_a_cancel_on() {
+        let seen = std::sync::Mutex::new(Vec::new());
+        let cb = |s: &str, f: f64| {
+            seen.lock().unwrap().push((s.to_owned(), f));
+            f < 0.7
+        };
+        let p = Progress::new(&cb);
+        let span = Span::whole(&p).part(0.2, 0.8);
+        assert!(span.report("light", 0.5).is_ok());
+        assert_eq!(span.report("solve", 1.0), Err(Cancelled));
+        assert_eq!(*seen.lock().unwrap(), vec![("light".to_owned(), 0.5), ("solve".to_owned(), 0.8)]);
+    }
 }

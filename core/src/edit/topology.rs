@@ -12,10 +12,11 @@ use glam::{DMat3, DMat4, DVec3};
 use super::cut::{self, CutResult, CutStats};
 use super::cutter::{Cutter, SweptStroke};
 use super::error::EditError;
-use super::piece::{self, Piece, Timings};
+use super::piece::{self, Piece, Span, Timings};
 use super::pieces;
 use super::{Editor, UpdateStats};
 use crate::mesh::TetMesh;
+use crate::progress::Progress;
 
 /// A piece to build: rest-space mesh, original tet ids, transform and warm start.
 struct Plan {
@@ -45,12 +46,24 @@ impl Editor {
     /// from the cut; [`EditError::NothingLeft`] when nothing at all would remain; assembly and
     /// solve errors. The editor is unchanged on error.
     pub fn cut(&mut self, cutter: &Cutter) -> Result<UpdateStats, EditError> {
+        self.cut_with_progress(cutter, Progress::none())
+    }
+
+    /// [`Editor::cut`] reporting the stages `"cut"`, `"assembly"`, `"hierarchy"`, `"occluder"`,
+    /// `"light"` and `"solve"` to `progress`, which can cancel it.
+    ///
+    /// # Errors
+    /// As [`Editor::cut`], plus [`EditError::Cancelled`]; the editor is unchanged on error.
+    pub fn cut_with_progress(&mut self, cutter: &Cutter, progress: Progress) -> Result<UpdateStats, EditError> {
         let start = Instant::now();
         cutter.validate()?;
+        let whole = Span::whole(&progress);
         let mut timings = Timings::default();
-        let mut outcomes = Vec::with_capacity(self.pieces.len());
+        let n = self.pieces.len();
+        let mut outcomes = Vec::with_capacity(n);
         let mut stats: Option<CutStats> = None;
-        for p in &self.pieces {
+        for (i, p) in self.pieces.iter().enumerate() {
+            whole.part(0.0, 0.2).item(i, n).report("cut", 0.0)?;
             let local = cutter_in_rest_space(cutter, &p.transform)?;
             match cut::cut(&p.mesh, &p.original_tets, &local, &self.options.cut) {
                 Ok(r) if r.stats.removed_tets == 0 && r.stats.moved_vertices == 0 => {
@@ -71,19 +84,20 @@ impl Editor {
         if outcomes.iter().all(|o| matches!(o, Outcome::Remove)) {
             return Err(EditError::NothingLeft { piece: self.pieces.len().saturating_sub(1) });
         }
-        let mut next = Vec::with_capacity(self.pieces.len());
+        whole.report("cut", 0.2)?;
+        let mut next = Vec::with_capacity(n);
         let mut changed = 0;
-        for (p, outcome) in self.pieces.iter().zip(outcomes) {
+        for (i, (p, outcome)) in self.pieces.iter().zip(outcomes).enumerate() {
             match outcome {
                 Outcome::Keep => next.push(p.clone()),
                 Outcome::Remove => changed += p.mesh.tet_count(),
                 Outcome::Rebuild(plan) => {
                     changed += plan.original_tets.len();
-                    next.push(self.build(*plan, &mut timings)?);
+                    next.push(self.build(*plan, &mut timings, whole.part(0.2, 0.4).item(i, n))?);
                 }
             }
         }
-        let mut out = self.commit(next, &mut timings, changed, start)?;
+        let mut out = self.commit(next, &mut timings, changed, start, whole.part(0.4, 1.0))?;
         out.cut = stats;
         Ok(out)
     }
@@ -98,12 +112,25 @@ impl Editor {
     /// [`EditError::InvalidCutter`] / [`EditError::InvalidStroke`]; assembly and solve errors.
     /// The editor is unchanged on error.
     pub fn split(&mut self, cutter: &Cutter) -> Result<UpdateStats, EditError> {
+        self.split_with_progress(cutter, Progress::none())
+    }
+
+    /// [`Editor::split`] reporting as [`Editor::cut_with_progress`] does (stage `"split"` for
+    /// the partition).
+    ///
+    /// # Errors
+    /// As [`Editor::split`], plus [`EditError::Cancelled`]; the editor is unchanged on error.
+    pub fn split_with_progress(&mut self, cutter: &Cutter, progress: Progress) -> Result<UpdateStats, EditError> {
         let start = Instant::now();
         cutter.validate()?;
+        let whole = Span::whole(&progress);
         let mut timings = Timings::default();
         let mut next = Vec::new();
         let mut changed = 0;
-        for p in &self.pieces {
+        let n = self.pieces.len();
+        for (i, p) in self.pieces.iter().enumerate() {
+            let part = whole.part(0.0, 0.4).item(i, n);
+            part.report("split", 0.0)?;
             let local = cutter_in_rest_space(cutter, &p.transform)?;
             let (positive, negative): (Vec<u32>, Vec<u32>) =
                 (0..p.mesh.tet_count() as u32).partition(|&t| local.signed_distance(centroid(&p.mesh, t as usize)) > 0.0);
@@ -111,13 +138,13 @@ impl Editor {
                 next.push(p.clone());
                 continue;
             }
-            for side in [negative, positive] {
+            for (k, side) in [negative, positive].into_iter().enumerate() {
                 let plan = plan_of_subset(p, &side)?;
                 changed += plan.original_tets.len();
-                next.push(self.build(plan, &mut timings)?);
+                next.push(self.build(plan, &mut timings, part.item(k, 2))?);
             }
         }
-        self.commit(next, &mut timings, changed, start)
+        self.commit(next, &mut timings, changed, start, whole.part(0.4, 1.0))
     }
 
     /// Splits every piece into its connected components ([`pieces::connected_components`]),
@@ -126,23 +153,37 @@ impl Editor {
     /// # Errors
     /// Assembly and solve errors. The editor is unchanged on error.
     pub fn fracture(&mut self) -> Result<UpdateStats, EditError> {
+        self.fracture_with_progress(Progress::none())
+    }
+
+    /// [`Editor::fracture`] reporting as [`Editor::cut_with_progress`] does (stage
+    /// `"components"` for the search of the connected parts).
+    ///
+    /// # Errors
+    /// As [`Editor::fracture`], plus [`EditError::Cancelled`]; the editor is unchanged on error.
+    pub fn fracture_with_progress(&mut self, progress: Progress) -> Result<UpdateStats, EditError> {
         let start = Instant::now();
+        let whole = Span::whole(&progress);
         let mut timings = Timings::default();
         let mut next = Vec::new();
         let mut changed = 0;
-        for p in &self.pieces {
+        let n = self.pieces.len();
+        for (i, p) in self.pieces.iter().enumerate() {
+            let part = whole.part(0.0, 0.4).item(i, n);
+            part.report("components", 0.0)?;
             let components = pieces::connected_components(&p.mesh);
             if components.len() < 2 {
                 next.push(p.clone());
                 continue;
             }
-            for tets in components {
+            let m = components.len();
+            for (k, tets) in components.into_iter().enumerate() {
                 let plan = plan_of_subset(p, &tets)?;
                 changed += plan.original_tets.len();
-                next.push(self.build(plan, &mut timings)?);
+                next.push(self.build(plan, &mut timings, part.item(k, m))?);
             }
         }
-        self.commit(next, &mut timings, changed, start)
+        self.commit(next, &mut timings, changed, start, whole.part(0.4, 1.0))
     }
 
     /// Places piece `piece` with the rigid transform `transform` (rest → world). Its matrix does
@@ -152,6 +193,21 @@ impl Editor {
     /// [`EditError::NoSuchPiece`]; [`EditError::NotRigid`] ([`pieces::check_rigid`]); light and
     /// solve errors. The editor is unchanged on error.
     pub fn set_piece_transform(&mut self, piece: usize, transform: DMat4) -> Result<UpdateStats, EditError> {
+        self.set_piece_transform_with_progress(piece, transform, Progress::none())
+    }
+
+    /// [`Editor::set_piece_transform`] reporting the stages `"occluder"`, `"light"` and
+    /// `"solve"` to `progress`, which can cancel it.
+    ///
+    /// # Errors
+    /// As [`Editor::set_piece_transform`], plus [`EditError::Cancelled`]; the editor is
+    /// unchanged on error.
+    pub fn set_piece_transform_with_progress(
+        &mut self,
+        piece: usize,
+        transform: DMat4,
+        progress: Progress,
+    ) -> Result<UpdateStats, EditError> {
         let start = Instant::now();
         if piece >= self.pieces.len() {
             return Err(EditError::NoSuchPiece { index: piece, count: self.pieces.len() });
@@ -162,7 +218,9 @@ impl Editor {
         let mut timings = Timings::default();
         let previous = std::mem::replace(&mut self.pieces[piece].transform, transform);
         let (lights, options) = (&self.lights, &self.options);
-        match piece::light_and_solve(&mut self.pieces, lights, &options.source, options.shadows, &self.setup, &mut timings) {
+        let span = Span::whole(&progress);
+        match piece::light_and_solve(&mut self.pieces, lights, &options.source, options.shadows, &self.setup, &mut timings, span)
+        {
             Ok(occluder) => {
                 self.occluder = occluder;
                 Ok(UpdateStats::new(&timings, 0, 0, start))
@@ -183,16 +241,31 @@ impl Editor {
     /// faces would make an invalid mesh; assembly and solve errors. The editor is unchanged on
     /// error.
     pub fn recombine(&mut self) -> Result<UpdateStats, EditError> {
+        self.recombine_with_progress(Progress::none())
+    }
+
+    /// [`Editor::recombine`] reporting as [`Editor::cut_with_progress`] does (stage `"weld"`
+    /// before each pair of pieces tried).
+    ///
+    /// # Errors
+    /// As [`Editor::recombine`], plus [`EditError::Cancelled`]; the editor is unchanged on error.
+    pub fn recombine_with_progress(&mut self, progress: Progress) -> Result<UpdateStats, EditError> {
         let start = Instant::now();
+        let whole = Span::whole(&progress);
+        let weld = whole.part(0.0, 0.4);
         let mut timings = Timings::default();
         let mut next = self.pieces.clone();
         let mut changed = 0;
+        let n = next.len();
         'search: loop {
             for i in 0..next.len() {
                 for j in i + 1..next.len() {
+                    // Each weld leaves one piece fewer: at most n − 1 welds.
+                    let part = weld.item(n - next.len(), n.saturating_sub(1));
+                    part.report("weld", 0.0)?;
                     if let Some(plan) = weld_pair(&next[i], &next[j], self.options.weld_tolerance)? {
                         changed += plan.original_tets.len();
-                        let merged = self.build(plan, &mut timings)?;
+                        let merged = self.build(plan, &mut timings, part)?;
                         next.remove(j);
                         next[i] = merged;
                         continue 'search;
@@ -204,12 +277,12 @@ impl Editor {
         if next.len() == self.pieces.len() {
             return Ok(UpdateStats::new(&timings, 0, 0, start));
         }
-        self.commit(next, &mut timings, changed, start)
+        self.commit(next, &mut timings, changed, start, whole.part(0.4, 1.0))
     }
 
     /// Builds a planned piece with the editor's media and solver setup.
-    fn build(&self, plan: Plan, timings: &mut Timings) -> Result<Piece, EditError> {
-        piece::build(plan.mesh, plan.original_tets, plan.transform, &self.media, &self.setup, Some(plan.warm), timings)
+    fn build(&self, plan: Plan, timings: &mut Timings, span: Span) -> Result<Piece, EditError> {
+        piece::build(plan.mesh, plan.original_tets, plan.transform, &self.media, &self.setup, Some(plan.warm), timings, span)
     }
 
     /// Re-lights and re-solves `next` (every piece: the shadows depend on all), then swaps it in.
@@ -219,9 +292,10 @@ impl Editor {
         timings: &mut Timings,
         changed: usize,
         start: Instant,
+        span: Span,
     ) -> Result<UpdateStats, EditError> {
         let (lights, options) = (&self.lights, &self.options);
-        let occluder = piece::light_and_solve(&mut next, lights, &options.source, options.shadows, &self.setup, timings)?;
+        let occluder = piece::light_and_solve(&mut next, lights, &options.source, options.shadows, &self.setup, timings, span)?;
         let rebuilt = changed > 0;
         self.located = super::locate(self.original.tet_count(), &next);
         self.pieces = next;

@@ -4,12 +4,13 @@
 //! method, where the object's method lacks it.
 //!
 //! Every capability keeps the state unchanged when it fails, so a caller's data is never left
-//! half-edited.
+//! half-edited; each reports its stages to a [`Progress`], whose cancel is one more failure.
 
 use glam::DMat4;
 
 use crate::edit::{Cutter, EditError, MediumEdit, PaintStroke, UpdateStats};
 use crate::light::Light;
+use crate::progress::Progress;
 
 /// Solving again under new lights, warm-started, with the light-independent work kept.
 pub(crate) trait Relight {
@@ -21,7 +22,7 @@ pub(crate) trait Relight {
     ///
     /// # Errors
     /// An invalid light or a failed solve; the state is then unchanged.
-    fn relight(&mut self, lights: &[Light]) -> Result<(UpdateStats, Self::Undo), EditError>;
+    fn relight(&mut self, lights: &[Light], progress: Progress) -> Result<(UpdateStats, Self::Undo), EditError>;
 
     /// Puts the state back as it was before the relight that returned `undo`.
     ///
@@ -39,13 +40,13 @@ pub(crate) trait EditMedium {
     ///
     /// # Errors
     /// An invalid region or operation, or a failed solve; the state is then unchanged.
-    fn edit_medium(&mut self, edit: &MediumEdit) -> Result<UpdateStats, EditError>;
+    fn edit_medium(&mut self, edit: &MediumEdit, progress: Progress) -> Result<UpdateStats, EditError>;
 
     /// Blends `stroke`'s medium in along it and re-solves.
     ///
     /// # Errors
     /// An invalid stroke or a failed solve; the state is then unchanged.
-    fn paint(&mut self, stroke: &PaintStroke) -> Result<UpdateStats, EditError>;
+    fn paint(&mut self, stroke: &PaintStroke, progress: Progress) -> Result<UpdateStats, EditError>;
 }
 
 /// Changing the topology: cuts, splits, fracture, rigid moves of pieces, recombination.
@@ -54,26 +55,26 @@ pub(crate) trait Cut {
     ///
     /// # Errors
     /// An invalid cutter, a cut that leaves nothing, a failed solve; the state is then unchanged.
-    fn cut(&mut self, cutter: &Cutter) -> Result<UpdateStats, EditError>;
+    fn cut(&mut self, cutter: &Cutter, progress: Progress) -> Result<UpdateStats, EditError>;
     /// Splits every piece by the cutter into the parts on its two sides.
     ///
     /// # Errors
     /// As [`Cut::cut`].
-    fn split(&mut self, cutter: &Cutter) -> Result<UpdateStats, EditError>;
+    fn split(&mut self, cutter: &Cutter, progress: Progress) -> Result<UpdateStats, EditError>;
     /// Separates every piece into its connected parts.
     ///
     /// # Errors
     /// A failed solve; the state is then unchanged.
-    fn fracture(&mut self) -> Result<UpdateStats, EditError>;
+    fn fracture(&mut self, progress: Progress) -> Result<UpdateStats, EditError>;
     /// Places piece `piece` by the rigid `transform` (rest → world) and re-solves it.
     ///
     /// # Errors
     /// A piece that does not exist, a transform that is not rigid, a failed solve; the state is
     /// then unchanged.
-    fn set_piece_transform(&mut self, piece: usize, transform: DMat4) -> Result<UpdateStats, EditError>;
+    fn set_piece_transform(&mut self, piece: usize, transform: DMat4, progress: Progress) -> Result<UpdateStats, EditError>;
     /// Welds pieces whose faces touch again.
     ///
     /// # Errors
     /// A failed weld or solve; the state is then unchanged.
-    fn recombine(&mut self) -> Result<UpdateStats, EditError>;
+    fn recombine(&mut self, progress: Progress) -> Result<UpdateStats, EditError>;
 }

@@ -7,6 +7,8 @@
 //!   a live state made for a failed update is not kept);
 //! - [`Session::relight`] relights every object or none: the objects relit before a failure or
 //!   a cancellation are undone, last first;
+//! - every call reports its stages as `"<object>: <stage>"` to a [`Progress`] and a cancel
+//!   through it is [`SessionError::Cancelled`], with nothing changed, like any other failure;
 //! - a capability an object's method lacks is refused with [`SessionError::Unsupported`],
 //!   naming the method ([`crate::methods::capability`]).
 //!
@@ -57,11 +59,11 @@ enum Live {
 
 impl Live {
     /// The live state of `bake`, solved under `lights` (the lights the bake was solved under).
-    fn start(bake: &ObjectBake, lights: &[Light], options: &BakeOptions) -> Result<Self, EditError> {
+    fn start(bake: &ObjectBake, lights: &[Light], options: &BakeOptions, progress: Progress) -> Result<Self, EditError> {
         match (&bake.state, &options.method) {
             (BakedState::TransCut(_), Method::TransCut(transcut)) => {
                 let edit = EditOptions::from_bake_options(options, transcut);
-                Ok(Self::TransCut(Box::new(Editor::from_bake(bake, lights, &edit)?)))
+                Ok(Self::TransCut(Box::new(Editor::from_bake_with_progress(bake, lights, &edit, progress)?)))
             }
         }
     }
@@ -251,13 +253,16 @@ impl Session {
     /// lights), as its first update would; nothing to do when it exists.
     ///
     /// # Errors
-    /// [`SessionError::NoSuchObject`]; [`SessionError::Edit`] when the live state cannot be made.
-    pub fn start(&mut self, index: usize) -> Result<(), SessionError> {
-        self.update_with(index, |_| Ok(None)).map(|_| ())
+    /// [`SessionError::NoSuchObject`]; [`SessionError::Edit`] when the live state cannot be made;
+    /// [`SessionError::Cancelled`].
+    pub fn start(&mut self, index: usize, progress: Progress) -> Result<(), SessionError> {
+        self.update_with(index, progress, |_, _| Ok(None)).map(|_| ())
     }
 
     /// Re-solves every object under `lights`, warm-started, without meshing or assembling
-    /// again; `progress` is called before each object and at the end. All or nothing: on a
+    /// again; `progress` is called before each object, through its light and solve stages
+    /// (`"<object>: light"`, `"<object>: solve"`, the fraction of all objects) and at the end.
+    /// All or nothing: on a
     /// failure (naming the object) or a cancellation the objects relit so far are undone, last
     /// first. Returns each object's update statistics.
     ///
@@ -275,8 +280,15 @@ impl Session {
                     failure = Some(SessionError::Cancelled(c));
                     break;
                 }
-                match relight_slot(slot, baked, lights, options) {
+                let name = slot.name.clone();
+                let within =
+                    |stage: &str, f: f64| progress.report(&format!("{name}: {stage}"), (index as f64 + f) / n as f64).is_ok();
+                match relight_slot(slot, baked, lights, options, Progress::new(&within)) {
                     Ok(r) => done.push(r),
+                    Err(EditError::Cancelled(c)) => {
+                        failure = Some(SessionError::Cancelled(c));
+                        break;
+                    }
                     Err(source) => {
                         failure = Some(SessionError::Edit { index, name: slot.name.clone(), source: Box::new(source) });
                         break;
@@ -311,57 +323,63 @@ impl Session {
     /// Applies a material edit to object `index` ([`EditMedium::edit_medium`]).
     ///
     /// # Errors
-    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
-    pub fn edit_medium(&mut self, index: usize, edit: &MediumEdit) -> Result<&UpdateStats, SessionError> {
-        self.update(index, "edit the medium", |live| live.edit_medium().map(|c| c.edit_medium(edit)))
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`]; [`SessionError::Cancelled`].
+    pub fn edit_medium(&mut self, index: usize, edit: &MediumEdit, progress: Progress) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "edit the medium", progress, |live, p| live.edit_medium().map(|c| c.edit_medium(edit, p)))
     }
 
     /// Paints a stroke into object `index` ([`EditMedium::paint`]).
     ///
     /// # Errors
-    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
-    pub fn paint(&mut self, index: usize, stroke: &PaintStroke) -> Result<&UpdateStats, SessionError> {
-        self.update(index, "paint the medium", |live| live.edit_medium().map(|c| c.paint(stroke)))
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`]; [`SessionError::Cancelled`].
+    pub fn paint(&mut self, index: usize, stroke: &PaintStroke, progress: Progress) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "paint the medium", progress, |live, p| live.edit_medium().map(|c| c.paint(stroke, p)))
     }
 
     /// Cuts object `index` ([`Cut::cut`]): what lies on the cutter's positive side goes.
     ///
     /// # Errors
-    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
-    pub fn cut(&mut self, index: usize, cutter: &Cutter) -> Result<&UpdateStats, SessionError> {
-        self.update(index, "cut", |live| live.cut().map(|c| c.cut(cutter)))
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`]; [`SessionError::Cancelled`].
+    pub fn cut(&mut self, index: usize, cutter: &Cutter, progress: Progress) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "cut", progress, |live, p| live.cut().map(|c| c.cut(cutter, p)))
     }
 
     /// Splits object `index` by a cutter ([`Cut::split`]).
     ///
     /// # Errors
-    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
-    pub fn split(&mut self, index: usize, cutter: &Cutter) -> Result<&UpdateStats, SessionError> {
-        self.update(index, "split", |live| live.cut().map(|c| c.split(cutter)))
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`]; [`SessionError::Cancelled`].
+    pub fn split(&mut self, index: usize, cutter: &Cutter, progress: Progress) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "split", progress, |live, p| live.cut().map(|c| c.split(cutter, p)))
     }
 
     /// Separates object `index` into its connected parts ([`Cut::fracture`]).
     ///
     /// # Errors
-    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
-    pub fn fracture(&mut self, index: usize) -> Result<&UpdateStats, SessionError> {
-        self.update(index, "fracture", |live| live.cut().map(|c| c.fracture()))
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`]; [`SessionError::Cancelled`].
+    pub fn fracture(&mut self, index: usize, progress: Progress) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "fracture", progress, |live, p| live.cut().map(|c| c.fracture(p)))
     }
 
     /// Places piece `piece` of object `index` ([`Cut::set_piece_transform`]).
     ///
     /// # Errors
-    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
-    pub fn set_piece_transform(&mut self, index: usize, piece: usize, transform: DMat4) -> Result<&UpdateStats, SessionError> {
-        self.update(index, "move pieces", |live| live.cut().map(|c| c.set_piece_transform(piece, transform)))
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`]; [`SessionError::Cancelled`].
+    pub fn set_piece_transform(
+        &mut self,
+        index: usize,
+        piece: usize,
+        transform: DMat4,
+        progress: Progress,
+    ) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "move pieces", progress, |live, p| live.cut().map(|c| c.set_piece_transform(piece, transform, p)))
     }
 
     /// Welds the pieces of object `index` whose faces touch again ([`Cut::recombine`]).
     ///
     /// # Errors
-    /// [`SessionError::Unsupported`]; [`SessionError::Edit`].
-    pub fn recombine(&mut self, index: usize) -> Result<&UpdateStats, SessionError> {
-        self.update(index, "recombine pieces", |live| live.cut().map(|c| c.recombine()))
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`]; [`SessionError::Cancelled`].
+    pub fn recombine(&mut self, index: usize, progress: Progress) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "recombine pieces", progress, |live, p| live.cut().map(|c| c.recombine(p)))
     }
 
     /// Runs `op` on object `index`'s live state (made from its bake if needed) on the session's
@@ -371,9 +389,10 @@ impl Session {
         &mut self,
         index: usize,
         capability: &'static str,
-        op: impl FnOnce(&mut Live) -> Option<Result<UpdateStats, EditError>> + Send,
+        progress: Progress,
+        op: impl FnOnce(&mut Live, Progress) -> Option<Result<UpdateStats, EditError>> + Send,
     ) -> Result<&UpdateStats, SessionError> {
-        self.update_with(index, |live| match op(live) {
+        self.update_with(index, progress, |live, p| match op(live, p) {
             Some(result) => result.map(Some).map_err(Failed::Edit),
             None => Err(Failed::Unsupported(capability)),
         })?;
@@ -381,22 +400,34 @@ impl Session {
     }
 
     /// Runs `op` on object `index`'s live state, made from its bake first if needed (and then
-    /// kept only if `op` succeeds); stores the statistics `op` returns.
+    /// kept only if `op` succeeds); stores the statistics `op` returns. Both report to
+    /// `progress` with the object's name before the stage (the start over the first half of
+    /// the fraction when it is needed, `op` over the rest).
     fn update_with(
         &mut self,
         index: usize,
-        op: impl FnOnce(&mut Live) -> Result<Option<UpdateStats>, Failed> + Send,
+        progress: Progress,
+        op: impl FnOnce(&mut Live, Progress) -> Result<Option<UpdateStats>, Failed> + Send,
     ) -> Result<(), SessionError> {
         let count = self.objects.len();
         let threads = self.options.threads;
         let Self { lights, options, objects } = self;
         let slot = objects.get_mut(index).ok_or(SessionError::NoSuchObject { index, count })?;
+        let name = slot.name.clone();
         let outcome = with_threads(threads, || -> Result<Option<UpdateStats>, Failed> {
+            let name = name.as_str();
+            let named = |lo: f64, hi: f64| {
+                move |stage: &str, f: f64| progress.report(&format!("{name}: {stage}"), lo + (hi - lo) * f).is_ok()
+            };
             match &mut slot.state {
-                State::Live(live) => op(live),
+                State::Live(live) => {
+                    let all = named(0.0, 1.0);
+                    op(live, Progress::new(&all))
+                }
                 State::Baked(bake) => {
-                    let mut live = Live::start(bake, lights, options).map_err(Failed::Edit)?;
-                    let stats = op(&mut live)?;
+                    let (first, rest) = (named(0.0, 0.5), named(0.5, 1.0));
+                    let mut live = Live::start(bake, lights, options, Progress::new(&first)).map_err(Failed::Edit)?;
+                    let stats = op(&mut live, Progress::new(&rest))?;
                     slot.state = State::Live(live);
                     Ok(stats)
                 }
@@ -410,6 +441,7 @@ impl Session {
                 }
                 Ok(())
             }
+            Err(Failed::Edit(EditError::Cancelled(c))) => Err(SessionError::Cancelled(c)),
             Err(Failed::Edit(source)) => Err(SessionError::Edit { index, name: slot.name.clone(), source: Box::new(source) }),
             Err(Failed::Unsupported(capability)) => {
                 Err(SessionError::Unsupported { index, name: slot.name.clone(), method: slot.method, capability })
@@ -432,15 +464,18 @@ fn relight_slot(
     baked: &[Light],
     lights: &[Light],
     options: &BakeOptions,
+    progress: Progress,
 ) -> Result<(UpdateStats, Relit), EditError> {
     match &mut slot.state {
         State::Live(live) => {
-            let (stats, undo) = live.relight().relight(lights)?;
+            let (stats, undo) = live.relight().relight(lights, progress)?;
             Ok((stats, Relit::Existing(undo)))
         }
         State::Baked(bake) => {
-            let mut live = Live::start(bake, baked, options)?;
-            let (stats, _) = live.relight().relight(lights)?;
+            let half = |lo: f64| move |stage: &str, f: f64| progress.report(stage, lo + 0.5 * f).is_ok();
+            let (first, rest) = (half(0.0), half(0.5));
+            let mut live = Live::start(bake, baked, options, Progress::new(&first))?;
+            let (stats, _) = live.relight().relight(lights, Progress::new(&rest))?;
             let before = std::mem::replace(&mut slot.state, State::Live(live));
             Ok((stats, Relit::Created(before)))
         }

@@ -6,12 +6,13 @@ use glam::DMat4;
 use crate::edit::{Cutter, EditError, Editor, MediumEdit, PaintStroke, RelightUndo, UpdateStats};
 use crate::light::Light;
 use crate::methods::capability::{Cut, EditMedium, Relight};
+use crate::progress::Progress;
 
 impl Relight for Editor {
     type Undo = RelightUndo;
 
-    fn relight(&mut self, lights: &[Light]) -> Result<(UpdateStats, RelightUndo), EditError> {
-        self.relight_with_undo(lights)
+    fn relight(&mut self, lights: &[Light], progress: Progress) -> Result<(UpdateStats, RelightUndo), EditError> {
+        self.relight_with_undo(lights, progress)
     }
 
     fn undo_relight(&mut self, undo: RelightUndo) -> Result<(), EditError> {
@@ -24,33 +25,33 @@ impl Relight for Editor {
 }
 
 impl EditMedium for Editor {
-    fn edit_medium(&mut self, edit: &MediumEdit) -> Result<UpdateStats, EditError> {
-        Editor::edit_medium(self, edit)
+    fn edit_medium(&mut self, edit: &MediumEdit, progress: Progress) -> Result<UpdateStats, EditError> {
+        Editor::edit_medium_with_progress(self, edit, progress)
     }
 
-    fn paint(&mut self, stroke: &PaintStroke) -> Result<UpdateStats, EditError> {
-        Editor::paint(self, stroke)
+    fn paint(&mut self, stroke: &PaintStroke, progress: Progress) -> Result<UpdateStats, EditError> {
+        Editor::paint_with_progress(self, stroke, progress)
     }
 }
 
 impl Cut for Editor {
-    fn cut(&mut self, cutter: &Cutter) -> Result<UpdateStats, EditError> {
-        Editor::cut(self, cutter)
+    fn cut(&mut self, cutter: &Cutter, progress: Progress) -> Result<UpdateStats, EditError> {
+        Editor::cut_with_progress(self, cutter, progress)
     }
 
-    fn split(&mut self, cutter: &Cutter) -> Result<UpdateStats, EditError> {
-        Editor::split(self, cutter)
+    fn split(&mut self, cutter: &Cutter, progress: Progress) -> Result<UpdateStats, EditError> {
+        Editor::split_with_progress(self, cutter, progress)
     }
 
-    fn fracture(&mut self) -> Result<UpdateStats, EditError> {
-        Editor::fracture(self)
+    fn fracture(&mut self, progress: Progress) -> Result<UpdateStats, EditError> {
+        Editor::fracture_with_progress(self, progress)
     }
 
-    fn set_piece_transform(&mut self, piece: usize, transform: DMat4) -> Result<UpdateStats, EditError> {
-        Editor::set_piece_transform(self, piece, transform)
+    fn set_piece_transform(&mut self, piece: usize, transform: DMat4, progress: Progress) -> Result<UpdateStats, EditError> {
+        Editor::set_piece_transform_with_progress(self, piece, transform, progress)
     }
 
-    fn recombine(&mut self) -> Result<UpdateStats, EditError> {
-        Editor::recombine(self)
+    fn recombine(&mut self, progress: Progress) -> Result<UpdateStats, EditError> {
+        Editor::recombine_with_progress(self, progress)
     }
 }

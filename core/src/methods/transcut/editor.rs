@@ -49,7 +49,7 @@ impl Editor {
         let bake = bake_object::<TransCut>(&target, transcut, bake_options.method.name(), &lighting, &stage)
             .and_then(|b| stage("done", 1.0).map(|()| b).map_err(SceneError::from))
             .map_err(scene_error)?;
-        Self::from_bake(&bake, lights, options)
+        Self::from_bake_with_progress(&bake, lights, options, progress)
     }
 
     /// From a finished TransCut bake of a scene object: the original mesh is the bake's
@@ -63,6 +63,20 @@ impl Editor {
     /// the surface; [`EditError::Light`], [`EditError::Diffusion`], [`EditError::Gpu`] from the
     /// first solve.
     pub fn from_bake(bake: &ObjectBake, lights: &[Light], options: &EditOptions) -> Result<Self, EditError> {
+        Self::from_bake_with_progress(bake, lights, options, Progress::none())
+    }
+
+    /// [`Editor::from_bake`] reporting the stages of its first solve (`"assembly"`,
+    /// `"hierarchy"`, `"occluder"`, `"light"`, `"solve"`) to `progress`, which can cancel it.
+    ///
+    /// # Errors
+    /// As [`Editor::from_bake`], plus [`EditError::Cancelled`].
+    pub fn from_bake_with_progress(
+        bake: &ObjectBake,
+        lights: &[Light],
+        options: &EditOptions,
+        progress: Progress,
+    ) -> Result<Self, EditError> {
         let state = bake.transcut().ok_or_else(|| {
             EditError::InvalidOptions(format!("the editor edits TransCut bakes, not one of the {} method", bake.method()))
         })?;
@@ -76,6 +90,7 @@ impl Editor {
             state.mm_per_unit,
             lights,
             options,
+            progress,
         )
     }
 }
