@@ -625,9 +625,10 @@ typedef struct TcArtistMedium {
 
 /**
  * The method cannot resolve the object's medium at this mesh size (TransCut: σtr·h at the
- * surface above its bound), so its radiance would be wrong (too dark or zero); the message
- * names the channel, σtr·h, the mesh spacing in mm and the tet count or object scale that
- * would resolve it. Nothing changed.
+ * surface above its bound), so its radiance would be wrong (too dark or zero): a bake, or a
+ * medium edit or paint stroke that would put such a medium at the surface. The message names
+ * the channel, σtr·h, the mesh spacing in mm and the tet count or object scale that would
+ * resolve it. Nothing changed.
  */
 #define TC_UNRESOLVED 17
 

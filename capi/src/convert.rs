@@ -77,6 +77,7 @@ fn edit_status(e: &EditError) -> super::status::TcStatus {
         EditError::Mesh(_) => TC_INVALID_MESH,
         EditError::Gpu(_) => TC_GPU_UNAVAILABLE,
         EditError::Cancelled(_) => TC_CANCELLED,
+        EditError::Unresolved(_) => TC_UNRESOLVED,
         EditError::Scene(s) => scene_failure(s).status,
         _ => TC_SOLVE_FAILED,
     }

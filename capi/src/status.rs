@@ -73,9 +73,10 @@ pub const TC_NOTHING_LEFT: TcStatus = TcStatus(15);
 /// message names the method and the reason. Nothing changed.
 pub const TC_UNSUPPORTED: TcStatus = TcStatus(16);
 /// The method cannot resolve the object's medium at this mesh size (TransCut: σtr·h at the
-/// surface above its bound), so its radiance would be wrong (too dark or zero); the message
-/// names the channel, σtr·h, the mesh spacing in mm and the tet count or object scale that
-/// would resolve it. Nothing changed.
+/// surface above its bound), so its radiance would be wrong (too dark or zero): a bake, or a
+/// medium edit or paint stroke that would put such a medium at the surface. The message names
+/// the channel, σtr·h, the mesh spacing in mm and the tet count or object scale that would
+/// resolve it. Nothing changed.
 pub const TC_UNRESOLVED: TcStatus = TcStatus(17);
 
 impl TcStatus {

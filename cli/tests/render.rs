@@ -212,8 +212,21 @@ fn edit_examples_differ_from_their_unedited_scenes() {
     // (An edited object is drawn from its tet mesh's boundary, the unedited one from the input
     // surface: the outlines differ by the mesher's surface approximation only.)
     assert!(a.abs_diff(b) <= b / 20, "painting changed the outline: {a} vs {b} pixels");
+    // The stroke is a band across the top face: a part of the block, not all of it, at least
+    // 10% darker; nowhere is the painted block much lighter.
     let (dark, light) = (mean_luminance(&painted), mean_luminance(&clean));
-    assert!(dark < light * 0.98, "painted {dark:.1} vs clean {light:.1}");
+    assert!(dark < light, "painted {dark:.1} vs clean {light:.1}");
+    let band = changed_pixels(&painted, &clean, |p, c| p < 0.9 * c);
+    let lighter = changed_pixels(&painted, &clean, |p, c| p > 1.1 * c + 2.0);
+    eprintln!("jade_block_paint: {band} of {b} pixels 10% darker, {lighter} lighter");
+    assert!(band >= b / 200 && band <= b / 4, "{band} of {b} pixels 10% darker");
+    assert!(lighter <= band / 10, "{lighter} pixels lighter, {band} darker");
+}
+
+/// The pixels opaque in both images whose luminance in `a` and `b` satisfies `test`.
+fn changed_pixels(a: &image::RgbaImage, b: &image::RgbaImage, test: impl Fn(f64, f64) -> bool) -> usize {
+    let y = |p: &image::Rgba<u8>| 0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2]);
+    a.pixels().zip(b.pixels()).filter(|(p, q)| p[3] == 255 && q[3] == 255 && test(y(p), y(q))).count()
 }
 
 /// A horizontal stroke across the middle of the image, drawn left to right, swept along the

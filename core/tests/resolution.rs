@@ -8,13 +8,14 @@
 
 use glam::DVec3;
 use transcut::diffusion::{assemble, solve, surface_radiance};
+use transcut::edit::{EditError, MediumEdit, MediumOp, PaintStroke, Region};
 use transcut::light::{Environment, Light};
 use transcut::mesh::TetMesh;
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::methods::transcut::MAX_RESOLUTION;
 use transcut::optics::{f_ext, Medium, UniformSphere};
 use transcut::sparse::SolveOptions;
-use transcut::{bake, BakeOptions, Object, Scene, SceneError, TransCutOptions};
+use transcut::{bake, BakeOptions, Object, Progress, Scene, SceneError, Session, SessionError, TransCutOptions};
 
 mod common;
 use common::uv_sphere;
@@ -232,4 +233,79 @@ fn a_resolved_bake_is_accepted_and_near_the_closed_form() {
         let mean = object.radiance.iter().map(|l| l[c] / exact[c] - 1.0).sum::<f64>() / object.radiance.len() as f64;
         assert!(mean.abs() < 0.25, "channel {c}: mean error {mean}");
     }
+}
+
+/// σtr·h of `m` at the surface of piece 0 of object 0 of `session` (h by hand, mm_per_unit 1).
+fn surface_sigma_tr_h(session: &Session, m: &Medium) -> [f64; 3] {
+    let h = mean_boundary_edge(session.editor(0).unwrap().unwrap().pieces()[0].mesh());
+    sigma_tr(m).map(|s| s * h)
+}
+
+/// The largest σtr·h / bound over the channels of `m` at the surface of `session`'s object.
+fn worst_ratio(session: &Session, m: &Medium) -> f64 {
+    let (s, b) = (surface_sigma_tr_h(session, m), bound(m));
+    (0..3).map(|c| s[c] / b[c]).fold(0.0, f64::max)
+}
+
+/// What the session holds for object 0: its radiance and its pieces' fluence.
+type Held = (Option<Vec<[f64; 3]>>, Vec<Vec<[f64; 3]>>);
+
+fn held(session: &Session) -> Held {
+    let pieces = session.editor(0).unwrap().unwrap().pieces().iter().map(|p| p.fluence().to_vec()).collect();
+    (session.radiance(0).unwrap(), pieces)
+}
+
+/// An edit cannot give the radiance a bake would have refused: a medium edit or paint stroke
+/// that puts at the surface a medium the mesh does not resolve fails with
+/// `EditError::Unresolved` (σtr·h and its bound as computed here by hand) and changes nothing;
+/// the same medium deep inside (no tet there owns a boundary face) and a medium under the bound
+/// at the surface are accepted.
+#[test]
+fn an_edit_that_the_mesh_cannot_resolve_at_the_surface_is_refused() {
+    let marble = Medium::preset("marble").unwrap();
+    let scene = Scene { objects: vec![Object::new("ball", uv_sphere(10.0, 32, 16), marble, 1.0)], lights: vec![sun()] };
+    let mut session = Session::bake(&scene, &at(4_000), Progress::none()).unwrap();
+    session.start(0, Progress::none()).unwrap();
+    // A dark ink, a hundred times marble's absorption in green and blue.
+    let dense = Medium { sigma_a: [0.1, 0.4, 0.8], sigma_s_prime: [2.0, 2.5, 3.0], ..marble };
+    let ratio = worst_ratio(&session, &dense);
+    assert!(ratio > 2.0, "the test medium must be well above the bound: {ratio}");
+    let (expected, b) = (surface_sigma_tr_h(&session, &dense), bound(&dense));
+    let worst = (0..3).max_by(|&i, &j| (expected[i] / b[i]).total_cmp(&(expected[j] / b[j]))).unwrap();
+    let set = MediumOp::Set { sigma_a: dense.sigma_a, sigma_s: dense.sigma_s_prime };
+    let before = held(&session);
+
+    // A cap at the surface: refused, naming the worst channel with σtr·h and its bound by hand.
+    let at_surface = MediumEdit { region: Region::Sphere { center: DVec3::new(0.0, 0.0, 10.0), radius: 4.0 }, op: set.clone() };
+    let err = session.edit_medium(0, &at_surface, Progress::none()).unwrap_err();
+    let SessionError::Edit { source, .. } = &err else { panic!("{err}") };
+    let EditError::Unresolved(u) = source.as_ref() else { panic!("{err}") };
+    let name = ["red", "green", "blue"][worst];
+    assert_eq!(u.channel, name, "{err}");
+    assert!((u.sigma_tr_h / expected[worst] - 1.0).abs() < 1e-9, "{} vs {}", u.sigma_tr_h, expected[worst]);
+    assert!((u.bound / b[worst] - 1.0).abs() < 1e-3, "{} vs {}", u.bound, b[worst]);
+    assert!(err.to_string().contains(name), "{err}");
+    assert!(held(&session) == before, "a refused edit changed the session");
+
+    // A stroke across the surface with the same medium at full strength: refused too.
+    let stroke = PaintStroke {
+        points: vec![DVec3::new(-3.0, 0.0, 9.5), DVec3::new(3.0, 0.0, 9.5)],
+        radius: 3.0,
+        medium: dense,
+        strength: 1.0,
+    };
+    let err = session.paint(0, &stroke, Progress::none()).unwrap_err();
+    assert!(matches!(&err, SessionError::Edit { source, .. } if matches!(source.as_ref(), EditError::Unresolved(_))), "{err}");
+    assert!(held(&session) == before, "a refused stroke changed the session");
+
+    // The same medium in a core 6 mm below the surface: no surface tet changes, accepted.
+    let inside = MediumEdit { region: Region::Sphere { center: DVec3::ZERO, radius: 4.0 }, op: set };
+    session.edit_medium(0, &inside, Progress::none()).unwrap();
+    assert!(held(&session) != before);
+
+    // A medium under the bound at the surface is accepted.
+    let mild = Medium { sigma_a: marble.sigma_a.map(|a| 2.0 * a), ..marble };
+    assert!(worst_ratio(&session, &mild) < 0.9, "{}", worst_ratio(&session, &mild));
+    let op = MediumOp::Set { sigma_a: mild.sigma_a, sigma_s: mild.sigma_s_prime };
+    session.edit_medium(0, &MediumEdit { region: at_surface.region, op }, Progress::none()).unwrap();
 }

@@ -159,7 +159,9 @@ fn medium_edits_and_paint() {
     edit.center = [0.0, 0.0, 10.0];
     edit.radius = 4.0;
     edit.op = TC_MEDIUM_SCALE;
-    edit.sigma_a = [20.0; 3];
+    // Red 20 and green 5 times as absorbing: still resolved at the surface (σtr·h about a fifth
+    // of its bound); a denser medium is refused (TC_UNRESOLVED, tested below).
+    edit.sigma_a = [20.0, 5.0, 1.0];
     edit.sigma_s_prime = [1.0; 3];
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_edit_medium(s, 0, &edit) }, "scale in a sphere");
@@ -169,12 +171,22 @@ fn medium_edits_and_paint() {
     let scaled = radiance(s, 0);
     assert!(scaled[0] < 0.9 * assigned[0], "the north pole (vertex 0) darkened: {} vs {}", scaled[0], assigned[0]);
 
-    let ink = TcMedium { sigma_a: [2.0, 2.0, 0.01], sigma_s_prime: potato.sigma_s_prime, eta: marble.eta, g: marble.g };
+    let ink = TcMedium { sigma_a: [0.1, 0.1, 0.01], sigma_s_prime: potato.sigma_s_prime, eta: marble.eta, g: marble.g };
     let stroke = [10.0, 0.0, 0.0, 7.07, 7.07, 0.0];
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_paint(s, 0, stroke.as_ptr(), 2, 1.5, &ink, 1.0) }, "paint");
     let st = edit_stats(s, 0);
     assert!(st.rows_rebuilt > 0 && st.tets_changed > 0 && (st.tets_changed as usize) < tets / 4);
+
+    // An ink the mesh cannot resolve at the surface (σtr·h several times its bound): refused,
+    // naming the channel, and nothing changes.
+    let before = radiance(s, 0);
+    let dark = TcMedium { sigma_a: [2.0, 0.01, 0.01], ..ink }; // only red is dense
+                                                               // SAFETY: valid pointers.
+    let status = unsafe { tc_object_paint(s, 0, stroke.as_ptr(), 2, 1.5, &dark, 1.0) };
+    fails(status, TC_UNRESOLVED, &["too dense for the mesh", "red", "σtr·h"]);
+    assert_eq!(edit_stats(s, 0), st, "a refused paint changed the statistics");
+    assert_eq!(radiance(s, 0), before, "a refused paint changed the radiance");
     destroy(s);
 }
 
@@ -419,7 +431,7 @@ unsafe extern "C" fn on_relight(user: *mut std::ffi::c_void, _stage: *const std:
 fn relight_progress_and_cancel_change_nothing() {
     let mesh = Mesh::uv_sphere(10.0, 24, 12);
     let s = baked(&mesh, [0.0, 0.0, -1.0]);
-    let ink = TcMedium { sigma_a: [1.0, 1.0, 0.01], sigma_s_prime: [2.0; 3], eta: 1.5, g: 0.0 }; // marble: eta 1.5
+    let ink = TcMedium { sigma_a: [0.1, 0.1, 0.01], sigma_s_prime: [2.0; 3], eta: 1.5, g: 0.0 }; // marble: eta 1.5
                                                                                                  // SAFETY: valid pointers.
     ok(unsafe { tc_object_paint(s, 0, [10.0, 0.0, 0.0].as_ptr(), 1, 2.0, &ink, 1.0) }, "paint");
     let painted = edit_stats(s, 0);
@@ -457,7 +469,7 @@ fn relight_progress_and_cancel_change_nothing() {
 /// only its bake), then lit by a sky instead: the state a relight starts from.
 fn painted_and_baked_pair(mesh: &Mesh) -> *mut TcScene {
     let s = scene();
-    let ink = TcMedium { sigma_a: [1.0, 1.0, 0.01], sigma_s_prime: [2.0; 3], eta: 1.5, g: 0.0 }; // marble: eta 1.5
+    let ink = TcMedium { sigma_a: [0.1, 0.1, 0.01], sigma_s_prime: [2.0; 3], eta: 1.5, g: 0.0 }; // marble: eta 1.5
                                                                                                  // SAFETY: valid pointers.
     unsafe {
         for _ in 0..2 {

@@ -56,6 +56,7 @@
 
 mod error;
 mod fem;
+pub(crate) mod resolution;
 pub mod solve;
 pub mod solver;
 mod structure;
@@ -63,6 +64,7 @@ pub mod system;
 mod transcut;
 
 pub use error::DiffusionError;
+pub use resolution::{Unresolved, MAX_RESOLUTION};
 pub use solve::{energy_balance, solve, surface_fluence, surface_radiance, EnergyBalance, Solution};
 pub(crate) use solver::start_vector;
 pub use solver::{Solver, SolverKind};

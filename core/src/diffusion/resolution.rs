@@ -12,13 +12,13 @@
 //! [`amplification`] (1.3 for marble, 4 for skin's blue). Measured on the uniformly lit sphere
 //! (docs/benchmarks.md, "Resolution of the medium"), the radiance error is about
 //! `0.01 (amp · σtr h)²` up to 30%, so a channel's bound is `σtr · h ≤ MAX_RESOLUTION / amp`
-//! (amp capped at [`MAX_AMPLIFICATION`]). A bake above it is refused with
-//! [`SceneError::Unresolved`], which names the tet count (the spacing scales as `N^(−1/3)`)
-//! and the object scale that would resolve it.
+//! (amp capped at [`MAX_AMPLIFICATION`]). A mesh above it is refused with [`Unresolved`],
+//! which names the tet count (the spacing scales as `N^(−1/3)`) and the object scale that would
+//! resolve it: the bake as `SceneError::Unresolved`, a medium edit or paint stroke that makes
+//! the surface medium too dense for the mesh as `EditError::Unresolved`.
 
 use crate::mesh::TetMesh;
 use crate::optics::{a_coefficient, fdr, Medium};
-use crate::scene::SceneError;
 
 /// The largest `amp · σtr · h` a channel may have: at it the uniformly lit sphere's radiance is
 /// about 25% too dark; beyond it the error grows to 50–90% and then to zero radiance.
@@ -99,13 +99,46 @@ pub(crate) fn remedy(ratio: f64, target: f64, tets: usize) -> (f64, f64) {
     ((tets as f64 * r.powi(3)).ceil(), 1.0 / r)
 }
 
-/// Refuses a bake whose mesh does not resolve one of `media` (the surface media): the channel
-/// of the largest `σtr · h / bound` when that is above 1 (or not a number).
+/// Why a mesh does not resolve a medium: its worst channel, and what would resolve it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Unresolved {
+    /// `red`, `green` or `blue`.
+    pub channel: &'static str,
+    /// σtr · h of that channel.
+    pub sigma_tr_h: f64,
+    /// The largest σtr · h allowed in this channel of this medium: [`MAX_RESOLUTION`] over the
+    /// radiance amplification of the channel's albedo.
+    pub bound: f64,
+    /// The mesh's spacing at the surface in mm (the mean boundary edge length).
+    pub spacing_mm: f64,
+    /// The tets the mesh has.
+    pub tets: usize,
+    /// About how many tets would resolve the channel.
+    pub tets_needed: f64,
+    /// The factor on the object's size (its `mm_per_unit`) that would resolve it at the same
+    /// tet count.
+    pub scale: f64,
+}
+
+impl std::fmt::Display for Unresolved {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the mesh does not resolve the medium's {} channel: σtr·h = {:.3} at the surface (mesh spacing {:.4} mm) is \
+             above its bound {:.3}, where the radiance would be too dark or zero; about {:.0} tets instead of {} would \
+             resolve it, or the object at {:.3e} times its size (mm_per_unit)",
+            self.channel, self.sigma_tr_h, self.spacing_mm, self.bound, self.tets_needed, self.tets, self.scale
+        )
+    }
+}
+
+/// Refuses a mesh that does not resolve one of `media` (the surface media): the channel of the
+/// largest `σtr · h / bound` when that is above 1 (or not a number).
 ///
 /// # Errors
-/// [`SceneError::Unresolved`] naming the object, the channel, `σtr · h`, its bound, the spacing
-/// and the tet count or scale that would resolve it.
-pub(crate) fn check(index: usize, name: &str, media: &[&Medium], spacing_mm: f64, tets: usize) -> Result<(), SceneError> {
+/// [`Unresolved`] naming the channel, `σtr · h`, its bound, the spacing and the tet count or
+/// scale that would resolve it.
+pub(crate) fn check(media: &[&Medium], spacing_mm: f64, tets: usize) -> Result<(), Unresolved> {
     let mut worst: Option<(f64, usize, f64, f64)> = None; // (ratio, channel, σtr·h, bound)
     for m in media {
         let (s, amp) = (m.sigma_tr(), amplification(m));
@@ -124,17 +157,7 @@ pub(crate) fn check(index: usize, name: &str, media: &[&Medium], spacing_mm: f64
     }
     // Aim a little below the bound, so that the count it names is enough.
     let (tets_needed, scale) = remedy(ratio, 0.9, tets);
-    Err(SceneError::Unresolved {
-        index,
-        name: name.to_owned(),
-        channel: ["red", "green", "blue"][channel],
-        sigma_tr_h,
-        bound,
-        spacing_mm,
-        tets,
-        tets_needed,
-        scale,
-    })
+    Err(Unresolved { channel: ["red", "green", "blue"][channel], sigma_tr_h, bound, spacing_mm, tets, tets_needed, scale })
 }
 
 #[cfg(test)]
@@ -201,21 +224,21 @@ mod tests {
         let bound = MAX_RESOLUTION / amplification(&marble)[2];
         let sigma_blue = marble.sigma_tr()[2];
         // Just under blue's bound: accepted.
-        assert!(check(0, "a", &[&marble], 0.99 * bound / sigma_blue, 100).is_ok());
+        assert!(check(&[&marble], 0.99 * bound / sigma_blue, 100).is_ok());
         // Blue at twice its bound: (2 / 0.9)³ = 10.97× the tets, or 0.45× the size.
         let spacing = 2.0 * bound / sigma_blue;
-        let e = check(2, "statue", &[&marble], spacing, 5000).unwrap_err();
-        let SceneError::Unresolved { channel, sigma_tr_h, bound: b, tets_needed, scale, .. } = &e else { panic!("{e}") };
+        let e = check(&[&marble], spacing, 5000).unwrap_err();
+        let Unresolved { channel, sigma_tr_h, bound: b, tets_needed, scale, .. } = &e;
         assert_eq!(*channel, "blue");
         assert!((sigma_tr_h / (2.0 * bound) - 1.0).abs() < 1e-12);
         assert_eq!(*b, bound);
         assert_eq!(*tets_needed, (5000.0 * (2.0f64 / 0.9).powi(3)).ceil());
         assert!((scale - 0.45).abs() < 1e-12);
         let text = e.to_string();
-        for part in ["object 2 (statue)", "blue", "5000", "54870"] {
+        for part in ["blue", "5000", "54870"] {
             assert!(text.contains(part), "{part} in {text}");
         }
-        assert!(check(0, "a", &[&marble], f64::NAN, 100).is_err());
-        assert!(check(0, "a", &[], 1.0, 100).is_ok());
+        assert!(check(&[&marble], f64::NAN, 100).is_err());
+        assert!(check(&[], 1.0, 100).is_ok());
     }
 }

@@ -46,6 +46,11 @@ pub enum EditError {
     /// Meshing or baking the starting object failed.
     #[error("scene: {0}")]
     Scene(#[from] crate::scene::SceneError),
+    /// The edit would put a medium at the surface that the mesh cannot resolve, so the edited
+    /// radiance would be wrong (too dark, then zero): the object must be baked again with more
+    /// tets (or smaller) before it takes that medium.
+    #[error("the edited medium is too dense for the mesh: {0}")]
+    Unresolved(crate::diffusion::Unresolved),
     /// Cancelled through the progress callback.
     #[error(transparent)]
     Cancelled(#[from] crate::progress::Cancelled),

@@ -93,6 +93,7 @@ pub use paint::PaintStroke;
 pub use piece::Piece;
 pub use region::{MediumEdit, MediumOp, Region};
 
+use crate::diffusion::resolution;
 use crate::diffusion::system::MediaUndo;
 use crate::diffusion::SolverKind;
 use crate::gpu::Backend;
@@ -524,6 +525,7 @@ impl Editor {
                 per_piece[p as usize].push((local, c.with_eta_g(eta, g)));
             }
         }
+        self.check_resolution(&per_piece)?;
         let mut timings = Timings { select_ms: ms(start), ..Timings::default() };
         let mut undo = Vec::new();
         let mut solved = Vec::new();
@@ -560,6 +562,25 @@ impl Editor {
             s.store(&mut self.pieces[index]);
         }
         Ok(UpdateStats::new(&timings, rows, changes.len(), start))
+    }
+
+    /// Refuses new media (per piece: local tet, medium) that would sit at a piece's surface where
+    /// its mesh does not resolve them: the bake's check ([`resolution::check`]) on the changed
+    /// tets that own a boundary face, with the piece's surface spacing, so that an edit cannot
+    /// make the radiance the bake would have refused.
+    fn check_resolution(&self, per_piece: &[Vec<(u32, Medium)>]) -> Result<(), EditError> {
+        for (p, entries) in self.pieces.iter().zip(per_piece).filter(|(_, e)| !e.is_empty()) {
+            let mut at_surface = vec![false; p.mesh.tet_count()];
+            for f in p.mesh.boundary_faces() {
+                at_surface[f.tet as usize] = true;
+            }
+            let media: Vec<&Medium> = entries.iter().filter(|(t, _)| at_surface[*t as usize]).map(|(_, m)| m).collect();
+            if !media.is_empty() {
+                let spacing = resolution::surface_spacing_mm(&p.mesh, self.setup.mm_per_unit);
+                resolution::check(&media, spacing, self.original.tet_count()).map_err(EditError::Unresolved)?;
+            }
+        }
+        Ok(())
     }
 
     /// Refills piece `index`'s rows for `entries` (local tet, new medium) in place, pushing the

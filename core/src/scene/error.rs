@@ -1,6 +1,6 @@
 //! Why a bake failed.
 
-use crate::diffusion::DiffusionError;
+use crate::diffusion::{DiffusionError, Unresolved};
 use crate::gpu::GpuError;
 use crate::light::LightError;
 use crate::mesher::MesherError;
@@ -91,4 +91,13 @@ pub enum SceneError {
     /// Cancelled through the progress callback.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
+}
+
+impl SceneError {
+    /// [`SceneError::Unresolved`] for object `index` (`name`).
+    #[must_use]
+    pub(crate) fn unresolved(index: usize, name: String, u: Unresolved) -> Self {
+        let Unresolved { channel, sigma_tr_h, bound, spacing_mm, tets, tets_needed, scale } = u;
+        Self::Unresolved { index, name, channel, sigma_tr_h, bound, spacing_mm, tets, tets_needed, scale }
+    }
 }

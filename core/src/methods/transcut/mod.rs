@@ -18,14 +18,13 @@
 
 mod capabilities;
 mod editor;
-mod resolution;
 
-pub use resolution::MAX_RESOLUTION;
+pub use crate::diffusion::MAX_RESOLUTION;
 
 use std::time::Instant;
 
 use super::{BakedState, Lighting, ObjectStats, Stage, SubsurfaceMethod, Target};
-use crate::diffusion::{self, DiffusionError, DiffusionSystem};
+use crate::diffusion::{self, resolution, DiffusionError, DiffusionSystem};
 use crate::gpu::{self, Backend, GpuError, SolveWith};
 use crate::light::LightError;
 use crate::mesh::{TetMesh, TetMeshError, TriMesh};
@@ -97,7 +96,7 @@ impl SubsurfaceMethod for TransCut {
         let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
         let surface_media = resolution::surface_media(&tet_mesh, &media);
         stats.resolution = resolution::resolution(&surface_media, spacing);
-        resolution::check(index, &object.name, &surface_media, spacing, tet_mesh.tet_count())?;
+        resolution::check(&surface_media, spacing, tet_mesh.tet_count()).map_err(|u| SceneError::unresolved(index, name(), u))?;
         let system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(|source| SceneError::Diffusion {
             index,
             name: name(),
