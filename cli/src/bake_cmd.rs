@@ -1,7 +1,6 @@
 //! `transcut bake`: per-vertex subsurface radiance of a mesh, written with the mesh.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
@@ -137,9 +136,11 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
 /// Writes per-user-vertex radiance in the format the extension names.
 fn write_radiance(path: &Path, mesh: &TriMesh, radiance: &[[f64; 3]]) -> anyhow::Result<()> {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    let mut out = BufWriter::new(File::create(path)?);
-    match ext.as_deref() {
-        Some("ply") => write_ply(&mut out, mesh, radiance)?,
+    if !matches!(ext.as_deref(), Some("ply" | "npy" | "raw")) {
+        bail!("unknown output format (use .ply, .npy or .raw)");
+    }
+    transcut::output::write_atomically(path, |out| match ext.as_deref() {
+        Some("ply") => write_ply(out, mesh, radiance),
         Some("npy") => {
             // NumPy format 1.0: magic, version, little-endian header length, a dict, padding.
             let dict = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({}, 3), }}", radiance.len());
@@ -150,12 +151,10 @@ fn write_radiance(path: &Path, mesh: &TriMesh, radiance: &[[f64; 3]]) -> anyhow:
             out.write_all(b"\x93NUMPY\x01\x00")?;
             out.write_all(&(header.len() as u16).to_le_bytes())?;
             out.write_all(&header)?;
-            write_f32(&mut out, radiance)?;
+            write_f32(out, radiance)
         }
-        Some("raw") => write_f32(&mut out, radiance)?,
-        _ => bail!("unknown output format (use .ply, .npy or .raw)"),
-    }
-    out.flush()?;
+        _ => write_f32(out, radiance),
+    })?;
     Ok(())
 }
 

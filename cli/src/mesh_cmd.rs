@@ -1,7 +1,5 @@
 //! `transcut mesh`: surface → tetrahedra, with statistics.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -50,10 +48,7 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
     bar.finish();
     let meshed = result.with_context(|| format!("meshing {}", args.input.display()))?;
     if let Some(path) = &args.output {
-        let file = File::create(path).with_context(|| format!("creating {}", path.display()))?;
-        let mut out = BufWriter::new(file);
-        mesh::write_vtk(&meshed.mesh, &mut out, !args.ascii)
-            .and_then(|()| out.flush())
+        transcut::output::write_atomically(path, |out| mesh::write_vtk(&meshed.mesh, out, !args.ascii))
             .with_context(|| format!("writing {}", path.display()))?;
     }
     if args.json {

@@ -38,6 +38,11 @@ impl StageBar {
         true
     }
 
+    /// Runs `f` (which writes to stderr) with the bar hidden, then draws it again.
+    pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
+        self.bar.suspend(f)
+    }
+
     /// Removes the bar from the terminal.
     pub fn finish(&self) {
         self.bar.finish_and_clear();

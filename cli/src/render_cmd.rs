@@ -88,22 +88,27 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let file_camera = camera(&file.camera);
     let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
     let t_edit = Instant::now();
-    let reports = apply::apply(&loaded.edits, &mut session, &names, &file_camera, |r| {
+    let edit_bar = StageBar::new(args.json);
+    let edit_progress = |stage: &str, f: f64| edit_bar.update(stage, f);
+    let reports = apply::apply(&loaded.edits, &mut session, &names, &file_camera, &edit_progress, |r| {
         if !args.json {
             let s = &r.stats;
-            eprintln!(
-                "edit {} ({}) {}: {} piece{}, iterations {:?}, {:.0} ms",
-                r.edit,
-                r.kind,
-                r.object,
-                r.pieces,
-                if r.pieces == 1 { "" } else { "s" },
-                s.iterations,
-                s.total_ms
-            );
+            edit_bar.suspend(|| {
+                eprintln!(
+                    "edit {} ({}) {}: {} piece{}, iterations {:?}, {:.0} ms",
+                    r.edit,
+                    r.kind,
+                    r.object,
+                    r.pieces,
+                    if r.pieces == 1 { "" } else { "s" },
+                    s.iterations,
+                    s.total_ms
+                );
+            });
         }
-    })
-    .with_context(|| format!("editing {}", args.scene.display()))?;
+    });
+    edit_bar.finish();
+    let reports = reports.with_context(|| format!("editing {}", args.scene.display()))?;
     let edit_ms = t_edit.elapsed().as_secs_f64() * 1e3;
 
     let t_render = Instant::now();

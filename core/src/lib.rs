@@ -24,7 +24,10 @@
 //!
 //! | layer | what it holds |
 //! |---|---|
+//! | [`workers`] | the per-call thread pools every parallel stage runs on |
 //! | [`progress`] | progress reports and cancellation |
+//! | [`input`] | bounded reading of input files, bounded quoting in messages |
+//! | [`output`] | output files written whole or not at all |
 //! | [`mesh`] | surfaces (OBJ, PLY, welding, n-gons), tet meshes, BVH, quality |
 //! | [`optics`] | media, Fresnel, the dipole, closed forms |
 //! | [`mesher`] | surface → quality tetrahedra (winding numbers, isosurface stuffing) |
@@ -52,6 +55,7 @@ pub mod mesh;
 pub mod mesher;
 pub mod methods;
 pub mod optics;
+pub mod output;
 pub mod progress;
 pub mod render;
 pub mod scene;

@@ -11,6 +11,7 @@ use glam::DMat4;
 use serde::Serialize;
 use transcut::edit::{Cutter, Editor, MediumEdit, MediumOp, PaintStroke, Region, SweptStroke, UpdateStats};
 use transcut::mesh::TriMesh;
+use transcut::progress::ProgressFn;
 use transcut::render::Camera;
 use transcut::{DVec3, Progress, Session};
 
@@ -29,7 +30,9 @@ pub struct EditReport {
 }
 
 /// Runs `steps` in order on `session` (objects named `names`). `camera` is the scene file's
-/// camera (cut strokes are in its pixels). `each` is called after every edit with its report.
+/// camera (cut strokes are in its pixels). `progress` sees every edit's reports, its stages
+/// prefixed `"edit N (kind): "`, and restarts at 0 for each edit. `each` is called after every
+/// edit with its report.
 ///
 /// # Errors
 /// The first failing edit, named by its index and kind (the core error says what is wrong).
@@ -38,18 +41,20 @@ pub fn apply(
     session: &mut Session,
     names: &[String],
     camera: &Camera,
+    progress: &ProgressFn<'_>,
     mut each: impl FnMut(&EditReport),
 ) -> anyhow::Result<Vec<EditReport>> {
     let mut reports = Vec::new();
     for step in steps {
         let label = || format!("edit {} (kind = \"{}\")", step.index, step.kind_name);
+        let prefix = format!("edit {} ({})", step.index, step.kind_name);
+        let callback = |stage: &str, f: f64| progress(&format!("{prefix}: {stage}"), f);
+        let p = Progress::new(&callback);
         let updated: Vec<(usize, UpdateStats)> = match (&step.kind, step.object) {
-            (EditKind::Relight(lights), _) => {
-                session.relight(lights, Progress::none()).with_context(label)?.into_iter().enumerate().collect()
-            }
+            (EditKind::Relight(lights), _) => session.relight(lights, p).with_context(label)?.into_iter().enumerate().collect(),
             (kind, Some(o)) => {
                 let stats =
-                    run(session, o, kind, camera).with_context(|| format!("{}: object {} ({})", label(), o + 1, names[o]))?;
+                    run(session, o, kind, camera, p).with_context(|| format!("{}: object {} ({})", label(), o + 1, names[o]))?;
                 vec![(o, stats)]
             }
             (_, None) => return Err(anyhow!("internal: {} names no object", label())),
@@ -64,10 +69,10 @@ pub fn apply(
     Ok(reports)
 }
 
-/// One edit (not a relight) on object `o`.
-fn run(session: &mut Session, o: usize, kind: &EditKind, camera: &Camera) -> anyhow::Result<UpdateStats> {
+/// One edit (not a relight) on object `o`, reporting to `p`.
+fn run(session: &mut Session, o: usize, kind: &EditKind, camera: &Camera, p: Progress) -> anyhow::Result<UpdateStats> {
     Ok(match kind {
-        EditKind::Relight(lights) => session.relight(lights, Progress::none())?[o].clone(),
+        EditKind::Relight(lights) => session.relight(lights, p)?[o].clone(),
         EditKind::Medium { region, op } => {
             let region = match region {
                 RegionSpec::All => Region::All,
@@ -79,14 +84,10 @@ fn run(session: &mut Session, o: usize, kind: &EditKind, camera: &Camera) -> any
                 OpSpec::Scale { sigma_a, sigma_s } => MediumOp::Scale { sigma_a: *sigma_a, sigma_s: *sigma_s },
                 OpSpec::Add { sigma_a, sigma_s } => MediumOp::Add { sigma_a: *sigma_a, sigma_s: *sigma_s },
             };
-            session.edit_medium(o, &MediumEdit { region, op }, Progress::none())?.clone()
+            session.edit_medium(o, &MediumEdit { region, op }, p)?.clone()
         }
         EditKind::Paint { points, radius, medium, strength } => session
-            .paint(
-                o,
-                &PaintStroke { points: points.clone(), radius: *radius, medium: *medium, strength: *strength },
-                Progress::none(),
-            )?
+            .paint(o, &PaintStroke { points: points.clone(), radius: *radius, medium: *medium, strength: *strength }, p)?
             .clone(),
         EditKind::CutPlane { point, normal, keep } => {
             // The core's plane removes the side its normal points into; the file's normal points
@@ -94,36 +95,42 @@ fn run(session: &mut Session, o: usize, kind: &EditKind, camera: &Camera) -> any
             let n = normal.normalize();
             let cutter = Cutter::Plane { point: *point, normal: if *keep == Keep::Back { n } else { -n } };
             if *keep == Keep::Both {
-                session.split(o, &cutter, Progress::none())?.clone()
+                session.split(o, &cutter, p)?.clone()
             } else {
-                session.cut(o, &cutter, Progress::none())?.clone()
+                session.cut(o, &cutter, p)?.clone()
             }
         }
         EditKind::CutStroke { pixels, keep } => {
             let cutter = Cutter::Stroke(stroke(camera, pixels)?);
             match keep {
-                Keep::Both => session.split(o, &cutter, Progress::none())?.clone(),
-                Keep::Left => session.cut(o, &cutter.flipped(), Progress::none())?.clone(),
-                _ => session.cut(o, &cutter, Progress::none())?.clone(),
+                Keep::Both => session.split(o, &cutter, p)?.clone(),
+                Keep::Left => session.cut(o, &cutter.flipped(), p)?.clone(),
+                _ => session.cut(o, &cutter, p)?.clone(),
             }
         }
-        EditKind::Fracture => session.fracture(o, Progress::none())?.clone(),
+        EditKind::Fracture => session.fracture(o, p)?.clone(),
         EditKind::MovePiece { piece, translate, axis, angle_deg, pivot } => {
-            let (transform, pivot) = piece_placement(session, o, *piece, *pivot)?;
+            let (transform, pivot) = piece_placement(session, o, *piece, *pivot, p)?;
             let rotation = match axis {
                 Some(a) => DMat4::from_axis_angle(a.normalize(), angle_deg.to_radians()),
                 None => DMat4::IDENTITY,
             };
             let moved = DMat4::from_translation(*translate + pivot) * rotation * DMat4::from_translation(-pivot) * transform;
-            session.set_piece_transform(o, *piece, moved, Progress::none())?.clone()
+            session.set_piece_transform(o, *piece, moved, p)?.clone()
         }
-        EditKind::Recombine => session.recombine(o, Progress::none())?.clone(),
+        EditKind::Recombine => session.recombine(o, p)?.clone(),
     })
 }
 
 /// Piece `piece`'s transform and the pivot of a rotation of it: `pivot`, or its centroid.
-fn piece_placement(session: &mut Session, o: usize, piece: usize, pivot: Option<DVec3>) -> anyhow::Result<(DMat4, DVec3)> {
-    session.start(o, Progress::none())?;
+fn piece_placement(
+    session: &mut Session,
+    o: usize,
+    piece: usize,
+    pivot: Option<DVec3>,
+    p: Progress,
+) -> anyhow::Result<(DMat4, DVec3)> {
+    session.start(o, p)?;
     let editor = session.editor(o)?.ok_or_else(|| anyhow!("'piece': the object's method has no pieces"))?;
     let count = editor.pieces().len();
     let current =

@@ -11,7 +11,7 @@
 //!
 //! [render]                  # optional
 //! exposure_ev = 0           # stops
-//! samples = 3               # n × n supersamples per pixel (1 = none)
+//! samples = 3               # n × n supersamples per pixel, n in 1..=8 (1 = none)
 //! ground = true             # a grey floor under the objects
 //! background = [0, 0, 0]    # linear RGB
 //! specular = true           # GGX highlights of the sun, point and spot lights

@@ -138,11 +138,17 @@ impl SceneFile {
     ///
     /// # Errors
     /// The TOML error with the table, line and column it is at (the offending text quoted
-    /// short, see [`transcut::input::quote`]); a `[render]` table with `samples = 0`.
+    /// short, see [`transcut::input::quote`]); a `[render]` table with `samples` outside
+    /// 1..=[`transcut::render::MAX_GRID`] (refused here, before the bake, rather than by the
+    /// renderer after it).
     pub fn parse(text: &str) -> anyhow::Result<SceneFile> {
         let file: SceneFile = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
-        if file.render.samples == 0 {
-            bail!("in table [render]: samples = 0: the supersampling grid is n × n with n ≥ 1 (1 = one sample per pixel)");
+        let (samples, max) = (file.render.samples, transcut::render::MAX_GRID);
+        if !(1..=max).contains(&samples) {
+            bail!(
+                "in table [render]: samples = {samples}: the supersampling grid is n × n with n in 1..={max} (1 = one \
+                 sample per pixel)"
+            );
         }
         Ok(file)
     }
@@ -290,11 +296,17 @@ mod tests {
     }
 
     #[test]
-    fn zero_samples_are_refused() {
+    fn samples_outside_the_grid_sizes_are_refused() {
         let text = format!("{MINIMAL}[render]\nsamples = 0\n[[object]]\nmesh = \"a.obj\"\nmedium = \"marble\"\n");
         let err = SceneFile::parse(&text).unwrap_err().to_string();
         assert!(err.contains("samples = 0") && err.contains("[render]"), "{err}");
         assert_eq!(SceneFile::parse(&text.replace("samples = 0", "samples = 1")).unwrap().render.samples, 1);
+        // The renderer's largest grid is 8 × 8.
+        assert_eq!(SceneFile::parse(&text.replace("samples = 0", "samples = 8")).unwrap().render.samples, 8);
+        let err = SceneFile::parse(&text.replace("samples = 0", "samples = 9")).unwrap_err().to_string();
+        assert!(err.contains("samples = 9") && err.contains("1..=8"), "{err}");
+        let err = SceneFile::parse(&text.replace("samples = 0", "samples = 4000000000")).unwrap_err().to_string();
+        assert!(err.contains("samples = 4000000000"), "{err}");
     }
 
     #[test]

@@ -1,7 +1,6 @@
 //! The rendered image, tone mapping, and PNG / OpenEXR output.
 
-use std::fs::File;
-use std::io::{Cursor, ErrorKind, Write};
+use std::io::{Cursor, Write};
 use std::path::Path;
 
 use image::{ImageBuffer, ImageFormat, Rgba};
@@ -169,16 +168,9 @@ impl Image {
     }
 }
 
-/// Creates `path` and writes `bytes` to it, then asks the system to commit them so that a
-/// deferred write error is reported too; a file that cannot be committed (a device such as
-/// `/dev/stdout`) is not an error once every byte has been written.
+/// Writes `bytes` to `path` whole or not at all ([`crate::output::write_atomically`]).
 fn write_file(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let mut file = File::create(path)?;
-    file.write_all(bytes)?;
-    match file.sync_all() {
-        Err(e) if matches!(e.kind(), ErrorKind::InvalidInput | ErrorKind::Unsupported) => Ok(()),
-        other => other,
-    }
+    crate::output::write_atomically(path, |out| out.write_all(bytes))
 }
 
 #[cfg(test)]

@@ -141,26 +141,29 @@ impl VoxelGrid {
         out
     }
 
-    /// Writes the grid as a TCVOX1 file (replacing an existing file).
+    /// Writes the grid as a TCVOX1 file, replacing an existing file only once it is written
+    /// whole ([`crate::output::write_atomically`]).
     ///
     /// # Errors
     /// [`VolumeError::Io`] naming the file.
     pub fn write(&self, path: impl AsRef<Path>) -> Result<(), VolumeError> {
         let path = path.as_ref();
         let io = |source| VolumeError::Io { path: path.to_path_buf(), source };
-        let mut file = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
-        let mut header = Vec::with_capacity(HEADER_BYTES);
-        self.write_header(&mut header);
-        file.write_all(&header).map_err(io)?;
-        let mut buffer = Vec::with_capacity(1 << 16);
-        for chunk in self.data.chunks(1 << 14) {
-            buffer.clear();
-            for v in chunk {
-                buffer.extend_from_slice(&v.to_le_bytes());
+        crate::output::write_atomically(path, |file| {
+            let mut header = Vec::with_capacity(HEADER_BYTES);
+            self.write_header(&mut header);
+            file.write_all(&header)?;
+            let mut buffer = Vec::with_capacity(1 << 16);
+            for chunk in self.data.chunks(1 << 14) {
+                buffer.clear();
+                for v in chunk {
+                    buffer.extend_from_slice(&v.to_le_bytes());
+                }
+                file.write_all(&buffer)?;
             }
-            file.write_all(&buffer).map_err(io)?;
-        }
-        file.into_inner().map_err(|e| io(e.into_error()))?.sync_all().map_err(io)
+            Ok(())
+        })
+        .map_err(io)
     }
 
     fn write_header(&self, out: &mut Vec<u8>) {
