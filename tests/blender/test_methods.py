@@ -259,5 +259,5 @@ def test_editing_operators_pass_the_method(scene, lib, bake_methods):
     cut = next(o for o in bpy.data.objects if o.name == "Sphere.cut")
     stroke = add_stroke([(0.0, 0.0, 0.97), (0.3, 0.0, 0.92)])
     select_only(stroke, cut)
-    assert bpy.ops.transcut.paint_medium(radius=0.1, preset="ketchup") == {"FINISHED"}
+    assert bpy.ops.transcut.paint_medium(radius=0.1, preset="apple") == {"FINISHED"}
     assert bake_methods == ["transcut", "transcut"]

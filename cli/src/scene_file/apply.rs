@@ -53,8 +53,8 @@ pub fn apply(
         let updated: Vec<(usize, UpdateStats)> = match (&step.kind, step.object) {
             (EditKind::Relight(lights), _) => session.relight(lights, p).with_context(label)?.into_iter().enumerate().collect(),
             (kind, Some(o)) => {
-                let stats =
-                    run(session, o, kind, camera, p).with_context(|| format!("{}: object {} ({})", label(), o + 1, names[o]))?;
+                // The core's error names the object (index and name).
+                let stats = run(session, o, kind, camera, p).with_context(label)?;
                 vec![(o, stats)]
             }
             (_, None) => return Err(anyhow!("internal: {} names no object", label())),
