@@ -253,7 +253,8 @@ impl LineScan {
 }
 
 /// `text` in single quotes for a message: at most [`QUOTE_CHARS`] characters, control
-/// characters escaped; a longer text is cut with `…` and its length in bytes is added.
+/// characters escaped (an escape such as `\u{1b}` counts as the characters it takes); a longer
+/// text is cut with `…` and its length in bytes is added.
 #[must_use]
 pub fn quote(text: &str) -> String {
     shorten(text, "'")
@@ -270,15 +271,21 @@ pub fn clip(text: &str) -> String {
 fn shorten(text: &str, mark: &str) -> String {
     let mut out = String::with_capacity(QUOTE_CHARS + 24);
     out.push_str(mark);
-    let mut chars = text.chars();
-    for c in chars.by_ref().take(QUOTE_CHARS) {
+    let (mut used, mut cut) = (0, false);
+    for c in text.chars() {
+        let width = if c.is_control() { c.escape_debug().count() } else { 1 };
+        if used + width > QUOTE_CHARS {
+            cut = true;
+            break;
+        }
+        used += width;
         if c.is_control() {
             out.extend(c.escape_debug());
         } else {
             out.push(c);
         }
     }
-    if chars.next().is_some() {
+    if cut {
         let _ = write!(out, "…{mark} ({} bytes)", text.len());
     } else {
         out.push_str(mark);
@@ -343,6 +350,11 @@ mod tests {
         assert_eq!(quote(&"y".repeat(80)), format!("'{}'", "y".repeat(80)));
         assert_eq!(clip("face"), "face");
         assert_eq!(clip(&"z".repeat(81)), format!("{}… (81 bytes)", "z".repeat(80)));
+        // Escapes count as the characters they take: 80 ESC bytes would be 480 characters.
+        // 13 escapes of 6 characters fit in 80, the 14th does not.
+        let escapes = quote(&"\u{1b}".repeat(80));
+        assert_eq!(escapes, format!("'{}…' (80 bytes)", "\\u{1b}".repeat(13)));
+        assert!(escapes.chars().count() <= 80 + 16, "{escapes}");
     }
 
     #[test]
