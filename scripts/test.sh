@@ -28,6 +28,8 @@ fi
 # Formatting and lints first: they fail in seconds, not after the tests.
 cargo fmt --all --check
 cargo clippy --workspace --all-targets --locked -- -D warnings
+# The core without its GPU backend (how fuzz/ builds it) must build clean too.
+cargo clippy -p transcut --lib --no-default-features --locked -- -D warnings
 
 # The GPU tests (core/tests/gpu*.rs) need a Vulkan adapter: install Mesa's lavapipe (software
 # Vulkan, Debian mesa-vulkan-drivers) when missing, so the GPU path is tested on every machine.

@@ -66,6 +66,7 @@ mod transcut;
 pub use error::DiffusionError;
 pub use resolution::{Unresolved, MAX_RESOLUTION};
 pub use solve::{energy_balance, solve, surface_fluence, surface_radiance, EnergyBalance, Solution};
+#[cfg(feature = "gpu")]
 pub(crate) use solver::start_vector;
 pub use solver::{Solver, SolverKind};
 pub use structure::BoundaryVertices;
