@@ -398,6 +398,8 @@ fn slow_report_gaps_of_large_edits() {
         eprintln!("{what} ({} reports, {total:.0} ms): longest gap before a report of each stage, ms: {gaps:.1?}", reports.len());
     };
     measure("start", &mut session, &|s, p| s.start(0, p));
+    let mesh = session.editor(0).unwrap().unwrap().pieces()[0].mesh();
+    eprintln!("the ball: {} tets, {} vertices", mesh.tet_count(), mesh.vertex_count());
     let lights =
         vec![Light::Directional { direction: DVec3::new(0.2, 0.1, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 1.0 }];
     measure("relight", &mut session, &|s, p| s.relight(&lights, p).map(|_| ()));
