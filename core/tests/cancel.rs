@@ -365,9 +365,9 @@ fn a_recombine_cancelled_anywhere_changes_nothing() {
     cancel_everywhere("recombine", &split_in_two, &op, &["weld", "assembly", "hierarchy", "occluder", "light", "solve"]);
 }
 
-/// The longest time between two reports of one call, per stage of the report that ends the gap
-/// (and from the last report to the return): a cancel asked at any moment is seen within the
-/// gap. Measured, not asserted (docs/benchmarks.md, "Cancel latency"): a ball of about
+/// The longest time between two reports of one call, per pair of stages (the report that
+/// starts the gap → the one that ends it, or the return): a cancel asked at any moment is seen
+/// within the gap. Measured, not asserted (docs/benchmarks.md, "Cancel latency"): a ball of about
 /// `TRANSCUT_GAP_TETS` tets (default 200 000), baked, then a cut, a medium edit and a relight.
 #[test]
 #[ignore = "measurement: minutes at 200k tets"]
@@ -391,11 +391,11 @@ fn slow_report_gaps_of_large_edits() {
         let mut gaps: BTreeMap<String, f64> = BTreeMap::new();
         for w in reports.windows(2) {
             let ms = w[1].1.duration_since(w[0].1).as_secs_f64() * 1e3;
-            let g = gaps.entry(w[1].0.clone()).or_insert(0.0);
+            let g = gaps.entry(format!("{} → {}", w[0].0, w[1].0)).or_insert(0.0);
             *g = g.max(ms);
         }
         let total = reports[reports.len() - 1].1.duration_since(reports[0].1).as_secs_f64() * 1e3;
-        eprintln!("{what} ({} reports, {total:.0} ms): longest gap before a report of each stage, ms: {gaps:.1?}", reports.len());
+        eprintln!("{what} ({} reports, {total:.0} ms): longest gap between reports of the stages, ms: {gaps:.1?}", reports.len());
     };
     measure("start", &mut session, &|s, p| s.start(0, p));
     let mesh = session.editor(0).unwrap().unwrap().pieces()[0].mesh();
@@ -410,4 +410,86 @@ fn slow_report_gaps_of_large_edits() {
     measure("edit_medium", &mut session, &|s, p| s.edit_medium(0, &edit, p).map(|_| ()));
     let cutter = Cutter::Plane { point: DVec3::new(0.0, 0.0, 3.0), normal: DVec3::new(0.3, 0.0, 1.0).normalize() };
     measure("cut", &mut session, &|s, p| s.cut(0, &cutter, p).map(|_| ()));
+}
+
+/// Calls of a `keep_going` that says stop at its `stop_at`-th call (never when 0), counted.
+struct StopAt {
+    calls: AtomicUsize,
+    stop_at: usize,
+}
+
+impl StopAt {
+    fn new(stop_at: usize) -> Self {
+        Self { calls: AtomicUsize::new(0), stop_at }
+    }
+
+    fn keep_going(&self) -> bool {
+        let n = self.calls.fetch_add(1, Ordering::SeqCst) + 1;
+        n != self.stop_at
+    }
+
+    fn calls(&self) -> usize {
+        self.calls.load(Ordering::SeqCst)
+    }
+}
+
+/// The long steps of an edit (assembly, hierarchy, cut) stop at every one of their polls with
+/// their cancel error, and never asked to stop give exactly the plain call's result.
+#[test]
+fn the_long_steps_stop_at_every_poll() {
+    use transcut::diffusion::{assemble, assemble_with, DiffusionError};
+    use transcut::edit::cut::{cut, cut_with, CutOptions};
+    use transcut::edit::EditError;
+    use transcut::mesher::{tetrahedralize, MesherOptions};
+    use transcut::sparse::hierarchy::{Hierarchy, HierarchyOptions};
+    use transcut::sparse::SparseError;
+
+    let mesh = tetrahedralize(&uv_sphere(10.0, 24, 12), &MesherOptions::with_tets(3_000)).unwrap();
+    let media = [Medium::preset("marble").unwrap()];
+
+    let plain = assemble(&mesh, &media, 1.0).unwrap();
+    let all = StopAt::new(0);
+    let polled = assemble_with(&mesh, &media, 1.0, &|| all.keep_going()).unwrap();
+    assert_eq!(polled.matrix().values(), plain.matrix().values());
+    assert!(all.calls() >= 3, "{} polls", all.calls());
+    for k in 1..=all.calls() {
+        let stop = StopAt::new(k);
+        let e = assemble_with(&mesh, &media, 1.0, &|| stop.keep_going()).unwrap_err();
+        assert!(matches!(e, DiffusionError::Cancelled), "stop at poll {k}: {e}");
+        assert_eq!(stop.calls(), k, "the assembly went on after poll {k}");
+    }
+
+    let positions = mesh.positions(); // in mm: 1 mm per unit
+    let options = HierarchyOptions::default().with_min_vertices(50);
+    let levels = Hierarchy::build(plain.pattern(), positions, &options).unwrap().levels();
+    let all = StopAt::new(0);
+    let polled = Hierarchy::build_with(plain.pattern(), positions, &options, &|| all.keep_going()).unwrap();
+    assert_eq!(polled.levels(), levels);
+    assert!(levels > 2 && all.calls() >= 2 * (levels - 1), "{} polls for {levels} levels", all.calls());
+    for k in 1..=all.calls() {
+        let stop = StopAt::new(k);
+        let e = Hierarchy::build_with(plain.pattern(), positions, &options, &|| stop.keep_going()).unwrap_err();
+        assert!(matches!(e, SparseError::Cancelled { .. }), "stop at poll {k}: {e}");
+        assert_eq!(stop.calls(), k);
+    }
+
+    let tets: Vec<u32> = (0..mesh.tet_count() as u32).collect();
+    let cutter = Cutter::Plane { point: DVec3::new(0.0, 0.0, 2.0), normal: DVec3::new(0.3, 0.0, 1.0).normalize() };
+    let options = CutOptions::default();
+    let plain = cut(&mesh, &tets, &cutter, &options).unwrap();
+    let all = StopAt::new(0);
+    let polled = cut_with(&mesh, &tets, &cutter, &options, &|| {
+        assert!(all.keep_going());
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!((polled.mesh.positions(), polled.mesh.tets()), (plain.mesh.positions(), plain.mesh.tets()));
+    assert!(all.calls() >= 5, "{} polls", all.calls());
+    for k in 1..=all.calls() {
+        let stop = StopAt::new(k);
+        let poll = || if stop.keep_going() { Ok(()) } else { Err(transcut::Cancelled) };
+        let e = cut_with(&mesh, &tets, &cutter, &options, &poll).unwrap_err();
+        assert!(matches!(e, EditError::Cancelled(_)), "stop at poll {k}: {e}");
+        assert_eq!(stop.calls(), k);
+    }
 }

@@ -152,6 +152,9 @@ pub enum DiffusionError {
     /// The sparse layer failed (pattern building, preconditioner, PCG breakdown, …).
     #[error(transparent)]
     Sparse(#[from] SparseError),
+    /// The caller's `keep_going` asked to stop (the `*_with` builders).
+    #[error("cancelled by the progress callback")]
+    Cancelled,
 }
 
 #[cfg(test)]

@@ -142,6 +142,24 @@ impl Solver {
     /// # Errors
     /// [`DiffusionError::Sparse`] from the hierarchy or the coarse operators.
     pub fn new(system: &DiffusionSystem, kind: SolverKind, options: &HierarchyOptions) -> Result<Self, DiffusionError> {
+        Self::new_with(system, kind, options, &|| true)
+    }
+
+    /// [`Self::new`] asking `keep_going` before each level of the hierarchy is coarsened
+    /// ([`Hierarchy::build_with`]) and before the matrix-dependent parts are prepared, so that
+    /// a caller can cancel inside the build.
+    ///
+    /// # Errors
+    /// As [`Self::new`]; [`DiffusionError::Sparse`] with [`SparseError::Cancelled`] when
+    /// `keep_going` returns `false`.
+    pub fn new_with(
+        system: &DiffusionSystem,
+        kind: SolverKind,
+        options: &HierarchyOptions,
+        keep_going: &dyn Fn() -> bool,
+    ) -> Result<Self, DiffusionError> {
+        let check = || if keep_going() { Ok(()) } else { Err(SparseError::Cancelled { iteration: 0 }) };
+        check()?;
         if kind == SolverKind::AggregationPcg {
             let mg =
                 Multigrid::aggregated(system.matrix(), &system.structure().positions_mm, options, MultigridOptions::default())?;
@@ -150,7 +168,9 @@ impl Solver {
         if kind.is_single_level() {
             return Ok(Self { hierarchy: None, kind, prepared: prepare(system, None, kind)? });
         }
-        Self::with_hierarchy(system, Arc::new(hierarchy(system, options)?), kind)
+        let hierarchy = Hierarchy::build_with(system.pattern(), &system.structure().positions_mm, options, keep_going)?;
+        check()?;
+        Self::with_hierarchy(system, Arc::new(hierarchy), kind)
     }
 
     /// Prepares `kind` for `system` on a ready hierarchy of its mesh, of the kind the solver

@@ -93,6 +93,20 @@ pub fn assemble(mesh: &TetMesh, media: &[Medium], mm_per_unit: f64) -> Result<Di
     DiffusionSystem::new(mesh, media, mm_per_unit, Discretization::TransCut)
 }
 
+/// [`assemble`] asking `keep_going` between its steps (the mesh's structure and geometry, the
+/// media's terms, the matrix), so that a caller can cancel inside a large assembly.
+///
+/// # Errors
+/// As [`assemble`]; [`DiffusionError::Cancelled`] when `keep_going` returns `false`.
+pub fn assemble_with(
+    mesh: &TetMesh,
+    media: &[Medium],
+    mm_per_unit: f64,
+    keep_going: &dyn Fn() -> bool,
+) -> Result<DiffusionSystem, DiffusionError> {
+    DiffusionSystem::new_with(mesh, media, mm_per_unit, Discretization::TransCut, keep_going)
+}
+
 /// The right-hand side of `system` for the source `q` (one entry per boundary vertex, in the
 /// order of [`DiffusionSystem::boundary`]), without changing the system. For TransCut, eq. 12:
 /// b_i = 8 S_i q_i / (3A(1 − Fdr)) on boundary vertices, 0 inside; for the consistent FEM the
@@ -122,12 +136,30 @@ impl DiffusionSystem {
         mm_per_unit: f64,
         discretization: Discretization,
     ) -> Result<DiffusionSystem, DiffusionError> {
+        Self::new_with(mesh, media, mm_per_unit, discretization, &|| true)
+    }
+
+    /// [`Self::new`] asking `keep_going` between its steps; see [`assemble_with`].
+    ///
+    /// # Errors
+    /// Those of [`assemble_with`].
+    pub fn new_with(
+        mesh: &TetMesh,
+        media: &[Medium],
+        mm_per_unit: f64,
+        discretization: Discretization,
+        keep_going: &dyn Fn() -> bool,
+    ) -> Result<DiffusionSystem, DiffusionError> {
+        let check = || if keep_going() { Ok(()) } else { Err(DiffusionError::Cancelled) };
         super::structure::check_scale(mm_per_unit)?;
         check_materials(mesh.materials(), media)?;
         let structure = Arc::new(Structure::new(mesh, mm_per_unit)?);
+        check()?;
         let (coefficients, terms) = prepare_media(&structure, media)?;
+        check()?;
         let mut matrix = CsrMatrix3::zeros(Arc::clone(&structure.pattern));
         fill_matrix(&structure, discretization, &coefficients, &terms, matrix.values_mut());
+        check()?;
         let nb = structure.boundary.len();
         let n = structure.n();
         let per_tet_ids =

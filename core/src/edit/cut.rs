@@ -60,6 +60,7 @@ use rayon::prelude::*;
 use super::cutter::{Cutter, Prepared};
 use super::EditError;
 use crate::mesh::{dihedral_angles, tet_volume, TetMesh};
+use crate::progress::Cancelled;
 
 /// Cut vertices: `d ≥ −SNAP_BAND · h` (with `h` the mean length of the vertex's edges).
 pub const SNAP_BAND: f64 = 0.25;
@@ -139,6 +140,21 @@ pub struct CutResult {
 /// - [`EditError::Mesh`] if the result fails [`TetMesh::new`] (not expected: the guard keeps
 ///   volumes positive).
 pub fn cut(mesh: &TetMesh, original_tet: &[u32], cutter: &Cutter, options: &CutOptions) -> Result<CutResult, EditError> {
+    cut_with(mesh, original_tet, cutter, options, &|| Ok(()))
+}
+
+/// [`cut`] calling `poll` between its steps (distances, deletion, each snapping pass, the rim,
+/// the new mesh's topology), so that a caller can cancel inside a large cut.
+///
+/// # Errors
+/// As [`cut`]; [`EditError::Cancelled`] when `poll` returns it.
+pub fn cut_with(
+    mesh: &TetMesh,
+    original_tet: &[u32],
+    cutter: &Cutter,
+    options: &CutOptions,
+    poll: &dyn Fn() -> Result<(), Cancelled>,
+) -> Result<CutResult, EditError> {
     cutter.validate()?;
     options.validate()?;
     if original_tet.len() != mesh.tet_count() {
@@ -164,6 +180,7 @@ pub fn cut(mesh: &TetMesh, original_tet: &[u32], cutter: &Cutter, options: &CutO
         })
         .collect();
 
+    poll()?;
     // Delete: keep tets with a firm vertex.
     let kept: Vec<u32> = (0..mesh.tet_count() as u32)
         .into_par_iter()
@@ -190,6 +207,7 @@ pub fn cut(mesh: &TetMesh, original_tet: &[u32], cutter: &Cutter, options: &CutO
     let materials: Vec<u32> = kept.iter().map(|&t| mesh.materials()[t as usize]).collect();
     let original: Vec<u32> = kept.iter().map(|&t| original_tet[t as usize]).collect();
 
+    poll()?;
     // The bound: the floor, or the kept input's own worst angle if that is lower.
     let input_worst = tets.par_iter().map(|t| min_dihedral(t.map(|v| pos[v as usize]))).reduce(|| f64::INFINITY, f64::min);
     let bound_degrees = options.min_dihedral_degrees.min(input_worst.to_degrees());
@@ -215,6 +233,7 @@ pub fn cut(mesh: &TetMesh, original_tet: &[u32], cutter: &Cutter, options: &CutO
     let movable: Vec<u32> = (0..pos.len() as u32).filter(|&v| is_cut[kept_vertex[v as usize] as usize]).collect();
     let mut done = vec![false; movable.len()];
     for _ in 0..options.relax_iterations {
+        poll()?;
         let mut any = false;
         for (i, &v) in movable.iter().enumerate() {
             if done[i] {
@@ -254,6 +273,7 @@ pub fn cut(mesh: &TetMesh, original_tet: &[u32], cutter: &Cutter, options: &CutO
         }
     }
 
+    poll()?;
     // Rim: vertices of the object's surface that reached the cutter slide along it back to
     // where the cutter meets the surface's tangent plane (one pass, full moves only, same guard),
     // so the cross-section's rim is not pulled inside the object.
@@ -288,6 +308,7 @@ pub fn cut(mesh: &TetMesh, original_tet: &[u32], cutter: &Cutter, options: &CutO
         min_dihedral_degrees: min_after.to_degrees(),
         bound_degrees,
     };
+    poll()?;
     let mesh = TetMesh::new(pos, tets, materials)?;
     Ok(CutResult { mesh, original_tet: original, kept_vertex, stats })
 }

@@ -202,12 +202,15 @@ pub(crate) fn build(
     let t = Instant::now();
     mesh.set_materials((0..mesh.tet_count() as u32).collect())?;
     let table = local_table(media, &original_tets);
-    let mut system = diffusion::assemble(&mesh, &table, setup.mm_per_unit)?;
+    let keep_going = || span.report("assembly", 0.25).is_ok();
+    let mut system = diffusion::assemble_with(&mesh, &table, setup.mm_per_unit, &keep_going).map_err(diffusion_error)?;
+    span.report("assembly", 0.4)?;
     system.keep_coefficients();
     timings.assembly_ms += ms(t);
     span.report("hierarchy", 0.5)?;
     let t = Instant::now();
-    let solver = Solver::new(&system, setup.solver, &HierarchyOptions::default())?;
+    let keep_going = || span.report("hierarchy", 0.5).is_ok();
+    let solver = Solver::new_with(&system, setup.solver, &HierarchyOptions::default(), &keep_going).map_err(diffusion_error)?;
     timings.hierarchy_ms += ms(t);
     span.report("hierarchy", 1.0)?;
     let n = mesh.vertex_count();
@@ -430,7 +433,7 @@ pub(crate) fn solution(
 /// A solver's error as the editor's: a cancel by the monitor is [`EditError::Cancelled`].
 fn diffusion_error(e: DiffusionError) -> EditError {
     match e {
-        DiffusionError::Sparse(SparseError::Cancelled { .. }) => EditError::Cancelled(Cancelled),
+        DiffusionError::Sparse(SparseError::Cancelled { .. }) | DiffusionError::Cancelled => EditError::Cancelled(Cancelled),
         e => EditError::Diffusion(e),
     }
 }

@@ -63,9 +63,10 @@ impl Editor {
         let mut outcomes = Vec::with_capacity(n);
         let mut stats: Option<CutStats> = None;
         for (i, p) in self.pieces.iter().enumerate() {
-            whole.part(0.0, 0.2).item(i, n).report("cut", 0.0)?;
+            let part = whole.part(0.0, 0.2).item(i, n);
+            part.report("cut", 0.0)?;
             let local = cutter_in_rest_space(cutter, &p.transform)?;
-            match cut::cut(&p.mesh, &p.original_tets, &local, &self.options.cut) {
+            match cut::cut_with(&p.mesh, &p.original_tets, &local, &self.options.cut, &|| part.report("cut", 0.0)) {
                 Ok(r) if r.stats.removed_tets == 0 && r.stats.moved_vertices == 0 => {
                     stats = Some(merge(stats, &r.stats));
                     outcomes.push(Outcome::Keep);

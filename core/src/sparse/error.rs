@@ -84,7 +84,8 @@ pub enum SparseError {
     /// The monitor callback asked to stop.
     #[error("cancelled by the monitor at iteration {iteration}")]
     Cancelled {
-        /// The iteration after which the monitor returned `false`.
+        /// The iteration after which the monitor returned `false` (for a hierarchy build, the
+        /// number of levels built).
         iteration: usize,
     },
     /// An option is out of its valid range.

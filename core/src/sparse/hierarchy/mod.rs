@@ -168,6 +168,22 @@ impl Hierarchy {
     /// [`SparseError::InvalidOption`] for a non-symmetric graph, non-finite positions, or bad
     /// options.
     pub fn build(graph: &Arc<CsrPattern>, positions: &[DVec3], options: &HierarchyOptions) -> Result<Self, SparseError> {
+        Self::build_with(graph, positions, options, &|| true)
+    }
+
+    /// [`Self::build`] asking `keep_going` before each level is coarsened and before its
+    /// prolongation is built, so that a caller can cancel inside the build (the first level is
+    /// the largest part of it).
+    ///
+    /// # Errors
+    /// As [`Self::build`]; [`SparseError::Cancelled`] (its `iteration` the number of levels
+    /// built) when `keep_going` returns `false`.
+    pub fn build_with(
+        graph: &Arc<CsrPattern>,
+        positions: &[DVec3],
+        options: &HierarchyOptions,
+        keep_going: &dyn Fn() -> bool,
+    ) -> Result<Self, SparseError> {
         options.check_input(graph.n(), positions)?;
         if !graph.is_structurally_symmetric() {
             return Err(SparseError::InvalidOption("the hierarchy needs a symmetric graph".into()));
@@ -175,6 +191,9 @@ impl Hierarchy {
         let mut levels = vec![Level::finest(graph, positions)];
         let mut prolongations = Vec::new();
         while levels.len() < options.max_levels {
+            if !keep_going() {
+                return Err(SparseError::Cancelled { iteration: levels.len() });
+            }
             let fine = levels.last().expect("level 0 exists");
             let nf = fine.graph.n();
             if nf <= options.min_vertices.max(1) {
@@ -185,6 +204,9 @@ impl Hierarchy {
             let step = edges::coarsen(&fine.graph, &codes)?;
             if step.retained.len() as f64 > options.max_ratio * nf as f64 {
                 break;
+            }
+            if !keep_going() {
+                return Err(SparseError::Cancelled { iteration: levels.len() });
             }
             let p = Prolongation::new(&fine.graph, &fine.positions, &step.retained)?;
             let positions = step.retained.iter().map(|&i| fine.positions[i as usize]).collect();
