@@ -10,10 +10,11 @@ the object's η and g, ``tc_medium_from_artist`` gives them for artist parameter
 :func:`run_edit` that bakes the job's objects exactly as the bake operator does
 (:func:`bake.build_scene`) and applies the edit.
 
-Progress: the bake reports fractions in [0, :data:`BAKE_SHARE`], each object's edit the rest.
-The cut and paint calls have no progress callback of their own, so a cancel (the callback
-returning True) is honoured during the bake and between objects; a cancelled run raises
-``TranscutError(TC_CANCELLED)`` and nothing is written.
+Progress: the bake reports fractions in [0, :data:`BAKE_SHARE`], each object's edit an equal
+part of the rest, through the scene's edit callback (:meth:`transcut.Scene.set_progress`), so a
+cancel (the callback returning True) is honoured during the bake, inside each cut or paint call
+(at its next report, within about a tenth of a second) and between objects; a cancelled run
+raises ``TranscutError(TC_CANCELLED)`` and nothing is written.
 
 Which side a plane cut removes: the library removes the half-space the normal points into;
 :func:`plane_of_points` gives the plane of a flat cutter with its normal along the cutter's face
@@ -253,10 +254,13 @@ def run_edit(
         bake_ms = (time.perf_counter() - start) * 1e3
         results = []
         count = len(indices)
+        share = (1 - BAKE_SHARE) / count
         for k, (mesh, idx) in enumerate(zip(job.meshes, indices, strict=True)):
             name = mesh.object_name
-            if report(f"{'paint' if is_paint else 'cut'} '{name}'", BAKE_SHARE + (1 - BAKE_SHARE) * k / count):
+            label, base = f"{'paint' if is_paint else 'cut'} '{name}'", BAKE_SHARE + share * k
+            if report(label, base):
                 raise _cancelled()
+            scene.set_progress(lambda s, f, label=label, base=base: report(f"{label}: {s}", base + share * f))
             baked = scene.radiance(idx)
             start = time.perf_counter()
             try:

@@ -25,8 +25,8 @@ meshes, media, lights and settings; :mod:`bake`), apply the edit in the library
   with the re-solved radiance.
 
 Run from the UI (``invoke``) an edit is modal like the bake: the library works on a thread, the
-progress shows in the cursor and status bar, ESC cancels (through the bake's progress callback;
-the cut or paint call itself finishes once started). From a script or in background mode
+progress shows in the cursor and status bar, ESC cancels (through the library's progress
+callbacks: during the bake and inside each cut or paint call). From a script or in background mode
 (``execute``) it runs on the main thread between ``progress_begin`` and ``progress_end``.
 Nothing in Blender changes unless every object was edited; errors are reported (ERROR, with the
 library's message; a script sees them as bpy's RuntimeError), never left to escape as Python

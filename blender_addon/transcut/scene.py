@@ -234,6 +234,10 @@ class Scene:
     def __init__(self, lib: Library):
         self.lib = lib
         self._handle = ScenePtr()
+        # The edit calls' progress callback (set_progress): kept alive while the library holds
+        # it, and the exceptions it raised during the current call.
+        self._edit_progress = None
+        self._edit_errors: list[BaseException] = []
         lib.call("tc_scene_create", ctypes.byref(self._handle))
 
     def close(self) -> None:
@@ -241,6 +245,7 @@ class Scene:
         if getattr(self, "_handle", None):
             self.lib.cdll.tc_scene_destroy(ctypes.byref(self._handle))
         self._handle = ScenePtr()
+        self._edit_progress = None
 
     def __enter__(self) -> Scene:
         return self
@@ -260,8 +265,13 @@ class Scene:
         return self._handle
 
     def _call(self, name: str, *args) -> None:
-        """Calls the C function ``name`` on this scene (its first argument) and checks its status."""
-        self.lib.call(name, self._h(), *args)
+        """Calls the C function ``name`` on this scene (its first argument) and checks its status;
+        an exception the edit progress callback raised during the call is re-raised instead."""
+        self._edit_errors.clear()
+        status = self.lib.function(name)(self._h(), *args)
+        if self._edit_errors:
+            raise self._edit_errors.pop(0)
+        self.lib.check(status, name)
 
     def _call_with_progress(self, name: str, progress: Callable[[str, float], bool] | None, *args) -> None:
         """``_call`` for a function whose last two parameters are a ``TcProgressFn`` and its
@@ -553,6 +563,31 @@ class Scene:
         return self.lib.text("tc_object_backend_fallback", self._h(), obj)
 
     # -- editing (after a bake) ------------------------------------------------------------
+
+    def set_progress(self, progress: Callable[[str, float], bool] | None) -> None:
+        """Sets the progress callback of every edit call on this scene (``tc_scene_set_progress``:
+        the cuts, splits, fracture, paint, medium edits, piece moves and recombine, and
+        :meth:`relight` without its own): ``progress(stage, fraction)`` with the fraction of the
+        one call; returning True cancels the call, which then raises :class:`TranscutError` with
+        ``TC_CANCELLED`` and changes nothing. An exception ``progress`` raises cancels too and is
+        re-raised by the edit call. None clears it."""
+        if progress is None:
+            self._call("tc_scene_set_progress", TcProgressFn(), None)
+            self._edit_progress = None
+            return
+        errors = self._edit_errors
+
+        def trampoline(_user, stage, fraction):
+            try:
+                text = stage.decode("utf-8", "replace") if stage else ""
+                return 1 if progress(text, float(fraction)) else 0
+            except BaseException as exc:
+                errors.append(exc)
+                return 1
+
+        callback = TcProgressFn(trampoline)
+        self._call("tc_scene_set_progress", callback, None)
+        self._edit_progress = callback
 
     def relight(self, progress: Callable[[str, float], bool] | None = None) -> None:
         """Re-solves every object for the scene's current lights (``tc_scene_relight``), warm

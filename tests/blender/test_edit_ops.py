@@ -465,6 +465,39 @@ def test_cut_progress_and_cancel_change_nothing(lit_sphere, addon):
     assert snapshot() == before
 
 
+def test_a_cancel_inside_the_cut_call_stops_it(lit_sphere, addon):
+    """ESC after the bake, while the library cuts (a report of the cut call itself, through
+    tc_scene_set_progress): the run stops there with TC_CANCELLED and writes nothing."""
+    plane = add_plane_cutter()
+    select_only(plane, lit_sphere)
+    ctx = bpy.context
+    lib = addon.library.get()
+    edit = addon.edit_ops.cutter_edit(plane, ctx.evaluated_depsgraph_get(), False, False)
+    job = addon.bake.prepare_job(ctx, [lit_sphere])
+    before = snapshot()
+    runner = addon.edit_native.EditRunner(lib, job, edit)
+    seen = []
+    record = runner.progress
+
+    def cancel_inside(stage, f):
+        seen.append((stage, f))
+        if stage.startswith("cut 'Sphere': ") and stage.endswith(": assembly"):
+            runner.cancel()  # as ESC does
+        return record(stage, f)
+
+    runner.progress = cancel_inside
+    runner.run_here()
+    assert runner.results is None and runner.error.status == addon.transcut.TC_CANCELLED, runner.error
+    stages = [s for s, _ in seen]
+    inside = [s for s in stages if s.startswith("cut 'Sphere': ")]
+    # The library reported from inside the call, and nothing came after the cancel.
+    assert inside and inside[-1].endswith(": assembly"), stages
+    assert stages[-1].endswith(": assembly"), stages[-3:]
+    fractions = [f for _, f in seen]
+    assert all(b >= a for a, b in itertools.pairwise(fractions)), fractions
+    assert snapshot() == before
+
+
 def test_cut_object_rebakes_close_to_the_cut(lit_sphere, addon):
     """The new object is a closed, valid mesh with the medium carried over: baking it afresh
     (meshed from its own surface) gives nearly the radiance the cut wrote."""
