@@ -228,6 +228,21 @@ def _stats_dict(st) -> dict:
     return out
 
 
+def _progress_fn(progress: Callable[[str, float], bool], errors: list[BaseException]) -> TcProgressFn:
+    """A ``TcProgressFn`` calling ``progress(stage, fraction)``: True cancels; an exception it
+    raises cancels too and is appended to ``errors`` (it never unwinds into the library)."""
+
+    def trampoline(_user, stage, fraction):
+        try:
+            text = stage.decode("utf-8", "replace") if stage else ""
+            return 1 if progress(text, float(fraction)) else 0
+        except BaseException as exc:
+            errors.append(exc)
+            return 1
+
+    return TcProgressFn(trampoline)
+
+
 class Scene:
     """A ``TcScene`` handle. Object indices are the ``uint32_t`` the ``add_*`` calls return."""
 
@@ -277,17 +292,8 @@ class Scene:
         """``_call`` for a function whose last two parameters are a ``TcProgressFn`` and its
         ``user`` pointer: ``progress(stage, fraction)`` returning True cancels; an exception it
         raises cancels too and is re-raised here (it never unwinds into the library)."""
-        errors = []
-
-        def trampoline(_user, stage, fraction):
-            try:
-                text = stage.decode("utf-8", "replace") if stage else ""
-                return 1 if progress(text, float(fraction)) else 0
-            except BaseException as exc:
-                errors.append(exc)
-                return 1
-
-        callback = TcProgressFn(trampoline) if progress is not None else TcProgressFn()
+        errors: list[BaseException] = []
+        callback = _progress_fn(progress, errors) if progress is not None else TcProgressFn()
         status = self.lib.function(name)(self._h(), *args, callback, None)
         if errors:
             raise errors[0]
@@ -575,17 +581,7 @@ class Scene:
             self._call("tc_scene_set_progress", TcProgressFn(), None)
             self._edit_progress = None
             return
-        errors = self._edit_errors
-
-        def trampoline(_user, stage, fraction):
-            try:
-                text = stage.decode("utf-8", "replace") if stage else ""
-                return 1 if progress(text, float(fraction)) else 0
-            except BaseException as exc:
-                errors.append(exc)
-                return 1
-
-        callback = TcProgressFn(trampoline)
+        callback = _progress_fn(progress, self._edit_errors)
         self._call("tc_scene_set_progress", callback, None)
         self._edit_progress = callback
 
