@@ -12,6 +12,14 @@ pub(crate) fn ms(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
 }
 
+/// The fraction of a solve done at relative residual `residual` (per channel): the worst
+/// channel's way from 1 down to `tolerance`, in decades, in `[0, 1]`.
+pub(crate) fn solve_fraction(residual: [f64; 3], tolerance: f64) -> f64 {
+    let decades = -tolerance.log10();
+    let worst = residual.iter().fold(0.0f64, |m, &r| m.max(r)).max(tolerance);
+    (-worst.log10() / decades).clamp(0.0, 1.0)
+}
+
 /// A progress callback: `(stage, fraction) -> keep going?`, callable from several threads.
 pub type ProgressFn<'a> = dyn Fn(&str, f64) -> bool + Sync + 'a;
 
@@ -99,6 +107,13 @@ impl fmt::Debug for Progress<'_> {
 mod tests {
     use super::*;
     use std::sync::atomic::{AtomicUsize, Ordering};
+
+    #[test]
+    fn solve_fraction_counts_decades_down_to_the_tolerance() {
+        assert_eq!(solve_fraction([1.0; 3], 1e-6), 0.0);
+        assert!((solve_fraction([1e-3, 1e-2, 1e-4], 1e-6) - 2.0 / 6.0).abs() < 1e-12);
+        assert_eq!(solve_fraction([1e-9, 0.0, 1e-7], 1e-6), 1.0);
+    }
 
     #[test]
     fn counter_reports_never_go_back_under_parallel_adds() {

@@ -15,7 +15,7 @@ use crate::gpu::{self, Backend, GpuError, SolveWith};
 use crate::light::{self, Light, LightError, SourceOptions};
 use crate::mesh::{TetMesh, TriMesh, TriangleBvh};
 use crate::optics::Medium;
-use crate::progress::{ms, Cancelled, Progress};
+use crate::progress::{ms, solve_fraction, Cancelled, Progress};
 use crate::sparse::hierarchy::HierarchyOptions;
 use crate::sparse::{SolveOptions, SparseError};
 use crate::volume::PerTetMedia;
@@ -164,14 +164,6 @@ impl<'p, 'a> Span<'p, 'a> {
     pub(crate) fn report(self, stage: &str, f: f64) -> Result<(), Cancelled> {
         self.progress.report(stage, self.at(f))
     }
-}
-
-/// The fraction of a solve done at relative residual `residual`: its way from 1 down to
-/// `tolerance`, in decades (as a bake reports its solve).
-pub(crate) fn solve_fraction(residual: [f64; 3], tolerance: f64) -> f64 {
-    let decades = -tolerance.log10();
-    let worst = residual.iter().fold(0.0f64, |m, &r| m.max(r)).max(tolerance);
-    (-worst.log10() / decades).clamp(0.0, 1.0)
 }
 
 /// The media table of a piece: per local tet, the medium of its original tet
@@ -463,13 +455,6 @@ mod tests {
         let third = half.item(1, 4);
         assert_eq!((third.lo, third.hi), (0.625, 0.75));
         assert_eq!(Span::whole(&none).item(0, 0).hi, 1.0);
-    }
-
-    #[test]
-    fn solve_fraction_counts_decades_down_to_the_tolerance() {
-        assert_eq!(solve_fraction([1.0; 3], 1e-6), 0.0);
-        assert!((solve_fraction([1e-3, 1e-2, 1e-4], 1e-6) - 2.0 / 6.0).abs() < 1e-12);
-        assert_eq!(solve_fraction([1e-9, 0.0, 1e-7], 1e-6), 1.0);
     }
 
     #[test]

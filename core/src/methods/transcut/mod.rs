@@ -30,7 +30,7 @@ use crate::light::LightError;
 use crate::mesh::{TetMesh, TetMeshError, TriMesh};
 use crate::mesher::{self, MesherError, MesherOptions, MesherStats};
 use crate::optics::Medium;
-use crate::progress::{ms, Cancelled, Progress};
+use crate::progress::{ms, solve_fraction, Cancelled, Progress};
 use crate::scene::{Object, SceneError, Shape, TransCutOptions};
 use crate::sparse::{SolveOptions, SparseError};
 
@@ -137,11 +137,8 @@ impl SubsurfaceMethod for TransCut {
 
         let t = Instant::now();
         // Progress through the solve: the residual's way from 1 down to the tolerance, in decades.
-        let decades = -options.tolerance.log10();
-        let monitor = |_: usize, residual: [f64; 3]| {
-            let worst = residual.iter().fold(0.0f64, |m, &r| m.max(r)).max(options.tolerance);
-            stage("solve", 0.8 + 0.19 * (-worst.log10() / decades).clamp(0.0, 1.0)).is_ok()
-        };
+        let monitor =
+            |_: usize, residual: [f64; 3]| stage("solve", 0.8 + 0.19 * solve_fraction(residual, options.tolerance)).is_ok();
         let solve_options =
             SolveOptions { tolerance: options.tolerance, max_iterations: options.max_iterations, ..SolveOptions::default() }
                 .with_monitor(&monitor);
