@@ -68,13 +68,22 @@ pub(crate) fn surface_spacing_mm(mesh: &TetMesh, mm_per_unit: f64) -> f64 {
     mm_per_unit * total / (3 * faces.len()) as f64
 }
 
+/// Per tet of `mesh`: whether it owns a boundary face (the tets whose media the check reads).
+#[must_use]
+pub(crate) fn surface_tets(mesh: &TetMesh) -> Vec<bool> {
+    let mut at_surface = vec![false; mesh.tet_count()];
+    for f in mesh.boundary_faces() {
+        at_surface[f.tet as usize] = true;
+    }
+    at_surface
+}
+
 /// The media of the tets that own a boundary face (`materials[t]` indexes `media`), each once.
 #[must_use]
 pub(crate) fn surface_media<'a>(mesh: &TetMesh, media: &'a [Medium]) -> Vec<&'a Medium> {
-    let materials = mesh.materials();
     let mut used = vec![false; media.len()];
-    for f in mesh.boundary_faces() {
-        if let Some(u) = materials.get(f.tet as usize).and_then(|&m| used.get_mut(m as usize)) {
+    for (&m, _) in mesh.materials().iter().zip(surface_tets(mesh)).filter(|(_, s)| *s) {
+        if let Some(u) = used.get_mut(m as usize) {
             *u = true;
         }
     }

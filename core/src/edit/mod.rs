@@ -570,10 +570,7 @@ impl Editor {
     /// make the radiance the bake would have refused.
     fn check_resolution(&self, per_piece: &[Vec<(u32, Medium)>]) -> Result<(), EditError> {
         for (p, entries) in self.pieces.iter().zip(per_piece).filter(|(_, e)| !e.is_empty()) {
-            let mut at_surface = vec![false; p.mesh.tet_count()];
-            for f in p.mesh.boundary_faces() {
-                at_surface[f.tet as usize] = true;
-            }
+            let at_surface = resolution::surface_tets(&p.mesh);
             let media: Vec<&Medium> = entries.iter().filter(|(t, _)| at_surface[*t as usize]).map(|(_, m)| m).collect();
             if !media.is_empty() {
                 let spacing = resolution::surface_spacing_mm(&p.mesh, self.setup.mm_per_unit);
