@@ -49,6 +49,7 @@ pub mod bake;
 pub mod diffusion;
 pub mod edit;
 pub mod gpu;
+pub mod hierarchy;
 pub mod input;
 pub mod light;
 pub mod mesh;

@@ -251,7 +251,7 @@ impl Dipole {
 #[cfg(test)]
 mod tests {
     use super::super::medium::Medium;
-    use super::super::quadrature::integrate;
+    use super::super::quadrature::{integrate, triangle_rule7};
     use super::*;
 
     /// The kernel Rd(xᵢ, xₒ) of `geometry` at a point `x` of the triangle.
@@ -271,30 +271,15 @@ mod tests {
     const MAX_LEVELS: u32 = 16;
     const MIN_LEVELS: u32 = 3;
 
-    /// The 7-point degree-5 rule on a triangle (Radon 1948; Stroud T2:5-1), independent of the
-    /// form factor's polar decomposition.
-    fn radon7(f: &impl Fn(DVec3) -> f64, [a, b, c]: [DVec3; 3]) -> f64 {
-        let area = 0.5 * (b - a).cross(c - a).length();
-        let s15 = 15f64.sqrt();
-        let (a1, b1) = ((6.0 - s15) / 21.0, (9.0 + 2.0 * s15) / 21.0);
-        let (a2, b2) = ((6.0 + s15) / 21.0, (9.0 - 2.0 * s15) / 21.0);
-        let (w1, w2) = ((155.0 - s15) / 1200.0, (155.0 + s15) / 1200.0);
-        let at = |l0: f64, l1: f64, l2: f64| f(a * l0 + b * l1 + c * l2);
-        let centre = 9.0 / 40.0 * at(1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0);
-        let ring1 = w1 * (at(b1, a1, a1) + at(a1, b1, a1) + at(a1, a1, b1));
-        let ring2 = w2 * (at(b2, a2, a2) + at(a2, b2, a2) + at(a2, a2, b2));
-        area * (centre + ring1 + ring2)
-    }
-
-    /// ∫ f over the triangle by adaptive 4-to-1 subdivision of [`radon7`] to an absolute
+    /// ∫ f over the triangle by adaptive 4-to-1 subdivision of [`triangle_rule7`] to an absolute
     /// tolerance `tol`, always subdividing the first [`MIN_LEVELS`] levels (a coarse rule can
     /// agree with its children by accident on a kernel peaked at one corner).
     fn cubature(f: &impl Fn(DVec3) -> f64, t: [DVec3; 3], tol: f64, depth: u32) -> f64 {
         let [a, b, c] = t;
         let (ab, bc, ca) = ((a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5);
         let children = [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]];
-        let whole = radon7(f, t);
-        let parts: f64 = children.iter().map(|&c| radon7(f, c)).sum();
+        let whole = triangle_rule7(f, t);
+        let parts: f64 = children.iter().map(|&c| triangle_rule7(f, c)).sum();
         if depth == 0 || (depth <= MAX_LEVELS - MIN_LEVELS && (parts - whole).abs() <= tol) {
             return parts;
         }

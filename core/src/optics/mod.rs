@@ -72,7 +72,7 @@ mod error;
 pub mod fresnel;
 pub mod medium;
 mod presets;
-mod quadrature;
+pub(crate) mod quadrature;
 
 pub use analytic::{uniform_sphere_fluence, UniformSphere};
 pub use artist::ArtistParams;

@@ -1,5 +1,7 @@
 //! Adaptive Simpson quadrature for the smooth one-dimensional integrals of this module
-//! (hemispherical Fresnel averages, dipole profile checks).
+//! (hemispherical Fresnel averages, dipole profile checks), and a fixed rule on triangles.
+
+use glam::DVec3;
 
 /// Deepest bisection level; 2⁻⁴⁰ of the interval is far below any feature of the integrands
 /// used here, and it bounds the work for non-smooth or non-finite integrands.
@@ -44,6 +46,21 @@ fn refine<F: Fn(f64) -> f64>(f: &F, a: f64, b: f64, fa: f64, fm: f64, fb: f64, w
     refine(f, a, m, fa, flm, fm, left, 0.5 * tol, depth - 1) + refine(f, m, b, fm, frm, fb, right, 0.5 * tol, depth - 1)
 }
 
+/// ∫ f over the triangle `[a, b, c]` by the 7-point degree-5 rule (Radon 1948; Stroud T2:5-1):
+/// exact for polynomials of degree ≤ 5.
+pub(crate) fn triangle_rule7(f: &impl Fn(DVec3) -> f64, [a, b, c]: [DVec3; 3]) -> f64 {
+    let area = 0.5 * (b - a).cross(c - a).length();
+    let s15 = 15f64.sqrt();
+    let (a1, b1) = ((6.0 - s15) / 21.0, (9.0 + 2.0 * s15) / 21.0);
+    let (a2, b2) = ((6.0 + s15) / 21.0, (9.0 - 2.0 * s15) / 21.0);
+    let (w1, w2) = ((155.0 - s15) / 1200.0, (155.0 + s15) / 1200.0);
+    let at = |l0: f64, l1: f64, l2: f64| f(a * l0 + b * l1 + c * l2);
+    let centre = 9.0 / 40.0 * at(1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0);
+    let ring1 = w1 * (at(b1, a1, a1) + at(a1, b1, a1) + at(a1, a1, b1));
+    let ring2 = w2 * (at(b2, a2, a2) + at(a2, b2, a2) + at(a2, a2, b2));
+    area * (centre + ring1 + ring2)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -53,6 +70,18 @@ mod tests {
         assert!((integrate(&|x: f64| x * x, 0.0, 3.0, 1e-12) - 9.0).abs() < 1e-12);
         let e = integrate(&|x: f64| (-x).exp(), 0.0, 50.0, 1e-13);
         assert!((e - (1.0 - (-50.0f64).exp())).abs() < 1e-11);
+    }
+
+    #[test]
+    fn the_triangle_rule_is_exact_to_degree_five() {
+        let t = [DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
+        // ∫ x^i y^j over the triangle x/2 + y ≤ 1: 2^{i+1} i! j!/(i + j + 2)!.
+        let fact = |n: u32| (1..=n).map(f64::from).product::<f64>();
+        for (i, j) in [(0, 0), (1, 0), (2, 3), (5, 0), (1, 4)] {
+            let exact = 2f64.powi(i as i32 + 1) * fact(i) * fact(j) / fact(i + j + 2);
+            let v = triangle_rule7(&|p: DVec3| p.x.powi(i as i32) * p.y.powi(j as i32), t);
+            assert!((v - exact).abs() < 1e-13 * exact.max(1.0), "{i} {j}: {v} vs {exact}");
+        }
     }
 
     #[test]

@@ -1,0 +1,634 @@
+//! The hierarchical integration B(x) = ∫_S E Rd dA over a triangle mesh (Mertens et al. 2003
+//! eqs. 4–7, §3.2, §5): a cluster tree of emitting triangles, one of receiving points, links
+//! between clusters chosen by the [`Oracle`], and per update: the irradiance pulled up the
+//! emitter tree (area-weighted), gathered over the links, pushed down the receiver tree.
+//!
+//! The receivers are cut into [`TASKS`] subtrees, each traversed against the whole emitter
+//! tree on its own (in parallel, each writing only its own nodes), so the result does not
+//! depend on the number of threads. A task's links are kept (render and incremental modes)
+//! in the order of its traversal.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::optics::quadrature::triangle_rule7;
+use crate::optics::{Dipole, DipoleGeometry, EdgeRule};
+use crate::progress::{ms, Cancelled};
+
+use super::error::HierarchyError;
+use super::oracle::Decision;
+use super::options::{DipoleOptions, EvalMode, Receivers};
+use super::tree::{ClusterItem, ClusterNode, ClusterTree};
+
+/// The receiver subtrees traversed independently (fewer where the tree has fewer leaves).
+pub const TASKS: usize = 256;
+
+/// A refitted tree is rebuilt when the sum of its radii exceeds this multiple of the sum
+/// right after its build (design note §5.9: a refitted tree degrades under large motion).
+const REBUILD_RADIUS_GROWTH: f64 = 2.0;
+
+/// One link: the receiver node gathers `f` × the emitter node's irradiance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Link {
+    receiver: u32,
+    emitter: u32,
+    /// Whether the form factor is the analytic one of two leaves.
+    near: bool,
+    /// The form factor per channel.
+    f: [f32; 3],
+}
+
+/// One receiver subtree and its links.
+#[derive(Debug, Clone)]
+struct Task {
+    root: u32,
+    links: Vec<Link>,
+    /// The frame its links were made at (`None`: never).
+    built_at: Option<u64>,
+}
+
+/// What one update measured.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct DipoleStats {
+    /// Emitting triangles (leaves of the emitter tree).
+    pub triangles: usize,
+    /// Receiving points.
+    pub receivers: usize,
+    /// Nodes of both trees.
+    pub nodes: usize,
+    /// Links used by the update (far + near).
+    pub links: usize,
+    /// Of them, leaf pairs with the analytic form factor.
+    pub near_links: usize,
+    /// Form factors evaluated by the update (0 in render mode with links kept).
+    pub form_factors: usize,
+    /// Receiver subtrees whose links are older than the geometry or medium (incremental mode
+    /// with a budget): their error decays as later updates relink them.
+    pub stale_tasks: usize,
+    /// Refitting (or rebuilding) the trees after the last deformation.
+    pub refit_ms: f64,
+    /// Traversing the trees and evaluating form factors.
+    pub link_ms: f64,
+    /// Pulling the irradiance and gathering over the links.
+    pub gather_ms: f64,
+    /// Pushing down the receiver tree and averaging onto the vertices.
+    pub push_ms: f64,
+}
+
+/// The hierarchical dipole over one surface (module documentation). Lengths in millimetres.
+#[derive(Debug, Clone)]
+pub struct DipoleHierarchy {
+    positions: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+    dipoles: [Dipole; 3],
+    options: DipoleOptions,
+    emitters: ClusterTree,
+    receivers: ClusterTree,
+    receiver_items: Vec<ClusterItem>,
+    rest_radius: [f64; 2],
+    tasks: Vec<Task>,
+    /// The current frame: 0 at build, one more per deformation or medium change.
+    frame: u64,
+    /// Where the next budgeted relink starts (round-robin over stale tasks).
+    next_task: usize,
+    /// Refit time of the last deformation, reported by the next update.
+    refit_ms: f64,
+}
+
+/// The receiver's data a form factor needs: its point and unit normal.
+fn receiver_point(node: &ClusterNode) -> (DVec3, DVec3) {
+    (node.centre, node.normal)
+}
+
+impl DipoleHierarchy {
+    /// The hierarchy over the triangles `triangles` of `positions` (mm), the medium's dipole
+    /// per channel.
+    ///
+    /// # Errors
+    /// [`HierarchyError`] for an empty or degenerate surface, an index out of range, a
+    /// non-finite position or invalid options.
+    pub fn new(
+        positions: Vec<DVec3>,
+        triangles: Vec<[u32; 3]>,
+        dipoles: [Dipole; 3],
+        options: DipoleOptions,
+    ) -> Result<Self, HierarchyError> {
+        options.validate().map_err(HierarchyError::InvalidOptions)?;
+        if triangles.is_empty() {
+            return Err(HierarchyError::NoTriangles);
+        }
+        for (triangle, t) in triangles.iter().enumerate() {
+            if let Some(&index) = t.iter().find(|&&i| i as usize >= positions.len()) {
+                return Err(HierarchyError::IndexOutOfRange { triangle, index, vertices: positions.len() });
+            }
+        }
+        check_positions(&positions)?;
+        let emitter_items = emitter_items(&positions, &triangles);
+        if !(emitter_items.iter().map(|i| i.weight).sum::<f64>() > 0.0) {
+            return Err(HierarchyError::NoArea);
+        }
+        let receiver_items = receiver_items(&positions, &triangles, options.receivers);
+        let emitters = ClusterTree::build(&emitter_items);
+        let receivers = ClusterTree::build(&receiver_items);
+        let tasks = receivers.cut(TASKS).into_iter().map(|root| Task { root, links: Vec::new(), built_at: None }).collect();
+        Ok(Self {
+            rest_radius: [emitters.radius_sum(), receivers.radius_sum()],
+            positions,
+            triangles,
+            dipoles,
+            options,
+            emitters,
+            receivers,
+            receiver_items,
+            tasks,
+            frame: 0,
+            next_task: 0,
+            refit_ms: 0.0,
+        })
+    }
+
+    #[must_use]
+    pub fn options(&self) -> &DipoleOptions {
+        &self.options
+    }
+
+    #[must_use]
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    #[must_use]
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// The dipole per channel.
+    #[must_use]
+    pub fn dipoles(&self) -> &[Dipole; 3] {
+        &self.dipoles
+    }
+
+    /// The unit normal per vertex: the area-weighted mean of its triangles' (zero for a vertex
+    /// on no triangle). The irradiance an update takes is the light entering along these.
+    #[must_use]
+    pub fn vertex_normals(&self) -> Vec<DVec3> {
+        vertex_normals(&self.positions, &self.triangles)
+    }
+
+    /// Moves the vertices (same count and order; the topology is kept): refits both trees and
+    /// marks what moved, so the next update relinks as its mode says. Rebuilds the trees when
+    /// the refit ones have degraded (their radii summing to twice the rest value).
+    ///
+    /// # Errors
+    /// [`HierarchyError::WrongLength`] or [`HierarchyError::NonFinite`]; nothing changed.
+    pub fn set_positions(&mut self, positions: &[DVec3]) -> Result<(), HierarchyError> {
+        if positions.len() != self.positions.len() {
+            return Err(HierarchyError::WrongLength { what: "positions", expected: self.positions.len(), got: positions.len() });
+        }
+        check_positions(positions)?;
+        let start = Instant::now();
+        let moved: Vec<bool> = positions.iter().zip(&self.positions).map(|(a, b)| a != b).collect();
+        self.positions.copy_from_slice(positions);
+        self.frame += 1;
+        let emitter_items = emitter_items(&self.positions, &self.triangles);
+        self.receiver_items = receiver_items(&self.positions, &self.triangles, self.options.receivers);
+        self.emitters.refit(&emitter_items, self.frame);
+        self.receivers.refit(&self.receiver_items, self.frame);
+        // A triangle whose corners moved within its leaf's data (a turn about its centroid)
+        // still changes its analytic form factors.
+        for (t, tri) in self.triangles.iter().enumerate() {
+            if tri.iter().any(|&v| moved[v as usize]) {
+                self.emitters.stamp_leaf(t, self.frame);
+            }
+        }
+        if self.emitters.radius_sum() > REBUILD_RADIUS_GROWTH * self.rest_radius[0]
+            || self.receivers.radius_sum() > REBUILD_RADIUS_GROWTH * self.rest_radius[1]
+        {
+            self.rebuild(&emitter_items);
+        }
+        self.refit_ms = ms(start);
+        Ok(())
+    }
+
+    /// New trees over the current positions; every link is made again.
+    fn rebuild(&mut self, emitter_items: &[ClusterItem]) {
+        self.emitters = ClusterTree::build(emitter_items);
+        self.receivers = ClusterTree::build(&self.receiver_items);
+        self.emitters.touch_all(self.frame);
+        self.receivers.touch_all(self.frame);
+        self.rest_radius = [self.emitters.radius_sum(), self.receivers.radius_sum()];
+        self.tasks = self.receivers.cut(TASKS).into_iter().map(|root| Task { root, links: Vec::new(), built_at: None }).collect();
+    }
+
+    /// A new medium (one dipole per channel): every form factor changes, the links do not (the
+    /// oracle is geometric).
+    pub fn set_dipoles(&mut self, dipoles: [Dipole; 3]) {
+        self.dipoles = dipoles;
+        self.frame += 1;
+        self.emitters.touch_all(self.frame);
+        self.receivers.touch_all(self.frame);
+    }
+
+    /// The exitance B per vertex under the irradiance `irradiance` per vertex (the light
+    /// entering along [`DipoleHierarchy::vertex_normals`], ≥ 0), by the options' mode;
+    /// `keep_going` is asked between receiver subtrees.
+    ///
+    /// # Errors
+    /// [`HierarchyError::WrongLength`] or [`HierarchyError::InvalidIrradiance`], or
+    /// [`HierarchyError::Cancelled`]; nothing changed.
+    pub fn update(
+        &mut self,
+        irradiance: &[[f64; 3]],
+        keep_going: &(dyn Fn() -> bool + Sync),
+    ) -> Result<(Vec<[f64; 3]>, DipoleStats), HierarchyError> {
+        check_irradiance(irradiance, self.positions.len())?;
+        let mut stats = DipoleStats {
+            triangles: self.triangles.len(),
+            receivers: self.receiver_items.len(),
+            nodes: self.emitters.nodes().len() + self.receivers.nodes().len(),
+            refit_ms: std::mem::take(&mut self.refit_ms),
+            ..DipoleStats::default()
+        };
+        let t = Instant::now();
+        let emitted = self.pull(irradiance);
+        stats.gather_ms += ms(t);
+
+        let t = Instant::now();
+        let gathered = match self.options.mode {
+            EvalMode::OnTheFly => {
+                // Gathered as the links are found, in f64, none stored.
+                let results = self
+                    .tasks
+                    .par_iter()
+                    .map(|task| {
+                        if !keep_going() {
+                            return Err(Cancelled);
+                        }
+                        let root = task.root;
+                        let mut b = vec![[0.0f64; 3]; (self.receivers.subtree_end(root) - root) as usize];
+                        let (mut links, mut near_links) = (0, 0);
+                        self.traverse(root, &mut |r, e, near, f| {
+                            links += 1;
+                            near_links += usize::from(near);
+                            let slot = &mut b[(r - root) as usize];
+                            for c in 0..3 {
+                                slot[c] += f[c] * emitted[e as usize][c];
+                            }
+                        });
+                        Ok((b, links, near_links))
+                    })
+                    .collect::<Result<Vec<_>, Cancelled>>()?;
+                stats.links = results.iter().map(|r| r.1).sum();
+                stats.near_links = results.iter().map(|r| r.2).sum();
+                stats.form_factors = stats.links;
+                results.into_iter().map(|r| r.0).collect::<Vec<_>>()
+            }
+            EvalMode::Render | EvalMode::Incremental { .. } => {
+                stats.form_factors = self.relink(keep_going)?;
+                stats.link_ms = ms(t);
+                let t = Instant::now();
+                let g = self.tasks.par_iter().map(|task| self.gather(task.root, &task.links, &emitted)).collect();
+                stats.links = self.tasks.iter().map(|t| t.links.len()).sum();
+                stats.near_links = self.tasks.iter().map(|t| t.links.iter().filter(|l| l.near).count()).sum();
+                stats.stale_tasks = self.tasks.iter().filter(|t| self.is_stale(t)).count();
+                stats.gather_ms += ms(t);
+                g
+            }
+        };
+        if self.options.mode == EvalMode::OnTheFly {
+            stats.link_ms = ms(t);
+        }
+        let t = Instant::now();
+        let b = self.push(&gathered);
+        stats.push_ms = ms(t);
+        Ok((b, stats))
+    }
+
+    /// Whether a task's links are older than its geometry or medium.
+    fn is_stale(&self, task: &Task) -> bool {
+        let Some(built) = task.built_at else { return true };
+        let changed = |tree: &ClusterTree, lo: u32, hi: u32| (lo..hi).any(|n| tree.changed_at(n) > built);
+        // Every change of an emitter reaches the root; a receiver's stays in its subtree.
+        self.emitters.changed_at(0) > built || changed(&self.receivers, task.root, self.receivers.subtree_end(task.root))
+    }
+
+    /// Makes the links the mode asks for; returns the form factors evaluated.
+    fn relink(&mut self, keep_going: &(dyn Fn() -> bool + Sync)) -> Result<usize, HierarchyError> {
+        let stale: Vec<usize> = (0..self.tasks.len()).filter(|&i| self.is_stale(&self.tasks[i])).collect();
+        if stale.is_empty() {
+            return Ok(0);
+        }
+        let (reuse, budget) = match self.options.mode {
+            EvalMode::Incremental { budget } => (true, budget),
+            _ => (false, None),
+        };
+        // With a budget: stale tasks in round-robin order from where the last update stopped,
+        // as many as the budget covers by their current link counts (at least one).
+        let chosen: Vec<usize> = match budget {
+            None => stale,
+            Some(budget) => {
+                let start = stale.iter().position(|&i| i >= self.next_task).unwrap_or(0);
+                let mut chosen = Vec::new();
+                let mut spent = 0usize;
+                for &i in stale[start..].iter().chain(&stale[..start]) {
+                    let cost = self.tasks[i].links.len().max(1);
+                    if !chosen.is_empty() && spent + cost > budget {
+                        break;
+                    }
+                    spent += cost;
+                    chosen.push(i);
+                }
+                self.next_task = chosen.last().map_or(0, |&i| i + 1);
+                chosen
+            }
+        };
+        let frame = self.frame;
+        let this = &*self;
+        let rebuilt = chosen
+            .par_iter()
+            .map(|&i| {
+                if !keep_going() {
+                    return Err(Cancelled);
+                }
+                let task = &this.tasks[i];
+                // The analytic form factors of leaf pairs neither of which changed since the
+                // task was linked.
+                let kept: HashMap<(u32, u32), [f32; 3]> = match (reuse, task.built_at) {
+                    (true, Some(built)) => task
+                        .links
+                        .iter()
+                        .filter(|l| {
+                            l.near && this.emitters.changed_at(l.emitter) <= built && this.receivers.changed_at(l.receiver) <= built
+                        })
+                        .map(|l| ((l.receiver, l.emitter), l.f))
+                        .collect(),
+                    _ => HashMap::new(),
+                };
+                let mut links = Vec::with_capacity(task.links.len());
+                let mut evaluated = 0;
+                this.traverse_keeping(task.root, &kept, &mut |receiver, emitter, near, f| {
+                    let f = match f {
+                        Some(f) => {
+                            evaluated += 1;
+                            to_f32(f)
+                        }
+                        None => kept[&(receiver, emitter)],
+                    };
+                    links.push(Link { receiver, emitter, near, f });
+                });
+                Ok((i, links, evaluated))
+            })
+            .collect::<Result<Vec<_>, Cancelled>>()?;
+        let mut evaluated = 0;
+        for (i, links, n) in rebuilt {
+            self.tasks[i].links = links;
+            self.tasks[i].built_at = Some(frame);
+            evaluated += n;
+        }
+        Ok(evaluated)
+    }
+
+    /// The dual-tree traversal from (`root`, emitter root): every link the oracle makes, in a
+    /// fixed order, given to `link` as (receiver, emitter, near, form factor).
+    fn traverse(&self, root: u32, link: &mut dyn FnMut(u32, u32, bool, [f64; 3])) {
+        self.traverse_keeping(root, &HashMap::new(), &mut |r, e, near, f| link(r, e, near, f.unwrap_or_else(|| unreachable!())));
+    }
+
+    /// [`DipoleHierarchy::traverse`] that takes the analytic form factor of a near pair found
+    /// in `kept` instead of evaluating it (`None` passed to `link` then) .
+    fn traverse_keeping(
+        &self,
+        root: u32,
+        kept: &HashMap<(u32, u32), [f32; 3]>,
+        link: &mut dyn FnMut(u32, u32, bool, Option<[f64; 3]>),
+    ) {
+        let (rt, et) = (&self.receivers, &self.emitters);
+        let mut stack = vec![(root, 0u32)];
+        while let Some((r, e)) = stack.pop() {
+            let (rn, en) = (rt.node(r), et.node(e));
+            let children = rn.children(r).map(|[a, b]| [rt.node(a), rt.node(b)]);
+            match self.options.oracle.decide(rn, children, en) {
+                Decision::Accept => link(r, e, false, Some(self.far_factor(rn, en))),
+                Decision::Near if kept.contains_key(&(r, e)) => link(r, e, true, None),
+                Decision::Near => link(r, e, true, Some(self.near_factor(rn, en.right_or_item as usize))),
+                Decision::OpenReceiver => {
+                    let [a, b] = rn.children(r).expect("an inner receiver");
+                    stack.push((b, e));
+                    stack.push((a, e));
+                }
+                Decision::OpenEmitter => {
+                    let [a, b] = en.children(e).expect("an inner emitter");
+                    stack.push((r, b));
+                    stack.push((r, a));
+                }
+            }
+        }
+    }
+
+    /// One sample of the dipole between the clusters' centres times the emitter's area:
+    /// F ≈ A_E Rd(c_R, c_E) (Mertens eq. 7 with one point).
+    fn far_factor(&self, r: &ClusterNode, e: &ClusterNode) -> [f64; 3] {
+        let (x_o, n_o) = receiver_point(r);
+        self.dipoles.map(|d| e.weight * point_kernel(&d, e.centre, x_o, n_o, self.options.geometry))
+    }
+
+    /// The analytic form factor of triangle `t` at a receiving leaf (Mertens eq. 18).
+    fn near_factor(&self, r: &ClusterNode, t: usize) -> [f64; 3] {
+        let (x_o, n_o) = receiver_point(r);
+        let corners = self.triangles[t].map(|v| self.positions[v as usize]);
+        self.dipoles.map(|d| d.triangle_integral(corners, x_o, n_o, self.options.geometry, self.options.rule))
+    }
+
+    /// The irradiance of every emitter node: per triangle the mean of its corners', pulled up
+    /// area-weighted (design note §1.7: pbrt-v2's unweighted mean is a bug).
+    fn pull(&self, irradiance: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let tree = &self.emitters;
+        let mut flux = vec![[0.0f64; 3]; tree.nodes().len()];
+        for index in (0..tree.nodes().len()).rev() {
+            let node = tree.nodes()[index];
+            flux[index] = if node.leaf {
+                let t = self.triangles[node.right_or_item as usize];
+                let e = |c: usize| t.iter().map(|&v| irradiance[v as usize][c]).sum::<f64>() / 3.0;
+                [e(0), e(1), e(2)].map(|x| x * node.weight)
+            } else {
+                let (a, b) = (flux[index + 1], flux[node.right_or_item as usize]);
+                [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+            };
+        }
+        flux.iter().zip(tree.nodes()).map(|(f, n)| if n.weight > 0.0 { f.map(|x| x / n.weight) } else { [0.0; 3] }).collect()
+    }
+
+    /// B of the nodes of the subtree at `root` gathered over `links` (B_R += F·E_E).
+    fn gather(&self, root: u32, links: &[Link], emitted: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let mut b = vec![[0.0f64; 3]; (self.receivers.subtree_end(root) - root) as usize];
+        for l in links {
+            let (e, slot) = (emitted[l.emitter as usize], &mut b[(l.receiver - root) as usize]);
+            for c in 0..3 {
+                slot[c] += f64::from(l.f[c]) * e[c];
+            }
+        }
+        b
+    }
+
+    /// B per vertex: each task's B pushed down its subtree (a leaf's B the sum over its
+    /// ancestors), read at the receiving leaves, and for face receivers averaged onto the
+    /// vertices by area.
+    fn push(&self, gathered: &[Vec<[f64; 3]>]) -> Vec<[f64; 3]> {
+        let tree = &self.receivers;
+        let mut at_item = vec![[0.0f64; 3]; self.receiver_items.len()];
+        for (task, b) in self.tasks.iter().zip(gathered) {
+            let mut b = b.clone();
+            for local in 0..b.len() {
+                let index = task.root + local as u32;
+                let node = tree.node(index);
+                if let Some(children) = node.children(index) {
+                    let here = b[local];
+                    for child in children {
+                        let c = &mut b[(child - task.root) as usize];
+                        for ch in 0..3 {
+                            c[ch] += here[ch];
+                        }
+                    }
+                } else {
+                    at_item[node.right_or_item as usize] = b[local];
+                }
+            }
+        }
+        match self.options.receivers {
+            Receivers::Vertices => at_item,
+            Receivers::FaceCentroids => face_to_vertex(&self.positions, &self.triangles, &at_item),
+        }
+    }
+}
+
+fn to_f32(f: [f64; 3]) -> [f32; 3] {
+    f.map(|x| x as f32)
+}
+
+/// Rd between an emitting point `x` and a receiver at `x_o` with unit normal `n_o`, in
+/// `geometry` (Jensen et al. 2001's profile; design note §1.2).
+#[must_use]
+pub fn point_kernel(d: &Dipole, x: DVec3, x_o: DVec3, n_o: DVec3, geometry: DipoleGeometry) -> f64 {
+    match geometry {
+        DipoleGeometry::Distance => d.rd(x.distance(x_o)),
+        DipoleGeometry::PaperSources => {
+            let term = |z: f64, s: f64| z * (1.0 + d.sigma_tr * s) * (-d.sigma_tr * s).exp() / (s * s * s);
+            let (sr, sv) = (x.distance(x_o - d.z_r * n_o), x.distance(x_o + d.z_v * n_o));
+            d.alpha_prime / (4.0 * std::f64::consts::PI) * (term(d.z_r, sr) + term(d.z_v, sv))
+        }
+    }
+}
+
+/// The emitter tree's items: one per triangle.
+fn emitter_items(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<ClusterItem> {
+    triangles.iter().map(|t| ClusterItem::triangle(t.map(|v| positions[v as usize]))).collect()
+}
+
+/// The receiver tree's items: the vertices (with their area-weighted normals) or the
+/// triangles' centroids (with their normals).
+fn receiver_items(positions: &[DVec3], triangles: &[[u32; 3]], receivers: Receivers) -> Vec<ClusterItem> {
+    match receivers {
+        Receivers::Vertices => {
+            positions.iter().zip(vertex_normals(positions, triangles)).map(|(&p, n)| ClusterItem::point(p, n)).collect()
+        }
+        Receivers::FaceCentroids => emitter_items(positions, triangles)
+            .into_iter()
+            .map(|t| ClusterItem::point(t.centre, t.normal))
+            .collect(),
+    }
+}
+
+/// The area-weighted unit normal per vertex (zero on no triangle).
+fn vertex_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3> {
+    let mut normals = vec![DVec3::ZERO; positions.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|v| positions[v as usize]);
+        let cross = (b - a).cross(c - a);
+        for &v in t {
+            normals[v as usize] += cross;
+        }
+    }
+    normals.iter().map(|n| n.normalize_or_zero()).collect()
+}
+
+/// Per vertex, the area-weighted mean of its triangles' values (Gouraud).
+fn face_to_vertex(positions: &[DVec3], triangles: &[[u32; 3]], per_face: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let mut sum = vec![[0.0f64; 3]; positions.len()];
+    let mut area = vec![0.0f64; positions.len()];
+    for (t, value) in triangles.iter().zip(per_face) {
+        let [a, b, c] = t.map(|v| positions[v as usize]);
+        let w = 0.5 * (b - a).cross(c - a).length();
+        for &v in t {
+            area[v as usize] += w;
+            for ch in 0..3 {
+                sum[v as usize][ch] += w * value[ch];
+            }
+        }
+    }
+    sum.iter().zip(&area).map(|(s, &a)| if a > 0.0 { s.map(|x| x / a) } else { [0.0; 3] }).collect()
+}
+
+fn check_positions(positions: &[DVec3]) -> Result<(), HierarchyError> {
+    match positions.iter().position(|p| !p.is_finite()) {
+        Some(vertex) => Err(HierarchyError::NonFinite { vertex, value: positions[vertex].to_array() }),
+        None => Ok(()),
+    }
+}
+
+fn check_irradiance(irradiance: &[[f64; 3]], vertices: usize) -> Result<(), HierarchyError> {
+    if irradiance.len() != vertices {
+        return Err(HierarchyError::WrongLength { what: "irradiance", expected: vertices, got: irradiance.len() });
+    }
+    match irradiance.iter().position(|e| !e.iter().all(|x| x.is_finite() && *x >= 0.0)) {
+        Some(vertex) => Err(HierarchyError::InvalidIrradiance { vertex, value: irradiance[vertex] }),
+        None => Ok(()),
+    }
+}
+
+/// The O(n²) reference: B at every receiver summed over every triangle, with no hierarchy.
+/// A triangle closer than four of its bounding radii gets the analytic form factor (Gauss–
+/// Legendre split at L/r₀ < 0.25), the others the 7-point rule of degree 5. For tests and
+/// benchmarks; B per vertex as [`DipoleHierarchy::update`] returns it.
+///
+/// # Errors
+/// As [`DipoleHierarchy::update`], without cancellation.
+pub fn reference_quadratic(hierarchy: &DipoleHierarchy, irradiance: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, HierarchyError> {
+    let (positions, triangles) = (&hierarchy.positions, &hierarchy.triangles);
+    check_irradiance(irradiance, positions.len())?;
+    let geometry = hierarchy.options.geometry;
+    let rule = EdgeRule::GaussLegendre3 { max_l_over_r: 0.25 };
+    let per_triangle: Vec<([DVec3; 3], ClusterItem, [f64; 3])> = triangles
+        .iter()
+        .map(|t| {
+            let corners = t.map(|v| positions[v as usize]);
+            let e = |c: usize| t.iter().map(|&v| irradiance[v as usize][c]).sum::<f64>() / 3.0;
+            (corners, ClusterItem::triangle(corners), [e(0), e(1), e(2)])
+        })
+        .collect();
+    let at_receivers: Vec<[f64; 3]> = hierarchy
+        .receiver_items
+        .par_iter()
+        .map(|r| {
+            let mut b = [0.0f64; 3];
+            for (corners, item, e) in &per_triangle {
+                let near = r.centre.distance(item.centre) < 4.0 * item.radius;
+                for (c, d) in hierarchy.dipoles.iter().enumerate() {
+                    let f = if near {
+                        d.triangle_integral(*corners, r.centre, r.normal, geometry, rule)
+                    } else {
+                        triangle_rule7(&|x| point_kernel(d, x, r.centre, r.normal, geometry), *corners)
+                    };
+                    b[c] += f * e[c];
+                }
+            }
+            b
+        })
+        .collect();
+    Ok(match hierarchy.options.receivers {
+        Receivers::Vertices => at_receivers,
+        Receivers::FaceCentroids => face_to_vertex(positions, triangles, &at_receivers),
+    })
+}
