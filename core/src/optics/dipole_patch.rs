@@ -157,7 +157,10 @@ impl Dipole {
             let (pa, pb) = (a - foot, b - foot);
             let r = n.dot(u.cross(foot - a));
             if r.abs() <= COLLINEAR * length {
-                on_boundary |= pa.dot(pb) <= 0.0;
+                // On the edge's line: on the triangle's boundary if between its ends (up to
+                // rounding: a foot at a corner is only within rounding of it).
+                let slack = COLLINEAR * length;
+                on_boundary |= pa.dot(u) <= slack && pb.dot(u) >= -slack;
                 continue;
             }
             theta += n.dot(pa.cross(pb)).atan2(pa.dot(pb));
@@ -462,6 +465,23 @@ mod tests {
         for (c, want) in [0.8465, 0.8187, 0.7875].into_iter().enumerate() {
             let lo = scale * q * marble.dipole(c).uniform_sphere(10.0);
             assert!((lo - want).abs() < 1e-4, "channel {c}: {lo}");
+        }
+    }
+
+    #[test]
+    fn corner_receivers_as_a_mesh_stores_them() {
+        // Every corner of every triangle of a geodesic sphere as the receiver: the foot lands
+        // within rounding of the corner, on either side of the edges' lines.
+        let d = Medium::preset("marble").unwrap().dipole(0);
+        let mesh = crate::mesh::icosphere(10.0, 2);
+        let p = mesh.positions();
+        for t in mesh.triangles() {
+            let corners = t.map(|v| p[v as usize]);
+            for x in corners {
+                let f = d.triangle_integral(corners, x, x.normalize(), DipoleGeometry::Distance, EdgeRule::default());
+                let exact = reference(&d, corners, x, x.normalize(), DipoleGeometry::Distance, 1e-8 * f.abs());
+                assert!((f / exact - 1.0).abs() < 1e-4, "{t:?} at {x}: {f} vs {exact}");
+            }
         }
     }
 
