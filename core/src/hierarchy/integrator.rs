@@ -3,6 +3,19 @@
 //! between clusters chosen by the [`Oracle`], and per update: the irradiance pulled up the
 //! emitter tree (area-weighted), gathered over the links, pushed down the receiver tree.
 //!
+//! A far link is the dipole between the clusters' centres expanded to second order on both
+//! sides, as a fast multipole method's multipole and local expansions: with D = c_R − c_E,
+//! f = Rd(‖D‖), ∇f = kD and H = kI + lDDᵀ (k, l from [`Dipole::rd_slope_over_r`] and
+//! [`Dipole::rd_curvature`]), the emitter's flux Φ, first and second flux moments m and Q about
+//! its centre (pulled up the tree), and ξ a receiver's offset from its cluster's centre,
+//!
+//! B(c_R + ξ) ≈ Φf − ∇f·m + ½H:Q + (Φ∇f − Hm)·ξ + ½Φ ξᵀHξ,
+//!
+//! the ξ terms pushed down the receiver tree. One plain sample (the paper's) is biased by the
+//! kernel's curvature: on a uniformly lit sphere at θ = 0.4 it is 2.0% low, the second-order
+//! sum 0.2%. With [`DipoleGeometry::PaperSources`] the kernel depends on the receiver's normal
+//! and the sample is left uncorrected, as the paper has it.
+//!
 //! The receivers are cut into [`TASKS`] subtrees, each traversed against the whole emitter
 //! tree on its own (in parallel, each writing only its own nodes), so the result does not
 //! depend on the number of threads. A task's links are kept (render and incremental modes)
@@ -11,7 +24,7 @@
 use std::collections::HashMap;
 use std::time::Instant;
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 use crate::optics::quadrature::triangle_rule7;
@@ -19,8 +32,8 @@ use crate::optics::{Dipole, DipoleGeometry, EdgeRule};
 use crate::progress::{ms, Cancelled};
 
 use super::error::HierarchyError;
-use super::oracle::Decision;
 use super::options::{DipoleOptions, EvalMode, Receivers};
+use super::oracle::Decision;
 use super::tree::{ClusterItem, ClusterNode, ClusterTree};
 
 /// The receiver subtrees traversed independently (fewer where the tree has fewer leaves).
@@ -30,24 +43,104 @@ pub const TASKS: usize = 256;
 /// right after its build (design note §5.9: a refitted tree degrades under large motion).
 const REBUILD_RADIUS_GROWTH: f64 = 2.0;
 
-/// One link: the receiver node gathers `f` × the emitter node's irradiance.
+/// A far link: the receiver node gathers from the emitter node through f, k and l per channel
+/// (module documentation).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Link {
+struct FarLink {
     receiver: u32,
     emitter: u32,
-    /// Whether the form factor is the analytic one of two leaves.
-    near: bool,
-    /// The form factor per channel.
+    f: [f32; 3],
+    k: [f32; 3],
+    l: [f32; 3],
+}
+
+/// A near link: a receiving leaf and an emitting triangle with the analytic form factor `f`
+/// per channel (Mertens eq. 18).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct NearLink {
+    receiver: u32,
+    emitter: u32,
     f: [f32; 3],
 }
 
-/// One receiver subtree and its links.
+/// One receiver subtree and its links, each kind in the order of the traversal.
 #[derive(Debug, Clone)]
 struct Task {
     root: u32,
-    links: Vec<Link>,
+    far: Vec<FarLink>,
+    near: Vec<NearLink>,
     /// The frame its links were made at (`None`: never).
     built_at: Option<u64>,
+}
+
+impl Task {
+    fn new(root: u32) -> Self {
+        Self { root, far: Vec::new(), near: Vec::new(), built_at: None }
+    }
+
+    fn links(&self) -> usize {
+        self.far.len() + self.near.len()
+    }
+}
+
+/// What a link found by the traversal carries.
+enum Found {
+    /// A far link's f, k and l per channel.
+    Far(Kernel),
+    /// A near link's analytic form factor, or `None` where it was kept from before.
+    Near(Option<[f64; 3]>),
+}
+
+/// The kernel of a far link per channel: f = Rd(‖D‖), k = Rd′/‖D‖, l = k′/‖D‖.
+#[derive(Debug, Clone, Copy)]
+struct Kernel {
+    f: [f64; 3],
+    k: [f64; 3],
+    l: [f64; 3],
+}
+
+/// The emitter tree under one irradiance, per node and channel: the mean irradiance (for near
+/// links), the flux Φ = ∫ E dA and the flux moments m = ∫ E (x − c) dA and
+/// Q = ∫ E (x − c)(x − c)ᵀ dA about the node's centre.
+struct Emitted {
+    irradiance: Vec<[f64; 3]>,
+    flux: Vec<[f64; 3]>,
+    moment: Vec<[DVec3; 3]>,
+    second: Vec<[DMat3; 3]>,
+}
+
+/// What a receiver subtree gathered, per node and channel: B at the node's centre, its
+/// gradient and its Hessian.
+struct Gathered {
+    b: Vec<[f64; 3]>,
+    gradient: Vec<[DVec3; 3]>,
+    hessian: Vec<[DMat3; 3]>,
+}
+
+impl Gathered {
+    fn new(len: usize) -> Self {
+        Self { b: vec![[0.0; 3]; len], gradient: vec![[DVec3::ZERO; 3]; len], hessian: vec![[DMat3::ZERO; 3]; len] }
+    }
+
+    /// Adds a far link's expansion at local node `at` (module documentation).
+    fn far(&mut self, at: usize, d: DVec3, kernel: Kernel, emitted: &Emitted, e: usize) {
+        let Kernel { f, k, l } = kernel;
+        for c in 0..3 {
+            let (phi, m, q) = (emitted.flux[e][c], emitted.moment[e][c], emitted.second[e][c]);
+            let hessian = DMat3::from_diagonal(DVec3::splat(k[c])) + DMat3::from_cols(d * d.x, d * d.y, d * d.z) * l[c];
+            let trace_q = q.x_axis.x + q.y_axis.y + q.z_axis.z;
+            self.b[at][c] += phi * f[c] - k[c] * d.dot(m) + 0.5 * (k[c] * trace_q + l[c] * d.dot(q * d));
+            self.gradient[at][c] += d * (k[c] * phi) - hessian * m;
+            self.hessian[at][c] += hessian * phi;
+        }
+    }
+
+    /// Adds a near link's contribution at local node `at`: B += F·E.
+    fn near(&mut self, at: usize, f: [f64; 3], emitted: &Emitted, e: usize) {
+        for c in 0..3 {
+            self.b[at][c] += f[c] * emitted.irradiance[e][c];
+        }
+    }
 }
 
 /// What one update measured.
@@ -133,7 +226,7 @@ impl DipoleHierarchy {
         let receiver_items = receiver_items(&positions, &triangles, options.receivers);
         let emitters = ClusterTree::build(&emitter_items);
         let receivers = ClusterTree::build(&receiver_items);
-        let tasks = receivers.cut(TASKS).into_iter().map(|root| Task { root, links: Vec::new(), built_at: None }).collect();
+        let tasks = receivers.cut(TASKS).into_iter().map(|root| Task::new(root)).collect();
         Ok(Self {
             rest_radius: [emitters.radius_sum(), receivers.radius_sum()],
             positions,
@@ -153,6 +246,17 @@ impl DipoleHierarchy {
     #[must_use]
     pub fn options(&self) -> &DipoleOptions {
         &self.options
+    }
+
+    /// Changes when links are made from the next update on; the links kept stay valid.
+    ///
+    /// # Errors
+    /// [`HierarchyError::InvalidOptions`] for a budget of 0; nothing changed.
+    pub fn set_mode(&mut self, mode: EvalMode) -> Result<(), HierarchyError> {
+        let options = DipoleOptions { mode, ..self.options };
+        options.validate().map_err(HierarchyError::InvalidOptions)?;
+        self.options = options;
+        Ok(())
     }
 
     #[must_use]
@@ -220,7 +324,7 @@ impl DipoleHierarchy {
         self.emitters.touch_all(self.frame);
         self.receivers.touch_all(self.frame);
         self.rest_radius = [self.emitters.radius_sum(), self.receivers.radius_sum()];
-        self.tasks = self.receivers.cut(TASKS).into_iter().map(|root| Task { root, links: Vec::new(), built_at: None }).collect();
+        self.tasks = self.receivers.cut(TASKS).into_iter().map(|root| Task::new(root)).collect();
     }
 
     /// A new medium (one dipole per channel): every form factor changes, the links do not (the
@@ -268,41 +372,42 @@ impl DipoleHierarchy {
                             return Err(Cancelled);
                         }
                         let root = task.root;
-                        let mut b = vec![[0.0f64; 3]; (self.receivers.subtree_end(root) - root) as usize];
+                        let mut g = Gathered::new((self.receivers.subtree_end(root) - root) as usize);
                         let (mut links, mut near_links) = (0, 0);
-                        self.traverse(root, &mut |r, e, near, f| {
+                        self.traverse(root, &HashMap::new(), &mut |r, e, found| {
                             links += 1;
-                            near_links += usize::from(near);
-                            let slot = &mut b[(r - root) as usize];
-                            for c in 0..3 {
-                                slot[c] += f[c] * emitted[e as usize][c];
+                            let at = (r - root) as usize;
+                            match found {
+                                Found::Far(kernel) => g.far(at, self.offset(r, e), kernel, &emitted, e as usize),
+                                Found::Near(f) => {
+                                    near_links += 1;
+                                    g.near(at, f.expect("nothing is kept on the fly"), &emitted, e as usize);
+                                }
                             }
                         });
-                        Ok((b, links, near_links))
+                        Ok((g, links, near_links))
                     })
                     .collect::<Result<Vec<_>, Cancelled>>()?;
                 stats.links = results.iter().map(|r| r.1).sum();
                 stats.near_links = results.iter().map(|r| r.2).sum();
                 stats.form_factors = stats.links;
+                stats.link_ms = ms(t);
                 results.into_iter().map(|r| r.0).collect::<Vec<_>>()
             }
             EvalMode::Render | EvalMode::Incremental { .. } => {
                 stats.form_factors = self.relink(keep_going)?;
                 stats.link_ms = ms(t);
                 let t = Instant::now();
-                let g = self.tasks.par_iter().map(|task| self.gather(task.root, &task.links, &emitted)).collect();
-                stats.links = self.tasks.iter().map(|t| t.links.len()).sum();
-                stats.near_links = self.tasks.iter().map(|t| t.links.iter().filter(|l| l.near).count()).sum();
+                let g = self.tasks.par_iter().map(|task| self.gather(task, &emitted)).collect();
+                stats.links = self.tasks.iter().map(Task::links).sum();
+                stats.near_links = self.tasks.iter().map(|t| t.near.len()).sum();
                 stats.stale_tasks = self.tasks.iter().filter(|t| self.is_stale(t)).count();
                 stats.gather_ms += ms(t);
                 g
             }
         };
-        if self.options.mode == EvalMode::OnTheFly {
-            stats.link_ms = ms(t);
-        }
         let t = Instant::now();
-        let b = self.push(&gathered);
+        let b = self.push(gathered);
         stats.push_ms = ms(t);
         Ok((b, stats))
     }
@@ -334,7 +439,7 @@ impl DipoleHierarchy {
                 let mut chosen = Vec::new();
                 let mut spent = 0usize;
                 for &i in stale[start..].iter().chain(&stale[..start]) {
-                    let cost = self.tasks[i].links.len().max(1);
+                    let cost = self.tasks[i].links().max(1);
                     if !chosen.is_empty() && spent + cost > budget {
                         break;
                     }
@@ -358,62 +463,63 @@ impl DipoleHierarchy {
                 // task was linked.
                 let kept: HashMap<(u32, u32), [f32; 3]> = match (reuse, task.built_at) {
                     (true, Some(built)) => task
-                        .links
+                        .near
                         .iter()
                         .filter(|l| {
-                            l.near && this.emitters.changed_at(l.emitter) <= built && this.receivers.changed_at(l.receiver) <= built
+                            this.emitters.changed_at(l.emitter) <= built && this.receivers.changed_at(l.receiver) <= built
                         })
                         .map(|l| ((l.receiver, l.emitter), l.f))
                         .collect(),
                     _ => HashMap::new(),
                 };
-                let mut links = Vec::with_capacity(task.links.len());
+                let mut fresh = Task {
+                    root: task.root,
+                    far: Vec::with_capacity(task.far.len()),
+                    near: Vec::with_capacity(task.near.len()),
+                    built_at: Some(frame),
+                };
                 let mut evaluated = 0;
-                this.traverse_keeping(task.root, &kept, &mut |receiver, emitter, near, f| {
-                    let f = match f {
-                        Some(f) => {
-                            evaluated += 1;
-                            to_f32(f)
-                        }
-                        None => kept[&(receiver, emitter)],
-                    };
-                    links.push(Link { receiver, emitter, near, f });
+                this.traverse(task.root, &kept, &mut |receiver, emitter, found| match found {
+                    Found::Far(kernel) => {
+                        evaluated += 1;
+                        let Kernel { f, k, l } = kernel;
+                        fresh.far.push(FarLink { receiver, emitter, f: to_f32(f), k: to_f32(k), l: to_f32(l) });
+                    }
+                    Found::Near(f) => {
+                        let f = match f {
+                            Some(f) => {
+                                evaluated += 1;
+                                to_f32(f)
+                            }
+                            None => kept[&(receiver, emitter)],
+                        };
+                        fresh.near.push(NearLink { receiver, emitter, f });
+                    }
                 });
-                Ok((i, links, evaluated))
+                Ok((i, fresh, evaluated))
             })
             .collect::<Result<Vec<_>, Cancelled>>()?;
         let mut evaluated = 0;
-        for (i, links, n) in rebuilt {
-            self.tasks[i].links = links;
-            self.tasks[i].built_at = Some(frame);
+        for (i, task, n) in rebuilt {
+            self.tasks[i] = task;
             evaluated += n;
         }
         Ok(evaluated)
     }
 
     /// The dual-tree traversal from (`root`, emitter root): every link the oracle makes, in a
-    /// fixed order, given to `link` as (receiver, emitter, near, form factor).
-    fn traverse(&self, root: u32, link: &mut dyn FnMut(u32, u32, bool, [f64; 3])) {
-        self.traverse_keeping(root, &HashMap::new(), &mut |r, e, near, f| link(r, e, near, f.unwrap_or_else(|| unreachable!())));
-    }
-
-    /// [`DipoleHierarchy::traverse`] that takes the analytic form factor of a near pair found
-    /// in `kept` instead of evaluating it (`None` passed to `link` then) .
-    fn traverse_keeping(
-        &self,
-        root: u32,
-        kept: &HashMap<(u32, u32), [f32; 3]>,
-        link: &mut dyn FnMut(u32, u32, bool, Option<[f64; 3]>),
-    ) {
+    /// fixed order, given to `link` as (receiver, emitter, what it carries); a near pair found
+    /// in `kept` is not evaluated (`Found::Near(None)`).
+    fn traverse(&self, root: u32, kept: &HashMap<(u32, u32), [f32; 3]>, link: &mut dyn FnMut(u32, u32, Found)) {
         let (rt, et) = (&self.receivers, &self.emitters);
         let mut stack = vec![(root, 0u32)];
         while let Some((r, e)) = stack.pop() {
             let (rn, en) = (rt.node(r), et.node(e));
             let children = rn.children(r).map(|[a, b]| [rt.node(a), rt.node(b)]);
             match self.options.oracle.decide(rn, children, en) {
-                Decision::Accept => link(r, e, false, Some(self.far_factor(rn, en))),
-                Decision::Near if kept.contains_key(&(r, e)) => link(r, e, true, None),
-                Decision::Near => link(r, e, true, Some(self.near_factor(rn, en.right_or_item as usize))),
+                Decision::Accept => link(r, e, Found::Far(self.far_factor(rn, en))),
+                Decision::Near if kept.contains_key(&(r, e)) => link(r, e, Found::Near(None)),
+                Decision::Near => link(r, e, Found::Near(Some(self.near_factor(rn, en.right_or_item as usize)))),
                 Decision::OpenReceiver => {
                     let [a, b] = rn.children(r).expect("an inner receiver");
                     stack.push((b, e));
@@ -428,11 +534,28 @@ impl DipoleHierarchy {
         }
     }
 
-    /// One sample of the dipole between the clusters' centres times the emitter's area:
-    /// F ≈ A_E Rd(c_R, c_E) (Mertens eq. 7 with one point).
-    fn far_factor(&self, r: &ClusterNode, e: &ClusterNode) -> [f64; 3] {
+    /// D = c_R − c_E of a link.
+    fn offset(&self, r: u32, e: u32) -> DVec3 {
+        self.receivers.node(r).centre - self.emitters.node(e).centre
+    }
+
+    /// The dipole between the clusters' centres with its derivatives (module documentation;
+    /// in the paper's geometry the sample alone, k = l = 0).
+    fn far_factor(&self, r: &ClusterNode, e: &ClusterNode) -> Kernel {
         let (x_o, n_o) = receiver_point(r);
-        self.dipoles.map(|d| e.weight * point_kernel(&d, e.centre, x_o, n_o, self.options.geometry))
+        match self.options.geometry {
+            DipoleGeometry::Distance => {
+                let d = x_o.distance(e.centre);
+                Kernel {
+                    f: self.dipoles.map(|p| p.rd(d)),
+                    k: self.dipoles.map(|p| p.rd_slope_over_r(d)),
+                    l: self.dipoles.map(|p| p.rd_curvature(d)),
+                }
+            }
+            geometry => {
+                Kernel { f: self.dipoles.map(|p| point_kernel(&p, e.centre, x_o, n_o, geometry)), k: [0.0; 3], l: [0.0; 3] }
+            }
+        }
     }
 
     /// The analytic form factor of triangle `t` at a receiving leaf (Mertens eq. 18).
@@ -442,58 +565,99 @@ impl DipoleHierarchy {
         self.dipoles.map(|d| d.triangle_integral(corners, x_o, n_o, self.options.geometry, self.options.rule))
     }
 
-    /// The irradiance of every emitter node: per triangle the mean of its corners', pulled up
-    /// area-weighted (design note §1.7: pbrt-v2's unweighted mean is a bug).
-    fn pull(&self, irradiance: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    /// The emitter tree under `irradiance` per vertex ([`Emitted`]): on a triangle the
+    /// irradiance interpolated linearly from its corners, E = Σᵢ Eᵢλᵢ, whose moments follow
+    /// from ∫ λ₁^a λ₂^b λ₃^c dA = 2A a! b! c!/(a + b + c + 2)!; pulled up area-weighted (design
+    /// note §1.7: pbrt-v2's unweighted mean is a bug), the moments moved to each parent's centre
+    /// (o = c_child − c_parent: m += Φo, Q += m oᵀ + o mᵀ + Φ o oᵀ).
+    fn pull(&self, irradiance: &[[f64; 3]]) -> Emitted {
         let tree = &self.emitters;
-        let mut flux = vec![[0.0f64; 3]; tree.nodes().len()];
-        for index in (0..tree.nodes().len()).rev() {
+        let n = tree.nodes().len();
+        let mut flux = vec![[0.0f64; 3]; n];
+        let mut moment = vec![[DVec3::ZERO; 3]; n];
+        let mut second = vec![[DMat3::ZERO; 3]; n];
+        let outer = |a: DVec3, b: DVec3| DMat3::from_cols(a * b.x, a * b.y, a * b.z);
+        for index in (0..n).rev() {
             let node = tree.nodes()[index];
-            flux[index] = if node.leaf {
+            if node.leaf {
                 let t = self.triangles[node.right_or_item as usize];
-                let e = |c: usize| t.iter().map(|&v| irradiance[v as usize][c]).sum::<f64>() / 3.0;
-                [e(0), e(1), e(2)].map(|x| x * node.weight)
+                let v = t.map(|i| self.positions[i as usize] - node.centre);
+                for c in 0..3 {
+                    let e = t.map(|i| irradiance[i as usize][c]);
+                    flux[index][c] = node.weight * (e[0] + e[1] + e[2]) / 3.0;
+                    // ∫ λᵢλⱼ = A(1 + δᵢⱼ)/12 and Σⱼ vⱼ = 0 give m = (A/12) Σᵢ Eᵢvᵢ.
+                    moment[index][c] = (v[0] * e[0] + v[1] * e[1] + v[2] * e[2]) * (node.weight / 12.0);
+                    // ∫ λᵢλⱼλₖ = (A/60)·{6, 2, 1} for {all equal, two equal, all different}.
+                    let mut q = DMat3::ZERO;
+                    for (i, &ei) in e.iter().enumerate() {
+                        for j in 0..3 {
+                            for k in 0..3 {
+                                let w = match (i == j, j == k, i == k) {
+                                    (true, true, _) => 6.0,
+                                    (false, false, false) => 1.0,
+                                    _ => 2.0,
+                                };
+                                q += outer(v[j], v[k]) * (ei * w);
+                            }
+                        }
+                    }
+                    second[index][c] = q * (node.weight / 60.0);
+                }
             } else {
-                let (a, b) = (flux[index + 1], flux[node.right_or_item as usize]);
-                [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-            };
-        }
-        flux.iter().zip(tree.nodes()).map(|(f, n)| if n.weight > 0.0 { f.map(|x| x / n.weight) } else { [0.0; 3] }).collect()
-    }
-
-    /// B of the nodes of the subtree at `root` gathered over `links` (B_R += F·E_E).
-    fn gather(&self, root: u32, links: &[Link], emitted: &[[f64; 3]]) -> Vec<[f64; 3]> {
-        let mut b = vec![[0.0f64; 3]; (self.receivers.subtree_end(root) - root) as usize];
-        for l in links {
-            let (e, slot) = (emitted[l.emitter as usize], &mut b[(l.receiver - root) as usize]);
-            for c in 0..3 {
-                slot[c] += f64::from(l.f[c]) * e[c];
+                for child in node.children(index as u32).expect("an inner node") {
+                    let child = child as usize;
+                    let o = tree.nodes()[child].centre - node.centre;
+                    let (cf, cm, cq) = (flux[child], moment[child], second[child]);
+                    for c in 0..3 {
+                        flux[index][c] += cf[c];
+                        moment[index][c] += cm[c] + o * cf[c];
+                        second[index][c] += cq[c] + outer(cm[c], o) + outer(o, cm[c]) + outer(o, o) * cf[c];
+                    }
+                }
             }
         }
-        b
+        let irradiance =
+            flux.iter().zip(tree.nodes()).map(|(f, n)| if n.weight > 0.0 { f.map(|x| x / n.weight) } else { [0.0; 3] }).collect();
+        Emitted { irradiance, flux, moment, second }
     }
 
-    /// B per vertex: each task's B pushed down its subtree (a leaf's B the sum over its
-    /// ancestors), read at the receiving leaves, and for face receivers averaged onto the
-    /// vertices by area.
-    fn push(&self, gathered: &[Vec<[f64; 3]>]) -> Vec<[f64; 3]> {
+    /// What `task`'s stored links gather.
+    fn gather(&self, task: &Task, emitted: &Emitted) -> Gathered {
+        let root = task.root;
+        let mut g = Gathered::new((self.receivers.subtree_end(root) - root) as usize);
+        for l in &task.far {
+            let kernel = Kernel { f: l.f.map(f64::from), k: l.k.map(f64::from), l: l.l.map(f64::from) };
+            g.far((l.receiver - root) as usize, self.offset(l.receiver, l.emitter), kernel, emitted, l.emitter as usize);
+        }
+        for l in &task.near {
+            g.near((l.receiver - root) as usize, l.f.map(f64::from), emitted, l.emitter as usize);
+        }
+        g
+    }
+
+    /// B per vertex: each task's B pushed down its subtree (a child inherits its parent's local
+    /// expansion moved to the child's centre: b + g·o + ½oᵀHo, g + Ho, H), read at the
+    /// receiving leaves, and for face receivers averaged onto the vertices by area.
+    fn push(&self, gathered: Vec<Gathered>) -> Vec<[f64; 3]> {
         let tree = &self.receivers;
         let mut at_item = vec![[0.0f64; 3]; self.receiver_items.len()];
-        for (task, b) in self.tasks.iter().zip(gathered) {
-            let mut b = b.clone();
-            for local in 0..b.len() {
+        for (task, mut g) in self.tasks.iter().zip(gathered) {
+            for local in 0..g.b.len() {
                 let index = task.root + local as u32;
                 let node = tree.node(index);
                 if let Some(children) = node.children(index) {
-                    let here = b[local];
+                    let (b, gradient, hessian) = (g.b[local], g.gradient[local], g.hessian[local]);
                     for child in children {
-                        let c = &mut b[(child - task.root) as usize];
-                        for ch in 0..3 {
-                            c[ch] += here[ch];
+                        let (at, o) = ((child - task.root) as usize, tree.node(child).centre - node.centre);
+                        for c in 0..3 {
+                            let ho = hessian[c] * o;
+                            g.b[at][c] += b[c] + gradient[c].dot(o) + 0.5 * o.dot(ho);
+                            g.gradient[at][c] += gradient[c] + ho;
+                            g.hessian[at][c] += hessian[c];
                         }
                     }
                 } else {
-                    at_item[node.right_or_item as usize] = b[local];
+                    at_item[node.right_or_item as usize] = g.b[local];
                 }
             }
         }
@@ -534,10 +698,9 @@ fn receiver_items(positions: &[DVec3], triangles: &[[u32; 3]], receivers: Receiv
         Receivers::Vertices => {
             positions.iter().zip(vertex_normals(positions, triangles)).map(|(&p, n)| ClusterItem::point(p, n)).collect()
         }
-        Receivers::FaceCentroids => emitter_items(positions, triangles)
-            .into_iter()
-            .map(|t| ClusterItem::point(t.centre, t.normal))
-            .collect(),
+        Receivers::FaceCentroids => {
+            emitter_items(positions, triangles).into_iter().map(|t| ClusterItem::point(t.centre, t.normal)).collect()
+        }
     }
 }
 

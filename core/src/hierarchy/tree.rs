@@ -100,7 +100,8 @@ impl ClusterTree {
     /// Appends the subtree over `order` (depth-first), its data filled in by `refit`.
     fn split(&mut self, items: &[ClusterItem], order: &mut [u32]) {
         let index = self.nodes.len();
-        let blank = ClusterNode { centre: DVec3::ZERO, weight: 0.0, normal: DVec3::ZERO, radius: 0.0, right_or_item: 0, leaf: true };
+        let blank =
+            ClusterNode { centre: DVec3::ZERO, weight: 0.0, normal: DVec3::ZERO, radius: 0.0, right_or_item: 0, leaf: true };
         self.nodes.push(blank);
         self.ends.push(0);
         if let [item] = order {
@@ -112,7 +113,13 @@ impl ClusterTree {
                 (lo.min(c), hi.max(c))
             });
             let extent = hi - lo;
-            let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+            let axis = if extent.x >= extent.y && extent.x >= extent.z {
+                0
+            } else if extent.y >= extent.z {
+                1
+            } else {
+                2
+            };
             let half = order.len() / 2;
             // Ties broken by item index, so the tree is the same whatever the input order's luck.
             order.select_nth_unstable_by(half, |&a, &b| {
@@ -150,7 +157,8 @@ impl ClusterTree {
                 let (a, b) = (self.nodes[index + 1], self.nodes[node.right_or_item as usize]);
                 let weight = a.weight + b.weight;
                 node.weight = weight;
-                node.centre = if weight > 0.0 { (a.centre * a.weight + b.centre * b.weight) / weight } else { 0.5 * (a.centre + b.centre) };
+                node.centre =
+                    if weight > 0.0 { (a.centre * a.weight + b.centre * b.weight) / weight } else { 0.5 * (a.centre + b.centre) };
                 node.normal = (a.normal * a.weight + b.normal * b.weight).normalize_or_zero();
                 node.radius = (a.centre.distance(node.centre) + a.radius).max(b.centre.distance(node.centre) + b.radius);
             }
@@ -262,14 +270,19 @@ mod tests {
         let tree = ClusterTree::build(&items);
         assert_eq!(tree.nodes().len(), 2 * items.len() - 1);
         for (i, node) in tree.nodes().iter().enumerate() {
-            let leaves: Vec<u32> =
-                (i as u32..tree.subtree_end(i as u32)).filter(|&j| tree.node(j).leaf).map(|j| tree.node(j).right_or_item).collect();
+            let leaves: Vec<u32> = (i as u32..tree.subtree_end(i as u32))
+                .filter(|&j| tree.node(j).leaf)
+                .map(|j| tree.node(j).right_or_item)
+                .collect();
             let weight: f64 = leaves.iter().map(|&t| items[t as usize].weight).sum();
             assert!((node.weight - weight).abs() < 1e-9 * weight);
             for &t in &leaves {
                 let it = items[t as usize];
                 assert!(it.centre.distance(node.centre) + it.radius <= node.radius + 1e-9, "node {i}");
-                assert_eq!(tree.leaf_of(t as usize), tree.nodes().iter().position(|n| n.leaf && n.right_or_item == t).unwrap() as u32);
+                assert_eq!(
+                    tree.leaf_of(t as usize),
+                    tree.nodes().iter().position(|n| n.leaf && n.right_or_item == t).unwrap() as u32
+                );
             }
         }
     }

@@ -68,7 +68,8 @@ pub fn icosphere(radius: f64, subdivisions: u32) -> TriMesh {
         triangles = triangles
             .iter()
             .flat_map(|&[a, b, c]| {
-                let (ab, bc, ca) = (midpoint(a, b, &mut positions), midpoint(b, c, &mut positions), midpoint(c, a, &mut positions));
+                let (ab, bc, ca) =
+                    (midpoint(a, b, &mut positions), midpoint(b, c, &mut positions), midpoint(c, a, &mut positions));
                 [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
             })
             .collect();

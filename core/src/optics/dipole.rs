@@ -65,6 +65,35 @@ impl Dipole {
         self.alpha_prime / (4.0 * std::f64::consts::PI) * (term(self.z_r) + term(self.z_v))
     }
 
+    /// Rd′(r)/r (mm⁻⁴), the profile's slope over the distance: the gradient of Rd(‖x − y‖)
+    /// in x is Rd′(r)/r · (x − y). From ∂/∂d[(1 + σd)e^{−σd}/d³] = −e^{−σd}(σ²d² + 3σd + 3)/d⁴
+    /// and ∂d/∂r = r/d:
+    ///
+    /// Rd′(r)/r = −α′/(4π) Σ_j z_j e^{−σtr d_j}(σtr² d_j² + 3σtr d_j + 3)/d_j⁵.
+    #[must_use]
+    pub fn rd_slope_over_r(&self, r: f64) -> f64 {
+        let term = |z: f64| {
+            let d = (r * r + z * z).sqrt();
+            let sd = self.sigma_tr * d;
+            z * (-sd).exp() * (sd * sd + 3.0 * sd + 3.0) / d.powi(5)
+        };
+        -self.alpha_prime / (4.0 * std::f64::consts::PI) * (term(self.z_r) + term(self.z_v))
+    }
+
+    /// (d/dr)[Rd′(r)/r] / r (mm⁻⁶): with k = [`Dipole::rd_slope_over_r`], the Hessian of
+    /// Rd(‖x − y‖) in x is k I + this · (x − y)(x − y)ᵀ. Differentiating k once more:
+    ///
+    /// α′/(4π) Σ_j z_j e^{−σtr d_j}(σtr³d_j³ + 6σtr²d_j² + 15σtr d_j + 15)/d_j⁷.
+    #[must_use]
+    pub fn rd_curvature(&self, r: f64) -> f64 {
+        let term = |z: f64| {
+            let d = (r * r + z * z).sqrt();
+            let sd = self.sigma_tr * d;
+            z * (-sd).exp() * (((sd + 6.0) * sd + 15.0) * sd + 15.0) / d.powi(7)
+        };
+        self.alpha_prime / (4.0 * std::f64::consts::PI) * (term(self.z_r) + term(self.z_v))
+    }
+
     /// Total diffuse reflectance ∫₀^∞ Rd(r) 2πr dr = (α′/2)(e^{−σtr z_r} + e^{−σtr z_v})
     /// (Jensen et al. 2001's Rd(r) integrated in closed form; equals
     /// [`total_diffuse_reflectance`] of α′).
@@ -254,6 +283,23 @@ mod tests {
             last = v;
         }
         assert_eq!(rd_profile(0.0021, 2.19, 1.5, 1.0), d.rd(1.0));
+    }
+
+    #[test]
+    fn profile_slope_and_curvature_match_central_differences() {
+        for (sa, ss, eta) in CASES.into_iter().filter(|c| c.1 > 0.0) {
+            let d = Dipole::new(sa, ss, eta);
+            for r in [0.01f64, 0.3, 2.0, 15.0] {
+                let h = 1e-5 * r.max(0.1);
+                let numeric = (d.rd(r + h) - d.rd(r - h)) / (2.0 * h) / r;
+                let slope = d.rd_slope_over_r(r);
+                assert!((slope / numeric - 1.0).abs() < 1e-6, "{sa} {ss} r {r}: {slope} vs {numeric}");
+                let k = |r: f64| d.rd_slope_over_r(r);
+                let numeric = (k(r + h) - k(r - h)) / (2.0 * h) / r;
+                let curvature = d.rd_curvature(r);
+                assert!((curvature / numeric - 1.0).abs() < 1e-5, "{sa} {ss} r {r}: {curvature} vs {numeric}");
+            }
+        }
     }
 
     #[test]
