@@ -16,7 +16,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use crate::mesh::TriMesh;
-use crate::methods::{bake_object, object_stage, Lighting, ObjectBake, SubsurfaceMethod, Target, TransCut};
+use crate::methods::{bake_object, object_stage, HierarchicalDipole, Lighting, ObjectBake, SubsurfaceMethod, Target, TransCut};
 use crate::progress::{ms, Progress};
 use crate::scene::{BakeOptions, Method, Scene, SceneError};
 use crate::workers::with_workers;
@@ -49,6 +49,7 @@ pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Re
     scene.validate(options)?;
     with_threads(options.threads, || match &options.method {
         Method::TransCut(o) => bake_all::<TransCut>(scene, options, o, progress),
+        Method::HierarchicalDipole(o) => bake_all::<HierarchicalDipole>(scene, options, o, progress),
     })
     .map_err(SceneError::InvalidOptions)?
 }

@@ -51,7 +51,20 @@ pub enum EditError {
     /// tets (or smaller) before it takes that medium.
     #[error("the edited medium is too dense for the mesh: {0}")]
     Unresolved(crate::diffusion::Unresolved),
+    /// The hierarchical dipole refused the update (vertex positions of another count, or not
+    /// finite).
+    #[error("hierarchical dipole: {0}")]
+    Hierarchy(crate::hierarchy::HierarchyError),
     /// Cancelled through the progress callback.
     #[error(transparent)]
     Cancelled(#[from] crate::progress::Cancelled),
+}
+
+impl From<crate::hierarchy::HierarchyError> for EditError {
+    fn from(e: crate::hierarchy::HierarchyError) -> Self {
+        match e {
+            crate::hierarchy::HierarchyError::Cancelled(c) => Self::Cancelled(c),
+            e => Self::Hierarchy(e),
+        }
+    }
 }

@@ -179,15 +179,20 @@ impl EditOptions {
     /// editor's tets, tolerance, iteration cap and backend.
     #[must_use]
     pub fn bake_options(&self) -> BakeOptions {
-        let transcut = TransCutOptions {
+        BakeOptions { method: self.transcut_options().into(), threads: 0, source: self.source, shadows: self.shadows }
+    }
+
+    /// The TransCut options of [`EditOptions::bake_options`].
+    #[must_use]
+    pub fn transcut_options(&self) -> TransCutOptions {
+        TransCutOptions {
             tets: self.tets,
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
             edit_solver: self.solver,
             backend: self.backend,
             ..TransCutOptions::default()
-        };
-        BakeOptions { method: transcut.into(), threads: 0, source: self.source, shadows: self.shadows }
+        }
     }
 }
 

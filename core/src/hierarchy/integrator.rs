@@ -137,8 +137,8 @@ impl Gathered {
 
     /// Adds a near link's contribution at local node `at`: B += F·E.
     fn near(&mut self, at: usize, f: [f64; 3], emitted: &Emitted, e: usize) {
-        for c in 0..3 {
-            self.b[at][c] += f[c] * emitted.irradiance[e][c];
+        for ((b, f), e) in self.b[at].iter_mut().zip(f).zip(emitted.irradiance[e]) {
+            *b += f * e;
         }
     }
 }
@@ -226,7 +226,7 @@ impl DipoleHierarchy {
         let receiver_items = receiver_items(&positions, &triangles, options.receivers);
         let emitters = ClusterTree::build(&emitter_items);
         let receivers = ClusterTree::build(&receiver_items);
-        let tasks = receivers.cut(TASKS).into_iter().map(|root| Task::new(root)).collect();
+        let tasks = receivers.cut(TASKS).into_iter().map(Task::new).collect();
         Ok(Self {
             rest_radius: [emitters.radius_sum(), receivers.radius_sum()],
             positions,
@@ -324,7 +324,7 @@ impl DipoleHierarchy {
         self.emitters.touch_all(self.frame);
         self.receivers.touch_all(self.frame);
         self.rest_radius = [self.emitters.radius_sum(), self.receivers.radius_sum()];
-        self.tasks = self.receivers.cut(TASKS).into_iter().map(|root| Task::new(root)).collect();
+        self.tasks = self.receivers.cut(TASKS).into_iter().map(Task::new).collect();
     }
 
     /// A new medium (one dipole per channel): every form factor changes, the links do not (the
@@ -705,7 +705,8 @@ fn receiver_items(positions: &[DVec3], triangles: &[[u32; 3]], receivers: Receiv
 }
 
 /// The area-weighted unit normal per vertex (zero on no triangle).
-fn vertex_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3> {
+#[must_use]
+pub fn vertex_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3> {
     let mut normals = vec![DVec3::ZERO; positions.len()];
     for t in triangles {
         let [a, b, c] = t.map(|v| positions[v as usize]);

@@ -24,6 +24,6 @@ pub mod oracle;
 pub mod tree;
 
 pub use error::HierarchyError;
-pub use integrator::{point_kernel, reference_quadratic, DipoleHierarchy, DipoleStats};
+pub use integrator::{point_kernel, reference_quadratic, vertex_normals, DipoleHierarchy, DipoleStats};
 pub use options::{DipoleOptions, DipoleRadiance, EvalMode, Receivers};
 pub use oracle::Oracle;

@@ -121,10 +121,16 @@ impl ClusterTree {
                 2
             };
             let half = order.len() / 2;
-            // Ties broken by item index, so the tree is the same whatever the input order's luck.
+            // Ties broken by the other coordinates (then the index), so the tree depends on
+            // where the items are and not on the order they come in: a mesh with its vertices
+            // renumbered gets the same tree, and the same radiance.
+            let key = |i: u32| {
+                let c = items[i as usize].centre;
+                [c[axis], c[(axis + 1) % 3], c[(axis + 2) % 3]]
+            };
             order.select_nth_unstable_by(half, |&a, &b| {
-                let (ca, cb) = (items[a as usize].centre[axis], items[b as usize].centre[axis]);
-                ca.total_cmp(&cb).then(a.cmp(&b))
+                let (ka, kb) = (key(a), key(b));
+                ka[0].total_cmp(&kb[0]).then(ka[1].total_cmp(&kb[1])).then(ka[2].total_cmp(&kb[2])).then(a.cmp(&b))
             });
             let (left, right) = order.split_at_mut(half);
             self.split(items, left);

@@ -49,6 +49,16 @@ pub(crate) trait EditMedium {
     fn paint(&mut self, stroke: &PaintStroke, progress: Progress) -> Result<UpdateStats, EditError>;
 }
 
+/// Moving the vertices of the object's surface, its topology kept (an animated, deformed mesh).
+pub(crate) trait Deform {
+    /// Puts the surface's vertices at `positions` (object space, one per vertex of the mesh the
+    /// object was baked from, in its order) and updates the radiance.
+    ///
+    /// # Errors
+    /// Positions of another count or not finite, a cancellation; the state is then unchanged.
+    fn set_positions(&mut self, positions: &[[f64; 3]], progress: Progress) -> Result<UpdateStats, EditError>;
+}
+
 /// Changing the topology: cuts, splits, fracture, rigid moves of pieces, recombination.
 pub(crate) trait Cut {
     /// Removes what lies on the cutter's positive side and re-solves.

@@ -29,10 +29,12 @@
 //! 4. one line in the conformance suite `core/tests/methods.rs`.
 
 pub mod capability;
+pub mod hierarchical_dipole;
 mod lighting;
 mod result;
 pub mod transcut;
 
+pub use hierarchical_dipole::{DipoleState, HierarchicalDipole};
 pub use lighting::Lighting;
 pub use result::{BakedState, ObjectBake, ObjectStats};
 pub use transcut::{TransCut, TransCutState};

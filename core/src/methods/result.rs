@@ -3,6 +3,7 @@
 use crate::gpu::Backend;
 use crate::mesher::MesherStats;
 
+use super::hierarchical_dipole::DipoleState;
 use super::transcut::TransCutState;
 
 /// One object's bake: the radiance, what was measured, and what the method prepared.
@@ -22,6 +23,7 @@ impl ObjectBake {
     pub fn eta(&self) -> f64 {
         match &self.state {
             BakedState::TransCut(s) => s.eta,
+            BakedState::HierarchicalDipole(s) => s.eta(),
         }
     }
 
@@ -30,6 +32,16 @@ impl ObjectBake {
     pub fn transcut(&self) -> Option<&TransCutState> {
         match &self.state {
             BakedState::TransCut(s) => Some(s),
+            BakedState::HierarchicalDipole(_) => None,
+        }
+    }
+
+    /// The hierarchical dipole's state, when that method baked the object.
+    #[must_use]
+    pub fn dipole(&self) -> Option<&DipoleState> {
+        match &self.state {
+            BakedState::HierarchicalDipole(s) => Some(s),
+            BakedState::TransCut(_) => None,
         }
     }
 
@@ -46,6 +58,8 @@ impl ObjectBake {
 pub enum BakedState {
     /// TransCut: the tet mesh, its media and system, the fluence.
     TransCut(TransCutState),
+    /// The hierarchical dipole: the cluster trees (and links) over the surface, the medium.
+    HierarchicalDipole(DipoleState),
 }
 
 /// What was measured for one object. Fields that a method does not have are 0 (or `None`); the

@@ -470,17 +470,29 @@ mod tests {
 
     #[test]
     fn corner_receivers_as_a_mesh_stores_them() {
-        // Every corner of every triangle of a geodesic sphere as the receiver: the foot lands
-        // within rounding of the corner, on either side of the edges' lines.
+        // A geodesic sphere of radius 10 mm (an octahedron split 4-to-1 three times, midpoints
+        // pushed onto the sphere), each corner of each triangle as the receiver: the foot lands
+        // within rounding of the corner, on either side of the edges' lines (a mesh's vertex
+        // receivers).
         let d = Medium::preset("marble").unwrap().dipole(0);
-        let mesh = crate::mesh::icosphere(10.0, 2);
-        let p = mesh.positions();
-        for t in mesh.triangles() {
-            let corners = t.map(|v| p[v as usize]);
+        let [x, y, z] = [DVec3::X, DVec3::Y, DVec3::Z];
+        let mut triangles =
+            vec![[x, y, z], [y, -x, z], [-x, -y, z], [-y, x, z], [y, x, -z], [-x, y, -z], [-y, -x, -z], [x, -y, -z]];
+        for _ in 0..3 {
+            triangles = triangles
+                .iter()
+                .flat_map(|&[a, b, c]| {
+                    let (ab, bc, ca) = ((a + b).normalize(), (b + c).normalize(), (c + a).normalize());
+                    [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+                })
+                .collect();
+        }
+        for t in triangles {
+            let corners = t.map(|p| p * 10.0);
             for x in corners {
                 let f = d.triangle_integral(corners, x, x.normalize(), DipoleGeometry::Distance, EdgeRule::default());
                 let exact = reference(&d, corners, x, x.normalize(), DipoleGeometry::Distance, 1e-8 * f.abs());
-                assert!((f / exact - 1.0).abs() < 1e-4, "{t:?} at {x}: {f} vs {exact}");
+                assert!((f / exact - 1.0).abs() < 1e-4, "{corners:?} at {x}: {f} vs {exact}");
             }
         }
     }

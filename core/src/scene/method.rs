@@ -8,6 +8,7 @@
 
 use crate::diffusion::SolverKind;
 use crate::gpu::Backend;
+use crate::hierarchy::DipoleOptions;
 
 /// The subsurface method of a bake, with its options.
 #[derive(Debug, Clone, PartialEq)]
@@ -16,6 +17,16 @@ pub enum Method {
     /// TransCut (Li et al. 2012, §3): the diffusion equation on a tetrahedral mesh of each
     /// object, heterogeneous media, interactive relighting, material edits and cuts (§5).
     TransCut(TransCutOptions),
+    /// The hierarchical dipole (Mertens et al. 2003): the dipole of a homogeneous medium
+    /// integrated over the surface through cluster trees, no volume and no solve; relight and
+    /// deformation (new vertex positions every frame).
+    HierarchicalDipole(DipoleOptions),
+}
+
+impl From<DipoleOptions> for Method {
+    fn from(options: DipoleOptions) -> Self {
+        Self::HierarchicalDipole(options)
+    }
 }
 
 impl Default for Method {
@@ -33,7 +44,7 @@ impl From<TransCutOptions> for Method {
 impl Method {
     /// The names of every method this library has, in the order front ends list them (also
     /// the order of the C ABI's `TC_METHOD_*` values).
-    pub const NAMES: &'static [&'static str] = &["transcut"];
+    pub const NAMES: &'static [&'static str] = &["transcut", "hierarchical-dipole"];
 
     /// Every method with its default options, in the order of [`Method::NAMES`].
     #[must_use]
@@ -41,12 +52,13 @@ impl Method {
         Self::NAMES.iter().filter_map(|name| Self::from_name(name)).collect()
     }
 
-    /// The name front ends use: `transcut` (later `polygrid`, `prt`, `radiosity`,
-    /// `hierarchical-dipole`).
+    /// The name front ends use: `transcut`, `hierarchical-dipole` (later `polygrid`, `prt`,
+    /// `radiosity`).
     #[must_use]
     pub fn name(&self) -> &'static str {
         match self {
             Self::TransCut(_) => "transcut",
+            Self::HierarchicalDipole(_) => "hierarchical-dipole",
         }
     }
 
@@ -57,6 +69,10 @@ impl Method {
             Self::TransCut(_) => {
                 "TransCut (Li et al. 2012): diffusion on a tetrahedral mesh; heterogeneous media, relight, paint, cut"
             }
+            Self::HierarchicalDipole(_) => {
+                "hierarchical dipole (Mertens et al. 2003): the dipole integrated over the surface; homogeneous media, relight, \
+                 deforming meshes"
+            }
         }
     }
 
@@ -66,6 +82,7 @@ impl Method {
     pub fn from_name(name: &str) -> Option<Method> {
         match name.trim().to_ascii_lowercase().as_str() {
             "transcut" => Some(Self::TransCut(TransCutOptions::default())),
+            "hierarchical-dipole" => Some(Self::HierarchicalDipole(DipoleOptions::default())),
             _ => None,
         }
     }
@@ -83,6 +100,7 @@ impl Method {
     pub fn validate(&self) -> Result<(), String> {
         match self {
             Self::TransCut(o) => o.validate(),
+            Self::HierarchicalDipole(o) => o.validate(),
         }
         .map_err(|e| format!("{}: {e}", self.name()))
     }

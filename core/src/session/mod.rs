@@ -20,7 +20,8 @@ use glam::DMat4;
 use crate::bake::{bake_with, with_threads, Bake};
 use crate::edit::{Cutter, EditError, EditOptions, Editor, MediumEdit, PaintStroke, RelightUndo, UpdateStats};
 use crate::light::Light;
-use crate::methods::capability::{Cut, EditMedium, Relight};
+use crate::methods::capability::{Cut, Deform, EditMedium, Relight};
+use crate::methods::hierarchical_dipole::{DipoleLive, DipoleUndo};
 use crate::methods::{BakedState, ObjectBake, ObjectStats};
 use crate::progress::{Cancelled, Progress};
 use crate::scene::{BakeOptions, Method, Scene, SceneError};
@@ -55,6 +56,13 @@ pub enum SessionError {
 #[derive(Debug)]
 enum Live {
     TransCut(Box<Editor>),
+    HierarchicalDipole(Box<DipoleLive>),
+}
+
+/// What a relight of a live state replaced, per method.
+enum LiveUndo {
+    TransCut(RelightUndo),
+    HierarchicalDipole(DipoleUndo),
 }
 
 impl Live {
@@ -65,30 +73,59 @@ impl Live {
                 let edit = EditOptions::from_bake_options(options, transcut);
                 Ok(Self::TransCut(Box::new(Editor::from_bake_with_progress(bake, lights, &edit, progress)?)))
             }
+            // The bake is the solution under `lights`: nothing to solve again.
+            (BakedState::HierarchicalDipole(state), Method::HierarchicalDipole(_)) => Ok(Self::HierarchicalDipole(Box::new(
+                DipoleLive::new(state.clone(), lights, bake.radiance.clone(), options.shadows, options.source),
+            ))),
+            (state, method) => Err(EditError::InvalidOptions(format!(
+                "the object was baked by another method than the session's {} ({state:?} is not its state)",
+                method.name()
+            ))),
         }
     }
 
-    fn relight(&mut self) -> &mut impl Relight<Undo = RelightUndo> {
+    fn relight(&mut self, lights: &[Light], progress: Progress) -> Result<(UpdateStats, LiveUndo), EditError> {
         match self {
-            Self::TransCut(e) => e.as_mut(),
+            Self::TransCut(e) => Relight::relight(e.as_mut(), lights, progress).map(|(s, u)| (s, LiveUndo::TransCut(u))),
+            Self::HierarchicalDipole(d) => {
+                Relight::relight(d.as_mut(), lights, progress).map(|(s, u)| (s, LiveUndo::HierarchicalDipole(u)))
+            }
+        }
+    }
+
+    fn undo_relight(&mut self, undo: LiveUndo) -> Result<(), EditError> {
+        match (self, undo) {
+            (Self::TransCut(e), LiveUndo::TransCut(u)) => Relight::undo_relight(e.as_mut(), u),
+            (Self::HierarchicalDipole(d), LiveUndo::HierarchicalDipole(u)) => Relight::undo_relight(d.as_mut(), u),
+            _ => Err(EditError::InvalidOptions("the undo is of another method's relight".into())),
         }
     }
 
     fn user_radiance(&self) -> Option<Vec<[f64; 3]>> {
         match self {
             Self::TransCut(e) => Relight::user_radiance(e.as_ref()),
+            Self::HierarchicalDipole(d) => Relight::user_radiance(d.as_ref()),
         }
     }
 
     fn edit_medium(&mut self) -> Option<&mut dyn EditMedium> {
         match self {
             Self::TransCut(e) => Some(e.as_mut()),
+            Self::HierarchicalDipole(_) => None,
         }
     }
 
     fn cut(&mut self) -> Option<&mut dyn Cut> {
         match self {
             Self::TransCut(e) => Some(e.as_mut()),
+            Self::HierarchicalDipole(_) => None,
+        }
+    }
+
+    fn deform(&mut self) -> Option<&mut dyn Deform> {
+        match self {
+            Self::TransCut(_) => None,
+            Self::HierarchicalDipole(d) => Some(d.as_mut()),
         }
     }
 }
@@ -116,7 +153,7 @@ enum State {
 /// What [`Session::relight`] did to one object, to undo it when a later object fails.
 enum Relit {
     /// The object's live state was relit in place; this puts it back.
-    Existing(RelightUndo),
+    Existing(LiveUndo),
     /// The object had no live state: one was made from its bake and relit; this is the state
     /// it had (the bake).
     Created(State),
@@ -222,7 +259,7 @@ impl Session {
     pub fn editor(&self, index: usize) -> Result<Option<&Editor>, SessionError> {
         Ok(match &self.slot(index)?.state {
             State::Live(Live::TransCut(e)) => Some(e),
-            State::Baked(_) => None,
+            State::Live(Live::HierarchicalDipole(_)) | State::Baked(_) => None,
         })
     }
 
@@ -233,6 +270,7 @@ impl Session {
     pub fn eta(&self, index: usize) -> Result<f64, SessionError> {
         Ok(match &self.slot(index)?.state {
             State::Live(Live::TransCut(e)) => e.media().eta(),
+            State::Live(Live::HierarchicalDipole(d)) => d.state().eta(),
             State::Baked(b) => b.eta(),
         })
     }
@@ -374,6 +412,33 @@ impl Session {
         self.update(index, "move pieces", progress, |live, p| live.cut().map(|c| c.set_piece_transform(piece, transform, p)))
     }
 
+    /// Moves the vertices of object `index` to `positions` (object space, one per vertex of
+    /// the mesh it was baked from, in its order; the topology kept) and updates its radiance
+    /// ([`Deform::set_positions`]).
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`]; [`SessionError::Edit`] for positions of another count or
+    /// not finite; [`SessionError::Cancelled`].
+    pub fn set_positions(
+        &mut self,
+        index: usize,
+        positions: &[[f64; 3]],
+        progress: Progress,
+    ) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "deform the mesh", progress, |live, p| live.deform().map(|c| c.set_positions(positions, p)))
+    }
+
+    /// The hierarchical dipole's live state of object `index`, from its first update on.
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`].
+    pub fn dipole(&self, index: usize) -> Result<Option<&DipoleLive>, SessionError> {
+        Ok(match &self.slot(index)?.state {
+            State::Live(Live::HierarchicalDipole(d)) => Some(d),
+            State::Live(Live::TransCut(_)) | State::Baked(_) => None,
+        })
+    }
+
     /// Welds the pieces of object `index` whose faces touch again ([`Cut::recombine`]).
     ///
     /// # Errors
@@ -468,14 +533,14 @@ fn relight_slot(
 ) -> Result<(UpdateStats, Relit), EditError> {
     match &mut slot.state {
         State::Live(live) => {
-            let (stats, undo) = live.relight().relight(lights, progress)?;
+            let (stats, undo) = live.relight(lights, progress)?;
             Ok((stats, Relit::Existing(undo)))
         }
         State::Baked(bake) => {
             let half = |lo: f64| move |stage: &str, f: f64| progress.report(stage, lo + 0.5 * f).is_ok();
             let (first, rest) = (half(0.0), half(0.5));
             let mut live = Live::start(bake, baked, options, Progress::new(&first))?;
-            let (stats, _) = live.relight().relight(lights, Progress::new(&rest))?;
+            let (stats, _) = live.relight(lights, Progress::new(&rest))?;
             let before = std::mem::replace(&mut slot.state, State::Live(live));
             Ok((stats, Relit::Created(before)))
         }
@@ -488,7 +553,7 @@ fn undo_relight(slot: &mut Slot, relit: Relit) {
         Relit::Existing(undo) => {
             if let State::Live(live) = &mut slot.state {
                 // Cannot fail: the state is the one the relight changed, untouched since.
-                let undone = live.relight().undo_relight(undo);
+                let undone = live.undo_relight(undo);
                 debug_assert!(undone.is_ok(), "{undone:?}");
             }
         }

@@ -4,7 +4,7 @@ use crate::edit::{EditError, EditOptions, Editor};
 use crate::light::Light;
 use crate::methods::{bake_object, object_stage, Lighting, ObjectBake, SubsurfaceMethod, Target, TransCut};
 use crate::progress::Progress;
-use crate::scene::{Method, Object, Scene, SceneError};
+use crate::scene::{Object, Scene, SceneError};
 
 impl Editor {
     /// Meshes (if a surface) and bakes `object` alone under `lights` with TransCut and the
@@ -30,7 +30,7 @@ impl Editor {
     ) -> Result<Self, EditError> {
         options.validate()?;
         let bake_options = options.bake_options();
-        let Method::TransCut(transcut) = &bake_options.method;
+        let transcut = &options.transcut_options();
         let scene = Scene { objects: vec![object.clone()], lights: lights.to_vec() };
         let scene_error = |e| match e {
             SceneError::Cancelled(c) => EditError::Cancelled(c),
