@@ -51,6 +51,81 @@
 #define TC_METHOD_TRANSCUT 0
 
 /**
+ * The hierarchical dipole (Mertens et al. 2003): the dipole of a homogeneous medium integrated
+ * over the surface through cluster trees; no volume, no solve. Relight and
+ * `tc_object_set_positions` (a deforming mesh, frame by frame); `TcDipoleOptions` in
+ * `TcBakeOptions.method_options`. Heterogeneous media are refused with `TC_UNSUPPORTED`.
+ */
+#define TC_METHOD_HIERARCHICAL_DIPOLE 1
+
+/**
+ * `TcDipoleOptions.oracle`: accept a link when the clusters' radii sum to less than `theta`
+ * times their distance (the default).
+ */
+#define TC_DIPOLE_ORACLE_OPENING_ANGLE 0
+
+/**
+ * `TcDipoleOptions.oracle`: the paper's solid-angle oracle with `eps1` and `eps2`.
+ */
+#define TC_DIPOLE_ORACLE_PAPER 1
+
+/**
+ * `TcDipoleOptions.rule`: the near field's edge integral by 3-point Gauss–Legendre (default).
+ */
+#define TC_DIPOLE_RULE_GAUSS_LEGENDRE 0
+
+/**
+ * `TcDipoleOptions.rule`: the paper's midpoint rule (3–17% off away from the receiver).
+ */
+#define TC_DIPOLE_RULE_PAPER 1
+
+/**
+ * `TcDipoleOptions.receivers`: the radiance evaluated at the vertices (default).
+ */
+#define TC_DIPOLE_RECEIVERS_VERTICES 0
+
+/**
+ * `TcDipoleOptions.receivers`: at the triangles' centroids, averaged onto the vertices.
+ */
+#define TC_DIPOLE_RECEIVERS_FACES 1
+
+/**
+ * `TcDipoleOptions.mode`: every update traverses the trees afresh, storing no links (default).
+ */
+#define TC_DIPOLE_MODE_ON_THE_FLY 0
+
+/**
+ * `TcDipoleOptions.mode`: links kept while the geometry stays (a relight only gathers).
+ */
+#define TC_DIPOLE_MODE_RENDER 1
+
+/**
+ * `TcDipoleOptions.mode`: links kept, relinked after a deformation only where it moved
+ * geometry, at most `budget` links per update when `budget` is non-zero.
+ */
+#define TC_DIPOLE_MODE_INCREMENTAL 2
+
+/**
+ * `TcDipoleOptions.geometry`: Rd of the distance between the points (default, reciprocal).
+ */
+#define TC_DIPOLE_GEOMETRY_DISTANCE 0
+
+/**
+ * `TcDipoleOptions.geometry`: the paper's sources on the receiver's normal.
+ */
+#define TC_DIPOLE_GEOMETRY_PAPER 1
+
+/**
+ * `TcDipoleOptions.radiance`: Lo = Ft B/(π(1 − Fdr)), the quantity TransCut returns (default).
+ */
+#define TC_DIPOLE_RADIANCE_TRANSCUT 0
+
+/**
+ * `TcDipoleOptions.radiance`: Lo = T B/π (Jensen et al. 2001, the paper's eq. 3).
+ */
+#define TC_DIPOLE_RADIANCE_JENSEN 1
+
+/**
  * `TcBakeOptions.backend`: as the environment variable `TRANSCUT_BACKEND` says (`cpu`, `gpu`,
  * `auto`; an unknown value fails the bake with `TC_INVALID_ARGUMENT`), `TC_BACKEND_AUTO` when
  * it is unset or empty. The default.
@@ -198,7 +273,7 @@ typedef struct TcBakeOptions {
    */
   uint32_t size;
   /**
-   * The subsurface method: `TC_METHOD_TRANSCUT` (default).
+   * The subsurface method: `TC_METHOD_TRANSCUT` (default) or `TC_METHOD_HIERARCHICAL_DIPOLE`.
    */
   uint32_t method;
   /**
@@ -241,7 +316,8 @@ typedef struct TcBakeOptions {
   /**
    * NULL (the default: the method's own defaults), or the chosen method's options: for
    * `TC_METHOD_TRANSCUT` a `const TcTransCutOptions *` (filled by
-   * `tc_transcut_options_init`). Read during `tc_scene_bake` only, and only when `size`
+   * `tc_transcut_options_init`), for `TC_METHOD_HIERARCHICAL_DIPOLE` a
+   * `const TcDipoleOptions *` (filled by `tc_dipole_options_init`). Read during `tc_scene_bake` only, and only when `size`
    * covers it (a struct of the first version, 48 bytes, has no such field).
    */
   const void *method_options;
@@ -267,6 +343,60 @@ typedef struct TcTransCutOptions {
    */
   uint32_t edit_solver;
 } TcTransCutOptions;
+
+/**
+ * The hierarchical dipole's own options (`TcBakeOptions.method_options` with
+ * `TC_METHOD_HIERARCHICAL_DIPOLE`). Fill it with `tc_dipole_options_init(&options, sizeof
+ * options)`, which sets `size`. `TcBakeOptions.tets`, `tolerance`, `max_iterations` and
+ * `backend` do not apply to this method.
+ */
+typedef struct TcDipoleOptions {
+  /**
+   * The bytes of the struct the caller has, set by `tc_dipole_options_init`.
+   */
+  uint32_t size;
+  /**
+   * `TC_DIPOLE_ORACLE_OPENING_ANGLE` (default) or `TC_DIPOLE_ORACLE_PAPER`.
+   */
+  uint32_t oracle;
+  /**
+   * The opening angle, in (0, 1] (default 0.4; 0.6 fast, 0.3 accurate).
+   */
+  double theta;
+  /**
+   * The paper oracle's receiver threshold, > 0 (default 0.05).
+   */
+  double eps1;
+  /**
+   * The paper oracle's emitter threshold, > 0 (default 0.05).
+   */
+  double eps2;
+  /**
+   * `TC_DIPOLE_RULE_GAUSS_LEGENDRE` (default) or `TC_DIPOLE_RULE_PAPER`.
+   */
+  uint32_t rule;
+  /**
+   * `TC_DIPOLE_RECEIVERS_VERTICES` (default) or `TC_DIPOLE_RECEIVERS_FACES`.
+   */
+  uint32_t receivers;
+  /**
+   * `TC_DIPOLE_MODE_ON_THE_FLY` (default), `TC_DIPOLE_MODE_RENDER` or
+   * `TC_DIPOLE_MODE_INCREMENTAL`.
+   */
+  uint32_t mode;
+  /**
+   * `TC_DIPOLE_GEOMETRY_DISTANCE` (default) or `TC_DIPOLE_GEOMETRY_PAPER`.
+   */
+  uint32_t geometry;
+  /**
+   * Incremental mode: the most links evaluated per update; 0 = no limit (default).
+   */
+  uint64_t budget;
+  /**
+   * `TC_DIPOLE_RADIANCE_TRANSCUT` (default) or `TC_DIPOLE_RADIANCE_JENSEN`.
+   */
+  uint32_t radiance;
+} TcDipoleOptions;
 
 /**
  * Progress callback: `stage` is a short UTF-8 description (valid during the call only),
@@ -346,6 +476,61 @@ typedef struct TcBakeStats {
    */
   double resolution[3];
 } TcBakeStats;
+
+/**
+ * What the hierarchical dipole's last update of an object did (`tc_object_dipole_stats`).
+ * Set `size = sizeof(TcDipoleStats)` first.
+ */
+typedef struct TcDipoleStats {
+  /**
+   * The bytes of the struct the caller has (set it to `sizeof(TcDipoleStats)`).
+   */
+  uint32_t size;
+  /**
+   * Emitting triangles.
+   */
+  uint64_t triangles;
+  /**
+   * Receiving points.
+   */
+  uint64_t receivers;
+  /**
+   * Nodes of both cluster trees.
+   */
+  uint64_t nodes;
+  /**
+   * Links the update used (far and near).
+   */
+  uint64_t links;
+  /**
+   * Of them, leaf pairs with the analytic triangle form factor.
+   */
+  uint64_t near_links;
+  /**
+   * Form factors the update evaluated (0 for a relight with links kept).
+   */
+  uint64_t form_factors;
+  /**
+   * Receiver subtrees still linked to an older pose (incremental mode with a budget).
+   */
+  uint64_t stale_tasks;
+  /**
+   * Refitting the trees after the deformation.
+   */
+  double refit_ms;
+  /**
+   * Traversing the trees and evaluating form factors.
+   */
+  double link_ms;
+  /**
+   * Pulling the irradiance and gathering over the links.
+   */
+  double gather_ms;
+  /**
+   * Pushing down the receiver tree.
+   */
+  double push_ms;
+} TcDipoleStats;
 
 /**
  * What the last update of one object did (`tc_object_edit_stats`). The caller sets `size` to
@@ -678,6 +863,15 @@ TcStatus tc_bake_options_init(struct TcBakeOptions *options, size_t size);
 TcStatus tc_transcut_options_init(struct TcTransCutOptions *options, size_t size);
 
 /**
+ * Fills the first `size` bytes of `*options` with the hierarchical dipole's defaults (the
+ * opening-angle oracle at θ = 0.4, Gauss–Legendre edges, vertex receivers, on-the-fly, the
+ * distance geometry, TransCut's radiance), as `tc_bake_options_init` fills its struct; pass
+ * `sizeof(TcDipoleOptions)`. `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size
+ * below `sizeof(TcDipoleOptions)`; nothing is written on failure.
+ */
+TcStatus tc_dipole_options_init(struct TcDipoleOptions *options, size_t size);
+
+/**
  * Bakes every object with the chosen method (`TcBakeOptions.method`; TransCut meshes surfaces
  * into tetrahedra, computes the light transmitted into them, shadowed by all objects, solves
  * the diffusion system) and keeps the radiance leaving each vertex along its normal, Lo(x, n),
@@ -830,6 +1024,37 @@ TcStatus tc_object_set_piece_transform(struct TcScene *scene,
                                        uint32_t object,
                                        uint32_t piece,
                                        const double *matrix);
+
+/**
+ * Moves the vertices of a baked object to `xyz` (3 floats per vertex, object space, the
+ * vertices in the order the object was given, `vertex_count` = `tc_object_vertex_count`; the
+ * triangles stay) and updates its radiance under the scene's lights: the incremental
+ * counterpart of a new bake for each frame of an animation. The object's transform stays.
+ * Afterwards `tc_object_radiance` returns the new radiance, `tc_object_edit_stats` what the
+ * update did and `tc_object_dipole_stats` the hierarchy's split. The scene's progress
+ * callback (`tc_scene_set_progress`) is called and may cancel.
+ *
+ * Errors: `TC_NOT_BAKED`, `TC_NULL_POINTER`, `TC_INVALID_HANDLE` (no such object),
+ * `TC_INVALID_ARGUMENT` (a vertex count other than the object's, non-finite coordinates),
+ * `TC_UNSUPPORTED` (the object's method cannot deform: TransCut), `TC_CANCELLED`. Nothing
+ * changes on failure.
+ */
+TcStatus tc_object_set_positions(struct TcScene *scene,
+                                 uint32_t object,
+                                 const float *xyz,
+                                 size_t vertex_count);
+
+/**
+ * Writes what the hierarchical dipole's last update (the bake, a relight or
+ * `tc_object_set_positions`) of an object did into `*out`; set `out->size =
+ * sizeof(TcDipoleStats)` first (another size is `TC_INVALID_ARGUMENT`).
+ *
+ * Errors: `TC_NULL_POINTER`, `TC_INVALID_HANDLE`, `TC_NOT_BAKED` (before a bake), and
+ * `TC_UNSUPPORTED` for an object another method baked.
+ */
+TcStatus tc_object_dipole_stats(const struct TcScene *scene,
+                                uint32_t object,
+                                struct TcDipoleStats *out);
 
 /**
  * What the last update of an object did (relight, material edit, paint, cut, fracture, move,

@@ -7,8 +7,8 @@ use transcut_core::{ObjectStats, Session};
 use super::convert::scene_failure;
 use super::handle::{with_scene, TcScene};
 use super::options::{
-    backend_used, default_bake_options, default_transcut_options, read_bake_options, TcBakeOptions, TcTransCutOptions,
-    BAKE_OPTIONS_SIZE_V1,
+    backend_used, default_bake_options, default_dipole_options, default_transcut_options, read_bake_options, TcBakeOptions,
+    TcDipoleOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1,
 };
 use super::progress::{Callback, TcProgressFn};
 use super::ptr;
@@ -110,6 +110,20 @@ pub unsafe extern "C" fn tc_transcut_options_init(options: *mut TcTransCutOption
         let first = size_of::<TcTransCutOptions>();
         // SAFETY: the caller's contract: `size` writable bytes.
         unsafe { init(options, size, first, default_transcut_options()) }
+    })
+}
+
+/// Fills the first `size` bytes of `*options` with the hierarchical dipole's defaults (the
+/// opening-angle oracle at θ = 0.4, Gauss–Legendre edges, vertex receivers, on-the-fly, the
+/// distance geometry, TransCut's radiance), as `tc_bake_options_init` fills its struct; pass
+/// `sizeof(TcDipoleOptions)`. `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size
+/// below `sizeof(TcDipoleOptions)`; nothing is written on failure.
+#[no_mangle]
+pub unsafe extern "C" fn tc_dipole_options_init(options: *mut TcDipoleOptions, size: usize) -> TcStatus {
+    run("tc_dipole_options_init", || {
+        let first = size_of::<TcDipoleOptions>();
+        // SAFETY: the caller's contract: `size` writable bytes.
+        unsafe { init(options, size, first, default_dipole_options()) }
     })
 }
 

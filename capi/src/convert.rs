@@ -71,7 +71,8 @@ fn edit_status(e: &EditError) -> super::status::TcStatus {
         | EditError::NotRigid(_)
         | EditError::Medium(_)
         | EditError::Volume(_)
-        | EditError::Light(_) => TC_INVALID_ARGUMENT,
+        | EditError::Light(_)
+        | EditError::Hierarchy(_) => TC_INVALID_ARGUMENT,
         EditError::NothingLeft { .. } => TC_NOTHING_LEFT,
         EditError::NoSuchPiece { .. } => TC_INVALID_HANDLE,
         EditError::Mesh(_) => TC_INVALID_MESH,

@@ -37,6 +37,7 @@ mod handle;
 // Entry points: each imports only from the modules above.
 mod bake;
 mod cut;
+mod deform;
 mod edit_stats;
 mod light;
 mod material;

@@ -9,7 +9,9 @@ use std::ffi::c_void;
 
 use transcut_core::diffusion::SolverKind;
 use transcut_core::gpu::Backend;
+use transcut_core::hierarchy::{DipoleOptions, DipoleRadiance, EvalMode, Oracle, Receivers};
 use transcut_core::light::SourceOptions;
+use transcut_core::optics::{DipoleGeometry, EdgeRule};
 use transcut_core::{BakeOptions, Method, TransCutOptions};
 
 use super::status::Failure;
@@ -18,6 +20,40 @@ use super::status::Failure;
 /// `tc_method_count`, `tc_method_name` and `tc_method_from_name` list and name the methods;
 /// new ones are appended.
 pub const TC_METHOD_TRANSCUT: u32 = 0;
+/// The hierarchical dipole (Mertens et al. 2003): the dipole of a homogeneous medium integrated
+/// over the surface through cluster trees; no volume, no solve. Relight and
+/// `tc_object_set_positions` (a deforming mesh, frame by frame); `TcDipoleOptions` in
+/// `TcBakeOptions.method_options`. Heterogeneous media are refused with `TC_UNSUPPORTED`.
+pub const TC_METHOD_HIERARCHICAL_DIPOLE: u32 = 1;
+
+/// `TcDipoleOptions.oracle`: accept a link when the clusters' radii sum to less than `theta`
+/// times their distance (the default).
+pub const TC_DIPOLE_ORACLE_OPENING_ANGLE: u32 = 0;
+/// `TcDipoleOptions.oracle`: the paper's solid-angle oracle with `eps1` and `eps2`.
+pub const TC_DIPOLE_ORACLE_PAPER: u32 = 1;
+/// `TcDipoleOptions.rule`: the near field's edge integral by 3-point Gauss–Legendre (default).
+pub const TC_DIPOLE_RULE_GAUSS_LEGENDRE: u32 = 0;
+/// `TcDipoleOptions.rule`: the paper's midpoint rule (3–17% off away from the receiver).
+pub const TC_DIPOLE_RULE_PAPER: u32 = 1;
+/// `TcDipoleOptions.receivers`: the radiance evaluated at the vertices (default).
+pub const TC_DIPOLE_RECEIVERS_VERTICES: u32 = 0;
+/// `TcDipoleOptions.receivers`: at the triangles' centroids, averaged onto the vertices.
+pub const TC_DIPOLE_RECEIVERS_FACES: u32 = 1;
+/// `TcDipoleOptions.mode`: every update traverses the trees afresh, storing no links (default).
+pub const TC_DIPOLE_MODE_ON_THE_FLY: u32 = 0;
+/// `TcDipoleOptions.mode`: links kept while the geometry stays (a relight only gathers).
+pub const TC_DIPOLE_MODE_RENDER: u32 = 1;
+/// `TcDipoleOptions.mode`: links kept, relinked after a deformation only where it moved
+/// geometry, at most `budget` links per update when `budget` is non-zero.
+pub const TC_DIPOLE_MODE_INCREMENTAL: u32 = 2;
+/// `TcDipoleOptions.geometry`: Rd of the distance between the points (default, reciprocal).
+pub const TC_DIPOLE_GEOMETRY_DISTANCE: u32 = 0;
+/// `TcDipoleOptions.geometry`: the paper's sources on the receiver's normal.
+pub const TC_DIPOLE_GEOMETRY_PAPER: u32 = 1;
+/// `TcDipoleOptions.radiance`: Lo = Ft B/(π(1 − Fdr)), the quantity TransCut returns (default).
+pub const TC_DIPOLE_RADIANCE_TRANSCUT: u32 = 0;
+/// `TcDipoleOptions.radiance`: Lo = T B/π (Jensen et al. 2001, the paper's eq. 3).
+pub const TC_DIPOLE_RADIANCE_JENSEN: u32 = 1;
 
 /// `TcBakeOptions.backend`: as the environment variable `TRANSCUT_BACKEND` says (`cpu`, `gpu`,
 /// `auto`; an unknown value fails the bake with `TC_INVALID_ARGUMENT`), `TC_BACKEND_AUTO` when
@@ -68,7 +104,7 @@ pub const TC_MAX_ITERATIONS: u32 = 1_000_000;
 pub struct TcBakeOptions {
     /// The bytes of the struct the caller has, set by `tc_bake_options_init`.
     pub size: u32,
-    /// The subsurface method: `TC_METHOD_TRANSCUT` (default).
+    /// The subsurface method: `TC_METHOD_TRANSCUT` (default) or `TC_METHOD_HIERARCHICAL_DIPOLE`.
     pub method: u32,
     /// TransCut: target number of tetrahedra per surface object, 1 to `TC_MAX_TETS` (default
     /// 200 000).
@@ -93,7 +129,8 @@ pub struct TcBakeOptions {
     pub backend: u32,
     /// NULL (the default: the method's own defaults), or the chosen method's options: for
     /// `TC_METHOD_TRANSCUT` a `const TcTransCutOptions *` (filled by
-    /// `tc_transcut_options_init`). Read during `tc_scene_bake` only, and only when `size`
+    /// `tc_transcut_options_init`), for `TC_METHOD_HIERARCHICAL_DIPOLE` a
+    /// `const TcDipoleOptions *` (filled by `tc_dipole_options_init`). Read during `tc_scene_bake` only, and only when `size`
     /// covers it (a struct of the first version, 48 bytes, has no such field).
     pub method_options: *const c_void,
 }
@@ -111,6 +148,102 @@ pub struct TcTransCutOptions {
     /// The solver of edits after the bake (relight, material edits, cuts):
     /// `TC_SOLVER_DEFAULT` (the smoothed-aggregation V-cycle) or a `TC_SOLVER_*`.
     pub edit_solver: u32,
+}
+
+/// The hierarchical dipole's own options (`TcBakeOptions.method_options` with
+/// `TC_METHOD_HIERARCHICAL_DIPOLE`). Fill it with `tc_dipole_options_init(&options, sizeof
+/// options)`, which sets `size`. `TcBakeOptions.tets`, `tolerance`, `max_iterations` and
+/// `backend` do not apply to this method.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcDipoleOptions {
+    /// The bytes of the struct the caller has, set by `tc_dipole_options_init`.
+    pub size: u32,
+    /// `TC_DIPOLE_ORACLE_OPENING_ANGLE` (default) or `TC_DIPOLE_ORACLE_PAPER`.
+    pub oracle: u32,
+    /// The opening angle, in (0, 1] (default 0.4; 0.6 fast, 0.3 accurate).
+    pub theta: f64,
+    /// The paper oracle's receiver threshold, > 0 (default 0.05).
+    pub eps1: f64,
+    /// The paper oracle's emitter threshold, > 0 (default 0.05).
+    pub eps2: f64,
+    /// `TC_DIPOLE_RULE_GAUSS_LEGENDRE` (default) or `TC_DIPOLE_RULE_PAPER`.
+    pub rule: u32,
+    /// `TC_DIPOLE_RECEIVERS_VERTICES` (default) or `TC_DIPOLE_RECEIVERS_FACES`.
+    pub receivers: u32,
+    /// `TC_DIPOLE_MODE_ON_THE_FLY` (default), `TC_DIPOLE_MODE_RENDER` or
+    /// `TC_DIPOLE_MODE_INCREMENTAL`.
+    pub mode: u32,
+    /// `TC_DIPOLE_GEOMETRY_DISTANCE` (default) or `TC_DIPOLE_GEOMETRY_PAPER`.
+    pub geometry: u32,
+    /// Incremental mode: the most links evaluated per update; 0 = no limit (default).
+    pub budget: u64,
+    /// `TC_DIPOLE_RADIANCE_TRANSCUT` (default) or `TC_DIPOLE_RADIANCE_JENSEN`.
+    pub radiance: u32,
+}
+
+/// The defaults, as `tc_dipole_options_init` writes them.
+pub(crate) fn default_dipole_options() -> TcDipoleOptions {
+    let (theta, eps) = (0.4, 0.05);
+    debug_assert_eq!(DipoleOptions::default().oracle, Oracle::OpeningAngle { theta });
+    TcDipoleOptions {
+        size: size_of::<TcDipoleOptions>() as u32,
+        oracle: TC_DIPOLE_ORACLE_OPENING_ANGLE,
+        theta,
+        eps1: eps,
+        eps2: eps,
+        rule: TC_DIPOLE_RULE_GAUSS_LEGENDRE,
+        receivers: TC_DIPOLE_RECEIVERS_VERTICES,
+        mode: TC_DIPOLE_MODE_ON_THE_FLY,
+        geometry: TC_DIPOLE_GEOMETRY_DISTANCE,
+        budget: 0,
+        radiance: TC_DIPOLE_RADIANCE_TRANSCUT,
+    }
+}
+
+/// The core's options from the caller's struct.
+fn dipole_options(o: &TcDipoleOptions) -> Result<DipoleOptions, Failure> {
+    let pick = |value: u32, field: &str, choices: usize| {
+        if (value as usize) < choices {
+            Ok(value)
+        } else {
+            Err(Failure::invalid(format!("options->method_options->{field} = {value}: must be below {choices}")))
+        }
+    };
+    let options = DipoleOptions {
+        oracle: match pick(o.oracle, "oracle", 2)? {
+            TC_DIPOLE_ORACLE_OPENING_ANGLE => Oracle::OpeningAngle { theta: o.theta },
+            _ => Oracle::Paper { eps1: o.eps1, eps2: o.eps2 },
+        },
+        rule: match pick(o.rule, "rule", 2)? {
+            TC_DIPOLE_RULE_GAUSS_LEGENDRE => EdgeRule::default(),
+            _ => EdgeRule::PAPER,
+        },
+        receivers: match pick(o.receivers, "receivers", 2)? {
+            TC_DIPOLE_RECEIVERS_VERTICES => Receivers::Vertices,
+            _ => Receivers::FaceCentroids,
+        },
+        mode: match pick(o.mode, "mode", 3)? {
+            TC_DIPOLE_MODE_ON_THE_FLY => EvalMode::OnTheFly,
+            TC_DIPOLE_MODE_RENDER => EvalMode::Render,
+            _ => EvalMode::Incremental {
+                budget: match o.budget {
+                    0 => None,
+                    b => Some(usize::try_from(b).unwrap_or(usize::MAX)),
+                },
+            },
+        },
+        geometry: match pick(o.geometry, "geometry", 2)? {
+            TC_DIPOLE_GEOMETRY_DISTANCE => DipoleGeometry::Distance,
+            _ => DipoleGeometry::PaperSources,
+        },
+        radiance: match pick(o.radiance, "radiance", 2)? {
+            TC_DIPOLE_RADIANCE_TRANSCUT => DipoleRadiance::MatchTransCut,
+            _ => DipoleRadiance::Jensen2001,
+        },
+    };
+    options.validate().map_err(|e| Failure::invalid(format!("options->method_options: {e}")))?;
+    Ok(options)
 }
 
 /// The size of `TcBakeOptions` before `method_options` was appended.
@@ -255,6 +388,21 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
                 edit_solver: solver_from(t.edit_solver, "options->method_options->edit_solver")?.unwrap_or(d.edit_solver),
                 backend: backend_from(o.backend, "options->backend")?,
             })
+        }
+        TC_METHOD_HIERARCHICAL_DIPOLE => {
+            let d = if o.method_options.is_null() {
+                default_dipole_options()
+            } else {
+                let d = o.method_options.cast::<TcDipoleOptions>();
+                if !d.is_aligned() {
+                    return Err(Failure::invalid("`options->method_options` is not aligned for TcDipoleOptions"));
+                }
+                let sized =
+                    Sized { what: "options->method_options", type_name: "TcDipoleOptions", filler: "tc_dipole_options_init" };
+                // SAFETY: the caller's contract, checked for NULL and alignment.
+                unsafe { read_sized(d, size_of::<TcDipoleOptions>(), default_dipole_options(), &sized)? }
+            };
+            Method::HierarchicalDipole(dipole_options(&d)?)
         }
         other => {
             return Err(Failure::invalid(format!(

@@ -49,6 +49,7 @@ const CAPI: Table = &[
     ("handle", &["convert", "progress", "status"]),
     ("bake", &["convert", "handle", "options", "progress", "ptr", "status"]),
     ("cut", &["convert", "handle", "ptr", "status"]),
+    ("deform", &["handle", "ptr", "status"]),
     ("edit_stats", &["convert", "handle", "ptr", "status"]),
     ("light", &["handle", "ptr", "status"]),
     ("material", &["convert", "handle", "ptr", "status"]),

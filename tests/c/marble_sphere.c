@@ -15,6 +15,12 @@
  *    bake under that sun), cut by a plane (the piece's surface lies below the plane, its
  *    radiance is read into caller buffers, a short buffer is refused untouched) and relit again.
  *
+ * 5. The hierarchical dipole (check_dipole): the marble sphere of radius 10 mm under a constant
+ *    sky against the dipole's own closed form (B = q times the profile integrated over a disc of
+ *    radius 2R, computed here), then deformed with tc_object_set_positions to a radius of 15 mm
+ *    and checked against that radius's closed form; misuse (a wrong vertex count, NaN, a method
+ *    that cannot deform) leaves the radiance untouched.
+ *
  * Exit status 0 when every check passes. Run under valgrind by tests/c/run.sh.
  */
 #include <math.h>
@@ -172,6 +178,25 @@ static void uniform_sphere(double sigma_a, double sigma_s_prime, double eta, dou
     *lo = ft_normal / (4.0 * PI) * ((1.0 + 1.0 / a) * *phi_r - 4.0 * q / (1.0 + fdr));
 }
 
+/* The dipole's Lo on a uniformly lit sphere of radius R (design/hierarchical-dipole.md §1.2):
+ * every point lies at chord distance r in [0, 2R] with dA = 2 pi r dr, so
+ * B = q (alpha'/2) sum_j (exp(-s z_j) - z_j exp(-s D_j)/D_j), D_j = sqrt((2R)^2 + z_j^2), and
+ * Lo = Ft(n) B / (pi (1 - Fdr)). */
+static double dipole_sphere(double sigma_a, double sigma_s_prime, double eta, double radius, double sky) {
+    double q = PI * (1.0 - f_ext(eta)) * sky;
+    double fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
+    double a = (1.0 + fdr) / (1.0 - fdr);
+    double st = sigma_a + sigma_s_prime, alpha = sigma_s_prime / st, s = sqrt(3.0 * sigma_a * st);
+    double zr = 1.0 / st, zv = zr * (1.0 + 4.0 * a / 3.0), b = 0.0;
+    for (int j = 0; j < 2; j++) {
+        double z = j ? zv : zr, d = sqrt(4.0 * radius * radius + z * z);
+        b += exp(-s * z) - z * exp(-s * d) / d;
+    }
+    b *= 0.5 * alpha * q;
+    double r0 = (eta - 1.0) / (eta + 1.0);
+    return (1.0 - r0 * r0) / (eta * eta) * b / (PI * (1.0 - fdr));
+}
+
 /* ---------------------------------------------------------------------------------------- */
 
 typedef struct {
@@ -320,6 +345,116 @@ static void check_editing(void) {
     free(tri);
     free(lo);
     free(fresh_lo);
+    free(m.positions);
+    free(m.indices);
+}
+
+/* Mean relative error of `rgb` against `want` per channel, the worst channel. */
+static double mean_error(const float *rgb, size_t n, const double want[3]) {
+    double worst = 0.0;
+    for (int c = 0; c < 3; c++) {
+        double sum = 0.0;
+        for (size_t v = 0; v < n; v++) sum += rgb[3 * v + c];
+        worst = fmax(worst, fabs(sum / n / want[c] - 1.0));
+    }
+    return worst;
+}
+
+static void check_dipole(void) {
+    const double sa[3] = {0.0021, 0.0041, 0.0071}, ss[3] = {2.19, 2.62, 3.00};
+    const double worked[3] = {0.8465, 0.8187, 0.7875};
+    double want10[3], want15[3];
+    for (int c = 0; c < 3; c++) {
+        want10[c] = dipole_sphere(sa[c], ss[c], 1.3, 10.0, 1.0);
+        want15[c] = dipole_sphere(sa[c], ss[c], 1.3, 15.0, 1.0);
+        CHECK(fabs(want10[c] - worked[c]) < 2e-4, "dipole closed form, channel %d: %.5f", c, want10[c]);
+    }
+    Mesh m = icosphere(10.0f, 4);
+    size_t n = m.vertex_count;
+    TcScene *scene = NULL;
+    OK(tc_scene_create(&scene));
+    uint32_t ball = UINT32_MAX, other = UINT32_MAX;
+    OK(tc_scene_add_mesh(scene, m.positions, n, m.indices, 3 * m.triangle_count, &ball));
+    TcMedium marble;
+    OK(tc_medium_preset("marble", &marble));
+    marble.eta = 1.3;
+    OK(tc_object_set_medium(scene, ball, &marble));
+    OK(tc_scene_add_environment(scene, (const double[3]){1.0, 1.0, 1.0}));
+
+    uint32_t method = 99;
+    OK(tc_method_from_name("hierarchical-dipole", &method));
+    CHECK(method == TC_METHOD_HIERARCHICAL_DIPOLE, "method number %u", method);
+    TcDipoleOptions dipole;
+    OK(tc_dipole_options_init(&dipole, sizeof dipole));
+    CHECK(dipole.size == sizeof dipole && dipole.theta == 0.4 && dipole.mode == TC_DIPOLE_MODE_ON_THE_FLY,
+          "dipole defaults");
+    TcBakeOptions options;
+    OK(tc_bake_options_init(&options, sizeof options));
+    options.method = method;
+    options.method_options = &dipole;
+    options.shadows = 0;
+    dipole.theta = 1.5;
+    CHECK(tc_scene_bake(scene, &options, NULL, NULL) == TC_INVALID_ARGUMENT &&
+              strstr(tc_last_error_message(), "theta") != NULL,
+          "theta out of range: %s", tc_last_error_message());
+    dipole.theta = 0.4;
+    dipole.mode = TC_DIPOLE_MODE_INCREMENTAL;
+    OK(tc_scene_bake(scene, &options, NULL, NULL));
+    float *lo = malloc(3 * n * sizeof(float)), *before = malloc(3 * n * sizeof(float));
+    OK(tc_object_radiance(scene, ball, lo, 3 * n));
+    double e10 = mean_error(lo, n, want10);
+    printf("hierarchical dipole, R = 10 mm: mean within %.3f%% of the closed form\n", 100.0 * e10);
+    CHECK(e10 < 0.01, "dipole sphere R = 10 mm: %.4f", e10);
+    TcDipoleStats dstats;
+    dstats.size = sizeof dstats;
+    OK(tc_object_dipole_stats(scene, ball, &dstats));
+    CHECK(dstats.triangles == m.triangle_count && dstats.links > dstats.triangles && dstats.near_links > 0,
+          "dipole stats: %llu triangles, %llu links", (unsigned long long)dstats.triangles,
+          (unsigned long long)dstats.links);
+
+    /* Deform: every vertex moved out to R = 15 mm. */
+    float *moved = malloc(3 * n * sizeof(float));
+    for (size_t i = 0; i < 3 * n; i++) moved[i] = 1.5f * m.positions[i];
+    OK(tc_object_set_positions(scene, ball, moved, n));
+    OK(tc_object_radiance(scene, ball, lo, 3 * n));
+    double e15 = mean_error(lo, n, want15);
+    printf("hierarchical dipole deformed to R = 15 mm: mean within %.3f%% of the closed form\n", 100.0 * e15);
+    CHECK(e15 < 0.01, "dipole sphere R = 15 mm: %.4f", e15);
+    OK(tc_object_dipole_stats(scene, ball, &dstats));
+    CHECK(dstats.form_factors > 0 && dstats.refit_ms >= 0.0, "a deformation evaluates form factors");
+
+    /* Misuse changes nothing. */
+    memcpy(before, lo, 3 * n * sizeof(float));
+    CHECK(tc_object_set_positions(scene, ball, moved, n - 1) == TC_INVALID_ARGUMENT &&
+              strstr(tc_last_error_message(), "positions") != NULL,
+          "wrong vertex count: %s", tc_last_error_message());
+    CHECK(tc_object_set_positions(scene, ball, NULL, n) == TC_NULL_POINTER, "NULL positions");
+    moved[7] = NAN;
+    CHECK(tc_object_set_positions(scene, ball, moved, n) == TC_INVALID_ARGUMENT, "NaN position");
+    CHECK(tc_object_set_positions(scene, 5, moved, n) == TC_INVALID_HANDLE, "no such object");
+    OK(tc_object_radiance(scene, ball, lo, 3 * n));
+    CHECK(memcmp(before, lo, 3 * n * sizeof(float)) == 0, "failed calls changed the radiance");
+    tc_scene_destroy(&scene);
+
+    /* TransCut cannot deform. */
+    OK(tc_scene_create(&scene));
+    OK(tc_scene_add_mesh(scene, m.positions, n, m.indices, 3 * m.triangle_count, &other));
+    OK(tc_object_set_medium(scene, other, &marble));
+    OK(tc_scene_add_environment(scene, (const double[3]){1.0, 1.0, 1.0}));
+    TcBakeOptions transcut;
+    OK(tc_bake_options_init(&transcut, sizeof transcut));
+    transcut.tets = 8000;
+    transcut.backend = TC_BACKEND_CPU;
+    OK(tc_scene_bake(scene, &transcut, NULL, NULL));
+    for (size_t i = 0; i < 3 * n; i++) moved[i] = m.positions[i];
+    CHECK(tc_object_set_positions(scene, other, moved, n) == TC_UNSUPPORTED &&
+              strstr(tc_last_error_message(), "transcut") != NULL,
+          "TransCut deforming: %s", tc_last_error_message());
+    CHECK(tc_object_dipole_stats(scene, other, &dstats) == TC_UNSUPPORTED, "TransCut has no dipole stats");
+    tc_scene_destroy(&scene);
+    free(moved);
+    free(before);
+    free(lo);
     free(m.positions);
     free(m.indices);
 }
@@ -475,6 +610,7 @@ int main(void) {
     free(mesh.indices);
 
     check_editing();
+    check_dipole();
     if (failures) {
         fprintf(stderr, "%d check(s) failed\n", failures);
         return 1;
