@@ -28,7 +28,7 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 use crate::optics::quadrature::triangle_rule7;
-use crate::optics::{Dipole, DipoleGeometry, EdgeRule};
+use crate::optics::{triangle_integral_rgb, Dipole, DipoleGeometry, EdgeRule};
 use crate::progress::{ms, Cancelled};
 
 use super::error::HierarchyError;
@@ -125,13 +125,20 @@ impl Gathered {
     /// Adds a far link's expansion at local node `at` (module documentation).
     fn far(&mut self, at: usize, d: DVec3, kernel: Kernel, emitted: &Emitted, e: usize) {
         let Kernel { f, k, l } = kernel;
+        let ddt = DMat3::from_cols(d * d.x, d * d.y, d * d.z);
         for c in 0..3 {
             let (phi, m, q) = (emitted.flux[e][c], emitted.moment[e][c], emitted.second[e][c]);
-            let hessian = DMat3::from_diagonal(DVec3::splat(k[c])) + DMat3::from_cols(d * d.x, d * d.y, d * d.z) * l[c];
             let trace_q = q.x_axis.x + q.y_axis.y + q.z_axis.z;
-            self.b[at][c] += phi * f[c] - k[c] * d.dot(m) + 0.5 * (k[c] * trace_q + l[c] * d.dot(q * d));
-            self.gradient[at][c] += d * (k[c] * phi) - hessian * m;
-            self.hessian[at][c] += hessian * phi;
+            let dm = d.dot(m);
+            self.b[at][c] += phi * f[c] - k[c] * dm + 0.5 * (k[c] * trace_q + l[c] * d.dot(q * d));
+            // ∇f·Φ − H m with H = kI + l DDᵀ.
+            self.gradient[at][c] += d * (k[c] * phi - l[c] * dm) - m * k[c];
+            let h = &mut self.hessian[at][c];
+            *h += ddt * (phi * l[c]);
+            let diagonal = phi * k[c];
+            h.x_axis.x += diagonal;
+            h.y_axis.y += diagonal;
+            h.z_axis.z += diagonal;
         }
     }
 
@@ -546,11 +553,8 @@ impl DipoleHierarchy {
         match self.options.geometry {
             DipoleGeometry::Distance => {
                 let d = x_o.distance(e.centre);
-                Kernel {
-                    f: self.dipoles.map(|p| p.rd(d)),
-                    k: self.dipoles.map(|p| p.rd_slope_over_r(d)),
-                    l: self.dipoles.map(|p| p.rd_curvature(d)),
-                }
+                let [r, g, b] = self.dipoles.map(|p| p.rd_with_derivatives(d));
+                Kernel { f: [r[0], g[0], b[0]], k: [r[1], g[1], b[1]], l: [r[2], g[2], b[2]] }
             }
             geometry => {
                 Kernel { f: self.dipoles.map(|p| point_kernel(&p, e.centre, x_o, n_o, geometry)), k: [0.0; 3], l: [0.0; 3] }
@@ -558,11 +562,15 @@ impl DipoleHierarchy {
         }
     }
 
-    /// The analytic form factor of triangle `t` at a receiving leaf (Mertens eq. 18).
+    /// The analytic form factor of triangle `t` at a receiving leaf (Mertens eq. 18), the
+    /// three channels at once in the distance geometry.
     fn near_factor(&self, r: &ClusterNode, t: usize) -> [f64; 3] {
         let (x_o, n_o) = receiver_point(r);
         let corners = self.triangles[t].map(|v| self.positions[v as usize]);
-        self.dipoles.map(|d| d.triangle_integral(corners, x_o, n_o, self.options.geometry, self.options.rule))
+        match self.options.geometry {
+            DipoleGeometry::Distance => triangle_integral_rgb(&self.dipoles, corners, x_o, self.options.rule),
+            geometry => self.dipoles.map(|d| d.triangle_integral(corners, x_o, n_o, geometry, self.options.rule)),
+        }
     }
 
     /// The emitter tree under `irradiance` per vertex ([`Emitted`]): on a triangle the

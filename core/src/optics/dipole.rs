@@ -94,6 +94,23 @@ impl Dipole {
         self.alpha_prime / (4.0 * std::f64::consts::PI) * (term(self.z_r) + term(self.z_v))
     }
 
+    /// [`Dipole::rd`], [`Dipole::rd_slope_over_r`] and [`Dipole::rd_curvature`] at `r` at
+    /// once, sharing each source's exponential (a third of the work of the three calls).
+    #[must_use]
+    pub fn rd_with_derivatives(&self, r: f64) -> [f64; 3] {
+        let mut out = [0.0; 3];
+        for z in [self.z_r, self.z_v] {
+            let d = (r * r + z * z).sqrt();
+            let sd = self.sigma_tr * d;
+            let (inv, e) = (1.0 / d, z * (-sd).exp());
+            let (inv2, inv3) = (inv * inv, inv * inv * inv);
+            out[0] += e * (1.0 + sd) * inv3;
+            out[1] -= e * ((sd + 3.0) * sd + 3.0) * inv3 * inv2;
+            out[2] += e * (((sd + 6.0) * sd + 15.0) * sd + 15.0) * inv3 * inv2 * inv2;
+        }
+        out.map(|x| self.alpha_prime / (4.0 * std::f64::consts::PI) * x)
+    }
+
     /// Total diffuse reflectance ∫₀^∞ Rd(r) 2πr dr = (α′/2)(e^{−σtr z_r} + e^{−σtr z_v})
     /// (Jensen et al. 2001's Rd(r) integrated in closed form; equals
     /// [`total_diffuse_reflectance`] of α′).
@@ -298,6 +315,10 @@ mod tests {
                 let numeric = (k(r + h) - k(r - h)) / (2.0 * h) / r;
                 let curvature = d.rd_curvature(r);
                 assert!((curvature / numeric - 1.0).abs() < 1e-5, "{sa} {ss} r {r}: {curvature} vs {numeric}");
+                let [f, k, l] = d.rd_with_derivatives(r);
+                for (a, b) in [(f, d.rd(r)), (k, slope), (l, curvature)] {
+                    assert!((a / b - 1.0).abs() < 1e-13, "{sa} {ss} r {r}: {a} vs {b}");
+                }
             }
         }
     }

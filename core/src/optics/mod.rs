@@ -78,7 +78,7 @@ pub use analytic::{uniform_sphere_fluence, UniformSphere};
 pub use artist::ArtistParams;
 pub use boundary::{radiance_from_fluence, BoundaryTerms};
 pub use dipole::{rd_profile, reduced_albedo_from_rd, sigma_tr, total_diffuse_reflectance, Dipole};
-pub use dipole_patch::{DipoleGeometry, EdgeRule};
+pub use dipole_patch::{triangle_integral_rgb, DipoleGeometry, EdgeRule};
 pub use error::{OpticsError, CHANNEL_NAMES};
 pub use fresnel::{
     a_coefficient, critical_cosine, f_ext, fdr, fdr_exact, fresnel_reflectance, fresnel_transmittance, ft_out,
