@@ -6,41 +6,25 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 use clap::Args;
 use transcut::mesh::{self, TriMesh};
-use transcut::{bake_with, diffusion, BakeOptions, Object, ObjectBake, Progress, Scene};
+use transcut::{bake_with, diffusion, BakeOptions, Method, ObjectBake, Progress, Scene};
 
-use crate::method_args::{method_help, MethodArgs, MethodDefaults};
+use crate::method_args::{MethodArgs, MethodDefaults};
+use crate::object_args::{ObjectArgs, FORMS_HELP};
+use crate::output::{write_f32, write_npy_header};
 use crate::progress::StageBar;
-use crate::spec;
 
 /// Arguments of `transcut bake`.
 #[derive(Args)]
-#[command(after_help = "Light forms (repeat --light for several):
-  sun:dir=X,Y,Z,irradiance=E[,angle=DEG]     direction the light travels; E or R,G,B
-  point:pos=X,Y,Z,intensity=I                 W/sr; I or R,G,B
-  spot:pos=X,Y,Z,dir=X,Y,Z,intensity=I[,angle=DEG][,blend=B]
-  env:radiance=R,G,B                          constant sky
-  env:file=sky.hdr[,strength=S]               equirectangular .hdr or .exr
-
-Methods: `--method help` lists them (default transcut).
-
-Medium forms:
-  marble | skin1 | … (see `--medium help`)    measured presets (Jensen et al. 2001)
-  sigma_a=R,G,B:sigma_s=R,G,B:eta=E[:g=G]     mm⁻¹; sigma_s is the reduced σ′s
+#[command(after_help = format!("{FORMS_HELP}
 
 Example:
-  transcut bake bunny.obj --medium marble --scale 40 --light sun:dir=0,-1,-1,irradiance=3 -o bunny.ply")]
+  transcut bake bunny.obj --medium marble --scale 40 --light sun:dir=0,-1,-1,irradiance=3 -o bunny.ply
+  transcut bake bunny.obj --scale 40 --method hierarchical-dipole --theta 0.3 -o bunny.npy"))]
 pub struct BakeArgs {
     /// Input surface mesh (.obj or .ply).
     pub input: PathBuf,
-    /// The medium: a preset name or coefficients (see below).
-    #[arg(long, default_value = "marble")]
-    pub medium: String,
-    /// Millimetres per mesh unit (media are in mm⁻¹, so this sets how translucent the object is).
-    #[arg(long, default_value_t = 1.0)]
-    pub scale: f64,
-    /// A light (repeatable; see below). Without one, a white sky of radiance 1 is used.
-    #[arg(long = "light")]
-    pub lights: Vec<String>,
+    #[command(flatten)]
+    pub object: ObjectArgs,
     #[command(flatten)]
     pub method: MethodArgs,
     /// Worker threads (0 = all cores).
@@ -52,7 +36,7 @@ pub struct BakeArgs {
     pub output: Option<PathBuf>,
     /// transcut: write the diffusion system (M per channel, b) as Matrix Market files in this
     /// folder, so any external solver can be timed on exactly the same system.
-    #[arg(long)]
+    #[arg(long, help_heading = "TransCut options")]
     pub export_system: Option<PathBuf>,
     /// Print statistics as JSON on stdout (no progress bar).
     #[arg(long)]
@@ -60,26 +44,16 @@ pub struct BakeArgs {
 }
 
 pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
-    if args.medium == "help" {
-        println!("presets: {}", transcut::optics::PRESET_NAMES.join(", "));
-        return Ok(());
-    }
-    if args.method.wants_help() {
-        print!("{}", method_help());
+    if args.object.print_help(&args.method) {
         return Ok(());
     }
     let method = args.method.method(&MethodDefaults::default())?;
+    if args.export_system.is_some() && !matches!(method, Method::TransCut(_)) {
+        bail!("--export-system writes TransCut's system, an option of the transcut method, not of {}", method.name());
+    }
     let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
-    let medium = spec::medium(&args.medium)?;
-    let mut lights = args.lights.iter().map(|s| spec::light(s)).collect::<anyhow::Result<Vec<_>>>()?;
-    if lights.is_empty() {
-        lights.push(transcut::light::Light::Environment(transcut::light::Environment::Constant([1.0; 3])));
-    }
-    if !(args.scale.is_finite() && args.scale > 0.0) {
-        bail!("--scale must be a positive number of millimetres per unit, got {}", transcut::input::fmt_num(args.scale));
-    }
     let name = args.input.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned());
-    let scene = Scene { objects: vec![Object::new(name, input.clone(), medium, args.scale)], lights };
+    let scene = args.object.scene(name, input.clone())?;
     let options = BakeOptions { method, threads: args.threads, ..BakeOptions::default() };
     let bar = StageBar::new(args.json);
     let callback = |stage: &str, f: f64| bar.update(stage, f);
@@ -93,23 +67,37 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.export_system {
         export_system(dir, &scene, object).with_context(|| format!("exporting the system to {}", dir.display()))?;
     }
+    let dipole = object.dipole().map(|d| d.stats);
     if args.json {
         let report = serde_json::json!({
             "input": args.input.display().to_string(),
             "output": args.output.as_ref().map(|p| p.display().to_string()),
             "total_ms": baked.total_ms,
             "stats": object.stats,
+            "dipole": dipole,
         });
         crate::output::print_json(&report)?;
-    } else {
-        let s = &object.stats;
-        println!("{}: {} vertices baked by {}", args.input.display(), object.radiance.len(), s.method);
-        println!("tets {} ({} vertices, {} on the surface)", s.tets, s.vertices, s.boundary_vertices);
+        return Ok(());
+    }
+    let s = &object.stats;
+    println!("{}: {} vertices baked by {}", args.input.display(), object.radiance.len(), s.method);
+    if let Some(d) = dipole {
         println!(
-            "solver iterations {:?}, relative residual {:.1e}",
-            s.iterations,
-            s.relative_residual.iter().copied().fold(0.0, f64::max)
+            "{} triangles, {} receivers, {} links ({} near, {:.1} per triangle)",
+            d.triangles,
+            d.receivers,
+            d.links,
+            d.near_links,
+            d.links as f64 / d.triangles.max(1) as f64
         );
+        println!(
+            "time {:.0} ms (trees {:.0}, light {:.0}, links {:.0}, gather {:.0}, push {:.0})",
+            baked.total_ms, s.meshing_ms, s.source_ms, d.link_ms, d.gather_ms, d.push_ms
+        );
+    } else {
+        println!("tets {} ({} vertices, {} on the surface)", s.tets, s.vertices, s.boundary_vertices);
+        let residual = s.relative_residual.iter().copied().fold(0.0, f64::max);
+        println!("solver iterations {:?}, relative residual {residual:.1e}", s.iterations);
         println!(
             "time {:.0} ms (mesh {:.0}, assembly {:.0}, light {:.0}, solve {:.0})",
             baked.total_ms, s.meshing_ms, s.assembly_ms, s.source_ms, s.solve_ms
@@ -123,12 +111,12 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
             "resolution σtr·h {:.3} {:.3} {:.3} (R G B; the method refuses more than it can resolve)",
             s.resolution[0], s.resolution[1], s.resolution[2]
         );
-        if s.flipped_faces > 0 {
-            println!("note: {} triangles were wound inwards or inconsistently and were reversed", s.flipped_faces);
-        }
-        if s.clamped_vertices > 0 {
-            println!("note: {} of your vertices had a negative diffusion radiance, clamped to 0", s.clamped_vertices);
-        }
+    }
+    if s.flipped_faces > 0 {
+        println!("note: {} triangles were wound inwards or inconsistently and were reversed", s.flipped_faces);
+    }
+    if s.clamped_vertices > 0 {
+        println!("note: {} of your vertices had a negative diffusion radiance, clamped to 0", s.clamped_vertices);
     }
     Ok(())
 }
@@ -142,28 +130,11 @@ fn write_radiance(path: &Path, mesh: &TriMesh, radiance: &[[f64; 3]]) -> anyhow:
     transcut::output::write_atomically(path, |out| match ext.as_deref() {
         Some("ply") => write_ply(out, mesh, radiance),
         Some("npy") => {
-            // NumPy format 1.0: magic, version, little-endian header length, a dict, padding.
-            let dict = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({}, 3), }}", radiance.len());
-            let mut header = dict.into_bytes();
-            let total = 10 + header.len() + 1;
-            header.extend(std::iter::repeat_n(b' ', (64 - total % 64) % 64));
-            header.push(b'\n');
-            out.write_all(b"\x93NUMPY\x01\x00")?;
-            out.write_all(&(header.len() as u16).to_le_bytes())?;
-            out.write_all(&header)?;
+            write_npy_header(out, &[radiance.len(), 3])?;
             write_f32(out, radiance)
         }
         _ => write_f32(out, radiance),
     })?;
-    Ok(())
-}
-
-fn write_f32(out: &mut impl Write, radiance: &[[f64; 3]]) -> std::io::Result<()> {
-    for l in radiance {
-        for c in l {
-            out.write_all(&(*c as f32).to_le_bytes())?;
-        }
-    }
     Ok(())
 }
 

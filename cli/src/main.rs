@@ -1,9 +1,11 @@
 //! `transcut`: mesh, bake, render and benchmark translucent objects from the shell.
 
+mod animate_cmd;
 mod bake_cmd;
 mod bench;
 mod mesh_cmd;
 mod method_args;
+mod object_args;
 mod output;
 mod progress;
 mod render_cmd;
@@ -29,6 +31,9 @@ enum Command {
     Mesh(mesh_cmd::MeshArgs),
     /// Bake per-vertex subsurface radiance of a mesh under lights and write it with the mesh.
     Bake(bake_cmd::BakeArgs),
+    /// Bake every frame of a deforming mesh (one topology, moved vertices) and write the
+    /// radiance of all frames as one .npy.
+    Animate(animate_cmd::AnimateArgs),
     /// Bake a TOML scene file and render it to PNG or EXR.
     Render(render_cmd::RenderArgs),
     /// Run benchmarks and print JSON.
@@ -40,6 +45,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Mesh(args) => mesh_cmd::run(&args),
         Command::Bake(args) => bake_cmd::run(&args),
+        Command::Animate(args) => animate_cmd::run(&args),
         Command::Render(args) => render_cmd::run(&args),
         Command::Bench(args) => bench::run(&args),
     };

@@ -1,5 +1,6 @@
-//! Results written to standard output with every write error reported (a closed pipe, a full
-//! disk behind a redirection), where `println!` would panic.
+//! Results written out: JSON on standard output with every write error reported (a closed
+//! pipe, a full disk behind a redirection), where `println!` would panic; NumPy arrays of
+//! radiance.
 
 use std::io::Write;
 
@@ -16,4 +17,52 @@ pub fn print_json(value: &impl serde::Serialize) -> anyhow::Result<()> {
         .and_then(|()| out.write_all(b"\n").map_err(anyhow::Error::from))
         .and_then(|()| out.flush().map_err(anyhow::Error::from))
         .context("writing the JSON report to standard output")
+}
+
+/// Writes the header of a NumPy format 1.0 file of little-endian float32 in C order with
+/// `shape`: magic, version, header length, the dict, padded to 64 bytes.
+///
+/// # Errors
+/// The write error.
+pub fn write_npy_header(out: &mut impl Write, shape: &[usize]) -> std::io::Result<()> {
+    let dims: String = shape.iter().map(|d| format!("{d}, ")).collect();
+    let dims = if shape.len() == 1 { dims.trim_end() } else { dims.trim_end_matches(", ") };
+    let dict = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({dims}), }}");
+    let mut header = dict.into_bytes();
+    let total = 10 + header.len() + 1;
+    header.extend(std::iter::repeat_n(b' ', (64 - total % 64) % 64));
+    header.push(b'\n');
+    out.write_all(b"\x93NUMPY\x01\x00")?;
+    out.write_all(&(header.len() as u16).to_le_bytes())?;
+    out.write_all(&header)
+}
+
+/// Writes `values` as little-endian float32, three per row.
+///
+/// # Errors
+/// The write error.
+pub fn write_f32(out: &mut impl Write, values: &[[f64; 3]]) -> std::io::Result<()> {
+    for row in values {
+        for c in row {
+            out.write_all(&(*c as f32).to_le_bytes())?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn npy_headers_are_padded_and_name_the_shape() {
+        for (shape, text) in [(&[5, 3][..], "(5, 3)"), (&[2, 7, 3][..], "(2, 7, 3)"), (&[4][..], "(4,)")] {
+            let mut out = Vec::new();
+            write_npy_header(&mut out, shape).unwrap();
+            assert_eq!(out.len() % 64, 0);
+            assert!(out.starts_with(b"\x93NUMPY\x01\x00") && out.ends_with(b"\n"));
+            let header = String::from_utf8_lossy(&out[10..]);
+            assert!(header.contains(&format!("'shape': {text}")), "{header}");
+        }
+    }
 }

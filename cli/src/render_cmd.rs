@@ -70,7 +70,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         camera_spec.height = h;
     }
     let b = &file.bake;
-    let defaults = MethodDefaults { method: b.method.clone(), tets: b.tets, tolerance: b.tolerance, solver: b.solver.clone() };
+    let defaults = MethodDefaults {
+        method: b.method.clone(),
+        tets: b.tets,
+        tolerance: b.tolerance,
+        solver: b.solver.clone(),
+        ..MethodDefaults::default()
+    };
     let method = args.method.method(&defaults).with_context(|| format!("scene file {}", args.scene.display()))?;
     let options = BakeOptions { method, threads: args.threads, ..BakeOptions::default() };
     let scene = Scene { objects: loaded.objects, lights: loaded.lights };
@@ -212,7 +218,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         crate::output::print_json(&report)?;
     } else {
         for (o, s) in scene.objects.iter().zip(&bake_stats) {
-            println!("{}: {} ({} tets), solve iterations {:?}, {:.0} ms", o.name, s.method, s.tets, s.iterations, s.total_ms);
+            if s.tets > 0 {
+                println!("{}: {} ({} tets), solve iterations {:?}, {:.0} ms", o.name, s.method, s.tets, s.iterations, s.total_ms);
+            } else {
+                println!("{}: {} ({} surface vertices), {:.0} ms", o.name, s.method, s.vertices, s.total_ms);
+            }
         }
         println!(
             "{}: {}×{} in {:.0} ms (load {:.0}, bake {:.0}, edits {:.0}, render {:.0}, save {:.0})",

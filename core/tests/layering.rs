@@ -68,6 +68,7 @@ const CLI: Table = &[
     ("progress", &[]),
     ("spec", &[]),
     ("method_args", &[]),
+    ("object_args", &["method_args", "spec"]),
     ("scene_file/schema", &[]),
     ("scene_file/media", &["scene_file/schema"]),
     ("scene_file/edits", &["scene_file/media", "scene_file/schema"]),
@@ -81,12 +82,14 @@ const CLI: Table = &[
     ("bench/solve", &["bench/args", "bench/stats"]),
     ("bench/multires", &["bench/args", "bench/fig7"]),
     ("bench/edit", &["bench/args", "bench/fig7", "bench/stats"]),
-    ("bench", &["bench/args", "bench/bake", "bench/edit", "bench/mesh", "bench/multires", "bench/solve"]),
+    ("bench/dipole", &["bench/args", "bench/stats"]),
+    ("bench", &["bench/args", "bench/bake", "bench/dipole", "bench/edit", "bench/mesh", "bench/multires", "bench/solve"]),
     ("output", &[]),
     ("mesh_cmd", &["output", "progress"]),
-    ("bake_cmd", &["method_args", "output", "progress", "spec"]),
+    ("bake_cmd", &["method_args", "object_args", "output", "progress"]),
+    ("animate_cmd", &["method_args", "object_args", "output", "progress"]),
     ("render_cmd", &["method_args", "output", "progress", "scene_file", "scene_file/apply", "scene_file/schema"]),
-    ("main", &["bake_cmd", "bench", "mesh_cmd", "render_cmd"]),
+    ("main", &["animate_cmd", "bake_cmd", "bench", "mesh_cmd", "render_cmd"]),
 ];
 
 /// The source text without comments (`//` to the end of the line; the sources use no block

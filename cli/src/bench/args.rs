@@ -26,6 +26,10 @@ pub enum Suite {
     /// sun 5° (warm start against a cold solve of the same system), a paint stroke, and the
     /// Fig. 7 curve with its time-to-1% ratio.
     Edit,
+    /// The hierarchical dipole on geodesic spheres (R = 25 mm, marble at η 1.3, one sun):
+    /// on-the-fly, render and incremental (after a Perlin deformation) at --subdivisions, the
+    /// error against the O(n²) sum for several oracles, and the paper's 98k-leaf case.
+    Dipole,
 }
 
 /// Arguments of `transcut bench`.
@@ -50,4 +54,15 @@ pub struct BenchArgs {
     /// (default: the editor's own, sa-pcg).
     #[arg(long, value_parser = solver_kind)]
     pub solver: Option<SolverKind>,
+    /// Icosphere subdivisions of the `dipole` suite's scaling table, comma-separated (20·4ⁿ
+    /// triangles: 4 is 5,120, 7 is 327,680).
+    #[arg(long, value_delimiter = ',', default_values_t = [4u32, 5, 6, 7], value_parser = clap::value_parser!(u32).range(0..=8))]
+    pub subdivisions: Vec<u32>,
+    /// The `dipole` suite's accuracy table: the largest of the --subdivisions spheres (in
+    /// triangles) the O(n²) reference is summed on.
+    #[arg(long, default_value_t = 20_480)]
+    pub reference_triangles: usize,
+    /// The `dipole` suite without the paper's 98k-leaf case (81,920 triangles).
+    #[arg(long)]
+    pub no_paper_case: bool,
 }

@@ -5,6 +5,7 @@
 
 mod args;
 mod bake;
+mod dipole;
 mod edit;
 mod fig7;
 mod mesh;
@@ -21,5 +22,6 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Suite::Solve => solve::run(args),
         Suite::Multires => multires::run(args),
         Suite::Edit => edit::run(args),
+        Suite::Dipole => dipole::run(args),
     }
 }
