@@ -342,3 +342,38 @@ fn a_session_deforms_the_mesh_and_matches_a_fresh_bake_of_each_pose() {
     let e = transcut.set_positions(0, &rest, Progress::none()).unwrap_err();
     assert!(matches!(e, SessionError::Unsupported { method: "transcut", .. }), "{e}");
 }
+
+#[test]
+fn heterogeneous_media_are_refused_and_tet_meshes_are_baked_on_their_boundary() {
+    use transcut::mesher::{tetrahedralize, MesherOptions};
+    use transcut::volume::{VeinParams, Veins};
+    use transcut::{bake, BakeOptions, MediumSource, Object, Scene, SceneError, Shape};
+    let options = BakeOptions::with_method(DipoleOptions::default());
+    let lights = vec![Light::Directional { direction: DVec3::NEG_Z, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }];
+    let surface = icosphere(10.0, 3);
+    let mut veined = Object::new("veined", surface.clone(), marble(), 1.0);
+    let vein = Medium::preset("skin1").unwrap();
+    veined.medium = MediumSource::Veins(Veins::new(marble(), vein, 1, VeinParams::default()).unwrap());
+    let e = bake(&Scene { objects: vec![veined], lights: lights.clone() }, &options).unwrap_err();
+    assert!(
+        matches!(&e, SceneError::Unsupported { method: "hierarchical-dipole", .. }) && e.to_string().contains("heterogeneous"),
+        "{e}"
+    );
+    // A ready tet mesh: radiance at its boundary vertices (those of the surface it was made
+    // from, as a surface bake of that boundary gives), 0 inside.
+    let tets = tetrahedralize(&surface, &MesherOptions::with_tets(5_000)).unwrap();
+    let mut solid = Object::new("solid", surface.clone(), marble(), 1.0);
+    solid.shape = Shape::Tetrahedra(tets.clone());
+    let baked = bake(&Scene { objects: vec![solid], lights: lights.clone() }, &options).unwrap();
+    let lo = &baked.objects[0].radiance;
+    assert_eq!(lo.len(), tets.vertex_count());
+    let mut on_boundary = vec![false; tets.vertex_count()];
+    for f in tets.boundary_faces() {
+        for v in f.vertices {
+            on_boundary[v as usize] = true;
+        }
+    }
+    assert!(lo.iter().zip(&on_boundary).all(|(l, &b)| b || *l == [0.0; 3]), "0 inside");
+    let lit = lo.iter().zip(&on_boundary).filter(|(l, &b)| b && l[0] > 0.0).count();
+    assert!(lit > on_boundary.iter().filter(|b| **b).count() / 3, "the lit side of the boundary has radiance");
+}

@@ -100,7 +100,9 @@ fn homogeneous(object: &Object) -> Result<Medium, String> {
     }
 }
 
-/// Every vertex of `hierarchy`, its area-weighted normal and the light entering there.
+/// The light entering at every vertex of `hierarchy` along its area-weighted normal; 0 at a
+/// vertex on no triangle of positive area (a tet mesh's interior vertices, which its boundary
+/// surface keeps), which has no normal and emits nothing.
 pub(crate) fn surface_irradiance(
     hierarchy: &DipoleHierarchy,
     lighting: &Lighting<'_>,
@@ -108,9 +110,17 @@ pub(crate) fn surface_irradiance(
     mm_per_unit: f64,
     poll: crate::light::Poll<'_>,
 ) -> Result<Vec<[f64; 3]>, LightError> {
+    let normals = hierarchy.vertex_normals();
+    let on_surface: Vec<usize> = (0..normals.len()).filter(|&v| normals[v] != glam::DVec3::ZERO).collect();
     // The lights live in scene units: the points go back from millimetres.
-    let points: Vec<_> = hierarchy.positions().iter().map(|p| *p / mm_per_unit).collect();
-    lighting.transmitted_source_with(&points, &hierarchy.vertex_normals(), eta, poll)
+    let points: Vec<_> = on_surface.iter().map(|&v| hierarchy.positions()[v] / mm_per_unit).collect();
+    let normals_on: Vec<_> = on_surface.iter().map(|&v| normals[v]).collect();
+    let q_on = lighting.transmitted_source_with(&points, &normals_on, eta, poll)?;
+    let mut q = vec![[0.0; 3]; normals.len()];
+    for (&v, value) in on_surface.iter().zip(q_on) {
+        q[v] = value;
+    }
+    Ok(q)
 }
 
 /// Per output vertex, the surface vertex it takes its radiance from: through the user's vertex
