@@ -122,15 +122,23 @@ impl Gathered {
         Self { b: vec![[0.0; 3]; len], gradient: vec![[DVec3::ZERO; 3]; len], hessian: vec![[DMat3::ZERO; 3]; len] }
     }
 
-    /// Adds a far link's expansion at local node `at` (module documentation).
-    fn far(&mut self, at: usize, d: DVec3, kernel: Kernel, emitted: &Emitted, e: usize) {
+    /// Adds a far link's expansion at local node `at` (module documentation); at a receiving
+    /// `leaf` (a point, nothing below to push to) only its value.
+    fn far(&mut self, at: usize, leaf: bool, d: DVec3, kernel: Kernel, emitted: &Emitted, e: usize) {
         let Kernel { f, k, l } = kernel;
-        let ddt = DMat3::from_cols(d * d.x, d * d.y, d * d.z);
         for c in 0..3 {
             let (phi, m, q) = (emitted.flux[e][c], emitted.moment[e][c], emitted.second[e][c]);
             let trace_q = q.x_axis.x + q.y_axis.y + q.z_axis.z;
             let dm = d.dot(m);
             self.b[at][c] += phi * f[c] - k[c] * dm + 0.5 * (k[c] * trace_q + l[c] * d.dot(q * d));
+        }
+        if leaf {
+            return;
+        }
+        let ddt = DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+        for c in 0..3 {
+            let (phi, m) = (emitted.flux[e][c], emitted.moment[e][c]);
+            let dm = d.dot(m);
             // ∇f·Φ − H m with H = kI + l DDᵀ.
             self.gradient[at][c] += d * (k[c] * phi - l[c] * dm) - m * k[c];
             let h = &mut self.hessian[at][c];
@@ -385,7 +393,10 @@ impl DipoleHierarchy {
                             links += 1;
                             let at = (r - root) as usize;
                             match found {
-                                Found::Far(kernel) => g.far(at, self.offset(r, e), kernel, &emitted, e as usize),
+                                Found::Far(kernel) => {
+                                    let leaf = self.receivers.node(r).leaf;
+                                    g.far(at, leaf, self.offset(r, e), kernel, &emitted, e as usize);
+                                }
                                 Found::Near(f) => {
                                     near_links += 1;
                                     g.near(at, f.expect("nothing is kept on the fly"), &emitted, e as usize);
@@ -635,7 +646,8 @@ impl DipoleHierarchy {
         let mut g = Gathered::new((self.receivers.subtree_end(root) - root) as usize);
         for l in &task.far {
             let kernel = Kernel { f: l.f.map(f64::from), k: l.k.map(f64::from), l: l.l.map(f64::from) };
-            g.far((l.receiver - root) as usize, self.offset(l.receiver, l.emitter), kernel, emitted, l.emitter as usize);
+            let leaf = self.receivers.node(l.receiver).leaf;
+            g.far((l.receiver - root) as usize, leaf, self.offset(l.receiver, l.emitter), kernel, emitted, l.emitter as usize);
         }
         for l in &task.near {
             g.near((l.receiver - root) as usize, l.f.map(f64::from), emitted, l.emitter as usize);
