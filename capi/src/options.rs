@@ -428,6 +428,35 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
 mod tests {
     use super::*;
 
+    /// The dipole's defaults are the core's, every choice maps to its core value, and a value out
+    /// of range is named.
+    #[test]
+    fn dipole_options_map_onto_the_cores() {
+        assert_eq!(dipole_options(&default_dipole_options()).unwrap(), DipoleOptions::default());
+        let o = TcDipoleOptions {
+            oracle: TC_DIPOLE_ORACLE_PAPER,
+            eps1: 0.02,
+            rule: TC_DIPOLE_RULE_PAPER,
+            receivers: TC_DIPOLE_RECEIVERS_FACES,
+            mode: TC_DIPOLE_MODE_INCREMENTAL,
+            budget: 5000,
+            geometry: TC_DIPOLE_GEOMETRY_PAPER,
+            radiance: TC_DIPOLE_RADIANCE_JENSEN,
+            ..default_dipole_options()
+        };
+        let core = dipole_options(&o).unwrap();
+        assert_eq!(core.oracle, Oracle::Paper { eps1: 0.02, eps2: 0.05 });
+        assert_eq!(core.rule, EdgeRule::PAPER);
+        assert_eq!(core.receivers, Receivers::FaceCentroids);
+        assert_eq!(core.mode, EvalMode::Incremental { budget: Some(5000) });
+        assert_eq!(core.geometry, DipoleGeometry::PaperSources);
+        assert_eq!(core.radiance, DipoleRadiance::Jensen2001);
+        let bad = |o: TcDipoleOptions| dipole_options(&o).unwrap_err().message;
+        assert!(bad(TcDipoleOptions { mode: 3, ..default_dipole_options() }).contains("mode = 3"));
+        assert!(bad(TcDipoleOptions { oracle: 9, ..default_dipole_options() }).contains("oracle = 9"));
+        assert!(bad(TcDipoleOptions { theta: f64::NAN, ..default_dipole_options() }).contains("theta"));
+    }
+
     /// The header's bounds are the core's.
     #[test]
     fn bounds_are_the_cores() {
