@@ -69,6 +69,7 @@ STATUS_NAMES = {
 # TcBakeOptions.method: the subsurface method (tc_method_count, tc_method_name list them; new
 # ones are appended).
 TC_METHOD_TRANSCUT = 0
+TC_METHOD_HIERARCHICAL_DIPOLE = 1  # homogeneous media only; relight and tc_object_set_positions
 
 # TcBakeOptions.backend: where the diffusion solve runs; TcBakeStats.backend_used: 1 or 2.
 TC_BACKEND_DEFAULT = 0  # TRANSCUT_BACKEND (cpu, gpu, auto), else auto
@@ -86,6 +87,41 @@ TC_SOLVER_SSOR_PCG = 2
 TC_SOLVER_CASCADE = 3  # TransCut §4.2's coarse-to-fine cascade (CPU only)
 TC_SOLVER_MG_PCG = 4  # CG preconditioned by a V-cycle on TransCut's §4.1 hierarchy
 TC_SOLVER_SA_PCG = 5  # CG preconditioned by a smoothed-aggregation V-cycle
+
+# TcDipoleOptions (the hierarchical dipole's options; tc_dipole_options_init gives the defaults,
+# the first of each pair).
+TC_DIPOLE_ORACLE_OPENING_ANGLE = 0  # link when the clusters' radii sum below theta × their distance
+TC_DIPOLE_ORACLE_PAPER = 1  # Mertens et al.'s solid-angle oracle with eps1, eps2
+TC_DIPOLE_RULE_GAUSS_LEGENDRE = 0  # the near field's edge integral, 3-point Gauss–Legendre
+TC_DIPOLE_RULE_PAPER = 1  # the paper's midpoint rule
+TC_DIPOLE_RECEIVERS_VERTICES = 0  # radiance at the vertices
+TC_DIPOLE_RECEIVERS_FACES = 1  # at the triangles' centroids, averaged onto the vertices
+TC_DIPOLE_MODE_ON_THE_FLY = 0  # every update traverses the trees afresh, no links stored
+TC_DIPOLE_MODE_RENDER = 1  # links kept while the geometry stays
+TC_DIPOLE_MODE_INCREMENTAL = 2  # links kept, relinked after a deformation where it moved
+TC_DIPOLE_GEOMETRY_DISTANCE = 0  # Rd of the distance between the points
+TC_DIPOLE_GEOMETRY_PAPER = 1  # the paper's sources on the receiver's normal
+TC_DIPOLE_RADIANCE_TRANSCUT = 0  # Lo = Ft B/(π(1 − Fdr)), what TransCut returns
+TC_DIPOLE_RADIANCE_JENSEN = 1  # Lo = T B/π (Jensen et al. 2001)
+
+#: The names :meth:`Scene.bake` accepts for the hierarchical dipole's options (besides the
+#: integer values; the CLI's names, any case), per ``TcDipoleOptions`` field.
+DIPOLE_CHOICES = {
+    "oracle": {"opening-angle": TC_DIPOLE_ORACLE_OPENING_ANGLE, "paper": TC_DIPOLE_ORACLE_PAPER},
+    "rule": {
+        "gl3": TC_DIPOLE_RULE_GAUSS_LEGENDRE,
+        "gauss-legendre": TC_DIPOLE_RULE_GAUSS_LEGENDRE,
+        "paper": TC_DIPOLE_RULE_PAPER,
+    },
+    "receivers": {"vertices": TC_DIPOLE_RECEIVERS_VERTICES, "faces": TC_DIPOLE_RECEIVERS_FACES},
+    "mode": {
+        "on-the-fly": TC_DIPOLE_MODE_ON_THE_FLY,
+        "render": TC_DIPOLE_MODE_RENDER,
+        "incremental": TC_DIPOLE_MODE_INCREMENTAL,
+    },
+    "geometry": {"distance": TC_DIPOLE_GEOMETRY_DISTANCE, "paper": TC_DIPOLE_GEOMETRY_PAPER},
+    "radiance": {"transcut": TC_DIPOLE_RADIANCE_TRANSCUT, "jensen": TC_DIPOLE_RADIANCE_JENSEN},
+}
 
 # Upper bounds of TcBakeOptions (TC_INVALID_ARGUMENT above them).
 TC_MAX_THREADS = 256
@@ -150,7 +186,8 @@ class TcBakeOptions(Structure):
         ("area_samples", c_uint32),
         ("environment_samples", c_uint32),
         ("backend", c_uint32),
-        ("method_options", c_void_p),  # NULL, or the chosen method's options (TcTransCutOptions *)
+        # NULL, or the chosen method's options (TcTransCutOptions * or TcDipoleOptions *)
+        ("method_options", c_void_p),
     ]
 
 
@@ -162,6 +199,25 @@ class TcTransCutOptions(Structure):
         ("size", c_uint32),
         ("solver", c_uint32),
         ("edit_solver", c_uint32),
+    ]
+
+
+class TcDipoleOptions(Structure):
+    """``TcDipoleOptions``: the hierarchical dipole's own options, pointed to by
+    ``TcBakeOptions.method_options`` (filled by ``tc_dipole_options_init``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("oracle", c_uint32),
+        ("theta", c_double),
+        ("eps1", c_double),
+        ("eps2", c_double),
+        ("rule", c_uint32),
+        ("receivers", c_uint32),
+        ("mode", c_uint32),
+        ("geometry", c_uint32),
+        ("budget", c_uint64),  # incremental mode: the most links per update; 0 = no limit
+        ("radiance", c_uint32),
     ]
 
 
@@ -182,6 +238,25 @@ class TcBakeStats(Structure):
         ("backend_used", c_uint32),
         ("flipped_faces", c_uint64),
         ("resolution", c_double * 3),
+    ]
+
+
+class TcDipoleStats(Structure):
+    """``TcDipoleStats`` (``tc_object_dipole_stats``; the caller sets ``size``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("triangles", c_uint64),
+        ("receivers", c_uint64),
+        ("nodes", c_uint64),
+        ("links", c_uint64),
+        ("near_links", c_uint64),
+        ("form_factors", c_uint64),
+        ("stale_tasks", c_uint64),
+        ("refit_ms", c_double),
+        ("link_ms", c_double),
+        ("gather_ms", c_double),
+        ("push_ms", c_double),
     ]
 
 
@@ -298,6 +373,7 @@ OPTIONAL = {
     "tc_method_from_name": (c_int32, [c_char_p, c_uint32_p]),
     "tc_bake_options_init": (c_int32, [POINTER(TcBakeOptions), c_size_t]),
     "tc_transcut_options_init": (c_int32, [POINTER(TcTransCutOptions), c_size_t]),
+    "tc_dipole_options_init": (c_int32, [POINTER(TcDipoleOptions), c_size_t]),
     # Editing (after a bake).
     "tc_scene_relight": (c_int32, [ScenePtr, TcProgressFn, c_void_p]),
     "tc_scene_set_progress": (c_int32, [ScenePtr, TcProgressFn, c_void_p]),
@@ -318,4 +394,7 @@ OPTIONAL = {
         [ScenePtr, c_uint32, c_uint32, c_float_p, c_size_t, c_uint32_p, c_size_t, c_float_p, c_size_t],
     ),
     "tc_object_edit_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcEditStats)]),
+    # Deforming (the hierarchical dipole).
+    "tc_object_set_positions": (c_int32, [ScenePtr, c_uint32, c_float_p, c_size_t]),
+    "tc_object_dipole_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcDipoleStats)]),
 }

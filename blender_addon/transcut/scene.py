@@ -20,10 +20,12 @@ import numpy as np
 from ._abi import (
     ABI_MAJOR,
     BACKENDS,
+    DIPOLE_CHOICES,
     OPTIONAL,
     REQUIRED,
     SOLVERS,
     STATUS_NAMES,
+    TC_METHOD_HIERARCHICAL_DIPOLE,
     TC_METHOD_TRANSCUT,
     TC_NOT_FOUND,
     TC_OK,
@@ -31,6 +33,8 @@ from ._abi import (
     TcArtistMedium,
     TcBakeOptions,
     TcBakeStats,
+    TcDipoleOptions,
+    TcDipoleStats,
     TcEditStats,
     TcMedium,
     TcProgressFn,
@@ -87,6 +91,21 @@ def _solver(value, what: str) -> int:
             raise ValueError(f"unknown {what} {value!r} (known: {', '.join(SOLVERS)})")
         return SOLVERS[value.lower()]
     return int(value)
+
+
+def _choice(value, field: str) -> int:
+    """A ``TcDipoleOptions`` enumeration value from a name of :data:`DIPOLE_CHOICES` ``[field]``
+    (any case) or the value itself."""
+    if isinstance(value, str):
+        names = DIPOLE_CHOICES[field]
+        if value.lower() not in names:
+            raise ValueError(f"unknown {field} {value!r} (known: {', '.join(names)})")
+        return names[value.lower()]
+    return int(value)
+
+
+#: The keyword arguments of :meth:`Scene.bake` that are ``TcDipoleOptions`` fields.
+DIPOLE_OPTIONS = ("oracle", "theta", "eps1", "eps2", "rule", "receivers", "mode", "geometry", "budget", "radiance")
 
 
 def _artist(albedo, radius, scale: float, ior: float, anisotropy: float) -> TcArtistMedium:
@@ -212,6 +231,12 @@ class Library:
         """``tc_transcut_options_init``."""
         options = TcTransCutOptions()
         self.call("tc_transcut_options_init", ctypes.byref(options), ctypes.sizeof(options))
+        return options
+
+    def default_dipole_options(self) -> TcDipoleOptions:
+        """``tc_dipole_options_init``: the hierarchical dipole's defaults."""
+        options = TcDipoleOptions()
+        self.call("tc_dipole_options_init", ctypes.byref(options), ctypes.sizeof(options))
         return options
 
     def scene(self) -> Scene:
@@ -501,6 +526,16 @@ class Scene:
         method: str | int | None = None,
         solver: str | int | None = None,
         edit_solver: str | int | None = None,
+        oracle: str | int | None = None,
+        theta: float | None = None,
+        eps1: float | None = None,
+        eps2: float | None = None,
+        rule: str | int | None = None,
+        receivers: str | int | None = None,
+        mode: str | int | None = None,
+        geometry: str | int | None = None,
+        budget: int | None = None,
+        radiance: str | int | None = None,
         **options,
     ) -> None:
         """Bakes every object (``tc_scene_bake``) with the subsurface ``method``.
@@ -511,6 +546,16 @@ class Scene:
         ``solver``, the bake's solver on the CPU, and ``edit_solver``, the solver of the edits
         after it (relight, paint, cut), each a name of :data:`SOLVERS` (any case) or a
         ``TC_SOLVER_*`` value; unset: the method's defaults.
+        The hierarchical dipole's options (``method="hierarchical-dipole"``), the
+        :class:`TcDipoleOptions` fields: ``theta`` (the opening angle, in (0, 1]), ``oracle``
+        (``"opening-angle"`` or ``"paper"``, whose thresholds are ``eps1`` and ``eps2``),
+        ``rule`` (``"gl3"`` / ``"gauss-legendre"`` or ``"paper"``), ``receivers``
+        (``"vertices"`` or ``"faces"``), ``mode`` (``"on-the-fly"``, ``"render"`` or
+        ``"incremental"``), ``budget`` (incremental mode: the most links per update, 0 = no
+        limit), ``geometry`` (``"distance"`` or ``"paper"``) and ``radiance`` (``"transcut"`` or
+        ``"jensen"``); names in any case (:data:`DIPOLE_CHOICES`) or the ``TC_DIPOLE_*``
+        values; unset: ``tc_dipole_options_init``'s defaults. A method's options given with
+        another method raise ValueError.
         ``options`` are the other :class:`TcBakeOptions` field names (``tets``, ``tolerance``,
         ``max_iterations``, ``threads``, ``shadows``, ``area_samples``,
         ``environment_samples``, ``backend``); unset fields keep the library's defaults.
@@ -524,7 +569,7 @@ class Scene:
         names = {f[0] for f in TcBakeOptions._fields_} - {"size", "method", "method_options"}
         for key, value in options.items():
             if key not in names:
-                known = sorted(names | {"method", "solver", "edit_solver"})
+                known = sorted(names | {"method", "solver", "edit_solver", *DIPOLE_OPTIONS})
                 raise TypeError(f"unknown bake option {key!r} (known: {', '.join(known)})")
             if key == "backend" and isinstance(value, str):
                 if value.lower() not in BACKENDS:
@@ -535,16 +580,39 @@ class Scene:
         if method is not None:
             opts.method = self.lib.method_number(method) if isinstance(method, str) else int(method)
         # Kept alive by this frame until tc_scene_bake, which reads it, has returned.
-        transcut_options = None
+        method_options = None
         if solver is not None or edit_solver is not None:
             if opts.method != TC_METHOD_TRANSCUT:
                 raise ValueError(f"solver and edit_solver are options of transcut, not of method {method!r}")
-            transcut_options = self.lib.default_transcut_options()
+            method_options = self.lib.default_transcut_options()
             if solver is not None:
-                transcut_options.solver = _solver(solver, "solver")
+                method_options.solver = _solver(solver, "solver")
             if edit_solver is not None:
-                transcut_options.edit_solver = _solver(edit_solver, "edit_solver")
-            opts.method_options = ctypes.addressof(transcut_options)
+                method_options.edit_solver = _solver(edit_solver, "edit_solver")
+        given = {
+            k: v
+            for k, v in zip(
+                DIPOLE_OPTIONS, (oracle, theta, eps1, eps2, rule, receivers, mode, geometry, budget, radiance)
+            )
+            if v is not None
+        }
+        if given:
+            if opts.method != TC_METHOD_HIERARCHICAL_DIPOLE:
+                raise ValueError(
+                    f"{', '.join(given)} {'is an option' if len(given) == 1 else 'are options'} of "
+                    f"hierarchical-dipole, not of method {method if method is not None else 'transcut'!r}"
+                )
+            method_options = self.lib.default_dipole_options()
+            for key, value in given.items():
+                if key in DIPOLE_CHOICES:
+                    value = _choice(value, key)
+                elif key == "budget":
+                    value = int(value)
+                else:
+                    value = float(value)
+                setattr(method_options, key, value)
+        if method_options is not None:
+            opts.method_options = ctypes.addressof(method_options)
         self._call_with_progress("tc_scene_bake", progress, ctypes.byref(opts))
 
     def radiance(self, obj: int) -> np.ndarray:
@@ -559,6 +627,15 @@ class Scene:
         st.size = ctypes.sizeof(TcBakeStats)
         self._call("tc_object_stats", obj, ctypes.byref(st))
         return _stats_dict(st)
+
+    def dipole_stats(self, obj: int) -> dict:
+        """``tc_object_dipole_stats`` as a dict (``size`` left out): what the hierarchical
+        dipole's last update of the object (the bake, a relight, :meth:`set_positions`) did.
+        ``TC_UNSUPPORTED`` for an object another method baked."""
+        st = TcDipoleStats()
+        st.size = ctypes.sizeof(TcDipoleStats)
+        self._call("tc_object_dipole_stats", obj, ctypes.byref(st))
+        return {name: getattr(st, name) for name, _ in st._fields_ if name != "size"}
 
     def device(self, obj: int) -> str:
         """The GPU adapter that solved the object in the last bake ('' when the CPU did)."""
@@ -589,6 +666,21 @@ class Scene:
         """Re-solves every object for the scene's current lights (``tc_scene_relight``), warm
         started from the last solution; ``progress`` as for :meth:`bake`."""
         self._call_with_progress("tc_scene_relight", progress)
+
+    def set_positions(self, obj: int, positions) -> None:
+        """Moves the vertices of a baked object (``tc_object_set_positions``): ``positions``
+        (vertex_count, 3) in object space, the vertices in the order the mesh was added, the
+        triangles kept (a frame of an animated mesh), copied as float32. The radiance is then
+        updated under the scene's current lights (incrementally in the hierarchical dipole's
+        ``mode="incremental"``); the object's transform stays. Reports through the callback of
+        :meth:`set_progress`, which may cancel (``TC_CANCELLED``). A shape other than (n, 3)
+        raises ValueError; the library refuses another vertex count or non-finite values
+        (``TC_INVALID_ARGUMENT``) and an object whose method cannot deform (TransCut:
+        ``TC_UNSUPPORTED``). Nothing changes on failure."""
+        pos = np.array(positions, dtype=np.float32, order="C", copy=True)
+        if pos.ndim != 2 or pos.shape[1] != 3:
+            raise ValueError(f"positions must be (vertex_count, 3), got shape {pos.shape}")
+        self._call("tc_object_set_positions", obj, pos.ctypes.data_as(c_float_p), pos.shape[0])
 
     def cut_plane(self, obj: int, point, normal, keep_both: bool = False) -> None:
         """Removes the side ``normal`` points into (``tc_object_cut_plane``); keep_both splits."""
