@@ -63,10 +63,11 @@ struct FrameReport {
     dipole: DipoleStats,
 }
 
-/// A frame's mesh, loaded.
+/// A frame: its file and its vertices' positions in the user's order (object space, what
+/// [`Session::set_positions`] takes).
 struct Frame {
     path: PathBuf,
-    mesh: TriMesh,
+    positions: Vec<[f64; 3]>,
 }
 
 /// Why `mesh` does not have `first`'s topology: vertex count, welding (vertices merged in one
@@ -104,29 +105,28 @@ fn topology_difference(first: &TriMesh, mesh: &TriMesh) -> Option<String> {
     ))
 }
 
-/// The frames' meshes, each checked against the first's topology.
-fn load_frames(paths: &[PathBuf]) -> anyhow::Result<Vec<Frame>> {
-    let mut frames: Vec<Frame> = Vec::with_capacity(paths.len());
+/// The first frame's mesh and every frame, each checked against the first's topology.
+fn load_frames(paths: &[PathBuf]) -> anyhow::Result<(TriMesh, Vec<Frame>)> {
+    let mut first: Option<TriMesh> = None;
+    let mut frames = Vec::with_capacity(paths.len());
     for (k, path) in paths.iter().enumerate() {
         let mesh = mesh::load(path).with_context(|| format!("loading frame {} ({})", k + 1, path.display()))?;
-        if let Some(first) = frames.first() {
-            if let Some(why) = topology_difference(&first.mesh, &mesh) {
-                bail!(
-                    "frame {} ({}) has another topology than frame 1 ({}): {why}; every frame needs the first frame's vertices \
-                     and triangles, only moved",
-                    k + 1,
-                    path.display(),
-                    first.path.display()
-                );
-            }
+        if let Some(why) = first.as_ref().and_then(|first| topology_difference(first, &mesh)) {
+            bail!(
+                "frame {} ({}) has another topology than frame 1 ({}): {why}; every frame needs the first frame's vertices and \
+                 triangles, only moved",
+                k + 1,
+                path.display(),
+                paths[0].display()
+            );
         }
-        frames.push(Frame { path: path.clone(), mesh });
+        frames.push(Frame { path: path.clone(), positions: user_positions(&mesh) });
+        first.get_or_insert(mesh);
     }
-    Ok(frames)
+    Ok((first.context("no frames")?, frames))
 }
 
-/// The positions of a frame per user vertex, in object space (what
-/// [`Session::set_positions`] takes).
+/// The positions of `mesh`'s vertices in the user's order.
 fn user_positions(mesh: &TriMesh) -> Vec<[f64; 3]> {
     mesh.user_to_internal().iter().map(|&w| mesh.positions()[w as usize].to_array()).collect()
 }
@@ -154,10 +154,10 @@ pub fn run(args: &AnimateArgs) -> anyhow::Result<()> {
         }
     }
     let start = Instant::now();
-    let frames = load_frames(&args.frames)?;
-    let first = &frames[0];
-    let name = first.path.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned());
-    let scene = args.object.scene(name, first.mesh.clone())?;
+    let (first, frames) = load_frames(&args.frames)?;
+    let name = args.frames[0].file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned());
+    let (vertices, triangles) = (first.user_vertex_count(), first.triangles().len());
+    let scene = args.object.scene(name, first)?;
     let options = BakeOptions { method: method.clone(), threads: args.threads, ..BakeOptions::default() };
 
     let count = frames.len();
@@ -174,7 +174,7 @@ pub fn run(args: &AnimateArgs) -> anyhow::Result<()> {
         let t = Instant::now();
         let (light_ms, dipole) = if let Some(s) = session.as_mut() {
             let update = s
-                .set_positions(0, &user_positions(&frame.mesh), Progress::new(&callback))
+                .set_positions(0, &frame.positions, Progress::new(&callback))
                 .with_context(|| format!("frame {} ({})", k + 1, frame.path.display()))?;
             let light_ms = update.source_ms;
             (light_ms, s.dipole(0)?.context("internal: a deformed object without its live state")?.state().stats)
@@ -214,7 +214,6 @@ pub fn run(args: &AnimateArgs) -> anyhow::Result<()> {
         reports.push(report);
     }
     bar.finish();
-    let vertices = first.mesh.user_vertex_count();
     if let Some(path) = &args.output {
         write_frames(path, &radiance, vertices).with_context(|| format!("writing {}", path.display()))?;
     }
@@ -224,7 +223,7 @@ pub fn run(args: &AnimateArgs) -> anyhow::Result<()> {
             "frames": reports,
             "output": args.output.as_ref().map(|p| p.display().to_string()),
             "vertices": vertices,
-            "triangles": first.mesh.triangles().len(),
+            "triangles": triangles,
             "method": method.name(),
             "options": format!("{method:?}"),
             "total_ms": total_ms,

@@ -195,3 +195,40 @@ fn options_of_another_method_are_refused_by_name() {
         assert!(!out.status.success() && words.iter().all(|w| err.contains(w)), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn render_bakes_a_scene_by_the_dipole() {
+    let dir = temp_dir("render");
+    let (positions, triangles) = frame(0);
+    let obj = dir.join("sphere.obj");
+    write_obj(&obj, &positions, &triangles);
+    let scene = |bake: &str| {
+        let path = dir.join("scene.toml");
+        let text = format!(
+            "[camera]\nposition = [0, 0, 60]\ntarget = [0, 0, 0]\nfov_deg = 35\nwidth = 64\nheight = 48\n\n[bake]\n{bake}\n\n\
+             [[object]]\nmesh = \"{}\"\nmedium = \"marble\"\n\n[[light]]\nkind = \"sun\"\ndir = [0, -1, -1]\nirradiance = 3\n",
+            obj.display()
+        );
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    let png = dir.join("sphere.png");
+    let render = |scene: &Path, extra: &[&str]| {
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap(), "--json"];
+        args.extend(extra);
+        transcut(&args)
+    };
+    // The command line's method over a file written for TransCut.
+    let out = render(&scene("tets = 60000"), &["--method", "hierarchical-dipole"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["objects"][0]["stats"]["method"], "hierarchical-dipole");
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    // A file that chooses the dipole itself, with TransCut's tets: refused by name.
+    let out = render(&scene("method = \"hierarchical-dipole\"\ntets = 60000"), &[]);
+    let err = stderr(&out);
+    assert!(!out.status.success() && err.contains("[bake] tets") && err.contains("not of hierarchical-dipole"), "{err}");
+    let out = render(&scene("method = \"hierarchical-dipole\""), &["--theta", "0.6"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    std::fs::remove_dir_all(&dir).ok();
+}
