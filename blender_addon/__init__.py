@@ -2,7 +2,8 @@
 
 Bakes the subsurface scattering of the selected meshes (their Principled BSDF subsurface
 settings, or a preset / coefficients) under the scene's lights and world into a FLOAT_COLOR
-point attribute, and cuts or paints baked meshes. See ARCHITECTURE.md, "The Blender add-on",
+point attribute, bakes the animation of a deforming mesh frame by frame (the hierarchical
+dipole), and cuts or paints baked meshes. See ARCHITECTURE.md, "The Blender add-on",
 and the modules:
 
 - ``preferences``: registered first and always; the library path, and where the library was
@@ -13,6 +14,9 @@ and the modules:
   and ESC, or synchronous);
 - ``edit_ops``: ``transcut.cut_with_object`` and ``transcut.paint_medium`` (bake, then cut or
   paint through ``edit_native``);
+- ``animation_ops``: ``transcut.bake_animation`` (every frame of the range through
+  ``animation_native``, into a cache file) and the ``frame_change_post`` handler that writes the
+  current frame's radiance into the attribute;
 - ``ui``: the sidebar tab and the Object menu entries;
 - ``mesh_export`` / ``lights``: Blender data and units → library arrays; ``bake``: gather, run
   and write;
@@ -21,10 +25,10 @@ and the modules:
   ``transcut`` wheel.
 """
 
-from . import edit_ops, library, operators, preferences, properties, ui
+from . import animation_ops, edit_ops, library, operators, preferences, properties, ui
 
 # Preferences first, so the add-on can always show why the library did not load.
-_modules = (preferences, properties, operators, edit_ops, ui)
+_modules = (preferences, properties, operators, edit_ops, animation_ops, ui)
 
 
 def register():

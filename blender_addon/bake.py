@@ -20,6 +20,10 @@ from . import transcut
 from .lights import scene_lights, world_lights
 from .mesh_export import BakeError, gather
 
+#: The hierarchical dipole's method name (``tc_method_name``): no tetrahedra, homogeneous media,
+#: deforming meshes (Bake Animation).
+DIPOLE = "hierarchical-dipole"
+
 
 @dataclass
 class BakeJob:
@@ -32,29 +36,37 @@ class BakeJob:
     warnings: list = field(default_factory=list)
 
 
-def prepare_job(context, objects: list | None = None) -> BakeJob:
+def bake_options(settings, method: str) -> dict:
+    """The :meth:`transcut.Scene.bake` keywords of ``method`` from the TransCut settings: for
+    TransCut its resolution, tolerance and backend; for the hierarchical dipole its θ and mode
+    (the options of the other method are left out: the binding refuses them)."""
+    options = dict(method=method, shadows=1 if settings.shadows else 0)
+    if method == DIPOLE:
+        options.update(theta=settings.dipole_theta, mode=settings.dipole_mode.lower().replace("_", "-"))
+    else:
+        options.update(tets=settings.tets, tolerance=settings.tolerance, backend=settings.backend.lower())
+    return options
+
+
+def prepare_job(context, objects: list | None = None, method: str | None = None, animated: bool = False) -> BakeJob:
     """The bake job for ``objects`` (default: the selected meshes), the scene's lights and world
-    and its TransCut settings (the method by name: the menu's items are the loaded library's
-    methods, so load it first); raises BakeError before any work when something is wrong."""
+    and its TransCut settings (the method by name, default the panel's: the menu's items are the
+    loaded library's methods, so load it first); raises BakeError before any work when something
+    is wrong. ``animated``: the meshes are the first pose of an animation (Bake Animation), whose
+    modifiers are not applied (see :func:`mesh_export.gather_mesh`)."""
     warnings: list = []
-    meshes = gather(context, warnings, objects=objects)
+    meshes = gather(context, warnings, objects=objects, animated=animated)
     depsgraph = context.evaluated_depsgraph_get()
     lights = scene_lights(depsgraph, warnings) + world_lights(context.scene.world, warnings)
     if not lights:
         raise BakeError("the scene has no lights (and the world is black); add a light to bake")
     settings = context.scene.transcut
-    if not settings.method:
+    method = method or settings.method
+    if not method:
         raise BakeError(
             "the Method chosen in the TransCut panel is not one the loaded libtranscut has; choose one of its methods"
         )
-    options = dict(
-        method=settings.method,
-        tets=settings.tets,
-        tolerance=settings.tolerance,
-        shadows=1 if settings.shadows else 0,
-        backend=settings.backend.lower(),
-    )
-    return BakeJob(meshes, lights, options, settings.attribute_name, warnings)
+    return BakeJob(meshes, lights, bake_options(settings, method), settings.attribute_name, warnings)
 
 
 def build_scene(lib: transcut.Library, job: BakeJob) -> tuple:
@@ -182,6 +194,11 @@ class BakeRunner:
     def snapshot(self) -> tuple:
         with self._lock:
             return self.stage, self.fraction
+
+    def step(self, context) -> None:
+        """Main-thread work between library calls, at each tick of the modal operator's timer
+        (none here: one library call on one thread; Bake Animation's runner evaluates each frame
+        here)."""
 
     def _run(self) -> None:
         try:

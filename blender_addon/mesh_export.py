@@ -197,8 +197,12 @@ def check_attribute_name(mesh, name: str, obj_name: str) -> None:
         )
 
 
-def gather_mesh(obj, depsgraph, scene, settings, warnings: list) -> MeshJob:
-    """The evaluated mesh of one object (modifiers applied), its matrix and medium."""
+def gather_mesh(obj, depsgraph, scene, settings, warnings: list, animated: bool = False) -> MeshJob:
+    """The evaluated mesh of one object (modifiers applied), its matrix and medium.
+
+    ``animated``: the first pose of an animation (Bake Animation), whose mesh is never replaced
+    (its modifiers play the animation), so a vertex count the modifiers change is no error here
+    (``replace_mesh`` stays False)."""
     if obj.type != "MESH":
         raise BakeError(f"'{obj.name}' is a {obj.type.lower()}, not a mesh")
     matrix = world_matrix(obj)
@@ -210,7 +214,7 @@ def gather_mesh(obj, depsgraph, scene, settings, warnings: list) -> MeshJob:
     if not np.all(np.isfinite(positions)):
         raise BakeError(f"'{obj.name}' has non-finite vertex coordinates")
     original = len(obj.data.vertices)
-    replace = n != original
+    replace = n != original and not animated
     if replace and not settings.apply_modifiers:
         raise BakeError(
             f"'{obj.name}': its modifiers change the vertex count ({original} → {n}); enable "
@@ -243,8 +247,9 @@ def selected_meshes(context) -> list:
     return meshes
 
 
-def gather(context, warnings: list, objects: list | None = None) -> list:
-    """MeshJobs for ``objects`` (default: the selected meshes)."""
+def gather(context, warnings: list, objects: list | None = None, animated: bool = False) -> list:
+    """MeshJobs for ``objects`` (default: the selected meshes); ``animated`` as for
+    :func:`gather_mesh`."""
     scene = context.scene
     settings = scene.transcut
     depsgraph = context.evaluated_depsgraph_get()
@@ -257,4 +262,4 @@ def gather(context, warnings: list, objects: list | None = None) -> list:
                 f"'{other}' and '{o.name}' share the mesh '{o.data.name}', which can hold one bake; "
                 "make them single user (Object ▸ Relations ▸ Make Single User) or bake one at a time"
             )
-    return [gather_mesh(o, depsgraph, scene, settings, warnings) for o in objs]
+    return [gather_mesh(o, depsgraph, scene, settings, warnings, animated) for o in objs]

@@ -111,6 +111,7 @@ class RunnerOperator:
         if event.type == "ESC" and event.value == "PRESS":
             runner.cancel()
         if event.type == "TIMER":
+            runner.step(context)  # the runner's main-thread work between its library calls
             stage, fraction = runner.snapshot()
             context.window_manager.progress_update(int(fraction * 100))
             if context.workspace is not None:

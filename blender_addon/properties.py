@@ -1,5 +1,5 @@
-"""Settings: per scene (the method, what a bake produces and how precisely) and per object (its
-medium).
+"""Settings: per scene (the method and its options, what a bake produces and how precisely) and
+per object (its medium).
 
 ``Scene.transcut`` and ``Object.transcut`` attach at register and detach at unregister.
 """
@@ -39,7 +39,18 @@ PRESET_ITEMS = tuple((n, n.capitalize(), f"Measured '{n}'") for n in PRESET_NAME
 
 
 #: The Method menu's labels of the library's method names (others: the name in title case).
-METHOD_LABELS = {"transcut": "TransCut"}
+METHOD_LABELS = {"transcut": "TransCut", "hierarchical-dipole": "Hierarchical Dipole"}
+
+#: The hierarchical dipole's modes (``Scene.bake(mode=...)`` names, upper case with ``_``).
+DIPOLE_MODE_ITEMS = (
+    ("ON_THE_FLY", "On the Fly", "Traverse the cluster trees afresh at every update, storing no links (least memory)"),
+    ("RENDER", "Render", "Keep the links: a relight only gathers; a deformation relinks everything"),
+    (
+        "INCREMENTAL",
+        "Incremental",
+        "Keep the links and relink only what moved after a deformation (Bake Animation's frames)",
+    ),
+)
 
 # Blender keeps only pointers to the strings of dynamic enum items: every list handed out stays
 # referenced here (one per distinct set of methods, so repeated draws return the same list).
@@ -87,6 +98,23 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         min=1e-12,
         max=1e-1,
         precision=8,
+    )
+    dipole_theta: FloatProperty(
+        name="Opening Angle",
+        description=(
+            "Hierarchical dipole: θ of the opening-angle oracle; two clusters are linked whole when their radii "
+            "sum below θ × their distance (smaller: more accurate, slower; 0.6 fast, 0.3 accurate)"
+        ),
+        default=0.4,
+        min=0.05,
+        max=1.0,
+        precision=2,
+    )
+    dipole_mode: EnumProperty(
+        name="Mode",
+        description="Hierarchical dipole: when the links between the cluster trees are made",
+        items=DIPOLE_MODE_ITEMS,
+        default="INCREMENTAL",
     )
     shadows: BoolProperty(
         name="Shadows",

@@ -1,13 +1,16 @@
 """The "TransCut" tab of the 3D viewport's sidebar (N panel): the method and the bake settings
-(TransCut's Resolution while TransCut is the method), the active object's medium, the bake and
-editing buttons, and the library status when it is not loaded; the same operators in the Object
-menu."""
+(TransCut's Resolution, Tolerance and Backend while TransCut is the method, the hierarchical
+dipole's Opening Angle and Mode while it is), the active object's medium, the bake, Bake
+Animation and editing buttons, and the library status when it is not loaded; the same operators
+in the Object menu."""
 
 from __future__ import annotations
 
 import bpy
 
 from . import library
+from .animation_ops import TRANSCUT_OT_bake_animation
+from .bake import DIPOLE
 from .edit_ops import TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium
 from .operators import OBJECT_OT_transcut_bake
 from .preferences import draw_library_status
@@ -28,11 +31,15 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
         col = layout.column()
         col.prop(settings, "method")
         col.prop(settings, "attribute_name")
-        if settings.method == "transcut":
-            col.prop(settings, "tets")
-        col.prop(settings, "tolerance")
+        if settings.method == DIPOLE:
+            col.prop(settings, "dipole_theta")
+            col.prop(settings, "dipole_mode")
+        else:
+            if settings.method == "transcut":
+                col.prop(settings, "tets")
+            col.prop(settings, "tolerance")
+            col.prop(settings, "backend")
         col.prop(settings, "shadows")
-        col.prop(settings, "backend")
         col.prop(settings, "apply_modifiers")
 
         obj = context.object
@@ -42,6 +49,7 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
             draw_medium(box, obj.transcut, ("sigma_a", "sigma_s_prime", "eta", "g"))
 
         layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
+        layout.operator(TRANSCUT_OT_bake_animation.bl_idname, icon="RENDER_ANIMATION")
         row = layout.row(align=True)
         row.operator(TRANSCUT_OT_cut_with_object.bl_idname, icon="MOD_BOOLEAN")
         row.operator(TRANSCUT_OT_paint_medium.bl_idname, icon="BRUSH_DATA")
@@ -53,6 +61,7 @@ def menu_func(self, _context):
     """The operators at the end of the 3D view's Object menu."""
     self.layout.separator()
     self.layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
+    self.layout.operator(TRANSCUT_OT_bake_animation.bl_idname, icon="RENDER_ANIMATION")
     self.layout.operator(TRANSCUT_OT_cut_with_object.bl_idname, icon="MOD_BOOLEAN")
     self.layout.operator(TRANSCUT_OT_paint_medium.bl_idname, icon="BRUSH_DATA")
 
