@@ -12,8 +12,9 @@
 //! B(c_R + ξ) ≈ Φf − ∇f·m + ½H:Q + (Φ∇f − Hm)·ξ + ½Φ ξᵀHξ,
 //!
 //! the ξ terms pushed down the receiver tree. One plain sample (the paper's) is biased by the
-//! kernel's curvature: on a uniformly lit sphere at θ = 0.4 it is 2.0% low, the second-order
-//! sum 0.2%. With [`DipoleGeometry::PaperSources`] the kernel depends on the receiver's normal
+//! kernel's curvature: against the O(n²) sum on a sun-lit geodesic sphere of 5,120 triangles at
+//! θ = 0.4, one sample is 1.1% (peak-relative RMS) off, the first-order expansion 0.6%, the
+//! second-order one 0.04% (core/tests/hierarchical_dipole.rs). With [`DipoleGeometry::PaperSources`] the kernel depends on the receiver's normal
 //! and the sample is left uncorrected, as the paper has it.
 //!
 //! The receivers are cut into [`TASKS`] subtrees, each traversed against the whole emitter
@@ -33,7 +34,7 @@ use crate::progress::{ms, Cancelled};
 
 use super::error::HierarchyError;
 use super::options::{DipoleOptions, EvalMode, Receivers};
-use super::oracle::Decision;
+use super::oracle::{Decision, Oracle};
 use super::tree::{ClusterItem, ClusterNode, ClusterTree};
 
 /// The receiver subtrees traversed independently (fewer where the tree has fewer leaves).
@@ -169,7 +170,7 @@ pub struct DipoleStats {
     pub nodes: usize,
     /// Links used by the update (far + near).
     pub links: usize,
-    /// Of them, leaf pairs with the analytic form factor.
+    /// Of them, leaf pairs with a form factor over the triangle (analytic, or the 7-point rule).
     pub near_links: usize,
     /// Form factors evaluated by the update (0 in render mode with links kept).
     pub form_factors: usize,
@@ -573,12 +574,21 @@ impl DipoleHierarchy {
         }
     }
 
-    /// The analytic form factor of triangle `t` at a receiving leaf (Mertens eq. 18), the
-    /// three channels at once in the distance geometry.
+    /// The form factor of triangle `t` at a receiving leaf: analytic (Mertens eq. 18, the
+    /// three channels at once in the distance geometry) for the triangles within twice the
+    /// opening angle (those around the receiver), the 7-point rule of degree 5 for the others
+    /// the oracle refused: as accurate there against the O(n²) sum, at a fifth of the cost.
     fn near_factor(&self, r: &ClusterNode, t: usize) -> [f64; 3] {
         let (x_o, n_o) = receiver_point(r);
         let corners = self.triangles[t].map(|v| self.positions[v as usize]);
-        match self.options.geometry {
+        let geometry = self.options.geometry;
+        if let Oracle::OpeningAngle { theta } = self.options.oracle {
+            let e = self.emitters.node(self.emitters.leaf_of(t));
+            if e.radius < (2.0 * theta).min(1.0) * x_o.distance(e.centre) {
+                return self.dipoles.map(|d| triangle_rule7(&|x| point_kernel(&d, x, x_o, n_o, geometry), corners));
+            }
+        }
+        match geometry {
             DipoleGeometry::Distance => triangle_integral_rgb(&self.dipoles, corners, x_o, self.options.rule),
             geometry => self.dipoles.map(|d| d.triangle_integral(corners, x_o, n_o, geometry, self.options.rule)),
         }
