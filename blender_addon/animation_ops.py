@@ -448,7 +448,14 @@ def register():
 
 
 def unregister():
+    global _temp_folder
     _remove_handler()
     _unregister_classes()
     _suspended.clear()
     _memo.clear()
+    if _temp_folder is not None:
+        try:
+            os.rmdir(_temp_folder)  # only when empty: a cache there stays where its object says
+            _temp_folder = None
+        except OSError:
+            pass

@@ -96,6 +96,7 @@ def rigged(scene, addon):
         info = obj.get(PROPERTY)
         if info is not None and os.path.isfile(bpy.path.abspath(info["cache"])):
             os.remove(bpy.path.abspath(info["cache"]))
+    scene = bpy.context.scene  # the fixture's may be gone (an undo replaces the data)
     scene.frame_start, scene.frame_end = 1, 250
     scene.frame_set(1)
     for collection in (bpy.data.objects, bpy.data.armatures, bpy.data.actions):
@@ -342,6 +343,44 @@ def test_a_cancel_keeps_the_frames_before_and_leaves_the_mesh(rigged, addon, mon
     assert_close_to_peak(played, fresh_dipole(addon.library.get(), body, sun, theta=scene.transcut.dipole_theta))
     scene.frame_set(7)  # not baked: the attribute stays as it was
     np.testing.assert_array_equal(attribute_rgb(body), played)
+
+
+def test_a_failure_keeps_the_frames_before_and_leaves_the_mesh(rigged, addon, monkeypatch):
+    body, _ = rigged
+    scene = bpy.context.scene
+    runner_cls = addon.animation_ops.AnimationRunner
+    evaluate = runner_cls._evaluate
+
+    def failing(self, context, frame):
+        if frame == 6:
+            raise addon.mesh_export.BakeError("the pose of frame 6 is broken")
+        return evaluate(self, context, frame)
+
+    monkeypatch.setattr(runner_cls, "_evaluate", failing)
+    before = mesh_snapshot()
+    with pytest.raises(RuntimeError, match=r"frame 6 is broken \(at frame 6\); frames 1–5 \(5\) kept in .*not changed"):
+        bake_animation()
+    assert mesh_snapshot() == before and "SSS" not in body.data.attributes
+    assert scene.frame_current == FRAMES[0]
+    assert list(cache_of(body)["frames"]) == [1, 2, 3, 4, 5]
+    scene.frame_set(2)
+    assert "SSS" in body.data.attributes  # the timeline plays the frames kept
+
+
+def test_undo_takes_back_the_attribute_and_the_property(rigged, addon):
+    bpy.ops.ed.undo_push(message="before the animation bake")
+    # As from the UI: a script's operator call pushes an undo step only when asked to.
+    assert bpy.ops.transcut.bake_animation("EXEC_DEFAULT", True) == {"FINISHED"}
+    body = bpy.data.objects["Body"]
+    assert PROPERTY in body.keys() and "SSS" in body.data.attributes
+    path = cache_of(body)["path"]
+    bpy.ops.ed.undo()
+    body = bpy.data.objects["Body"]
+    assert PROPERTY not in body.keys() and "SSS" not in body.data.attributes
+    bpy.ops.ed.redo()
+    body = bpy.data.objects["Body"]
+    assert PROPERTY in body.keys() and "SSS" in body.data.attributes
+    assert cache_of(body)["path"] == path
 
 
 def test_the_handler_leaves_other_attributes_and_vertex_counts_alone(rigged, addon):
