@@ -53,6 +53,7 @@ mod volume;
 pub use bake::*;
 pub use convert::TcMedium;
 pub use cut::*;
+pub use deform::*;
 pub use edit_stats::*;
 pub use handle::TcScene;
 pub use light::*;

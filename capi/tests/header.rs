@@ -15,7 +15,10 @@ use std::fmt::Write as _;
 use std::mem::{offset_of, size_of};
 use std::path::{Path, PathBuf};
 
-use abi::{TcArtistMedium, TcBakeOptions, TcBakeStats, TcEditStats, TcMedium, TcMediumEdit, TcTransCutOptions};
+use abi::{
+    TcArtistMedium, TcBakeOptions, TcBakeStats, TcDipoleOptions, TcDipoleStats, TcEditStats, TcMedium, TcMediumEdit,
+    TcTransCutOptions,
+};
 
 fn crate_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -66,6 +69,21 @@ fn layouts() -> Vec<Layout> {
             method_options
         }),
         layout!(TcTransCutOptions { size, solver, edit_solver }),
+        layout!(TcDipoleOptions { size, oracle, theta, eps1, eps2, rule, receivers, mode, geometry, budget, radiance }),
+        layout!(TcDipoleStats {
+            size,
+            triangles,
+            receivers,
+            nodes,
+            links,
+            near_links,
+            form_factors,
+            stale_tasks,
+            refit_ms,
+            link_ms,
+            gather_ms,
+            push_ms
+        }),
         layout!(TcBakeStats {
             size,
             tets,
