@@ -99,24 +99,62 @@ const COLLINEAR: f64 = 1e-12;
 /// segments are split for the largest σtr of the three. Returns F per channel.
 #[must_use]
 pub fn triangle_integral_rgb(dipoles: &[Dipole; 3], corners: [DVec3; 3], x_o: DVec3, rule: EdgeRule) -> [f64; 3] {
+    let Some(n) = unit_normal(corners) else { return [0.0; 3] };
+    let h0 = (x_o - corners[0]).dot(n);
+    let kernels: [Kernel; 6] = std::array::from_fn(|i| {
+        let d = &dipoles[i / 2];
+        Kernel::new(d.sigma_tr, if i % 2 == 0 { d.z_r } else { d.z_v }, h0)
+    });
+    let mut sums = [0.0; 6];
+    wedge_sums(corners, n, x_o - h0 * n, &kernels, rule, &mut sums);
+    std::array::from_fn(|c| {
+        let sum: f64 = (2 * c..2 * c + 2).map(|i| kernels[i].z * sums[i]).sum();
+        dipoles[c].alpha_prime / (4.0 * std::f64::consts::PI) * sum
+    })
+}
+
+/// The unit normal of a triangle (its corners counter-clockwise about it); `None` when it is
+/// degenerate.
+fn unit_normal(corners: [DVec3; 3]) -> Option<DVec3> {
     let cross = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
     let double_area = cross.length();
-    if !(double_area > 0.0) {
-        return [0.0; 3];
+    (double_area > 0.0).then(|| cross / double_area)
+}
+
+/// One source's kernel z(1 + σs)e^{−σs}/s³ seen from its foot on the triangle's plane: σ = σtr,
+/// the numerator z, the height h above the plane and e^{−σh}/h.
+#[derive(Debug, Clone, Copy)]
+struct Kernel {
+    sigma: f64,
+    z: f64,
+    h: f64,
+    radial: f64,
+}
+
+impl Kernel {
+    /// The distance geometry's kernel of a source with numerator `z` for a receiver at height
+    /// `h0` above the plane: h = √(h₀² + z²).
+    fn new(sigma: f64, z: f64, h0: f64) -> Self {
+        Self::at_height(sigma, z, h0.hypot(z))
     }
-    let n = cross / double_area;
-    let h0 = (x_o - corners[0]).dot(n);
-    let foot = x_o - h0 * n;
-    // The six kernels: (σ, z, h, e^{−σh}/h), channel-major.
-    let kernels: [(f64, f64, f64, f64); 6] = std::array::from_fn(|i| {
-        let d = &dipoles[i / 2];
-        let z = if i % 2 == 0 { d.z_r } else { d.z_v };
-        let h = h0.hypot(z);
-        (d.sigma_tr, z, h, (-d.sigma_tr * h).exp() / h)
-    });
-    let sigma_max = dipoles.iter().fold(0.0f64, |m, d| m.max(d.sigma_tr));
+
+    fn at_height(sigma: f64, z: f64, h: f64) -> Self {
+        Self { sigma, z, h, radial: (-sigma * h).exp() / h }
+    }
+}
+
+/// Σ_e W_e / z per kernel, all over the foot `foot` on the plane of unit normal `n`: the
+/// triangle term of Mertens eq. 18 without the factor z, Θ e^{−σh}/h − Σ_e I₂, added to `out`.
+///
+/// Θ is the sum of the edges' signed angles, snapped to exactly 0 or 2π when the foot is off
+/// the triangle's boundary: outside, the per-edge angles cancel only to rounding, and a
+/// rounding error times e^{−σh}/h would swamp a far triangle's tiny integral. An edge whose line
+/// passes through the foot (up to rounding: a foot at a corner is only within rounding of it)
+/// bounds a wedge without area and contributes nothing.
+fn wedge_sums(corners: [DVec3; 3], n: DVec3, foot: DVec3, kernels: &[Kernel], rule: EdgeRule, out: &mut [f64]) {
+    let sigma_max = kernels.iter().fold(0.0f64, |m, k| m.max(k.sigma));
     let (mut theta, mut on_boundary) = (0.0, false);
-    let mut edges = [0.0f64; 6];
+    let mut edges = vec![0.0f64; kernels.len()];
     for e in 0..3 {
         let (a, b) = (corners[e], corners[(e + 1) % 3]);
         let edge = b - a;
@@ -130,28 +168,26 @@ pub fn triangle_integral_rgb(dipoles: &[Dipole; 3], corners: [DVec3; 3], x_o: DV
             continue;
         }
         theta += n.dot(pa.cross(pb)).atan2(pa.dot(pb));
-        edge_integrals(&kernels, sigma_max, r, pa.dot(u), pb.dot(u), rule, &mut edges);
+        edge_integrals(kernels, sigma_max, r, pa.dot(u), pb.dot(u), rule, &mut edges);
     }
     if !on_boundary {
         theta = if theta > std::f64::consts::PI { std::f64::consts::TAU } else { 0.0 };
     }
-    std::array::from_fn(|c| {
-        let sum: f64 = (2 * c..2 * c + 2).map(|i| kernels[i].1 * (theta * kernels[i].3 - edges[i])).sum();
-        dipoles[c].alpha_prime / (4.0 * std::f64::consts::PI) * sum
-    })
+    for ((o, k), i2) in out.iter_mut().zip(kernels).zip(edges) {
+        *o += theta * k.radial - i2;
+    }
 }
 
-/// I₂ of one edge for each of the six `kernels` (σ, z, h, e^{−σh}/h), added to `out`:
-/// [`Dipole::edge_integral`]'s rules on segments shared by all six.
-fn edge_integrals(
-    kernels: &[(f64, f64, f64, f64); 6],
-    sigma_max: f64,
-    r: f64,
-    t1: f64,
-    t2: f64,
-    rule: EdgeRule,
-    out: &mut [f64; 6],
-) {
+/// I₂ = ∫_{t₁}^{t₂} R e^{−σs}/(s (R² + t²)) dt, s = √(R² + h² + t²) (Mertens eq. 13) of one
+/// edge for each of `kernels`, added to `out`, by `rule` on segments shared by all of them:
+/// bisected until L < `max_l_over_r` · r₀ (eq. 19) and, with Gauss–Legendre, until σL ≤ 1 for
+/// the largest σ (so the exponential is resolved on a far edge).
+///
+/// With Gauss–Legendre, where s stays close to h on a segment (ρ < h at its middle), it is
+/// integrated as e^{−σh}/h · Δθ − ∫ (e^{−σh}/h − e^{−σs}/s) R/(R² + t²) dt: near the foot I₂
+/// almost equals Δθ e^{−σh}/h, and the difference — the wedge's own integral — is what the
+/// quadrature must get right; the second integrand vanishes where the first peaks.
+fn edge_integrals(kernels: &[Kernel], sigma_max: f64, r: f64, t1: f64, t2: f64, rule: EdgeRule, out: &mut [f64]) {
     let max_l_over_r = rule.max_l_over_r();
     let mut stack = vec![(t1, t2, 0u32)];
     while let Some((lo, hi, depth)) = stack.pop() {
@@ -173,31 +209,29 @@ fn edge_integrals(
                 let points = [(mid - dt, GL3_OUTER), (mid, GL3_INNER), (mid + dt, GL3_OUTER)];
                 let angle = (hi / r).atan() - (lo / r).atan();
                 let rho2_mid = r * r + mid * mid;
-                for (k, &(sigma, _, h, radial)) in kernels.iter().enumerate() {
-                    // Where s stays close to h (ρ < h at the middle), the wedge's own integral
-                    // e^{−σh}/h − e^{−σs}/s is integrated, as in Dipole::edge_integral.
+                for (o, &Kernel { sigma, h, radial, .. }) in out.iter_mut().zip(kernels) {
                     let near = rho2_mid < h * h;
                     let mut sum = 0.0;
                     for &(t, w) in &points {
                         let rho2 = r * r + t * t;
                         let s = (rho2 + h * h).sqrt();
-                        let lorentz = r / rho2;
                         let value = if near {
+                            // e^{−σh}/h − e^{−σs}/s without cancellation: s − h = ρ²/(s + h).
                             let gap = rho2 / (s + h);
                             (-sigma * h).exp() * (gap - h * (-sigma * gap).exp_m1()) / (h * s)
                         } else {
                             (-sigma * s).exp() / s
                         };
-                        sum += w * value * lorentz;
+                        sum += w * value * r / rho2;
                     }
-                    out[k] += if near { radial * angle - half * sum } else { half * sum };
+                    *o += if near { radial * angle - half * sum } else { half * sum };
                 }
             }
             EdgeRule::PaperMidpoint { .. } => {
                 let rho2 = r * r + mid * mid;
-                for (k, &(sigma, _, h, _)) in kernels.iter().enumerate() {
+                for (o, &Kernel { sigma, h, .. }) in out.iter_mut().zip(kernels) {
                     let s = (rho2 + h * h).sqrt();
-                    out[k] += 2.0 * half * (-sigma * s).exp() / s * r / rho2;
+                    *o += 2.0 * half * (-sigma * s).exp() / s * r / rho2;
                 }
             }
         }
@@ -223,12 +257,7 @@ impl Dipole {
         geometry: DipoleGeometry,
         rule: EdgeRule,
     ) -> f64 {
-        let cross = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
-        let double_area = cross.length();
-        if !(double_area > 0.0) {
-            return 0.0;
-        }
-        let n = cross / double_area;
+        let Some(n) = unit_normal(corners) else { return 0.0 };
         let sources: [(f64, DVec3); 2] = match geometry {
             DipoleGeometry::Distance => [(self.z_r, x_o), (self.z_v, x_o)],
             DipoleGeometry::PaperSources => [(self.z_r, x_o - self.z_r * n_o), (self.z_v, x_o + self.z_v * n_o)],
@@ -236,108 +265,20 @@ impl Dipole {
         let mut sum = 0.0;
         for (z, source) in sources {
             let height = (source - corners[0]).dot(n);
-            let foot = source - height * n;
-            let h = match geometry {
-                DipoleGeometry::Distance => height.hypot(z),
-                DipoleGeometry::PaperSources => height.abs(),
+            let kernel = match geometry {
+                DipoleGeometry::Distance => Kernel::new(self.sigma_tr, z, height),
+                DipoleGeometry::PaperSources => Kernel::at_height(self.sigma_tr, z, height.abs()),
             };
-            if !(h > 0.0) {
+            if !(kernel.h > 0.0) {
                 // A paper source in the triangle's plane: the integral diverges (∝ 1/h); the
                 // design's rule is never to divide by such an h. Skip the source's term.
                 continue;
             }
-            sum += z * self.wedge_sum(corners, n, foot, h, rule);
+            let mut w = [0.0];
+            wedge_sums(corners, n, source - height * n, &[kernel], rule, &mut w);
+            sum += z * w[0];
         }
         self.alpha_prime / (4.0 * std::f64::consts::PI) * sum
-    }
-
-    /// Σ_e W_e / z for one source at height `h` over the foot `foot`: the triangle term of
-    /// Mertens eq. 18 without the factor z, Θ e^{−σh}/h − Σ_e I₂.
-    ///
-    /// Θ is the sum of the edges' signed angles, snapped to exactly 0 or 2π when the foot is
-    /// off the triangle's boundary: outside, the per-edge angles cancel only to rounding, and a
-    /// rounding error times e^{−σh}/h would swamp a far triangle's tiny integral.
-    fn wedge_sum(&self, corners: [DVec3; 3], n: DVec3, foot: DVec3, h: f64, rule: EdgeRule) -> f64 {
-        let radial = (-self.sigma_tr * h).exp() / h;
-        let (mut theta, mut edges, mut on_boundary) = (0.0, 0.0, false);
-        for e in 0..3 {
-            let (a, b) = (corners[e], corners[(e + 1) % 3]);
-            let edge = b - a;
-            let length = edge.length();
-            let u = edge / length;
-            let (pa, pb) = (a - foot, b - foot);
-            let r = n.dot(u.cross(foot - a));
-            if r.abs() <= COLLINEAR * length {
-                // On the edge's line: on the triangle's boundary if between its ends (up to
-                // rounding: a foot at a corner is only within rounding of it).
-                let slack = COLLINEAR * length;
-                on_boundary |= pa.dot(u) <= slack && pb.dot(u) >= -slack;
-                continue;
-            }
-            theta += n.dot(pa.cross(pb)).atan2(pa.dot(pb));
-            edges += self.edge_integral(r, h, pa.dot(u), pb.dot(u), radial, rule);
-        }
-        if !on_boundary {
-            theta = if theta > std::f64::consts::PI { std::f64::consts::TAU } else { 0.0 };
-        }
-        theta * radial - edges
-    }
-
-    /// I₂ = ∫_{t₁}^{t₂} R e^{−σs}/(s (R² + t²)) dt, s = √(R² + h² + t²) (Mertens eq. 13), by
-    /// `rule` on segments bisected until L < `max_l_over_r` · r₀ (eq. 19); `radial` is
-    /// e^{−σh}/h.
-    ///
-    /// With Gauss–Legendre, segments are also split until σL ≤ 1 (so the exponential is
-    /// resolved on a far edge), and a segment where s stays close to h is integrated as
-    /// e^{−σh}/h · Δθ − ∫ (e^{−σh}/h − e^{−σs}/s) R/(R² + t²) dt: near the foot I₂ almost
-    /// equals Δθ e^{−σh}/h, and the difference — the wedge's own integral — is what the
-    /// quadrature must get right; the second integrand vanishes where the first peaks.
-    fn edge_integral(&self, r: f64, h: f64, t1: f64, t2: f64, radial: f64, rule: EdgeRule) -> f64 {
-        let sigma = self.sigma_tr;
-        let lorentz = |t: f64| r / (r * r + t * t);
-        let kernel = |t: f64| {
-            let s = (r * r + h * h + t * t).sqrt();
-            (-sigma * s).exp() / s
-        };
-        // e^{−σh}/h − e^{−σs}/s = e^{−σh} [(s − h) − h·expm1(−σ(s − h))]/(hs), without
-        // cancellation: s − h = ρ²/(s + h).
-        let deficit = |t: f64| {
-            let rho2 = r * r + t * t;
-            let s = (rho2 + h * h).sqrt();
-            let gap = rho2 / (s + h);
-            (-sigma * h).exp() * (gap - h * (-sigma * gap).exp_m1()) / (h * s)
-        };
-        let gl3 = |f: &dyn Fn(f64) -> f64, mid: f64, half: f64| {
-            let d = half * GL3_NODE;
-            half * (GL3_OUTER * (f(mid - d) + f(mid + d)) + GL3_INNER * f(mid))
-        };
-        let max_l_over_r = rule.max_l_over_r();
-        let mut total = 0.0;
-        // Explicit stack of (start, end, depth) segments.
-        let mut stack = vec![(t1, t2, 0u32)];
-        while let Some((lo, hi, depth)) = stack.pop() {
-            let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
-            let length = (hi - lo).abs();
-            let r0 = r.hypot(mid);
-            let sigma_split = match rule {
-                EdgeRule::GaussLegendre3 { .. } => length * sigma > 1.0,
-                EdgeRule::PaperMidpoint { sigma_rule, .. } => sigma_rule && length * sigma >= 0.4,
-            };
-            if (length >= max_l_over_r * r0 || sigma_split) && depth < MAX_SPLIT_DEPTH {
-                stack.push((lo, mid, depth + 1));
-                stack.push((mid, hi, depth + 1));
-                continue;
-            }
-            total += match rule {
-                EdgeRule::GaussLegendre3 { .. } if deficit(mid) < kernel(mid) => {
-                    let angle = (hi / r).atan() - (lo / r).atan();
-                    radial * angle - gl3(&|t| deficit(t) * lorentz(t), mid, half)
-                }
-                EdgeRule::GaussLegendre3 { .. } => gl3(&|t| kernel(t) * lorentz(t), mid, half),
-                EdgeRule::PaperMidpoint { .. } => 2.0 * half * kernel(mid) * lorentz(mid),
-            };
-        }
-        total
     }
 
     /// ∫ Rd over a disc of radius `rho` (mm) about the point of incidence, in closed form:
