@@ -132,12 +132,40 @@ pub struct MethodArgs {
 /// command's own (animate's method and mode).
 #[derive(Debug, Clone, Default)]
 pub struct MethodDefaults {
+    /// Whether these are a scene file's (whose options are checked against its method).
+    pub from_file: bool,
     pub method: Option<String>,
     pub tets: Option<u64>,
     pub tolerance: Option<f64>,
     pub solver: Option<String>,
     /// The hierarchical dipole's mode when `--mode` is not given.
     pub mode: Option<ModeName>,
+    /// The hierarchical dipole's opening angle when `--theta` is not given (a scene file's).
+    pub theta: Option<f64>,
+}
+
+impl MethodDefaults {
+    /// The defaults of a scene file's `[bake]` table: its method, TransCut's `tets`,
+    /// `tolerance` and `solver`, the dipole's `theta` and `mode`.
+    ///
+    /// # Errors
+    /// An unknown mode name, listing the valid ones.
+    pub fn from_bake_table(
+        method: Option<String>,
+        tets: Option<u64>,
+        tolerance: Option<f64>,
+        solver: Option<String>,
+        theta: Option<f64>,
+        mode: Option<&str>,
+    ) -> anyhow::Result<Self> {
+        let mode = mode
+            .map(|m| {
+                ModeName::from_str(m, true)
+                    .map_err(|_| anyhow!("[bake] mode: unknown mode '{m}' (the modes are: on-the-fly, render, incremental)"))
+            })
+            .transpose()?;
+        Ok(Self { method, tets, tolerance, solver, mode, theta, from_file: true })
+    }
 }
 
 /// Parses a solver name ([`SolverKind::from_name`]).
@@ -208,11 +236,13 @@ impl MethodArgs {
         }
         // A scene file's TransCut options, when the file itself chose another method: written
         // for nothing. (When the command line chose the method, they were for the file's.)
-        if self.method.is_none() && defaults.method.is_some() {
+        if self.method.is_none() && defaults.from_file {
             let file = [
                 (defaults.tets.is_some(), "tets", TRANSCUT),
                 (defaults.tolerance.is_some(), "tolerance", TRANSCUT),
                 (defaults.solver.is_some(), "solver", TRANSCUT),
+                (defaults.theta.is_some(), "theta", DIPOLE),
+                (defaults.mode.is_some(), "mode", DIPOLE),
             ];
             if let Some((option, owner)) = foreign(&file, method.name()) {
                 bail!("[bake] {option} is an option of the {owner} method, not of {} (the file's method)", method.name());
@@ -243,7 +273,10 @@ impl MethodArgs {
 
     /// The hierarchical dipole's options over `d`, its defaults.
     fn dipole(&self, d: DipoleOptions, defaults: &MethodDefaults) -> anyhow::Result<DipoleOptions> {
-        let oracle = match (self.oracle, self.theta) {
+        // A scene file's theta stands in for --theta unless the command line chose the paper
+        // oracle, which has none.
+        let theta = self.theta.or(defaults.theta.filter(|_| self.oracle != Some(OracleName::Paper)));
+        let oracle = match (self.oracle, theta) {
             (None, None) if self.eps1.is_none() && self.eps2.is_none() => d.oracle,
             (None | Some(OracleName::OpeningAngle), theta) => {
                 if let Some(flag) = [(self.eps1, "--eps1"), (self.eps2, "--eps2")].iter().find_map(|(v, f)| v.map(|_| f)) {
@@ -313,13 +346,9 @@ mod tests {
 
     #[test]
     fn names_choose_the_method_and_the_command_line_overrides_the_file() {
-        let file = MethodDefaults {
-            method: Some("transcut".into()),
-            tets: Some(5000),
-            tolerance: Some(1e-4),
-            solver: Some("mg-pcg".into()),
-            mode: None,
-        };
+        let file =
+            MethodDefaults::from_bake_table(Some("transcut".into()), Some(5000), Some(1e-4), Some("mg-pcg".into()), None, None)
+                .unwrap();
         let Method::TransCut(o) = MethodArgs::default().method(&file).unwrap() else { panic!() };
         assert_eq!((o.tets, o.tolerance, o.solver), (5000, 1e-4, SolverKind::MultigridPcg));
         let args = MethodArgs { tets: Some(7), solver: Some(SolverKind::Pcg), ..MethodArgs::default() };
@@ -329,6 +358,33 @@ mod tests {
         // The command line's method over the file's: the file's TransCut options are not its.
         let args = MethodArgs { method: Some("hierarchical-dipole".into()), ..MethodArgs::default() };
         assert_eq!(args.method(&file).unwrap(), Method::HierarchicalDipole(DipoleOptions::default()));
+    }
+
+    #[test]
+    fn a_scene_files_dipole_options_apply_to_the_dipole_only() {
+        let table = |method: Option<&str>, theta, mode| {
+            MethodDefaults::from_bake_table(method.map(Into::into), None, None, None, theta, mode)
+        };
+        let file = table(Some(DIPOLE), Some(0.3), Some("render")).unwrap();
+        let Method::HierarchicalDipole(o) = MethodArgs::default().method(&file).unwrap() else { panic!() };
+        assert_eq!((o.oracle, o.mode), (Oracle::OpeningAngle { theta: 0.3 }, EvalMode::Render));
+        // The command line overrides the file; its paper oracle has no theta.
+        let args = MethodArgs { theta: Some(0.6), mode: Some(ModeName::OnTheFly), ..MethodArgs::default() };
+        let Method::HierarchicalDipole(o) = args.method(&file).unwrap() else { panic!() };
+        assert_eq!((o.oracle, o.mode), (Oracle::OpeningAngle { theta: 0.6 }, EvalMode::OnTheFly));
+        let paper = MethodArgs { oracle: Some(OracleName::Paper), ..MethodArgs::default() };
+        let Method::HierarchicalDipole(o) = paper.method(&file).unwrap() else { panic!() };
+        assert_eq!(o.oracle, Oracle::Paper { eps1: PAPER_EPS, eps2: PAPER_EPS });
+        // A file of TransCut (named, or by default) with the dipole's options is refused by name.
+        for method in [None, Some(TRANSCUT)] {
+            let e = error(MethodArgs::default(), &table(method, Some(0.3), None).unwrap());
+            assert!(e.contains("[bake] theta") && e.contains("hierarchical-dipole"), "{e}");
+        }
+        let e = table(Some(DIPOLE), None, Some("sometimes")).unwrap_err().to_string();
+        assert!(e.contains("'sometimes'") && e.contains("incremental"), "{e}");
+        // Out of range through the core's check.
+        let e = error(MethodArgs::default(), &table(Some(DIPOLE), Some(1.5), None).unwrap());
+        assert!(e.contains("theta"), "{e}");
     }
 
     #[test]
@@ -386,7 +442,7 @@ mod tests {
         let args = MethodArgs { method: Some("transcut".into()), mode: Some(ModeName::Render), ..MethodArgs::default() };
         assert!(error(args, &none).contains("--mode"));
         // A file that chose the dipole and gave TransCut's options.
-        let file = MethodDefaults { method: Some(DIPOLE.into()), solver: Some("pcg".into()), ..MethodDefaults::default() };
+        let file = MethodDefaults::from_bake_table(Some(DIPOLE.into()), None, None, Some("pcg".into()), None, None).unwrap();
         let e = error(MethodArgs::default(), &file);
         assert!(e.contains("[bake] solver") && e.contains("transcut"), "{e}");
     }

@@ -70,14 +70,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         camera_spec.height = h;
     }
     let b = &file.bake;
-    let defaults = MethodDefaults {
-        method: b.method.clone(),
-        tets: b.tets,
-        tolerance: b.tolerance,
-        solver: b.solver.clone(),
-        ..MethodDefaults::default()
-    };
-    let method = args.method.method(&defaults).with_context(|| format!("scene file {}", args.scene.display()))?;
+    let in_file = || format!("scene file {}", args.scene.display());
+    let defaults =
+        MethodDefaults::from_bake_table(b.method.clone(), b.tets, b.tolerance, b.solver.clone(), b.theta, b.mode.as_deref())
+            .with_context(in_file)?;
+    let method = args.method.method(&defaults).with_context(in_file)?;
     let options = BakeOptions { method, threads: args.threads, ..BakeOptions::default() };
     let scene = Scene { objects: loaded.objects, lights: loaded.lights };
     let load_ms = start.elapsed().as_secs_f64() * 1e3;

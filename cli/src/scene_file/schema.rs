@@ -70,6 +70,10 @@ pub struct BakeSpec {
     pub tolerance: Option<f64>,
     /// The solver's name ([`transcut::diffusion::SolverKind::name`]).
     pub solver: Option<String>,
+    /// hierarchical-dipole: the opening angle of its oracle.
+    pub theta: Option<f64>,
+    /// hierarchical-dipole: when links are made (`on-the-fly`, `render`, `incremental`).
+    pub mode: Option<String>,
 }
 
 /// One `[[object]]`.
