@@ -36,7 +36,7 @@ pub enum EditError {
     Mesh(#[from] crate::mesh::TetMeshError),
     /// A light is invalid or the source could not be computed.
     #[error("lights: {0}")]
-    Light(#[from] crate::light::LightError),
+    Light(crate::light::LightError),
     /// Assembly or solve failed.
     #[error("diffusion: {0}")]
     Diffusion(#[from] crate::diffusion::DiffusionError),
@@ -58,6 +58,17 @@ pub enum EditError {
     /// Cancelled through the progress callback.
     #[error(transparent)]
     Cancelled(#[from] crate::progress::Cancelled),
+}
+
+/// A light error of an update: a cancellation while sampling is [`EditError::Cancelled`],
+/// anything else [`EditError::Light`].
+impl From<crate::light::LightError> for EditError {
+    fn from(e: crate::light::LightError) -> Self {
+        match e {
+            crate::light::LightError::Cancelled(c) => Self::Cancelled(c),
+            e => Self::Light(e),
+        }
+    }
 }
 
 impl From<crate::hierarchy::HierarchyError> for EditError {

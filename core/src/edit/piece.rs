@@ -12,7 +12,7 @@ use super::error::EditError;
 use crate::diffusion::system::SourceState;
 use crate::diffusion::{self, DiffusionError, DiffusionSystem, Solution, Solver, SolverKind};
 use crate::gpu::{self, Backend, GpuError, SolveWith};
-use crate::light::{self, Light, LightError, SourceOptions};
+use crate::light::{self, Light, SourceOptions};
 use crate::mesh::{TetMesh, TriMesh, TriangleBvh};
 use crate::optics::Medium;
 use crate::progress::{ms, solve_fraction, Cancelled, Progress};
@@ -258,10 +258,7 @@ pub(crate) fn sources(
             let eta = piece.system.boundary_terms().eta;
             let part = span.item(i, n);
             let poll = |f: f64| part.report("light", f);
-            light::transmitted_source_with(lights, &points, &normals, eta, occluder, source, &poll).map_err(|e| match e {
-                LightError::Cancelled(c) => EditError::Cancelled(c),
-                e => EditError::Light(e),
-            })
+            light::transmitted_source_with(lights, &points, &normals, eta, occluder, source, &poll).map_err(EditError::from)
         })
         .collect::<Result<Vec<_>, _>>()?;
     span.report("light", 1.0)?;

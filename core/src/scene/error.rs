@@ -42,7 +42,7 @@ pub enum SceneError {
     },
     /// A light is invalid or the source could not be computed.
     #[error("lights: {0}")]
-    Light(#[from] LightError),
+    Light(LightError),
     /// Assembly or solve failed for an object.
     #[error("object {index} ({name}): {source}")]
     Diffusion {
@@ -91,6 +91,17 @@ pub enum SceneError {
     /// Cancelled through the progress callback.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
+}
+
+/// A light error of a bake: a cancellation while sampling is the bake's
+/// [`SceneError::Cancelled`], anything else [`SceneError::Light`].
+impl From<LightError> for SceneError {
+    fn from(e: LightError) -> Self {
+        match e {
+            LightError::Cancelled(c) => Self::Cancelled(c),
+            e => Self::Light(e),
+        }
+    }
 }
 
 impl SceneError {

@@ -8,7 +8,7 @@ use glam::DVec3;
 
 use super::{surface_irradiance, DipoleState};
 use crate::edit::{EditError, UpdateStats};
-use crate::light::{Light, LightError, SourceOptions};
+use crate::light::{Light, SourceOptions};
 use crate::mesh::TriangleBvh;
 use crate::methods::capability::{Deform, Relight};
 use crate::methods::Lighting;
@@ -68,10 +68,8 @@ impl DipoleLive {
             TriangleBvh::from_indexed(&world, h.triangles())
         });
         let lighting = Lighting { lights, occluder: occluder.as_ref(), source: &self.source };
-        surface_irradiance(h, &lighting, self.state.medium.eta, mm, &|f| progress.report("light", 0.5 * f)).map_err(|e| match e {
-            LightError::Cancelled(c) => EditError::Cancelled(c),
-            e => EditError::Light(e),
-        })
+        surface_irradiance(h, &lighting, self.state.medium.eta, mm, &|f| progress.report("light", 0.5 * f))
+            .map_err(EditError::from)
     }
 
     /// The hierarchy's update under `q`, reported as the second half of `progress`.

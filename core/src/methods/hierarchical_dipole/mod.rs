@@ -223,10 +223,6 @@ impl SubsurfaceMethod for HierarchicalDipole {
         let t = Instant::now();
         let q = surface_irradiance(&state.hierarchy, lighting, state.medium.eta, state.mm_per_unit, &|f| {
             stage("light", 0.1 + 0.4 * f)
-        })
-        .map_err(|e| match e {
-            LightError::Cancelled(c) => SceneError::Cancelled(c),
-            e => SceneError::Light(e),
         })?;
         stats.source_ms = ms(t);
         stage("gather", 0.5)?;

@@ -26,7 +26,6 @@ use std::time::Instant;
 use super::{BakedState, Lighting, ObjectStats, Stage, SubsurfaceMethod, Target};
 use crate::diffusion::{self, resolution, DiffusionError, DiffusionSystem};
 use crate::gpu::{self, Backend, GpuError, SolveWith};
-use crate::light::LightError;
 use crate::mesh::{TetMesh, TetMeshError, TriMesh};
 use crate::mesher::{self, MesherError, MesherOptions, MesherStats};
 use crate::optics::Medium;
@@ -125,12 +124,9 @@ impl SubsurfaceMethod for TransCut {
         let Prepared { tet_mesh, system, fluence, .. } = state;
         let boundary = system.boundary();
         let points: Vec<_> = boundary.ids.iter().map(|&v| tet_mesh.positions()[v as usize]).collect();
-        let q = lighting
-            .transmitted_source_with(&points, &boundary.normal, system.boundary_terms().eta, &|f| stage("light", 0.7 + 0.1 * f))
-            .map_err(|e| match e {
-                LightError::Cancelled(c) => SceneError::Cancelled(c),
-                e => SceneError::Light(e),
-            })?;
+        let q = lighting.transmitted_source_with(&points, &boundary.normal, system.boundary_terms().eta, &|f| {
+            stage("light", 0.7 + 0.1 * f)
+        })?;
         system.set_source(&q).map_err(diffusion_error)?;
         stats.source_ms = ms(t);
         stage("solve", 0.8)?;
