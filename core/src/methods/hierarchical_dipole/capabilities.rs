@@ -20,7 +20,9 @@ use crate::progress::{ms, Progress};
 pub struct DipoleLive {
     state: DipoleState,
     lights: Vec<Light>,
-    shadows: bool,
+    /// The surface where it is now, in scene units, when it shadows itself; rebuilt when the
+    /// vertices move, kept across relights.
+    occluder: Option<TriangleBvh>,
     source: SourceOptions,
     radiance: Vec<[f64; 3]>,
 }
@@ -45,7 +47,8 @@ impl DipoleLive {
         shadows: bool,
         source: SourceOptions,
     ) -> Self {
-        Self { state, lights: lights.to_vec(), shadows, source, radiance }
+        let occluder = shadows.then(|| occluder_of(&state));
+        Self { state, lights: lights.to_vec(), occluder, source, radiance }
     }
 
     #[must_use]
@@ -61,13 +64,8 @@ impl DipoleLive {
 
     /// q at the surface's current vertices under `lights`, shadowed by the surface itself.
     fn irradiance(&self, lights: &[Light], progress: Progress) -> Result<Vec<[f64; 3]>, EditError> {
-        let h = &self.state.hierarchy;
-        let mm = self.state.mm_per_unit;
-        let occluder = self.shadows.then(|| {
-            let world: Vec<DVec3> = h.positions().iter().map(|p| *p / mm).collect();
-            TriangleBvh::from_indexed(&world, h.triangles())
-        });
-        let lighting = Lighting { lights, occluder: occluder.as_ref(), source: &self.source };
+        let lighting = Lighting { lights, occluder: self.occluder.as_ref(), source: &self.source };
+        let (h, mm) = (&self.state.hierarchy, self.state.mm_per_unit);
         surface_irradiance(h, &lighting, self.state.medium.eta, mm, &|f| progress.report("light", 0.5 * f))
             .map_err(EditError::from)
     }
@@ -81,6 +79,13 @@ impl DipoleLive {
         self.state.stats = stats;
         Ok((b, stats.refit_ms + stats.link_ms, ms(t)))
     }
+}
+
+/// The surface of `state` where it is now (scene units), as the occluder of its own shadows.
+fn occluder_of(state: &DipoleState) -> TriangleBvh {
+    let h = &state.hierarchy;
+    let world: Vec<DVec3> = h.positions().iter().map(|p| *p / state.mm_per_unit).collect();
+    TriangleBvh::from_indexed(&world, h.triangles())
 }
 
 /// The statistics of an update that took `source_ms` for the light, `link_ms` for refitting
@@ -167,7 +172,10 @@ impl Deform for DipoleLive {
             }));
         }
         self.state.hierarchy.set_positions(&moved)?;
+        // The light stage's time includes the shadow occluder's rebuild.
         let t = Instant::now();
+        let moved_occluder = self.occluder.as_ref().map(|_| occluder_of(&self.state));
+        let old_occluder = std::mem::replace(&mut self.occluder, moved_occluder);
         let outcome = self.irradiance(&self.lights.clone(), progress).and_then(|q| {
             let source_ms = ms(t);
             self.gather(&q, progress).map(|g| (q, source_ms, g))
@@ -182,6 +190,7 @@ impl Deform for DipoleLive {
                 // Back where it was: the same positions give the same trees, and links made
                 // again from them the same form factors.
                 self.state.hierarchy.set_positions(&old).expect("the positions it had are valid");
+                self.occluder = old_occluder;
                 Err(e)
             }
         }
