@@ -1,9 +1,10 @@
-//! Every WGSL kernel of `shaders/` (with `common.wgsl` prepended, as the GPU module loads it)
+//! Every WGSL kernel of `shaders/` (with `common.wgsl`, and for the hierarchical dipole's
+//! `dipole_common.wgsl`, prepended, as the GPU module loads it)
 //! parses and validates with naga, so a broken shader fails `cargo test`, not a user's bake.
 //! Needs no GPU.
 #![cfg(feature = "gpu")]
 
-use transcut::gpu::shaders::{Kernel, COMMON};
+use transcut::gpu::shaders::{Kernel, COMMON, DIPOLE_COMMON};
 
 fn validate(name: &str, source: &str) -> naga::Module {
     let module =
@@ -33,7 +34,7 @@ fn every_shader_file_is_a_kernel() {
     let mut files: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .filter(|f| f.ends_with(".wgsl") && f != "common.wgsl")
+        .filter(|f| f.ends_with(".wgsl") && f != "common.wgsl" && f != "dipole_common.wgsl")
         .collect();
     files.sort();
     let mut kernels: Vec<String> = Kernel::ALL.iter().map(|k| k.file().to_owned()).collect();
@@ -44,6 +45,7 @@ fn every_shader_file_is_a_kernel() {
         assert_eq!(std::fs::read_to_string(dir.join(kernel.file())).unwrap(), kernel.body());
     }
     assert_eq!(std::fs::read_to_string(dir.join("common.wgsl")).unwrap(), COMMON);
+    assert_eq!(std::fs::read_to_string(dir.join("dipole_common.wgsl")).unwrap(), DIPOLE_COMMON);
 }
 
 #[test]

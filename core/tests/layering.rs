@@ -26,7 +26,7 @@ const CORE: Table = &[
     ("hierarchy", &["optics", "progress"]),
     ("sparse", &["input", "progress"]),
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
-    ("gpu", &["diffusion", "sparse"]),
+    ("gpu", &["diffusion", "hierarchy", "optics", "progress", "sparse"]),
     ("render", &["input", "light", "optics", "output"]),
     ("scene", &["diffusion", "gpu", "hierarchy", "light", "mesh", "mesher", "optics", "progress", "volume", "workers"]),
     ("edit", &["diffusion", "gpu", "hierarchy", "light", "mesh", "mesher", "optics", "progress", "scene", "sparse", "volume"]),

@@ -1,6 +1,7 @@
 //! Errors of the GPU backend.
 
 use crate::diffusion::DiffusionError;
+use crate::hierarchy::HierarchyError;
 
 /// What went wrong in choosing, starting or using the GPU.
 ///
@@ -66,4 +67,8 @@ pub enum GpuError {
     /// CPU solver reports (not converged, breakdown); the same error the CPU path gives.
     #[error(transparent)]
     Diffusion(#[from] DiffusionError),
+    /// The hierarchical dipole's input is invalid (positions, irradiance); the error the CPU
+    /// path gives.
+    #[error(transparent)]
+    Hierarchy(#[from] HierarchyError),
 }

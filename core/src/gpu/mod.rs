@@ -19,6 +19,9 @@
 //!   preconditioned by the multigrid V-cycle of [`crate::sparse::hierarchy`] on the device
 //!   (Chebyshev–Jacobi smoothing, restriction `Pᵀ`, prolongation `P` of TransCut eq. 16, the
 //!   coarsest solve as kernels; `core/src/gpu/multigrid.rs`).
+//! - [`GpuDipole`]: the hierarchical dipole of a [`crate::hierarchy::DipoleHierarchy`] on the
+//!   device (refit, pull, traversal, push; `shaders/dipole_*.wgsl`), the twin of its on-the-fly
+//!   update.
 //! - [`assemble`], [`spmv_dot`], [`dot`], [`surface_radiance`] (eq. 3), [`restrict`],
 //!   [`prolong_add`], [`vcycle`]: single kernels (or one V-cycle) with CPU twins, compared in
 //!   `core/tests/gpu*.rs`.
@@ -49,6 +52,8 @@ pub use error::GpuError;
 #[cfg(feature = "gpu")]
 mod context;
 #[cfg(feature = "gpu")]
+mod dipole;
+#[cfg(feature = "gpu")]
 mod layout;
 #[cfg(feature = "gpu")]
 mod matrix;
@@ -67,6 +72,8 @@ pub mod shaders;
 
 #[cfg(feature = "gpu")]
 pub use context::{no_hardware_gpu, GpuContext, ADAPTER_ENV};
+#[cfg(feature = "gpu")]
+pub use dipole::{GpuDipole, GpuDipoleStats, RECEIVERS_PER_TASK};
 #[cfg(feature = "gpu")]
 pub use matrix::assemble;
 #[cfg(feature = "gpu")]

@@ -5,6 +5,11 @@
 /// PCG `Scalars`, the 2D-grid index helpers and the workgroup tree reduction.
 pub const COMMON: &str = include_str!("../../../shaders/common.wgsl");
 
+/// The declarations shared by the hierarchical dipole's kernels (`shaders/dipole_common.wgsl`),
+/// prepended after [`COMMON`] to theirs: the `DipoleParams` uniform, the cluster `Node`, the
+/// dipole profile and its triangle form factor in f32.
+pub const DIPOLE_COMMON: &str = include_str!("../../../shaders/dipole_common.wgsl");
+
 /// A compute kernel (one file of `shaders/`, entry point `main`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[non_exhaustive]
@@ -55,11 +60,19 @@ pub enum Kernel {
     MgReduceNorm,
     /// MG-PCG: β and ρ from rᵀz.
     MgReduceRz,
+    /// Hierarchical dipole: one level of a cluster tree refitted to moved vertices.
+    DipoleRefit,
+    /// Hierarchical dipole: the flux expansion pulled up one level of the emitter tree.
+    DipolePull,
+    /// Hierarchical dipole: the dual-tree traversal of one receiver subtree per invocation.
+    DipoleTraverse,
+    /// Hierarchical dipole: the local expansions pushed down one receiver subtree.
+    DipolePush,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 23] = [
+    pub const ALL: [Kernel; 27] = [
         Kernel::TetGeometry,
         Kernel::Assemble,
         Kernel::JacobiDiag,
@@ -83,6 +96,10 @@ impl Kernel {
         Kernel::MgCoarse,
         Kernel::MgReduceNorm,
         Kernel::MgReduceRz,
+        Kernel::DipoleRefit,
+        Kernel::DipolePull,
+        Kernel::DipoleTraverse,
+        Kernel::DipolePush,
     ];
 
     /// The file name in `shaders/`.
@@ -112,6 +129,10 @@ impl Kernel {
             Kernel::MgCoarse => "mg_coarse.wgsl",
             Kernel::MgReduceNorm => "mg_reduce_norm.wgsl",
             Kernel::MgReduceRz => "mg_reduce_rz.wgsl",
+            Kernel::DipoleRefit => "dipole_refit.wgsl",
+            Kernel::DipolePull => "dipole_pull.wgsl",
+            Kernel::DipoleTraverse => "dipole_traverse.wgsl",
+            Kernel::DipolePush => "dipole_push.wgsl",
         }
     }
 
@@ -142,12 +163,27 @@ impl Kernel {
             Kernel::MgCoarse => include_str!("../../../shaders/mg_coarse.wgsl"),
             Kernel::MgReduceNorm => include_str!("../../../shaders/mg_reduce_norm.wgsl"),
             Kernel::MgReduceRz => include_str!("../../../shaders/mg_reduce_rz.wgsl"),
+            Kernel::DipoleRefit => include_str!("../../../shaders/dipole_refit.wgsl"),
+            Kernel::DipolePull => include_str!("../../../shaders/dipole_pull.wgsl"),
+            Kernel::DipoleTraverse => include_str!("../../../shaders/dipole_traverse.wgsl"),
+            Kernel::DipolePush => include_str!("../../../shaders/dipole_push.wgsl"),
         }
     }
 
-    /// The complete module source: `common.wgsl` followed by the kernel's file.
+    /// Whether the kernel is one of the hierarchical dipole's (they share `dipole_common.wgsl`).
+    #[must_use]
+    pub fn is_dipole(self) -> bool {
+        matches!(self, Kernel::DipoleRefit | Kernel::DipolePull | Kernel::DipoleTraverse | Kernel::DipolePush)
+    }
+
+    /// The complete module source: `common.wgsl` (and for the dipole's kernels
+    /// `dipole_common.wgsl`) followed by the kernel's file.
     #[must_use]
     pub fn source(self) -> String {
-        format!("{COMMON}\n{}", self.body())
+        if self.is_dipole() {
+            format!("{COMMON}\n{DIPOLE_COMMON}\n{}", self.body())
+        } else {
+            format!("{COMMON}\n{}", self.body())
+        }
     }
 }

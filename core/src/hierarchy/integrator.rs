@@ -17,7 +17,8 @@
 //! second-order one 0.04% (core/tests/hierarchical_dipole.rs). With [`DipoleGeometry::PaperSources`] the kernel depends on the receiver's normal
 //! and the sample is left uncorrected, as the paper has it.
 //!
-//! The receivers are cut into [`TASKS`] subtrees, each traversed against the whole emitter
+//! The receivers are cut into [`TASKS`] subtrees (or as many as [`DipoleHierarchy::set_tasks`]
+//! asks for: the GPU traverses one per invocation), each traversed against the whole emitter
 //! tree on its own (in parallel, each writing only its own nodes), so the result does not
 //! depend on the number of threads. A task's links are kept (render and incremental modes)
 //! in the order of its traversal.
@@ -199,6 +200,8 @@ pub struct DipoleHierarchy {
     receiver_items: Vec<ClusterItem>,
     rest_radius: [f64; 2],
     tasks: Vec<Task>,
+    /// How many receiver subtrees the traversal is cut into (at least; [`ClusterTree::cut`]).
+    task_count: usize,
     /// The current frame: 0 at build, one more per deformation or medium change.
     frame: u64,
     /// Where the next budgeted relink starts (round-robin over stale tasks).
@@ -253,6 +256,7 @@ impl DipoleHierarchy {
             receivers,
             receiver_items,
             tasks,
+            task_count: TASKS,
             frame: 0,
             next_task: 0,
             refit_ms: 0.0,
@@ -340,7 +344,36 @@ impl DipoleHierarchy {
         self.emitters.touch_all(self.frame);
         self.receivers.touch_all(self.frame);
         self.rest_radius = [self.emitters.radius_sum(), self.receivers.radius_sum()];
-        self.tasks = self.receivers.cut(TASKS).into_iter().map(Task::new).collect();
+        self.tasks = self.receivers.cut(self.task_count).into_iter().map(Task::new).collect();
+    }
+
+    /// Cuts the receiver tree into at least `count` subtrees (where it has that many leaves),
+    /// each traversed on its own: links are never made above a subtree's root, so more subtrees
+    /// mean more links and more parallelism. [`TASKS`] by default; every link is made again.
+    pub fn set_tasks(&mut self, count: usize) {
+        self.task_count = count.max(1);
+        self.frame += 1;
+        self.emitters.touch_all(self.frame);
+        self.receivers.touch_all(self.frame);
+        self.tasks = self.receivers.cut(self.task_count).into_iter().map(Task::new).collect();
+    }
+
+    /// The roots of the receiver subtrees, in depth-first order.
+    #[must_use]
+    pub fn task_roots(&self) -> Vec<u32> {
+        self.tasks.iter().map(|t| t.root).collect()
+    }
+
+    /// The cluster tree over the emitting triangles (its items are the triangles).
+    #[must_use]
+    pub fn emitter_tree(&self) -> &ClusterTree {
+        &self.emitters
+    }
+
+    /// The cluster tree over the receiving points (vertices or face centroids, by the options).
+    #[must_use]
+    pub fn receiver_tree(&self) -> &ClusterTree {
+        &self.receivers
     }
 
     /// A new medium (one dipole per channel): every form factor changes, the links do not (the
@@ -749,7 +782,7 @@ pub fn vertex_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3>
 }
 
 /// Per vertex, the area-weighted mean of its triangles' values (Gouraud).
-fn face_to_vertex(positions: &[DVec3], triangles: &[[u32; 3]], per_face: &[[f64; 3]]) -> Vec<[f64; 3]> {
+pub(crate) fn face_to_vertex(positions: &[DVec3], triangles: &[[u32; 3]], per_face: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let mut sum = vec![[0.0f64; 3]; positions.len()];
     let mut area = vec![0.0f64; positions.len()];
     for (t, value) in triangles.iter().zip(per_face) {
@@ -765,14 +798,14 @@ fn face_to_vertex(positions: &[DVec3], triangles: &[[u32; 3]], per_face: &[[f64;
     sum.iter().zip(&area).map(|(s, &a)| if a > 0.0 { s.map(|x| x / a) } else { [0.0; 3] }).collect()
 }
 
-fn check_positions(positions: &[DVec3]) -> Result<(), HierarchyError> {
+pub(crate) fn check_positions(positions: &[DVec3]) -> Result<(), HierarchyError> {
     match positions.iter().position(|p| !p.is_finite()) {
         Some(vertex) => Err(HierarchyError::NonFinite { vertex, value: positions[vertex].to_array() }),
         None => Ok(()),
     }
 }
 
-fn check_irradiance(irradiance: &[[f64; 3]], vertices: usize) -> Result<(), HierarchyError> {
+pub(crate) fn check_irradiance(irradiance: &[[f64; 3]], vertices: usize) -> Result<(), HierarchyError> {
     if irradiance.len() != vertices {
         return Err(HierarchyError::WrongLength { what: "irradiance", expected: vertices, got: irradiance.len() });
     }
