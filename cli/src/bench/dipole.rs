@@ -8,12 +8,16 @@
 //! - accuracy against the O(n²) sum ([`reference_quadratic`]) up to `--reference-triangles`
 //!   for θ = 0.6, 0.4, 0.3 and the paper's oracle at 0.05/0.05;
 //! - the paper's 98,304-leaf case (Table 3) on the nearest icosphere, 81,920 triangles, with
-//!   the paper's oracle and θ = 0.4 (design/hierarchical-dipole.md §7).
+//!   the paper's oracle and θ = 0.4 (design/hierarchical-dipole.md §7);
+//! - on the `--backend`'s GPU ([`transcut::gpu::GpuDipole`]) at every size: on-the-fly and a
+//!   deformed frame (refit included) with their split, the agreement with the CPU's update of
+//!   the same hierarchy, and the speed against it and against the CPU's default cut.
 
 use std::time::Instant;
 
 use anyhow::Context;
 use serde::Serialize;
+use transcut::gpu::{Backend, GpuContext, GpuDipole, GpuDipoleStats};
 use transcut::hierarchy::{reference_quadratic, vertex_normals, DipoleHierarchy, DipoleOptions, DipoleStats, EvalMode, Oracle};
 use transcut::light::{transmitted_source, Light, SourceOptions};
 use transcut::mesh::{icosphere, TriMesh};
@@ -282,6 +286,114 @@ fn accuracy(subdivisions: u32, mesh: &TriMesh, medium: &Medium, runs: usize) -> 
     Ok(AccuracyEntry { subdivisions, triangles: triangles.len(), reference_ms, oracles: entries })
 }
 
+/// Device runs at one size: medians.
+#[derive(Serialize)]
+struct GpuTimes {
+    median_ms: f64,
+    runs_ms: Vec<f64>,
+    median_refit_ms: f64,
+    median_pull_ms: f64,
+    median_traverse_ms: f64,
+    median_push_ms: f64,
+    links: usize,
+    near_links: usize,
+}
+
+impl GpuTimes {
+    fn new(runs: &[(f64, GpuDipoleStats)]) -> Self {
+        let pick = |f: fn(&GpuDipoleStats) -> f64| median(runs.iter().map(|(_, s)| f(s)).collect());
+        let last = runs.last().map(|r| r.1).unwrap_or_default();
+        Self {
+            median_ms: median(runs.iter().map(|r| r.0).collect()),
+            runs_ms: runs.iter().map(|r| r.0).collect(),
+            median_refit_ms: pick(|s| s.refit_ms),
+            median_pull_ms: pick(|s| s.pull_ms),
+            median_traverse_ms: pick(|s| s.traverse_ms),
+            median_push_ms: pick(|s| s.push_ms),
+            links: last.links,
+            near_links: last.near_links,
+        }
+    }
+}
+
+/// The GPU at one size, θ = 0.4.
+#[derive(Serialize)]
+struct GpuEntry {
+    subdivisions: u32,
+    triangles: usize,
+    /// Receiver subtrees, one invocation each (the CPU's default cut has 256).
+    tasks: usize,
+    /// A relight: pull, traversal, push and read-back.
+    on_the_fly: GpuTimes,
+    /// Each run one more frame of the Perlin deformation: upload, refit and the update.
+    deformed_frame: GpuTimes,
+    /// The CPU's on-the-fly update of the same hierarchy (the same subtrees), median.
+    cpu_same_cut_ms: f64,
+    /// The CPU's on-the-fly update with its default cut (the scaling table's).
+    cpu_default_ms: f64,
+    speedup_vs_cpu_default: f64,
+    peak_relative_rms_vs_cpu: f64,
+    peak_relative_max_vs_cpu: f64,
+}
+
+/// The device runs on `mesh` ([`GpuEntry`]).
+fn gpu_entry(
+    ctx: &GpuContext,
+    subdivisions: u32,
+    mesh: &TriMesh,
+    medium: &Medium,
+    runs: usize,
+    cpu_default_ms: f64,
+) -> anyhow::Result<GpuEntry> {
+    let dipoles = [0, 1, 2].map(|c| medium.dipole(c));
+    let (rest, triangles) = (mesh.positions(), mesh.triangles());
+    let mut h = DipoleHierarchy::new(rest.to_vec(), triangles.to_vec(), dipoles, DipoleOptions::default())?;
+    let mut device = GpuDipole::for_device(ctx, &mut h)?;
+    let lit = sun(DVec3::new(0.0, -1.0, -1.0).normalize());
+    let q = irradiance(&lit, rest, triangles)?;
+    device.update(&q)?; // compiles the kernels
+    let mut on_the_fly = Vec::new();
+    let mut last = Vec::new();
+    for _ in 0..runs {
+        let t = Instant::now();
+        let (b, stats) = device.update(&q)?;
+        on_the_fly.push((ms(t), stats));
+        last = b;
+    }
+    let mut cpu_times = Vec::new();
+    let mut cpu = Vec::new();
+    for _ in 0..runs {
+        let t = Instant::now();
+        cpu = h.update(&q, &never_cancel)?.0;
+        cpu_times.push(ms(t));
+    }
+    let lit_vertices = vec![true; cpu.len()];
+    let (rms, max, _) = errors(&last, &cpu, &lit_vertices);
+    let noise = PerlinNoise::new(2003);
+    let mut deformed = Vec::new();
+    for frame in 1..=runs {
+        let positions = displaced(rest, &noise, frame);
+        let q = irradiance(&lit, &positions, triangles)?;
+        let t = Instant::now();
+        device.set_positions(&positions)?;
+        let (_, stats) = device.update(&q)?;
+        deformed.push((ms(t), stats));
+    }
+    let on_the_fly = GpuTimes::new(&on_the_fly);
+    Ok(GpuEntry {
+        subdivisions,
+        triangles: triangles.len(),
+        tasks: h.task_roots().len(),
+        speedup_vs_cpu_default: cpu_default_ms / on_the_fly.median_ms,
+        on_the_fly,
+        deformed_frame: GpuTimes::new(&deformed),
+        cpu_same_cut_ms: median(cpu_times),
+        cpu_default_ms,
+        peak_relative_rms_vs_cpu: rms,
+        peak_relative_max_vs_cpu: max,
+    })
+}
+
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let medium = Medium { eta: ETA, ..Medium::preset("marble")? };
     let runs = args.runs as usize;
@@ -312,6 +424,29 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             }
         })
         .collect();
+
+    let context = match args.backend {
+        Backend::Cpu => Err("backend cpu: the GPU was not asked for".to_owned()),
+        Backend::Gpu => Ok(GpuContext::shared()?),
+        Backend::Auto => GpuContext::shared().map_err(|e| e.to_string()),
+    };
+    let gpu = match &context {
+        Err(reason) => serde_json::json!({ "fallback": reason }),
+        Ok(ctx) => {
+            let mut entries = Vec::new();
+            for e in &scaling {
+                let mesh = icosphere(RADIUS_MM, e.subdivisions);
+                entries.push(gpu_entry(ctx, e.subdivisions, &mesh, &medium, runs, e.modes.on_the_fly.median_ms)?);
+            }
+            serde_json::json!({
+                "device": ctx.device_name(),
+                "software": ctx.is_software(),
+                "note": "θ = 0.4, f32; the receivers cut into one subtree per 8 points, one invocation each; \
+                         wall times include the uploads and read-backs",
+                "sizes": entries,
+            })
+        }
+    };
 
     let mut accuracy_entries = Vec::new();
     for &s in &args.subdivisions {
@@ -355,6 +490,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "growth_per_4x": growth,
         "accuracy": accuracy_entries,
         "paper_case": paper_case,
+        "gpu": gpu,
     });
     println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())
