@@ -8,6 +8,7 @@ use clap::{Args, ValueEnum};
 use transcut::diffusion::SolverKind;
 use transcut::gpu::Backend;
 use transcut::hierarchy::{DipoleOptions, EvalMode, Oracle, Receivers};
+use transcut::input::quote;
 use transcut::optics::EdgeRule;
 use transcut::{Method, TransCutOptions};
 
@@ -142,29 +143,90 @@ pub struct MethodDefaults {
     pub mode: Option<ModeName>,
     /// The hierarchical dipole's opening angle when `--theta` is not given (a scene file's).
     pub theta: Option<f64>,
+    /// The dipole's oracle when neither `--oracle` nor `--theta` is given (a scene file's).
+    pub oracle: Option<OracleName>,
+    /// The paper oracle's ε₁ when `--eps1` is not given (a scene file's).
+    pub eps1: Option<f64>,
+    /// The paper oracle's ε₂ when `--eps2` is not given (a scene file's).
+    pub eps2: Option<f64>,
+    /// The near field's edge rule when `--rule` is not given (a scene file's).
+    pub rule: Option<RuleName>,
+    /// Where the radiance is evaluated when `--receivers` is not given (a scene file's).
+    pub receivers: Option<ReceiverName>,
+    /// The incremental mode's budget when `--budget` is not given (a scene file's).
+    pub budget: Option<u64>,
+}
+
+/// A scene file's `[bake]` table as written (names not yet parsed): the keys that choose the
+/// method and its options, named as the command line's flags.
+#[derive(Debug, Clone, Default)]
+pub struct BakeTable {
+    pub method: Option<String>,
+    pub tets: Option<u64>,
+    pub tolerance: Option<f64>,
+    pub solver: Option<String>,
+    pub theta: Option<f64>,
+    pub oracle: Option<String>,
+    pub eps1: Option<f64>,
+    pub eps2: Option<f64>,
+    pub rule: Option<String>,
+    pub receivers: Option<String>,
+    pub mode: Option<String>,
+    pub budget: Option<u64>,
+}
+
+/// The value of `[bake] key` among the names of `T` (any case).
+///
+/// # Errors
+/// An unknown name, listing the valid ones (`what` and `plural`: "an oracle", "the oracles").
+fn bake_name<T: ValueEnum>(key: &str, value: Option<&str>, what: &str, plural: &str) -> anyhow::Result<Option<T>> {
+    value
+        .map(|v| {
+            T::from_str(v, true).map_err(|_| {
+                let names: Vec<String> =
+                    T::value_variants().iter().filter_map(|n| n.to_possible_value().map(|p| p.get_name().to_owned())).collect();
+                anyhow!("[bake] {key}: unknown {what} {} (the {plural} are: {})", quote(v), names.join(", "))
+            })
+        })
+        .transpose()
+}
+
+/// The command-line name of a value of `T`.
+fn value_name<T: ValueEnum>(value: T) -> String {
+    value.to_possible_value().map(|v| v.get_name().to_owned()).unwrap_or_default()
 }
 
 impl MethodDefaults {
     /// The defaults of a scene file's `[bake]` table: its method, TransCut's `tets`,
-    /// `tolerance` and `solver`, the dipole's `theta` and `mode`.
+    /// `tolerance` and `solver`, the dipole's `theta`, `oracle`, `eps1`, `eps2`, `rule`,
+    /// `receivers`, `mode` and `budget` (the names and values of the command line's flags).
     ///
     /// # Errors
-    /// An unknown mode name, listing the valid ones.
-    pub fn from_bake_table(
-        method: Option<String>,
-        tets: Option<u64>,
-        tolerance: Option<f64>,
-        solver: Option<String>,
-        theta: Option<f64>,
-        mode: Option<&str>,
-    ) -> anyhow::Result<Self> {
-        let mode = mode
-            .map(|m| {
-                ModeName::from_str(m, true)
-                    .map_err(|_| anyhow!("[bake] mode: unknown mode '{m}' (the modes are: on-the-fly, render, incremental)"))
-            })
-            .transpose()?;
-        Ok(Self { method, tets, tolerance, solver, mode, theta, from_file: true })
+    /// An unknown oracle, rule, receivers or mode name, listing the valid ones; a budget of 0
+    /// (as `--budget`, at least 1).
+    pub fn from_bake_table(table: BakeTable) -> anyhow::Result<Self> {
+        let oracle = bake_name::<OracleName>("oracle", table.oracle.as_deref(), "oracle", "oracles")?;
+        let rule = bake_name::<RuleName>("rule", table.rule.as_deref(), "rule", "rules")?;
+        let receivers = bake_name::<ReceiverName>("receivers", table.receivers.as_deref(), "receivers", "receivers")?;
+        let mode = bake_name::<ModeName>("mode", table.mode.as_deref(), "mode", "modes")?;
+        if table.budget == Some(0) {
+            bail!("[bake] budget = 0: the links an incremental update may make are at least 1 (leave budget out for no cap)");
+        }
+        Ok(Self {
+            from_file: true,
+            method: table.method,
+            tets: table.tets,
+            tolerance: table.tolerance,
+            solver: table.solver,
+            mode,
+            theta: table.theta,
+            oracle,
+            eps1: table.eps1,
+            eps2: table.eps2,
+            rule,
+            receivers,
+            budget: table.budget,
+        })
     }
 }
 
@@ -242,7 +304,13 @@ impl MethodArgs {
                 (defaults.tolerance.is_some(), "tolerance", TRANSCUT),
                 (defaults.solver.is_some(), "solver", TRANSCUT),
                 (defaults.theta.is_some(), "theta", DIPOLE),
+                (defaults.oracle.is_some(), "oracle", DIPOLE),
+                (defaults.eps1.is_some(), "eps1", DIPOLE),
+                (defaults.eps2.is_some(), "eps2", DIPOLE),
+                (defaults.rule.is_some(), "rule", DIPOLE),
+                (defaults.receivers.is_some(), "receivers", DIPOLE),
                 (defaults.mode.is_some(), "mode", DIPOLE),
+                (defaults.budget.is_some(), "budget", DIPOLE),
             ];
             if let Some((option, owner)) = foreign(&file, method.name()) {
                 bail!("[bake] {option} is an option of the {owner} method, not of {} (the file's method)", method.name());
@@ -272,44 +340,72 @@ impl MethodArgs {
     }
 
     /// The hierarchical dipole's options over `d`, its defaults.
+    ///
+    /// Each flag overrides the same key of a scene file. A file's key that belongs to a choice
+    /// the command line overrode goes with it: its `theta` under `--oracle paper`, its `eps1`
+    /// and `eps2` under `--oracle opening-angle` or `--theta`, its `budget` under a `--mode`
+    /// other than incremental. Any other option that does not fit the oracle or the mode in
+    /// effect is an error naming it (the flag, or the file's `[bake]` key).
     fn dipole(&self, d: DipoleOptions, defaults: &MethodDefaults) -> anyhow::Result<DipoleOptions> {
-        // A scene file's theta stands in for --theta unless the command line chose the paper
-        // oracle, which has none.
-        let theta = self.theta.or(defaults.theta.filter(|_| self.oracle != Some(OracleName::Paper)));
-        let oracle = match (self.oracle, theta) {
-            (None, None) if self.eps1.is_none() && self.eps2.is_none() => d.oracle,
-            (None | Some(OracleName::OpeningAngle), theta) => {
-                if let Some(flag) = [(self.eps1, "--eps1"), (self.eps2, "--eps2")].iter().find_map(|(v, f)| v.map(|_| f)) {
-                    bail!(
-                        "{flag} is a threshold of the paper oracle: give --oracle paper (the opening-angle oracle takes --theta)"
-                    );
+        if self.oracle == Some(OracleName::Paper) && self.theta.is_some() {
+            bail!("--theta is the opening-angle oracle's: --oracle paper takes --eps1 and --eps2");
+        }
+        // The command line's oracle: named, or the opening angle its --theta implies.
+        let cli_oracle = self.oracle.or(self.theta.map(|_| OracleName::OpeningAngle));
+        let theta = self.theta.or(defaults.theta.filter(|_| cli_oracle != Some(OracleName::Paper)));
+        let file_eps = |v: Option<f64>, key| v.filter(|_| cli_oracle != Some(OracleName::OpeningAngle)).map(|v| (v, key));
+        let eps1 = self.eps1.map(|v| (v, "--eps1")).or(file_eps(defaults.eps1, "[bake] eps1"));
+        let eps2 = self.eps2.map(|v| (v, "--eps2")).or(file_eps(defaults.eps2, "[bake] eps2"));
+        let oracle = match cli_oracle.or(defaults.oracle).or(theta.map(|_| OracleName::OpeningAngle)) {
+            Some(OracleName::Paper) => {
+                if theta.is_some() {
+                    bail!("[bake] theta is the opening-angle oracle's: oracle = \"paper\" takes eps1 and eps2");
                 }
-                Oracle::OpeningAngle { theta: theta.unwrap_or(DEFAULT_THETA) }
+                Oracle::Paper { eps1: eps1.map_or(PAPER_EPS, |e| e.0), eps2: eps2.map_or(PAPER_EPS, |e| e.0) }
             }
-            (Some(OracleName::Paper), None) => {
-                Oracle::Paper { eps1: self.eps1.unwrap_or(PAPER_EPS), eps2: self.eps2.unwrap_or(PAPER_EPS) }
-            }
-            (Some(OracleName::Paper), Some(_)) => {
-                bail!("--theta is the opening-angle oracle's: --oracle paper takes --eps1 and --eps2")
+            chosen => {
+                match eps1.or(eps2) {
+                    Some((_, flag)) if flag.starts_with("--") => bail!(
+                        "{flag} is a threshold of the paper oracle: give --oracle paper (the opening-angle oracle takes --theta)"
+                    ),
+                    Some((_, key)) => bail!(
+                        "{key} is a threshold of the paper oracle: set oracle = \"paper\" (the opening-angle oracle takes theta)"
+                    ),
+                    None => {}
+                }
+                match chosen {
+                    None => d.oracle,
+                    Some(_) => Oracle::OpeningAngle { theta: theta.unwrap_or(DEFAULT_THETA) },
+                }
             }
         };
-        let mode = match (self.mode.or(defaults.mode).unwrap_or(DEFAULT_MODE), self.budget) {
-            (ModeName::Incremental, budget) => EvalMode::Incremental { budget: budget.map(usize::try_from).transpose()? },
-            (name, Some(_)) => {
-                let name = name.to_possible_value().map(|v| v.get_name().to_owned()).unwrap_or_default();
-                bail!("--budget caps the links an incremental update makes: it needs --mode incremental (the mode is {name})")
+        let name = self.mode.or(defaults.mode).unwrap_or(DEFAULT_MODE);
+        // A file's budget goes with the file's mode: a --mode other than incremental drops it.
+        let file_budget = defaults.budget.filter(|_| self.mode.is_none_or(|m| m == ModeName::Incremental));
+        let budget = self.budget.map(|b| (b, "--budget")).or(file_budget.map(|b| (b, "[bake] budget")));
+        let mode = match (name, budget) {
+            (ModeName::Incremental, budget) => {
+                EvalMode::Incremental { budget: budget.map(|(b, _)| usize::try_from(b)).transpose()? }
             }
+            (name, Some((_, "--budget"))) => bail!(
+                "--budget caps the links an incremental update makes: it needs --mode incremental (the mode is {})",
+                value_name(name)
+            ),
+            (name, Some((_, key))) => bail!(
+                "{key} caps the links an incremental update makes: it needs mode = \"incremental\" (the mode is {})",
+                value_name(name)
+            ),
             (ModeName::OnTheFly, None) => EvalMode::OnTheFly,
             (ModeName::Render, None) => EvalMode::Render,
         };
         Ok(DipoleOptions {
             oracle,
-            rule: match self.rule {
+            rule: match self.rule.or(defaults.rule) {
                 None => d.rule,
                 Some(RuleName::Gl3) => EdgeRule::default(),
                 Some(RuleName::Paper) => EdgeRule::PAPER,
             },
-            receivers: match self.receivers {
+            receivers: match self.receivers.or(defaults.receivers) {
                 None => d.receivers,
                 Some(ReceiverName::Vertices) => Receivers::Vertices,
                 Some(ReceiverName::Faces) => Receivers::FaceCentroids,
@@ -346,9 +442,14 @@ mod tests {
 
     #[test]
     fn names_choose_the_method_and_the_command_line_overrides_the_file() {
-        let file =
-            MethodDefaults::from_bake_table(Some("transcut".into()), Some(5000), Some(1e-4), Some("mg-pcg".into()), None, None)
-                .unwrap();
+        let file = MethodDefaults::from_bake_table(BakeTable {
+            method: Some("transcut".into()),
+            tets: Some(5000),
+            tolerance: Some(1e-4),
+            solver: Some("mg-pcg".into()),
+            ..BakeTable::default()
+        })
+        .unwrap();
         let Method::TransCut(o) = MethodArgs::default().method(&file).unwrap() else { panic!() };
         assert_eq!((o.tets, o.tolerance, o.solver), (5000, 1e-4, SolverKind::MultigridPcg));
         let args = MethodArgs { tets: Some(7), solver: Some(SolverKind::Pcg), ..MethodArgs::default() };
@@ -362,8 +463,13 @@ mod tests {
 
     #[test]
     fn a_scene_files_dipole_options_apply_to_the_dipole_only() {
-        let table = |method: Option<&str>, theta, mode| {
-            MethodDefaults::from_bake_table(method.map(Into::into), None, None, None, theta, mode)
+        let table = |method: Option<&str>, theta, mode: Option<&str>| {
+            MethodDefaults::from_bake_table(BakeTable {
+                method: method.map(Into::into),
+                theta,
+                mode: mode.map(Into::into),
+                ..BakeTable::default()
+            })
         };
         let file = table(Some(DIPOLE), Some(0.3), Some("render")).unwrap();
         let Method::HierarchicalDipole(o) = MethodArgs::default().method(&file).unwrap() else { panic!() };
@@ -442,9 +548,221 @@ mod tests {
         let args = MethodArgs { method: Some("transcut".into()), mode: Some(ModeName::Render), ..MethodArgs::default() };
         assert!(error(args, &none).contains("--mode"));
         // A file that chose the dipole and gave TransCut's options.
-        let file = MethodDefaults::from_bake_table(Some(DIPOLE.into()), None, None, Some("pcg".into()), None, None).unwrap();
+        let file = MethodDefaults::from_bake_table(BakeTable {
+            method: Some(DIPOLE.into()),
+            solver: Some("pcg".into()),
+            ..BakeTable::default()
+        })
+        .unwrap();
         let e = error(MethodArgs::default(), &file);
         assert!(e.contains("[bake] solver") && e.contains("transcut"), "{e}");
+    }
+
+    /// Sets keys of a `[bake]` table.
+    type SetKey = fn(&mut BakeTable);
+
+    /// A dipole scene file's `[bake]` table with `set` applied.
+    fn dipole_file(set: impl FnOnce(&mut BakeTable)) -> anyhow::Result<MethodDefaults> {
+        let mut table = BakeTable { method: Some(DIPOLE.into()), ..BakeTable::default() };
+        set(&mut table);
+        MethodDefaults::from_bake_table(table)
+    }
+
+    fn file_dipole(args: MethodArgs, file: &MethodDefaults) -> anyhow::Result<DipoleOptions> {
+        match args.method(file)? {
+            Method::HierarchicalDipole(o) => Ok(o),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_scene_file_sets_every_dipole_option_of_the_command_line() {
+        let file = dipole_file(|t| {
+            t.oracle = Some("paper".into());
+            t.eps1 = Some(0.02);
+            t.eps2 = Some(0.08);
+            t.rule = Some("paper".into());
+            t.receivers = Some("faces".into());
+            t.mode = Some("incremental".into());
+            t.budget = Some(5000);
+        })
+        .unwrap();
+        let o = file_dipole(MethodArgs::default(), &file).unwrap();
+        assert_eq!(o.oracle, Oracle::Paper { eps1: 0.02, eps2: 0.08 });
+        assert_eq!(o.rule, EdgeRule::PAPER);
+        assert_eq!(o.receivers, Receivers::FaceCentroids);
+        assert_eq!(o.mode, EvalMode::Incremental { budget: Some(5000) });
+        // The same as the command line's flags, names in any case.
+        let flags = dipole(MethodArgs {
+            oracle: Some(OracleName::Paper),
+            eps1: Some(0.02),
+            eps2: Some(0.08),
+            rule: Some(RuleName::Paper),
+            receivers: Some(ReceiverName::Faces),
+            mode: Some(ModeName::Incremental),
+            budget: Some(5000),
+            ..MethodArgs::default()
+        })
+        .unwrap();
+        assert_eq!(o, flags);
+        let upper = dipole_file(|t| {
+            t.oracle = Some("Opening-Angle".into());
+            t.rule = Some("GL3".into());
+            t.receivers = Some("Vertices".into());
+        })
+        .unwrap();
+        assert_eq!(file_dipole(MethodArgs::default(), &upper).unwrap(), DipoleOptions::default());
+        // One threshold given: the other is the default.
+        let one = dipole_file(|t| {
+            t.oracle = Some("paper".into());
+            t.eps2 = Some(0.01);
+        })
+        .unwrap();
+        assert_eq!(file_dipole(MethodArgs::default(), &one).unwrap().oracle, Oracle::Paper { eps1: PAPER_EPS, eps2: 0.01 });
+    }
+
+    #[test]
+    fn the_command_line_overrides_each_dipole_key_of_the_file() {
+        let paper = dipole_file(|t| {
+            t.oracle = Some("paper".into());
+            t.eps1 = Some(0.02);
+            t.eps2 = Some(0.08);
+            t.rule = Some("paper".into());
+            t.receivers = Some("faces".into());
+            t.mode = Some("incremental".into());
+            t.budget = Some(5000);
+        })
+        .unwrap();
+        // Flag by flag.
+        let o = file_dipole(
+            MethodArgs {
+                eps1: Some(0.03),
+                rule: Some(RuleName::Gl3),
+                receivers: Some(ReceiverName::Vertices),
+                budget: Some(7),
+                ..MethodArgs::default()
+            },
+            &paper,
+        )
+        .unwrap();
+        assert_eq!(o.oracle, Oracle::Paper { eps1: 0.03, eps2: 0.08 });
+        assert_eq!((o.rule, o.receivers), (EdgeRule::default(), Receivers::Vertices));
+        assert_eq!(o.mode, EvalMode::Incremental { budget: Some(7) });
+        // --theta (or --oracle opening-angle) replaces the file's paper oracle and its thresholds.
+        let o = file_dipole(MethodArgs { theta: Some(0.3), ..MethodArgs::default() }, &paper).unwrap();
+        assert_eq!(o.oracle, Oracle::OpeningAngle { theta: 0.3 });
+        let o = file_dipole(MethodArgs { oracle: Some(OracleName::OpeningAngle), ..MethodArgs::default() }, &paper).unwrap();
+        assert_eq!(o.oracle, Oracle::OpeningAngle { theta: DEFAULT_THETA });
+        // --mode render replaces the file's incremental mode and its budget.
+        let o = file_dipole(MethodArgs { mode: Some(ModeName::Render), ..MethodArgs::default() }, &paper).unwrap();
+        assert_eq!(o.mode, EvalMode::Render);
+        // A file's theta under --oracle opening-angle; its thresholds under --oracle paper; its
+        // budget under --mode incremental.
+        let theta = dipole_file(|t| t.theta = Some(0.25)).unwrap();
+        let o = file_dipole(MethodArgs { oracle: Some(OracleName::OpeningAngle), ..MethodArgs::default() }, &theta).unwrap();
+        assert_eq!(o.oracle, Oracle::OpeningAngle { theta: 0.25 });
+        let eps = dipole_file(|t| t.eps1 = Some(0.04)).unwrap();
+        let o = file_dipole(MethodArgs { oracle: Some(OracleName::Paper), ..MethodArgs::default() }, &eps).unwrap();
+        assert_eq!(o.oracle, Oracle::Paper { eps1: 0.04, eps2: PAPER_EPS });
+        let budget = dipole_file(|t| t.budget = Some(9)).unwrap();
+        let o = file_dipole(MethodArgs { mode: Some(ModeName::Incremental), ..MethodArgs::default() }, &budget).unwrap();
+        assert_eq!(o.mode, EvalMode::Incremental { budget: Some(9) });
+        // --eps1 with the file's paper oracle: the paper oracle.
+        let oracle = dipole_file(|t| t.oracle = Some("paper".into())).unwrap();
+        let o = file_dipole(MethodArgs { eps1: Some(0.2), ..MethodArgs::default() }, &oracle).unwrap();
+        assert_eq!(o.oracle, Oracle::Paper { eps1: 0.2, eps2: PAPER_EPS });
+    }
+
+    #[test]
+    fn a_scene_files_dipole_keys_are_checked_as_the_flags_are() {
+        // Unknown names list the valid ones.
+        let names: [(SetKey, &[&str]); 5] = [
+            (|t| t.oracle = Some("solid".into()), &["[bake] oracle", "'solid'", "opening-angle, paper"]),
+            (|t| t.rule = Some("simpson".into()), &["[bake] rule", "'simpson'", "gl3, paper"]),
+            (|t| t.receivers = Some("edges".into()), &["[bake] receivers", "'edges'", "vertices, faces"]),
+            (|t| t.mode = Some("sometimes".into()), &["[bake] mode", "'sometimes'", "on-the-fly, render, incremental"]),
+            (|t| t.budget = Some(0), &["[bake] budget = 0", "at least 1"]),
+        ];
+        for (set, words) in names {
+            let e = dipole_file(set).unwrap_err().to_string();
+            assert!(words.iter().all(|w| e.contains(w)), "{e}");
+        }
+        // Keys that contradict the oracle or the mode in effect.
+        let cases: [(SetKey, MethodArgs, &[&str]); 6] = [
+            (
+                |t| {
+                    t.oracle = Some("paper".into());
+                    t.theta = Some(0.3);
+                },
+                MethodArgs::default(),
+                &["[bake] theta", "oracle = \"paper\" takes eps1 and eps2"],
+            ),
+            (|t| t.eps1 = Some(0.1), MethodArgs::default(), &["[bake] eps1", "oracle = \"paper\""]),
+            (
+                |t| {
+                    t.oracle = Some("opening-angle".into());
+                    t.eps2 = Some(0.1);
+                },
+                MethodArgs::default(),
+                &["[bake] eps2", "paper oracle"],
+            ),
+            (|t| t.budget = Some(10), MethodArgs::default(), &["[bake] budget", "mode = \"incremental\"", "on-the-fly"]),
+            (
+                |t| {
+                    t.mode = Some("render".into());
+                    t.budget = Some(10);
+                },
+                MethodArgs::default(),
+                &["[bake] budget", "(the mode is render)"],
+            ),
+            // The flags' own checks over a file.
+            (|t| t.theta = Some(0.3), MethodArgs { eps1: Some(0.1), ..MethodArgs::default() }, &["--eps1", "--oracle paper"]),
+        ];
+        for (set, args, words) in cases {
+            let file = dipole_file(set).unwrap();
+            let e = format!("{:#}", args.method(&file).unwrap_err());
+            assert!(words.iter().all(|w| e.contains(w)), "{file:?}: {e}");
+        }
+        // Out of range through the core's check, as the flags.
+        let e = format!(
+            "{:#}",
+            MethodArgs::default()
+                .method(
+                    &dipole_file(|t| {
+                        t.oracle = Some("paper".into());
+                        t.eps1 = Some(-1.0);
+                    })
+                    .unwrap()
+                )
+                .unwrap_err()
+        );
+        assert!(e.contains("eps1") && e.contains("> 0"), "{e}");
+    }
+
+    #[test]
+    fn a_file_of_another_method_that_sets_a_dipole_key_is_refused_by_name() {
+        let keys: [(&str, SetKey); 8] = [
+            ("theta", |t| t.theta = Some(0.3)),
+            ("oracle", |t| t.oracle = Some("paper".into())),
+            ("eps1", |t| t.eps1 = Some(0.1)),
+            ("eps2", |t| t.eps2 = Some(0.1)),
+            ("rule", |t| t.rule = Some("paper".into())),
+            ("receivers", |t| t.receivers = Some("faces".into())),
+            ("mode", |t| t.mode = Some("render".into())),
+            ("budget", |t| t.budget = Some(10)),
+        ];
+        for (key, set) in keys {
+            for method in [None, Some(TRANSCUT)] {
+                let mut table = BakeTable { method: method.map(Into::into), ..BakeTable::default() };
+                set(&mut table);
+                let file = MethodDefaults::from_bake_table(table).unwrap();
+                let e = error(MethodArgs::default(), &file);
+                assert!(
+                    e.contains(&format!("[bake] {key} is an option of the hierarchical-dipole method, not of transcut")),
+                    "{key}: {e}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -17,7 +17,7 @@ use transcut::light::{Environment, Light};
 use transcut::render::{render, Camera, GroundPlane, RenderObject, RenderOptions, RenderScene, SamplePattern, SpecularLight};
 use transcut::{bake_with, BakeOptions, DVec3, Progress, Scene, Session};
 
-use crate::method_args::{method_help, MethodArgs, MethodDefaults};
+use crate::method_args::{method_help, BakeTable, MethodArgs, MethodDefaults};
 use crate::progress::StageBar;
 use crate::scene_file::{self, apply, schema::CameraSpec};
 
@@ -71,9 +71,21 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let b = &file.bake;
     let in_file = || format!("scene file {}", args.scene.display());
-    let defaults =
-        MethodDefaults::from_bake_table(b.method.clone(), b.tets, b.tolerance, b.solver.clone(), b.theta, b.mode.as_deref())
-            .with_context(in_file)?;
+    let table = BakeTable {
+        method: b.method.clone(),
+        tets: b.tets,
+        tolerance: b.tolerance,
+        solver: b.solver.clone(),
+        theta: b.theta,
+        oracle: b.oracle.clone(),
+        eps1: b.eps1,
+        eps2: b.eps2,
+        rule: b.rule.clone(),
+        receivers: b.receivers.clone(),
+        mode: b.mode.clone(),
+        budget: b.budget,
+    };
+    let defaults = MethodDefaults::from_bake_table(table).with_context(in_file)?;
     let method = args.method.method(&defaults).with_context(in_file)?;
     let options = BakeOptions { method, threads: args.threads, ..BakeOptions::default() };
     let scene = Scene { objects: loaded.objects, lights: loaded.lights };

@@ -232,3 +232,88 @@ fn render_bakes_a_scene_by_the_dipole() {
     assert!(out.status.success(), "{}", stderr(&out));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_scene_files_bake_table_sets_every_dipole_option_and_the_flags_override_it() {
+    let dir = temp_dir("scene-keys");
+    let (positions, triangles) = frame(0);
+    let obj = dir.join("sphere.obj");
+    write_obj(&obj, &positions, &triangles);
+    let scene = |name: &str, bake: &str| {
+        let path = dir.join(format!("{name}.toml"));
+        let text = format!(
+            "[camera]\nposition = [0, 0, 60]\ntarget = [0, 0, 0]\nfov_deg = 35\nwidth = 48\nheight = 36\n\n\
+             [render]\nsamples = 1\n\n[bake]\n{bake}\n\n[[object]]\nmesh = \"{}\"\nmedium = \"marble\"\n\n\
+             [[light]]\nkind = \"sun\"\ndir = [0, -1, -1]\nirradiance = 3\n",
+            obj.display()
+        );
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    // The image (linear EXR) of a render of `scene` with `extra` flags.
+    let render = |scene: &Path, extra: &[&str]| -> Vec<u8> {
+        let exr = dir.join("out.exr");
+        std::fs::remove_file(&exr).ok();
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+        args.extend(extra);
+        let out = transcut(&args);
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+        std::fs::read(&exr).unwrap()
+    };
+    let plain = scene("plain", "method = \"hierarchical-dipole\"");
+    let keys = scene(
+        "keys",
+        "method = \"hierarchical-dipole\"\noracle = \"paper\"\neps1 = 0.3\neps2 = 0.3\nrule = \"paper\"\n\
+         receivers = \"faces\"\nmode = \"incremental\"\nbudget = 1000",
+    );
+    let default = render(&plain, &[]);
+    let flags = [
+        "--oracle",
+        "paper",
+        "--eps1",
+        "0.3",
+        "--eps2",
+        "0.3",
+        "--rule",
+        "paper",
+        "--receivers",
+        "faces",
+        "--mode",
+        "incremental",
+        "--budget",
+        "1000",
+    ];
+    let by_flags = render(&plain, &flags);
+    let by_keys = render(&keys, &[]);
+    // The keys reach the bake exactly as the flags do, and they change the radiance.
+    assert!(by_keys == by_flags, "the file's keys render another image than the same flags");
+    assert!(by_keys != default, "the paper oracle, rule and face receivers should change the image");
+    // The flags override the keys: back to the defaults.
+    let over = ["--oracle", "opening-angle", "--rule", "gl3", "--receivers", "vertices", "--mode", "on-the-fly"];
+    assert!(render(&keys, &over) == default, "the flags did not override the file's keys");
+    // One key at a time reaches the bake (each alone changes the image).
+    for (key, value) in [("receivers", "\"faces\""), ("rule", "\"paper\""), ("theta", "0.8")] {
+        let one = scene("one", &format!("method = \"hierarchical-dipole\"\n{key} = {value}"));
+        assert!(render(&one, &[]) != default, "[bake] {key} = {value} did not change the image");
+    }
+
+    // Refusals name the key (and list the valid values).
+    let refused = |bake: &str, words: &[&str]| {
+        let path = scene("bad", bake);
+        let out = transcut(&["render", path.to_str().unwrap(), "-o", dir.join("bad.png").to_str().unwrap()]);
+        let err = stderr(&out);
+        assert!(!out.status.success() && words.iter().all(|w| err.contains(w)), "{bake}: {err}");
+        assert!(err.contains("bad.toml"), "the error names the scene file: {err}");
+    };
+    refused("receivers = \"faces\"", &["[bake] receivers is an option of the hierarchical-dipole method, not of transcut"]);
+    refused("method = \"transcut\"\nbudget = 10", &["[bake] budget is an option of the hierarchical-dipole method"]);
+    refused("method = \"hierarchical-dipole\"\nrule = \"simpson\"", &["[bake] rule", "'simpson'", "gl3, paper"]);
+    refused("method = \"hierarchical-dipole\"\noracle = \"solid\"", &["[bake] oracle", "opening-angle, paper"]);
+    refused("method = \"hierarchical-dipole\"\nreceivers = \"edges\"", &["[bake] receivers", "vertices, faces"]);
+    refused("method = \"hierarchical-dipole\"\nbudget = 10", &["[bake] budget", "mode = \"incremental\""]);
+    refused("method = \"hierarchical-dipole\"\neps1 = 0.1", &["[bake] eps1", "oracle = \"paper\""]);
+    refused("method = \"hierarchical-dipole\"\noracle = \"paper\"\ntheta = 0.3", &["[bake] theta", "eps1 and eps2"]);
+    refused("method = \"hierarchical-dipole\"\noracle = \"paper\"\neps2 = -1", &["eps2"]);
+    refused("method = \"hierarchical-dipole\"\nbudget = 0", &["[bake] budget = 0"]);
+    std::fs::remove_dir_all(&dir).ok();
+}

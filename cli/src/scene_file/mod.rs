@@ -22,6 +22,14 @@
 //! tets = 50000              # transcut: target tetrahedra per object
 //! tolerance = 1e-6          # solver relative residual
 //! solver = "ssor-pcg"       # transcut: the bake's solver (pcg, ssor-pcg, cascade, mg-pcg, sa-pcg)
+//! # theta = 0.4             # hierarchical-dipole: the opening angle, in (0, 1]
+//! # oracle = "opening-angle"  # hierarchical-dipole: opening-angle (theta) or paper (eps1, eps2)
+//! # eps1 = 0.05             # hierarchical-dipole, oracle "paper": its thresholds (default 0.05)
+//! # eps2 = 0.05
+//! # rule = "gl3"            # hierarchical-dipole: the near field's edge rule, gl3 or paper
+//! # receivers = "vertices"  # hierarchical-dipole: vertices or faces (centroids, the paper's)
+//! # mode = "on-the-fly"     # hierarchical-dipole: on-the-fly, render or incremental
+//! # budget = 5000           # hierarchical-dipole, mode "incremental": most links per update
 //!
 //! [[object]]                # one or more
 //! mesh = "bunny.obj"        # OBJ or PLY, relative to the scene file
@@ -59,6 +67,12 @@
 //! `env`: `radiance`, or `file` (an equirectangular .hdr/.exr, relative to the scene file) and
 //! `strength` (1); `rect`: `center`, `half_u`, `half_v`, `radiance`, `two_sided`; `disc`:
 //! `center`, `normal`, `radius`, `radiance`, `two_sided`.
+//!
+//! The `[bake]` keys are the names and values of `transcut render`'s flags (`--tets`,
+//! `--theta`, `--oracle`, …; the same checks), and a flag overrides its key; a key that belongs
+//! to a choice a flag overrode goes with it (`theta` under `--oracle paper`, `eps1`/`eps2` under
+//! `--oracle opening-angle` or `--theta`, `budget` under another `--mode` than incremental). A
+//! file whose method is not the one a key belongs to is refused naming the key.
 //!
 //! The object transform is `translate · rotate · scale`, applied after the centring and fitting
 //! of `fit_size_mm`. Every key not listed here is an error that names it; every error names the

@@ -70,10 +70,22 @@ pub struct BakeSpec {
     pub tolerance: Option<f64>,
     /// The solver's name ([`transcut::diffusion::SolverKind::name`]).
     pub solver: Option<String>,
-    /// hierarchical-dipole: the opening angle of its oracle.
+    /// hierarchical-dipole: the opening angle of its oracle (`--theta`).
     pub theta: Option<f64>,
-    /// hierarchical-dipole: when links are made (`on-the-fly`, `render`, `incremental`).
+    /// hierarchical-dipole: the refinement oracle (`opening-angle`, `paper`; `--oracle`).
+    pub oracle: Option<String>,
+    /// hierarchical-dipole, oracle `paper`: its ε₁ (`--eps1`).
+    pub eps1: Option<f64>,
+    /// hierarchical-dipole, oracle `paper`: its ε₂ (`--eps2`).
+    pub eps2: Option<f64>,
+    /// hierarchical-dipole: the near field's edge rule (`gl3`, `paper`; `--rule`).
+    pub rule: Option<String>,
+    /// hierarchical-dipole: where the radiance is evaluated (`vertices`, `faces`; `--receivers`).
+    pub receivers: Option<String>,
+    /// hierarchical-dipole: when links are made (`on-the-fly`, `render`, `incremental`; `--mode`).
     pub mode: Option<String>,
+    /// hierarchical-dipole, mode `incremental`: the most links per update (`--budget`).
+    pub budget: Option<u64>,
 }
 
 /// One `[[object]]`.
