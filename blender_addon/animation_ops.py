@@ -1,7 +1,7 @@
 """Bake Animation, ``bpy.ops.transcut.bake_animation()``, and the frame handler that plays it back.
 
 **Bake Animation** bakes the selected translucent mesh (the active object, or the one selected
-mesh) with the hierarchical dipole (the panel's Opening Angle and Mode; Incremental relinks only
+mesh) with the hierarchical dipole (the panel's dipole options; Incremental relinks only
 what moved) at every frame of the scene's frame range (Frame Start to End by Frame Step): for each
 frame it sets the frame (``scene.frame_set``), takes the evaluated mesh (armature, shape keys,
 modifiers: ``obj.evaluated_get(depsgraph).to_mesh()``) and sends its positions to the library

@@ -36,13 +36,31 @@ class BakeJob:
     warnings: list = field(default_factory=list)
 
 
+def _name(item: str) -> str:
+    """The binding's name of an enumeration item of the settings (``OPENING_ANGLE`` → ``opening-angle``)."""
+    return item.lower().replace("_", "-")
+
+
 def bake_options(settings, method: str) -> dict:
     """The :meth:`transcut.Scene.bake` keywords of ``method`` from the TransCut settings: for
-    TransCut its resolution, tolerance and backend; for the hierarchical dipole its θ and mode
-    (the options of the other method are left out: the binding refuses them)."""
+    TransCut its resolution, tolerance and backend; for the hierarchical dipole its oracle with
+    its θ (opening angle) or ε₁ and ε₂ (paper), edge rule, receivers and mode with its budget
+    (incremental) (the options of the other method, and of the oracle or mode not chosen, are
+    left out: the binding refuses the first)."""
     options = dict(method=method, shadows=1 if settings.shadows else 0)
     if method == DIPOLE:
-        options.update(theta=settings.dipole_theta, mode=settings.dipole_mode.lower().replace("_", "-"))
+        options.update(oracle=_name(settings.dipole_oracle))
+        if settings.dipole_oracle == "PAPER":
+            options.update(eps1=settings.dipole_eps1, eps2=settings.dipole_eps2)
+        else:
+            options.update(theta=settings.dipole_theta)
+        options.update(
+            rule=_name(settings.dipole_rule),
+            receivers=_name(settings.dipole_receivers),
+            mode=_name(settings.dipole_mode),
+        )
+        if settings.dipole_mode == "INCREMENTAL":
+            options.update(budget=settings.dipole_budget)
     else:
         options.update(tets=settings.tets, tolerance=settings.tolerance, backend=settings.backend.lower())
     return options

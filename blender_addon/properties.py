@@ -52,6 +52,33 @@ DIPOLE_MODE_ITEMS = (
     ),
 )
 
+#: The hierarchical dipole's refinement oracles (``Scene.bake(oracle=...)`` names, upper case with ``_``).
+DIPOLE_ORACLE_ITEMS = (
+    (
+        "OPENING_ANGLE",
+        "Opening Angle",
+        "Link two clusters whole when their radii sum below θ × their distance (the Opening Angle below)",
+    ),
+    (
+        "PAPER",
+        "Paper",
+        "Mertens et al. 2003's solid-angle test (Epsilon 1, Epsilon 2), for reproducing the paper: "
+        "0.5-5.5% off the exact sum where the opening angle 0.4 is 0.04%",
+    ),
+)
+
+#: The edge rules of the near field's analytic triangle form factor (``Scene.bake(rule=...)``).
+DIPOLE_RULE_ITEMS = (
+    ("GL3", "Gauss-Legendre", "3-point Gauss-Legendre per edge segment: within 1.2e-4 of brute-force cubature"),
+    ("PAPER", "Paper", "The paper's midpoint rule (its eq. 17): 3-17% off away from the receiver"),
+)
+
+#: Where the hierarchical dipole evaluates the radiance (``Scene.bake(receivers=...)``).
+DIPOLE_RECEIVERS_ITEMS = (
+    ("VERTICES", "Vertices", "At every vertex, along its area-weighted normal"),
+    ("FACES", "Faces", "At every triangle's centroid (the paper's), averaged onto the vertices by area"),
+)
+
 # Blender keeps only pointers to the strings of dynamic enum items: every list handed out stays
 # referenced here (one per distinct set of methods, so repeated draws return the same list).
 _method_items: dict = {}
@@ -110,11 +137,61 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         max=1.0,
         precision=2,
     )
+    dipole_oracle: EnumProperty(
+        name="Oracle",
+        description="Hierarchical dipole: the test that decides which clusters are linked whole",
+        items=DIPOLE_ORACLE_ITEMS,
+        default="OPENING_ANGLE",
+    )
+    dipole_eps1: FloatProperty(
+        name="Epsilon 1",
+        description=(
+            "Hierarchical dipole, paper oracle: how differently (in solid angle) a receiver cluster's children may "
+            "see an emitter before the cluster is opened (smaller: more accurate, slower)"
+        ),
+        default=0.05,
+        min=1e-4,
+        soft_max=1.0,
+        precision=3,
+    )
+    dipole_eps2: FloatProperty(
+        name="Epsilon 2",
+        description=(
+            "Hierarchical dipole, paper oracle: the largest solid angle area/distance² under which an emitter "
+            "cluster is linked whole (smaller: more accurate, slower)"
+        ),
+        default=0.05,
+        min=1e-4,
+        soft_max=1.0,
+        precision=3,
+    )
+    dipole_rule: EnumProperty(
+        name="Edge Rule",
+        description="Hierarchical dipole: the edge rule of the near field's analytic triangle form factor",
+        items=DIPOLE_RULE_ITEMS,
+        default="GL3",
+    )
+    dipole_receivers: EnumProperty(
+        name="Receivers",
+        description="Hierarchical dipole: where the radiance is evaluated",
+        items=DIPOLE_RECEIVERS_ITEMS,
+        default="VERTICES",
+    )
     dipole_mode: EnumProperty(
         name="Mode",
         description="Hierarchical dipole: when the links between the cluster trees are made",
         items=DIPOLE_MODE_ITEMS,
         default="INCREMENTAL",
+    )
+    dipole_budget: IntProperty(
+        name="Budget",
+        description=(
+            "Hierarchical dipole, incremental mode: relink at most about this many links per frame, oldest first, "
+            "keeping the others as they were (the error decays once the motion stops); 0: no limit"
+        ),
+        default=0,
+        min=0,
+        soft_max=10_000_000,
     )
     shadows: BoolProperty(
         name="Shadows",

@@ -1,6 +1,7 @@
 """The "TransCut" tab of the 3D viewport's sidebar (N panel): the method and the bake settings
 (TransCut's Resolution, Tolerance and Backend while TransCut is the method, the hierarchical
-dipole's Opening Angle and Mode while it is), the active object's medium, the bake, Bake
+dipole's Oracle with its Opening Angle or Epsilon 1 and 2, Edge Rule, Receivers, and Mode with
+the incremental mode's Budget while it is), the active object's medium, the bake, Bake
 Animation and editing buttons, and the library status when it is not loaded; the same operators
 in the Object menu."""
 
@@ -32,8 +33,17 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
         col.prop(settings, "method")
         col.prop(settings, "attribute_name")
         if settings.method == DIPOLE:
-            col.prop(settings, "dipole_theta")
+            col.prop(settings, "dipole_oracle")
+            if settings.dipole_oracle == "PAPER":
+                col.prop(settings, "dipole_eps1")
+                col.prop(settings, "dipole_eps2")
+            else:
+                col.prop(settings, "dipole_theta")
+            col.prop(settings, "dipole_rule")
+            col.prop(settings, "dipole_receivers")
             col.prop(settings, "dipole_mode")
+            if settings.dipole_mode == "INCREMENTAL":
+                col.prop(settings, "dipole_budget")
         else:
             if settings.method == "transcut":
                 col.prop(settings, "tets")

@@ -183,9 +183,22 @@ def test_panel_draws_the_dipole_options_and_bake_animation(scene, addon):
         assert ("prop", "dipole_theta") in log and ("prop", "dipole_mode") in log
         assert ("prop", "tets") not in log and ("prop", "backend") not in log
         assert log.index(("prop", "method")) < log.index(("prop", "dipole_theta"))
+        for name in ("dipole_oracle", "dipole_rule", "dipole_receivers", "dipole_budget"):
+            assert ("prop", name) in log, name
+        assert ("prop", "dipole_eps1") not in log and ("prop", "dipole_eps2") not in log
+        # The paper oracle shows its thresholds instead of the opening angle; the budget is the
+        # incremental mode's.
+        settings.dipole_oracle = "PAPER"
+        settings.dipole_mode = "RENDER"
+        log = drawn()
+        assert ("prop", "dipole_eps1") in log and ("prop", "dipole_eps2") in log
+        assert ("prop", "dipole_theta") not in log and ("prop", "dipole_budget") not in log
+        assert log.index(("prop", "dipole_oracle")) < log.index(("prop", "dipole_eps1"))
         assert ("operator", "transcut.bake_animation") in log and ("operator", "object.transcut_bake") in log
     finally:
         settings.method = "transcut"
+        settings.property_unset("dipole_oracle")
+        settings.property_unset("dipole_mode")
     items = addon.properties.method_items(settings, bpy.context)
     if DIPOLE in [item[0] for item in items]:
         assert next(item[1] for item in items if item[0] == DIPOLE) == "Hierarchical Dipole"
@@ -221,7 +234,9 @@ def test_bake_operator_bakes_with_the_dipole(scene, addon):
     settings.dipole_mode = "RENDER"
     try:
         job = addon.bake.prepare_job(bpy.context)
-        assert job.options == dict(method=DIPOLE, shadows=1, theta=0.5, mode="render")
+        assert job.options == dict(
+            method=DIPOLE, shadows=1, oracle="opening-angle", theta=0.5, rule="gl3", receivers="vertices", mode="render"
+        )
         assert bpy.ops.object.transcut_bake() == {"FINISHED"}
     finally:
         settings.method = "transcut"
@@ -231,6 +246,120 @@ def test_bake_operator_bakes_with_the_dipole(scene, addon):
     ref = fresh_dipole(addon.library.get(), body, sun, theta=0.5, mode="render")
     np.testing.assert_allclose(attribute_rgb(body), ref, rtol=1e-6, atol=1e-7)
     assert body.data.color_attributes.active_color.name == "SSS"
+
+
+DIPOLE_SETTINGS = (
+    "dipole_theta",
+    "dipole_oracle",
+    "dipole_eps1",
+    "dipole_eps2",
+    "dipole_rule",
+    "dipole_receivers",
+    "dipole_mode",
+    "dipole_budget",
+)
+
+
+@pytest.fixture
+def dipole_settings(scene):
+    """The scene's TransCut settings with the hierarchical dipole chosen; back to the defaults after."""
+    scene.transcut.method = DIPOLE
+    yield scene.transcut
+    scene.transcut.method = "transcut"
+    for name in DIPOLE_SETTINGS:
+        scene.transcut.property_unset(name)
+
+
+def panel_bake(addon, body) -> tuple:
+    """The bake the panel's settings ask for, through the job the operators make: (radiance,
+    the binding's dipole_stats, the job's bake options)."""
+    job = addon.bake.prepare_job(bpy.context, [body])
+    scene, (index,) = addon.bake.build_scene(addon.library.get(), job)
+    with scene:
+        scene.bake(**job.options)
+        return scene.radiance(index), scene.dipole_stats(index), job.options
+
+
+def test_the_panels_dipole_options_reach_the_bake(dipole_settings, addon):
+    require_library()
+    body = add_body()
+    add_light("SUN", rotation=(math.radians(40.0), 0.0, 0.0), energy=3.0, angle=0.0)
+    select_only(body)
+    settings = dipole_settings
+    rgb0, stats0, options = panel_bake(addon, body)
+    assert options["oracle"] == "opening-angle" and options["budget"] == 0  # incremental, no limit
+    assert stats0["receivers"] == 482 and stats0["links"] > stats0["triangles"] == 960
+    # A coarser opening angle: fewer links.
+    settings.dipole_theta = 0.75
+    _, stats, options = panel_bake(addon, body)
+    assert options["theta"] == 0.75 and stats["links"] < stats0["links"]
+    settings.property_unset("dipole_theta")
+    # The paper oracle with its thresholds (and no theta): other links; coarser thresholds, fewer.
+    settings.dipole_oracle = "PAPER"
+    _, fine, options = panel_bake(addon, body)
+    assert "theta" not in options and (options["eps1"], options["eps2"]) == pytest.approx((0.05, 0.05))
+    settings.dipole_eps1 = settings.dipole_eps2 = 0.5
+    _, coarse, options = panel_bake(addon, body)
+    assert options["oracle"] == "paper" and options["eps1"] == options["eps2"] == 0.5
+    assert fine["links"] != stats0["links"] and coarse["links"] < fine["links"]
+    settings.property_unset("dipole_oracle")
+    # Face centroids: one receiver per triangle.
+    settings.dipole_receivers = "FACES"
+    _, stats, _ = panel_bake(addon, body)
+    assert stats["receivers"] == stats["triangles"] == 960
+    settings.property_unset("dipole_receivers")
+    # The paper's edge rule: the same links, another near field.
+    settings.dipole_rule = "PAPER"
+    rgb, stats, options = panel_bake(addon, body)
+    assert options["rule"] == "paper" and stats["links"] == stats0["links"]
+    assert float(np.abs(rgb - rgb0).max()) > 1e-3 * float(rgb0.max())
+    settings.property_unset("dipole_rule")
+    # Render mode: no budget sent.
+    settings.dipole_mode = "RENDER"
+    assert "budget" not in panel_bake(addon, body)[2]
+
+
+def test_the_panels_budget_reaches_the_incremental_updates(dipole_settings, addon):
+    """A budget caps the links a deformation relinks: subtrees stay linked to the old pose."""
+    require_library()
+    body = add_body()
+    add_light("SUN", rotation=(math.radians(40.0), 0.0, 0.0), energy=3.0, angle=0.0)
+    select_only(body)
+    lib = addon.library.get()
+
+    def stale_after_a_stretch(budget: int) -> int:
+        dipole_settings.dipole_budget = budget
+        job = addon.bake.prepare_job(bpy.context, [body], method=DIPOLE, animated=True)
+        assert job.options["mode"] == "incremental" and job.options["budget"] == budget
+        baker = addon.animation_native.AnimationBaker(lib, job)
+        try:
+            mesh = job.meshes[0]
+            baker.frame(mesh.positions, mesh.triangles)
+            baker.frame(mesh.positions * np.array([1.0, 1.0, 1.3], np.float32), mesh.triangles)
+            return baker.scene.dipole_stats(baker.index)["stale_tasks"]
+        finally:
+            baker.close()
+
+    assert stale_after_a_stretch(0) == 0
+    assert stale_after_a_stretch(100) > 0
+
+
+def test_the_bake_operator_bakes_with_the_panels_paper_oracle_and_face_receivers(dipole_settings, addon):
+    require_library()
+    body = add_body()
+    sun = add_light("SUN", rotation=(math.radians(40.0), 0.0, 0.0), energy=3.0, angle=0.0)
+    select_only(body)
+    dipole_settings.dipole_oracle = "PAPER"
+    dipole_settings.dipole_eps1 = 0.25
+    dipole_settings.dipole_eps2 = 0.125
+    dipole_settings.dipole_receivers = "FACES"
+    dipole_settings.dipole_rule = "PAPER"
+    assert bpy.ops.object.transcut_bake() == {"FINISHED"}
+    tclib = addon.library.get()
+    options = dict(oracle="paper", eps1=0.25, eps2=0.125, receivers="faces", rule="paper", mode="incremental")
+    np.testing.assert_allclose(attribute_rgb(body), fresh_dipole(tclib, body, sun, **options), rtol=1e-6, atol=1e-7)
+    default = fresh_dipole(tclib, body, sun)
+    assert float(np.abs(attribute_rgb(body) - default).max()) > 1e-3 * float(default.max())
 
 
 # -- Bake Animation ----------------------------------------------------------------------------
