@@ -8,8 +8,11 @@ bake to each later frame's positions (``tc_object_set_positions``, through
 refitted and only what moved is relinked. A frame whose vertex count or triangles differ from the
 bake's (a modifier that changes the topology) is baked afresh instead. Positions are in the
 object space of the job's world matrix; a later frame's other world matrix is folded into its
-positions by the caller. A failed frame (an error, a cancel) leaves the bake at the last frame
-that succeeded (the library changes nothing on failure).
+positions by the caller. Each frame may come with its own lights (animated lights): when they
+differ from those the bake is lit by, the library's scene gets them and is relit
+(``tc_scene_relight``) before the vertices move, so the frame is lit as a fresh bake under its
+lights would be. A failed frame (an error, a cancel) leaves the bake at the last frame that
+succeeded (the library changes nothing on failure).
 
 The cache (:func:`write_cache`, :func:`read_cache`) is a NumPy ``.npz`` file: ``frames``
 (int32, F), ``vertex_counts`` (int32, F), ``radiance`` (float16, (F, V, 3), V the largest count,
@@ -36,10 +39,40 @@ ANIMATION_FUNCTIONS = ("tc_object_set_positions", "tc_dipole_options_init", "tc_
 FLOAT16_MAX = float(np.finfo(np.float16).max)
 
 
+def _same_value(a, b) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a), np.asarray(b))
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_same_value(x, y) for x, y in zip(a, b, strict=True))
+    return a == b
+
+
+def _part(progress: Callable[[str, float], bool] | None, start: float, width: float):
+    """``progress`` for a part of a call that reports from ``start`` over ``width`` of it."""
+    if progress is None:
+        return None
+    return lambda stage, fraction: progress(stage, start + width * fraction)
+
+
+def same_lights(a: list | None, b: list | None) -> bool:
+    """Whether two lists of :class:`lights.LightSpec` send the library the same lights (their
+    methods and arguments equal, in order; the sources they came from do not matter)."""
+    if a is None or b is None:
+        return a is b
+    return len(a) == len(b) and all(
+        x.method == y.method
+        and x.kwargs.keys() == y.kwargs.keys()
+        and all(_same_value(x.kwargs[k], y.kwargs[k]) for k in x.kwargs)
+        for x, y in zip(a, b, strict=True)
+    )
+
+
 class AnimationBaker:
     """The bake of one object (``job.meshes[0]``, whose positions and triangles are replaced by
     each frame's), frame after frame. ``bakes`` counts full bakes (1 after the first frame, one
-    more per change of topology); ``last_ms`` is the last frame's wall time in the library."""
+    more per change of topology), ``relights`` the frames whose other lights relit the bake;
+    ``lights`` are those the bake is lit by now; ``last_ms`` is the last frame's wall time in the
+    library."""
 
     def __init__(self, lib: transcut.Library, job: bake.BakeJob):
         if len(job.meshes) != 1:
@@ -50,6 +83,11 @@ class AnimationBaker:
         self.index = 0
         self.triangles: np.ndarray | None = None
         self.bakes = 0
+        self.relights = 0
+        self.lights: list | None = None
+        # Whether the library scene's light list is not the one its bake is lit by (a relight
+        # that failed after replacing it): its results are stale until a relight succeeds.
+        self._stale = False
         self.last_ms = 0.0
 
     @property
@@ -57,13 +95,20 @@ class AnimationBaker:
         return -1 if self.scene is None else self.scene.vertex_count(self.index)
 
     def frame(
-        self, positions: np.ndarray, triangles: np.ndarray, progress: Callable[[str, float], bool] | None = None
+        self,
+        positions: np.ndarray,
+        triangles: np.ndarray,
+        progress: Callable[[str, float], bool] | None = None,
+        lights: list | None = None,
     ) -> np.ndarray:
         """The radiance (float32 (n, 3)) of the object with these ``positions`` (float32 (n, 3))
-        and ``triangles`` (uint32 (m, 3)): a bake for the first frame and after a change of
-        topology, else the bake's vertices moved. ``progress(stage, fraction)`` as for
-        :meth:`transcut.Scene.bake`; True cancels (``TranscutError(TC_CANCELLED)``)."""
+        and ``triangles`` (uint32 (m, 3)) under ``lights`` (:class:`lights.LightSpec` list;
+        None: the job's): a bake for the first frame and after a change of topology, else the
+        bake relit when the lights differ from its own, then its vertices moved.
+        ``progress(stage, fraction)`` as for :meth:`transcut.Scene.bake`; True cancels
+        (``TranscutError(TC_CANCELLED)``)."""
         start = time.perf_counter()
+        lights = list(self.job.lights if lights is None else lights)
         positions = np.ascontiguousarray(positions, dtype=np.float32).reshape(-1, 3)
         triangles = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1, 3)
         same = (
@@ -73,20 +118,42 @@ class AnimationBaker:
             and np.array_equal(triangles, self.triangles)
         )
         if same:
-            self.scene.set_progress(progress)
+            relight = self._stale or not same_lights(lights, self.lights)
+            # Of the frame's progress, a relight reports the first half and the move the rest.
+            share = 0.5 if relight else 0.0
+            if relight:
+                self._relight(lights, _part(progress, 0.0, share))
+            self.scene.set_progress(_part(progress, share, 1.0 - share))
             try:
                 self.scene.set_positions(self.index, positions)
             finally:
                 self.scene.set_progress(None)
         else:
-            self._bake(positions, triangles, progress)
+            self._bake(positions, triangles, progress, lights)
         rgb = self.scene.radiance(self.index)
         self.last_ms = (time.perf_counter() - start) * 1e3
         return rgb
 
-    def _bake(self, positions: np.ndarray, triangles: np.ndarray, progress) -> None:
+    def _relight(self, lights: list, progress) -> None:
+        """The bake's scene under ``lights``: they replace its lights and it is relit. On failure
+        the bake stays lit as it was (the library's relight changes nothing), but the library
+        holds its results back until a relight succeeds (the scene's light list has changed), so
+        the next frame relights whatever its lights."""
+        scene = self.scene
+        self._stale = True
+        scene.clear_lights()
+        for light in lights:
+            try:
+                getattr(scene, light.method)(**light.kwargs)
+            except transcut.TranscutError as exc:
+                raise bake.BakeError(f"light '{light.source}': {exc.message or exc.status_name}") from exc
+        scene.relight(progress)
+        self.lights, self._stale = lights, False
+        self.relights += 1
+
+    def _bake(self, positions: np.ndarray, triangles: np.ndarray, progress, lights: list) -> None:
         mesh = dataclasses.replace(self.job.meshes[0], positions=positions, triangles=triangles)
-        job = dataclasses.replace(self.job, meshes=[mesh])
+        job = dataclasses.replace(self.job, meshes=[mesh], lights=lights)
         scene, (index,) = bake.build_scene(self.lib, job)
         try:
             scene.bake(progress=progress, **job.options)
@@ -95,14 +162,15 @@ class AnimationBaker:
             raise
         if self.scene is not None:
             self.scene.close()
-        self.scene, self.index, self.triangles = scene, index, triangles
+        self.scene, self.index, self.triangles, self.lights = scene, index, triangles, lights
+        self._stale = False
         self.bakes += 1
 
     def close(self) -> None:
         """Frees the library's scene (a later :meth:`frame` bakes again)."""
         if self.scene is not None:
             self.scene.close()
-        self.scene, self.triangles = None, None
+        self.scene, self.triangles, self.lights = None, None, None
 
 
 # -- the cache file ---------------------------------------------------------------------------

@@ -6,13 +6,17 @@ what moved) at every frame of the scene's frame range (Frame Start to End by Fra
 frame it sets the frame (``scene.frame_set``), takes the evaluated mesh (armature, shape keys,
 modifiers: ``obj.evaluated_get(depsgraph).to_mesh()``) and sends its positions to the library
 (:class:`animation_native.AnimationBaker`, ``tc_object_set_positions``; a new bake when the vertex
-count or the triangles change). The medium, the lights and the world are taken as they are when
-the operator starts; the object's own motion is followed (a frame's world matrix is folded into
-its positions), moving lights are not. The per-frame radiance (float16, (frames, vertices, 3))
-goes to a cache file next to the .blend, ``//transcut_cache/<object>.npz``, or in a temporary
-folder of this session while the file is unsaved (:func:`cache_path`); the object's custom
-property ``transcut_animation`` names the file and the attribute. At the end the frame is set
-back to where it was and that frame's radiance is written into the attribute.
+count or the triangles change). The lights are gathered again at every frame (their transforms,
+strength and colour as animated there, by keyframes, drivers or parents), and so is the world
+when it is animated (else it is read once, when the operator starts); a frame whose lights differ
+from the frame before relights the bake (``tc_scene_relight``) before its vertices move, so each
+frame is lit by its own lights. The medium is taken as it is when the operator starts; the
+object's own motion is followed (a frame's world matrix is folded into its positions). The
+per-frame radiance (float16, (frames, vertices, 3)) goes to a cache file next to the .blend,
+``//transcut_cache/<object>.npz``, or in a temporary folder of this session while the file is
+unsaved (:func:`cache_path`); the object's custom property ``transcut_animation`` names the file
+and the attribute. At the end the frame is set back to where it was and that frame's radiance
+is written into the attribute.
 
 Run from the UI (``invoke``) it is modal like the bake: each frame is evaluated on the main thread
 and computed by the library on a worker thread, the progress shows in the cursor and the status
@@ -41,6 +45,7 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from . import animation_native, bake, edit_native, library, preferences, transcut
+from .lights import scene_lights, world_lights
 from .mesh_export import BakeError, evaluated_triangles, world_matrix
 from .operators import RunnerOperator
 
@@ -166,13 +171,20 @@ def animation_target(context):
     raise BakeError(f"{len(meshes)} meshes are selected and none is active; make the one to bake the active object")
 
 
+def _animated(data) -> bool:
+    """Whether ``data`` (an ID, or None) has an action or drivers."""
+    anim = getattr(data, "animation_data", None)
+    return anim is not None and (anim.action is not None or len(anim.drivers) > 0)
+
+
 class AnimationRunner(bake.BakeRunner):
     """Bake Animation's run: per frame, the evaluation on the main thread (``frame_set``, the
     evaluated mesh) and the library's update (:class:`animation_native.AnimationBaker`), either
     all on the calling thread (:meth:`run_here`) or driven by the modal operator's timer
     (:meth:`step`), the library's part on a worker thread. Progress and cancel as
-    :class:`bake.BakeRunner`. ``baked_frames`` / ``radiance`` (float16) hold the frames done;
-    after a failure ``error`` and ``failed_frame`` say what stopped it."""
+    :class:`bake.BakeRunner`. Each frame is lit by the lights of that frame (:meth:`_lights`).
+    ``baked_frames`` / ``radiance`` (float16) hold the frames done; after a failure ``error``
+    and ``failed_frame`` say what stopped it."""
 
     def __init__(self, lib: transcut.Library, job: bake.BakeJob, frames: list, original_frame: tuple):
         super().__init__(lib, job)
@@ -183,6 +195,9 @@ class AnimationRunner(bake.BakeRunner):
         self.matrix = mesh.matrix_world
         self._to_object = np.linalg.inv(self.matrix)
         self.baker = animation_native.AnimationBaker(lib, job)
+        # The world's part of the job's lights (only the world makes environments), for the
+        # frames of a world that is not animated.
+        self._world = [light for light in job.lights if light.method.startswith("add_environment")]
         self.baked_frames: list = []
         self.radiance: list = []
         self.frame_ms: list = []
@@ -198,9 +213,20 @@ class AnimationRunner(bake.BakeRunner):
         if self.progress(f"frame {frame} ({k + 1}/{len(self.frames)})", k / len(self.frames)) or self.cancelled:
             raise transcut.TranscutError(transcut.TC_CANCELLED, "bake animation", f"cancelled at frame {frame}")
 
+    def _lights(self, context) -> list:
+        """The lights of the frame the scene is at (main thread): the light objects as evaluated
+        there, and the world, read again only when it is animated (its environment image may be
+        large). Their warnings were reported for the frame the operator started at."""
+        specs = scene_lights(context.evaluated_depsgraph_get(), [])
+        world = context.scene.world
+        if world is not None and (_animated(world) or _animated(world.node_tree)):
+            return specs + world_lights(world, [])
+        return specs + self._world
+
     def _evaluate(self, context, frame: int) -> tuple:
-        """Frame ``frame``'s evaluated mesh (main thread): float32 positions in the object space
-        of the first frame's world matrix, uint32 triangles."""
+        """Frame ``frame``'s evaluated mesh and lights (main thread): float32 positions in the
+        object space of the first frame's world matrix, uint32 triangles, the frame's lights
+        (:class:`lights.LightSpec` list)."""
         context.scene.frame_set(frame)
         obj = bpy.data.objects.get(self.object_name)
         if obj is None or obj.type != "MESH":
@@ -214,17 +240,19 @@ class AnimationRunner(bake.BakeRunner):
         if not np.array_equal(m, self.matrix):  # the object moved: into the bake's object space
             to_first = self._to_object @ m
             positions = (positions.astype(np.float64) @ to_first[:3, :3].T + to_first[:3, 3]).astype(np.float32)
-        return positions, triangles
+        return positions, triangles, self._lights(context)
 
-    def _solve(self, k: int, frame: int, positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-        """The library's part of a frame (any thread)."""
+    def _solve(
+        self, k: int, frame: int, positions: np.ndarray, triangles: np.ndarray, lights: list | None = None
+    ) -> np.ndarray:
+        """The library's part of a frame (any thread), under ``lights`` (None: the job's)."""
         count = len(self.frames)
         label = f"frame {frame} ({k + 1}/{count})"
 
         def report(stage: str, fraction: float) -> bool:
             return self.progress(f"{label}: {stage}", (k + min(max(fraction, 0.0), 1.0)) / count)
 
-        rgb = self.baker.frame(positions, triangles, report)
+        rgb = self.baker.frame(positions, triangles, report, lights)
         if not np.all(np.isfinite(rgb)):
             raise BakeError(f"'{self.object_name}': the library returned non-finite radiance at frame {frame}")
         if rgb.size and float(np.abs(rgb).max()) > animation_native.FLOAT16_MAX:
@@ -251,8 +279,7 @@ class AnimationRunner(bake.BakeRunner):
         for k, frame in enumerate(self.frames):
             try:
                 self._begin(k, frame)
-                positions, triangles = self._evaluate(bpy.context, frame)
-                self._record(frame, self._solve(k, frame, positions, triangles))
+                self._record(frame, self._solve(k, frame, *self._evaluate(bpy.context, frame)))
             except BaseException as exc:  # reported by the operator
                 self._fail(exc, frame)
                 return
@@ -284,7 +311,7 @@ class AnimationRunner(bake.BakeRunner):
         frame = self.frames[k]
         try:
             self._begin(k, frame)
-            positions, triangles = self._evaluate(context, frame)
+            evaluated = self._evaluate(context, frame)
         except BaseException as exc:
             self._fail(exc, frame)
             return
@@ -292,7 +319,7 @@ class AnimationRunner(bake.BakeRunner):
 
         def work() -> None:
             try:
-                out["rgb"] = self._solve(k, frame, positions, triangles)
+                out["rgb"] = self._solve(k, frame, *evaluated)
             except BaseException as exc:  # collected by the next step
                 out["error"] = exc
 

@@ -92,6 +92,11 @@ def rigged(scene, addon):
     select_only(body)
     scene.frame_set(FRAMES[0])
     yield body, sun
+    clean_animation()
+
+
+def clean_animation():
+    """Removes the cache files, the objects, armatures and actions; the frame range back to 1–250."""
     for obj in bpy.data.objects:
         info = obj.get(PROPERTY)
         if info is not None and os.path.isfile(bpy.path.abspath(info["cache"])):
@@ -104,10 +109,30 @@ def rigged(scene, addon):
             collection.remove(item)
 
 
+@pytest.fixture
+def keyed_sun(scene, addon):
+    """(body, sun): the body standing still, the sun's strength keyframed from 1 at the first of
+    FRAMES to 3 at the last; cleaned up as ``rigged``."""
+    require_library()
+    body = add_body()
+    sun = add_light("SUN", rotation=(math.radians(70.0), 0.0, math.radians(20.0)), energy=1.0, angle=0.0)
+    sun.data.keyframe_insert("energy", frame=FRAMES[0])
+    sun.data.energy = 3.0
+    sun.data.keyframe_insert("energy", frame=FRAMES[-1])
+    scene.frame_start, scene.frame_end, scene.frame_step = FRAMES[0], FRAMES[-1], 1
+    select_only(body)
+    scene.frame_set(FRAMES[0])
+    yield body, sun
+    clean_animation()
+    for light in list(bpy.data.lights):
+        bpy.data.lights.remove(light)
+
+
 def sun_light(sun) -> tuple:
-    """The sun as the library takes it: (direction, irradiance, angular diameter in degrees)."""
+    """The sun as the library takes it, as it is at the current frame: (direction, irradiance,
+    angular diameter in degrees)."""
     direction = np.array(sun.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0)))
-    return direction, [sun.data.energy] * 3, math.degrees(sun.data.angle)
+    return direction, [sun.data.energy * c for c in sun.data.color], math.degrees(sun.data.angle)
 
 
 def fresh_dipole(tclib, obj, sun, **options) -> np.ndarray:
@@ -593,3 +618,120 @@ def test_cache_files_round_trip(addon, tmp_path):
     np.savez(str(tmp_path / "other.npz"), frames=np.arange(3))
     with pytest.raises(KeyError):
         native.read_cache(str(tmp_path / "other.npz"))
+
+
+# -- animated lights ---------------------------------------------------------------------------
+
+#: float16's smallest subnormal step: below 2^-14 the cache's values are this far apart, so the
+#: relative tolerance alone cannot hold there.
+FLOAT16_STEP = 2.0**-24
+#: float16 keeps 11 bits: a cached value is within 2^-11 (4.9e-4) of what was baked.
+CACHE_RTOL = 2e-3
+
+
+def test_bake_animation_follows_a_keyframed_sun(keyed_sun, addon):
+    """A static mesh under a sun whose strength is keyframed 1 → 3: each frame's cached radiance
+    is the bake of that frame's sun (the operator starts at frame 5, where the sun is neither)."""
+    body, sun = keyed_sun
+    scene = bpy.context.scene
+    scene.frame_set(5)
+    assert bake_animation() == {"FINISHED"}
+    cache = cache_of(body)
+    assert list(cache["frames"]) == list(FRAMES)
+    tclib = addon.library.get()
+    energies = []
+    for k in FRAMES:
+        scene.frame_set(k)
+        energies.append(sun.data.energy)
+        single = fresh_dipole(tclib, body, sun)
+        np.testing.assert_allclose(
+            cache["radiance"][k - FRAMES[0]].astype(np.float32), single, rtol=CACHE_RTOL, atol=FLOAT16_STEP
+        )
+    assert energies[0] == pytest.approx(1.0) and energies[-1] == pytest.approx(3.0)
+    assert len(set(energies)) == len(FRAMES)  # every frame its own strength
+    # The dipole is linear in the light: the last frame is three times the first.
+    first, last = (cache["radiance"][i].astype(np.float64) for i in (0, -1))
+    lit = first > 1e-3 * first.max()
+    np.testing.assert_allclose(last[lit] / first[lit], 3.0, rtol=2 * CACHE_RTOL)
+
+
+def test_bake_animation_follows_a_turning_recoloured_sun_on_a_deforming_mesh(rigged, addon):
+    """The sun turns and changes colour while the mesh bends: each frame relights and deforms,
+    and is the bake of its own pose under its own sun."""
+    body, sun = rigged
+    scene = bpy.context.scene
+    sun.keyframe_insert("rotation_euler", frame=FRAMES[0])
+    sun.data.keyframe_insert("color", frame=FRAMES[0])
+    sun.rotation_euler = (math.radians(30.0), 0.0, math.radians(-60.0))
+    sun.data.color = (1.0, 0.4, 0.2)
+    sun.keyframe_insert("rotation_euler", frame=FRAMES[-1])
+    sun.data.keyframe_insert("color", frame=FRAMES[-1])
+    scene.frame_set(FRAMES[0])
+    assert bake_animation() == {"FINISHED"}
+    cache = cache_of(body)
+    tclib = addon.library.get()
+    for k in FRAMES:
+        scene.frame_set(k)
+        assert_close_to_peak(cache["radiance"][k - FRAMES[0]], fresh_dipole(tclib, body, sun))
+    # The colour reached the bake: red over blue grows from the first frame to the last.
+    first, last = cache["radiance"][0].astype(np.float64), cache["radiance"][-1].astype(np.float64)
+    assert last[:, 0].sum() / last[:, 2].sum() > 3.0 * first[:, 0].sum() / first[:, 2].sum()
+
+
+def test_the_baker_relights_only_when_the_lights_change(addon):
+    """animation_native.AnimationBaker (no bpy): a frame with other lights relights the bake
+    before moving its vertices and equals a fresh bake of that pose and light; the same lights
+    again do not relight."""
+    require_library()
+    from test_dipole import icosphere
+
+    native, mesh_export, lights = addon.animation_native, addon.mesh_export, addon.lights
+    lib = addon.library.get()
+    pos, tri = icosphere(10.0, 3)
+    medium = mesh_export.MediumSpec(
+        "set_medium", dict(sigma_a=SIGMA_A, sigma_s_prime=SIGMA_S_PRIME, eta=1.3, g=0.0), "coefficients"
+    )
+    mesh = mesh_export.MeshJob("ball", pos, tri, np.eye(4), 1.0, medium, len(pos), False)
+
+    def sun(irradiance: float, direction=(0.0, -1.0, -1.0)) -> list:
+        return [lights.LightSpec("add_sun", dict(direction=list(direction), irradiance=[irradiance] * 3), "sun")]
+
+    job = addon.bake.BakeJob([mesh], sun(1.0), dict(method=DIPOLE, shadows=1, mode="incremental"), "SSS")
+
+    def fresh(positions, light) -> np.ndarray:
+        baker = native.AnimationBaker(lib, job)
+        try:
+            return baker.frame(positions, tri, lights=light)
+        finally:
+            baker.close()
+
+    baker = native.AnimationBaker(lib, job)
+    try:
+        first = baker.frame(pos, tri)  # the job's lights
+        assert (baker.bakes, baker.relights) == (1, 0)
+        assert native.same_lights(baker.lights, sun(1.0))
+        again = baker.frame(pos, tri, lights=sun(1.0))  # equal lights from another gathering
+        assert baker.relights == 0
+        np.testing.assert_allclose(again, first, rtol=1e-6, atol=1e-9)
+        brighter = baker.frame(pos, tri, lights=sun(2.5))
+        assert (baker.bakes, baker.relights) == (1, 1)
+        np.testing.assert_allclose(brighter, 2.5 * first, rtol=1e-5, atol=1e-9)
+        # Moved and lit from elsewhere at once: the fresh bake of that pose under that sun.
+        stretched = pos * np.array([1.0, 1.0, 1.3], np.float32)
+        turned = sun(2.0, (1.0, 0.0, -1.0))
+        moved = baker.frame(stretched, tri, lights=turned)
+        assert (baker.bakes, baker.relights) == (1, 2)
+        assert_close_to_peak(moved, fresh(stretched, turned), tolerance=2e-3)
+        # A cancelled relight leaves the bake lit as it was, and the next frame relights even
+        # under the bake's own lights (the library holds its results back until a relight).
+        with pytest.raises(addon.transcut.TranscutError) as err:
+            baker.frame(stretched, tri, lambda stage, f: True, lights=sun(5.0))
+        assert err.value.status == addon.transcut.TC_CANCELLED
+        assert native.same_lights(baker.lights, turned) and baker.relights == 2
+        np.testing.assert_allclose(baker.frame(stretched, tri, lights=turned), moved, rtol=1e-6, atol=1e-9)
+        assert baker.relights == 3
+        np.testing.assert_allclose(
+            baker.frame(stretched, tri, lights=sun(4.0, (1.0, 0.0, -1.0))), 2.0 * moved, rtol=1e-5, atol=1e-9
+        )
+    finally:
+        baker.close()
