@@ -21,10 +21,15 @@ is written into the attribute.
 Run from the UI (``invoke``) it is modal like the bake: each frame is evaluated on the main thread
 and computed by the library on a worker thread, the progress shows in the cursor and the status
 bar, ESC cancels (between frames and inside a frame's library call). From a script or in
-background mode (``execute``) it runs on the main thread. A failure or a cancel keeps the frames
-baked until then (written to the cache, where the handler finds them) and leaves the mesh
-untouched (the attribute is not written); when no frame was baked nothing changes at all. The
-operator registers with undo (the attribute and the custom property; the cache file stays).
+background mode (``execute``) it runs on the main thread. A failure or a cancel leaves the mesh
+untouched (the attribute is not written). Over an earlier Bake Animation of the object (its
+property names a cache that can be read) it also leaves that cache and the property exactly as
+they were, discarding the frames of the run that stopped ("cancelled …; previous cache kept"):
+the cache never mixes the frames of two runs, and a re-bake replaces it only once it has baked
+every frame (written whole to a temporary file, then renamed over it). Without an earlier cache
+the frames baked until then are kept (written to the cache, where the handler finds them); when
+no frame was baked nothing changes at all. The operator registers with undo (the attribute and
+the custom property; the cache file stays).
 
 **The handler** :func:`transcut_frame_change` (``frame_change_post``, persistent across file
 loads, appended at register and removed at unregister) writes, for every object of the scene
@@ -155,6 +160,21 @@ def transcut_frame_change(scene, _depsgraph=None) -> None:
             apply_frame(obj, scene.frame_current)
         except Exception as exc:  # never into Blender's frame change
             print(f"TransCut: '{obj.name}' at frame {scene.frame_current}: {type(exc).__name__}: {exc}")
+
+
+def previous_cache(obj) -> tuple | None:
+    """(absolute path, :class:`animation_native.Cache`) of the cache an earlier Bake Animation
+    of ``obj`` left (its property names it and it reads as a cache), else None."""
+    info = cache_info(obj)
+    if info is None:
+        return None
+    cache = load_cache(info[0])
+    return None if cache is None else (info[0], cache)
+
+
+def frame_range(frames: list) -> str:
+    """``frames 1–4 (4)`` for the frames of a run."""
+    return f"frames {frames[0]}–{frames[-1]} ({len(frames)})" if frames else "no frames"
 
 
 def animation_target(context):
@@ -380,15 +400,18 @@ class TRANSCUT_OT_bake_animation(RunnerOperator, bpy.types.Operator):
         return runner
 
     def _finish(self, context, runner) -> set:
-        """Writes the frames baked (all, or those before a failure) to the cache, goes back to
-        the first frame and, after a run that succeeded, writes its radiance; reports."""
+        """Writes the frames baked to the cache (all; or those before a failure or a cancel when
+        the object had no cache before: an earlier cache stays as it was then), goes back to the
+        first frame and, after a run that succeeded, writes its radiance; reports."""
         runner.wait()
         runner.close()
         obj = bpy.data.objects.get(runner.object_name)
+        previous = None if obj is None else previous_cache(obj)
         kept, path, cache_error = "", "", None
         try:
             frames = runner.baked_frames
-            if frames and obj is not None:
+            # A run that stopped over an earlier cache leaves it whole rather than mix the two.
+            if frames and obj is not None and (runner.error is None or previous is None):
                 path, stored = cache_path(obj)
                 attribute = runner.job.attribute_name
                 animation_native.write_cache(path, frames, runner.radiance, obj.name, attribute)
@@ -400,7 +423,7 @@ class TRANSCUT_OT_bake_animation(RunnerOperator, bpy.types.Operator):
                     "frame_end": frames[-1],
                     "frames": len(frames),
                 }
-                kept = f"frames {frames[0]}–{frames[-1]} ({len(frames)}) kept in {path}"
+                kept = f"{frame_range(frames)} kept in {path}"
         except Exception as exc:
             cache_error = exc
         finally:
@@ -411,7 +434,7 @@ class TRANSCUT_OT_bake_animation(RunnerOperator, bpy.types.Operator):
         if error is None and obj is None:
             error = BakeError(f"'{runner.object_name}' was removed during the animation bake")
         if error is not None:
-            self.report({"ERROR"}, self._failure(runner, error, kept, cache_error))
+            self.report({"ERROR"}, self._failure(runner, error, kept, cache_error, previous))
             return {"CANCELLED"}
         shown = apply_frame(obj, context.scene.frame_current)
         n = len(obj.data.vertices)
@@ -431,7 +454,7 @@ class TRANSCUT_OT_bake_animation(RunnerOperator, bpy.types.Operator):
         )
         return {"FINISHED"}
 
-    def _failure(self, runner, error, kept: str, cache_error) -> str:
+    def _failure(self, runner, error, kept: str, cache_error, previous: tuple | None = None) -> str:
         what = f"frame {runner.failed_frame}" if runner.failed_frame is not None else "the end"
         if isinstance(error, transcut.TranscutError) and error.status == transcut.TC_CANCELLED:
             text = f"{self.what} cancelled at {what}"
@@ -439,6 +462,12 @@ class TRANSCUT_OT_bake_animation(RunnerOperator, bpy.types.Operator):
             text = f"{bake.error_message(error, self.what)} (at {what})"
         if kept:
             text += f"; {kept}; the mesh was not changed"
+        elif previous is not None:
+            path, cache = previous
+            text += (
+                f"; previous cache kept ({frame_range(cache.frames.tolist())} in {path}); the frames of this run "
+                "were discarded and the mesh was not changed"
+            )
         elif cache_error is not None and runner.error is not None:
             text += f"; the frames baked could not be kept: {cache_error}"
         else:

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 import os
+import re
+import types
 
 import numpy as np
 import pytest
@@ -735,3 +737,121 @@ def test_the_baker_relights_only_when_the_lights_change(addon):
         )
     finally:
         baker.close()
+
+
+# -- a re-bake that stops keeps the previous cache ---------------------------------------------
+
+
+class ModalStub:
+    """Stands in for the operator instance, which only Blender makes, to drive
+    ``transcut.bake_animation`` through its modal path headless: the operator class's own
+    ``_runner_for``, ``modal`` (timer ticks and ESC), ``_end_ui``, ``_finish`` and ``_failure``,
+    bound to this object, whose ``report`` records."""
+
+    def __init__(self, op_cls):
+        self.reports: list = []
+        self._runner = None
+        self._timer = None
+        self.what = op_cls.what
+        for name in ("_runner_for", "modal", "_end_ui", "_finish", "_failure"):
+            setattr(self, name, types.MethodType(getattr(op_cls, name), self))
+
+    def report(self, kind, text):
+        self.reports.append((set(kind), text))
+
+    def run(self, context, escape_after: int | None = None) -> set:
+        """Starts as ``invoke`` does (no window: no timer), then sends timer ticks, and ESC once
+        ``escape_after`` frames are baked, until the operator is done."""
+        runner = self._runner = self._runner_for(context)
+        runner.start()
+        tick = types.SimpleNamespace(type="TIMER", value="NOTHING")
+        esc = types.SimpleNamespace(type="ESC", value="PRESS")
+        for _ in range(1_000_000):
+            if escape_after is not None and len(runner.baked_frames) >= escape_after and not runner.cancelled:
+                assert self.modal(context, esc) == {"RUNNING_MODAL"}
+                assert runner.cancelled  # the flag ESC sets
+            result = self.modal(context, tick)
+            if result != {"RUNNING_MODAL"}:
+                return result
+            runner.wait(0.005)
+        raise AssertionError("the modal run did not finish")
+
+
+def cache_files(path: str) -> list:
+    return sorted(os.listdir(os.path.dirname(path)))
+
+
+def test_esc_during_a_rebake_keeps_the_previous_cache(rigged, addon):
+    body, sun = rigged
+    scene = bpy.context.scene
+    ops = addon.animation_ops
+    assert bake_animation() == {"FINISHED"}
+    old = cache_of(body)
+    old_property = body[PROPERTY].to_dict()
+    files = cache_files(old["path"])
+    # A re-bake under a brighter sun would cache other values: a mix would show.
+    sun.data.energy = 6.0
+    scene.frame_set(2)
+    stub = ModalStub(ops.TRANSCUT_OT_bake_animation)
+    assert stub.run(bpy.context, escape_after=4) == {"CANCELLED"}
+    assert 4 <= len(stub._runner.baked_frames) < len(FRAMES)  # stopped part way
+    (kind, text) = stub.reports[-1]
+    assert kind == {"ERROR"}
+    assert re.search(r"animation bake cancelled at frame \d+; previous cache kept \(frames 1–10 \(10\) in ", text), text
+    assert "were discarded and the mesh was not changed" in text
+    # The cache, its property and its folder as they were; the timeline plays the old frames.
+    now = cache_of(body)
+    assert now["path"] == old["path"] and cache_files(old["path"]) == files
+    for key in ("frames", "vertex_counts", "radiance"):
+        np.testing.assert_array_equal(now[key], old[key])
+    assert body[PROPERTY].to_dict() == old_property
+    assert scene.frame_current == 2 and body.name not in ops._suspended
+    scene.frame_set(7)
+    np.testing.assert_array_equal(attribute_rgb(body), old["radiance"][6].astype(np.float32))
+    # A re-bake that finishes replaces the cache: twice the old one under twice the sun.
+    assert bake_animation() == {"FINISHED"}
+    new = cache_of(body)
+    assert new["path"] == old["path"] and cache_files(old["path"]) == files
+    np.testing.assert_allclose(
+        new["radiance"].astype(np.float64), 2.0 * old["radiance"].astype(np.float64), rtol=CACHE_RTOL, atol=FLOAT16_STEP
+    )
+
+
+def test_a_failed_rebake_keeps_the_previous_cache(rigged, addon, monkeypatch):
+    body, _ = rigged
+    runner_cls = addon.animation_ops.AnimationRunner
+    assert bake_animation() == {"FINISHED"}
+    old = cache_of(body)
+    evaluate = runner_cls._evaluate
+
+    def failing(self, context, frame):
+        if frame == 6:
+            raise addon.mesh_export.BakeError("the pose of frame 6 is broken")
+        return evaluate(self, context, frame)
+
+    monkeypatch.setattr(runner_cls, "_evaluate", failing)
+    with pytest.raises(RuntimeError, match=r"frame 6 is broken \(at frame 6\); previous cache kept \(frames 1–10"):
+        bake_animation()
+    now = cache_of(body)
+    np.testing.assert_array_equal(now["frames"], old["frames"])
+    np.testing.assert_array_equal(now["radiance"], old["radiance"])
+
+
+def test_a_cancel_flag_set_between_frames_keeps_the_previous_cache(rigged, addon, monkeypatch):
+    """The flag ESC sets (``runner.cancel()``), set on the synchronous path after frame 3."""
+    body, sun = rigged
+    runner_cls = addon.animation_ops.AnimationRunner
+    assert bake_animation() == {"FINISHED"}
+    old = cache_of(body)
+    record = runner_cls._record
+
+    def cancel_after_three(self, frame, rgb):
+        record(self, frame, rgb)
+        if len(self.baked_frames) == 3:
+            self.cancel()
+
+    monkeypatch.setattr(runner_cls, "_record", cancel_after_three)
+    sun.data.energy = 6.0
+    with pytest.raises(RuntimeError, match=r"cancelled at frame 4; previous cache kept \(frames 1–10 \(10\)"):
+        bake_animation()
+    np.testing.assert_array_equal(cache_of(body)["radiance"], old["radiance"])
