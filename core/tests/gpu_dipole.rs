@@ -212,3 +212,51 @@ fn bad_input_is_refused_by_name_and_changes_nothing() {
     let (after, _) = gpu.update(&q).unwrap();
     assert_eq!(before, after, "failed calls changed nothing");
 }
+
+#[test]
+fn transcut_backend_gpu_bakes_and_deforms_a_session_on_the_device() {
+    use transcut::gpu::{Backend, BACKEND_ENV};
+    use transcut::hierarchy::EvalMode;
+    use transcut::{bake, BakeOptions, Object, Progress, Scene, SceneError, Session};
+    let _g = lock();
+    let Some(ctx) = device() else { return };
+    let base = icosphere(10.0, 3);
+    let lights =
+        vec![Light::Directional { direction: DVec3::new(0.2, 0.1, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 }];
+    let scene = Scene { objects: vec![Object::new("ball", base.clone(), marble(), 1.0)], lights };
+    let options = BakeOptions::with_method(DipoleOptions::default());
+    std::env::set_var(BACKEND_ENV, "cpu");
+    let cpu = bake(&scene, &options).unwrap();
+    std::env::set_var(BACKEND_ENV, "gpu");
+    let on_device = bake(&scene, &options);
+    let mut session = Session::bake(&scene, &options, Progress::none());
+    let render = bake(&scene, &BakeOptions::with_method(DipoleOptions { mode: EvalMode::Render, ..DipoleOptions::default() }));
+    std::env::remove_var(BACKEND_ENV);
+
+    let on_device = on_device.unwrap();
+    let stats = &on_device.objects[0].stats;
+    assert_eq!(stats.backend, Backend::Gpu);
+    assert_eq!(stats.device.as_deref(), Some(ctx.device_name()));
+    // The device cuts the receivers finer than the CPU's default (links never cross a cut), so
+    // the two are two approximations of the same sum, each within 0.05% RMS of the O(n²) one.
+    let (rms, max) = errors(&on_device.objects[0].radiance, &cpu.objects[0].radiance);
+    eprintln!("bake on the device vs the CPU: RMS {rms:.1e}, max {max:.1e}");
+    assert!(rms < 1e-3 && max < 5e-3, "RMS {rms}, max {max}");
+
+    // A deformed pose on the device against a fresh CPU bake of it.
+    let session = session.as_mut().unwrap();
+    let pose = displaced(&base, &PerlinNoise::new(11), 4);
+    let as_arrays: Vec<[f64; 3]> = pose.iter().map(|p| p.to_array()).collect();
+    session.set_positions(0, &as_arrays, Progress::none()).unwrap();
+    let moved = TriMesh::from_triangles(&as_arrays, &base.triangles().concat()).unwrap();
+    let fresh = bake(&Scene { objects: vec![Object::new("ball", moved, marble(), 1.0)], lights: scene.lights.clone() }, &options)
+        .unwrap();
+    let (rms, max) = errors(&session.radiance(0).unwrap().unwrap(), &fresh.objects[0].radiance);
+    assert!(rms < 1e-3 && max < 5e-3, "deformed on the device: RMS {rms}, max {max}");
+
+    // Render mode keeps its links on the CPU: TRANSCUT_BACKEND=gpu refuses it by name.
+    match render {
+        Err(SceneError::Gpu { source: GpuError::Unsupported { what }, .. }) => assert!(what.contains("render"), "{what}"),
+        other => panic!("render mode on the GPU: {:?}", other.map(|_| ())),
+    }
+}

@@ -195,34 +195,75 @@ fn cpu_report(requested: Backend, fallback: Option<String>) -> BackendReport {
 /// [`Backend::Cpu`], `on_gpu` on the process-wide device for [`Backend::Gpu`]; for
 /// [`Backend::Auto`] the device unless none can be had or the only one is a software
 /// rasteriser, then `on_cpu` with the reason in [`BackendReport::fallback`].
+/// Where work with a GPU twin runs under `backend` (the rule of [`solve_on`]).
+#[derive(Debug, Clone, Copy)]
+pub enum DeviceChoice {
+    /// On the CPU.
+    Cpu,
+    /// On this device.
+    #[cfg(feature = "gpu")]
+    Gpu(&'static super::GpuContext),
+}
+
+/// The device `backend` picks, and for `Auto` on the CPU why not the GPU: `Cpu` always the CPU; `Gpu` the shared device (an error when
+/// there is none); `Auto` a hardware GPU when one exists, else the CPU with the reason (no
+/// device node, no adapter, only a software adapter such as lavapipe, not built with the `gpu`
+/// feature).
+///
+/// # Errors
+/// For `Gpu` only: [`GpuError::NotBuilt`], or why the device could not be opened.
+pub fn choose_device(backend: Backend) -> Result<(DeviceChoice, Option<String>), GpuError> {
+    if backend == Backend::Cpu {
+        return Ok((DeviceChoice::Cpu, None));
+    }
+    #[cfg(feature = "gpu")]
+    {
+        let cpu = |why: String| Ok((DeviceChoice::Cpu, Some(why)));
+        if backend == Backend::Auto {
+            if let Some(why) = super::no_hardware_gpu() {
+                return cpu(why);
+            }
+        }
+        let context = match super::GpuContext::shared() {
+            Ok(c) => c,
+            Err(e) if backend == Backend::Auto => return cpu(e.to_string()),
+            Err(e) => return Err(e),
+        };
+        if backend == Backend::Auto && context.is_software() {
+            return cpu(format!(
+                "the only GPU adapter is a software one ({}), slower than the CPU path; \
+                 TRANSCUT_BACKEND=gpu uses it anyway",
+                context.device_name()
+            ));
+        }
+        Ok((DeviceChoice::Gpu(context), None))
+    }
+    #[cfg(not(feature = "gpu"))]
+    {
+        match backend {
+            Backend::Auto => Ok((DeviceChoice::Cpu, Some(GpuError::NotBuilt.to_string()))),
+            _ => Err(GpuError::NotBuilt),
+        }
+    }
+}
+
 fn on_backend(
     backend: Backend,
     on_cpu: impl FnOnce() -> Result<Solution, GpuError>,
     #[cfg(feature = "gpu")] on_gpu: impl FnOnce(&super::GpuContext) -> Result<super::GpuSolution, GpuError>,
 ) -> Result<(Solution, BackendReport), GpuError> {
-    let cpu = |fallback: Option<String>| Ok((on_cpu()?, cpu_report(backend, fallback)));
-    if backend == Backend::Cpu {
-        return cpu(None);
+    #[cfg(feature = "gpu")]
+    let context = match choose_device(backend)? {
+        (DeviceChoice::Cpu, fallback) => return Ok((on_cpu()?, cpu_report(backend, fallback))),
+        (DeviceChoice::Gpu(context), _) => context,
+    };
+    #[cfg(not(feature = "gpu"))]
+    {
+        let (_, fallback) = choose_device(backend)?;
+        Ok((on_cpu()?, cpu_report(backend, fallback)))
     }
     #[cfg(feature = "gpu")]
     {
-        if backend == Backend::Auto {
-            if let Some(why) = super::no_hardware_gpu() {
-                return cpu(Some(why));
-            }
-        }
-        let context = match super::GpuContext::shared() {
-            Ok(c) => c,
-            Err(e) if backend == Backend::Auto => return cpu(Some(e.to_string())),
-            Err(e) => return Err(e),
-        };
-        if backend == Backend::Auto && context.is_software() {
-            return cpu(Some(format!(
-                "the only GPU adapter is a software one ({}), slower than the CPU path; \
-                 TRANSCUT_BACKEND=gpu uses it anyway",
-                context.device_name()
-            )));
-        }
         let out = on_gpu(context)?;
         Ok((
             out.solution,
@@ -234,12 +275,5 @@ fn on_backend(
                 gpu: Some(out.stats),
             },
         ))
-    }
-    #[cfg(not(feature = "gpu"))]
-    {
-        match backend {
-            Backend::Auto => cpu(Some(GpuError::NotBuilt.to_string())),
-            _ => Err(GpuError::NotBuilt),
-        }
     }
 }

@@ -287,6 +287,18 @@ impl<'c> GpuDipole<'c> {
         self.ctx.device_name()
     }
 
+    /// The device it runs on.
+    #[must_use]
+    pub fn context(&self) -> &'c GpuContext {
+        self.ctx
+    }
+
+    /// The vertex positions (mm) its trees are fitted to.
+    #[must_use]
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
     /// Moves the vertices (same count and order) and refits both trees on the device
     /// (`dipole_refit.wgsl`, one dispatch per level, bottom-up). CPU twin:
     /// [`DipoleHierarchy::set_positions`] without its rebuild.

@@ -46,7 +46,7 @@
 mod backend;
 mod error;
 
-pub use backend::{solve_on, Backend, BackendReport, SolveWith, BACKEND_ENV};
+pub use backend::{choose_device, solve_on, Backend, BackendReport, DeviceChoice, SolveWith, BACKEND_ENV};
 pub use error::GpuError;
 
 #[cfg(feature = "gpu")]

@@ -202,6 +202,8 @@ pub struct DipoleHierarchy {
     tasks: Vec<Task>,
     /// How many receiver subtrees the traversal is cut into (at least; [`ClusterTree::cut`]).
     task_count: usize,
+    /// One more per new trees or new cut ([`DipoleHierarchy::topology`]).
+    topology: u64,
     /// The current frame: 0 at build, one more per deformation or medium change.
     frame: u64,
     /// Where the next budgeted relink starts (round-robin over stale tasks).
@@ -257,6 +259,7 @@ impl DipoleHierarchy {
             receiver_items,
             tasks,
             task_count: TASKS,
+            topology: 0,
             frame: 0,
             next_task: 0,
             refit_ms: 0.0,
@@ -345,6 +348,15 @@ impl DipoleHierarchy {
         self.receivers.touch_all(self.frame);
         self.rest_radius = [self.emitters.radius_sum(), self.receivers.radius_sum()];
         self.tasks = self.receivers.cut(self.task_count).into_iter().map(Task::new).collect();
+        self.topology += 1;
+    }
+
+    /// Which trees and cut the hierarchy has: one more each time they are built anew (a
+    /// deformation that degraded the refitted trees, [`DipoleHierarchy::set_tasks`]); a copy
+    /// made of them elsewhere (the GPU's) is stale when this changed.
+    #[must_use]
+    pub fn topology(&self) -> u64 {
+        self.topology
     }
 
     /// Cuts the receiver tree into at least `count` subtrees (where it has that many leaves),
@@ -356,6 +368,7 @@ impl DipoleHierarchy {
         self.emitters.touch_all(self.frame);
         self.receivers.touch_all(self.frame);
         self.tasks = self.receivers.cut(self.task_count).into_iter().map(Task::new).collect();
+        self.topology += 1;
     }
 
     /// The roots of the receiver subtrees, in depth-first order.

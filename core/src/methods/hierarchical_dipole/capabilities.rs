@@ -75,7 +75,7 @@ impl DipoleLive {
         progress.report("gather", 0.5)?;
         let t = Instant::now();
         let keep_going = || progress.report("gather", 0.5).is_ok();
-        let (b, stats) = self.state.hierarchy.update(q, &keep_going)?;
+        let (b, stats) = self.state.evaluate(q, &keep_going)?;
         self.state.stats = stats;
         Ok((b, stats.refit_ms + stats.link_ms, ms(t)))
     }

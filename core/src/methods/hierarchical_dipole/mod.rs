@@ -17,8 +17,13 @@
 //!
 //! The capabilities ([`capabilities`]) are relighting and deformation (new vertex positions,
 //! the same topology).
+//!
+//! In on-the-fly mode the updates run on the GPU `TRANSCUT_BACKEND` picks (`auto`: a hardware
+//! GPU when one exists; [`device`]), the same hierarchy's twin in f32; the statistics name the
+//! device, or why `auto` stayed on the CPU.
 
 mod capabilities;
+mod device;
 
 pub use capabilities::{DipoleLive, DipoleUndo};
 
@@ -27,6 +32,7 @@ use std::time::Instant;
 use super::{BakedState, Lighting, ObjectStats, Stage, SubsurfaceMethod, Target};
 use glam::DMat4;
 
+use crate::gpu::Backend;
 use crate::hierarchy::{DipoleHierarchy, DipoleOptions, DipoleStats, HierarchyError};
 use crate::light::LightError;
 use crate::mesh::TriMesh;
@@ -64,6 +70,8 @@ pub struct DipoleState {
     pub(crate) transform: DMat4,
     /// Lo per unit B ([`crate::hierarchy::DipoleRadiance::per_exitance`] at the medium's η).
     pub(crate) per_exitance: f64,
+    /// Where the updates run.
+    pub(crate) device: device::OnDevice,
 }
 
 impl DipoleState {
@@ -142,6 +150,21 @@ fn output_map(object: &Object, surface: &TriMesh) -> Vec<Option<u32>> {
 }
 
 impl DipoleState {
+    /// B at the surface's vertices under `q`, on the object's device ([`device`]).
+    pub(crate) fn evaluate(
+        &mut self,
+        q: &[[f64; 3]],
+        keep_going: &(dyn Fn() -> bool + Sync),
+    ) -> Result<(Vec<[f64; 3]>, DipoleStats), device::UpdateError> {
+        self.device.update(&mut self.hierarchy, q, keep_going)
+    }
+
+    /// The GPU the updates run on, when they do.
+    #[must_use]
+    pub fn device_name(&self) -> Option<String> {
+        self.device.name()
+    }
+
     /// Lo at the output vertices from B at the surface's vertices, clamped at 0 (B ≥ 0 up to
     /// the expansion's rounding).
     pub(crate) fn radiance(&self, b: &[[f64; 3]]) -> Vec<[f64; 3]> {
@@ -184,10 +207,20 @@ impl SubsurfaceMethod for HierarchicalDipole {
         let mm = target.object.mm_per_unit;
         let surface = target.world;
         let positions = surface.positions().iter().map(|p| *p * mm).collect();
-        let hierarchy = Box::new(
+        let mut hierarchy = Box::new(
             DipoleHierarchy::new(positions, surface.triangles().to_vec(), dipoles(&medium), *options)
                 .map_err(|e| scene_error(target, e))?,
         );
+        let (device, fallback) = device::OnDevice::choose(&mut hierarchy).map_err(|source| SceneError::Gpu {
+            index: target.index,
+            name: target.object.name.clone(),
+            source,
+        })?;
+        if let Some(name) = device.name() {
+            stats.backend = Backend::Gpu;
+            stats.device = Some(name);
+        }
+        stats.backend_fallback = fallback;
         let output = output_map(target.object, surface);
         let mut first_output = vec![u32::MAX; surface.positions().len()];
         for (o, v) in output.iter().enumerate().rev() {
@@ -208,6 +241,7 @@ impl SubsurfaceMethod for HierarchicalDipole {
             first_output,
             transform: target.object.transform,
             per_exitance: options.radiance.per_exitance(medium.eta),
+            device,
         })
     }
 
@@ -228,7 +262,10 @@ impl SubsurfaceMethod for HierarchicalDipole {
         stage("gather", 0.5)?;
         let t = Instant::now();
         let keep_going = || stage("gather", 0.5).is_ok();
-        let (b, dipole_stats) = state.hierarchy.update(&q, &keep_going).map_err(|e| scene_error(target, e))?;
+        let (b, dipole_stats) = state.evaluate(&q, &keep_going).map_err(|e| match e {
+            device::UpdateError::Hierarchy(e) => scene_error(target, e),
+            device::UpdateError::Gpu(source) => SceneError::Gpu { index: target.index, name: target.object.name.clone(), source },
+        })?;
         stats.assembly_ms = dipole_stats.link_ms;
         stats.solve_ms = ms(t);
         state.irradiance = q;
