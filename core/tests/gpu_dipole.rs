@@ -6,58 +6,24 @@
 //! These tests need a GPU adapter (lavapipe where no GPU is present; see `gpu.rs`).
 #![cfg(feature = "gpu")]
 
+mod dipole_common;
 mod gpu_common;
+use dipole_common::{displaced, errors, go, hierarchy, marble, moved_mesh, sun_lit_from};
 use gpu_common::{device, lock};
 
 use transcut::gpu::{GpuDipole, GpuError};
 use transcut::hierarchy::{
     reference_quadratic, DipoleHierarchy, DipoleOptions, DipoleRadiance, HierarchyError, Oracle, Receivers,
 };
-use transcut::light::{self, Light, SourceOptions};
-use transcut::mesh::{icosphere, TriMesh};
-use transcut::optics::{f_ext, Dipole, DipoleGeometry, EdgeRule, Medium};
+use transcut::light::Light;
+use transcut::mesh::icosphere;
+use transcut::optics::{f_ext, DipoleGeometry, EdgeRule};
 use transcut::volume::noise::PerlinNoise;
 use transcut::DVec3;
 
-fn marble() -> Medium {
-    Medium { eta: 1.3, ..Medium::preset("marble").unwrap() }
-}
-
-fn dipoles(m: &Medium) -> [Dipole; 3] {
-    [0, 1, 2].map(|c| m.dipole(c))
-}
-
-fn hierarchy(mesh: &TriMesh, options: DipoleOptions) -> DipoleHierarchy {
-    DipoleHierarchy::new(mesh.positions().to_vec(), mesh.triangles().to_vec(), dipoles(&marble()), options).unwrap()
-}
-
-fn go() -> bool {
-    true
-}
-
 /// q at every vertex under a sun from a direction off every axis (irradiance 3), no shadows.
 fn sun_lit(h: &DipoleHierarchy) -> Vec<[f64; 3]> {
-    let direction = DVec3::new(-0.3, -0.2, -1.0).normalize();
-    let sun = [Light::Directional { direction, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }];
-    light::transmitted_source(&sun, h.positions(), &h.vertex_normals(), 1.3, None, &SourceOptions::default()).unwrap()
-}
-
-/// (peak-relative RMS, peak-relative max) of `b` against `reference`, worst channel.
-fn errors(b: &[[f64; 3]], reference: &[[f64; 3]]) -> (f64, f64) {
-    let (mut rms, mut max) = (0.0f64, 0.0f64);
-    for c in 0..3 {
-        let peak = reference.iter().map(|r| r[c]).fold(0.0, f64::max);
-        let d: Vec<f64> = b.iter().zip(reference).map(|(x, r)| (x[c] - r[c]) / peak).collect();
-        rms = rms.max((d.iter().map(|x| x * x).sum::<f64>() / d.len() as f64).sqrt());
-        max = max.max(d.iter().fold(0.0, |m, x| m.max(x.abs())));
-    }
-    (rms, max)
-}
-
-/// The icosphere displaced along its normals by Perlin noise that drifts with `frame`.
-fn displaced(base: &TriMesh, noise: &PerlinNoise, frame: usize) -> Vec<DVec3> {
-    let t = DVec3::new(0.0, 0.0, 0.05 * frame as f64);
-    base.positions().iter().map(|&p| p * (1.0 + 0.08 * noise.noise(p * 0.2 + t))).collect()
+    sun_lit_from(h, DVec3::new(-0.3, -0.2, -1.0).normalize())
 }
 
 #[test]
@@ -248,7 +214,7 @@ fn transcut_backend_gpu_bakes_and_deforms_a_session_on_the_device() {
     let pose = displaced(&base, &PerlinNoise::new(11), 4);
     let as_arrays: Vec<[f64; 3]> = pose.iter().map(|p| p.to_array()).collect();
     session.set_positions(0, &as_arrays, Progress::none()).unwrap();
-    let moved = TriMesh::from_triangles(&as_arrays, &base.triangles().concat()).unwrap();
+    let moved = moved_mesh(&base, &pose);
     let fresh = bake(&Scene { objects: vec![Object::new("ball", moved, marble(), 1.0)], lights: scene.lights.clone() }, &options)
         .unwrap();
     let (rms, max) = errors(&session.radiance(0).unwrap().unwrap(), &fresh.objects[0].radiance);

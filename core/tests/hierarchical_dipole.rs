@@ -8,42 +8,15 @@ use transcut::hierarchy::{
 };
 use transcut::light::{self, Light, SourceOptions};
 use transcut::mesh::{icosphere, TriMesh};
-use transcut::optics::{f_ext, Dipole, Medium};
+use transcut::optics::{f_ext, Medium};
 use transcut::volume::noise::PerlinNoise;
 
-/// Marble (Jensen et al. 2001) at η = 1.3, the design note's sphere material.
-fn marble() -> Medium {
-    Medium { eta: 1.3, ..Medium::preset("marble").unwrap() }
-}
-
-fn dipoles(m: &Medium) -> [Dipole; 3] {
-    [0, 1, 2].map(|c| m.dipole(c))
-}
-
-fn hierarchy(mesh: &TriMesh, options: DipoleOptions) -> DipoleHierarchy {
-    DipoleHierarchy::new(mesh.positions().to_vec(), mesh.triangles().to_vec(), dipoles(&marble()), options).unwrap()
-}
-
-fn go() -> bool {
-    true
-}
+mod dipole_common;
+use dipole_common::{dipoles, displaced, errors, go, hierarchy, marble, moved_mesh, sun_lit_from};
 
 /// q at every vertex under a sun from +z (irradiance 3), no shadows.
 fn sun_lit(h: &DipoleHierarchy) -> Vec<[f64; 3]> {
-    let sun = [Light::Directional { direction: DVec3::NEG_Z, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }];
-    light::transmitted_source(&sun, h.positions(), &h.vertex_normals(), 1.3, None, &SourceOptions::default()).unwrap()
-}
-
-/// (peak-relative RMS, peak-relative max) of `b` against `reference`, per channel, worst.
-fn errors(b: &[[f64; 3]], reference: &[[f64; 3]]) -> (f64, f64) {
-    let (mut rms, mut max) = (0.0f64, 0.0f64);
-    for c in 0..3 {
-        let peak = reference.iter().map(|r| r[c]).fold(0.0, f64::max);
-        let d: Vec<f64> = b.iter().zip(reference).map(|(x, r)| (x[c] - r[c]) / peak).collect();
-        rms = rms.max((d.iter().map(|x| x * x).sum::<f64>() / d.len() as f64).sqrt());
-        max = max.max(d.iter().fold(0.0, |m, x| m.max(x.abs())));
-    }
-    (rms, max)
+    sun_lit_from(h, DVec3::NEG_Z)
 }
 
 #[test]
@@ -140,12 +113,6 @@ fn the_three_modes_agree_and_render_mode_keeps_its_links() {
     }
 }
 
-/// The icosphere displaced along its normals by Perlin noise that drifts with `frame`.
-fn displaced(base: &TriMesh, noise: &PerlinNoise, frame: usize) -> Vec<DVec3> {
-    let t = DVec3::new(0.0, 0.0, 0.05 * frame as f64);
-    base.positions().iter().map(|&p| p * (1.0 + 0.08 * noise.noise(p * 0.2 + t))).collect()
-}
-
 /// `h` with every link made again from scratch on its current trees: a new medium equal to
 /// the old invalidates every form factor and keeps nothing.
 fn relinked_from_scratch(h: &DipoleHierarchy) -> DipoleHierarchy {
@@ -153,10 +120,6 @@ fn relinked_from_scratch(h: &DipoleHierarchy) -> DipoleHierarchy {
     fresh.set_dipoles(*h.dipoles());
     fresh.set_mode(EvalMode::Incremental { budget: None }).unwrap();
     fresh
-}
-
-fn moved_mesh(base: &TriMesh, positions: &[DVec3]) -> TriMesh {
-    TriMesh::from_triangles(&positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(), &base.triangles().concat()).unwrap()
 }
 
 #[test]

@@ -191,10 +191,6 @@ fn cpu_report(requested: Backend, fallback: Option<String>) -> BackendReport {
     }
 }
 
-/// Where a solve runs: `on_cpu` for
-/// [`Backend::Cpu`], `on_gpu` on the process-wide device for [`Backend::Gpu`]; for
-/// [`Backend::Auto`] the device unless none can be had or the only one is a software
-/// rasteriser, then `on_cpu` with the reason in [`BackendReport::fallback`].
 /// Where work with a GPU twin runs under `backend` (the rule of [`solve_on`]).
 #[derive(Debug, Clone, Copy)]
 pub enum DeviceChoice {
@@ -205,10 +201,10 @@ pub enum DeviceChoice {
     Gpu(&'static super::GpuContext),
 }
 
-/// The device `backend` picks, and for `Auto` on the CPU why not the GPU: `Cpu` always the CPU; `Gpu` the shared device (an error when
-/// there is none); `Auto` a hardware GPU when one exists, else the CPU with the reason (no
-/// device node, no adapter, only a software adapter such as lavapipe, not built with the `gpu`
-/// feature).
+/// The device `backend` picks, and for `Auto` on the CPU why not the GPU: `Cpu` always the
+/// CPU; `Gpu` the shared device (an error when there is none); `Auto` a hardware GPU when one
+/// exists, else the CPU with the reason (no device node, no adapter, only a software adapter
+/// such as lavapipe, not built with the `gpu` feature).
 ///
 /// # Errors
 /// For `Gpu` only: [`GpuError::NotBuilt`], or why the device could not be opened.
@@ -247,33 +243,30 @@ pub fn choose_device(backend: Backend) -> Result<(DeviceChoice, Option<String>),
     }
 }
 
+/// Where a solve runs, by [`choose_device`]: `on_cpu` for
+/// [`Backend::Cpu`], `on_gpu` on the process-wide device for [`Backend::Gpu`]; for
+/// [`Backend::Auto`] the device unless none can be had or the only one is a software
+/// rasteriser, then `on_cpu` with the reason in [`BackendReport::fallback`].
 fn on_backend(
     backend: Backend,
     on_cpu: impl FnOnce() -> Result<Solution, GpuError>,
     #[cfg(feature = "gpu")] on_gpu: impl FnOnce(&super::GpuContext) -> Result<super::GpuSolution, GpuError>,
 ) -> Result<(Solution, BackendReport), GpuError> {
-    #[cfg(feature = "gpu")]
-    let context = match choose_device(backend)? {
-        (DeviceChoice::Cpu, fallback) => return Ok((on_cpu()?, cpu_report(backend, fallback))),
-        (DeviceChoice::Gpu(context), _) => context,
-    };
-    #[cfg(not(feature = "gpu"))]
-    {
-        let (_, fallback) = choose_device(backend)?;
-        Ok((on_cpu()?, cpu_report(backend, fallback)))
-    }
-    #[cfg(feature = "gpu")]
-    {
-        let out = on_gpu(context)?;
-        Ok((
-            out.solution,
-            BackendReport {
-                requested: backend,
-                used: Backend::Gpu,
-                device: Some(context.device_name().to_owned()),
-                fallback: None,
-                gpu: Some(out.stats),
-            },
-        ))
+    match choose_device(backend)? {
+        (DeviceChoice::Cpu, fallback) => Ok((on_cpu()?, cpu_report(backend, fallback))),
+        #[cfg(feature = "gpu")]
+        (DeviceChoice::Gpu(context), _) => {
+            let out = on_gpu(context)?;
+            Ok((
+                out.solution,
+                BackendReport {
+                    requested: backend,
+                    used: Backend::Gpu,
+                    device: Some(context.device_name().to_owned()),
+                    fallback: None,
+                    gpu: Some(out.stats),
+                },
+            ))
+        }
     }
 }
