@@ -20,7 +20,7 @@ struct DipoleParams {
     theta: f32,         // the opening angle
     eps1: f32,          // the paper oracle's thresholds
     eps2: f32,
-    near_angle: f32,    // min(2θ, 1): a near pair farther than this is integrated by the 7-point rule
+    near_angle: f32,    // Oracle::rule7_below: a near pair farther than this is integrated by the 7-point rule
     max_l_over_r: f32,  // the edge rule's split bound
     pad3: f32,
     pad4: f32,

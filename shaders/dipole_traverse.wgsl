@@ -111,7 +111,7 @@ fn near(ri: u32, r: Node, ei: u32, e: Node) {
     let b = positions[t.y].xyz - r.centre;
     let c = positions[t.z].xyz - r.centre;
     var f: vec3<f32>;
-    if (dparams.oracle == 0u && e.radius < dparams.near_angle * distance(r.centre, e.centre)) {
+    if (e.radius < dparams.near_angle * distance(r.centre, e.centre)) {
         f = rule7(a, b, c);
     } else {
         f = triangle_integral(a, b, c);

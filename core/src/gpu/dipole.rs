@@ -249,7 +249,7 @@ impl<'c> GpuDipole<'c> {
             theta: theta as f32,
             eps1: eps1 as f32,
             eps2: eps2 as f32,
-            near_angle: (2.0 * theta).min(1.0) as f32,
+            near_angle: options.oracle.rule7_below() as f32,
             max_l_over_r: options.rule.max_l_over_r() as f32,
             sigma_tr: channel(&|c| dipoles[c].sigma_tr),
             z_r: channel(&|c| dipoles[c].z_r),

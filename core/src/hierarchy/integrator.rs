@@ -30,12 +30,12 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 use crate::optics::quadrature::triangle_rule7;
-use crate::optics::{triangle_integral_rgb, Dipole, DipoleGeometry, EdgeRule};
+use crate::optics::{triangle_integral_rgb, Dipole, DipoleGeometry, DipoleTable, EdgeRule};
 use crate::progress::{ms, Cancelled};
 
 use super::error::HierarchyError;
 use super::options::{DipoleOptions, EvalMode, Receivers};
-use super::oracle::{Decision, Oracle};
+use super::oracle::Decision;
 use super::tree::{ClusterItem, ClusterNode, ClusterTree};
 
 /// The receiver subtrees traversed independently (fewer where the tree has fewer leaves).
@@ -193,7 +193,8 @@ pub struct DipoleStats {
 pub struct DipoleHierarchy {
     positions: Vec<DVec3>,
     triangles: Vec<[u32; 3]>,
-    dipoles: [Dipole; 3],
+    /// The medium's dipole per channel, tabulated for the far links and the 7-point rule.
+    table: DipoleTable,
     options: DipoleOptions,
     emitters: ClusterTree,
     receivers: ClusterTree,
@@ -250,9 +251,9 @@ impl DipoleHierarchy {
         let tasks = receivers.cut(TASKS).into_iter().map(Task::new).collect();
         Ok(Self {
             rest_radius: [emitters.radius_sum(), receivers.radius_sum()],
+            table: DipoleTable::new(dipoles, table_reach(&emitters)),
             positions,
             triangles,
-            dipoles,
             options,
             emitters,
             receivers,
@@ -295,7 +296,7 @@ impl DipoleHierarchy {
     /// The dipole per channel.
     #[must_use]
     pub fn dipoles(&self) -> &[Dipole; 3] {
-        &self.dipoles
+        self.table.dipoles()
     }
 
     /// The unit normal per vertex: the area-weighted mean of its triangles' (zero for a vertex
@@ -392,7 +393,7 @@ impl DipoleHierarchy {
     /// A new medium (one dipole per channel): every form factor changes, the links do not (the
     /// oracle is geometric).
     pub fn set_dipoles(&mut self, dipoles: [Dipole; 3]) {
-        self.dipoles = dipoles;
+        self.table = DipoleTable::new(dipoles, table_reach(&self.emitters));
         self.frame += 1;
         self.emitters.touch_all(self.frame);
         self.receivers.touch_all(self.frame);
@@ -610,33 +611,32 @@ impl DipoleHierarchy {
         let (x_o, n_o) = receiver_point(r);
         match self.options.geometry {
             DipoleGeometry::Distance => {
-                let d = x_o.distance(e.centre);
-                let [r, g, b] = self.dipoles.map(|p| p.rd_with_derivatives(d));
-                Kernel { f: [r[0], g[0], b[0]], k: [r[1], g[1], b[1]], l: [r[2], g[2], b[2]] }
+                let [f, k, l] = self.table.rd_with_derivatives(x_o.distance_squared(e.centre));
+                Kernel { f, k, l }
             }
             geometry => {
-                Kernel { f: self.dipoles.map(|p| point_kernel(&p, e.centre, x_o, n_o, geometry)), k: [0.0; 3], l: [0.0; 3] }
+                Kernel { f: self.dipoles().map(|p| point_kernel(&p, e.centre, x_o, n_o, geometry)), k: [0.0; 3], l: [0.0; 3] }
             }
         }
     }
 
     /// The form factor of triangle `t` at a receiving leaf: analytic (Mertens eq. 18, the
-    /// three channels at once in the distance geometry) for the triangles within twice the
-    /// opening angle (those around the receiver), the 7-point rule of degree 5 for the others
-    /// the oracle refused: as accurate there against the O(n²) sum, at a fifth of the cost.
+    /// three channels at once in the distance geometry) for the triangles seen under more than
+    /// [`Oracle::rule7_below`] (those around the receiver), the 7-point rule of degree 5 for the
+    /// others the oracle refused: as accurate there against the O(n²) sum, at a fifth of the cost.
     fn near_factor(&self, r: &ClusterNode, t: usize) -> [f64; 3] {
         let (x_o, n_o) = receiver_point(r);
         let corners = self.triangles[t].map(|v| self.positions[v as usize]);
         let geometry = self.options.geometry;
-        if let Oracle::OpeningAngle { theta } = self.options.oracle {
-            let e = self.emitters.node(self.emitters.leaf_of(t));
-            if e.radius < (2.0 * theta).min(1.0) * x_o.distance(e.centre) {
-                return self.dipoles.map(|d| triangle_rule7(&|x| point_kernel(&d, x, x_o, n_o, geometry), corners));
-            }
-        }
+        let e = self.emitters.node(self.emitters.leaf_of(t));
+        let analytic = e.radius >= self.options.oracle.rule7_below() * x_o.distance(e.centre);
         match geometry {
-            DipoleGeometry::Distance => triangle_integral_rgb(&self.dipoles, corners, x_o, self.options.rule),
-            geometry => self.dipoles.map(|d| d.triangle_integral(corners, x_o, n_o, geometry, self.options.rule)),
+            DipoleGeometry::Distance if analytic => triangle_integral_rgb(self.dipoles(), corners, x_o, self.options.rule),
+            DipoleGeometry::Distance => {
+                triangle_rule7(&|x: DVec3| DVec3::from_array(self.table.rd(x.distance_squared(x_o))), corners).to_array()
+            }
+            geometry if analytic => self.dipoles().map(|d| d.triangle_integral(corners, x_o, n_o, geometry, self.options.rule)),
+            geometry => self.dipoles().map(|d| triangle_rule7(&|x| point_kernel(&d, x, x_o, n_o, geometry), corners)),
         }
     }
 
@@ -742,6 +742,12 @@ impl DipoleHierarchy {
             Receivers::FaceCentroids => face_to_vertex(&self.positions, &self.triangles, &at_item),
         }
     }
+}
+
+/// The distance up to which a hierarchy's dipole table is built: twice the emitter tree's
+/// bounding diameter, so a mesh may grow to twice its size before far lookups evaluate exactly.
+fn table_reach(emitters: &ClusterTree) -> f64 {
+    4.0 * emitters.node(0).radius
 }
 
 fn to_f32(f: [f64; 3]) -> [f32; 3] {
@@ -855,7 +861,7 @@ pub fn reference_quadratic(hierarchy: &DipoleHierarchy, irradiance: &[[f64; 3]])
             let mut b = [0.0f64; 3];
             for (corners, item, e) in &per_triangle {
                 let near = r.centre.distance(item.centre) < 4.0 * item.radius;
-                for (c, d) in hierarchy.dipoles.iter().enumerate() {
+                for (c, d) in hierarchy.dipoles().iter().enumerate() {
                     let f = if near {
                         d.triangle_integral(*corners, r.centre, r.normal, geometry, rule)
                     } else {

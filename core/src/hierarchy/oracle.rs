@@ -52,6 +52,21 @@ impl Oracle {
         }
     }
 
+    /// The ratio r_E/d of an emitting triangle's bounding radius to its distance below which a
+    /// near pair's form factor is the 7-point rule of degree 5 instead of the analytic one: the
+    /// rule's error falls as (r_E/d)⁶, and at this bound it is below the oracle's own error
+    /// against the O(n²) sum (design note §3.2). Twice θ (at most 1) for the opening angle, so a
+    /// tighter oracle also integrates its near field more exactly; the paper's oracle has no
+    /// angle and takes the default θ's 0.8 (its near pairs reach out to r_E/d ≈ 0.2, where the
+    /// analytic form factor buys nothing).
+    #[must_use]
+    pub fn rule7_below(&self) -> f64 {
+        match *self {
+            Self::OpeningAngle { theta } => (2.0 * theta).min(1.0),
+            Self::Paper { .. } => 0.8,
+        }
+    }
+
     /// The decision for receiver `r` (its children `r_children`, when inner) and emitter `e`.
     pub(crate) fn decide(&self, r: &ClusterNode, r_children: Option<[&ClusterNode; 2]>, e: &ClusterNode) -> Decision {
         let d = r.centre.distance(e.centre);

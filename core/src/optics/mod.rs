@@ -68,6 +68,7 @@ pub mod artist;
 pub mod boundary;
 pub mod dipole;
 pub mod dipole_patch;
+pub mod dipole_table;
 mod error;
 pub mod fresnel;
 pub mod medium;
@@ -79,6 +80,7 @@ pub use artist::ArtistParams;
 pub use boundary::{radiance_from_fluence, BoundaryTerms};
 pub use dipole::{rd_profile, reduced_albedo_from_rd, sigma_tr, total_diffuse_reflectance, Dipole};
 pub use dipole_patch::{triangle_integral_rgb, DipoleGeometry, EdgeRule};
+pub use dipole_table::DipoleTable;
 pub use error::{OpticsError, CHANNEL_NAMES};
 pub use fresnel::{
     a_coefficient, critical_cosine, f_ext, fdr, fdr_exact, fresnel_reflectance, fresnel_transmittance, ft_out,
