@@ -41,6 +41,9 @@ use super::tree::{ClusterItem, ClusterNode, ClusterTree};
 /// The receiver subtrees traversed independently (fewer where the tree has fewer leaves).
 pub const TASKS: usize = 256;
 
+/// The emitter subtrees the pull computes in parallel.
+const PULL_TASKS: usize = 64;
+
 /// A refitted tree is rebuilt when the sum of its radii exceeds this multiple of the sum
 /// right after its build (design note §5.9: a refitted tree degrades under large motion).
 const REBUILD_RADIUS_GROWTH: f64 = 2.0;
@@ -103,7 +106,9 @@ struct Kernel {
 
 /// The emitter tree under one irradiance, per node and channel: the mean irradiance (for near
 /// links), the flux Φ = ∫ E dA and the flux moments m = ∫ E (x − c) dA and
-/// Q = ∫ E (x − c)(x − c)ᵀ dA about the node's centre.
+/// Q = ∫ E (x − c)(x − c)ᵀ dA about the node's centre. Kept between updates, so its memory
+/// is not allocated (and faulted in) again.
+#[derive(Debug, Clone, Default)]
 struct Emitted {
     irradiance: Vec<[f64; 3]>,
     flux: Vec<[f64; 3]>,
@@ -112,7 +117,8 @@ struct Emitted {
 }
 
 /// What a receiver subtree gathered, per node and channel: B at the node's centre, its
-/// gradient and its Hessian.
+/// gradient and its Hessian. Kept between updates, as [`Emitted`].
+#[derive(Debug, Clone, Default)]
 struct Gathered {
     b: Vec<[f64; 3]>,
     gradient: Vec<[DVec3; 3]>,
@@ -120,8 +126,14 @@ struct Gathered {
 }
 
 impl Gathered {
-    fn new(len: usize) -> Self {
-        Self { b: vec![[0.0; 3]; len], gradient: vec![[DVec3::ZERO; 3]; len], hessian: vec![[DMat3::ZERO; 3]; len] }
+    /// Zero over `len` nodes, reusing the memory.
+    fn reset(&mut self, len: usize) {
+        self.b.clear();
+        self.b.resize(len, [0.0; 3]);
+        self.gradient.clear();
+        self.gradient.resize(len, [DVec3::ZERO; 3]);
+        self.hessian.clear();
+        self.hessian.resize(len, [DMat3::ZERO; 3]);
     }
 
     /// Adds a far link's expansion at local node `at` (module documentation); at a receiving
@@ -211,6 +223,9 @@ pub struct DipoleHierarchy {
     next_task: usize,
     /// Refit time of the last deformation, reported by the next update.
     refit_ms: f64,
+    /// The emitter tree's expansions and each task's gathered expansions, kept for reuse.
+    emitted: Emitted,
+    gathered: Vec<Gathered>,
 }
 
 /// The receiver's data a form factor needs: its point and unit normal.
@@ -264,6 +279,8 @@ impl DipoleHierarchy {
             frame: 0,
             next_task: 0,
             refit_ms: 0.0,
+            emitted: Emitted::default(),
+            gathered: Vec::new(),
         })
     }
 
@@ -420,22 +437,26 @@ impl DipoleHierarchy {
             ..DipoleStats::default()
         };
         let t = Instant::now();
-        let emitted = self.pull(irradiance);
+        let mut emitted = std::mem::take(&mut self.emitted);
+        self.pull(irradiance, &mut emitted);
+        let mut gathered = std::mem::take(&mut self.gathered);
+        gathered.resize_with(self.tasks.len(), Gathered::default);
         stats.gather_ms += ms(t);
 
         let t = Instant::now();
-        let gathered = match self.options.mode {
+        match self.options.mode {
             EvalMode::OnTheFly => {
                 // Gathered as the links are found, in f64, none stored.
-                let results = self
+                let counts = self
                     .tasks
                     .par_iter()
-                    .map(|task| {
+                    .zip(gathered.par_iter_mut())
+                    .map(|(task, g)| {
                         if !keep_going() {
                             return Err(Cancelled);
                         }
                         let root = task.root;
-                        let mut g = Gathered::new((self.receivers.subtree_end(root) - root) as usize);
+                        g.reset((self.receivers.subtree_end(root) - root) as usize);
                         let (mut links, mut near_links) = (0, 0);
                         self.traverse(root, &HashMap::new(), &mut |r, e, found| {
                             links += 1;
@@ -451,30 +472,29 @@ impl DipoleHierarchy {
                                 }
                             }
                         });
-                        Ok((g, links, near_links))
+                        Ok((links, near_links))
                     })
                     .collect::<Result<Vec<_>, Cancelled>>()?;
-                stats.links = results.iter().map(|r| r.1).sum();
-                stats.near_links = results.iter().map(|r| r.2).sum();
+                stats.links = counts.iter().map(|r| r.0).sum();
+                stats.near_links = counts.iter().map(|r| r.1).sum();
                 stats.form_factors = stats.links;
                 stats.link_ms = ms(t);
-                results.into_iter().map(|r| r.0).collect::<Vec<_>>()
             }
             EvalMode::Render | EvalMode::Incremental { .. } => {
                 stats.form_factors = self.relink(keep_going)?;
                 stats.link_ms = ms(t);
                 let t = Instant::now();
-                let g = self.tasks.par_iter().map(|task| self.gather(task, &emitted)).collect();
+                self.tasks.par_iter().zip(gathered.par_iter_mut()).for_each(|(task, g)| self.gather(task, &emitted, g));
                 stats.links = self.tasks.iter().map(Task::links).sum();
                 stats.near_links = self.tasks.iter().map(|t| t.near.len()).sum();
                 stats.stale_tasks = self.tasks.iter().filter(|t| self.is_stale(t)).count();
                 stats.gather_ms += ms(t);
-                g
             }
-        };
+        }
         let t = Instant::now();
-        let b = self.push(gathered);
+        let b = self.push(&mut gathered);
         stats.push_ms = ms(t);
+        (self.emitted, self.gathered) = (emitted, gathered);
         Ok((b, stats))
     }
 
@@ -642,64 +662,65 @@ impl DipoleHierarchy {
 
     /// The emitter tree under `irradiance` per vertex ([`Emitted`]): on a triangle the
     /// irradiance interpolated linearly from its corners, E = Σᵢ Eᵢλᵢ, whose moments follow
-    /// from ∫ λ₁^a λ₂^b λ₃^c dA = 2A a! b! c!/(a + b + c + 2)!; pulled up area-weighted (design
-    /// note §1.7: pbrt-v2's unweighted mean is a bug), the moments moved to each parent's centre
-    /// (o = c_child − c_parent: m += Φo, Q += m oᵀ + o mᵀ + Φ o oᵀ).
-    fn pull(&self, irradiance: &[[f64; 3]]) -> Emitted {
-        let tree = &self.emitters;
-        let n = tree.nodes().len();
-        let mut flux = vec![[0.0f64; 3]; n];
-        let mut moment = vec![[DVec3::ZERO; 3]; n];
-        let mut second = vec![[DMat3::ZERO; 3]; n];
-        let outer = |a: DVec3, b: DVec3| DMat3::from_cols(a * b.x, a * b.y, a * b.z);
-        for index in (0..n).rev() {
-            let node = tree.nodes()[index];
-            if node.leaf {
-                let t = self.triangles[node.right_or_item as usize];
-                let v = t.map(|i| self.positions[i as usize] - node.centre);
-                for c in 0..3 {
-                    let e = t.map(|i| irradiance[i as usize][c]);
-                    flux[index][c] = node.weight * (e[0] + e[1] + e[2]) / 3.0;
-                    // ∫ λᵢλⱼ = A(1 + δᵢⱼ)/12 and Σⱼ vⱼ = 0 give m = (A/12) Σᵢ Eᵢvᵢ.
-                    moment[index][c] = (v[0] * e[0] + v[1] * e[1] + v[2] * e[2]) * (node.weight / 12.0);
-                    // ∫ λᵢλⱼλₖ = (A/60)·{6, 2, 1} for {all equal, two equal, all different}.
-                    let mut q = DMat3::ZERO;
-                    for (i, &ei) in e.iter().enumerate() {
-                        for j in 0..3 {
-                            for k in 0..3 {
-                                let w = match (i == j, j == k, i == k) {
-                                    (true, true, _) => 6.0,
-                                    (false, false, false) => 1.0,
-                                    _ => 2.0,
-                                };
-                                q += outer(v[j], v[k]) * (ei * w);
-                            }
-                        }
-                    }
-                    second[index][c] = q * (node.weight / 60.0);
-                }
-            } else {
-                for child in node.children(index as u32).expect("an inner node") {
-                    let child = child as usize;
-                    let o = tree.nodes()[child].centre - node.centre;
-                    let (cf, cm, cq) = (flux[child], moment[child], second[child]);
-                    for c in 0..3 {
-                        flux[index][c] += cf[c];
-                        moment[index][c] += cm[c] + o * cf[c];
-                        second[index][c] += cq[c] + outer(cm[c], o) + outer(o, cm[c]) + outer(o, o) * cf[c];
-                    }
-                }
-            }
+    /// from ∫ λ₁^a λ₂^b λ₃^c dA = 2A a! b! c!/(a + b + c + 2)! ([`leaf_expansion`]); pulled up
+    /// area-weighted (design note §1.7: pbrt-v2's unweighted mean is a bug), the moments moved
+    /// to each parent's centre ([`parent_expansion`]).
+    fn pull(&self, irradiance: &[[f64; 3]], out: &mut Emitted) {
+        let nodes = self.emitters.nodes();
+        let n = nodes.len();
+        out.flux.resize(n, [0.0; 3]);
+        out.moment.resize(n, [DVec3::ZERO; 3]);
+        out.second.resize(n, [DMat3::ZERO; 3]);
+        out.irradiance.resize(n, [0.0; 3]);
+        let Emitted { irradiance: mean, flux, moment, second } = out;
+        // The subtrees of a cut in parallel, each on its own part of the arrays, then the
+        // nodes above the cut.
+        let roots = self.emitters.cut(PULL_TASKS);
+        let mut parts = Vec::with_capacity(roots.len());
+        let (mut f, mut m, mut q, mut at) = (&mut flux[..], &mut moment[..], &mut second[..], 0);
+        for &root in &roots {
+            let (lo, hi) = (root as usize, self.emitters.subtree_end(root) as usize);
+            let (part_f, rest_f) = std::mem::take(&mut f)[lo - at..].split_at_mut(hi - lo);
+            let (part_m, rest_m) = std::mem::take(&mut m)[lo - at..].split_at_mut(hi - lo);
+            let (part_q, rest_q) = std::mem::take(&mut q)[lo - at..].split_at_mut(hi - lo);
+            (f, m, q, at) = (rest_f, rest_m, rest_q, hi);
+            parts.push((lo, part_f, part_m, part_q));
         }
-        let irradiance =
-            flux.iter().zip(tree.nodes()).map(|(f, n)| if n.weight > 0.0 { f.map(|x| x / n.weight) } else { [0.0; 3] }).collect();
-        Emitted { irradiance, flux, moment, second }
+        parts.into_par_iter().for_each(|(lo, f, m, q)| {
+            for local in (0..f.len()).rev() {
+                let index = lo + local;
+                let node = nodes[index];
+                (f[local], m[local], q[local]) = match node.children(index as u32) {
+                    None => {
+                        let t = self.triangles[node.right_or_item as usize];
+                        let v = t.map(|i| self.positions[i as usize] - node.centre);
+                        leaf_expansion(node.weight, v, t.map(|i| irradiance[i as usize]))
+                    }
+                    Some(children) => parent_expansion(nodes, index, children, |c| (f[c - lo], m[c - lo], q[c - lo])),
+                };
+            }
+        });
+        let mut below = roots.len();
+        for index in (0..n).rev() {
+            if below > 0 && index < self.emitters.subtree_end(roots[below - 1]) as usize {
+                if index == roots[below - 1] as usize {
+                    below -= 1;
+                }
+                continue;
+            }
+            let children = nodes[index].children(index as u32).expect("a node above the cut is inner");
+            (flux[index], moment[index], second[index]) =
+                parent_expansion(nodes, index, children, |c| (flux[c], moment[c], second[c]));
+        }
+        mean.par_iter_mut().zip(flux.par_iter()).zip(nodes.par_iter()).for_each(|((m, f), n)| {
+            *m = if n.weight > 0.0 { f.map(|x| x / n.weight) } else { [0.0; 3] };
+        });
     }
 
     /// What `task`'s stored links gather.
-    fn gather(&self, task: &Task, emitted: &Emitted) -> Gathered {
+    fn gather(&self, task: &Task, emitted: &Emitted, g: &mut Gathered) {
         let root = task.root;
-        let mut g = Gathered::new((self.receivers.subtree_end(root) - root) as usize);
+        g.reset((self.receivers.subtree_end(root) - root) as usize);
         for l in &task.far {
             let kernel = Kernel { f: l.f.map(f64::from), k: l.k.map(f64::from), l: l.l.map(f64::from) };
             let leaf = self.receivers.node(l.receiver).leaf;
@@ -708,16 +729,15 @@ impl DipoleHierarchy {
         for l in &task.near {
             g.near((l.receiver - root) as usize, l.f.map(f64::from), emitted, l.emitter as usize);
         }
-        g
     }
 
     /// B per vertex: each task's B pushed down its subtree (a child inherits its parent's local
     /// expansion moved to the child's centre: b + g·o + ½oᵀHo, g + Ho, H), read at the
     /// receiving leaves, and for face receivers averaged onto the vertices by area.
-    fn push(&self, gathered: Vec<Gathered>) -> Vec<[f64; 3]> {
+    fn push(&self, gathered: &mut [Gathered]) -> Vec<[f64; 3]> {
         let tree = &self.receivers;
         let mut at_item = vec![[0.0f64; 3]; self.receiver_items.len()];
-        for (task, mut g) in self.tasks.iter().zip(gathered) {
+        for (task, g) in self.tasks.iter().zip(gathered) {
             for local in 0..g.b.len() {
                 let index = task.root + local as u32;
                 let node = tree.node(index);
@@ -742,6 +762,50 @@ impl DipoleHierarchy {
             Receivers::FaceCentroids => face_to_vertex(&self.positions, &self.triangles, &at_item),
         }
     }
+}
+
+/// An emitter's flux Φ, first moment m and second moment Q per channel.
+type Expansion = ([f64; 3], [DVec3; 3], [DMat3; 3]);
+
+/// a bᵀ.
+fn outer(a: DVec3, b: DVec3) -> DMat3 {
+    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
+}
+
+/// The expansion of a triangle of area `area` whose corners lie at `v` from its centroid
+/// (Σ vᵢ = 0), under the irradiance `e` at its corners interpolated linearly, E = Σᵢ Eᵢλᵢ:
+/// Φ = A ΣEᵢ/3; ∫ λᵢλⱼ = A(1 + δᵢⱼ)/12 gives m = (A/12) Σ Eᵢvᵢ; and ∫ λᵢλⱼλₖ =
+/// (A/60)(1 + δᵢⱼ + δⱼₖ + δᵢₖ + 2δᵢⱼδⱼₖ) gives Q = (A/60)[(Σ Eᵢ) Σⱼ vⱼvⱼᵀ + 2 Σᵢ Eᵢvᵢvᵢᵀ], the
+/// terms with Σ vⱼ vanishing.
+fn leaf_expansion(area: f64, v: [DVec3; 3], e: [[f64; 3]; 3]) -> Expansion {
+    let corners = v.map(|vi| outer(vi, vi));
+    let spread = corners[0] + corners[1] + corners[2];
+    let total: [f64; 3] = std::array::from_fn(|c| e[0][c] + e[1][c] + e[2][c]);
+    (
+        total.map(|t| area * t / 3.0),
+        std::array::from_fn(|c| (v[0] * e[0][c] + v[1] * e[1][c] + v[2] * e[2][c]) * (area / 12.0)),
+        std::array::from_fn(|c| {
+            let own = corners[0] * e[0][c] + corners[1] * e[1][c] + corners[2] * e[2][c];
+            (spread * total[c] + own * 2.0) * (area / 60.0)
+        }),
+    )
+}
+
+/// The expansion of inner node `index` from its children's (`child(i)` for node i), each moved
+/// to its centre (o = c_child − c_parent: m += Φo, Q += m oᵀ + o mᵀ + Φ o oᵀ).
+fn parent_expansion(nodes: &[ClusterNode], index: usize, children: [u32; 2], child: impl Fn(usize) -> Expansion) -> Expansion {
+    let mut sum: Expansion = ([0.0; 3], [DVec3::ZERO; 3], [DMat3::ZERO; 3]);
+    for c in children {
+        let c = c as usize;
+        let o = nodes[c].centre - nodes[index].centre;
+        let (cf, cm, cq) = child(c);
+        for k in 0..3 {
+            sum.0[k] += cf[k];
+            sum.1[k] += cm[k] + o * cf[k];
+            sum.2[k] += cq[k] + outer(cm[k], o) + outer(o, cm[k]) + outer(o, o) * cf[k];
+        }
+    }
+    sum
 }
 
 /// The distance up to which a hierarchy's dipole table is built: twice the emitter tree's
@@ -877,4 +941,36 @@ pub fn reference_quadratic(hierarchy: &DipoleHierarchy, irradiance: &[[f64; 3]])
         Receivers::Vertices => at_receivers,
         Receivers::FaceCentroids => face_to_vertex(positions, triangles, &at_receivers),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The closed-form moments against the 7-point rule, exact for these cubic integrands.
+    #[test]
+    fn a_triangles_expansion_equals_its_moments_by_quadrature() {
+        let corners = [DVec3::new(0.3, -0.2, 1.0), DVec3::new(2.1, 0.4, 0.7), DVec3::new(0.9, 1.8, -0.5)];
+        let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
+        let area = 0.5 * (corners[1] - corners[0]).cross(corners[2] - corners[0]).length();
+        let e = [[1.0, 0.2, 3.0], [2.5, 0.0, 0.7], [0.4, 1.1, 0.9]];
+        let (flux, moment, second) = leaf_expansion(area, corners.map(|x| x - centre), e);
+        for c in 0..3 {
+            // E(x) linear: its barycentric coordinates from the plane's affine frame.
+            let irradiance = |x: DVec3| {
+                let (u, v) = (corners[1] - corners[0], corners[2] - corners[0]);
+                let w = x - corners[0];
+                let (uu, uv, vv, wu, wv) = (u.dot(u), u.dot(v), v.dot(v), w.dot(u), w.dot(v));
+                let det = uu * vv - uv * uv;
+                let (l1, l2) = ((vv * wu - uv * wv) / det, (uu * wv - uv * wu) / det);
+                e[0][c] * (1.0 - l1 - l2) + e[1][c] * l1 + e[2][c] * l2
+            };
+            let want_flux = triangle_rule7(&irradiance, corners);
+            let want_moment = triangle_rule7(&|x: DVec3| (x - centre) * irradiance(x), corners);
+            let want_second = triangle_rule7(&|x: DVec3| outer(x - centre, x - centre) * irradiance(x), corners);
+            assert!((flux[c] - want_flux).abs() < 1e-12, "{c}: {} {want_flux}", flux[c]);
+            assert!((moment[c] - want_moment).length() < 1e-12, "{c}: {} {want_moment}", moment[c]);
+            assert!(second[c].abs_diff_eq(want_second, 1e-12), "{c}: {} {want_second}", second[c]);
+        }
+    }
 }
