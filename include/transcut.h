@@ -503,11 +503,12 @@ typedef struct TcDipoleStats {
    */
   uint64_t links;
   /**
-   * Of them, leaf pairs with the analytic triangle form factor.
+   * Of them, leaf pairs with a form factor over the triangle (analytic, or the 7-point rule).
    */
   uint64_t near_links;
   /**
-   * Form factors the update evaluated (0 for a relight with links kept).
+   * Links the update made, near ones with their form factor evaluated (0 for a relight with
+   * links kept).
    */
   uint64_t form_factors;
   /**

@@ -50,9 +50,10 @@ pub struct TcDipoleStats {
     pub nodes: u64,
     /// Links the update used (far and near).
     pub links: u64,
-    /// Of them, leaf pairs with the analytic triangle form factor.
+    /// Of them, leaf pairs with a form factor over the triangle (analytic, or the 7-point rule).
     pub near_links: u64,
-    /// Form factors the update evaluated (0 for a relight with links kept).
+    /// Links the update made, near ones with their form factor evaluated (0 for a relight with
+    /// links kept).
     pub form_factors: u64,
     /// Receiver subtrees still linked to an older pose (incremental mode with a budget).
     pub stale_tasks: u64,

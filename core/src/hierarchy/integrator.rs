@@ -49,14 +49,12 @@ const PULL_TASKS: usize = 64;
 const REBUILD_RADIUS_GROWTH: f64 = 2.0;
 
 /// A far link: the receiver node gathers from the emitter node through f, k and l per channel
-/// (module documentation).
+/// (module documentation), looked up in the dipole table at each gather from the nodes'
+/// centres: a lookup costs less than reading the nine values stored (8 bytes a link, not 44).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct FarLink {
     receiver: u32,
     emitter: u32,
-    f: [f32; 3],
-    k: [f32; 3],
-    l: [f32; 3],
 }
 
 /// A near link: a receiving leaf and an emitting triangle with the analytic form factor `f`
@@ -90,8 +88,8 @@ impl Task {
 
 /// What a link found by the traversal carries.
 enum Found {
-    /// A far link's f, k and l per channel.
-    Far(Kernel),
+    /// A far link.
+    Far,
     /// A near link's analytic form factor, or `None` where it was kept from before.
     Near(Option<[f64; 3]>),
 }
@@ -185,7 +183,8 @@ pub struct DipoleStats {
     pub links: usize,
     /// Of them, leaf pairs with a form factor over the triangle (analytic, or the 7-point rule).
     pub near_links: usize,
-    /// Form factors evaluated by the update (0 in render mode with links kept).
+    /// Links made by the update, near links with their form factor evaluated (0 in render
+    /// mode with links kept; a far link's kernel is a table lookup at every gather).
     pub form_factors: usize,
     /// Receiver subtrees whose links are older than the geometry or medium (incremental mode
     /// with a budget): their error decays as later updates relink them.
@@ -462,9 +461,9 @@ impl DipoleHierarchy {
                             links += 1;
                             let at = (r - root) as usize;
                             match found {
-                                Found::Far(kernel) => {
-                                    let leaf = self.receivers.node(r).leaf;
-                                    g.far(at, leaf, self.offset(r, e), kernel, &emitted, e as usize);
+                                Found::Far => {
+                                    let (rn, en) = (self.receivers.node(r), self.emitters.node(e));
+                                    g.far(at, rn.leaf, rn.centre - en.centre, self.far_factor(rn, en), &emitted, e as usize);
                                 }
                                 Found::Near(f) => {
                                     near_links += 1;
@@ -566,10 +565,9 @@ impl DipoleHierarchy {
                 };
                 let mut evaluated = 0;
                 this.traverse(task.root, &kept, &mut |receiver, emitter, found| match found {
-                    Found::Far(kernel) => {
+                    Found::Far => {
                         evaluated += 1;
-                        let Kernel { f, k, l } = kernel;
-                        fresh.far.push(FarLink { receiver, emitter, f: to_f32(f), k: to_f32(k), l: to_f32(l) });
+                        fresh.far.push(FarLink { receiver, emitter });
                     }
                     Found::Near(f) => {
                         let f = match f {
@@ -603,7 +601,7 @@ impl DipoleHierarchy {
             let (rn, en) = (rt.node(r), et.node(e));
             let children = rn.children(r).map(|[a, b]| [rt.node(a), rt.node(b)]);
             match self.options.oracle.decide(rn, children, en) {
-                Decision::Accept => link(r, e, Found::Far(self.far_factor(rn, en))),
+                Decision::Accept => link(r, e, Found::Far),
                 Decision::Near if kept.contains_key(&(r, e)) => link(r, e, Found::Near(None)),
                 Decision::Near => link(r, e, Found::Near(Some(self.near_factor(rn, en.right_or_item as usize)))),
                 Decision::OpenReceiver => {
@@ -618,11 +616,6 @@ impl DipoleHierarchy {
                 }
             }
         }
-    }
-
-    /// D = c_R − c_E of a link.
-    fn offset(&self, r: u32, e: u32) -> DVec3 {
-        self.receivers.node(r).centre - self.emitters.node(e).centre
     }
 
     /// The dipole between the clusters' centres with its derivatives (module documentation;
@@ -722,9 +715,15 @@ impl DipoleHierarchy {
         let root = task.root;
         g.reset((self.receivers.subtree_end(root) - root) as usize);
         for l in &task.far {
-            let kernel = Kernel { f: l.f.map(f64::from), k: l.k.map(f64::from), l: l.l.map(f64::from) };
-            let leaf = self.receivers.node(l.receiver).leaf;
-            g.far((l.receiver - root) as usize, leaf, self.offset(l.receiver, l.emitter), kernel, emitted, l.emitter as usize);
+            let (rn, en) = (self.receivers.node(l.receiver), self.emitters.node(l.emitter));
+            g.far(
+                (l.receiver - root) as usize,
+                rn.leaf,
+                rn.centre - en.centre,
+                self.far_factor(rn, en),
+                emitted,
+                l.emitter as usize,
+            );
         }
         for l in &task.near {
             g.near((l.receiver - root) as usize, l.f.map(f64::from), emitted, l.emitter as usize);
