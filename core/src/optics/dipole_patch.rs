@@ -89,6 +89,9 @@ impl EdgeRule {
 /// has no area and the unsplit segments' contribution vanishes with it.
 const MAX_SPLIT_DEPTH: u32 = 40;
 
+/// Kernels one form factor evaluates at most: two sources of three channels.
+const MAX_KERNELS: usize = 6;
+
 /// A foot closer to an edge's line than this fraction of the edge's length lies on the line:
 /// the wedge has no area, and the edge contributes neither angle nor edge integral.
 const COLLINEAR: f64 = 1e-12;
@@ -122,12 +125,13 @@ fn unit_normal(corners: [DVec3; 3]) -> Option<DVec3> {
 }
 
 /// One source's kernel z(1 + σs)e^{−σs}/s³ seen from its foot on the triangle's plane: σ = σtr,
-/// the numerator z, the height h above the plane and e^{−σh}/h.
+/// the numerator z, the height h above the plane, e^{−σh} and e^{−σh}/h.
 #[derive(Debug, Clone, Copy)]
 struct Kernel {
     sigma: f64,
     z: f64,
     h: f64,
+    decay: f64,
     radial: f64,
 }
 
@@ -139,7 +143,8 @@ impl Kernel {
     }
 
     fn at_height(sigma: f64, z: f64, h: f64) -> Self {
-        Self { sigma, z, h, radial: (-sigma * h).exp() / h }
+        let decay = (-sigma * h).exp();
+        Self { sigma, z, h, decay, radial: decay / h }
     }
 }
 
@@ -154,7 +159,8 @@ impl Kernel {
 fn wedge_sums(corners: [DVec3; 3], n: DVec3, foot: DVec3, kernels: &[Kernel], rule: EdgeRule, out: &mut [f64]) {
     let sigma_max = kernels.iter().fold(0.0f64, |m, k| m.max(k.sigma));
     let (mut theta, mut on_boundary) = (0.0, false);
-    let mut edges = vec![0.0f64; kernels.len()];
+    let mut edges = [0.0f64; MAX_KERNELS];
+    let edges = &mut edges[..kernels.len()];
     for e in 0..3 {
         let (a, b) = (corners[e], corners[(e + 1) % 3]);
         let edge = b - a;
@@ -168,12 +174,12 @@ fn wedge_sums(corners: [DVec3; 3], n: DVec3, foot: DVec3, kernels: &[Kernel], ru
             continue;
         }
         theta += n.dot(pa.cross(pb)).atan2(pa.dot(pb));
-        edge_integrals(kernels, sigma_max, r, pa.dot(u), pb.dot(u), rule, &mut edges);
+        edge_integrals(kernels, sigma_max, r, pa.dot(u), pb.dot(u), rule, edges);
     }
     if !on_boundary {
         theta = if theta > std::f64::consts::PI { std::f64::consts::TAU } else { 0.0 };
     }
-    for ((o, k), i2) in out.iter_mut().zip(kernels).zip(edges) {
+    for ((o, k), i2) in out.iter_mut().zip(kernels).zip(edges.iter()) {
         *o += theta * k.radial - i2;
     }
 }
@@ -189,8 +195,13 @@ fn wedge_sums(corners: [DVec3; 3], n: DVec3, foot: DVec3, kernels: &[Kernel], ru
 /// quadrature must get right; the second integrand vanishes where the first peaks.
 fn edge_integrals(kernels: &[Kernel], sigma_max: f64, r: f64, t1: f64, t2: f64, rule: EdgeRule, out: &mut [f64]) {
     let max_l_over_r = rule.max_l_over_r();
-    let mut stack = vec![(t1, t2, 0u32)];
-    while let Some((lo, hi, depth)) = stack.pop() {
+    // Depth-first over the bisection: at most one pending segment per level.
+    let mut stack = [(0.0, 0.0, 0u32); MAX_SPLIT_DEPTH as usize + 2];
+    stack[0] = (t1, t2, 0);
+    let mut pending = 1;
+    while pending > 0 {
+        pending -= 1;
+        let (lo, hi, depth) = stack[pending];
         let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
         let length = (hi - lo).abs();
         let r0 = r.hypot(mid);
@@ -199,17 +210,19 @@ fn edge_integrals(kernels: &[Kernel], sigma_max: f64, r: f64, t1: f64, t2: f64, 
             EdgeRule::PaperMidpoint { sigma_rule, .. } => sigma_rule && length * sigma_max >= 0.4,
         };
         if (length >= max_l_over_r * r0 || sigma_split) && depth < MAX_SPLIT_DEPTH {
-            stack.push((lo, mid, depth + 1));
-            stack.push((mid, hi, depth + 1));
+            stack[pending] = (lo, mid, depth + 1);
+            stack[pending + 1] = (mid, hi, depth + 1);
+            pending += 2;
             continue;
         }
         match rule {
             EdgeRule::GaussLegendre3 { .. } => {
                 let dt = half * GL3_NODE;
                 let points = [(mid - dt, GL3_OUTER), (mid, GL3_INNER), (mid + dt, GL3_OUTER)];
-                let angle = (hi / r).atan() - (lo / r).atan();
+                // The angle the segment subtends at the foot, atan(hi/r) − atan(lo/r).
+                let angle = (r * (hi - lo)).atan2(r * r + hi * lo);
                 let rho2_mid = r * r + mid * mid;
-                for (o, &Kernel { sigma, h, radial, .. }) in out.iter_mut().zip(kernels) {
+                for (o, &Kernel { sigma, h, decay, radial, .. }) in out.iter_mut().zip(kernels) {
                     let near = rho2_mid < h * h;
                     let mut sum = 0.0;
                     for &(t, w) in &points {
@@ -218,7 +231,7 @@ fn edge_integrals(kernels: &[Kernel], sigma_max: f64, r: f64, t1: f64, t2: f64, 
                         let value = if near {
                             // e^{−σh}/h − e^{−σs}/s without cancellation: s − h = ρ²/(s + h).
                             let gap = rho2 / (s + h);
-                            (-sigma * h).exp() * (gap - h * (-sigma * gap).exp_m1()) / (h * s)
+                            decay * (gap - h * (-sigma * gap).exp_m1()) / (h * s)
                         } else {
                             (-sigma * s).exp() / s
                         };
