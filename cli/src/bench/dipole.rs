@@ -82,6 +82,9 @@ struct Modes {
     render_first_update_ms: f64,
     /// Later updates under a sun turned 5°: the links kept.
     render: ModeEntry,
+    /// The memory of render mode's stored links, in bytes and per link.
+    render_link_bytes: usize,
+    render_bytes_per_link: f64,
     /// Each run one more frame of the Perlin deformation (every vertex moved), from the links
     /// of the one before.
     incremental: ModeEntry,
@@ -199,6 +202,7 @@ fn modes(mesh: &TriMesh, medium: &Medium, oracle: Oracle, runs: usize) -> anyhow
         let (_, stats) = h.update(&q_turned, &never_cancel)?;
         render.push((ms(t), stats));
     }
+    let render_link_bytes = h.link_bytes();
     drop(h);
 
     let (t, mut h) = build(EvalMode::Incremental { budget: None })?;
@@ -218,7 +222,9 @@ fn modes(mesh: &TriMesh, medium: &Medium, oracle: Oracle, runs: usize) -> anyhow
         build_ms: median(build_ms),
         on_the_fly: ModeEntry::new(&on_the_fly),
         render_first_update_ms: first_ms,
+        render_bytes_per_link: render_link_bytes as f64 / render.last().map_or(0, |r| r.1.links).max(1) as f64,
         render: ModeEntry::new(&render),
+        render_link_bytes,
         incremental: ModeEntry::new(&incremental),
     };
     Ok((modes, shape))

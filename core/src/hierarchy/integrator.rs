@@ -406,6 +406,13 @@ impl DipoleHierarchy {
         &self.receivers
     }
 
+    /// The memory of the links kept (render and incremental modes), in bytes: 8 per far link,
+    /// 20 per near one.
+    #[must_use]
+    pub fn link_bytes(&self) -> usize {
+        self.tasks.iter().map(|t| t.far.len() * size_of::<FarLink>() + t.near.len() * size_of::<NearLink>()).sum()
+    }
+
     /// A new medium (one dipole per channel): every form factor changes, the links do not (the
     /// oracle is geometric).
     pub fn set_dipoles(&mut self, dipoles: [Dipole; 3]) {
