@@ -48,7 +48,7 @@
 
 mod environment;
 mod error;
-mod sampling;
+pub(crate) mod sampling;
 pub mod sh;
 mod source;
 

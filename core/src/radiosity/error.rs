@@ -1,0 +1,26 @@
+//! Why the radiosity stage refused its input. Nothing changed.
+
+use crate::progress::Cancelled;
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RadiosityError {
+    #[error("the scene has no surface with area to make patches on")]
+    NoPatches,
+    #[error("surface {surface}: triangle {triangle} refers to vertex {index}, but the surface has {vertices} vertices")]
+    IndexOutOfRange { surface: usize, triangle: usize, index: u32, vertices: usize },
+    #[error("surface {surface}: vertex {vertex} is not finite: {value:?}")]
+    NonFinite { surface: usize, vertex: usize, value: [f64; 3] },
+    #[error("the patch size must be finite and > 0, got {0}")]
+    InvalidPatchSize(f64),
+    #[error("refining to that patch size would make about {estimated} triangles, more than the {limit} allowed")]
+    TooFine { estimated: usize, limit: usize },
+    #[error("{what}: expected {expected} values (one per patch), got {got}")]
+    WrongLength { what: &'static str, expected: usize, got: usize },
+    #[error("{what} of patch {patch} is out of range: {value:?} (albedo in [0, 1), irradiance and emission finite and ≥ 0)")]
+    InvalidValue { what: &'static str, patch: usize, value: [f64; 3] },
+    #[error("invalid options: {0}")]
+    InvalidOptions(String),
+    #[error("{0}")]
+    Cancelled(#[from] Cancelled),
+}
