@@ -30,6 +30,10 @@ pub enum Suite {
     /// on-the-fly, render and incremental (after a Perlin deformation) at --subdivisions, the
     /// error against the O(n²) sum for several oracles, and the paper's 98k-leaf case.
     Dipole,
+    /// The radiosity stage on an opaque Cornell box (200 mm, a diffuse 60 × 60 × 120 mm block,
+    /// a point light) at --patch-sizes: patches, nonzeros and memory of the form factors, their
+    /// time, and Jacobi against Gauss–Seidel to 1e-3 (sweeps, time, energy defect).
+    Radiosity,
 }
 
 /// Arguments of `transcut bench`.
@@ -65,4 +69,8 @@ pub struct BenchArgs {
     /// The `dipole` suite without the paper's 98k-leaf case (81,920 triangles).
     #[arg(long)]
     pub no_paper_case: bool,
+    /// The `radiosity` suite's patch sizes (the longest edge the surfaces are refined to, mm),
+    /// comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [8.0f64, 4.4])]
+    pub patch_sizes: Vec<f64>,
 }

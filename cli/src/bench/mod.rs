@@ -10,6 +10,7 @@ mod edit;
 mod fig7;
 mod mesh;
 mod multires;
+mod radiosity;
 mod solve;
 mod stats;
 
@@ -23,5 +24,6 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Suite::Multires => multires::run(args),
         Suite::Edit => edit::run(args),
         Suite::Dipole => dipole::run(args),
+        Suite::Radiosity => radiosity::run(args),
     }
 }

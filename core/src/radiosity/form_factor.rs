@@ -63,6 +63,9 @@ impl FormFactorOptions {
 const BALANCE_SWEEPS: usize = 500;
 const BALANCE_TOLERANCE: f64 = 1e-14;
 
+/// Rows symmetrised at a time (their raw entries freed after).
+const SYMMETRISE_BLOCK: usize = 4096;
+
 /// A ray's start is this fraction of the scene's diagonal past its origin (no self-hit).
 const RAY_EPSILON: f64 = 1e-9;
 
@@ -101,9 +104,13 @@ impl FormFactors {
             .into_par_iter()
             .map(|i| if keep_going() { Ok(cast_row(patches, options, i)) } else { Err(Cancelled) })
             .collect::<Result<_, _>>()?;
+        let mut raw = raw;
         let areas = patches.areas();
-        let symmetric = symmetrise(&raw, areas);
         let closed: Vec<bool> = raw.iter().map(|r| r.hit == 1.0 && !r.entries.is_empty()).collect();
+        let covered = raw.iter().map(|r| r.covered).collect();
+        let hit_fraction = raw.iter().map(|r| r.hit).collect();
+        let symmetric = symmetrise(&mut raw, areas);
+        drop(raw);
         let x = balance(&symmetric, areas, &closed);
         let (row_start, columns, mut values) = symmetric;
         for i in 0..areas.len() {
@@ -121,13 +128,7 @@ impl FormFactors {
                 }
             }
         }
-        Ok(Self {
-            row_start,
-            columns,
-            values,
-            covered: raw.iter().map(|r| r.covered).collect(),
-            hit_fraction: raw.iter().map(|r| r.hit).collect(),
-        })
+        Ok(Self { row_start, columns, values, covered, hit_fraction })
     }
 
     /// The number of patches (rows).
@@ -266,12 +267,13 @@ fn shuffled(n: usize, key: u64) -> Vec<usize> {
 type Csr = (Vec<usize>, Vec<u32>, Vec<f64>);
 
 /// G_ij = AᵢAⱼ(F_ij + F_ji)/(Aᵢ + Aⱼ) on the union of the two patterns (module documentation):
-/// row i of F merged with column i.
-fn symmetrise(raw: &[RawRow], areas: &[f64]) -> Csr {
+/// row i of F merged with column i. The raw rows are consumed block by block, so the memory
+/// peaks at the result and the transpose.
+fn symmetrise(raw: &mut [RawRow], areas: &[f64]) -> Csr {
     let n = raw.len();
     // The transpose by counting: for each column, the rows that have it, in increasing order.
     let mut count = vec![0usize; n + 1];
-    for row in raw {
+    for row in raw.iter() {
         for &(j, _) in &row.entries {
             count[j as usize + 1] += 1;
         }
@@ -287,41 +289,50 @@ fn symmetrise(raw: &[RawRow], areas: &[f64]) -> Csr {
             next[j as usize] += 1;
         }
     }
-    let rows: Vec<Vec<(u32, f64)>> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let (a, b) = (&raw[i].entries, &transposed[count[i]..count[i + 1]]);
-            let mut out = Vec::with_capacity(a.len() + b.len());
-            let (mut p, mut q) = (0, 0);
-            while p < a.len() || q < b.len() {
-                let ja = a.get(p).map_or(u32::MAX, |e| e.0);
-                let jb = b.get(q).map_or(u32::MAX, |e| e.0);
-                let j = ja.min(jb);
-                let mut v = 0.0;
-                if ja == j {
-                    v += a[p].1;
-                    p += 1;
-                }
-                if jb == j {
-                    v += b[q].1;
-                    q += 1;
-                }
-                let (ai, aj) = (areas[i], areas[j as usize]);
-                out.push((j, ai * aj / (ai + aj) * v));
-            }
-            out
-        })
-        .collect();
+    drop(next);
     let mut row_start = Vec::with_capacity(n + 1);
     let (mut columns, mut values) = (Vec::new(), Vec::new());
-    for row in rows {
-        row_start.push(columns.len());
-        for (j, v) in row {
-            columns.push(j);
-            values.push(v);
+    for block in (0..n).step_by(SYMMETRISE_BLOCK) {
+        let end = (block + SYMMETRISE_BLOCK).min(n);
+        let rows: Vec<Vec<(u32, f64)>> = raw[block..end]
+            .par_iter_mut()
+            .enumerate()
+            .map(|(k, row)| {
+                let i = block + k;
+                let a = std::mem::take(&mut row.entries);
+                let b = &transposed[count[i]..count[i + 1]];
+                let mut out = Vec::with_capacity(a.len() + b.len());
+                let (mut p, mut q) = (0, 0);
+                while p < a.len() || q < b.len() {
+                    let ja = a.get(p).map_or(u32::MAX, |e| e.0);
+                    let jb = b.get(q).map_or(u32::MAX, |e| e.0);
+                    let j = ja.min(jb);
+                    let mut v = 0.0;
+                    if ja == j {
+                        v += a[p].1;
+                        p += 1;
+                    }
+                    if jb == j {
+                        v += b[q].1;
+                        q += 1;
+                    }
+                    let (ai, aj) = (areas[i], areas[j as usize]);
+                    out.push((j, ai * aj / (ai + aj) * v));
+                }
+                out
+            })
+            .collect();
+        for row in rows {
+            row_start.push(columns.len());
+            for (j, v) in row {
+                columns.push(j);
+                values.push(v);
+            }
         }
     }
     row_start.push(columns.len());
+    columns.shrink_to_fit();
+    values.shrink_to_fit();
     (row_start, columns, values)
 }
 

@@ -1,0 +1,146 @@
+//! `transcut bench radiosity`: the radiosity stage (`transcut::radiosity`) on an opaque Cornell
+//! box, the scene of design/radiosity.md §3.8 with the block diffuse: a 200 mm box open at the
+//! front (white 0.73, the left wall red, the right green), a 60 × 60 × 120 mm block on the floor
+//! (white) and a point light under the ceiling, its direct light shadowed through the patches'
+//! BVH. Per patch size: patches, nonzeros and memory of F, the form factors' time, and Jacobi
+//! and Gauss–Seidel to 1e-3 with their sweeps and energy defect.
+
+use std::time::Instant;
+
+use serde::Serialize;
+use transcut::radiosity::{
+    refine_to_edge_length, solve, FormFactorOptions, FormFactors, Iteration, PatchSet, SolveOptions, Surface,
+};
+use transcut::DVec3;
+
+use super::args::BenchArgs;
+use super::stats::{median, ms, peak_rss_mib};
+
+/// The box's side and the block's size (mm).
+const SIDE: f64 = 200.0;
+const BLOCK: [f64; 3] = [60.0, 60.0, 120.0];
+const WHITE: [f64; 3] = [0.73; 3];
+const RED: [f64; 3] = [0.63, 0.065, 0.05];
+const GREEN: [f64; 3] = [0.14, 0.45, 0.09];
+/// The point light's intensity (W/sr, mm units: E = I cos θ/d²).
+const INTENSITY: f64 = 4.0e4;
+
+#[derive(Serialize)]
+struct Entry {
+    patch_size_mm: f64,
+    patches: usize,
+    nonzeros: usize,
+    nonzeros_per_patch: f64,
+    form_factor_mib: f64,
+    median_form_factor_ms: f64,
+    median_jacobi_ms: f64,
+    jacobi_sweeps: usize,
+    median_gauss_seidel_ms: f64,
+    gauss_seidel_sweeps: usize,
+    jacobi_to_gauss_seidel: f64,
+    energy_defect: f64,
+    peak_rss_mib: Option<f64>,
+}
+
+/// A surface: positions and counter-clockwise triangles.
+type Mesh = (Vec<DVec3>, Vec<[u32; 3]>);
+
+/// A quad a → b → c → d (counter-clockwise about its front) as two triangles.
+fn quad(corners: [DVec3; 4]) -> Mesh {
+    (corners.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
+}
+
+/// The scene's surfaces (facing into the box, the block's outwards) and their albedos.
+fn scene() -> Vec<(Mesh, [f64; 3])> {
+    let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    let s = SIDE;
+    let mut out = vec![
+        (quad([p(0., 0., 0.), p(s, 0., 0.), p(s, s, 0.), p(0., s, 0.)]), WHITE),
+        (quad([p(0., 0., s), p(0., s, s), p(s, s, s), p(s, 0., s)]), WHITE),
+        (quad([p(0., 0., 0.), p(0., s, 0.), p(0., s, s), p(0., 0., s)]), RED),
+        (quad([p(s, 0., 0.), p(s, 0., s), p(s, s, s), p(s, s, 0.)]), GREEN),
+        (quad([p(0., s, 0.), p(s, s, 0.), p(s, s, s), p(0., s, s)]), WHITE),
+    ];
+    let (lo, hi) = (p(0.5 * (s - BLOCK[0]), 0.5 * (s - BLOCK[1]), 0.0), p(0.5 * (s + BLOCK[0]), 0.5 * (s + BLOCK[1]), BLOCK[2]));
+    let c = |i: usize| {
+        p(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z })
+    };
+    for face in [[4, 5, 7, 6], [0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3]] {
+        out.push((quad(face.map(c)), WHITE));
+    }
+    out
+}
+
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    let light = DVec3::new(0.5 * SIDE, 0.5 * SIDE, SIDE - 10.0);
+    let mut entries = Vec::new();
+    for &h in &args.patch_sizes {
+        let surfaces = scene()
+            .into_iter()
+            .map(|((p, t), albedo)| refine_to_edge_length(&p, &t, h).map(|m| (m, albedo)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let views: Vec<Surface> =
+            surfaces.iter().map(|((p, t), _)| Surface { positions: p, triangles: t, two_sided: false }).collect();
+        let patches = PatchSet::new(&views)?;
+        let n = patches.len();
+        let albedo: Vec<[f64; 3]> = (0..n).map(|i| surfaces[patches.surface_of(i)].1).collect();
+        let bias = 1e-6 * patches.diagonal();
+        let direct: Vec<[f64; 3]> = patches
+            .positions()
+            .iter()
+            .zip(patches.normals())
+            .map(|(&x, &normal)| {
+                let to = light - x;
+                let (d, cos) = (to.length(), normal.dot(to) / to.length());
+                let seen = cos > 0.0 && !patches.bvh().occluded(x + bias * normal, to / d, bias, d);
+                [if seen { INTENSITY * cos / (d * d) } else { 0.0 }; 3]
+            })
+            .collect();
+        let emission = vec![[0.0; 3]; n];
+        let (mut ff_ms, mut jacobi_ms, mut gs_ms) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut jacobi_sweeps, mut gs_sweeps, mut defect, mut nonzeros) = (0, 0, 0.0, 0);
+        for _ in 0..args.runs {
+            let t = Instant::now();
+            let f = FormFactors::gather(&patches, &FormFactorOptions::default(), &|| true)?;
+            ff_ms.push(ms(t));
+            nonzeros = f.nonzeros();
+            for (iteration, times) in [(Iteration::Jacobi, &mut jacobi_ms), (Iteration::GaussSeidel, &mut gs_ms)] {
+                let options = SolveOptions { iteration, ..SolveOptions::default() };
+                let t = Instant::now();
+                let s = solve(&f, patches.areas(), &albedo, &direct, &emission, &options, &|| true)?;
+                times.push(ms(t));
+                match iteration {
+                    Iteration::Jacobi => (jacobi_sweeps, defect) = (s.iterations, s.energy.defect()),
+                    Iteration::GaussSeidel => gs_sweeps = s.iterations,
+                }
+            }
+        }
+        let (jacobi, gs) = (median(jacobi_ms), median(gs_ms));
+        entries.push(Entry {
+            patch_size_mm: h,
+            patches: n,
+            nonzeros,
+            nonzeros_per_patch: nonzeros as f64 / n as f64,
+            form_factor_mib: (nonzeros * (size_of::<u32>() + size_of::<f64>())) as f64 / (1024.0 * 1024.0),
+            median_form_factor_ms: median(ff_ms),
+            median_jacobi_ms: jacobi,
+            jacobi_sweeps,
+            median_gauss_seidel_ms: gs,
+            gauss_seidel_sweeps: gs_sweeps,
+            jacobi_to_gauss_seidel: jacobi / gs,
+            energy_defect: defect,
+            peak_rss_mib: peak_rss_mib(),
+        });
+    }
+    let report = serde_json::json!({
+        "suite": "radiosity",
+        "scene": "Cornell box, 200 mm, open front, diffuse 60 x 60 x 120 mm block, point light 10 mm under the ceiling",
+        "rays_per_patch": FormFactorOptions::default().rays_per_patch,
+        "tolerance": SolveOptions::default().tolerance,
+        "threads": rayon::current_num_threads(),
+        "runs": args.runs,
+        "entries": entries,
+    });
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}
