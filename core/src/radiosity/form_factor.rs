@@ -1,9 +1,13 @@
 //! Gathering form factors with visibility by ray casting (design/radiosity.md §1.4): from each
 //! patch, N cosine-weighted directions (Owen-scrambled Sobol) from origins stratified over its
 //! dual cell, traced through the scene's BVH. A ray that hits a triangle's lit side at
-//! barycentrics b adds b_k/N to F_{i→v_k}, the patches at its corners: with the radiosity
-//! interpolated linearly between patches, E_i = Σ_j F_ij B_j is then the irradiance the ray
-//! estimator sees. A hit on the back of a one-sided surface is absorbed; a patch whose rays do so
+//! barycentrics b adds 1/N to F_{i→v_k} for one of the patches at its corners, corner k picked
+//! with probability b_k: in expectation b_k/N to each, so with the radiosity interpolated
+//! linearly between patches E_i = Σ_j F_ij B_j is the irradiance the ray estimator sees. The
+//! design note adds b_k/N to all three; one corner makes rows 2.2× sparser (880 against 1,930
+//! nonzeros a patch in a closed sphere at 512 rays) for 1.8× the variance of E (worst vertex of
+//! the closed-sphere check 1.19% against 0.88%), which is the better trade where memory, not
+//! rays, bounds the scene. A hit on the back of a one-sided surface is absorbed; a patch whose rays do so
 //! more than [`FormFactorOptions::covered_fraction`] of the time lies inside geometry (a leak)
 //! and is marked covered, its row left empty.
 //!
@@ -62,6 +66,9 @@ impl FormFactorOptions {
 /// Sweeps of the balancing at most, and the row-sum error (relative to the area) it stops at.
 const BALANCE_SWEEPS: usize = 500;
 const BALANCE_TOLERANCE: f64 = 1e-14;
+
+/// Keys the random numbers that pick a hit's corner apart from the other streams.
+const CORNER_STREAM: u64 = 0x636f_726e_6572;
 
 /// Rows symmetrised at a time (their raw entries freed after).
 const SYMMETRISE_BLOCK: usize = 4096;
@@ -230,9 +237,16 @@ fn cast_row(patches: &PatchSet, options: &FormFactorOptions, i: usize) -> RawRow
         match patches.hit_side(hit.triangle, direction) {
             Some(corners) => {
                 hits += 1;
-                for (&patch, &w) in corners.iter().zip(&hit.bary) {
-                    entries.push((patch, w * weight));
-                }
+                // One corner, picked with probability bₖ (module documentation).
+                let u = unit(mix64(hash_combine(options.seed ^ CORNER_STREAM, ((i as u64) << 24) | r as u64)));
+                let k = if u < hit.bary[0] {
+                    0
+                } else if u < hit.bary[0] + hit.bary[1] {
+                    1
+                } else {
+                    2
+                };
+                entries.push((corners[k], weight));
             }
             None => absorbed += 1,
         }
@@ -249,6 +263,11 @@ fn cast_row(patches: &PatchSet, options: &FormFactorOptions, i: usize) -> RawRow
         }
     }
     RawRow { entries: merged, hit: hits as f64 * weight, covered: false }
+}
+
+/// The top 53 bits of `bits` as a number in [0, 1).
+fn unit(bits: u64) -> f64 {
+    (bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
 /// 0..n in an order shuffled by `key` (Fisher–Yates on a SplitMix64 stream).
