@@ -88,10 +88,11 @@ pub struct FormFactors {
 }
 
 /// One patch's raw row: its entries sorted by column, the fraction of its rays that hit a lit
-/// side, and whether it is covered.
+/// side, whether every ray did (a closed row) and whether it is covered.
 struct RawRow {
     entries: Vec<(u32, f64)>,
     hit: f64,
+    closed: bool,
     covered: bool,
 }
 
@@ -107,13 +108,12 @@ impl FormFactors {
         keep_going: &(dyn Fn() -> bool + Sync),
     ) -> Result<Self, RadiosityError> {
         options.validate().map_err(RadiosityError::InvalidOptions)?;
-        let raw: Vec<RawRow> = (0..patches.len())
+        let mut raw: Vec<RawRow> = (0..patches.len())
             .into_par_iter()
             .map(|i| if keep_going() { Ok(cast_row(patches, options, i)) } else { Err(Cancelled) })
             .collect::<Result<_, _>>()?;
-        let mut raw = raw;
         let areas = patches.areas();
-        let closed: Vec<bool> = raw.iter().map(|r| r.hit == 1.0 && !r.entries.is_empty()).collect();
+        let closed: Vec<bool> = raw.iter().map(|r| r.closed).collect();
         let covered = raw.iter().map(|r| r.covered).collect();
         let hit_fraction = raw.iter().map(|r| r.hit).collect();
         let symmetric = symmetrise(&mut raw, areas);
@@ -216,7 +216,7 @@ impl FormFactors {
 fn cast_row(patches: &PatchSet, options: &FormFactorOptions, i: usize) -> RawRow {
     let n = options.rays_per_patch;
     if patches.areas()[i] <= 0.0 {
-        return RawRow { entries: Vec::new(), hit: 0.0, covered: false };
+        return RawRow { entries: Vec::new(), hit: 0.0, closed: false, covered: false };
     }
     let origins = Pattern::new(hash_combine(options.seed, 2 * i as u64));
     let directions = Pattern::new(hash_combine(options.seed, 2 * i as u64 + 1));
@@ -226,7 +226,7 @@ fn cast_row(patches: &PatchSet, options: &FormFactorOptions, i: usize) -> RawRow
     let order = shuffled(n, hash_combine(options.seed, !(i as u64)));
     let t_min = RAY_EPSILON * patches.diagonal();
     let weight = 1.0 / n as f64;
-    let mut entries: Vec<(u32, f64)> = Vec::with_capacity(3 * n);
+    let mut entries: Vec<(u32, f64)> = Vec::with_capacity(n);
     let (mut hits, mut absorbed) = (0usize, 0usize);
     for (r, &shuffled_r) in order.iter().enumerate() {
         let Some((origin, normal)) = patches.sample_cell(i, origins.get(r)) else { break };
@@ -252,7 +252,7 @@ fn cast_row(patches: &PatchSet, options: &FormFactorOptions, i: usize) -> RawRow
         }
     }
     if absorbed as f64 > options.covered_fraction * n as f64 {
-        return RawRow { entries: Vec::new(), hit: 0.0, covered: true };
+        return RawRow { entries: Vec::new(), hit: 0.0, closed: false, covered: true };
     }
     entries.sort_unstable_by_key(|e| e.0);
     let mut merged: Vec<(u32, f64)> = Vec::with_capacity(entries.len());
@@ -262,7 +262,7 @@ fn cast_row(patches: &PatchSet, options: &FormFactorOptions, i: usize) -> RawRow
             _ => merged.push((j, f)),
         }
     }
-    RawRow { entries: merged, hit: hits as f64 * weight, covered: false }
+    RawRow { entries: merged, hit: hits as f64 * weight, closed: hits == n, covered: false }
 }
 
 /// The top 53 bits of `bits` as a number in [0, 1).
@@ -421,7 +421,7 @@ mod tests {
     }
 
     #[test]
-    fn factors_are_reciprocal_and_rows_sum_to_the_hit_fraction() {
+    fn facing_squares_are_reciprocal_and_give_the_closed_form() {
         let ((p0, t0), (p1, t1)) = facing_squares();
         let surfaces = [
             Surface { positions: &p0, triangles: &t0, two_sided: false },
