@@ -6,7 +6,7 @@
 //! linearly between patches E_i = Σ_j F_ij B_j is the irradiance the ray estimator sees. The
 //! design note adds b_k/N to all three; one corner makes rows 2.2× sparser (880 against 1,930
 //! nonzeros a patch in a closed sphere at 512 rays) for 1.8× the variance of E (worst vertex of
-//! the closed-sphere check 1.19% against 0.88%), which is the better trade where memory, not
+//! the closed-sphere check 1.2–1.3% against 0.88%), which is the better trade where memory, not
 //! rays, bounds the scene. A hit on the back of a one-sided surface is absorbed; a patch whose rays do so
 //! more than [`FormFactorOptions::covered_fraction`] of the time lies inside geometry (a leak)
 //! and is marked covered, its row left empty.
