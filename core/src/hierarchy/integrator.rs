@@ -468,10 +468,7 @@ impl DipoleHierarchy {
                             links += 1;
                             let at = (r - root) as usize;
                             match found {
-                                Found::Far => {
-                                    let (rn, en) = (self.receivers.node(r), self.emitters.node(e));
-                                    g.far(at, rn.leaf, rn.centre - en.centre, self.far_factor(rn, en), &emitted, e as usize);
-                                }
+                                Found::Far => self.gather_far(&mut *g, at, r, e, &emitted),
                                 Found::Near(f) => {
                                     near_links += 1;
                                     g.near(at, f.expect("nothing is kept on the fly"), &emitted, e as usize);
@@ -625,6 +622,13 @@ impl DipoleHierarchy {
         }
     }
 
+    /// Gathers far link (`r`, `e`) into local node `at` of `g`: its kernel from the nodes'
+    /// centres, expanded as [`Gathered::far`] says.
+    fn gather_far(&self, g: &mut Gathered, at: usize, r: u32, e: u32, emitted: &Emitted) {
+        let (rn, en) = (self.receivers.node(r), self.emitters.node(e));
+        g.far(at, rn.leaf, rn.centre - en.centre, self.far_factor(rn, en), emitted, e as usize);
+    }
+
     /// The dipole between the clusters' centres with its derivatives (module documentation;
     /// in the paper's geometry the sample alone, k = l = 0).
     fn far_factor(&self, r: &ClusterNode, e: &ClusterNode) -> Kernel {
@@ -722,15 +726,7 @@ impl DipoleHierarchy {
         let root = task.root;
         g.reset((self.receivers.subtree_end(root) - root) as usize);
         for l in &task.far {
-            let (rn, en) = (self.receivers.node(l.receiver), self.emitters.node(l.emitter));
-            g.far(
-                (l.receiver - root) as usize,
-                rn.leaf,
-                rn.centre - en.centre,
-                self.far_factor(rn, en),
-                emitted,
-                l.emitter as usize,
-            );
+            self.gather_far(g, (l.receiver - root) as usize, l.receiver, l.emitter, emitted);
         }
         for l in &task.near {
             g.near((l.receiver - root) as usize, l.f.map(f64::from), emitted, l.emitter as usize);

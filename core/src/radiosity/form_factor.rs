@@ -196,19 +196,20 @@ impl FormFactors {
     #[must_use]
     pub fn apply(&self, b: &[[f64; 3]]) -> Vec<[f64; 3]> {
         assert_eq!(b.len(), self.len(), "one radiosity per patch");
-        (0..self.len())
-            .into_par_iter()
-            .map(|i| {
-                let (columns, values) = self.row(i);
-                let mut e = [0.0; 3];
-                for (&j, &f) in columns.iter().zip(values) {
-                    for c in 0..3 {
-                        e[c] += f * b[j as usize][c];
-                    }
-                }
-                e
-            })
-            .collect()
+        (0..self.len()).into_par_iter().map(|i| self.apply_row(i, b)).collect()
+    }
+
+    /// (F B)ᵢ: the irradiance at patch `i` from the radiosity `b` of every patch.
+    #[must_use]
+    pub fn apply_row(&self, i: usize, b: &[[f64; 3]]) -> [f64; 3] {
+        let (columns, values) = self.row(i);
+        let mut e = [0.0; 3];
+        for (&j, &f) in columns.iter().zip(values) {
+            for c in 0..3 {
+                e[c] += f * b[j as usize][c];
+            }
+        }
+        e
     }
 }
 

@@ -67,15 +67,7 @@ impl PatchSet {
     /// [`RadiosityError::NoPatches`] when no triangle has area.
     pub fn new(surfaces: &[Surface]) -> Result<Self, RadiosityError> {
         for (s, surface) in surfaces.iter().enumerate() {
-            let vertices = surface.positions.len();
-            if let Some((vertex, p)) = surface.positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
-                return Err(RadiosityError::NonFinite { surface: s, vertex, value: p.to_array() });
-            }
-            for (triangle, t) in surface.triangles.iter().enumerate() {
-                if let Some(&index) = t.iter().find(|&&i| i as usize >= vertices) {
-                    return Err(RadiosityError::IndexOutOfRange { surface: s, triangle, index, vertices });
-                }
-            }
+            check_surface(s, surface.positions, surface.triangles)?;
         }
         let mut first_front = Vec::with_capacity(surfaces.len());
         let mut n = 0;
@@ -271,6 +263,22 @@ impl PatchSet {
     }
 }
 
+/// Surface `surface`'s positions are finite and its triangles' indices in range.
+fn check_surface(surface: usize, positions: &[DVec3], triangles: &[[u32; 3]]) -> Result<(), RadiosityError> {
+    let vertices = positions.len();
+    if let Some((vertex, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+        return Err(RadiosityError::NonFinite { surface, vertex, value: p.to_array() });
+    }
+    match triangles
+        .iter()
+        .enumerate()
+        .find_map(|(triangle, t)| t.iter().find(|&&i| i as usize >= vertices).map(|&i| (triangle, i)))
+    {
+        Some((triangle, index)) => Err(RadiosityError::IndexOutOfRange { surface, triangle, index, vertices }),
+        None => Ok(()),
+    }
+}
+
 /// The surface `positions`/`triangles` with its edges bisected, longest first, until none is
 /// longer than `max_edge`: the input's vertices keep their indices and come first, each new
 /// vertex is an edge's midpoint, orientation and non-manifold edges are kept. Splitting the
@@ -289,12 +297,7 @@ pub fn refine_to_edge_length(
     if !(max_edge.is_finite() && max_edge > 0.0) {
         return Err(RadiosityError::InvalidPatchSize(max_edge));
     }
-    // Checks indices and positions with PatchSet's messages.
-    if let Err(e @ (RadiosityError::IndexOutOfRange { .. } | RadiosityError::NonFinite { .. })) =
-        PatchSet::new(&[Surface { positions, triangles, two_sided: false }])
-    {
-        return Err(e);
-    }
+    check_surface(0, positions, triangles)?;
     // Each split halves an edge; a triangle of area A needs about A/(√3/4 · h²) pieces.
     let estimate: f64 = triangles
         .iter()

@@ -131,14 +131,7 @@ pub fn solve(
             Iteration::GaussSeidel => {
                 let mut change = 0.0;
                 for i in 0..n {
-                    let (columns, values) = factors.row(i);
-                    let mut e = [0.0; 3];
-                    for (&j, &f) in columns.iter().zip(values) {
-                        for c in 0..3 {
-                            e[c] += f * b[j as usize][c];
-                        }
-                    }
-                    let x = update(i, e);
+                    let x = update(i, factors.apply_row(i, &b));
                     change += areas[i] * (0..3).map(|c| (x[c] - b[i][c]).abs()).sum::<f64>();
                     b[i] = x;
                 }
