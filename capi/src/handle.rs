@@ -130,7 +130,7 @@ impl SceneState {
         let i = self.object_index(object)?;
         let o = &mut self.scene.objects[i];
         medium.validate(&o.shape).map_err(|e| Failure::invalid(format!("object {object} ({}): {e}", o.name)))?;
-        o.medium = medium;
+        o.material = medium.into();
         self.changed();
         Ok(())
     }

@@ -7,6 +7,9 @@
 //!           user's vertices, statistics, the method's state
 //! ```
 //!
+//! Radiosity couples the objects, so it bakes the scene as a whole
+//! ([`crate::methods::radiosity`]) from the same world surfaces and lighting.
+//!
 //! The driver owns what every method shares: validation, the worker threads, progress (stages
 //! named `"<object>: <stage>"`, fractions of the whole bake that never decrease), the check that
 //! a method's radiance is finite, non-negative and one value per output vertex, and the
@@ -15,8 +18,10 @@
 use std::sync::Mutex;
 use std::time::Instant;
 
-use crate::mesh::TriMesh;
-use crate::methods::{bake_object, object_stage, HierarchicalDipole, Lighting, ObjectBake, SubsurfaceMethod, Target, TransCut};
+use crate::methods::{
+    bake_object, object_stage, radiosity, targets, world_surfaces, HierarchicalDipole, Lighting, ObjectBake, RadiosityStats,
+    SubsurfaceMethod, TransCut,
+};
 use crate::progress::{ms, Progress};
 use crate::scene::{BakeOptions, Method, Scene, SceneError};
 use crate::workers::with_workers;
@@ -25,6 +30,9 @@ use crate::workers::with_workers;
 #[derive(Debug, Clone)]
 pub struct Bake {
     pub objects: Vec<ObjectBake>,
+    /// What the radiosity method measured of the whole scene (it bakes all objects together);
+    /// `None` for the other methods.
+    pub radiosity: Option<RadiosityStats>,
     /// Wall time of the whole bake.
     pub total_ms: f64,
 }
@@ -50,6 +58,7 @@ pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Re
     with_threads(options.threads, || match &options.method {
         Method::TransCut(o) => bake_all::<TransCut>(scene, options, o, progress),
         Method::HierarchicalDipole(o) => bake_all::<HierarchicalDipole>(scene, options, o, progress),
+        Method::Radiosity(o) => radiosity::bake_scene(scene, options, o, progress),
     })
     .map_err(SceneError::InvalidOptions)?
 }
@@ -73,20 +82,8 @@ fn bake_all<M: SubsurfaceMethod>(
     progress: Progress,
 ) -> Result<Bake, SceneError> {
     let start = Instant::now();
-    // World-space surfaces: the methods bake them, and together they shadow.
-    let world = scene
-        .objects
-        .iter()
-        .enumerate()
-        .map(|(index, o)| {
-            o.world_surface().map_err(|e| SceneError::InvalidObject { index, name: o.name.clone(), message: e.to_string() })
-        })
-        .collect::<Result<Vec<TriMesh>, _>>()?;
-    for (index, (o, world)) in scene.objects.iter().zip(&world).enumerate() {
-        o.check_size(world).map_err(|message| SceneError::InvalidObject { index, name: o.name.clone(), message })?;
-    }
-    let targets: Vec<Target<'_>> =
-        scene.objects.iter().zip(&world).enumerate().map(|(index, (object, world))| Target { index, object, world }).collect();
+    let world = world_surfaces(scene)?;
+    let targets = targets(scene, &world);
     for target in &targets {
         M::check(target, method)?;
     }
@@ -100,5 +97,5 @@ fn bake_all<M: SubsurfaceMethod>(
         objects.push(bake_object::<M>(target, method, name, &lighting, &stage)?);
         stage("done", 1.0)?;
     }
-    Ok(Bake { objects, total_ms: ms(start) })
+    Ok(Bake { objects, radiosity: None, total_ms: ms(start) })
 }

@@ -316,7 +316,7 @@ fn heterogeneous_media_are_refused_and_tet_meshes_are_baked_on_their_boundary() 
     let surface = icosphere(10.0, 3);
     let mut veined = Object::new("veined", surface.clone(), marble(), 1.0);
     let vein = Medium::preset("skin1").unwrap();
-    veined.medium = MediumSource::Veins(Veins::new(marble(), vein, 1, VeinParams::default()).unwrap());
+    veined.material = MediumSource::Veins(Veins::new(marble(), vein, 1, VeinParams::default()).unwrap()).into();
     let e = bake(&Scene { objects: vec![veined], lights: lights.clone() }, &options).unwrap_err();
     assert!(
         matches!(&e, SceneError::Unsupported { method: "hierarchical-dipole", .. }) && e.to_string().contains("heterogeneous"),

@@ -265,7 +265,7 @@ fn bad_input_is_answered_with_the_culprit_named() {
         let e = fail(vec![bad], lights.clone(), &opts);
         assert!(e.to_string().contains("object 0 (ball)") && e.to_string().contains("transform"), "{name}: {e}");
         let mut bad = ball.clone();
-        bad.medium = MediumSource::Table(Vec::new());
+        bad.material = MediumSource::Table(Vec::new()).into();
         let e = fail(vec![bad], lights.clone(), &opts);
         assert!(e.to_string().contains("object 0 (ball)") && e.to_string().contains("table is empty"), "{name}: {e}");
         let nan = Light::Point { position: DVec3::new(f64::NAN, 0.0, 0.0), intensity: [1.0; 3] };

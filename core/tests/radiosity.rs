@@ -185,7 +185,7 @@ fn a_closed_sphere_with_a_point_light_has_the_closed_form() {
     let mean = areas.iter().zip(&direct).map(|(a, e)| a * e[0]).sum::<f64>() / areas.iter().sum::<f64>();
     assert!((mean - intensity / (radius * radius)).abs() < 0.01 * mean, "mean irradiance {mean}");
     for (rho, iteration) in [(0.5, Iteration::Jacobi), (0.9, Iteration::Jacobi), (0.9, Iteration::GaussSeidel)] {
-        let options = SolveOptions { iteration, tolerance: 1e-3, max_iterations: 500 };
+        let options = SolveOptions { iteration, tolerance: 1e-3, max_iterations: 500, bounces: None };
         let albedo = vec![[rho; 3]; patches.len()];
         let zero = vec![[0.0; 3]; patches.len()];
         let s = solve(&f, areas, &albedo, &direct, &zero, &options, &|| true).unwrap();

@@ -31,11 +31,13 @@
 pub mod capability;
 pub mod hierarchical_dipole;
 mod lighting;
+pub mod radiosity;
 mod result;
 pub mod transcut;
 
 pub use hierarchical_dipole::{DipoleState, HierarchicalDipole};
 pub use lighting::Lighting;
+pub use radiosity::{RadiosityObject, RadiosityStats};
 pub use result::{BakedState, ObjectBake, ObjectStats};
 pub use transcut::{TransCut, TransCutState};
 
@@ -44,7 +46,7 @@ use std::time::Instant;
 
 use crate::mesh::TriMesh;
 use crate::progress::{ms, Cancelled, Progress};
-use crate::scene::{Object, SceneError};
+use crate::scene::{MediumSource, Object, Scene, SceneError};
 
 /// The object a method bakes: its place in the scene (for error messages) and its surface in
 /// world space.
@@ -57,11 +59,50 @@ pub(crate) struct Target<'a> {
     pub world: &'a TriMesh,
 }
 
-impl Target<'_> {
+impl<'a> Target<'a> {
+    /// The object's translucent medium, or [`SceneError::Unsupported`] naming `method` for an
+    /// opaque diffuse object: a method that bakes each object alone would return it lit by the
+    /// lights only, without the light it exchanges with the rest of the scene, so it refuses
+    /// instead of returning that wrong picture (only radiosity couples objects).
+    pub(crate) fn medium(&self, method: &'static str) -> Result<&'a MediumSource, SceneError> {
+        self.object.medium().ok_or_else(|| SceneError::Unsupported {
+            index: self.index,
+            name: self.object.name.clone(),
+            method,
+            reason: "it is an opaque diffuse surface, and only the radiosity method bakes those (it couples them with the \
+                     translucent objects); choose method \"radiosity\", or leave the object out"
+                .into(),
+        })
+    }
+
     /// [`SceneError::InvalidObject`] for this object.
     pub(crate) fn invalid(&self, message: impl Into<String>) -> SceneError {
         SceneError::InvalidObject { index: self.index, name: self.object.name.clone(), message: message.into() }
     }
+}
+
+/// Every object's surface in world space ([`Object::world_surface`]), each checked against the
+/// size bounds ([`Object::check_size`]): the methods bake them, and together they shadow.
+///
+/// # Errors
+/// [`SceneError::InvalidObject`] naming the object.
+pub(crate) fn world_surfaces(scene: &Scene) -> Result<Vec<TriMesh>, SceneError> {
+    scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(index, o)| {
+            let invalid = |message| SceneError::InvalidObject { index, name: o.name.clone(), message };
+            let world = o.world_surface().map_err(|e| invalid(e.to_string()))?;
+            o.check_size(&world).map_err(invalid)?;
+            Ok(world)
+        })
+        .collect()
+}
+
+/// The scene's objects as targets, with their world surfaces.
+pub(crate) fn targets<'a>(scene: &'a Scene, world: &'a [TriMesh]) -> Vec<Target<'a>> {
+    scene.objects.iter().zip(world).enumerate().map(|(index, (object, world))| Target { index, object, world }).collect()
 }
 
 /// Reports a stage of one object's bake: a stage name and the fraction of the object done, in
@@ -130,6 +171,22 @@ pub(crate) fn object_stage<'a>(
     }
 }
 
+/// The contract's check of a method's radiance: one finite, non-negative value per output vertex.
+///
+/// # Errors
+/// [`SceneError::InvalidObject`] naming the method and what is wrong.
+pub(crate) fn check_radiance(target: &Target<'_>, name: &str, radiance: &[[f64; 3]]) -> Result<(), SceneError> {
+    let expected = target.object.shape.output_vertex_count();
+    if radiance.len() != expected {
+        return Err(target
+            .invalid(format!("the {name} method returned {} radiance values for {expected} output vertices", radiance.len())));
+    }
+    if let Some(v) = radiance.iter().position(|l| l.iter().any(|x| !(x.is_finite() && *x >= 0.0))) {
+        return Err(target.invalid(format!("the {name} method returned the radiance {:?} at vertex {v}", radiance[v])));
+    }
+    Ok(())
+}
+
 /// One object through method `M` (named `name`): prepare, solve, and the check that the
 /// radiance is one finite, non-negative value per output vertex.
 ///
@@ -147,14 +204,7 @@ pub(crate) fn bake_object<M: SubsurfaceMethod>(
     stats.flipped_faces = target.world.flipped_faces();
     let mut state = M::prepare(target, options, &mut stats, stage)?;
     let radiance = M::solve(target, &mut state, lighting, options, &mut stats, stage)?;
-    let expected = target.object.shape.output_vertex_count();
-    if radiance.len() != expected {
-        return Err(target
-            .invalid(format!("the {name} method returned {} radiance values for {expected} output vertices", radiance.len())));
-    }
-    if let Some(v) = radiance.iter().position(|l| l.iter().any(|x| !(x.is_finite() && *x >= 0.0))) {
-        return Err(target.invalid(format!("the {name} method returned the radiance {:?} at vertex {v}", radiance[v])));
-    }
+    check_radiance(target, name, &radiance)?;
     stats.total_ms = ms(t0);
     Ok(ObjectBake { radiance, stats, state: M::into_baked(state) })
 }

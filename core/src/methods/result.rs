@@ -4,6 +4,7 @@ use crate::gpu::Backend;
 use crate::mesher::MesherStats;
 
 use super::hierarchical_dipole::DipoleState;
+use super::radiosity::RadiosityObject;
 use super::transcut::TransCutState;
 
 /// One object's bake: the radiance, what was measured, and what the method prepared.
@@ -24,6 +25,7 @@ impl ObjectBake {
         match &self.state {
             BakedState::TransCut(s) => s.eta,
             BakedState::HierarchicalDipole(s) => s.eta(),
+            BakedState::Radiosity(s) => s.eta,
         }
     }
 
@@ -32,7 +34,7 @@ impl ObjectBake {
     pub fn transcut(&self) -> Option<&TransCutState> {
         match &self.state {
             BakedState::TransCut(s) => Some(s),
-            BakedState::HierarchicalDipole(_) => None,
+            BakedState::HierarchicalDipole(_) | BakedState::Radiosity(_) => None,
         }
     }
 
@@ -41,7 +43,16 @@ impl ObjectBake {
     pub fn dipole(&self) -> Option<&DipoleState> {
         match &self.state {
             BakedState::HierarchicalDipole(s) => Some(s),
-            BakedState::TransCut(_) => None,
+            BakedState::TransCut(_) | BakedState::Radiosity(_) => None,
+        }
+    }
+
+    /// The radiosity method's state of the object, when that method baked the scene.
+    #[must_use]
+    pub fn radiosity(&self) -> Option<&RadiosityObject> {
+        match &self.state {
+            BakedState::Radiosity(s) => Some(s),
+            BakedState::TransCut(_) | BakedState::HierarchicalDipole(_) => None,
         }
     }
 
@@ -60,6 +71,9 @@ pub enum BakedState {
     TransCut(TransCutState),
     /// The hierarchical dipole: the cluster trees (and links) over the surface, the medium.
     HierarchicalDipole(DipoleState),
+    /// Translucent radiosity: the object's patch surface and its radiance, with its TransCut
+    /// state when translucent.
+    Radiosity(Box<RadiosityObject>),
 }
 
 /// What was measured for one object. Fields that a method does not have are 0 (or `None`); the

@@ -23,4 +23,4 @@ mod solver;
 pub use error::RadiosityError;
 pub use form_factor::{FormFactorOptions, FormFactors};
 pub use patches::{refine_to_edge_length, PatchSet, Surface, MAX_REFINED_TRIANGLES};
-pub use solver::{solve, EnergyBalance, Iteration, Solution, SolveOptions};
+pub use solver::{solve, solve_coupled, EnergyBalance, Iteration, Opaque, Scattering, Solution, SolveOptions, Translucent};

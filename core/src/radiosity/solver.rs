@@ -1,7 +1,10 @@
-//! Classical radiosity on the patches, B = ρ ⊙ (E + F B) + M per channel (Sheng et al. 2014
-//! eq. 2, S = diag(ρ); design/radiosity.md §1.6): Jacobi, as the paper iterates, or Gauss–Seidel
-//! in place, stopped by an a-posteriori estimate of the remaining error, with the energy
-//! balance of the result.
+//! Translucent radiosity on the patches (Sheng et al. 2014 eqs. 13–14; design/radiosity.md
+//! §1.2, §1.6): B = S(q_d + t F B) on the patches of each translucent object, S its subsurface
+//! scattering ([`Scattering`]) and t = 1 − F_ext(η) the part of the diffuse indirect light that
+//! enters it, and B = ρ ⊙ (E_d + F B) + M on opaque patches (eq. 2, S = diag ρ). Jacobi, as the
+//! paper iterates (bounce k of the light after k − 1 sweeps), or block Gauss–Seidel (opaque
+//! patches in place, then each translucent object from the values already updated), stopped by
+//! an a-posteriori estimate of the remaining error, with the energy balance of the result.
 //!
 //! The estimate: with δ_k the area-weighted change of power between sweeps relative to the
 //! power, and ρ̂ = δ_k/δ_{k−1} the observed contraction, the error left is about
@@ -15,37 +18,94 @@ use super::form_factor::FormFactors;
 /// The iteration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Iteration {
-    /// B_{k+1} = ρ(E + F B_k) + M, every patch from the last sweep (the paper's; parallel).
+    /// Every patch from the last sweep (the paper's; parallel): sweep k adds bounce k + 1.
     #[default]
     Jacobi,
-    /// Each patch from the values already updated in this sweep (sequential, about half the
-    /// sweeps of Jacobi).
+    /// Opaque patches one after the other from the values already updated in this sweep, then
+    /// each translucent object from them (sequential, about half the sweeps of Jacobi and half
+    /// its scattering solves).
     GaussSeidel,
+}
+
+impl Iteration {
+    /// Every name, in the order front ends list them.
+    pub const NAMES: [&'static str; 2] = ["jacobi", "gauss-seidel"];
+
+    /// The name front ends use.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Jacobi => "jacobi",
+            Self::GaussSeidel => "gauss-seidel",
+        }
+    }
+
+    /// The iteration called `name` (any case), or `None`.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "jacobi" => Some(Self::Jacobi),
+            "gauss-seidel" => Some(Self::GaussSeidel),
+            _ => None,
+        }
+    }
 }
 
 /// How the radiosity is solved.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolveOptions {
     pub iteration: Iteration,
-    /// The estimated relative error in power to stop at.
+    /// The estimated relative error in power to stop at, in (0, 1).
     pub tolerance: f64,
-    /// Sweeps at most.
+    /// Sweeps at most, ≥ 1.
     pub max_iterations: usize,
+    /// `Some(k)`: exactly k bounces of light (the first, S q_d and ρE_d + M, then k − 1 Jacobi
+    /// sweeps), whatever the tolerance; `None`: until the tolerance.
+    pub bounces: Option<usize>,
 }
 
 impl Default for SolveOptions {
     fn default() -> Self {
-        Self { iteration: Iteration::Jacobi, tolerance: 1e-3, max_iterations: 200 }
+        Self { iteration: Iteration::Jacobi, tolerance: 1e-3, max_iterations: 200, bounces: None }
+    }
+}
+
+impl SolveOptions {
+    /// The largest `max_iterations` and `bounces`: a radiosity that has not converged in ten
+    /// thousand sweeps has an albedo too close to 1 to be meant.
+    pub const MAX_ITERATIONS: usize = 10_000;
+
+    /// # Errors
+    /// A message naming the option out of range.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return Err(format!("the radiosity tolerance must lie in (0, 1), got {}", self.tolerance));
+        }
+        if self.max_iterations == 0 || self.max_iterations > Self::MAX_ITERATIONS {
+            return Err(format!("max_iterations must be in 1..={}, got {}", Self::MAX_ITERATIONS, self.max_iterations));
+        }
+        match self.bounces {
+            Some(0) => Err("bounces must be at least 1 (the direct light's)".into()),
+            Some(b) if b > Self::MAX_ITERATIONS => Err(format!("bounces must be at most {}, got {b}", Self::MAX_ITERATIONS)),
+            Some(_) if self.iteration != Iteration::Jacobi => {
+                Err("a count of bounces needs the Jacobi iteration (a Gauss–Seidel sweep mixes bounces)".into())
+            }
+            _ => Ok(()),
+        }
     }
 }
 
 /// Where the light went, per channel, in power (irradiance × area): what the direct light and
-/// the emission put in, what the patches absorbed and what left the scene.
+/// the emission put in (for translucent patches the transmitted direct light q_d), what the
+/// patches absorbed, what the translucent surfaces reflected specularly (the part F_ext of the
+/// indirect light they get, which diffuse transport leaves to the renderer) and what left the
+/// scene.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EnergyBalance {
     pub direct: [f64; 3],
     pub emitted: [f64; 3],
     pub absorbed: [f64; 3],
+    pub specular: [f64; 3],
     pub escaped: [f64; 3],
 }
 
@@ -57,7 +117,7 @@ impl EnergyBalance {
             .map(|c| {
                 let input = self.direct[c] + self.emitted[c];
                 if input > 0.0 {
-                    (input - self.absorbed[c] - self.escaped[c]).abs() / input
+                    (input - self.absorbed[c] - self.specular[c] - self.escaped[c]).abs() / input
                 } else {
                     0.0
                 }
@@ -71,20 +131,75 @@ impl EnergyBalance {
 pub struct Solution {
     /// B per patch and channel (exitance, the units of the irradiance).
     pub radiosity: Vec<[f64; 3]>,
-    /// Sweeps made.
+    /// Sweeps made (bounces − 1 under Jacobi).
     pub iterations: usize,
-    /// The a-posteriori estimate of the relative error in power when it stopped.
+    /// Applications of each translucent object's scattering (sweeps + 1).
+    pub scatterings: usize,
+    /// The a-posteriori estimate of the relative error in power when it stopped (0 after one
+    /// bounce only, which is exact for what it is).
     pub estimated_error: f64,
     pub energy: EnergyBalance,
 }
 
-/// Solves B = ρ ⊙ (E + F B) + M for the albedo `albedo` (each in [0, 1)), the direct
-/// irradiance `direct` and the emission `emission` (each ≥ 0) per patch; `keep_going` is asked
-/// between sweeps.
+/// The subsurface scattering of one translucent object, S: the light transmitted into each of
+/// its patches (irradiance, after Fresnel) to the exitance B leaving each (design/radiosity.md
+/// §1.2). It is linear and keeps what its next application starts from (a warm start).
+pub trait Scattering {
+    /// Why an application failed.
+    type Error;
+
+    /// B per patch for the transmitted irradiance `q` per patch (both in the object's patch
+    /// order).
+    ///
+    /// # Errors
+    /// The operator's own (a solve that failed, a cancellation).
+    fn scatter(&mut self, q: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, Self::Error>;
+}
+
+/// The opaque side of the scene, per patch (translucent patches' entries are not read).
+#[derive(Debug, Clone, Copy)]
+pub struct Opaque<'a> {
+    /// ρ per patch and channel, in [0, 1).
+    pub albedo: &'a [[f64; 3]],
+    /// The direct irradiance E_d, finite and ≥ 0.
+    pub direct: &'a [[f64; 3]],
+    /// The emitted exitance M, finite and ≥ 0.
+    pub emission: &'a [[f64; 3]],
+}
+
+/// One translucent object's patches: `direct.len()` consecutive patches from `first`.
+pub struct Translucent<'a, E> {
+    pub first: usize,
+    /// t = 1 − F_ext(η): the part of diffuse indirect light that enters the object.
+    pub transmittance: f64,
+    /// The transmitted direct light q_d per patch of the object, finite and ≥ 0.
+    pub direct: &'a [[f64; 3]],
+    pub scattering: &'a mut dyn Scattering<Error = E>,
+}
+
+impl<E> Translucent<'_, E> {
+    fn range(&self) -> std::ops::Range<usize> {
+        self.first..self.first + self.direct.len()
+    }
+
+    /// Scatters the light q = q_d + t E transmitted under the gathered irradiance E of the
+    /// object's patches into `b`'s entries of the object.
+    fn update(&mut self, gathered: &[[f64; 3]], b: &mut [[f64; 3]]) -> Result<(), E> {
+        let t = self.transmittance;
+        let q: Vec<[f64; 3]> = self.direct.iter().zip(gathered).map(|(d, e)| std::array::from_fn(|c| d[c] + t * e[c])).collect();
+        let out = self.scattering.scatter(&q)?;
+        let range = self.range();
+        b[range].copy_from_slice(&out);
+        Ok(())
+    }
+}
+
+/// Solves classical radiosity B = ρ ⊙ (E + F B) + M for the albedo `albedo` (each in [0, 1)),
+/// the direct irradiance `direct` and the emission `emission` (each ≥ 0) per patch; `keep_going`
+/// is asked between sweeps.
 ///
 /// # Errors
-/// [`RadiosityError::WrongLength`], [`RadiosityError::InvalidValue`] naming the patch and the
-/// field, [`RadiosityError::InvalidOptions`] or [`RadiosityError::Cancelled`].
+/// As [`solve_coupled`].
 pub fn solve(
     factors: &FormFactors,
     areas: &[f64],
@@ -94,53 +209,68 @@ pub fn solve(
     options: &SolveOptions,
     keep_going: &(dyn Fn() -> bool + Sync),
 ) -> Result<Solution, RadiosityError> {
+    solve_coupled::<RadiosityError>(factors, areas, &Opaque { albedo, direct, emission }, &mut [], options, keep_going)
+}
+
+/// Solves translucent radiosity (module documentation): the opaque patches' `opaque` values and
+/// the translucent objects `translucent` (disjoint patch ranges; the opaque values of their
+/// patches are not read); `keep_going` is asked between sweeps.
+///
+/// # Errors
+/// [`RadiosityError::WrongLength`], [`RadiosityError::InvalidValue`] naming the patch and the
+/// field, [`RadiosityError::InvalidOptions`] (also for overlapping translucent ranges) or
+/// [`RadiosityError::Cancelled`]; a scattering's error.
+pub fn solve_coupled<E: From<RadiosityError>>(
+    factors: &FormFactors,
+    areas: &[f64],
+    opaque: &Opaque<'_>,
+    translucent: &mut [Translucent<'_, E>],
+    options: &SolveOptions,
+    keep_going: &(dyn Fn() -> bool + Sync),
+) -> Result<Solution, E> {
     let n = factors.len();
-    for (what, values) in
-        [("areas", areas.len()), ("albedo", albedo.len()), ("direct", direct.len()), ("emission", emission.len())]
-    {
-        if values != n {
-            return Err(RadiosityError::WrongLength { what, expected: n, got: values });
-        }
-    }
-    check("albedo", albedo, |x| (0.0..1.0).contains(&x))?;
-    check("direct", direct, |x| x >= 0.0 && x.is_finite())?;
-    check("emission", emission, |x| x >= 0.0 && x.is_finite())?;
-    if !(options.tolerance > 0.0 && options.tolerance.is_finite()) || options.max_iterations == 0 {
-        return Err(RadiosityError::InvalidOptions(format!(
-            "the tolerance must be finite and > 0 and max_iterations ≥ 1, got {} and {}",
-            options.tolerance, options.max_iterations
-        )));
-    }
+    let is_translucent = check_inputs(n, areas, opaque, translucent, options)?;
+    let Opaque { albedo, direct, emission } = *opaque;
     let update =
         |i: usize, e: [f64; 3]| -> [f64; 3] { std::array::from_fn(|c| albedo[i][c] * (direct[i][c] + e[c]) + emission[i][c]) };
-    let mut b: Vec<[f64; 3]> = (0..n).map(|i| update(i, [0.0; 3])).collect();
+    let zero = vec![[0.0; 3]; n];
+    let mut b: Vec<[f64; 3]> = (0..n).map(|i| if is_translucent[i] { [0.0; 3] } else { update(i, [0.0; 3]) }).collect();
+    for block in translucent.iter_mut() {
+        block.update(&zero[block.range()], &mut b)?;
+    }
+    let mut scatterings = 1;
     let power = |b: &[[f64; 3]]| -> f64 { b.iter().zip(areas).map(|(x, a)| a * (x[0] + x[1] + x[2])).sum() };
-    let (mut previous, mut estimated, mut iterations) = (f64::NAN, f64::INFINITY, 0);
-    while iterations < options.max_iterations {
+    let change = |x: &[f64; 3], y: &[f64; 3], a: f64| a * (0..3).map(|c| (x[c] - y[c]).abs()).sum::<f64>();
+    let sweeps = options.bounces.map_or(options.max_iterations, |k| k - 1);
+    let (mut previous, mut estimated, mut iterations) = (f64::NAN, if sweeps == 0 { 0.0 } else { f64::INFINITY }, 0);
+    while iterations < sweeps {
         if !keep_going() {
-            return Err(RadiosityError::Cancelled(crate::progress::Cancelled));
+            return Err(RadiosityError::Cancelled(crate::progress::Cancelled).into());
         }
-        let change = match options.iteration {
+        let before = b.clone();
+        match options.iteration {
             Iteration::Jacobi => {
-                let next: Vec<[f64; 3]> = factors.apply(&b).into_par_iter().enumerate().map(|(i, e)| update(i, e)).collect();
-                let change =
-                    next.iter().zip(&b).zip(areas).map(|((x, y), a)| a * (0..3).map(|c| (x[c] - y[c]).abs()).sum::<f64>()).sum();
-                b = next;
-                change
+                let gathered = factors.apply(&b);
+                b.par_iter_mut().enumerate().filter(|(i, _)| !is_translucent[*i]).for_each(|(i, x)| *x = update(i, gathered[i]));
+                for block in translucent.iter_mut() {
+                    block.update(&gathered[block.range()], &mut b)?;
+                }
             }
             Iteration::GaussSeidel => {
-                let mut change = 0.0;
-                for i in 0..n {
-                    let x = update(i, factors.apply_row(i, &b));
-                    change += areas[i] * (0..3).map(|c| (x[c] - b[i][c]).abs()).sum::<f64>();
-                    b[i] = x;
+                for i in (0..n).filter(|&i| !is_translucent[i]) {
+                    b[i] = update(i, factors.apply_row(i, &b));
                 }
-                change
+                for block in translucent.iter_mut() {
+                    let gathered: Vec<[f64; 3]> = block.range().into_par_iter().map(|i| factors.apply_row(i, &b)).collect();
+                    block.update(&gathered, &mut b)?;
+                }
             }
-        };
+        }
+        scatterings += 1;
         iterations += 1;
         let total = power(&b);
-        let delta = if total > 0.0 { change / total } else { 0.0 };
+        let moved: f64 = b.par_iter().zip(&before).zip(areas).map(|((x, y), a)| change(x, y, *a)).sum();
+        let delta = if total > 0.0 { moved / total } else { 0.0 };
         let rate = delta / previous;
         estimated = if delta == 0.0 {
             0.0
@@ -150,41 +280,104 @@ pub fn solve(
             f64::INFINITY
         };
         previous = delta;
-        if estimated <= options.tolerance {
+        if options.bounces.is_none() && estimated <= options.tolerance {
             break;
         }
     }
-    let energy = balance(factors, areas, albedo, direct, emission, &b);
-    Ok(Solution { radiosity: b, iterations, estimated_error: estimated, energy })
+    let energy = balance(factors, areas, opaque, translucent, &is_translucent, &b);
+    let scatterings = if translucent.is_empty() { 0 } else { scatterings };
+    Ok(Solution { radiosity: b, iterations, scatterings, estimated_error: estimated, energy })
 }
 
-/// The energy balance of `b` (module documentation of [`EnergyBalance`]).
-fn balance(
+/// The lengths, the values and the options, and which patches are translucent.
+fn check_inputs<E>(
+    n: usize,
+    areas: &[f64],
+    opaque: &Opaque<'_>,
+    translucent: &[Translucent<'_, E>],
+    options: &SolveOptions,
+) -> Result<Vec<bool>, RadiosityError> {
+    for (what, values) in [
+        ("areas", areas.len()),
+        ("albedo", opaque.albedo.len()),
+        ("direct", opaque.direct.len()),
+        ("emission", opaque.emission.len()),
+    ] {
+        if values != n {
+            return Err(RadiosityError::WrongLength { what, expected: n, got: values });
+        }
+    }
+    options.validate().map_err(RadiosityError::InvalidOptions)?;
+    let mut is_translucent = vec![false; n];
+    for (k, block) in translucent.iter().enumerate() {
+        let range = block.range();
+        if range.end > n || is_translucent[range.clone()].iter().any(|&t| t) {
+            return Err(RadiosityError::InvalidOptions(format!(
+                "translucent object {k}: its patches {}..{} overlap another object's or lie beyond the {n} patches",
+                range.start, range.end
+            )));
+        }
+        if !(0.0..=1.0).contains(&block.transmittance) {
+            return Err(RadiosityError::InvalidOptions(format!(
+                "translucent object {k}: the transmittance must lie in [0, 1], got {}",
+                block.transmittance
+            )));
+        }
+        check("transmitted direct light", block.direct, block.first, |x| x >= 0.0 && x.is_finite())?;
+        is_translucent[range].fill(true);
+    }
+    let opaque_only = |values: &[[f64; 3]]| -> Vec<[f64; 3]> {
+        values.iter().zip(&is_translucent).map(|(v, &t)| if t { [0.0; 3] } else { *v }).collect()
+    };
+    check("albedo", &opaque_only(opaque.albedo), 0, |x| (0.0..1.0).contains(&x))?;
+    check("direct", &opaque_only(opaque.direct), 0, |x| x >= 0.0 && x.is_finite())?;
+    check("emission", &opaque_only(opaque.emission), 0, |x| x >= 0.0 && x.is_finite())?;
+    Ok(is_translucent)
+}
+
+/// The energy balance of `b` ([`EnergyBalance`]): an opaque patch absorbs (1 − ρ)(E_d + E), a
+/// translucent one q − B of the light q = q_d + tE it transmits and reflects (1 − t)E
+/// specularly; every patch sends the part 1 − Σⱼ F_ij of its B out of the scene.
+fn balance<E>(
     factors: &FormFactors,
     areas: &[f64],
-    albedo: &[[f64; 3]],
-    direct: &[[f64; 3]],
-    emission: &[[f64; 3]],
+    opaque: &Opaque<'_>,
+    translucent: &[Translucent<'_, E>],
+    is_translucent: &[bool],
     b: &[[f64; 3]],
 ) -> EnergyBalance {
-    let indirect = factors.apply(b);
+    let gathered = factors.apply(b);
     let mut out = EnergyBalance::default();
     for i in 0..b.len() {
         let escape = 1.0 - factors.row_sum(i);
         for c in 0..3 {
-            out.direct[c] += areas[i] * direct[i][c];
-            out.emitted[c] += areas[i] * emission[i][c];
-            out.absorbed[c] += areas[i] * (1.0 - albedo[i][c]) * (direct[i][c] + indirect[i][c]);
             out.escaped[c] += areas[i] * b[i][c] * escape;
+            if !is_translucent[i] {
+                out.direct[c] += areas[i] * opaque.direct[i][c];
+                out.emitted[c] += areas[i] * opaque.emission[i][c];
+                out.absorbed[c] += areas[i] * (1.0 - opaque.albedo[i][c]) * (opaque.direct[i][c] + gathered[i][c]);
+            }
+        }
+    }
+    for block in translucent {
+        let t = block.transmittance;
+        for (k, i) in block.range().enumerate() {
+            for c in 0..3 {
+                let (q_d, e) = (block.direct[k][c], gathered[i][c]);
+                out.direct[c] += areas[i] * q_d;
+                out.absorbed[c] += areas[i] * (q_d + t * e - b[i][c]);
+                out.specular[c] += areas[i] * (1.0 - t) * e;
+            }
         }
     }
     out
 }
 
-/// Every value of `values` passes `ok`, or the error names the first that does not.
-fn check(what: &'static str, values: &[[f64; 3]], ok: impl Fn(f64) -> bool) -> Result<(), RadiosityError> {
+/// Every value of `values` passes `ok`, or the error names the first that does not (as patch
+/// `first` + its index).
+fn check(what: &'static str, values: &[[f64; 3]], first: usize, ok: impl Fn(f64) -> bool) -> Result<(), RadiosityError> {
     match values.iter().position(|v| !v.iter().all(|&x| ok(x))) {
-        Some(patch) => Err(RadiosityError::InvalidValue { what, patch, value: values[patch] }),
+        Some(k) => Err(RadiosityError::InvalidValue { what, patch: first + k, value: values[k] }),
         None => Ok(()),
     }
 }

@@ -5,6 +5,7 @@ use crate::gpu::GpuError;
 use crate::light::LightError;
 use crate::mesher::MesherError;
 use crate::progress::Cancelled;
+use crate::radiosity::RadiosityError;
 use crate::volume::VolumeError;
 
 /// Why a bake failed. Every variant names the object (index and name) where one is at fault.
@@ -88,9 +89,23 @@ pub enum SceneError {
         /// same tet count.
         scale: f64,
     },
+    /// The radiosity method's patches, form factors or solve refused the scene.
+    #[error("radiosity: {0}")]
+    Radiosity(RadiosityError),
     /// Cancelled through the progress callback.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
+}
+
+/// A radiosity error of a bake: a cancellation is the bake's [`SceneError::Cancelled`],
+/// anything else [`SceneError::Radiosity`].
+impl From<RadiosityError> for SceneError {
+    fn from(e: RadiosityError) -> Self {
+        match e {
+            RadiosityError::Cancelled(c) => Self::Cancelled(c),
+            e => Self::Radiosity(e),
+        }
+    }
 }
 
 /// A light error of a bake: a cancellation while sampling is the bake's

@@ -9,6 +9,7 @@
 use crate::diffusion::SolverKind;
 use crate::gpu::Backend;
 use crate::hierarchy::DipoleOptions;
+use crate::radiosity::{FormFactorOptions, SolveOptions};
 
 /// The subsurface method of a bake, with its options.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,6 +22,17 @@ pub enum Method {
     /// integrated over the surface through cluster trees, no volume and no solve; relight and
     /// deformation (new vertex positions every frame).
     HierarchicalDipole(DipoleOptions),
+    /// Translucent radiosity (Sheng et al. 2014): every object's surface in patches exchanging
+    /// light through form factors with visibility, translucent objects scattering it through
+    /// their TransCut diffusion solve and opaque diffuse objects reflecting and emitting it;
+    /// inter-reflection and colour bleeding between all objects.
+    Radiosity(RadiosityOptions),
+}
+
+impl From<RadiosityOptions> for Method {
+    fn from(options: RadiosityOptions) -> Self {
+        Self::Radiosity(options)
+    }
 }
 
 impl From<DipoleOptions> for Method {
@@ -44,7 +56,7 @@ impl From<TransCutOptions> for Method {
 impl Method {
     /// The names of every method this library has, in the order front ends list them (also
     /// the order of the C ABI's `TC_METHOD_*` values).
-    pub const NAMES: &'static [&'static str] = &["transcut", "hierarchical-dipole"];
+    pub const NAMES: &'static [&'static str] = &["transcut", "hierarchical-dipole", "radiosity"];
 
     /// Every method with its default options, in the order of [`Method::NAMES`].
     #[must_use]
@@ -52,13 +64,14 @@ impl Method {
         Self::NAMES.iter().filter_map(|name| Self::from_name(name)).collect()
     }
 
-    /// The name front ends use: `transcut`, `hierarchical-dipole` (later `polygrid`, `prt`,
-    /// `radiosity`).
+    /// The name front ends use: `transcut`, `hierarchical-dipole`, `radiosity` (later
+    /// `polygrid`, `prt`).
     #[must_use]
     pub fn name(&self) -> &'static str {
         match self {
             Self::TransCut(_) => "transcut",
             Self::HierarchicalDipole(_) => "hierarchical-dipole",
+            Self::Radiosity(_) => "radiosity",
         }
     }
 
@@ -73,6 +86,10 @@ impl Method {
                 "hierarchical dipole (Mertens et al. 2003): the dipole integrated over the surface; homogeneous media, relight, \
                  deforming meshes"
             }
+            Self::Radiosity(_) => {
+                "translucent radiosity (Sheng et al. 2014): translucent and opaque diffuse objects exchanging light; \
+                 inter-reflection, colour bleeding, emissive surfaces"
+            }
         }
     }
 
@@ -83,6 +100,7 @@ impl Method {
         match name.trim().to_ascii_lowercase().as_str() {
             "transcut" => Some(Self::TransCut(TransCutOptions::default())),
             "hierarchical-dipole" => Some(Self::HierarchicalDipole(DipoleOptions::default())),
+            "radiosity" => Some(Self::Radiosity(RadiosityOptions::default())),
             _ => None,
         }
     }
@@ -101,6 +119,7 @@ impl Method {
         match self {
             Self::TransCut(o) => o.validate(),
             Self::HierarchicalDipole(o) => o.validate(),
+            Self::Radiosity(o) => o.validate(),
         }
         .map_err(|e| format!("{}: {e}", self.name()))
     }
@@ -173,6 +192,51 @@ impl TransCutOptions {
     }
 }
 
+/// How translucent radiosity bakes: the patches, the form factors, the iteration, and the
+/// TransCut bake of each translucent object, whose diffusion solve is its scattering.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RadiosityOptions {
+    /// The longest patch edge on opaque objects in mm (their meshes are refined to it, keeping
+    /// their vertices); `None`: the scene's bounding-box diagonal / 80 (design/radiosity.md
+    /// §1.3: about 4.3 mm in a 200 mm box). Translucent objects' patches are the boundary
+    /// vertices of their tets.
+    pub patch_size_mm: Option<f64>,
+    /// How the form factors are cast.
+    pub form_factors: FormFactorOptions,
+    /// How the radiosity is solved (tolerance on the power, iteration, bounces).
+    pub solve: SolveOptions,
+    /// The tets and diffusion solves of the translucent objects.
+    pub transcut: TransCutOptions,
+}
+
+impl Default for RadiosityOptions {
+    fn default() -> Self {
+        Self {
+            patch_size_mm: None,
+            form_factors: FormFactorOptions::default(),
+            solve: SolveOptions::default(),
+            transcut: TransCutOptions::default(),
+        }
+    }
+}
+
+impl RadiosityOptions {
+    /// Checks the options.
+    ///
+    /// # Errors
+    /// A message naming the option out of range.
+    pub fn validate(&self) -> Result<(), String> {
+        if let Some(h) = self.patch_size_mm {
+            if !(h.is_finite() && h > 0.0) {
+                return Err(format!("patch_size_mm must be finite and > 0, got {h}"));
+            }
+        }
+        self.form_factors.validate()?;
+        self.solve.validate()?;
+        self.transcut.validate().map_err(|e| format!("transcut: {e}"))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -209,5 +273,20 @@ mod tests {
         assert!(bad(TransCutOptions { tolerance: f64::NAN, ..d() }).contains("tolerance"));
         assert!(bad(TransCutOptions { max_iterations: 0, ..d() }).contains("max_iterations"));
         assert_eq!(Method::default().validate(), Ok(()));
+    }
+
+    #[test]
+    fn radiosity_options_out_of_range_are_named() {
+        let bad = |o: RadiosityOptions| Method::Radiosity(o).validate().unwrap_err();
+        let d = RadiosityOptions::default;
+        assert!(bad(RadiosityOptions { patch_size_mm: Some(0.0), ..d() }).starts_with("radiosity: patch_size_mm"));
+        assert!(bad(RadiosityOptions { patch_size_mm: Some(f64::NAN), ..d() }).contains("patch_size_mm"));
+        let solve = SolveOptions { tolerance: 0.0, ..SolveOptions::default() };
+        assert!(bad(RadiosityOptions { solve, ..d() }).contains("tolerance"));
+        let solve = SolveOptions { bounces: Some(0), ..SolveOptions::default() };
+        assert!(bad(RadiosityOptions { solve, ..d() }).contains("bounces"));
+        let transcut = TransCutOptions { tets: 0, ..TransCutOptions::default() };
+        assert!(bad(RadiosityOptions { transcut, ..d() }).contains("radiosity: transcut: tets"));
+        assert_eq!(Method::Radiosity(d()).validate(), Ok(()));
     }
 }

@@ -6,12 +6,14 @@
 //! vertices in their order (ARCHITECTURE.md, "What a bake returns").
 
 mod error;
+mod material;
 mod method;
 mod object;
 mod options;
 
 pub use error::SceneError;
-pub use method::{Method, TransCutOptions};
+pub use method::{Method, RadiosityOptions, TransCutOptions};
+pub use material::{Diffuse, Material, Sides};
 pub use object::{MediumSource, Object, Shape};
 pub use options::BakeOptions;
 

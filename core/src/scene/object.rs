@@ -1,8 +1,10 @@
-//! What an object is made of: its shape (a surface to mesh, or a ready tet mesh) and its medium
-//! (homogeneous, a material table, per-tet values, a voxel grid or a procedural field).
+//! An object of a scene: its shape (a surface to mesh, or a ready tet mesh), its placement and
+//! its material ([`Material`]: a translucent medium — homogeneous, a material table, per-tet
+//! values, a voxel grid or a procedural field — or an opaque diffuse surface).
 
 use glam::{DMat4, DVec3};
 
+use super::material::{Diffuse, Material};
 use crate::mesh::{MeshError, TetMesh, TriMesh};
 use crate::optics::Medium;
 use crate::volume::{check_object, Layers, PerTetMedia, TableLayout, TetSampling, Veins, VolumeError, VoxelGrid};
@@ -128,7 +130,8 @@ impl MediumSource {
     }
 }
 
-/// A translucent object: a shape in object space, its placement and its medium.
+/// An object of the scene: a shape in object space, its placement and its material (a
+/// translucent medium, or an opaque diffuse surface).
 #[derive(Debug, Clone)]
 pub struct Object {
     /// A name for messages and reports.
@@ -139,8 +142,8 @@ pub struct Object {
     pub transform: DMat4,
     /// Millimetres per scene unit: the media are in mm⁻¹.
     pub mm_per_unit: f64,
-    /// What fills the object.
-    pub medium: MediumSource,
+    /// What the object is made of.
+    pub material: Material,
 }
 
 impl Object {
@@ -173,10 +176,22 @@ impl Object {
         Self::with_shape(name, Shape::Tetrahedra(mesh), medium, mm_per_unit)
     }
 
-    /// Any shape and medium source, at the origin.
+    /// Any shape and material (a [`MediumSource`], a [`Medium`] or a [`Diffuse`]), at the origin.
     #[must_use]
-    pub fn with_shape(name: impl Into<String>, shape: Shape, medium: MediumSource, mm_per_unit: f64) -> Self {
-        Self { name: name.into(), shape, transform: DMat4::IDENTITY, mm_per_unit, medium }
+    pub fn with_shape(name: impl Into<String>, shape: Shape, material: impl Into<Material>, mm_per_unit: f64) -> Self {
+        Self { name: name.into(), shape, transform: DMat4::IDENTITY, mm_per_unit, material: material.into() }
+    }
+
+    /// An opaque diffuse surface at the origin (identity transform); it may be open.
+    #[must_use]
+    pub fn diffuse(name: impl Into<String>, mesh: TriMesh, diffuse: Diffuse, mm_per_unit: f64) -> Self {
+        Self::with_shape(name, Shape::Surface(mesh), diffuse, mm_per_unit)
+    }
+
+    /// The translucent medium, or `None` for an opaque surface.
+    #[must_use]
+    pub fn medium(&self) -> Option<&MediumSource> {
+        self.material.medium()
     }
 
     /// Checks the scale, the transform and the medium (what can be checked without meshing).
@@ -190,7 +205,7 @@ impl Object {
         if !self.transform.is_finite() || self.transform.determinant().abs() < 1e-300 {
             return Err("the transform is singular or not finite".into());
         }
-        self.medium.validate(&self.shape)
+        self.material.validate(&self.shape)
     }
 
     /// The surface in world space (the boundary of a tet mesh), for shadows and rendering. Its

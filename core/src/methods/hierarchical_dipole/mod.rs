@@ -90,7 +90,10 @@ pub(crate) fn dipoles(medium: &Medium) -> [Dipole; 3] {
 /// The object's medium when it is one medium everywhere (a surface's table has every tet at
 /// id 0); why not otherwise.
 fn homogeneous(object: &Object) -> Result<Medium, String> {
-    match (&object.medium, &object.shape) {
+    let Some(medium) = object.medium() else {
+        return Err("it is an opaque diffuse surface, not a translucent medium".into());
+    };
+    match (medium, &object.shape) {
         (MediumSource::Homogeneous(m), _) => Ok(*m),
         (MediumSource::Table(t), Shape::Surface(_)) if !t.is_empty() => Ok(t[0]),
         (MediumSource::Table(t), Shape::Tetrahedra(mesh)) if !t.is_empty() => {
@@ -186,6 +189,7 @@ impl SubsurfaceMethod for HierarchicalDipole {
 
     fn check(target: &Target<'_>, options: &DipoleOptions) -> Result<(), SceneError> {
         options.validate().map_err(SceneError::InvalidOptions)?;
+        target.medium(NAME)?;
         homogeneous(target.object).map(|_| ()).map_err(|reason| SceneError::Unsupported {
             index: target.index,
             name: target.object.name.clone(),

@@ -61,13 +61,143 @@ pub(crate) struct Prepared {
     fluence: Vec<[f64; 3]>,
 }
 
+impl Prepared {
+    /// The assembled system (its boundary vertices in [`DiffusionSystem::boundary`] order).
+    pub(crate) fn system(&self) -> &DiffusionSystem {
+        &self.system
+    }
+
+    /// The tet mesh solved on (world space).
+    pub(crate) fn tet_mesh(&self) -> &TetMesh {
+        &self.tet_mesh
+    }
+
+    /// Solves M φ = b for the source `q` per boundary vertex, warm-started from the last φ,
+    /// keeping φ: the diffusion solve of TransCut's bake alone, shared with the radiosity
+    /// method's scattering. Fills the solve's statistics into `stats`.
+    ///
+    /// # Errors
+    /// [`SceneError`] naming the object; [`SceneError::Cancelled`] through `stage`.
+    pub(crate) fn solve_fluence(
+        &mut self,
+        target: &Target<'_>,
+        q: &[[f64; 3]],
+        options: &TransCutOptions,
+        stats: &mut ObjectStats,
+        stage: Stage<'_>,
+    ) -> Result<(), SceneError> {
+        let (index, name) = (target.index, || target.object.name.clone());
+        let diffusion_error = |source| SceneError::Diffusion { index, name: name(), source };
+        self.system.set_source(q).map_err(diffusion_error)?;
+        stage("solve", 0.8)?;
+        // Progress through the solve: the residual's way from 1 down to the tolerance, in decades.
+        let monitor =
+            |_: usize, residual: [f64; 3]| stage("solve", 0.8 + 0.19 * solve_fraction(residual, options.tolerance)).is_ok();
+        let solve_options =
+            SolveOptions { tolerance: options.tolerance, max_iterations: options.max_iterations, ..SolveOptions::default() }
+                .with_monitor(&monitor);
+        let backend = backend(options).map_err(|e| target.invalid(e.to_string()))?;
+        let warm = self.fluence.iter().any(|p| p.iter().any(|&x| x != 0.0)).then_some(self.fluence.as_slice());
+        let (solution, report) =
+            gpu::solve_on(backend, SolveWith::Kind(options.solver), &self.system, warm, &solve_options).map_err(|e| match e {
+                GpuError::Diffusion(DiffusionError::Sparse(SparseError::Cancelled { .. })) => SceneError::Cancelled(Cancelled),
+                GpuError::Diffusion(source) => diffusion_error(source),
+                source => SceneError::Gpu { index, name: name(), source },
+            })?;
+        stats.iterations = solution.stats.iterations;
+        stats.relative_residual = solution.stats.relative_residual;
+        stats.backend = report.used;
+        stats.device = report.device;
+        stats.backend_fallback = report.fallback;
+        self.fluence = solution.phi;
+        Ok(())
+    }
+
+    /// TransCut's eq. 3 along the normal at every boundary vertex, from the last solve, not
+    /// clamped ([`crate::diffusion::surface_radiance`]).
+    ///
+    /// # Errors
+    /// [`SceneError::Diffusion`] for a non-finite fluence.
+    pub(crate) fn boundary_radiance(&self, target: &Target<'_>) -> Result<Vec<[f64; 3]>, SceneError> {
+        diffusion::surface_radiance(&self.system, &self.fluence).map_err(|source| SceneError::Diffusion {
+            index: target.index,
+            name: target.object.name.clone(),
+            source,
+        })
+    }
+
+    /// The state a bake keeps ([`TransCutState`]).
+    pub(crate) fn into_state(self) -> TransCutState {
+        let Self { tet_mesh, media, system, fluence } = self;
+        TransCutState { tet_mesh, media, mm_per_unit: system.mm_per_unit(), eta: system.boundary_terms().eta, fluence }
+    }
+
+    /// The exitance B = (φ − 2q)/(2A) at every boundary vertex (the integral of eq. 3 over the
+    /// hemisphere, [`crate::diffusion::EnergyBalance::exitant`]) of the last solve.
+    pub(crate) fn exitance(&self) -> Vec<[f64; 3]> {
+        let a = self.system.boundary_terms().a;
+        let q = self.system.source();
+        let ids = &self.system.boundary().ids;
+        ids.iter().zip(q).map(|(&v, q)| std::array::from_fn(|c| (self.fluence[v as usize][c] - 2.0 * q[c]) / (2.0 * a))).collect()
+    }
+
+    /// The bake's radiance after [`Prepared::solve_fluence`]: Lo(x, n) of eq. 3 at the boundary,
+    /// clamped at 0 and interpolated at the user's vertices (or per tet-mesh vertex for a ready
+    /// tet mesh), counting the clamped vertices into `stats`.
+    ///
+    /// # Errors
+    /// [`SceneError::Diffusion`] for a non-finite fluence.
+    pub(crate) fn user_radiance(&self, target: &Target<'_>, stats: &mut ObjectStats) -> Result<Vec<[f64; 3]>, SceneError> {
+        let lo = self.boundary_radiance(target)?;
+        let Self { tet_mesh, system, .. } = self;
+        // Per tet-mesh vertex (boundary entries only), clamped, then at the user's vertices.
+        let mut per_vertex = vec![[0.0; 3]; tet_mesh.vertex_count()];
+        let mut clamped = vec![[0.0]; tet_mesh.vertex_count()];
+        for (&v, l) in system.boundary().ids.iter().zip(&lo) {
+            if l.iter().any(|&x| x < 0.0) {
+                clamped[v as usize] = [1.0];
+            }
+            per_vertex[v as usize] = l.map(|x| x.max(0.0));
+        }
+        stats.clamped_vertices = match target.object.shape {
+            Shape::Surface(_) => clamped_user_vertices(tet_mesh, &clamped),
+            Shape::Tetrahedra(_) => clamped.iter().filter(|c| c[0] > 0.0).count(),
+        };
+        Ok(match target.object.shape {
+            Shape::Surface(_) => tet_mesh.sample_at_user_vertices(&per_vertex),
+            Shape::Tetrahedra(_) => per_vertex,
+        })
+    }
+
+    /// [`Prepared::solve_fluence`] then [`Prepared::user_radiance`], timed into `stats.solve_ms`.
+    ///
+    /// # Errors
+    /// As the two.
+    pub(crate) fn solve_source(
+        &mut self,
+        target: &Target<'_>,
+        q: &[[f64; 3]],
+        options: &TransCutOptions,
+        stats: &mut ObjectStats,
+        stage: Stage<'_>,
+    ) -> Result<Vec<[f64; 3]>, SceneError> {
+        let t = Instant::now();
+        self.solve_fluence(target, q, options, stats, stage)?;
+        let radiance = self.user_radiance(target, stats)?;
+        stats.solve_ms = ms(t);
+        Ok(radiance)
+    }
+}
+
 impl SubsurfaceMethod for TransCut {
     type Options = TransCutOptions;
     type State = Prepared;
 
-    /// TransCut bakes every shape and medium; only its options and the backend named by
-    /// `TRANSCUT_BACKEND` are checked.
+    /// TransCut bakes every shape and medium (diffuse objects are refused,
+    /// [`Target::medium`]); only its options and the backend named by `TRANSCUT_BACKEND` are
+    /// checked.
     fn check(target: &Target<'_>, options: &TransCutOptions) -> Result<(), SceneError> {
+        target.medium("transcut")?;
         backend(options).map(|_| ()).map_err(|e| target.invalid(e.to_string()))
     }
 
@@ -87,7 +217,7 @@ impl SubsurfaceMethod for TransCut {
 
         let t = Instant::now();
         let to_object = object.transform.inverse();
-        let media = object.medium.apply(&mut tet_mesh, &to_object, object.mm_per_unit).map_err(|source| SceneError::Medium {
+        let media = target.medium("transcut")?.apply(&mut tet_mesh, &to_object, object.mm_per_unit).map_err(|source| SceneError::Medium {
             index,
             name: name(),
             source,
@@ -117,71 +247,23 @@ impl SubsurfaceMethod for TransCut {
         stats: &mut ObjectStats,
         stage: Stage<'_>,
     ) -> Result<Vec<[f64; 3]>, SceneError> {
-        let (index, name) = (target.index, || target.object.name.clone());
-        let diffusion_error = |source| SceneError::Diffusion { index, name: name(), source };
         stage("light", 0.7)?;
         let t = Instant::now();
-        let Prepared { tet_mesh, system, fluence, .. } = state;
-        let boundary = system.boundary();
-        let points: Vec<_> = boundary.ids.iter().map(|&v| tet_mesh.positions()[v as usize]).collect();
-        let q = lighting.transmitted_source_with(&points, &boundary.normal, system.boundary_terms().eta, &|f| {
-            stage("light", 0.7 + 0.1 * f)
-        })?;
-        system.set_source(&q).map_err(diffusion_error)?;
-        stats.source_ms = ms(t);
-        stage("solve", 0.8)?;
-
-        let t = Instant::now();
-        // Progress through the solve: the residual's way from 1 down to the tolerance, in decades.
-        let monitor =
-            |_: usize, residual: [f64; 3]| stage("solve", 0.8 + 0.19 * solve_fraction(residual, options.tolerance)).is_ok();
-        let solve_options =
-            SolveOptions { tolerance: options.tolerance, max_iterations: options.max_iterations, ..SolveOptions::default() }
-                .with_monitor(&monitor);
-        let backend = backend(options).map_err(|e| target.invalid(e.to_string()))?;
-        let (solution, report) =
-            gpu::solve_on(backend, SolveWith::Kind(options.solver), system, None, &solve_options).map_err(|e| match e {
-                GpuError::Diffusion(DiffusionError::Sparse(SparseError::Cancelled { .. })) => SceneError::Cancelled(Cancelled),
-                GpuError::Diffusion(source) => diffusion_error(source),
-                source => SceneError::Gpu { index, name: name(), source },
-            })?;
-        let lo = diffusion::surface_radiance(system, &solution.phi).map_err(diffusion_error)?;
-        stats.solve_ms = ms(t);
-
-        // Per tet-mesh vertex (boundary entries only), clamped, then at the user's vertices.
-        let mut per_vertex = vec![[0.0; 3]; tet_mesh.vertex_count()];
-        let mut clamped = vec![[0.0]; tet_mesh.vertex_count()];
-        for (&v, l) in system.boundary().ids.iter().zip(&lo) {
-            if l.iter().any(|&x| x < 0.0) {
-                clamped[v as usize] = [1.0];
-            }
-            per_vertex[v as usize] = l.map(|x| x.max(0.0));
-        }
-        stats.iterations = solution.stats.iterations;
-        stats.relative_residual = solution.stats.relative_residual;
-        stats.clamped_vertices = match target.object.shape {
-            Shape::Surface(_) => clamped_user_vertices(tet_mesh, &clamped),
-            Shape::Tetrahedra(_) => clamped.iter().filter(|c| c[0] > 0.0).count(),
+        let q = {
+            let Prepared { tet_mesh, system, .. } = &*state;
+            let boundary = system.boundary();
+            let points: Vec<_> = boundary.ids.iter().map(|&v| tet_mesh.positions()[v as usize]).collect();
+            lighting.transmitted_source_with(&points, &boundary.normal, system.boundary_terms().eta, &|f| {
+                stage("light", 0.7 + 0.1 * f)
+            })?
         };
-        stats.backend = report.used;
-        stats.device = report.device;
-        stats.backend_fallback = report.fallback;
-        *fluence = solution.phi;
-        Ok(match target.object.shape {
-            Shape::Surface(_) => tet_mesh.sample_at_user_vertices(&per_vertex),
-            Shape::Tetrahedra(_) => per_vertex,
-        })
+        stats.source_ms = ms(t);
+        let radiance = state.solve_source(target, &q, options, stats, stage)?;
+        Ok(radiance)
     }
 
     fn into_baked(state: Prepared) -> BakedState {
-        let Prepared { tet_mesh, media, system, fluence } = state;
-        BakedState::TransCut(TransCutState {
-            tet_mesh,
-            media,
-            mm_per_unit: system.mm_per_unit(),
-            eta: system.boundary_terms().eta,
-            fluence,
-        })
+        BakedState::TransCut(state.into_state())
     }
 }
 
