@@ -70,5 +70,8 @@ pub use bake::{bake, bake_with, Bake};
 pub use glam::DVec3;
 pub use methods::{BakedState, ObjectBake, ObjectStats};
 pub use progress::{Cancelled, Progress};
-pub use scene::{BakeOptions, MediumSource, Method, Object, Scene, SceneError, Shape, TransCutOptions};
+pub use scene::{
+    BakeOptions, Diffuse, Material, MediumSource, Method, Object, RadiosityOptions, Scene, SceneError, Shape, Sides,
+    TransCutOptions,
+};
 pub use session::{Session, SessionError};

@@ -12,8 +12,8 @@ mod object;
 mod options;
 
 pub use error::SceneError;
-pub use method::{Method, RadiosityOptions, TransCutOptions};
 pub use material::{Diffuse, Material, Sides};
+pub use method::{Method, RadiosityOptions, TransCutOptions};
 pub use object::{MediumSource, Object, Shape};
 pub use options::BakeOptions;
 

@@ -185,7 +185,11 @@ pub(crate) fn bake_scene(
             (None, Some(p)) => {
                 let boundary = p.system().boundary();
                 let points: Vec<DVec3> = boundary.ids.iter().map(|&v| p.tet_mesh().positions()[v as usize]).collect();
-                transmitted.push(Some(lighting.transmitted_source(&points, &boundary.normal, p.system().boundary_terms().eta)?));
+                transmitted.push(Some(lighting.transmitted_source(
+                    &points,
+                    &boundary.normal,
+                    p.system().boundary_terms().eta,
+                )?));
             }
             (None, None) => unreachable!("every translucent object was prepared"),
         }
@@ -236,9 +240,7 @@ pub(crate) fn bake_scene(
     for (s, ((target, p), mut stats)) in targets.iter().zip(prepared).zip(stats).enumerate() {
         let surface = &surfaces[s];
         let side = |back: bool| -> Option<Vec<[f64; 3]>> {
-            (0..surface.vertex_count())
-                .map(|v| patches.patch_of(s, v, back).map(|i| b[i]))
-                .collect::<Option<Vec<_>>>()
+            (0..surface.vertex_count()).map(|v| patches.patch_of(s, v, back).map(|i| b[i])).collect::<Option<Vec<_>>>()
         };
         let (radiance, state) = match p {
             Some(p) => {
@@ -337,10 +339,10 @@ fn object_stats(target: &Target<'_>) -> ObjectStats {
 
 /// The bounding-box diagonal of all world surfaces (scene units).
 fn scene_diagonal(world: &[crate::mesh::TriMesh]) -> f64 {
-    let (lo, hi) = world.iter().map(crate::mesh::TriMesh::bounds).fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), (a, b)| (lo.min(a), hi.max(b)),
-    );
+    let (lo, hi) = world
+        .iter()
+        .map(crate::mesh::TriMesh::bounds)
+        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), (a, b)| (lo.min(a), hi.max(b)));
     (hi - lo).length()
 }
 

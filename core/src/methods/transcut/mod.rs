@@ -98,8 +98,8 @@ impl Prepared {
                 .with_monitor(&monitor);
         let backend = backend(options).map_err(|e| target.invalid(e.to_string()))?;
         let warm = self.fluence.iter().any(|p| p.iter().any(|&x| x != 0.0)).then_some(self.fluence.as_slice());
-        let (solution, report) =
-            gpu::solve_on(backend, SolveWith::Kind(options.solver), &self.system, warm, &solve_options).map_err(|e| match e {
+        let (solution, report) = gpu::solve_on(backend, SolveWith::Kind(options.solver), &self.system, warm, &solve_options)
+            .map_err(|e| match e {
                 GpuError::Diffusion(DiffusionError::Sparse(SparseError::Cancelled { .. })) => SceneError::Cancelled(Cancelled),
                 GpuError::Diffusion(source) => diffusion_error(source),
                 source => SceneError::Gpu { index, name: name(), source },
@@ -217,11 +217,10 @@ impl SubsurfaceMethod for TransCut {
 
         let t = Instant::now();
         let to_object = object.transform.inverse();
-        let media = target.medium("transcut")?.apply(&mut tet_mesh, &to_object, object.mm_per_unit).map_err(|source| SceneError::Medium {
-            index,
-            name: name(),
-            source,
-        })?;
+        let media = target
+            .medium("transcut")?
+            .apply(&mut tet_mesh, &to_object, object.mm_per_unit)
+            .map_err(|source| SceneError::Medium { index, name: name(), source })?;
         let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
         let surface_media = resolution::surface_media(&tet_mesh, &media);
         stats.resolution = resolution::resolution(&surface_media, spacing);
