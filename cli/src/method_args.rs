@@ -10,11 +10,16 @@ use transcut::gpu::Backend;
 use transcut::hierarchy::{DipoleOptions, EvalMode, Oracle, Receivers};
 use transcut::input::quote;
 use transcut::optics::EdgeRule;
-use transcut::{Method, TransCutOptions};
+use transcut::radiosity::{FormFactorOptions, Iteration, SolveOptions};
+use transcut::{Method, RadiosityOptions, TransCutOptions};
 
 /// The names of the methods whose options are here ([`Method::NAMES`]).
 const TRANSCUT: &str = "transcut";
 const DIPOLE: &str = transcut::methods::hierarchical_dipole::NAME;
+const RADIOSITY: &str = "radiosity";
+
+/// The methods that solve TransCut's diffusion (radiosity through its translucent objects).
+const DIFFUSION: &[&str] = &[TRANSCUT, RADIOSITY];
 
 /// θ of `--oracle opening-angle` without `--theta`: the core's default ([`Oracle::default`]).
 const DEFAULT_THETA: f64 = 0.4;
@@ -68,27 +73,45 @@ pub enum ModeName {
     Incremental,
 }
 
+/// Translucent radiosity's iteration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum IterationName {
+    /// Every patch from the last sweep (Sheng et al.'s; parallel): sweep k adds bounce k + 1.
+    Jacobi,
+    /// Opaque patches in place, then each translucent object (about half the sweeps).
+    GaussSeidel,
+}
+
+impl IterationName {
+    fn iteration(self) -> Iteration {
+        match self {
+            Self::Jacobi => Iteration::Jacobi,
+            Self::GaussSeidel => Iteration::GaussSeidel,
+        }
+    }
+}
+
 /// The subsurface method and its options.
 #[derive(Args, Debug, Clone, Default)]
 pub struct MethodArgs {
-    /// The subsurface method: transcut or hierarchical-dipole (the default is the command's:
-    /// transcut for bake and render, hierarchical-dipole for animate). `--method help` lists
-    /// every method with one line each.
+    /// The subsurface method: transcut, hierarchical-dipole or radiosity (the default is the
+    /// command's: transcut for bake and render, hierarchical-dipole for animate). `--method
+    /// help` lists every method with one line each.
     #[arg(long, value_name = "NAME")]
     pub method: Option<String>,
-    /// transcut: target number of tetrahedra per object [default: 200000; a scene file's
-    /// [bake] tets]
+    /// transcut, radiosity: target number of tetrahedra per (translucent) object
+    /// [default: 200000; a scene file's [bake] tets]
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=50_000_000), help_heading = "TransCut options")]
     pub tets: Option<u64>,
-    /// transcut: relative residual ‖b − Mφ‖/‖b‖ at which the solver stops, in (0, 1)
-    /// [default: 1e-6]
+    /// transcut, radiosity: relative residual ‖b − Mφ‖/‖b‖ at which the diffusion solver
+    /// stops, in (0, 1) [default: 1e-6]
     #[arg(long, help_heading = "TransCut options")]
     pub tolerance: Option<f64>,
-    /// transcut: the bake's solver on the CPU: pcg, ssor-pcg (default), cascade, mg-pcg or
+    /// transcut, radiosity: the bake's diffusion solver on the CPU: pcg, ssor-pcg (default), cascade, mg-pcg or
     /// sa-pcg (on the GPU the single-level solvers run Jacobi PCG)
     #[arg(long, value_parser = solver_kind, help_heading = "TransCut options")]
     pub solver: Option<SolverKind>,
-    /// transcut: where the solve runs: cpu, gpu (an error without a GPU) or auto (a hardware
+    /// transcut, radiosity: where the diffusion solve runs: cpu, gpu (an error without a GPU) or auto (a hardware
     /// GPU when there is one, else the CPU). Default: the TRANSCUT_BACKEND environment
     /// variable, else auto.
     #[arg(long, help_heading = "TransCut options")]
@@ -127,6 +150,26 @@ pub struct MethodArgs {
     /// [default: no cap]
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..), help_heading = "Hierarchical-dipole options")]
     pub budget: Option<u64>,
+    /// radiosity: the longest patch edge on diffuse objects in mm; their meshes are refined to
+    /// it so that a two-triangle wall can carry colour bleeding (translucent objects' patches
+    /// are their tets' boundary vertices) [default: the scene's diagonal / 80]
+    #[arg(long, value_name = "MM", help_heading = "Radiosity options")]
+    pub patch_size: Option<f64>,
+    /// radiosity: form-factor rays per patch; the noise of a factor F is about √(F(1 − F)/N)
+    /// [default: 512]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=16_777_216), help_heading = "Radiosity options")]
+    pub rays: Option<u64>,
+    /// radiosity: the iteration [default: jacobi]
+    #[arg(long, value_enum, value_name = "NAME", help_heading = "Radiosity options")]
+    pub iteration: Option<IterationName>,
+    /// radiosity: the estimated relative error in power at which the iteration stops, in (0, 1)
+    /// [default: 1e-3]
+    #[arg(long, value_name = "F", help_heading = "Radiosity options")]
+    pub radiosity_tolerance: Option<f64>,
+    /// radiosity: exactly N bounces of light (1: the direct light only), whatever the
+    /// tolerance; needs the Jacobi iteration [default: until the tolerance]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=10_000), help_heading = "Radiosity options")]
+    pub bounces: Option<u64>,
 }
 
 /// The defaults under the command line: what a scene file's `[bake]` table says, or a
@@ -155,6 +198,12 @@ pub struct MethodDefaults {
     pub receivers: Option<ReceiverName>,
     /// The incremental mode's budget when `--budget` is not given (a scene file's).
     pub budget: Option<u64>,
+    /// Radiosity's options when their flags are not given (a scene file's).
+    pub patch_size: Option<f64>,
+    pub rays: Option<u64>,
+    pub iteration: Option<IterationName>,
+    pub radiosity_tolerance: Option<f64>,
+    pub bounces: Option<u64>,
 }
 
 /// A scene file's `[bake]` table as written (names not yet parsed): the keys that choose the
@@ -173,6 +222,11 @@ pub struct BakeTable {
     pub receivers: Option<String>,
     pub mode: Option<String>,
     pub budget: Option<u64>,
+    pub patch_size: Option<f64>,
+    pub rays: Option<u64>,
+    pub iteration: Option<String>,
+    pub radiosity_tolerance: Option<f64>,
+    pub bounces: Option<u64>,
 }
 
 /// The value of `[bake] key` among the names of `T` (any case).
@@ -209,6 +263,15 @@ impl MethodDefaults {
         let rule = bake_name::<RuleName>("rule", table.rule.as_deref(), "rule", "rules")?;
         let receivers = bake_name::<ReceiverName>("receivers", table.receivers.as_deref(), "receivers", "receivers")?;
         let mode = bake_name::<ModeName>("mode", table.mode.as_deref(), "mode", "modes")?;
+        let iteration = bake_name::<IterationName>("iteration", table.iteration.as_deref(), "iteration", "iterations")?;
+        if table.bounces == Some(0) {
+            bail!(
+                "[bake] bounces = 0: the bounces are at least 1 (the direct light's; leave bounces out to stop at the tolerance)"
+            );
+        }
+        if table.rays == Some(0) {
+            bail!("[bake] rays = 0: each patch casts at least 1 ray");
+        }
         if table.budget == Some(0) {
             bail!("[bake] budget = 0: the links an incremental update may make are at least 1 (leave budget out for no cap)");
         }
@@ -226,6 +289,11 @@ impl MethodDefaults {
             rule,
             receivers,
             budget: table.budget,
+            patch_size: table.patch_size,
+            rays: table.rays,
+            iteration,
+            radiosity_tolerance: table.radiosity_tolerance,
+            bounces: table.bounces,
         })
     }
 }
@@ -253,9 +321,16 @@ pub fn method_help() -> String {
     out
 }
 
-/// The first of `options` (given?, name, method) that was given and is not of `method`.
-fn foreign(options: &[(bool, &'static str, &'static str)], method: &str) -> Option<(&'static str, &'static str)> {
-    options.iter().find(|(given, _, owner)| *given && *owner != method).map(|&(_, name, owner)| (name, owner))
+/// An option: whether it was given, its flag or key, and the methods it belongs to.
+type OptionOwner = (bool, &'static str, &'static [&'static str]);
+
+/// The first of `options` that was given and is not of `method`, with its methods' names.
+/// ("the transcut method", "the transcut and radiosity methods").
+fn foreign(options: &[OptionOwner], method: &str) -> Option<(&'static str, String)> {
+    options
+        .iter()
+        .find(|(given, _, owners)| *given && !owners.contains(&method))
+        .map(|&(_, name, owners)| (name, format!("{} method{}", owners.join(" and "), if owners.len() > 1 { "s" } else { "" })))
 }
 
 impl MethodArgs {
@@ -266,20 +341,25 @@ impl MethodArgs {
     }
 
     /// Every method option: whether it was given, its flag and its method.
-    fn options(&self) -> [(bool, &'static str, &'static str); 12] {
+    fn options(&self) -> [OptionOwner; 17] {
         [
-            (self.tets.is_some(), "--tets", TRANSCUT),
-            (self.tolerance.is_some(), "--tolerance", TRANSCUT),
-            (self.solver.is_some(), "--solver", TRANSCUT),
-            (self.backend.is_some(), "--backend", TRANSCUT),
-            (self.theta.is_some(), "--theta", DIPOLE),
-            (self.oracle.is_some(), "--oracle", DIPOLE),
-            (self.eps1.is_some(), "--eps1", DIPOLE),
-            (self.eps2.is_some(), "--eps2", DIPOLE),
-            (self.rule.is_some(), "--rule", DIPOLE),
-            (self.receivers.is_some(), "--receivers", DIPOLE),
-            (self.mode.is_some(), "--mode", DIPOLE),
-            (self.budget.is_some(), "--budget", DIPOLE),
+            (self.tets.is_some(), "--tets", DIFFUSION),
+            (self.tolerance.is_some(), "--tolerance", DIFFUSION),
+            (self.solver.is_some(), "--solver", DIFFUSION),
+            (self.backend.is_some(), "--backend", DIFFUSION),
+            (self.theta.is_some(), "--theta", &[DIPOLE]),
+            (self.oracle.is_some(), "--oracle", &[DIPOLE]),
+            (self.eps1.is_some(), "--eps1", &[DIPOLE]),
+            (self.eps2.is_some(), "--eps2", &[DIPOLE]),
+            (self.rule.is_some(), "--rule", &[DIPOLE]),
+            (self.receivers.is_some(), "--receivers", &[DIPOLE]),
+            (self.mode.is_some(), "--mode", &[DIPOLE]),
+            (self.budget.is_some(), "--budget", &[DIPOLE]),
+            (self.patch_size.is_some(), "--patch-size", &[RADIOSITY]),
+            (self.rays.is_some(), "--rays", &[RADIOSITY]),
+            (self.iteration.is_some(), "--iteration", &[RADIOSITY]),
+            (self.radiosity_tolerance.is_some(), "--radiosity-tolerance", &[RADIOSITY]),
+            (self.bounces.is_some(), "--bounces", &[RADIOSITY]),
         ]
     }
 
@@ -294,49 +374,72 @@ impl MethodArgs {
         let name = self.method.as_deref().or(defaults.method.as_deref()).unwrap_or(TRANSCUT);
         let method = Method::from_name(name).ok_or_else(|| anyhow!("{}", Method::unknown(name)))?;
         if let Some((option, owner)) = foreign(&self.options(), method.name()) {
-            bail!("{option} is an option of the {owner} method, not of {} (the method chosen)", method.name());
+            bail!("{option} is an option of the {owner}, not of {} (the method chosen)", method.name());
         }
         // A scene file's TransCut options, when the file itself chose another method: written
         // for nothing. (When the command line chose the method, they were for the file's.)
         if self.method.is_none() && defaults.from_file {
-            let file = [
-                (defaults.tets.is_some(), "tets", TRANSCUT),
-                (defaults.tolerance.is_some(), "tolerance", TRANSCUT),
-                (defaults.solver.is_some(), "solver", TRANSCUT),
-                (defaults.theta.is_some(), "theta", DIPOLE),
-                (defaults.oracle.is_some(), "oracle", DIPOLE),
-                (defaults.eps1.is_some(), "eps1", DIPOLE),
-                (defaults.eps2.is_some(), "eps2", DIPOLE),
-                (defaults.rule.is_some(), "rule", DIPOLE),
-                (defaults.receivers.is_some(), "receivers", DIPOLE),
-                (defaults.mode.is_some(), "mode", DIPOLE),
-                (defaults.budget.is_some(), "budget", DIPOLE),
+            let file: [OptionOwner; 16] = [
+                (defaults.tets.is_some(), "tets", DIFFUSION),
+                (defaults.tolerance.is_some(), "tolerance", DIFFUSION),
+                (defaults.solver.is_some(), "solver", DIFFUSION),
+                (defaults.theta.is_some(), "theta", &[DIPOLE]),
+                (defaults.oracle.is_some(), "oracle", &[DIPOLE]),
+                (defaults.eps1.is_some(), "eps1", &[DIPOLE]),
+                (defaults.eps2.is_some(), "eps2", &[DIPOLE]),
+                (defaults.rule.is_some(), "rule", &[DIPOLE]),
+                (defaults.receivers.is_some(), "receivers", &[DIPOLE]),
+                (defaults.mode.is_some(), "mode", &[DIPOLE]),
+                (defaults.budget.is_some(), "budget", &[DIPOLE]),
+                (defaults.patch_size.is_some(), "patch_size", &[RADIOSITY]),
+                (defaults.rays.is_some(), "rays", &[RADIOSITY]),
+                (defaults.iteration.is_some(), "iteration", &[RADIOSITY]),
+                (defaults.radiosity_tolerance.is_some(), "radiosity_tolerance", &[RADIOSITY]),
+                (defaults.bounces.is_some(), "bounces", &[RADIOSITY]),
             ];
             if let Some((option, owner)) = foreign(&file, method.name()) {
-                bail!("[bake] {option} is an option of the {owner} method, not of {} (the file's method)", method.name());
+                bail!("[bake] {option} is an option of the {owner}, not of {} (the file's method)", method.name());
             }
         }
         let method = match method {
-            Method::TransCut(d) => {
-                let solver = match (&self.solver, &defaults.solver) {
-                    (Some(k), _) => *k,
-                    (None, Some(name)) => solver_kind(name).map_err(|e| anyhow!("[bake] solver: {e}"))?,
-                    (None, None) => d.solver,
-                };
-                let tets = self.tets.or(defaults.tets).map_or(Ok(d.tets), usize::try_from)?;
-                Method::TransCut(TransCutOptions {
-                    tets,
-                    tolerance: self.tolerance.or(defaults.tolerance).unwrap_or(d.tolerance),
-                    solver,
-                    backend: self.backend,
-                    ..d
+            Method::TransCut(d) => Method::TransCut(self.transcut(d, defaults)?),
+            Method::HierarchicalDipole(d) => Method::HierarchicalDipole(self.dipole(d, defaults)?),
+            Method::Radiosity(d) => {
+                let bounces = self.bounces.or(defaults.bounces).map(usize::try_from).transpose()?;
+                let rays = self.rays.or(defaults.rays).map_or(Ok(d.form_factors.rays_per_patch), usize::try_from)?;
+                Method::Radiosity(RadiosityOptions {
+                    patch_size_mm: self.patch_size.or(defaults.patch_size),
+                    form_factors: FormFactorOptions { rays_per_patch: rays, ..d.form_factors },
+                    solve: SolveOptions {
+                        iteration: self.iteration.or(defaults.iteration).map_or(d.solve.iteration, IterationName::iteration),
+                        tolerance: self.radiosity_tolerance.or(defaults.radiosity_tolerance).unwrap_or(d.solve.tolerance),
+                        bounces,
+                        ..d.solve
+                    },
+                    transcut: self.transcut(d.transcut, defaults)?,
                 })
             }
-            Method::HierarchicalDipole(d) => Method::HierarchicalDipole(self.dipole(d, defaults)?),
             _ => bail!("{}", Method::unknown(name)),
         };
         method.validate().map_err(|e| anyhow!(e))?;
         Ok(method)
+    }
+
+    /// TransCut's options over `d` (its own, or radiosity's for the translucent objects).
+    fn transcut(&self, d: TransCutOptions, defaults: &MethodDefaults) -> anyhow::Result<TransCutOptions> {
+        let solver = match (&self.solver, &defaults.solver) {
+            (Some(k), _) => *k,
+            (None, Some(name)) => solver_kind(name).map_err(|e| anyhow!("[bake] solver: {e}"))?,
+            (None, None) => d.solver,
+        };
+        let tets = self.tets.or(defaults.tets).map_or(Ok(d.tets), usize::try_from)?;
+        Ok(TransCutOptions {
+            tets,
+            tolerance: self.tolerance.or(defaults.tolerance).unwrap_or(d.tolerance),
+            solver,
+            backend: self.backend,
+            ..d
+        })
     }
 
     /// The hierarchical dipole's options over `d`, its defaults.
@@ -538,13 +641,43 @@ mod tests {
     }
 
     #[test]
+    fn radiosity_takes_its_own_options_and_the_translucent_objects_tets() {
+        let args = MethodArgs {
+            method: Some(RADIOSITY.into()),
+            tets: Some(5000),
+            patch_size: Some(4.0),
+            rays: Some(256),
+            iteration: Some(IterationName::GaussSeidel),
+            radiosity_tolerance: Some(1e-4),
+            ..MethodArgs::default()
+        };
+        let Method::Radiosity(o) = args.method(&MethodDefaults::default()).unwrap() else { panic!() };
+        assert_eq!((o.transcut.tets, o.patch_size_mm, o.form_factors.rays_per_patch), (5000, Some(4.0), 256));
+        assert_eq!((o.solve.iteration, o.solve.tolerance, o.solve.bounces), (Iteration::GaussSeidel, 1e-4, None));
+        let file = MethodDefaults::from_bake_table(BakeTable {
+            method: Some(RADIOSITY.into()),
+            bounces: Some(2),
+            iteration: Some("gauss-seidel".into()),
+            ..BakeTable::default()
+        })
+        .unwrap();
+        let e = error(MethodArgs::default(), &file);
+        assert!(e.contains("bounces") && e.contains("Jacobi"), "{e}");
+        let e = MethodDefaults::from_bake_table(BakeTable { iteration: Some("sor".into()), ..BakeTable::default() }).unwrap_err();
+        assert!(e.to_string().contains("jacobi, gauss-seidel"), "{e}");
+    }
+
+    #[test]
     fn options_of_another_method_are_refused_by_name() {
         let none = MethodDefaults::default();
         let e = error(MethodArgs { theta: Some(0.4), ..MethodArgs::default() }, &none);
         assert!(e.contains("--theta") && e.contains("hierarchical-dipole") && e.contains("not of transcut"), "{e}");
         let args = MethodArgs { method: Some(DIPOLE.into()), tets: Some(1000), ..MethodArgs::default() };
         let e = error(args, &none);
-        assert!(e.contains("--tets") && e.contains("of the transcut method, not of hierarchical-dipole"), "{e}");
+        assert!(e.contains("--tets") && e.contains("of the transcut and radiosity methods, not of hierarchical-dipole"), "{e}");
+        let args = MethodArgs { patch_size: Some(4.0), ..MethodArgs::default() };
+        let e = error(args, &none);
+        assert!(e.contains("--patch-size is an option of the radiosity method, not of transcut"), "{e}");
         let args = MethodArgs { method: Some("transcut".into()), mode: Some(ModeName::Render), ..MethodArgs::default() };
         assert!(error(args, &none).contains("--mode"));
         // A file that chose the dipole and gave TransCut's options.

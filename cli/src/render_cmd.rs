@@ -84,6 +84,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         receivers: b.receivers.clone(),
         mode: b.mode.clone(),
         budget: b.budget,
+        patch_size: b.patch_size,
+        rays: b.rays,
+        iteration: b.iteration.clone(),
+        radiosity_tolerance: b.radiosity_tolerance,
+        bounces: b.bounces,
     };
     let defaults = MethodDefaults::from_bake_table(table).with_context(in_file)?;
     let method = args.method.method(&defaults).with_context(in_file)?;
@@ -134,6 +139,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let eta = session.eta(i)?;
         if let Some(editor) = session.editor(i)? {
             meshes.extend(apply::piece_meshes(editor).into_iter().map(|(m, r)| (m, r, eta)));
+            continue;
+        }
+        // Radiosity's patch surface: the refined wall carries its colour bleeding.
+        if let Some(r) = session.baked(i)?.and_then(transcut::ObjectBake::radiosity) {
+            let positions: Vec<[f64; 3]> = r.patch_positions.iter().map(|p| p.to_array()).collect();
+            let indices: Vec<u32> = r.patch_triangles.iter().flatten().copied().collect();
+            let mesh = transcut::mesh::TriMesh::from_triangles(&positions, &indices)?;
+            let mut radiance = vec![[0.0; 3]; mesh.positions().len()];
+            for (v, &internal) in mesh.user_to_internal().iter().enumerate() {
+                radiance[internal as usize] = r.patch_radiance[v];
+            }
+            meshes.push((mesh, radiance, eta));
             continue;
         }
         let mesh = object.world_surface()?;

@@ -30,6 +30,11 @@
 //! # receivers = "vertices"  # hierarchical-dipole: vertices or faces (centroids, the paper's)
 //! # mode = "on-the-fly"     # hierarchical-dipole: on-the-fly, render or incremental
 //! # budget = 5000           # hierarchical-dipole, mode "incremental": most links per update
+//! # patch_size = 4          # radiosity: longest patch edge on diffuse objects, mm (default: diagonal/80)
+//! # rays = 512              # radiosity: form-factor rays per patch
+//! # iteration = "jacobi"    # radiosity: jacobi or gauss-seidel
+//! # radiosity_tolerance = 1e-3  # radiosity: estimated relative error in power to stop at
+//! # bounces = 3             # radiosity: exactly this many bounces (jacobi), whatever the tolerance
 //!
 //! [[object]]                # one or more
 //! mesh = "bunny.obj"        # OBJ or PLY, relative to the scene file
@@ -45,6 +50,10 @@
 //! #            sharpness = 3 }   marble veins, in the mesh's own units (they move with the object)
 //! # medium = { voxels = "block.tcvox", eta = 1.3, g = 0 }   a voxel grid file (core/src/volume/VOXEL_FORMAT.md)
 //! #   placed in the mesh's own units, relative to the scene file
+//! # kind = "diffuse"        # an opaque Lambertian surface instead (walls, floors; may be open),
+//! # albedo = [0.73, 0.73, 0.73]  # baked by method "radiosity" only; its keys instead of medium:
+//! # emission = 0            #   albedo in [0, 1), emitted exitance (radiance emission/π),
+//! # sides = "both"          #   the sides that reflect: both, front (the normals' side), back
 //! mm_per_unit = 1           # millimetres per scene unit (default 1)
 //! fit_size_mm = 60          # optional: centre the mesh and scale it to this bounding-box diagonal
 //! scale = 1.0               # optional uniform scale (not with fit_size_mm)
@@ -89,9 +98,10 @@ use transcut::input::{BoundedFile, Limits};
 
 use anyhow::{anyhow, bail, Context};
 use glam::DMat4;
+use transcut::input::quote;
 use transcut::light::{Environment, Light};
 use transcut::mesh::TriMesh;
-use transcut::{DVec3, Object, Shape};
+use transcut::{DVec3, Diffuse, Material, Object, Shape, Sides};
 
 use edits::EditStep;
 use media::object_medium;
@@ -162,15 +172,49 @@ fn object(spec: &ObjectSpec, base: &Path) -> anyhow::Result<Object> {
     if !(spec.mm_per_unit.is_finite() && spec.mm_per_unit > 0.0) {
         bail!("mm_per_unit must be a positive number, got {}", fmt_num(spec.mm_per_unit));
     }
-    let medium = object_medium(&spec.medium, spec.mm_per_unit, base).context("medium")?;
+    let material = material(spec, base)?;
     let transform = transform(spec, &mesh)?;
     let name = spec
         .name
         .clone()
         .unwrap_or_else(|| spec.mesh.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned()));
-    let mut object = Object::with_shape(name, Shape::Surface(mesh), medium, spec.mm_per_unit);
+    let mut object = Object::with_shape(name, Shape::Surface(mesh), material, spec.mm_per_unit);
     object.transform = transform;
     Ok(object)
+}
+
+/// The object's material from its `kind` and the keys of that kind (a key of the other kind is
+/// an error naming it).
+fn material(spec: &ObjectSpec, base: &Path) -> anyhow::Result<Material> {
+    let diffuse_keys =
+        [("albedo", spec.albedo.is_some()), ("emission", spec.emission.is_some()), ("sides", spec.sides.is_some())];
+    match spec.kind.as_deref().map(|k| k.trim().to_ascii_lowercase()).as_deref() {
+        None | Some("translucent") => {
+            if let Some((key, _)) = diffuse_keys.iter().find(|(_, given)| *given) {
+                bail!("{key} is a key of kind = \"diffuse\" objects; a translucent object takes a medium");
+            }
+            let medium = spec.medium.as_ref().ok_or_else(|| anyhow!("no medium given (or give kind = \"diffuse\")"))?;
+            Ok(object_medium(medium, spec.mm_per_unit, base).context("medium")?.into())
+        }
+        Some("diffuse") => {
+            if spec.medium.is_some() {
+                bail!("medium is a key of translucent objects; a kind = \"diffuse\" object takes albedo, emission and sides");
+            }
+            let sides = match spec.sides.as_deref() {
+                None => Sides::default(),
+                Some(name) => Sides::from_name(name)
+                    .ok_or_else(|| anyhow!("sides: unknown sides {} (they are: {})", quote(name), Sides::NAMES.join(", ")))?,
+            };
+            let diffuse = Diffuse {
+                albedo: spec.albedo.map_or(Diffuse::default().albedo, schema::Rgb::get),
+                emission: spec.emission.map_or([0.0; 3], schema::Rgb::get),
+                sides,
+            };
+            diffuse.validate().map_err(|e| anyhow!(e))?;
+            Ok(diffuse.into())
+        }
+        Some(other) => bail!("kind: unknown object kind {} (the kinds are: translucent, diffuse)", quote(other)),
+    }
 }
 
 fn transform(spec: &ObjectSpec, mesh: &TriMesh) -> anyhow::Result<DMat4> {

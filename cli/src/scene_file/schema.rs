@@ -86,6 +86,16 @@ pub struct BakeSpec {
     pub mode: Option<String>,
     /// hierarchical-dipole, mode `incremental`: the most links per update (`--budget`).
     pub budget: Option<u64>,
+    /// radiosity: the longest patch edge on opaque objects, mm (`--patch-size`).
+    pub patch_size: Option<f64>,
+    /// radiosity: form-factor rays per patch (`--rays`).
+    pub rays: Option<u64>,
+    /// radiosity: `jacobi` or `gauss-seidel` (`--iteration`).
+    pub iteration: Option<String>,
+    /// radiosity: the estimated relative error in power to stop at (`--radiosity-tolerance`).
+    pub radiosity_tolerance: Option<f64>,
+    /// radiosity: exactly this many bounces of light (`--bounces`).
+    pub bounces: Option<u64>,
 }
 
 /// One `[[object]]`.
@@ -94,7 +104,16 @@ pub struct BakeSpec {
 pub struct ObjectSpec {
     pub mesh: PathBuf,
     pub name: Option<String>,
-    pub medium: toml::Value,
+    /// `translucent` (default: a `medium` fills it) or `diffuse` (an opaque surface with
+    /// `albedo`, `emission` and `sides`; the radiosity method bakes it).
+    pub kind: Option<String>,
+    pub medium: Option<toml::Value>,
+    /// diffuse: the reflectance, each channel in [0, 1) (default 0.73, the Cornell box's white).
+    pub albedo: Option<Rgb>,
+    /// diffuse: the emitted exitance (default 0; radiance M/π).
+    pub emission: Option<Rgb>,
+    /// diffuse: which sides reflect: `both` (default), `front` or `back`.
+    pub sides: Option<String>,
     #[serde(default = "one")]
     pub mm_per_unit: f64,
     pub fit_size_mm: Option<f64>,
