@@ -58,7 +58,14 @@ pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Re
     with_threads(options.threads, || match &options.method {
         Method::TransCut(o) => bake_all::<TransCut>(scene, options, o, progress),
         Method::HierarchicalDipole(o) => bake_all::<HierarchicalDipole>(scene, options, o, progress),
-        Method::Radiosity(o) => radiosity::bake_scene(scene, options, o, progress),
+        Method::Radiosity(o) => {
+            let start = Instant::now();
+            radiosity::bake_scene(scene, options, o, progress).map(|(objects, stats)| Bake {
+                objects,
+                radiosity: Some(stats),
+                total_ms: ms(start),
+            })
+        }
     })
     .map_err(SceneError::InvalidOptions)?
 }

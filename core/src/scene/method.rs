@@ -194,7 +194,7 @@ impl TransCutOptions {
 
 /// How translucent radiosity bakes: the patches, the form factors, the iteration, and the
 /// TransCut bake of each translucent object, whose diffusion solve is its scattering.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct RadiosityOptions {
     /// The longest patch edge on opaque objects in mm (their meshes are refined to it, keeping
     /// their vertices); `None`: the scene's bounding-box diagonal / 80 (design/radiosity.md
@@ -207,17 +207,6 @@ pub struct RadiosityOptions {
     pub solve: SolveOptions,
     /// The tets and diffusion solves of the translucent objects.
     pub transcut: TransCutOptions,
-}
-
-impl Default for RadiosityOptions {
-    fn default() -> Self {
-        Self {
-            patch_size_mm: None,
-            form_factors: FormFactorOptions::default(),
-            solve: SolveOptions::default(),
-            transcut: TransCutOptions::default(),
-        }
-    }
 }
 
 impl RadiosityOptions {

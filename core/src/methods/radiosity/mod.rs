@@ -27,7 +27,6 @@ use super::{
     check_radiance, targets, world_surfaces, BakedState, Lighting, ObjectBake, ObjectStats, SubsurfaceMethod, Target,
     TransCutState,
 };
-use crate::bake::Bake;
 use crate::light;
 use crate::optics::fresnel::f_ext;
 use crate::progress::{ms, Progress};
@@ -98,7 +97,8 @@ pub struct RadiosityObject {
     pub eta: f64,
 }
 
-/// Bakes `scene` by translucent radiosity (module documentation).
+/// Bakes `scene` by translucent radiosity (module documentation): every object's bake, and
+/// the scene's statistics.
 ///
 /// # Errors
 /// [`SceneError`] naming the object at fault; [`SceneError::InvalidOptions`] when the objects
@@ -108,8 +108,7 @@ pub(crate) fn bake_scene(
     options: &BakeOptions,
     radiosity: &RadiosityOptions,
     progress: Progress,
-) -> Result<Bake, SceneError> {
-    let start = Instant::now();
+) -> Result<(Vec<ObjectBake>, RadiosityStats), SceneError> {
     let world = world_surfaces(scene)?;
     let targets = targets(scene, &world);
     let mm_per_unit = common_scale(&targets)?;
@@ -305,7 +304,7 @@ pub(crate) fn bake_scene(
         estimated_error: solution.estimated_error,
         energy_defect: solution.energy.defect(),
     };
-    Ok(Bake { objects, radiosity: Some(radiosity), total_ms: ms(start) })
+    Ok((objects, radiosity))
 }
 
 /// The one `mm_per_unit` of every object: the patches share one space, so the objects must
