@@ -17,8 +17,8 @@ use transcut::hierarchy::{DipoleOptions, Oracle};
 use transcut::light::{self, Environment, Light, SourceOptions};
 use transcut::optics::{f_ext, fdr, ft_out, Medium, UniformSphere};
 use transcut::{
-    bake, BakeOptions, MediumSource, Method, Object, ObjectBake, Progress, Scene, SceneError, Session, SessionError,
-    TransCutOptions,
+    bake, BakeOptions, MediumSource, Method, Object, ObjectBake, Progress, RadiosityOptions, Scene, SceneError, Session,
+    SessionError, TransCutOptions,
 };
 
 mod common;
@@ -97,8 +97,36 @@ fn hierarchical_dipole() -> Conformance {
     }
 }
 
+/// Translucent radiosity: a translucent object alone is its TransCut bake (each bounce of S is
+/// TransCut's solve), so TransCut's closed form and energy balance; its session offers no update
+/// yet and must refuse each by name.
+fn radiosity() -> Conformance {
+    let transcut = TransCutOptions { tets: 60_000, tolerance: 1e-8, ..TransCutOptions::default() };
+    Conformance {
+        method: RadiosityOptions { transcut: transcut.clone(), patch_size_mm: Some(10.0), ..RadiosityOptions::default() }.into(),
+        invalid: RadiosityOptions { patch_size_mm: Some(-1.0), ..RadiosityOptions::default() }.into(),
+        energy_defect: Some(|scene, baked| {
+            let state = baked.radiosity().and_then(|r| r.transcut.as_ref()).expect("a translucent radiosity object");
+            let mut system = assemble(&state.tet_mesh, &state.media, state.mm_per_unit).unwrap();
+            let boundary = system.boundary();
+            let points: Vec<DVec3> = boundary.ids.iter().map(|&v| state.tet_mesh.positions()[v as usize]).collect();
+            let q =
+                light::transmitted_source(&scene.lights, &points, &boundary.normal, state.eta, None, &SourceOptions::default())
+                    .unwrap();
+            system.set_source(&q).unwrap();
+            energy_balance(&system, &state.fluence).unwrap().relative_defect()
+        }),
+        ..transcut_conformance(transcut)
+    }
+}
+
+/// TransCut's conformance with `options`.
+fn transcut_conformance(options: TransCutOptions) -> Conformance {
+    Conformance { method: options.into(), ..transcut() }
+}
+
 /// Every method; a new one joins with one line.
-const METHODS: &[fn() -> Conformance] = &[transcut, hierarchical_dipole];
+const METHODS: &[fn() -> Conformance] = &[transcut, hierarchical_dipole, radiosity];
 
 fn options(c: &Conformance, shadows: bool) -> BakeOptions {
     BakeOptions { method: c.method.clone(), shadows, ..BakeOptions::default() }
@@ -137,7 +165,7 @@ fn uniform_sphere_matches_its_models_closed_form() {
         // The spheres' worked numbers (ARCHITECTURE.md; design/hierarchical-dipole.md §0.6),
         // computed independently.
         let worked = match c.method.name() {
-            "transcut" => [0.9394, 0.9072, 0.8709],
+            "transcut" | "radiosity" => [0.9394, 0.9072, 0.8709],
             "hierarchical-dipole" => [0.8465, 0.8187, 0.7875],
             other => panic!("{other}: no worked numbers"),
         };

@@ -220,6 +220,19 @@ impl Session {
         &self.options
     }
 
+    /// [`SessionError::Unsupported`] for an object baked by translucent radiosity: its objects
+    /// are coupled through the whole scene's form factors, which a per-object session does not
+    /// keep, so it offers no update yet (a radiosity session of its own is to come).
+    fn refuse_coupled(&self, index: usize, capability: &'static str) -> Result<(), SessionError> {
+        let slot = self.slot(index)?;
+        match &slot.state {
+            State::Baked(b) if matches!(b.state, BakedState::Radiosity(_)) => {
+                Err(SessionError::Unsupported { index, name: slot.name.clone(), method: slot.method, capability })
+            }
+            _ => Ok(()),
+        }
+    }
+
     fn slot(&self, index: usize) -> Result<&Slot, SessionError> {
         let count = self.objects.len();
         self.objects.get(index).ok_or(SessionError::NoSuchObject { index, count })
@@ -294,6 +307,7 @@ impl Session {
     /// [`SessionError::NoSuchObject`]; [`SessionError::Edit`] when the live state cannot be made;
     /// [`SessionError::Cancelled`].
     pub fn start(&mut self, index: usize, progress: Progress) -> Result<(), SessionError> {
+        self.refuse_coupled(index, "start an interactive update")?;
         self.update_with(index, progress, |_, _| Ok(None)).map(|_| ())
     }
 
@@ -307,6 +321,9 @@ impl Session {
     /// # Errors
     /// [`SessionError::Edit`] naming the object that failed; [`SessionError::Cancelled`].
     pub fn relight(&mut self, lights: &[Light], progress: Progress) -> Result<Vec<UpdateStats>, SessionError> {
+        for index in 0..self.objects.len() {
+            self.refuse_coupled(index, "relight")?;
+        }
         let threads = self.options.threads;
         let Self { lights: baked, options, objects } = self;
         let n = objects.len();
@@ -457,6 +474,7 @@ impl Session {
         progress: Progress,
         op: impl FnOnce(&mut Live, Progress) -> Option<Result<UpdateStats, EditError>> + Send,
     ) -> Result<&UpdateStats, SessionError> {
+        self.refuse_coupled(index, capability)?;
         self.update_with(index, progress, |live, p| match op(live, p) {
             Some(result) => result.map(Some).map_err(Failed::Edit),
             None => Err(Failed::Unsupported(capability)),
