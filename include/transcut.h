@@ -59,6 +59,43 @@
 #define TC_METHOD_HIERARCHICAL_DIPOLE 1
 
 /**
+ * Translucent radiosity (Sheng et al. 2014): every object's surface in patches exchanging light
+ * through form factors with visibility, so objects light each other (inter-reflection, colour
+ * bleeding, emissive surfaces). The one method that bakes opaque diffuse objects
+ * (`tc_scene_add_diffuse_mesh`) besides translucent ones, which scatter the light they get
+ * through their TransCut diffusion solve (`TcBakeOptions.tets`, `tolerance`, `max_iterations`
+ * and `backend` apply to them as to `TC_METHOD_TRANSCUT`). `TcRadiosityOptions` in
+ * `TcBakeOptions.method_options`; `tc_scene_radiosity_stats` after the bake. Its objects are
+ * coupled, so the bake's session offers no per-object update (relight, edits, cuts:
+ * `TC_UNSUPPORTED`): change the scene and bake again.
+ */
+#define TC_METHOD_RADIOSITY 2
+
+/**
+ * `TcRadiosityOptions.iteration`: Jacobi, every patch from the last sweep (the paper's; sweep
+ * k adds bounce k + 1; the default, and the one `bounces` needs).
+ */
+#define TC_RADIOSITY_JACOBI 0
+
+/**
+ * `TcRadiosityOptions.iteration`: Gauss–Seidel, opaque patches from the values already updated
+ * in the sweep (about half the sweeps, and half the translucent objects' diffusion solves, of
+ * Jacobi).
+ */
+#define TC_RADIOSITY_GAUSS_SEIDEL 1
+
+/**
+ * The most rays per patch `TcRadiosityOptions.rays_per_patch` may ask for, 2^24.
+ */
+#define TC_MAX_RAYS_PER_PATCH (1 << 24)
+
+/**
+ * The largest `TcRadiosityOptions.max_iterations` and `bounces`: a radiosity that has not
+ * converged in ten thousand sweeps has an albedo too close to 1 to be meant.
+ */
+#define TC_MAX_RADIOSITY_ITERATIONS 10000
+
+/**
  * `TcDipoleOptions.oracle`: accept a link when the clusters' radii sum to less than `theta`
  * times their distance (the default).
  */
@@ -247,6 +284,36 @@
 #define TC_MEDIUM_ADD 2
 
 /**
+ * `tc_object_set_sides`: both sides of the surface reflect, each with its own radiosity (a
+ * wall seen from either side; the default).
+ */
+#define TC_SIDES_BOTH 0
+
+/**
+ * `tc_object_set_sides`: only the front reflects: the outside of a closed surface (closed
+ * shells are oriented outwards when the mesh is added), the side of the winding of most of
+ * the area of an open one. The back absorbs whatever reaches it.
+ */
+#define TC_SIDES_FRONT 1
+
+/**
+ * `tc_object_set_sides`: only the back reflects: the inside of a closed surface (a room
+ * modelled as a box, an enclosure). The front absorbs whatever reaches it.
+ */
+#define TC_SIDES_BACK 2
+
+/**
+ * `tc_object_material`: a translucent object (a medium under its surface; every method).
+ */
+#define TC_MATERIAL_TRANSLUCENT 0
+
+/**
+ * `tc_object_material`: an opaque diffuse surface (`tc_scene_add_diffuse_mesh`; only
+ * `TC_METHOD_RADIOSITY` bakes it).
+ */
+#define TC_MATERIAL_DIFFUSE 1
+
+/**
  * A scene: objects (each a mesh, a medium, a transform), lights, and the results of the last
  * bake. Created by `tc_scene_create`, freed by `tc_scene_destroy`. Opaque: only pointers to it
  * are used. A scene may move between threads but serves one call at a time (`TC_BUSY`).
@@ -273,12 +340,13 @@ typedef struct TcBakeOptions {
    */
   uint32_t size;
   /**
-   * The subsurface method: `TC_METHOD_TRANSCUT` (default) or `TC_METHOD_HIERARCHICAL_DIPOLE`.
+   * The subsurface method: `TC_METHOD_TRANSCUT` (default), `TC_METHOD_HIERARCHICAL_DIPOLE`
+   * or `TC_METHOD_RADIOSITY`.
    */
   uint32_t method;
   /**
-   * TransCut: target number of tetrahedra per surface object, 1 to `TC_MAX_TETS` (default
-   * 200 000).
+   * TransCut (and radiosity's translucent objects): target number of tetrahedra per surface
+   * object, 1 to `TC_MAX_TETS` (default 200 000).
    */
   uint64_t tets;
   /**
@@ -317,7 +385,9 @@ typedef struct TcBakeOptions {
    * NULL (the default: the method's own defaults), or the chosen method's options: for
    * `TC_METHOD_TRANSCUT` a `const TcTransCutOptions *` (filled by
    * `tc_transcut_options_init`), for `TC_METHOD_HIERARCHICAL_DIPOLE` a
-   * `const TcDipoleOptions *` (filled by `tc_dipole_options_init`). Read during `tc_scene_bake` only, and only when `size`
+   * `const TcDipoleOptions *` (filled by `tc_dipole_options_init`), for
+   * `TC_METHOD_RADIOSITY` a `const TcRadiosityOptions *` (filled by
+   * `tc_radiosity_options_init`). Read during `tc_scene_bake` only, and only when `size`
    * covers it (a struct of the first version, 48 bytes, has no such field).
    */
   const void *method_options;
@@ -397,6 +467,146 @@ typedef struct TcDipoleOptions {
    */
   uint32_t radiance;
 } TcDipoleOptions;
+
+/**
+ * Translucent radiosity's own options (`TcBakeOptions.method_options` with
+ * `TC_METHOD_RADIOSITY`). Fill it with `tc_radiosity_options_init(&options, sizeof options)`,
+ * which sets `size`, then change fields. The translucent objects are meshed and solved as
+ * TransCut does, with `TcBakeOptions.tets`, `tolerance`, `max_iterations` and `backend` (one
+ * place for them whatever the method, as on the command line); the fields here are the
+ * radiosity's own. A value out of range fails the bake with `TC_INVALID_ARGUMENT` naming the
+ * field (`options->method_options->…`).
+ */
+typedef struct TcRadiosityOptions {
+  /**
+   * The bytes of the struct the caller has, set by `tc_radiosity_options_init`.
+   */
+  uint32_t size;
+  /**
+   * `TC_RADIOSITY_JACOBI` (default) or `TC_RADIOSITY_GAUSS_SEIDEL`.
+   */
+  uint32_t iteration;
+  /**
+   * The longest patch edge on opaque objects, in mm (their meshes are refined to it, keeping
+   * their vertices): finite and > 0, or 0 for the default, the scene's bounding-box diagonal
+   * / 80 (about 4.3 mm in a 200 mm box). Translucent objects' patches are the boundary
+   * vertices of their tets. Smaller patches resolve shadows and colour bleeding better; each
+   * casts `rays_per_patch` rays, and the form factors' memory grows with their number.
+   */
+  double patch_size_mm;
+  /**
+   * Rays cast from each patch for the form factors, 1 to `TC_MAX_RAYS_PER_PATCH` (default
+   * 512; the noise of a factor F is about √(F(1 − F)/N)).
+   */
+  uint32_t rays_per_patch;
+  /**
+   * Sweeps of the iteration at most, 1 to `TC_MAX_RADIOSITY_ITERATIONS` (default 200).
+   */
+  uint32_t max_iterations;
+  /**
+   * The seed of the rays: the same seed gives the same form factors on any number of threads.
+   */
+  uint64_t seed;
+  /**
+   * The estimated relative error in power at which the iteration stops, in (0, 1) (default
+   * 1e-3). (`TcBakeOptions.tolerance` is the translucent objects' diffusion solve's.)
+   */
+  double tolerance;
+  /**
+   * A patch whose rays hit the back of one-sided surfaces more often than this fraction lies
+   * inside geometry: it exchanges nothing and takes its radiance from its neighbours. In
+   * (0, 1] (default 0.1).
+   */
+  double covered_fraction;
+  /**
+   * Exactly this many bounces of light (1: the direct light and the emission only), whatever
+   * the tolerance, 1 to `TC_MAX_RADIOSITY_ITERATIONS`, with `TC_RADIOSITY_JACOBI` only; 0 (the
+   * default): until the tolerance.
+   */
+  uint32_t bounces;
+  /**
+   * The translucent objects' diffusion solver on the CPU: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a
+   * `TC_SOLVER_*`, as `TcTransCutOptions.solver`.
+   */
+  uint32_t solver;
+} TcRadiosityOptions;
+
+/**
+ * What translucent radiosity measured of the whole scene in the last bake
+ * (`tc_scene_radiosity_stats`): it bakes every object together, so these are the scene's;
+ * each object's own (its tets and solves, for a translucent one) are in `tc_object_stats`.
+ * Set `size` to `sizeof(TcRadiosityStats)` first.
+ */
+typedef struct TcRadiosityStats {
+  /**
+   * Set by the caller to `sizeof(TcRadiosityStats)`; the library sets it to the number of
+   * bytes it wrote.
+   */
+  uint32_t size;
+  /**
+   * Patches in all (a two-sided surface has two per vertex of its refined mesh).
+   */
+  uint64_t patches;
+  /**
+   * Of them, on translucent objects (their tets' boundary vertices).
+   */
+  uint64_t translucent_patches;
+  /**
+   * Patches inside geometry (their rays mostly hit the back of one-sided surfaces): they
+   * exchange nothing and take their radiance from their neighbours.
+   */
+  uint64_t covered_patches;
+  /**
+   * Nonzero form factors.
+   */
+  uint64_t nonzeros;
+  /**
+   * Memory of the form factors, in bytes (12 per nonzero).
+   */
+  uint64_t form_factor_bytes;
+  /**
+   * The patch size used on opaque objects, in mm (the default resolved, when 0 was asked).
+   */
+  double patch_size_mm;
+  /**
+   * Wall time of preparing the translucent objects (tets, assembly), in milliseconds.
+   */
+  double prepare_ms;
+  /**
+   * Wall time of building the patches (refinement, dual cells, the ray-casting hierarchy).
+   */
+  double patches_ms;
+  /**
+   * Wall time of casting and symmetrising the form factors.
+   */
+  double form_factor_ms;
+  /**
+   * Wall time of the direct light on every patch (with shadows).
+   */
+  double direct_ms;
+  /**
+   * Wall time of the coupled solve, the translucent objects' diffusion solves included.
+   */
+  double solve_ms;
+  /**
+   * Sweeps of the iteration.
+   */
+  uint32_t iterations;
+  /**
+   * Diffusion solves per translucent object (its scattering of the light it got).
+   */
+  uint32_t scatterings;
+  /**
+   * The a-posteriori estimate of the relative error in power at the end (below
+   * `TcRadiosityOptions.tolerance` unless the sweeps or bounces ran out).
+   */
+  double estimated_error;
+  /**
+   * |in − out| / in of the energy balance (light put in by the lights and the emission
+   * against light absorbed, reflected specularly and escaped), the worst channel.
+   */
+  double energy_defect;
+} TcRadiosityStats;
 
 /**
  * Progress callback: `stage` is a short UTF-8 description (valid during the call only),
@@ -873,6 +1083,27 @@ TcStatus tc_transcut_options_init(struct TcTransCutOptions *options, size_t size
 TcStatus tc_dipole_options_init(struct TcDipoleOptions *options, size_t size);
 
 /**
+ * Fills the first `size` bytes of `*options` with translucent radiosity's defaults (Jacobi,
+ * the default patch size (0: the scene's diagonal / 80), 512 rays per patch, tolerance 1e-3,
+ * at most 200 sweeps, covered fraction 0.1, every bounce, the default solver), as
+ * `tc_bake_options_init` fills its struct; pass `sizeof(TcRadiosityOptions)`.
+ * `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size below
+ * `sizeof(TcRadiosityOptions)`; nothing is written on failure.
+ */
+TcStatus tc_radiosity_options_init(struct TcRadiosityOptions *options, size_t size);
+
+/**
+ * Writes what translucent radiosity measured of the whole scene in the last bake into
+ * `*out`. Set `out->size = sizeof(TcRadiosityStats)` first (a smaller size is
+ * `TC_INVALID_ARGUMENT`); on return it holds the number of bytes written.
+ *
+ * Errors: `TC_NULL_POINTER`, `TC_NOT_BAKED` (before a successful bake, after a change to the
+ * scene or its lights), `TC_UNSUPPORTED` when the last bake was by another method. Nothing is
+ * written on failure.
+ */
+TcStatus tc_scene_radiosity_stats(const struct TcScene *scene, struct TcRadiosityStats *out);
+
+/**
  * Bakes every object with the chosen method (`TcBakeOptions.method`; TransCut meshes surfaces
  * into tetrahedra, computes the light transmitted into them, shadowed by all objects, solves
  * the diffusion system) and keeps the radiance leaving each vertex along its normal, Lo(x, n),
@@ -889,6 +1120,12 @@ TcStatus tc_dipole_options_init(struct TcDipoleOptions *options, size_t size);
  * (`tc_object_cut_*`), fractured and its pieces moved, each update warm-started from the last
  * solution. Changing an object (mesh, medium, transform, scale) ends the session; changing the
  * lights does not (see `tc_scene_relight`).
+ *
+ * `TC_METHOD_RADIOSITY` bakes the whole scene at once: translucent and diffuse objects
+ * (`tc_scene_add_diffuse_mesh`) light each other, and `tc_scene_radiosity_stats` says what it
+ * measured. Its objects are coupled, so its session refuses per-object updates with
+ * `TC_UNSUPPORTED`; bake again after a change. The other methods refuse a scene with a diffuse
+ * object with `TC_UNSUPPORTED`, naming the object and suggesting radiosity.
  *
  * Errors: `TC_INVALID_ARGUMENT` (no objects, options out of range, an unknown method, an
  * invalid object or light, naming it; an unknown `TRANSCUT_BACKEND` value),
@@ -1215,6 +1452,10 @@ TcStatus tc_medium_from_artist(const struct TcArtistMedium *artist,
 /**
  * Fills an object with a homogeneous medium. `TC_INVALID_ARGUMENT` naming the field (and
  * channel) when a value is out of range (see `TcMedium`); the object is then unchanged.
+ * Every `tc_object_set_medium*` call refuses a diffuse object (`tc_scene_add_diffuse_mesh`)
+ * with `TC_INVALID_ARGUMENT` naming it: an object keeps the kind it was added with (a
+ * diffuse surface may be open, a medium fills a closed solid), so add the mesh again with
+ * `tc_scene_add_mesh` to make it translucent.
  */
 TcStatus tc_object_set_medium(struct TcScene *scene,
                               uint32_t object,
@@ -1452,6 +1693,71 @@ TcStatus tc_object_set_scale(struct TcScene *scene, uint32_t object, double mm_p
 TcStatus tc_object_vertex_count(const struct TcScene *scene, uint32_t object, size_t *out);
 
 /**
+ * Adds an opaque diffuse object (a Lambertian surface: walls, floors, the room around the
+ * translucent objects) and stores its index in `*out_object`. Only `TC_METHOD_RADIOSITY`
+ * bakes it (the other methods fail with `TC_UNSUPPORTED`, naming the object and suggesting
+ * radiosity): the objects then light each other, and its radiance is Lo = B/π with B its
+ * radiosity (reflected plus emitted exitance), per vertex as for any object.
+ *
+ * The mesh is read as `tc_scene_add_mesh` reads it (same arrays, same checks, radiance per
+ * given vertex in this order) but need not be closed: an open surface (a plane, a scan) is a
+ * surface only, with no volume. `albedo` (3 doubles, linear RGB) is the fraction of the light
+ * it reflects, each channel in [0, 1) (1 would reflect everything, and a closed room of it
+ * would never converge). The new object emits nothing and reflects on both sides; see
+ * `tc_object_set_emission`, `tc_object_set_sides`, and `tc_object_set_transform` and
+ * `tc_object_set_scale` as for any object (every object of a radiosity bake must have the
+ * same scale).
+ *
+ * `TC_INVALID_MESH` as for `tc_scene_add_mesh`; `TC_NULL_POINTER` for a NULL `albedo`;
+ * `TC_INVALID_ARGUMENT` for an albedo out of [0, 1) or NaN, naming it. The scene and
+ * `*out_object` are unchanged on failure.
+ */
+TcStatus tc_scene_add_diffuse_mesh(struct TcScene *scene,
+                                   const float *positions,
+                                   size_t vertex_count,
+                                   const uint32_t *indices,
+                                   size_t index_count,
+                                   const double *albedo,
+                                   uint32_t *out_object);
+
+/**
+ * Sets a diffuse object's albedo (3 doubles, linear RGB, each in [0, 1)): the fraction of the
+ * irradiance it reflects. `TC_INVALID_ARGUMENT` naming the object for a value out of range or
+ * NaN, or for a translucent object (its colour comes from its medium); the object is then
+ * unchanged. Any change to the scene discards the results of the last bake.
+ */
+TcStatus tc_object_set_albedo(struct TcScene *scene, uint32_t object, const double *albedo);
+
+/**
+ * Sets the exitance a diffuse object emits (3 doubles, linear RGB, each finite and ≥ 0; 0
+ * by default), in the units of the lights' irradiance: a surface emitting M and reflecting
+ * nothing has radiance M/π. An emissive surface lights the scene in a radiosity bake like an
+ * area light (its light is spread through the form factors, not sampled as the lights are).
+ * `TC_INVALID_ARGUMENT` naming the object for a negative, NaN or infinite value, or for a
+ * translucent object; the object is then unchanged.
+ */
+TcStatus tc_object_set_emission(struct TcScene *scene, uint32_t object, const double *emission);
+
+/**
+ * Sets which sides of a diffuse object reflect (and emit): `TC_SIDES_BOTH` (the default),
+ * `TC_SIDES_FRONT` or `TC_SIDES_BACK` (the inside of a closed room). The other side absorbs
+ * whatever reaches it, and patches behind one-sided surfaces take their neighbours' radiance.
+ * The radiance returned per vertex is that of the reflecting side (the front of a two-sided
+ * surface). `TC_INVALID_ARGUMENT` for another value or a translucent object; the object is
+ * then unchanged.
+ */
+TcStatus tc_object_set_sides(struct TcScene *scene, uint32_t object, uint32_t sides);
+
+/**
+ * What an object is made of, in `*out`: `TC_MATERIAL_TRANSLUCENT` (added by
+ * `tc_scene_add_mesh`, `tc_scene_add_tet_mesh` or `tc_scene_add_mesh_file`) or
+ * `TC_MATERIAL_DIFFUSE` (added by `tc_scene_add_diffuse_mesh`). An object keeps its kind:
+ * `tc_object_set_medium*` refuses a diffuse object, `tc_object_set_albedo`, `_emission` and
+ * `_sides` a translucent one.
+ */
+TcStatus tc_object_material(const struct TcScene *scene, uint32_t object, uint32_t *out);
+
+/**
  * The library's version as `major << 16 | minor << 8 | patch` (compare with
  * `TRANSCUT_VERSION`).
  */
@@ -1572,6 +1878,34 @@ TC_LAYOUT_CHECK(TcDipoleOptions_mode, offsetof(TcDipoleOptions, mode) == 40);
 TC_LAYOUT_CHECK(TcDipoleOptions_geometry, offsetof(TcDipoleOptions, geometry) == 44);
 TC_LAYOUT_CHECK(TcDipoleOptions_budget, offsetof(TcDipoleOptions, budget) == 48);
 TC_LAYOUT_CHECK(TcDipoleOptions_radiance, offsetof(TcDipoleOptions, radiance) == 56);
+TC_LAYOUT_CHECK(TcRadiosityOptions__sizeof, sizeof(TcRadiosityOptions) == 56);
+TC_LAYOUT_CHECK(TcRadiosityOptions_size, offsetof(TcRadiosityOptions, size) == 0);
+TC_LAYOUT_CHECK(TcRadiosityOptions_iteration, offsetof(TcRadiosityOptions, iteration) == 4);
+TC_LAYOUT_CHECK(TcRadiosityOptions_patch_size_mm, offsetof(TcRadiosityOptions, patch_size_mm) == 8);
+TC_LAYOUT_CHECK(TcRadiosityOptions_rays_per_patch, offsetof(TcRadiosityOptions, rays_per_patch) == 16);
+TC_LAYOUT_CHECK(TcRadiosityOptions_max_iterations, offsetof(TcRadiosityOptions, max_iterations) == 20);
+TC_LAYOUT_CHECK(TcRadiosityOptions_seed, offsetof(TcRadiosityOptions, seed) == 24);
+TC_LAYOUT_CHECK(TcRadiosityOptions_tolerance, offsetof(TcRadiosityOptions, tolerance) == 32);
+TC_LAYOUT_CHECK(TcRadiosityOptions_covered_fraction, offsetof(TcRadiosityOptions, covered_fraction) == 40);
+TC_LAYOUT_CHECK(TcRadiosityOptions_bounces, offsetof(TcRadiosityOptions, bounces) == 48);
+TC_LAYOUT_CHECK(TcRadiosityOptions_solver, offsetof(TcRadiosityOptions, solver) == 52);
+TC_LAYOUT_CHECK(TcRadiosityStats__sizeof, sizeof(TcRadiosityStats) == 120);
+TC_LAYOUT_CHECK(TcRadiosityStats_size, offsetof(TcRadiosityStats, size) == 0);
+TC_LAYOUT_CHECK(TcRadiosityStats_patches, offsetof(TcRadiosityStats, patches) == 8);
+TC_LAYOUT_CHECK(TcRadiosityStats_translucent_patches, offsetof(TcRadiosityStats, translucent_patches) == 16);
+TC_LAYOUT_CHECK(TcRadiosityStats_covered_patches, offsetof(TcRadiosityStats, covered_patches) == 24);
+TC_LAYOUT_CHECK(TcRadiosityStats_nonzeros, offsetof(TcRadiosityStats, nonzeros) == 32);
+TC_LAYOUT_CHECK(TcRadiosityStats_form_factor_bytes, offsetof(TcRadiosityStats, form_factor_bytes) == 40);
+TC_LAYOUT_CHECK(TcRadiosityStats_patch_size_mm, offsetof(TcRadiosityStats, patch_size_mm) == 48);
+TC_LAYOUT_CHECK(TcRadiosityStats_prepare_ms, offsetof(TcRadiosityStats, prepare_ms) == 56);
+TC_LAYOUT_CHECK(TcRadiosityStats_patches_ms, offsetof(TcRadiosityStats, patches_ms) == 64);
+TC_LAYOUT_CHECK(TcRadiosityStats_form_factor_ms, offsetof(TcRadiosityStats, form_factor_ms) == 72);
+TC_LAYOUT_CHECK(TcRadiosityStats_direct_ms, offsetof(TcRadiosityStats, direct_ms) == 80);
+TC_LAYOUT_CHECK(TcRadiosityStats_solve_ms, offsetof(TcRadiosityStats, solve_ms) == 88);
+TC_LAYOUT_CHECK(TcRadiosityStats_iterations, offsetof(TcRadiosityStats, iterations) == 96);
+TC_LAYOUT_CHECK(TcRadiosityStats_scatterings, offsetof(TcRadiosityStats, scatterings) == 100);
+TC_LAYOUT_CHECK(TcRadiosityStats_estimated_error, offsetof(TcRadiosityStats, estimated_error) == 104);
+TC_LAYOUT_CHECK(TcRadiosityStats_energy_defect, offsetof(TcRadiosityStats, energy_defect) == 112);
 TC_LAYOUT_CHECK(TcDipoleStats__sizeof, sizeof(TcDipoleStats) == 96);
 TC_LAYOUT_CHECK(TcDipoleStats_size, offsetof(TcDipoleStats, size) == 0);
 TC_LAYOUT_CHECK(TcDipoleStats_triangles, offsetof(TcDipoleStats, triangles) == 8);

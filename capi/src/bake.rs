@@ -2,13 +2,13 @@
 
 use std::ffi::{c_char, c_void};
 
-use transcut_core::{ObjectStats, Session};
+use transcut_core::{bake_with, ObjectStats, Session};
 
 use super::convert::scene_failure;
 use super::handle::{with_scene, TcScene};
 use super::options::{
-    backend_used, default_bake_options, default_dipole_options, default_transcut_options, read_bake_options, TcBakeOptions,
-    TcDipoleOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1,
+    backend_used, default_bake_options, default_dipole_options, default_radiosity_options, default_transcut_options,
+    read_bake_options, TcBakeOptions, TcDipoleOptions, TcRadiosityOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1,
 };
 use super::progress::{Callback, TcProgressFn};
 use super::ptr;
@@ -127,6 +127,115 @@ pub unsafe extern "C" fn tc_dipole_options_init(options: *mut TcDipoleOptions, s
     })
 }
 
+/// Fills the first `size` bytes of `*options` with translucent radiosity's defaults (Jacobi,
+/// the default patch size (0: the scene's diagonal / 80), 512 rays per patch, tolerance 1e-3,
+/// at most 200 sweeps, covered fraction 0.1, every bounce, the default solver), as
+/// `tc_bake_options_init` fills its struct; pass `sizeof(TcRadiosityOptions)`.
+/// `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size below
+/// `sizeof(TcRadiosityOptions)`; nothing is written on failure.
+#[no_mangle]
+pub unsafe extern "C" fn tc_radiosity_options_init(options: *mut TcRadiosityOptions, size: usize) -> TcStatus {
+    run("tc_radiosity_options_init", || {
+        let first = size_of::<TcRadiosityOptions>();
+        // SAFETY: the caller's contract: `size` writable bytes.
+        unsafe { init(options, size, first, default_radiosity_options()) }
+    })
+}
+
+/// What translucent radiosity measured of the whole scene in the last bake
+/// (`tc_scene_radiosity_stats`): it bakes every object together, so these are the scene's;
+/// each object's own (its tets and solves, for a translucent one) are in `tc_object_stats`.
+/// Set `size` to `sizeof(TcRadiosityStats)` first.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcRadiosityStats {
+    /// Set by the caller to `sizeof(TcRadiosityStats)`; the library sets it to the number of
+    /// bytes it wrote.
+    pub size: u32,
+    /// Patches in all (a two-sided surface has two per vertex of its refined mesh).
+    pub patches: u64,
+    /// Of them, on translucent objects (their tets' boundary vertices).
+    pub translucent_patches: u64,
+    /// Patches inside geometry (their rays mostly hit the back of one-sided surfaces): they
+    /// exchange nothing and take their radiance from their neighbours.
+    pub covered_patches: u64,
+    /// Nonzero form factors.
+    pub nonzeros: u64,
+    /// Memory of the form factors, in bytes (12 per nonzero).
+    pub form_factor_bytes: u64,
+    /// The patch size used on opaque objects, in mm (the default resolved, when 0 was asked).
+    pub patch_size_mm: f64,
+    /// Wall time of preparing the translucent objects (tets, assembly), in milliseconds.
+    pub prepare_ms: f64,
+    /// Wall time of building the patches (refinement, dual cells, the ray-casting hierarchy).
+    pub patches_ms: f64,
+    /// Wall time of casting and symmetrising the form factors.
+    pub form_factor_ms: f64,
+    /// Wall time of the direct light on every patch (with shadows).
+    pub direct_ms: f64,
+    /// Wall time of the coupled solve, the translucent objects' diffusion solves included.
+    pub solve_ms: f64,
+    /// Sweeps of the iteration.
+    pub iterations: u32,
+    /// Diffusion solves per translucent object (its scattering of the light it got).
+    pub scatterings: u32,
+    /// The a-posteriori estimate of the relative error in power at the end (below
+    /// `TcRadiosityOptions.tolerance` unless the sweeps or bounces ran out).
+    pub estimated_error: f64,
+    /// |in − out| / in of the energy balance (light put in by the lights and the emission
+    /// against light absorbed, reflected specularly and escaped), the worst channel.
+    pub energy_defect: f64,
+}
+
+/// Writes what translucent radiosity measured of the whole scene in the last bake into
+/// `*out`. Set `out->size = sizeof(TcRadiosityStats)` first (a smaller size is
+/// `TC_INVALID_ARGUMENT`); on return it holds the number of bytes written.
+///
+/// Errors: `TC_NULL_POINTER`, `TC_NOT_BAKED` (before a successful bake, after a change to the
+/// scene or its lights), `TC_UNSUPPORTED` when the last bake was by another method. Nothing is
+/// written on failure.
+#[no_mangle]
+pub unsafe extern "C" fn tc_scene_radiosity_stats(scene: *const TcScene, out: *mut TcRadiosityStats) -> TcStatus {
+    run("tc_scene_radiosity_stats", || {
+        check_not_null!(out);
+        // SAFETY: checked; `size` is the first field.
+        let size = unsafe { out.cast::<u32>().read() } as usize;
+        let ours = size_of::<TcRadiosityStats>();
+        if size < ours {
+            return Err(Failure::invalid(format!("out->size = {size}, expected sizeof(TcRadiosityStats) = {ours}")));
+        }
+        // SAFETY: the caller's contract.
+        let stats = unsafe {
+            with_scene(scene, |s| {
+                let r = s.radiosity_stats()?;
+                let count = |n: usize| n as u64;
+                let small = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+                Ok(TcRadiosityStats {
+                    size: ours as u32,
+                    patches: count(r.patches),
+                    translucent_patches: count(r.translucent_patches),
+                    covered_patches: count(r.covered_patches),
+                    nonzeros: count(r.nonzeros),
+                    form_factor_bytes: count(r.form_factor_bytes),
+                    patch_size_mm: r.patch_size_mm,
+                    prepare_ms: r.prepare_ms,
+                    patches_ms: r.patches_ms,
+                    form_factor_ms: r.form_factor_ms,
+                    direct_ms: r.direct_ms,
+                    solve_ms: r.solve_ms,
+                    iterations: small(r.iterations),
+                    scatterings: small(r.scatterings),
+                    estimated_error: r.estimated_error,
+                    energy_defect: r.energy_defect,
+                })
+            })?
+        };
+        // SAFETY: checked above; the caller's struct has at least `ours` bytes.
+        unsafe { ptr::write(out, stats) };
+        Ok(())
+    })
+}
+
 /// Writes the first `min(size, size_of::<T>())` bytes of `defaults` over `*out` with its leading
 /// `size` field set to that count; `size` must be at least `min`.
 ///
@@ -162,6 +271,12 @@ unsafe fn init<T>(out: *mut T, size: usize, min: usize, mut defaults: T) -> Resu
 /// solution. Changing an object (mesh, medium, transform, scale) ends the session; changing the
 /// lights does not (see `tc_scene_relight`).
 ///
+/// `TC_METHOD_RADIOSITY` bakes the whole scene at once: translucent and diffuse objects
+/// (`tc_scene_add_diffuse_mesh`) light each other, and `tc_scene_radiosity_stats` says what it
+/// measured. Its objects are coupled, so its session refuses per-object updates with
+/// `TC_UNSUPPORTED`; bake again after a change. The other methods refuse a scene with a diffuse
+/// object with `TC_UNSUPPORTED`, naming the object and suggesting radiosity.
+///
 /// Errors: `TC_INVALID_ARGUMENT` (no objects, options out of range, an unknown method, an
 /// invalid object or light, naming it; an unknown `TRANSCUT_BACKEND` value),
 /// `TC_UNSUPPORTED` (the method cannot bake an object, naming the method and the reason),
@@ -181,8 +296,12 @@ pub unsafe extern "C" fn tc_scene_bake(
             // SAFETY: the caller's contract.
             unsafe {
                 with_scene(scene, |s| {
-                    let session = Session::bake(&s.scene, &options, progress).map_err(|e| scene_failure(&e))?;
-                    s.session = Some(session);
+                    // The bake, then its session: the session keeps each object's bake, the scene
+                    // keeps the radiosity method's statistics of the whole scene beside it.
+                    let bake = bake_with(&s.scene, &options, progress).map_err(|e| scene_failure(&e))?;
+                    let radiosity = bake.radiosity.clone();
+                    s.session = Some(Session::new(&s.scene, bake, &options));
+                    s.radiosity = radiosity;
                     s.current = true;
                     Ok(())
                 })

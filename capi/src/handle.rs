@@ -13,11 +13,12 @@ use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use transcut_core::edit::Editor;
-use transcut_core::{MediumSource, ObjectStats, Scene, Session, SessionError};
+use transcut_core::methods::RadiosityStats;
+use transcut_core::{Diffuse, Material, MediumSource, ObjectStats, Scene, Session, SessionError};
 
 use super::convert::session_failure;
 use super::progress::{Callback, Sink};
-use super::status::{Failure, TC_BUSY, TC_INVALID_HANDLE, TC_NOT_BAKED, TC_NULL_POINTER};
+use super::status::{Failure, TC_BUSY, TC_INVALID_HANDLE, TC_NOT_BAKED, TC_NULL_POINTER, TC_UNSUPPORTED};
 
 /// Marks a live `TcScene` ("TCSCENE\0" as little-endian bytes); zeroed when it is destroyed.
 pub(crate) const MAGIC: u64 = u64::from_le_bytes(*b"TCSCENE\0");
@@ -44,12 +45,17 @@ pub(crate) struct SceneState {
     pub current: bool,
     /// The callback of every edit call (and of `tc_scene_relight` when it is given none).
     pub progress: Sink,
+    /// What the radiosity method measured of the whole scene in the session's bake (`None`
+    /// when another method baked it, or with no session): the core's session keeps only the
+    /// objects' bakes, so the scene keeps this beside it.
+    pub radiosity: Option<RadiosityStats>,
 }
 
 impl SceneState {
     /// Discards the session: it no longer describes the scene.
     pub(crate) fn changed(&mut self) {
         self.session = None;
+        self.radiosity = None;
         self.current = false;
     }
 
@@ -92,6 +98,19 @@ impl SceneState {
         }
     }
 
+    /// The radiosity statistics of the last bake, while its results describe the scene;
+    /// `TC_UNSUPPORTED` when another method baked it.
+    pub(crate) fn radiosity_stats(&self) -> Result<&RadiosityStats, Failure> {
+        let session = self.results()?;
+        self.radiosity.as_ref().ok_or_else(|| {
+            let method = session.options().method.name();
+            Failure::new(
+                TC_UNSUPPORTED,
+                format!("the last bake was by the {method} method, not radiosity: it has no radiosity statistics"),
+            )
+        })
+    }
+
     /// The statistics of object `object`'s last bake (checked).
     pub(crate) fn bake_stats(&self, object: u32) -> Result<&ObjectStats, Failure> {
         let i = self.object_index(object)?;
@@ -125,12 +144,41 @@ impl SceneState {
 
     /// Replaces an object's medium after checking it against the object's shape (a per-tet
     /// array must match the tet count, table ids must be in range, …); the object is unchanged
-    /// on error.
+    /// on error. A diffuse object is refused: its kind is fixed when it is added (its surface
+    /// may be open, and a medium fills a closed solid), so a caller that wants it translucent
+    /// adds it again with `tc_scene_add_mesh`.
     pub(crate) fn set_medium(&mut self, object: u32, medium: MediumSource) -> Result<(), Failure> {
         let i = self.object_index(object)?;
         let o = &mut self.scene.objects[i];
+        if o.material.diffuse().is_some() {
+            return Err(Failure::invalid(format!(
+                "object {object} ({}) is diffuse (an opaque surface added by tc_scene_add_diffuse_mesh): it has no medium; \
+                 set its albedo, emission and sides instead, or add the mesh with tc_scene_add_mesh to make it translucent",
+                o.name
+            )));
+        }
         medium.validate(&o.shape).map_err(|e| Failure::invalid(format!("object {object} ({}): {e}", o.name)))?;
         o.material = medium.into();
+        self.changed();
+        Ok(())
+    }
+
+    /// Changes a diffuse object's surface with `change`, checked with [`Diffuse::validate`]; a
+    /// translucent object is refused by name. The object is unchanged on error.
+    pub(crate) fn set_diffuse(&mut self, object: u32, change: impl FnOnce(&mut Diffuse)) -> Result<(), Failure> {
+        let i = self.object_index(object)?;
+        let o = &mut self.scene.objects[i];
+        let Material::Diffuse(current) = &o.material else {
+            return Err(Failure::invalid(format!(
+                "object {object} ({}) is translucent (it has a medium): albedo, emission and sides belong to diffuse objects \
+                 (tc_scene_add_diffuse_mesh)",
+                o.name
+            )));
+        };
+        let mut diffuse = *current;
+        change(&mut diffuse);
+        diffuse.validate().map_err(|e| Failure::invalid(format!("object {object} ({}): {e}", o.name)))?;
+        o.material = Material::Diffuse(diffuse);
         self.changed();
         Ok(())
     }

@@ -84,6 +84,10 @@ pub unsafe extern "C" fn tc_medium_from_artist(artist: *const TcArtistMedium, mm
 
 /// Fills an object with a homogeneous medium. `TC_INVALID_ARGUMENT` naming the field (and
 /// channel) when a value is out of range (see `TcMedium`); the object is then unchanged.
+/// Every `tc_object_set_medium*` call refuses a diffuse object (`tc_scene_add_diffuse_mesh`)
+/// with `TC_INVALID_ARGUMENT` naming it: an object keeps the kind it was added with (a
+/// diffuse surface may be open, a medium fills a closed solid), so add the mesh again with
+/// `tc_scene_add_mesh` to make it translucent.
 #[no_mangle]
 pub unsafe extern "C" fn tc_object_set_medium(scene: *mut TcScene, object: u32, medium: *const TcMedium) -> TcStatus {
     run("tc_object_set_medium", || {

@@ -3,7 +3,9 @@
 //!
 //! `TcBakeOptions` holds what every method shares (and the options of TransCut that predate
 //! the method choice); `method_options` points to the chosen method's own size-prefixed
-//! struct, `TcTransCutOptions` for `TC_METHOD_TRANSCUT` (NULL: its defaults).
+//! struct, `TcTransCutOptions` for `TC_METHOD_TRANSCUT`, `TcDipoleOptions` for
+//! `TC_METHOD_HIERARCHICAL_DIPOLE`, `TcRadiosityOptions` for `TC_METHOD_RADIOSITY` (NULL: its
+//! defaults).
 
 use std::ffi::c_void;
 
@@ -12,7 +14,8 @@ use transcut_core::gpu::Backend;
 use transcut_core::hierarchy::{DipoleOptions, DipoleRadiance, EvalMode, Oracle, Receivers};
 use transcut_core::light::SourceOptions;
 use transcut_core::optics::{DipoleGeometry, EdgeRule};
-use transcut_core::{BakeOptions, Method, TransCutOptions};
+use transcut_core::radiosity::{FormFactorOptions, Iteration, SolveOptions};
+use transcut_core::{BakeOptions, Method, RadiosityOptions, TransCutOptions};
 
 use super::status::Failure;
 
@@ -25,6 +28,29 @@ pub const TC_METHOD_TRANSCUT: u32 = 0;
 /// `tc_object_set_positions` (a deforming mesh, frame by frame); `TcDipoleOptions` in
 /// `TcBakeOptions.method_options`. Heterogeneous media are refused with `TC_UNSUPPORTED`.
 pub const TC_METHOD_HIERARCHICAL_DIPOLE: u32 = 1;
+/// Translucent radiosity (Sheng et al. 2014): every object's surface in patches exchanging light
+/// through form factors with visibility, so objects light each other (inter-reflection, colour
+/// bleeding, emissive surfaces). The one method that bakes opaque diffuse objects
+/// (`tc_scene_add_diffuse_mesh`) besides translucent ones, which scatter the light they get
+/// through their TransCut diffusion solve (`TcBakeOptions.tets`, `tolerance`, `max_iterations`
+/// and `backend` apply to them as to `TC_METHOD_TRANSCUT`). `TcRadiosityOptions` in
+/// `TcBakeOptions.method_options`; `tc_scene_radiosity_stats` after the bake. Its objects are
+/// coupled, so the bake's session offers no per-object update (relight, edits, cuts:
+/// `TC_UNSUPPORTED`): change the scene and bake again.
+pub const TC_METHOD_RADIOSITY: u32 = 2;
+
+/// `TcRadiosityOptions.iteration`: Jacobi, every patch from the last sweep (the paper's; sweep
+/// k adds bounce k + 1; the default, and the one `bounces` needs).
+pub const TC_RADIOSITY_JACOBI: u32 = 0;
+/// `TcRadiosityOptions.iteration`: Gauss–Seidel, opaque patches from the values already updated
+/// in the sweep (about half the sweeps, and half the translucent objects' diffusion solves, of
+/// Jacobi).
+pub const TC_RADIOSITY_GAUSS_SEIDEL: u32 = 1;
+/// The most rays per patch `TcRadiosityOptions.rays_per_patch` may ask for, 2^24.
+pub const TC_MAX_RAYS_PER_PATCH: u32 = 1 << 24;
+/// The largest `TcRadiosityOptions.max_iterations` and `bounces`: a radiosity that has not
+/// converged in ten thousand sweeps has an albedo too close to 1 to be meant.
+pub const TC_MAX_RADIOSITY_ITERATIONS: u32 = 10_000;
 
 /// `TcDipoleOptions.oracle`: accept a link when the clusters' radii sum to less than `theta`
 /// times their distance (the default).
@@ -104,10 +130,11 @@ pub const TC_MAX_ITERATIONS: u32 = 1_000_000;
 pub struct TcBakeOptions {
     /// The bytes of the struct the caller has, set by `tc_bake_options_init`.
     pub size: u32,
-    /// The subsurface method: `TC_METHOD_TRANSCUT` (default) or `TC_METHOD_HIERARCHICAL_DIPOLE`.
+    /// The subsurface method: `TC_METHOD_TRANSCUT` (default), `TC_METHOD_HIERARCHICAL_DIPOLE`
+    /// or `TC_METHOD_RADIOSITY`.
     pub method: u32,
-    /// TransCut: target number of tetrahedra per surface object, 1 to `TC_MAX_TETS` (default
-    /// 200 000).
+    /// TransCut (and radiosity's translucent objects): target number of tetrahedra per surface
+    /// object, 1 to `TC_MAX_TETS` (default 200 000).
     pub tets: u64,
     /// Relative residual ‖b − Mφ‖/‖b‖ at which the solver stops, in (0, 1) (default 1e-6).
     pub tolerance: f64,
@@ -130,7 +157,9 @@ pub struct TcBakeOptions {
     /// NULL (the default: the method's own defaults), or the chosen method's options: for
     /// `TC_METHOD_TRANSCUT` a `const TcTransCutOptions *` (filled by
     /// `tc_transcut_options_init`), for `TC_METHOD_HIERARCHICAL_DIPOLE` a
-    /// `const TcDipoleOptions *` (filled by `tc_dipole_options_init`). Read during `tc_scene_bake` only, and only when `size`
+    /// `const TcDipoleOptions *` (filled by `tc_dipole_options_init`), for
+    /// `TC_METHOD_RADIOSITY` a `const TcRadiosityOptions *` (filled by
+    /// `tc_radiosity_options_init`). Read during `tc_scene_bake` only, and only when `size`
     /// covers it (a struct of the first version, 48 bytes, has no such field).
     pub method_options: *const c_void,
 }
@@ -180,6 +209,136 @@ pub struct TcDipoleOptions {
     pub budget: u64,
     /// `TC_DIPOLE_RADIANCE_TRANSCUT` (default) or `TC_DIPOLE_RADIANCE_JENSEN`.
     pub radiance: u32,
+}
+
+/// Translucent radiosity's own options (`TcBakeOptions.method_options` with
+/// `TC_METHOD_RADIOSITY`). Fill it with `tc_radiosity_options_init(&options, sizeof options)`,
+/// which sets `size`, then change fields. The translucent objects are meshed and solved as
+/// TransCut does, with `TcBakeOptions.tets`, `tolerance`, `max_iterations` and `backend` (one
+/// place for them whatever the method, as on the command line); the fields here are the
+/// radiosity's own. A value out of range fails the bake with `TC_INVALID_ARGUMENT` naming the
+/// field (`options->method_options->…`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcRadiosityOptions {
+    /// The bytes of the struct the caller has, set by `tc_radiosity_options_init`.
+    pub size: u32,
+    /// `TC_RADIOSITY_JACOBI` (default) or `TC_RADIOSITY_GAUSS_SEIDEL`.
+    pub iteration: u32,
+    /// The longest patch edge on opaque objects, in mm (their meshes are refined to it, keeping
+    /// their vertices): finite and > 0, or 0 for the default, the scene's bounding-box diagonal
+    /// / 80 (about 4.3 mm in a 200 mm box). Translucent objects' patches are the boundary
+    /// vertices of their tets. Smaller patches resolve shadows and colour bleeding better; each
+    /// casts `rays_per_patch` rays, and the form factors' memory grows with their number.
+    pub patch_size_mm: f64,
+    /// Rays cast from each patch for the form factors, 1 to `TC_MAX_RAYS_PER_PATCH` (default
+    /// 512; the noise of a factor F is about √(F(1 − F)/N)).
+    pub rays_per_patch: u32,
+    /// Sweeps of the iteration at most, 1 to `TC_MAX_RADIOSITY_ITERATIONS` (default 200).
+    pub max_iterations: u32,
+    /// The seed of the rays: the same seed gives the same form factors on any number of threads.
+    pub seed: u64,
+    /// The estimated relative error in power at which the iteration stops, in (0, 1) (default
+    /// 1e-3). (`TcBakeOptions.tolerance` is the translucent objects' diffusion solve's.)
+    pub tolerance: f64,
+    /// A patch whose rays hit the back of one-sided surfaces more often than this fraction lies
+    /// inside geometry: it exchanges nothing and takes its radiance from its neighbours. In
+    /// (0, 1] (default 0.1).
+    pub covered_fraction: f64,
+    /// Exactly this many bounces of light (1: the direct light and the emission only), whatever
+    /// the tolerance, 1 to `TC_MAX_RADIOSITY_ITERATIONS`, with `TC_RADIOSITY_JACOBI` only; 0 (the
+    /// default): until the tolerance.
+    pub bounces: u32,
+    /// The translucent objects' diffusion solver on the CPU: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a
+    /// `TC_SOLVER_*`, as `TcTransCutOptions.solver`.
+    pub solver: u32,
+}
+
+/// The defaults, as `tc_radiosity_options_init` writes them.
+pub(crate) fn default_radiosity_options() -> TcRadiosityOptions {
+    let d = RadiosityOptions::default();
+    TcRadiosityOptions {
+        size: size_of::<TcRadiosityOptions>() as u32,
+        iteration: match d.solve.iteration {
+            Iteration::GaussSeidel => TC_RADIOSITY_GAUSS_SEIDEL,
+            Iteration::Jacobi => TC_RADIOSITY_JACOBI,
+        },
+        patch_size_mm: d.patch_size_mm.unwrap_or(0.0),
+        rays_per_patch: u32::try_from(d.form_factors.rays_per_patch).unwrap_or(u32::MAX),
+        max_iterations: u32::try_from(d.solve.max_iterations).unwrap_or(u32::MAX),
+        seed: d.form_factors.seed,
+        tolerance: d.solve.tolerance,
+        covered_fraction: d.form_factors.covered_fraction,
+        bounces: d.solve.bounces.map_or(0, |b| u32::try_from(b).unwrap_or(u32::MAX)),
+        solver: TC_SOLVER_DEFAULT,
+    }
+}
+
+/// The core's options from the caller's struct, with `transcut` the translucent objects' bake
+/// (from `TcBakeOptions`; its solver is replaced by `o.solver` unless that is the default).
+fn radiosity_options(o: &TcRadiosityOptions, transcut: TransCutOptions) -> Result<RadiosityOptions, Failure> {
+    let field = |name: &str, message: String| Failure::invalid(format!("options->method_options->{name} = {message}"));
+    let iteration = match o.iteration {
+        TC_RADIOSITY_JACOBI => Iteration::Jacobi,
+        TC_RADIOSITY_GAUSS_SEIDEL => Iteration::GaussSeidel,
+        other => {
+            return Err(field(
+                "iteration",
+                format!("{other}: unknown iteration (TC_RADIOSITY_JACOBI = 0, TC_RADIOSITY_GAUSS_SEIDEL = 1)"),
+            ))
+        }
+    };
+    let h = o.patch_size_mm;
+    let patch_size_mm = if h == 0.0 {
+        None
+    } else if h.is_finite() && h > 0.0 {
+        Some(h)
+    } else {
+        return Err(field("patch_size_mm", format!("{h}: must be 0 (the default) or finite and > 0 (mm)")));
+    };
+    let bounded = [
+        ("rays_per_patch", o.rays_per_patch, TC_MAX_RAYS_PER_PATCH),
+        ("max_iterations", o.max_iterations, TC_MAX_RADIOSITY_ITERATIONS),
+    ];
+    for (name, value, max) in bounded {
+        if value == 0 || value > max {
+            return Err(field(name, format!("{value}: must be in 1..={max}")));
+        }
+    }
+    if !(o.tolerance > 0.0 && o.tolerance < 1.0) {
+        return Err(field("tolerance", format!("{}: must lie in (0, 1)", o.tolerance)));
+    }
+    if !(o.covered_fraction > 0.0 && o.covered_fraction <= 1.0) {
+        return Err(field("covered_fraction", format!("{}: must lie in (0, 1]", o.covered_fraction)));
+    }
+    let bounces = match o.bounces {
+        0 => None,
+        b if b > TC_MAX_RADIOSITY_ITERATIONS => {
+            return Err(field("bounces", format!("{b}: must be at most {TC_MAX_RADIOSITY_ITERATIONS} (0: until the tolerance)")))
+        }
+        _ if iteration != Iteration::Jacobi => {
+            return Err(field(
+                "bounces",
+                format!("{}: a count of bounces needs TC_RADIOSITY_JACOBI (a Gauss–Seidel sweep mixes bounces)", o.bounces),
+            ))
+        }
+        b => Some(b as usize),
+    };
+    let solver = solver_from(o.solver, "options->method_options->solver")?.unwrap_or(transcut.solver);
+    let options = RadiosityOptions {
+        patch_size_mm,
+        form_factors: FormFactorOptions {
+            rays_per_patch: o.rays_per_patch as usize,
+            seed: o.seed,
+            covered_fraction: o.covered_fraction,
+        },
+        solve: SolveOptions { iteration, tolerance: o.tolerance, max_iterations: o.max_iterations as usize, bounces },
+        transcut: TransCutOptions { solver, ..transcut },
+    };
+    // What the checks above do not cover (the core's own bounds, should they tighten).
+    let own = RadiosityOptions { transcut: TransCutOptions::default(), ..options.clone() };
+    own.validate().map_err(|e| Failure::invalid(format!("options->method_options: {e}")))?;
+    Ok(options)
 }
 
 /// The defaults, as `tc_dipole_options_init` writes them.
@@ -364,6 +523,17 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
         environment_samples: o.environment_samples as usize,
         ..SourceOptions::default()
     };
+    // The TransCut bake of TC_METHOD_TRANSCUT's objects and of radiosity's translucent ones
+    // (the dipole reads none of these fields).
+    let transcut = || -> Result<TransCutOptions, Failure> {
+        Ok(TransCutOptions {
+            tets: usize::try_from(o.tets).map_err(|_| Failure::invalid(format!("options->tets = {} is too large", o.tets)))?,
+            tolerance: o.tolerance,
+            max_iterations: o.max_iterations as usize,
+            backend: backend_from(o.backend, "options->backend")?,
+            ..TransCutOptions::default()
+        })
+    };
     let method = match o.method {
         TC_METHOD_TRANSCUT => {
             let t = if o.method_options.is_null() {
@@ -379,15 +549,27 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
                 unsafe { read_sized(t, size_of::<TcTransCutOptions>(), default_transcut_options(), &sized)? }
             };
             let d = TransCutOptions::default();
-            Method::TransCut(TransCutOptions {
-                tets: usize::try_from(o.tets)
-                    .map_err(|_| Failure::invalid(format!("options->tets = {} is too large", o.tets)))?,
-                tolerance: o.tolerance,
-                max_iterations: o.max_iterations as usize,
-                solver: solver_from(t.solver, "options->method_options->solver")?.unwrap_or(d.solver),
-                edit_solver: solver_from(t.edit_solver, "options->method_options->edit_solver")?.unwrap_or(d.edit_solver),
-                backend: backend_from(o.backend, "options->backend")?,
-            })
+            let solver = solver_from(t.solver, "options->method_options->solver")?.unwrap_or(d.solver);
+            let edit_solver = solver_from(t.edit_solver, "options->method_options->edit_solver")?.unwrap_or(d.edit_solver);
+            Method::TransCut(TransCutOptions { solver, edit_solver, ..transcut()? })
+        }
+        TC_METHOD_RADIOSITY => {
+            let r = if o.method_options.is_null() {
+                default_radiosity_options()
+            } else {
+                let r = o.method_options.cast::<TcRadiosityOptions>();
+                if !r.is_aligned() {
+                    return Err(Failure::invalid("`options->method_options` is not aligned for TcRadiosityOptions"));
+                }
+                let sized = Sized {
+                    what: "options->method_options",
+                    type_name: "TcRadiosityOptions",
+                    filler: "tc_radiosity_options_init",
+                };
+                // SAFETY: the caller's contract, checked for NULL and alignment.
+                unsafe { read_sized(r, size_of::<TcRadiosityOptions>(), default_radiosity_options(), &sized)? }
+            };
+            Method::Radiosity(radiosity_options(&r, transcut()?)?)
         }
         TC_METHOD_HIERARCHICAL_DIPOLE => {
             let d = if o.method_options.is_null() {
@@ -457,6 +639,41 @@ mod tests {
         assert!(bad(TcDipoleOptions { theta: f64::NAN, ..default_dipole_options() }).contains("theta"));
     }
 
+    /// Radiosity's defaults are the core's (with the translucent objects' bake as given), every
+    /// field maps to its core value, and a value out of range is named.
+    #[test]
+    fn radiosity_options_map_onto_the_cores() {
+        let transcut = TransCutOptions { tets: 5_000, tolerance: 1e-8, ..TransCutOptions::default() };
+        let core = radiosity_options(&default_radiosity_options(), transcut.clone()).unwrap();
+        assert_eq!(core, RadiosityOptions { transcut: transcut.clone(), ..RadiosityOptions::default() });
+        let o = TcRadiosityOptions {
+            iteration: TC_RADIOSITY_GAUSS_SEIDEL,
+            patch_size_mm: 3.0,
+            rays_per_patch: 64,
+            max_iterations: 50,
+            seed: 7,
+            tolerance: 1e-5,
+            covered_fraction: 0.2,
+            solver: TC_SOLVER_PCG,
+            ..default_radiosity_options()
+        };
+        let core = radiosity_options(&o, transcut.clone()).unwrap();
+        assert_eq!(core.patch_size_mm, Some(3.0));
+        assert_eq!(core.form_factors, FormFactorOptions { rays_per_patch: 64, seed: 7, covered_fraction: 0.2 });
+        let solve = SolveOptions { iteration: Iteration::GaussSeidel, tolerance: 1e-5, max_iterations: 50, bounces: None };
+        assert_eq!(core.solve, solve);
+        assert_eq!(core.transcut, TransCutOptions { solver: SolverKind::Pcg, ..transcut.clone() });
+        let three = TcRadiosityOptions { bounces: 3, ..default_radiosity_options() };
+        assert_eq!(radiosity_options(&three, transcut.clone()).unwrap().solve.bounces, Some(3));
+        let bad = |o: TcRadiosityOptions| radiosity_options(&o, TransCutOptions::default()).unwrap_err().message;
+        let d = default_radiosity_options;
+        assert!(bad(TcRadiosityOptions { iteration: 2, ..d() }).contains("iteration = 2"));
+        assert!(bad(TcRadiosityOptions { patch_size_mm: f64::INFINITY, ..d() }).contains("patch_size_mm = inf"));
+        assert!(bad(TcRadiosityOptions { tolerance: 0.0, ..d() }).contains("tolerance = 0"));
+        assert!(bad(TcRadiosityOptions { max_iterations: 10_001, ..d() }).contains("max_iterations = 10001"));
+        assert!(bad(TcRadiosityOptions { covered_fraction: 1.5, ..d() }).contains("covered_fraction = 1.5"));
+    }
+
     /// The header's bounds are the core's.
     #[test]
     fn bounds_are_the_cores() {
@@ -464,5 +681,11 @@ mod tests {
         assert_eq!(TC_MAX_SAMPLES as usize, SourceOptions::MAX_SAMPLES);
         assert_eq!(TC_MAX_TETS as usize, TransCutOptions::MAX_TETS);
         assert_eq!(TC_MAX_ITERATIONS as usize, TransCutOptions::MAX_ITERATIONS);
+        assert_eq!(TC_MAX_RADIOSITY_ITERATIONS as usize, SolveOptions::MAX_ITERATIONS);
+        let over = FormFactorOptions { rays_per_patch: TC_MAX_RAYS_PER_PATCH as usize + 1, ..FormFactorOptions::default() };
+        assert!(over.validate().is_err());
+        let at = FormFactorOptions { rays_per_patch: TC_MAX_RAYS_PER_PATCH as usize, ..FormFactorOptions::default() };
+        assert_eq!(at.validate(), Ok(()));
+        assert_eq!(Method::NAMES[TC_METHOD_RADIOSITY as usize], "radiosity");
     }
 }

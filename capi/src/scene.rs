@@ -1,14 +1,33 @@
-//! Scenes and objects: create, destroy, add meshes, place them.
+//! Scenes and objects: create, destroy, add meshes (translucent solids, or opaque diffuse
+//! surfaces for translucent radiosity), place them, set a diffuse surface's albedo, emission
+//! and sides.
 
 use glam::{DMat4, DVec3};
 use transcut_core::mesh::{TetMesh, TriMesh};
 use transcut_core::optics::Medium;
-use transcut_core::{MediumSource, Object};
+use transcut_core::{Diffuse, Material, MediumSource, Object, Sides};
 
 use super::convert::mesh_failure;
 use super::handle::{self, with_scene, SceneState, TcScene};
 use super::ptr;
 use super::status::{run, run_on_workers, Failure, TcStatus, TC_INTERNAL_ERROR, TC_INVALID_MESH};
+
+/// `tc_object_set_sides`: both sides of the surface reflect, each with its own radiosity (a
+/// wall seen from either side; the default).
+pub const TC_SIDES_BOTH: u32 = 0;
+/// `tc_object_set_sides`: only the front reflects: the outside of a closed surface (closed
+/// shells are oriented outwards when the mesh is added), the side of the winding of most of
+/// the area of an open one. The back absorbs whatever reaches it.
+pub const TC_SIDES_FRONT: u32 = 1;
+/// `tc_object_set_sides`: only the back reflects: the inside of a closed surface (a room
+/// modelled as a box, an enclosure). The front absorbs whatever reaches it.
+pub const TC_SIDES_BACK: u32 = 2;
+
+/// `tc_object_material`: a translucent object (a medium under its surface; every method).
+pub const TC_MATERIAL_TRANSLUCENT: u32 = 0;
+/// `tc_object_material`: an opaque diffuse surface (`tc_scene_add_diffuse_mesh`; only
+/// `TC_METHOD_RADIOSITY` bakes it).
+pub const TC_MATERIAL_DIFFUSE: u32 = 1;
 
 /// The medium of a new object until one is set: the "marble" preset.
 pub(crate) fn default_medium() -> Result<Medium, Failure> {
@@ -21,6 +40,28 @@ fn push_object(state: &mut SceneState, object: Object) -> Result<u32, Failure> {
     state.scene.objects.push(object);
     state.changed();
     Ok(index)
+}
+
+/// The caller's triangle mesh: `vertex_count` x, y, z floats and `index_count` indices.
+///
+/// # Safety
+/// The arrays must hold the given numbers of values (either may be NULL when its count is 0).
+unsafe fn tri_mesh(
+    positions: *const f32,
+    vertex_count: usize,
+    indices: *const u32,
+    index_count: usize,
+) -> Result<TriMesh, Failure> {
+    let floats = ptr::times(vertex_count, 3, "vertex_count")?;
+    // SAFETY: the caller's contract (arrays of the given lengths).
+    let positions = unsafe { ptr::slice(positions, floats, "positions")? };
+    // SAFETY: as above.
+    let indices = unsafe { ptr::slice(indices, index_count, "indices")? };
+    let xyz: Vec<[f32; 3]> = positions.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    if !index_count.is_multiple_of(3) {
+        return Err(Failure::new(TC_INVALID_MESH, format!("index_count = {index_count} is not a multiple of 3")));
+    }
+    TriMesh::from_triangles(&xyz, indices).map_err(|e| mesh_failure(&e))
 }
 
 /// The number of vertices an object's radiance has (its user vertices, or a tet mesh's
@@ -113,16 +154,8 @@ pub unsafe extern "C" fn tc_scene_add_mesh(
 ) -> TcStatus {
     run("tc_scene_add_mesh", || {
         check_not_null!(out_object);
-        let floats = ptr::times(vertex_count, 3, "vertex_count")?;
         // SAFETY: the caller's contract (arrays of the given lengths).
-        let positions = unsafe { ptr::slice(positions, floats, "positions")? };
-        // SAFETY: as above.
-        let indices = unsafe { ptr::slice(indices, index_count, "indices")? };
-        let xyz: Vec<[f32; 3]> = positions.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
-        if !index_count.is_multiple_of(3) {
-            return Err(Failure::new(TC_INVALID_MESH, format!("index_count = {index_count} is not a multiple of 3")));
-        }
-        let mesh = TriMesh::from_triangles(&xyz, indices).map_err(|e| mesh_failure(&e))?;
+        let mesh = unsafe { tri_mesh(positions, vertex_count, indices, index_count)? };
         // SAFETY: the caller's contract.
         let index = unsafe {
             with_scene(scene, |s| {
@@ -310,6 +343,134 @@ pub unsafe extern "C" fn tc_object_vertex_count(scene: *const TcScene, object: u
         };
         // SAFETY: checked above.
         unsafe { ptr::write(out, n) };
+        Ok(())
+    })
+}
+
+/// Adds an opaque diffuse object (a Lambertian surface: walls, floors, the room around the
+/// translucent objects) and stores its index in `*out_object`. Only `TC_METHOD_RADIOSITY`
+/// bakes it (the other methods fail with `TC_UNSUPPORTED`, naming the object and suggesting
+/// radiosity): the objects then light each other, and its radiance is Lo = B/π with B its
+/// radiosity (reflected plus emitted exitance), per vertex as for any object.
+///
+/// The mesh is read as `tc_scene_add_mesh` reads it (same arrays, same checks, radiance per
+/// given vertex in this order) but need not be closed: an open surface (a plane, a scan) is a
+/// surface only, with no volume. `albedo` (3 doubles, linear RGB) is the fraction of the light
+/// it reflects, each channel in [0, 1) (1 would reflect everything, and a closed room of it
+/// would never converge). The new object emits nothing and reflects on both sides; see
+/// `tc_object_set_emission`, `tc_object_set_sides`, and `tc_object_set_transform` and
+/// `tc_object_set_scale` as for any object (every object of a radiosity bake must have the
+/// same scale).
+///
+/// `TC_INVALID_MESH` as for `tc_scene_add_mesh`; `TC_NULL_POINTER` for a NULL `albedo`;
+/// `TC_INVALID_ARGUMENT` for an albedo out of [0, 1) or NaN, naming it. The scene and
+/// `*out_object` are unchanged on failure.
+#[no_mangle]
+pub unsafe extern "C" fn tc_scene_add_diffuse_mesh(
+    scene: *mut TcScene,
+    positions: *const f32,
+    vertex_count: usize,
+    indices: *const u32,
+    index_count: usize,
+    albedo: *const f64,
+    out_object: *mut u32,
+) -> TcStatus {
+    run("tc_scene_add_diffuse_mesh", || {
+        check_not_null!(out_object);
+        // SAFETY: the caller's contract (3 doubles).
+        let albedo = unsafe { ptr::vec3(albedo, "albedo")? };
+        let diffuse = Diffuse::new(albedo);
+        diffuse.validate().map_err(|e| Failure::invalid(format!("`albedo`: {e}")))?;
+        // SAFETY: the caller's contract (arrays of the given lengths).
+        let mesh = unsafe { tri_mesh(positions, vertex_count, indices, index_count)? };
+        // SAFETY: the caller's contract.
+        let index = unsafe {
+            with_scene(scene, |s| {
+                let name = format!("object {}", s.scene.objects.len());
+                push_object(s, Object::diffuse(name, mesh, diffuse, 1.0))
+            })?
+        };
+        // SAFETY: checked above.
+        unsafe { ptr::write(out_object, index) };
+        Ok(())
+    })
+}
+
+/// Sets a diffuse object's albedo (3 doubles, linear RGB, each in [0, 1)): the fraction of the
+/// irradiance it reflects. `TC_INVALID_ARGUMENT` naming the object for a value out of range or
+/// NaN, or for a translucent object (its colour comes from its medium); the object is then
+/// unchanged. Any change to the scene discards the results of the last bake.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_set_albedo(scene: *mut TcScene, object: u32, albedo: *const f64) -> TcStatus {
+    run("tc_object_set_albedo", || {
+        // SAFETY: the caller's contract (3 doubles).
+        let albedo = unsafe { ptr::vec3(albedo, "albedo")? };
+        // SAFETY: the caller's contract.
+        unsafe { with_scene(scene, |s| s.set_diffuse(object, |d| d.albedo = albedo)) }
+    })
+}
+
+/// Sets the exitance a diffuse object emits (3 doubles, linear RGB, each finite and ≥ 0; 0
+/// by default), in the units of the lights' irradiance: a surface emitting M and reflecting
+/// nothing has radiance M/π. An emissive surface lights the scene in a radiosity bake like an
+/// area light (its light is spread through the form factors, not sampled as the lights are).
+/// `TC_INVALID_ARGUMENT` naming the object for a negative, NaN or infinite value, or for a
+/// translucent object; the object is then unchanged.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_set_emission(scene: *mut TcScene, object: u32, emission: *const f64) -> TcStatus {
+    run("tc_object_set_emission", || {
+        // SAFETY: the caller's contract (3 doubles).
+        let emission = unsafe { ptr::vec3(emission, "emission")? };
+        // SAFETY: the caller's contract.
+        unsafe { with_scene(scene, |s| s.set_diffuse(object, |d| d.emission = emission)) }
+    })
+}
+
+/// Sets which sides of a diffuse object reflect (and emit): `TC_SIDES_BOTH` (the default),
+/// `TC_SIDES_FRONT` or `TC_SIDES_BACK` (the inside of a closed room). The other side absorbs
+/// whatever reaches it, and patches behind one-sided surfaces take their neighbours' radiance.
+/// The radiance returned per vertex is that of the reflecting side (the front of a two-sided
+/// surface). `TC_INVALID_ARGUMENT` for another value or a translucent object; the object is
+/// then unchanged.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_set_sides(scene: *mut TcScene, object: u32, sides: u32) -> TcStatus {
+    run("tc_object_set_sides", || {
+        let sides = match sides {
+            TC_SIDES_BOTH => Sides::Both,
+            TC_SIDES_FRONT => Sides::Front,
+            TC_SIDES_BACK => Sides::Back,
+            other => {
+                return Err(Failure::invalid(format!(
+                    "sides = {other}: unknown sides (TC_SIDES_BOTH = 0, TC_SIDES_FRONT = 1, TC_SIDES_BACK = 2)"
+                )))
+            }
+        };
+        // SAFETY: the caller's contract.
+        unsafe { with_scene(scene, |s| s.set_diffuse(object, |d| d.sides = sides)) }
+    })
+}
+
+/// What an object is made of, in `*out`: `TC_MATERIAL_TRANSLUCENT` (added by
+/// `tc_scene_add_mesh`, `tc_scene_add_tet_mesh` or `tc_scene_add_mesh_file`) or
+/// `TC_MATERIAL_DIFFUSE` (added by `tc_scene_add_diffuse_mesh`). An object keeps its kind:
+/// `tc_object_set_medium*` refuses a diffuse object, `tc_object_set_albedo`, `_emission` and
+/// `_sides` a translucent one.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_material(scene: *const TcScene, object: u32, out: *mut u32) -> TcStatus {
+    run("tc_object_material", || {
+        check_not_null!(out);
+        // SAFETY: the caller's contract.
+        let kind = unsafe {
+            with_scene(scene, |s| {
+                let i = s.object_index(object)?;
+                Ok(match &s.scene.objects[i].material {
+                    Material::Diffuse(_) => TC_MATERIAL_DIFFUSE,
+                    _ => TC_MATERIAL_TRANSLUCENT,
+                })
+            })?
+        };
+        // SAFETY: checked above.
+        unsafe { ptr::write(out, kind) };
         Ok(())
     })
 }

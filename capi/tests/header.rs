@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use abi::{
     TcArtistMedium, TcBakeOptions, TcBakeStats, TcDipoleOptions, TcDipoleStats, TcEditStats, TcMedium, TcMediumEdit,
-    TcTransCutOptions,
+    TcRadiosityOptions, TcRadiosityStats, TcTransCutOptions,
 };
 
 fn crate_dir() -> PathBuf {
@@ -70,6 +70,36 @@ fn layouts() -> Vec<Layout> {
         }),
         layout!(TcTransCutOptions { size, solver, edit_solver }),
         layout!(TcDipoleOptions { size, oracle, theta, eps1, eps2, rule, receivers, mode, geometry, budget, radiance }),
+        layout!(TcRadiosityOptions {
+            size,
+            iteration,
+            patch_size_mm,
+            rays_per_patch,
+            max_iterations,
+            seed,
+            tolerance,
+            covered_fraction,
+            bounces,
+            solver
+        }),
+        layout!(TcRadiosityStats {
+            size,
+            patches,
+            translucent_patches,
+            covered_patches,
+            nonzeros,
+            form_factor_bytes,
+            patch_size_mm,
+            prepare_ms,
+            patches_ms,
+            form_factor_ms,
+            direct_ms,
+            solve_ms,
+            iterations,
+            scatterings,
+            estimated_error,
+            energy_defect
+        }),
         layout!(TcDipoleStats {
             size,
             triangles,

@@ -4,13 +4,16 @@
 #  2. installs it with scripts/install.sh into a scratch prefix (lib, include, transcut.pc),
 #  3. compiles include/transcut.h as C99 and C++17 with -Wall -Wextra -Werror (its layout
 #     checks compare every struct with the library's),
-#  4. compiles tests/c/marble_sphere.c against the shared and against the static library
-#     (through pkg-config) and runs both under valgrind memcheck with no suppression file:
+#  4. compiles each C test program (tests/c/marble_sphere.c: TransCut and the hierarchical
+#     dipole against closed forms, edits, misuse; tests/c/radiosity_room.c: translucent
+#     radiosity, a marble ball in an emissive diffuse room) against the shared and against the
+#     static library (through pkg-config) and runs each under valgrind memcheck with no
+#     suppression file:
 #     zero errors, no definitely or possibly lost bytes (the library joins its worker threads
 #     before each call returns, so nothing of it is left running when the program exits;
 #     "still reachable" is not counted: it is the C runtime's and the dynamic loader's own),
 #     and nothing written to the program's stderr by the library (a panic included);
-#  5. builds it again with gcc's AddressSanitizer and runs it with leak detection
+#  5. builds each again with gcc's AddressSanitizer and runs it with leak detection
 #     (ASAN_OPTIONS=detect_leaks=1), against the static library: no leak, no error.
 # Prints the path of the built shared library (reused by the Blender add-on tests).
 set -euo pipefail
@@ -54,50 +57,59 @@ g++ -std=c++17 -Wall -Wextra -Werror -pedantic $cflags -fsyntax-only "$work/head
 echo "tests/c/run.sh: include/transcut.h compiles as C99 and C++17 (-Wall -Wextra -Werror -pedantic)"
 
 warn="-std=c99 -Wall -Wextra -Werror -O1 -g"
-# shellcheck disable=SC2046
-gcc $warn $cflags tests/c/marble_sphere.c -o "$work/marble_shared" $(pkg-config --libs transcut) -lm \
-    -Wl,-rpath,"$work/prefix/lib"
-# The static archive, with the system libraries transcut.pc lists for static linking.
+# The system libraries transcut.pc lists for static linking.
 static_libs=$(pkg-config --static --libs-only-l transcut | sed 's/-ltranscut//')
-# shellcheck disable=SC2086
-gcc $warn $cflags tests/c/marble_sphere.c -o "$work/marble_static" "$work/prefix/lib/libtranscut.a" $static_libs -lm
+programs="marble_sphere radiosity_room"
+for program in $programs; do
+    # shellcheck disable=SC2046
+    gcc $warn $cflags "tests/c/$program.c" -o "$work/${program}_shared" $(pkg-config --libs transcut) -lm \
+        -Wl,-rpath,"$work/prefix/lib"
+    # The static archive.
+    # shellcheck disable=SC2086
+    gcc $warn $cflags "tests/c/$program.c" -o "$work/${program}_static" "$work/prefix/lib/libtranscut.a" $static_libs -lm
+done
 
 # Under valgrind: the CPU path (software Vulkan drivers are not what is being checked here),
 # and no panic backtraces (symbolising one caches the library's debug info: ~90 MB "still
 # reachable", and slow under valgrind). Valgrind's own report goes to a log file, so that the
 # program's stderr holds only what the program (or the library) wrote: it must stay empty.
-for exe in marble_shared marble_static; do
-    echo "tests/c/run.sh: valgrind $exe"
-    if ! env -u RUST_BACKTRACE TRANSCUT_BACKEND=cpu valgrind --tool=memcheck --error-exitcode=1 --leak-check=full \
-        --errors-for-leak-kinds=definite,possible --show-leak-kinds=definite,possible --log-file="$work/$exe.valgrind" \
-        "$work/$exe" 2>"$work/$exe.stderr"; then
-        cat "$work/$exe.valgrind" "$work/$exe.stderr"
-        echo "tests/c/run.sh: $exe failed under valgrind" >&2
+for program in $programs; do
+    for exe in "${program}_shared" "${program}_static"; do
+        echo "tests/c/run.sh: valgrind $exe"
+        if ! env -u RUST_BACKTRACE TRANSCUT_BACKEND=cpu valgrind --tool=memcheck --error-exitcode=1 --leak-check=full \
+            --errors-for-leak-kinds=definite,possible --show-leak-kinds=definite,possible --log-file="$work/$exe.valgrind" \
+            "$work/$exe" 2>"$work/$exe.stderr"; then
+            cat "$work/$exe.valgrind" "$work/$exe.stderr"
+            echo "tests/c/run.sh: $exe failed under valgrind" >&2
+            exit 1
+        fi
+        grep -E "ERROR SUMMARY|definitely lost|possibly lost" "$work/$exe.valgrind" || true
+        if [ -s "$work/$exe.stderr" ]; then
+            cat "$work/$exe.stderr"
+            echo "tests/c/run.sh: $exe wrote to stderr (the library must print nothing)" >&2
+            exit 1
+        fi
+    done
+done
+echo "tests/c/run.sh: C programs ($programs) passed under valgrind (shared and static), stderr empty"
+
+# Under AddressSanitizer's leak checker: the same programs, built with -fsanitize=address.
+for program in $programs; do
+    exe="${program}_asan"
+    # shellcheck disable=SC2086
+    gcc $warn -fsanitize=address -fno-omit-frame-pointer $cflags "tests/c/$program.c" -o "$work/$exe" \
+        "$work/prefix/lib/libtranscut.a" $static_libs -lm
+    echo "tests/c/run.sh: AddressSanitizer + LeakSanitizer $exe"
+    if ! env -u RUST_BACKTRACE TRANSCUT_BACKEND=cpu ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 "$work/$exe" \
+        >"$work/$exe.stdout" 2>"$work/$exe.stderr"; then
+        cat "$work/$exe.stdout" "$work/$exe.stderr"
+        echo "tests/c/run.sh: $exe failed (a leak or a memory error)" >&2
         exit 1
     fi
-    grep -E "ERROR SUMMARY|definitely lost|possibly lost" "$work/$exe.valgrind" || true
     if [ -s "$work/$exe.stderr" ]; then
         cat "$work/$exe.stderr"
-        echo "tests/c/run.sh: $exe wrote to stderr (the library must print nothing)" >&2
+        echo "tests/c/run.sh: $exe wrote to stderr" >&2
         exit 1
     fi
 done
-echo "tests/c/run.sh: C program passed under valgrind (shared and static), stderr empty"
-
-# Under AddressSanitizer's leak checker: the same program, built with -fsanitize=address.
-# shellcheck disable=SC2086
-gcc $warn -fsanitize=address -fno-omit-frame-pointer $cflags tests/c/marble_sphere.c -o "$work/marble_asan" \
-    "$work/prefix/lib/libtranscut.a" $static_libs -lm
-echo "tests/c/run.sh: AddressSanitizer + LeakSanitizer marble_asan"
-if ! env -u RUST_BACKTRACE TRANSCUT_BACKEND=cpu ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 "$work/marble_asan" \
-    >"$work/marble_asan.stdout" 2>"$work/marble_asan.stderr"; then
-    cat "$work/marble_asan.stdout" "$work/marble_asan.stderr"
-    echo "tests/c/run.sh: marble_asan failed (a leak or a memory error)" >&2
-    exit 1
-fi
-if [ -s "$work/marble_asan.stderr" ]; then
-    cat "$work/marble_asan.stderr"
-    echo "tests/c/run.sh: marble_asan wrote to stderr" >&2
-    exit 1
-fi
-echo "tests/c/run.sh: C program passed under LeakSanitizer, stderr empty"
+echo "tests/c/run.sh: C programs ($programs) passed under LeakSanitizer, stderr empty"

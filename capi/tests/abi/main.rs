@@ -16,4 +16,5 @@ mod edit;
 mod method;
 mod misuse;
 mod objects;
+mod radiosity;
 mod tets;

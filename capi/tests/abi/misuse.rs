@@ -42,6 +42,22 @@ fn null_scene_handles() {
             ("voxels", tc_object_set_medium_voxels(null, 0, ptr::null(), ptr::null(), ptr::null(), ptr::null(), 0, 1.3, 0.0)),
             ("per_tet", tc_object_set_media_per_tet(null, 0, ptr::null(), ptr::null(), 7, 1.3, 0.0)),
             ("media_table", tc_object_set_media_table(null, 0, ptr::null(), 3)),
+            (
+                "add_diffuse_mesh",
+                tc_scene_add_diffuse_mesh(
+                    null,
+                    mesh.positions.as_ptr(),
+                    4,
+                    mesh.indices.as_ptr(),
+                    12,
+                    [0.5; 3].as_ptr(),
+                    &mut object,
+                ),
+            ),
+            ("set_albedo", tc_object_set_albedo(null, 0, [0.5; 3].as_ptr())),
+            ("set_emission", tc_object_set_emission(null, 0, v.as_ptr())),
+            ("set_sides", tc_object_set_sides(null, 0, TC_SIDES_BACK)),
+            ("material", tc_object_material(null, 0, &mut n)),
         ];
         for (what, status) in calls {
             assert_eq!(status, TC_NULL_POINTER, "{what}");
