@@ -70,6 +70,7 @@ STATUS_NAMES = {
 # ones are appended).
 TC_METHOD_TRANSCUT = 0
 TC_METHOD_HIERARCHICAL_DIPOLE = 1  # homogeneous media only; relight and tc_object_set_positions
+TC_METHOD_RADIOSITY = 2  # translucent radiosity: translucent and diffuse objects lighting each other
 
 # TcBakeOptions.backend: where the diffusion solve runs; TcBakeStats.backend_used: 1 or 2.
 TC_BACKEND_DEFAULT = 0  # TRANSCUT_BACKEND (cpu, gpu, auto), else auto
@@ -103,6 +104,21 @@ TC_DIPOLE_GEOMETRY_DISTANCE = 0  # Rd of the distance between the points
 TC_DIPOLE_GEOMETRY_PAPER = 1  # the paper's sources on the receiver's normal
 TC_DIPOLE_RADIANCE_TRANSCUT = 0  # Lo = Ft B/(π(1 − Fdr)), what TransCut returns
 TC_DIPOLE_RADIANCE_JENSEN = 1  # Lo = T B/π (Jensen et al. 2001)
+
+# TcRadiosityOptions.iteration (tc_radiosity_options_init gives Jacobi).
+TC_RADIOSITY_JACOBI = 0  # every patch from the last sweep (the paper's)
+TC_RADIOSITY_GAUSS_SEIDEL = 1  # opaque patches from the values already updated in the sweep
+TC_MAX_RAYS_PER_PATCH = 1 << 24  # TcRadiosityOptions.rays_per_patch at most
+TC_MAX_RADIOSITY_ITERATIONS = 10_000  # TcRadiosityOptions.max_iterations and bounces at most
+
+# tc_object_set_sides: which sides of a diffuse object reflect and emit.
+TC_SIDES_BOTH = 0  # each side with its own radiosity (the default)
+TC_SIDES_FRONT = 1  # the outside of a closed surface
+TC_SIDES_BACK = 2  # the inside of a closed surface (a room seen from within)
+
+# tc_object_material: what an object is made of.
+TC_MATERIAL_TRANSLUCENT = 0  # a medium under its surface (every method)
+TC_MATERIAL_DIFFUSE = 1  # an opaque diffuse surface (tc_scene_add_diffuse_mesh; TC_METHOD_RADIOSITY)
 
 #: The names :meth:`Scene.bake` accepts for the hierarchical dipole's options (besides the
 #: integer values; the CLI's names, any case), per ``TcDipoleOptions`` field.
@@ -221,6 +237,24 @@ class TcDipoleOptions(Structure):
     ]
 
 
+class TcRadiosityOptions(Structure):
+    """``TcRadiosityOptions``: translucent radiosity's own options, pointed to by
+    ``TcBakeOptions.method_options`` (filled by ``tc_radiosity_options_init``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("iteration", c_uint32),
+        ("patch_size_mm", c_double),  # 0: the scene's bounding diagonal / 80
+        ("rays_per_patch", c_uint32),
+        ("max_iterations", c_uint32),
+        ("seed", c_uint64),
+        ("tolerance", c_double),
+        ("covered_fraction", c_double),
+        ("bounces", c_uint32),  # 0: until the tolerance
+        ("solver", c_uint32),  # the translucent objects' TC_SOLVER_*
+    ]
+
+
 class TcBakeStats(Structure):
     """``TcBakeStats`` (the caller sets ``size`` before ``tc_object_stats``)."""
 
@@ -238,6 +272,29 @@ class TcBakeStats(Structure):
         ("backend_used", c_uint32),
         ("flipped_faces", c_uint64),
         ("resolution", c_double * 3),
+    ]
+
+
+class TcRadiosityStats(Structure):
+    """``TcRadiosityStats`` (``tc_scene_radiosity_stats``; the caller sets ``size``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("patches", c_uint64),
+        ("translucent_patches", c_uint64),
+        ("covered_patches", c_uint64),
+        ("nonzeros", c_uint64),
+        ("form_factor_bytes", c_uint64),
+        ("patch_size_mm", c_double),
+        ("prepare_ms", c_double),
+        ("patches_ms", c_double),
+        ("form_factor_ms", c_double),
+        ("direct_ms", c_double),
+        ("solve_ms", c_double),
+        ("iterations", c_uint32),
+        ("scatterings", c_uint32),
+        ("estimated_error", c_double),
+        ("energy_defect", c_double),
     ]
 
 
@@ -374,6 +431,17 @@ OPTIONAL = {
     "tc_bake_options_init": (c_int32, [POINTER(TcBakeOptions), c_size_t]),
     "tc_transcut_options_init": (c_int32, [POINTER(TcTransCutOptions), c_size_t]),
     "tc_dipole_options_init": (c_int32, [POINTER(TcDipoleOptions), c_size_t]),
+    "tc_radiosity_options_init": (c_int32, [POINTER(TcRadiosityOptions), c_size_t]),
+    "tc_scene_radiosity_stats": (c_int32, [ScenePtr, POINTER(TcRadiosityStats)]),
+    # Diffuse objects (translucent radiosity).
+    "tc_scene_add_diffuse_mesh": (
+        c_int32,
+        [ScenePtr, c_float_p, c_size_t, c_uint32_p, c_size_t, c_double_p, c_uint32_p],
+    ),
+    "tc_object_set_albedo": (c_int32, [ScenePtr, c_uint32, c_double_p]),
+    "tc_object_set_emission": (c_int32, [ScenePtr, c_uint32, c_double_p]),
+    "tc_object_set_sides": (c_int32, [ScenePtr, c_uint32, c_uint32]),
+    "tc_object_material": (c_int32, [ScenePtr, c_uint32, c_uint32_p]),
     # Editing (after a bake).
     "tc_scene_relight": (c_int32, [ScenePtr, TcProgressFn, c_void_p]),
     "tc_scene_set_progress": (c_int32, [ScenePtr, TcProgressFn, c_void_p]),

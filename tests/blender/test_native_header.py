@@ -146,6 +146,8 @@ STRUCTS = [
     binding.TcDipoleOptions,
     binding.TcBakeStats,
     binding.TcDipoleStats,
+    binding.TcRadiosityOptions,
+    binding.TcRadiosityStats,
     binding.TcMediumEdit,
     binding.TcEditStats,
 ]
