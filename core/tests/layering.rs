@@ -24,7 +24,7 @@ const CORE: Table = &[
     ("volume", &["input", "mesh", "optics", "output"]),
     ("light", &["input", "mesh", "optics", "progress"]),
     ("hierarchy", &["optics", "progress"]),
-    ("radiosity", &["light", "mesh", "progress"]),
+    ("radiosity", &["light", "mesh", "optics", "progress"]),
     ("sparse", &["input", "progress"]),
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
     ("gpu", &["diffusion", "hierarchy", "optics", "progress", "sparse"]),

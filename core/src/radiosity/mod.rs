@@ -18,9 +18,11 @@ pub mod analytic;
 mod error;
 mod form_factor;
 mod patches;
+mod profile;
 mod solver;
 
 pub use error::RadiosityError;
 pub use form_factor::{FormFactorOptions, FormFactors};
 pub use patches::{refine_to_edge_length, PatchSet, Surface, MAX_REFINED_TRIANGLES};
+pub use profile::{Exponentials, HalfSpace, Profile, Tabulated};
 pub use solver::{solve, solve_coupled, EnergyBalance, Iteration, Opaque, Scattering, Solution, SolveOptions, Translucent};

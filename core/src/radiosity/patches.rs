@@ -233,6 +233,27 @@ impl PatchSet {
         self.diagonal
     }
 
+    /// The front patches of surface `surface`, one per vertex in its order.
+    pub(crate) fn front_range(&self, surface: usize) -> std::ops::Range<usize> {
+        let end = self
+            .first_front
+            .get(surface + 1)
+            .copied()
+            .unwrap_or_else(|| self.first_back.iter().flatten().copied().next().unwrap_or(self.len()));
+        self.first_front[surface]..end
+    }
+
+    /// Every triangle of the union (the BVH's numbering) by its corners' front patches.
+    pub(crate) fn front_triangles(&self) -> &[[u32; 3]] {
+        &self.front
+    }
+
+    /// The pieces of patch `patch`'s dual cell (sixths of its triangles: the vertex, an edge's
+    /// midpoint and the centroid, counter-clockwise about the triangle's front normal).
+    pub(crate) fn cell_pieces(&self, patch: usize) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+        self.cells[self.cell_start[patch]..self.cell_start[patch + 1]].iter().map(|p| p.corners)
+    }
+
     /// The patches at triangle `triangle`'s corners on the side a ray travelling along
     /// `direction` hits, with its unit normal facing the ray; `None` when it hits the back of a
     /// one-sided surface (the light is absorbed there).
