@@ -6,6 +6,13 @@ and NumPy, so the modal operator runs it on a worker thread while Blender stays 
 :class:`BakeRunner` carries the progress the library reports and the cancel request (ESC) back
 the other way. :func:`write_results` is the only step that changes Blender data, and it runs only
 after every object baked.
+
+With the radiosity method the job also holds the surroundings (``BakeJob.diffuse``,
+:func:`mesh_export.surroundings`): the visible meshes that are not selected, sent as opaque
+diffuse objects that the selected translucent ones light and are lit by. The library returns
+Lo per vertex for them too (Lo = B/π, the side their face normals point to); those it is safe
+to write (``DiffuseJob.write``) get it in the same colour attribute, so the floor shows the
+marble's shadow and the colour it bleeds, as a light bake of the surroundings would.
 """
 
 from __future__ import annotations
@@ -18,11 +25,14 @@ import numpy as np
 
 from . import transcut
 from .lights import scene_lights, world_lights
-from .mesh_export import BakeError, gather
+from .mesh_export import BakeError, gather, mm_per_unit, surroundings
 
 #: The hierarchical dipole's method name (``tc_method_name``): no tetrahedra, homogeneous media,
 #: deforming meshes (Bake Animation).
 DIPOLE = "hierarchical-dipole"
+#: Translucent radiosity's method name: the selected translucent meshes and the visible opaque
+#: ones around them light each other (inter-reflection, colour bleeding, emissive surfaces).
+RADIOSITY = "radiosity"
 
 
 @dataclass
@@ -34,6 +44,7 @@ class BakeJob:
     options: dict  # transcut.Scene.bake keywords (method name, TcBakeOptions fields)
     attribute_name: str
     warnings: list = field(default_factory=list)
+    diffuse: list = field(default_factory=list)  # [mesh_export.DiffuseJob]: radiosity's surroundings
 
 
 def _name(item: str) -> str:
@@ -41,12 +52,15 @@ def _name(item: str) -> str:
     return item.lower().replace("_", "-")
 
 
-def bake_options(settings, method: str) -> dict:
+def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
     """The :meth:`transcut.Scene.bake` keywords of ``method`` from the TransCut settings: for
     TransCut its resolution, tolerance and backend; for the hierarchical dipole its oracle with
     its θ (opening angle) or ε₁ and ε₂ (paper), edge rule, receivers and mode with its budget
-    (incremental) (the options of the other method, and of the oracle or mode not chosen, are
-    left out: the binding refuses the first)."""
+    (incremental); for radiosity TransCut's three (for the translucent objects) and its own
+    patch size (the setting is a length in scene units, sent in mm: × ``mm_per_unit``; 0 = the
+    library's default), rays, iteration, bounces and tolerance (the options of the other
+    methods, and of the oracle or mode not chosen, are left out: the binding refuses the
+    first)."""
     options = dict(method=method, shadows=1 if settings.shadows else 0)
     if method == DIPOLE:
         options.update(oracle=_name(settings.dipole_oracle))
@@ -63,7 +77,25 @@ def bake_options(settings, method: str) -> dict:
             options.update(budget=settings.dipole_budget)
     else:
         options.update(tets=settings.tets, tolerance=settings.tolerance, backend=settings.backend.lower())
+    if method == RADIOSITY:
+        options.update(
+            patch_size=float(settings.radiosity_patch_size) * mm_per_unit,
+            rays=settings.radiosity_rays,
+            iteration=_name(settings.radiosity_iteration),
+            bounces=settings.radiosity_bounces if settings.radiosity_iteration == "JACOBI" else 0,
+            radiosity_tolerance=settings.radiosity_tolerance,
+        )
     return options
+
+
+def check_editable(context, what: str) -> None:
+    """BakeError when the Method chosen cannot be edited after its bake (radiosity: its objects
+    light each other, so the library offers no per-object edit), before any work."""
+    if context.scene.transcut.method == RADIOSITY:
+        raise BakeError(
+            f"{what} cannot edit a radiosity bake (its objects light each other, so the library has no "
+            "per-object edits for it yet); choose TransCut in the Method menu"
+        )
 
 
 def prepare_job(context, objects: list | None = None, method: str | None = None, animated: bool = False) -> BakeJob:
@@ -76,19 +108,31 @@ def prepare_job(context, objects: list | None = None, method: str | None = None,
     meshes = gather(context, warnings, objects=objects, animated=animated)
     depsgraph = context.evaluated_depsgraph_get()
     lights = scene_lights(depsgraph, warnings) + world_lights(context.scene.world, warnings)
-    if not lights:
-        raise BakeError("the scene has no lights (and the world is black); add a light to bake")
     settings = context.scene.transcut
     method = method or settings.method
     if not method:
         raise BakeError(
             "the Method chosen in the TransCut panel is not one the loaded libtranscut has; choose one of its methods"
         )
-    return BakeJob(meshes, lights, bake_options(settings, method), settings.attribute_name, warnings)
+    diffuse = []
+    if method == RADIOSITY:
+        import bpy
+
+        diffuse = surroundings(context, [bpy.data.objects[m.object_name] for m in meshes], warnings)
+    if not lights and not any(any(d.emission) for d in diffuse):
+        raise BakeError(
+            "the scene has no lights (and the world is black"
+            + (", and nothing around the selection emits" if method == RADIOSITY else "")
+            + "); add a light to bake"
+        )
+    options = bake_options(settings, method, mm_per_unit(context.scene))
+    return BakeJob(meshes, lights, options, settings.attribute_name, warnings, diffuse)
 
 
 def build_scene(lib: transcut.Library, job: BakeJob) -> tuple:
-    """A :class:`transcut.Scene` holding the job's objects and lights; returns (scene, object indices)."""
+    """A :class:`transcut.Scene` holding the job's objects and lights; returns (scene, object
+    indices): the translucent objects' (``job.meshes``), then the diffuse ones' (``job.diffuse``,
+    two-sided; the radiosity method's surroundings, none for the other methods)."""
     scene = lib.scene()
     try:
         indices = []
@@ -103,6 +147,22 @@ def build_scene(lib: transcut.Library, job: BakeJob) -> tuple:
                 getattr(scene, mesh.medium.method)(idx, **mesh.medium.kwargs)
             except transcut.TranscutError as exc:
                 raise BakeError(f"{where} ({mesh.medium.source}): {exc.message or exc.status_name}") from exc
+            indices.append(idx)
+        for d in job.diffuse:
+            try:
+                idx = scene.add_diffuse_mesh(
+                    d.positions,
+                    d.triangles,
+                    d.albedo,
+                    emission=d.emission if any(d.emission) else None,
+                    sides=transcut.TC_SIDES_BOTH,
+                )
+                scene.set_name(idx, d.object_name)
+                scene.set_transform(idx, d.matrix_world)
+                scene.set_scale(idx, d.mm_per_unit)
+            except (transcut.TranscutError, ValueError) as exc:
+                text = exc.message or exc.status_name if isinstance(exc, transcut.TranscutError) else str(exc)
+                raise BakeError(f"'{d.object_name}' ({d.source}, diffuse surroundings): {text}") from exc
             indices.append(idx)
         for light in job.lights:
             try:
@@ -120,21 +180,26 @@ def run_job(
     job: BakeJob,
     progress: Callable[[str, float], bool] | None = None,
     backends: list | None = None,
+    radiosity: dict | None = None,
 ) -> list:
-    """Bakes the job; returns one float32 (vertex_count, 3) radiance array per mesh.
+    """Bakes the job; returns one float32 (vertex_count, 3) radiance array per mesh
+    (``job.meshes``, then ``job.diffuse``).
 
-    When ``backends`` is a list, one :class:`BackendInfo` per mesh is appended to it (where its
-    solve ran). Raises :class:`transcut.TranscutError` (``TC_CANCELLED`` after a cancel, or
-    ``TC_GPU_UNAVAILABLE`` when the GPU backend was asked for and there is none) or
-    :class:`BakeError`.
+    When ``backends`` is a list, one :class:`BackendInfo` per translucent mesh is appended to it
+    (where its solve ran); when ``radiosity`` is a dict and the method is radiosity, it is
+    updated with the scene's :meth:`transcut.Scene.radiosity_stats`. Raises
+    :class:`transcut.TranscutError` (``TC_CANCELLED`` after a cancel, or ``TC_GPU_UNAVAILABLE``
+    when the GPU backend was asked for and there is none) or :class:`BakeError`.
     """
     scene, indices = build_scene(lib, job)
     try:
         scene.bake(progress=progress, **job.options)
         if backends is not None:
-            backends.extend(backend_info(scene, idx) for idx in indices)
+            backends.extend(backend_info(scene, idx) for idx in indices[: len(job.meshes)])
+        if radiosity is not None and job.options.get("method") == RADIOSITY:
+            radiosity.update(scene.radiosity_stats())
         results = []
-        for mesh, idx in zip(job.meshes, indices, strict=True):
+        for mesh, idx in zip([*job.meshes, *job.diffuse], indices, strict=True):
             rgb = scene.radiance(idx)
             if rgb.shape[0] != mesh.vertex_count:
                 raise BakeError(
@@ -189,6 +254,7 @@ class BakeRunner:
         self.fraction = 0.0
         self.results: list | None = None
         self.backends: list = []
+        self.radiosity: dict = {}  # radiosity bakes: the scene's Scene.radiosity_stats
         self.error: BaseException | None = None
         self._thread: threading.Thread | None = None
 
@@ -220,7 +286,7 @@ class BakeRunner:
 
     def _run(self) -> None:
         try:
-            self.results = run_job(self.lib, self.job, self.progress, self.backends)
+            self.results = run_job(self.lib, self.job, self.progress, self.backends, self.radiosity)
         except BaseException as exc:  # reported by the main thread
             self.error = exc
 
@@ -264,8 +330,22 @@ def _replace_with_evaluated(obj, depsgraph, expected_vertices: int):
     return mesh
 
 
+def radiosity_summary(job: BakeJob, stats: dict) -> str:
+    """The report's words on a radiosity bake: the surroundings, the patches, sweeps and error."""
+    if not stats:
+        return ""
+    written = sum(1 for d in job.diffuse if d.write)
+    return (
+        f"; radiosity: {len(job.diffuse)} surrounding object(s) ({written} written), {stats['patches']} patches "
+        f"({stats['translucent_patches']} translucent) of {stats['patch_size_mm']:.3g} mm, {stats['iterations']} "
+        f"sweep(s), estimated error {stats['estimated_error']:.2g}, energy defect {stats['energy_defect']:.2g}"
+    )
+
+
 def write_results(context, job: BakeJob, results: list) -> None:
-    """Writes each object's radiance to its FLOAT_COLOR point attribute and makes it active.
+    """Writes each object's radiance to its FLOAT_COLOR point attribute and makes it active:
+    the translucent objects' (``results[:len(job.meshes)]``), then those of the surroundings
+    that are to be written (``DiffuseJob.write``; their meshes are never replaced).
 
     Checks everything first (objects still exist, vertex counts unchanged); only then changes
     data, so an error leaves every object as it was.
@@ -274,7 +354,8 @@ def write_results(context, job: BakeJob, results: list) -> None:
 
     depsgraph = context.evaluated_depsgraph_get()
     targets = []
-    for mesh_job, rgb in zip(job.meshes, results, strict=True):
+    diffuse = [(d, rgb) for d, rgb in zip(job.diffuse, results[len(job.meshes) :], strict=True) if d.write]
+    for mesh_job, rgb in [*zip(job.meshes, results[: len(job.meshes)], strict=True), *diffuse]:
         obj = bpy.data.objects.get(mesh_job.object_name)
         if obj is None or obj.type != "MESH":
             raise BakeError(f"'{mesh_job.object_name}' was removed during the bake")
@@ -286,9 +367,8 @@ def write_results(context, job: BakeJob, results: list) -> None:
     new_meshes = []
     try:
         for obj, mesh_job, _ in targets:
-            new_meshes.append(
-                _replace_with_evaluated(obj, depsgraph, mesh_job.vertex_count) if mesh_job.replace_mesh else None
-            )
+            replace = getattr(mesh_job, "replace_mesh", False)
+            new_meshes.append(_replace_with_evaluated(obj, depsgraph, mesh_job.vertex_count) if replace else None)
     except BaseException:
         for m in new_meshes:
             if m is not None:

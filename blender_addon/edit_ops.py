@@ -215,6 +215,7 @@ class TRANSCUT_OT_cut_with_object(_EditOperator, bpy.types.Operator):
         depsgraph = context.evaluated_depsgraph_get()
         edit = cutter_edit(cutter, depsgraph, self.keep_both, self.flip, self.separate)
         targets = _targets(context, cutter, "cut")
+        bake.check_editable(context, "Cut with Object")
         lib = library.get(preferences.library_path(context))
         edit_native.require(lib, edit_native.CUT_FUNCTIONS, "Cut with Object")
         job = bake.prepare_job(context, targets)
@@ -301,6 +302,7 @@ class TRANSCUT_OT_paint_medium(_EditOperator, bpy.types.Operator):
         if not np.all(np.isfinite(points)):
             raise BakeError(f"the curve '{curve.name}' has non-finite points")
         targets = _targets(context, curve, "paint")
+        bake.check_editable(context, "Paint Medium")
         lib = library.get(preferences.library_path(context))
         edit_native.require(lib, edit_native.PAINT_FUNCTIONS, "Paint Medium")
         sigma_a, sigma_s_prime = self._paint_coefficients(lib)

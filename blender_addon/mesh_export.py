@@ -7,7 +7,22 @@ Units: positions stay in object space and the object's world matrix goes to the 
 (``tc_object_set_transform``), so the baked mesh is the world-space evaluated mesh. One scene
 unit is ``scene.unit_settings.scale_length`` metres, so mm_per_unit = scale_length × 1000.
 The Principled BSDF's Subsurface Radius × Subsurface Scale is a length in scene (world) units,
-converted by the library with that mm_per_unit (``tc_object_set_medium_artist``).
+converted by the library with that mm_per_unit (``tc_object_set_medium_artist``). Every object
+of a bake gets that one mm_per_unit, so the radiosity method's rule that all its objects share a
+scale always holds.
+
+Translucent radiosity (:func:`surroundings`): the visible meshes around the selected ones become
+opaque diffuse objects, in world space as the translucent ones are (their evaluated mesh, n-gons
+triangulated as Blender's loop triangles). Their material is read from the active material's
+Principled BSDF: albedo ρ = Base Color × (1 − Metallic), clamped to [0, :data:`DIFFUSE_ALBEDO_MAX`]
+(the library needs ρ < 1; the metallic part reflects specularly, which the method does not
+model, so it is taken as absorbed), and emission M = π × Emission Color × Emission Strength: a
+Blender emitter of strength S and colour c has radiance S·c (strength 1 shows exactly its colour,
+the unit of the world's Background too), while the library's emission is an exitance, M = π L
+for a Lambertian emitter (alone it has radiance M/π). A plain Emission shader as the surface is
+ρ = 0 and M = π × Color × Strength; no Principled BSDF (or no material): ρ = :data:`DEFAULT_ALBEDO`
+grey, no emission. Specular, sheen, coat and transmission lobes are not modelled (a glass object
+is an opaque diffuse surface; a warning says so).
 """
 
 from __future__ import annotations
@@ -20,6 +35,11 @@ import numpy as np
 #: the open interval (0, 1), so it is clamped to [ALBEDO_MIN, ALBEDO_MAX].
 ALBEDO_MIN = 1e-3
 ALBEDO_MAX = 0.999
+#: A diffuse surface's albedo (Base Color × (1 − Metallic)) is clamped to [0, DIFFUSE_ALBEDO_MAX]:
+#: the library needs each channel below 1 (a closed room of albedo 1 would never converge).
+DIFFUSE_ALBEDO_MAX = 0.999
+#: The albedo of a surrounding object without a Principled BSDF: Blender's default grey.
+DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
 
 
 class BakeError(Exception):
@@ -48,6 +68,26 @@ class MeshJob:
     original_vertex_count: int
     replace_mesh: bool  # modifiers change the vertex count: write on a mesh of the evaluated object
     warnings: list = field(default_factory=list)
+
+    @property
+    def vertex_count(self) -> int:
+        return int(self.positions.shape[0])
+
+
+@dataclass
+class DiffuseJob:
+    """One surrounding object of a radiosity bake: an opaque diffuse surface."""
+
+    object_name: str
+    positions: np.ndarray  # float32 (n, 3), object space, evaluated mesh
+    triangles: np.ndarray  # uint32 (m, 3)
+    matrix_world: np.ndarray  # float64 (4, 4) row-major
+    mm_per_unit: float
+    albedo: list  # ρ per RGB channel, in [0, DIFFUSE_ALBEDO_MAX]
+    emission: list  # exitance M per RGB channel (π × Blender's emitted radiance)
+    source: str  # e.g. "material 'Floor'" or "default grey"
+    original_vertex_count: int
+    write: bool  # its radiance goes into its colour attribute (see surroundings)
 
     @property
     def vertex_count(self) -> int:
@@ -263,3 +303,141 @@ def gather(context, warnings: list, objects: list | None = None, animated: bool 
                 "make them single user (Object ▸ Relations ▸ Make Single User) or bake one at a time"
             )
     return [gather_mesh(o, depsgraph, scene, settings, warnings, animated) for o in objs]
+
+
+# -- translucent radiosity: the surroundings -------------------------------------------------
+
+
+def _emission_of(node, colour: str, strength: str, warnings: list, owner: str) -> list:
+    """M = π × colour × strength of a node's emission inputs (module docs)."""
+    c = np.array(_input(node, colour, warnings, owner)[:3], dtype=np.float64)
+    m = np.pi * float(_input(node, strength, warnings, owner)) * c
+    return np.where(np.isfinite(m), np.maximum(m, 0.0), 0.0).tolist()
+
+
+def diffuse_material(obj, warnings: list) -> tuple:
+    """(albedo, emission, source) of a surrounding object from its active material (module docs)."""
+    material = obj.active_material
+    if material is None:
+        return list(DEFAULT_ALBEDO), [0.0, 0.0, 0.0], "no material: default grey"
+    owner = f"'{obj.name}' material '{material.name}'"
+    if len({s.material.name for s in obj.material_slots if s.material is not None}) > 1:
+        warnings.append(f"'{obj.name}' has several materials; its active one, '{material.name}', is used for all of it")
+    node = principled_node(material)
+    if node is None:
+        tree = material.node_tree if material.use_nodes else None
+        output = tree.get_output_node("ALL") if tree is not None else None
+        surface = output.inputs["Surface"] if output is not None else None
+        if surface is not None and surface.is_linked and surface.links[0].from_node.type == "EMISSION":
+            emission = _emission_of(surface.links[0].from_node, "Color", "Strength", warnings, owner)
+            return [0.0, 0.0, 0.0], emission, f"material '{material.name}' (Emission)"
+        warnings.append(f"{owner} has no Principled BSDF; it reflects as diffuse grey {DEFAULT_ALBEDO[0]}")
+        return list(DEFAULT_ALBEDO), [0.0, 0.0, 0.0], f"material '{material.name}' (no Principled BSDF: default grey)"
+    base = np.array(_input(node, "Base Color", warnings, owner)[:3], dtype=np.float64)
+    metallic = float(np.clip(_input(node, "Metallic", warnings, owner), 0.0, 1.0))
+    albedo = np.clip(np.nan_to_num(base * (1.0 - metallic)), 0.0, DIFFUSE_ALBEDO_MAX)
+    if float(_input(node, "Transmission Weight", warnings, owner)) > 0.0:
+        warnings.append(f"{owner}: transmission is not modelled; the object is an opaque diffuse surface")
+    emission = _emission_of(node, "Emission Color", "Emission Strength", warnings, owner)
+    return albedo.tolist(), emission, f"material '{material.name}'"
+
+
+def _hidden_from_render(obj, hidden_collections: set) -> bool:
+    if obj.hide_render:
+        return True
+    collections = list(obj.users_collection)
+    return bool(collections) and all(c.name in hidden_collections for c in collections)
+
+
+def _render_hidden_collections(scene) -> set:
+    """The names of the scene's collections that do not render (their own or a parent's flag)."""
+    hidden: set = set()
+
+    def walk(collection, parent_hidden: bool) -> None:
+        hide = parent_hidden or collection.hide_render
+        if hide:
+            hidden.add(collection.name)
+        for child in collection.children:
+            walk(child, hide)
+
+    walk(scene.collection, False)
+    return hidden
+
+
+def surroundings(context, translucent: list, warnings: list) -> list:
+    """The DiffuseJobs of a radiosity bake: every mesh object of the view layer that is visible
+    in the viewport (``visible_get``) and renders (neither it nor all its collections hidden from
+    render), except the ``translucent`` ones (the selection), each an opaque diffuse surface
+    (module docs). Instances (collection instances, particles) are not included.
+
+    An object that cannot be sent (no faces, a singular transform, non-finite coordinates) is
+    left out with a warning: it is not what the user asked to bake. Its radiance is written to
+    its colour attribute (``write``) when the scene's Write Surroundings is on and that is safe:
+    not when its mesh also belongs to another baked object, is linked from a library, its
+    modifiers change its vertex count (its modifiers are never applied) or the attribute name
+    is taken by another kind of attribute; each of those says so in a warning and the object
+    still lights the others."""
+    scene = context.scene
+    settings = scene.transcut
+    view_layer = context.view_layer
+    depsgraph = context.evaluated_depsgraph_get()
+    chosen = {o.name for o in translucent}
+    hidden = _render_hidden_collections(scene)
+    objects = [
+        o
+        for o in view_layer.objects
+        if o.type == "MESH"
+        and o.name not in chosen
+        and o.visible_get(view_layer=view_layer)
+        and not _hidden_from_render(o, hidden)
+    ]
+    users: dict = {}
+    for o in [*translucent, *objects]:
+        users[o.data.name] = users.get(o.data.name, 0) + 1
+    jobs = []
+    for obj in objects:
+        try:
+            matrix = world_matrix(obj)
+        except BakeError as exc:
+            warnings.append(f"{exc}; left out of the radiosity bake")
+            continue
+        positions, triangles, _ = evaluated_triangles(obj, depsgraph)
+        if triangles.size == 0:
+            warnings.append(f"'{obj.name}' has no faces; left out of the radiosity bake")
+            continue
+        if not np.all(np.isfinite(positions)):
+            warnings.append(f"'{obj.name}' has non-finite vertex coordinates; left out of the radiosity bake")
+            continue
+        albedo, emission, source = diffuse_material(obj, warnings)
+        original = len(obj.data.vertices)
+        write = bool(settings.radiosity_write_surroundings)
+        why = None
+        if write and users[obj.data.name] > 1:
+            why = f"its mesh '{obj.data.name}' belongs to another baked object too"
+        elif write and obj.data.library is not None:
+            why = f"its mesh is linked from the library '{obj.data.library.filepath}'"
+        elif write and len(positions) != original:
+            why = f"its modifiers change its vertex count ({original} → {len(positions)})"
+        elif write:
+            try:
+                check_attribute_name(obj.data, settings.attribute_name, obj.name)
+            except BakeError as exc:
+                why = str(exc).split(": ", 1)[-1]
+        if why is not None:
+            warnings.append(f"'{obj.name}': its radiance is not written ({why}); it still lights the bake")
+            write = False
+        jobs.append(
+            DiffuseJob(
+                object_name=obj.name,
+                positions=positions,
+                triangles=triangles,
+                matrix_world=matrix,
+                mm_per_unit=mm_per_unit(scene),
+                albedo=albedo,
+                emission=emission,
+                source=source,
+                original_vertex_count=original,
+                write=write,
+            )
+        )
+    return jobs

@@ -153,7 +153,7 @@ class OBJECT_OT_transcut_bake(RunnerOperator, bpy.types.Operator):
         total = sum(m.vertex_count for m in job.meshes)
         return (
             f"baked {len(job.meshes)} object(s), {total} vertices, into '{job.attribute_name}'"
-            f" ({bake.backend_summary(runner.backends)})"
+            f" ({bake.backend_summary(runner.backends)}){bake.radiosity_summary(job, runner.radiosity)}"
         )
 
 

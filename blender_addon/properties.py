@@ -39,7 +39,18 @@ PRESET_ITEMS = tuple((n, n.capitalize(), f"Measured '{n}'") for n in PRESET_NAME
 
 
 #: The Method menu's labels of the library's method names (others: the name in title case).
-METHOD_LABELS = {"transcut": "TransCut", "hierarchical-dipole": "Hierarchical Dipole"}
+METHOD_LABELS = {"transcut": "TransCut", "hierarchical-dipole": "Hierarchical Dipole", "radiosity": "Radiosity"}
+
+#: Translucent radiosity's iterations (``Scene.bake(iteration=...)`` names, upper case with ``_``).
+RADIOSITY_ITERATION_ITEMS = (
+    ("JACOBI", "Jacobi", "Every patch from the last sweep (Sheng et al.'s); sweep k adds bounce k + 1"),
+    (
+        "GAUSS_SEIDEL",
+        "Gauss-Seidel",
+        "Opaque patches from the values already updated in the sweep: about half the sweeps (and half the "
+        "translucent objects' diffusion solves) of Jacobi; Bounces needs Jacobi",
+    ),
+)
 
 #: The hierarchical dipole's modes (``Scene.bake(mode=...)`` names, upper case with ``_``).
 DIPOLE_MODE_ITEMS = (
@@ -192,6 +203,61 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         default=0,
         min=0,
         soft_max=10_000_000,
+    )
+    radiosity_patch_size: FloatProperty(
+        name="Patch Size",
+        description=(
+            "Radiosity: the longest patch edge on the surrounding (opaque) objects; their meshes are refined to it "
+            "so a two-triangle floor can carry a shadow and colour bleeding (smaller: finer, slower). "
+            "0: the scene's bounding-box diagonal / 80"
+        ),
+        default=0.0,
+        min=0.0,
+        soft_max=10.0,
+        subtype="DISTANCE",
+        unit="LENGTH",
+    )
+    radiosity_rays: IntProperty(
+        name="Rays per Patch",
+        description="Radiosity: rays cast from each patch for the form factors (more: less noise, slower)",
+        default=512,
+        min=1,
+        max=transcut.TC_MAX_RAYS_PER_PATCH,
+        soft_max=8192,
+    )
+    radiosity_iteration: EnumProperty(
+        name="Iteration",
+        description="Radiosity: how the light is passed between the patches",
+        items=RADIOSITY_ITERATION_ITEMS,
+        default="JACOBI",
+    )
+    radiosity_bounces: IntProperty(
+        name="Bounces",
+        description=(
+            "Radiosity: exactly this many bounces of light (1: the lights and the emission only, no inter-reflection), "
+            "whatever the tolerance; needs the Jacobi iteration. 0: until the Radiosity Tolerance"
+        ),
+        default=0,
+        min=0,
+        max=transcut.TC_MAX_RADIOSITY_ITERATIONS,
+        soft_max=50,
+    )
+    radiosity_tolerance: FloatProperty(
+        name="Radiosity Tolerance",
+        description="Radiosity: the estimated relative error in power at which the bounces stop",
+        default=1e-3,
+        min=1e-9,
+        max=0.5,
+        precision=6,
+    )
+    radiosity_write_surroundings: BoolProperty(
+        name="Write Surroundings",
+        description=(
+            "Radiosity: also write the radiance of the visible meshes around the selection (the surfaces the bake "
+            "treats as opaque diffuse) into their colour attribute of the same name: their lighting with the "
+            "translucent objects' shadows and colour bleeding. Off: only the selected objects change"
+        ),
+        default=True,
     )
     shadows: BoolProperty(
         name="Shadows",

@@ -1,9 +1,10 @@
 """The "TransCut" tab of the 3D viewport's sidebar (N panel): the method and the bake settings
 (TransCut's Resolution, Tolerance and Backend while TransCut is the method, the hierarchical
 dipole's Oracle with its Opening Angle or Epsilon 1 and 2, Edge Rule, Receivers, and Mode with
-the incremental mode's Budget while it is), the active object's medium, the bake, Bake
-Animation and editing buttons, and the library status when it is not loaded; the same operators
-in the Object menu."""
+the incremental mode's Budget while it is, radiosity's Patch Size, Rays per Patch, Iteration,
+Bounces (Jacobi only), Radiosity Tolerance and Write Surroundings after TransCut's three), the
+active object's medium, the bake, Bake Animation and editing buttons, and the library status when
+it is not loaded; the same operators in the Object menu."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import bpy
 
 from . import library
 from .animation_ops import TRANSCUT_OT_bake_animation
-from .bake import DIPOLE
+from .bake import DIPOLE, RADIOSITY
 from .edit_ops import TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium
 from .operators import OBJECT_OT_transcut_bake
 from .preferences import draw_library_status
@@ -45,10 +46,18 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
             if settings.dipole_mode == "INCREMENTAL":
                 col.prop(settings, "dipole_budget")
         else:
-            if settings.method == "transcut":
+            if settings.method in ("transcut", RADIOSITY):
                 col.prop(settings, "tets")
             col.prop(settings, "tolerance")
             col.prop(settings, "backend")
+        if settings.method == RADIOSITY:
+            col.prop(settings, "radiosity_patch_size")
+            col.prop(settings, "radiosity_rays")
+            col.prop(settings, "radiosity_iteration")
+            if settings.radiosity_iteration == "JACOBI":
+                col.prop(settings, "radiosity_bounces")
+            col.prop(settings, "radiosity_tolerance")
+            col.prop(settings, "radiosity_write_surroundings")
         col.prop(settings, "shadows")
         col.prop(settings, "apply_modifiers")
 

@@ -20,12 +20,22 @@ Example (a unit cube of marble lit by a white sky)::
         scene.add_environment((1.0, 1.0, 1.0))
         scene.bake(tets=20000)                          # defaults: method="transcut", solver="ssor-pcg"
         rgb = scene.radiance(obj)                       # float32 (n, 3), linear RGB
+
+Translucent radiosity (the marble cube on a grey floor, which lights it back)::
+
+        floor = scene.add_diffuse_mesh(floor_positions, floor_triangles, albedo=(0.5, 0.5, 0.5))
+        scene.set_scale(floor, 10.0)                    # every object of the bake: the same scale
+        scene.bake(method="radiosity", tets=20000, patch_size=5.0, iteration="gauss-seidel")
+        scene.radiosity_stats()["estimated_error"]      # and scene.radiance(floor): Lo = B/π
 """
 
 from ._abi import (
     ABI_MAJOR,
     BACKENDS,
     DIPOLE_CHOICES,
+    MATERIAL_NAMES,
+    RADIOSITY_ITERATIONS,
+    SIDES,
     SOLVERS,
     STATUS_NAMES,
     TC_BACKEND_AUTO,
@@ -112,6 +122,9 @@ __all__ = [
     "ABI_MAJOR",
     "BACKENDS",
     "DIPOLE_CHOICES",
+    "MATERIAL_NAMES",
+    "RADIOSITY_ITERATIONS",
+    "SIDES",
     "SOLVERS",
     "STATUS_NAMES",
     "TC_BACKEND_AUTO",

@@ -139,6 +139,17 @@ DIPOLE_CHOICES = {
     "radiance": {"transcut": TC_DIPOLE_RADIANCE_TRANSCUT, "jensen": TC_DIPOLE_RADIANCE_JENSEN},
 }
 
+#: The names :meth:`Scene.bake` accepts for translucent radiosity's ``iteration`` (besides the
+#: ``TC_RADIOSITY_*`` values; the CLI's ``--iteration`` names, any case).
+RADIOSITY_ITERATIONS = {"jacobi": TC_RADIOSITY_JACOBI, "gauss-seidel": TC_RADIOSITY_GAUSS_SEIDEL}
+
+#: The names :meth:`Scene.add_diffuse_mesh` and :meth:`Scene.set_sides` accept (besides the
+#: ``TC_SIDES_*`` values; the scene file's ``sides`` names, any case).
+SIDES = {"both": TC_SIDES_BOTH, "front": TC_SIDES_FRONT, "back": TC_SIDES_BACK}
+
+#: What :meth:`Scene.material` returns for each ``TC_MATERIAL_*`` value.
+MATERIAL_NAMES = {TC_MATERIAL_TRANSLUCENT: "translucent", TC_MATERIAL_DIFFUSE: "diffuse"}
+
 # Upper bounds of TcBakeOptions (TC_INVALID_ARGUMENT above them).
 TC_MAX_THREADS = 256
 TC_MAX_SAMPLES = 1 << 20  # area_samples and environment_samples

@@ -21,11 +21,15 @@ from ._abi import (
     ABI_MAJOR,
     BACKENDS,
     DIPOLE_CHOICES,
+    MATERIAL_NAMES,
     OPTIONAL,
+    RADIOSITY_ITERATIONS,
     REQUIRED,
+    SIDES,
     SOLVERS,
     STATUS_NAMES,
     TC_METHOD_HIERARCHICAL_DIPOLE,
+    TC_METHOD_RADIOSITY,
     TC_METHOD_TRANSCUT,
     TC_NOT_FOUND,
     TC_OK,
@@ -38,6 +42,8 @@ from ._abi import (
     TcEditStats,
     TcMedium,
     TcProgressFn,
+    TcRadiosityOptions,
+    TcRadiosityStats,
     TcTransCutOptions,
     c_double_p,
     c_float_p,
@@ -106,6 +112,63 @@ def _choice(value, field: str) -> int:
 
 #: The keyword arguments of :meth:`Scene.bake` that are ``TcDipoleOptions`` fields.
 DIPOLE_OPTIONS = ("oracle", "theta", "eps1", "eps2", "rule", "receivers", "mode", "geometry", "budget", "radiance")
+
+
+#: The keyword arguments of :meth:`Scene.bake` that are ``TcRadiosityOptions`` fields, and the
+#: field each sets (``solver``, shared with TransCut, sets ``TcRadiosityOptions.solver`` too).
+RADIOSITY_OPTIONS = {
+    "patch_size": "patch_size_mm",
+    "rays": "rays_per_patch",
+    "iteration": "iteration",
+    "radiosity_tolerance": "tolerance",
+    "radiosity_max_iterations": "max_iterations",
+    "bounces": "bounces",
+    "seed": "seed",
+    "covered_fraction": "covered_fraction",
+}
+
+
+def _unsigned(value, what: str, bits: int = 32) -> int:
+    """A whole number in [0, 2^bits) for an unsigned field (ctypes would wrap a negative one
+    silently into a huge value, which the library would then report under its own name)."""
+    if isinstance(value, float) and not value.is_integer():
+        raise ValueError(f"{what} must be a whole number, got {value!r}")
+    number = int(value)
+    if not 0 <= number < 1 << bits:
+        raise ValueError(f"{what} must be in [0, 2^{bits}), got {number}")
+    return number
+
+
+def _iteration(value) -> int:
+    """A ``TC_RADIOSITY_*`` value from a name of :data:`RADIOSITY_ITERATIONS` (any case, ``_``
+    for ``-`` too) or the value itself."""
+    if isinstance(value, str):
+        name = value.strip().lower().replace("_", "-")
+        if name not in RADIOSITY_ITERATIONS:
+            raise ValueError(f"unknown iteration {value!r} (known: {', '.join(RADIOSITY_ITERATIONS)})")
+        return RADIOSITY_ITERATIONS[name]
+    return _unsigned(value, "iteration")
+
+
+def _sides(value) -> int:
+    """A ``TC_SIDES_*`` value from a name of :data:`SIDES` (any case) or the value itself;
+    ValueError for anything else."""
+    if isinstance(value, str):
+        if value.strip().lower() not in SIDES:
+            raise ValueError(f"unknown sides {value!r} (known: {', '.join(SIDES)})")
+        return SIDES[value.strip().lower()]
+    number = int(value)
+    if number not in SIDES.values():
+        raise ValueError(f"unknown sides {value!r} (known: {', '.join(SIDES)}, or TC_SIDES_* 0 to {len(SIDES) - 1})")
+    return number
+
+
+def _emission(values):
+    """The emission as 3 doubles, checked as the library checks it (finite, >= 0)."""
+    arr = _vec3(values, "emission")
+    if not all(np.isfinite(x) and x >= 0.0 for x in arr):
+        raise ValueError(f"emission must be finite and >= 0 in every channel, got {tuple(arr)}")
+    return arr
 
 
 def _artist(albedo, radius, scale: float, ior: float, anisotropy: float) -> TcArtistMedium:
@@ -239,6 +302,12 @@ class Library:
         self.call("tc_dipole_options_init", ctypes.byref(options), ctypes.sizeof(options))
         return options
 
+    def default_radiosity_options(self) -> TcRadiosityOptions:
+        """``tc_radiosity_options_init``: translucent radiosity's defaults."""
+        options = TcRadiosityOptions()
+        self.call("tc_radiosity_options_init", ctypes.byref(options), ctypes.sizeof(options))
+        return options
+
     def scene(self) -> Scene:
         """A new empty scene (``tc_scene_create``); use it in a ``with`` block or call ``close``."""
         return Scene(self)
@@ -360,6 +429,65 @@ class Scene:
             ctypes.byref(out),
         )
         return int(out.value)
+
+    def add_diffuse_mesh(self, positions, indices, albedo, emission=None, sides=None) -> int:
+        """Adds an opaque diffuse surface (``tc_scene_add_diffuse_mesh``; only
+        ``method="radiosity"`` bakes it): ``positions`` (n, 3), ``indices`` (m, 3) or flat, as
+        :meth:`add_mesh` takes them, but the surface may be open (a floor, a wall). ``albedo``
+        (RGB, each in [0, 1)) is the fraction of the irradiance it reflects; ``emission`` (RGB,
+        finite, >= 0; default none) the exitance M it emits, in the lights' irradiance units
+        (alone, a surface emitting M has radiance M/π); ``sides`` which sides reflect and
+        emit: ``"both"`` (the library's default), ``"front"``, ``"back"`` (the inside of a
+        closed room) or a ``TC_SIDES_*`` value. Returns the new object's index.
+
+        A bad ``emission`` or ``sides`` raises ValueError before anything is added; the library
+        refuses an albedo out of [0, 1) or NaN (``TC_INVALID_ARGUMENT`` naming it) and a bad mesh
+        (``TC_INVALID_MESH``), adding nothing.
+        """
+        pos = np.ascontiguousarray(positions, dtype=np.float32).reshape(-1)
+        idx = np.ascontiguousarray(indices, dtype=np.uint32).reshape(-1)
+        rho = _vec3(albedo, "albedo")
+        glow = None if emission is None else _emission(emission)
+        side = None if sides is None else _sides(sides)
+        out = c_uint32()
+        self._call(
+            "tc_scene_add_diffuse_mesh",
+            pos.ctypes.data_as(c_float_p),
+            pos.size // 3,
+            idx.ctypes.data_as(c_uint32_p),
+            idx.size,
+            rho,
+            ctypes.byref(out),
+        )
+        obj = int(out.value)
+        if glow is not None:
+            self._call("tc_object_set_emission", obj, glow)
+        if side is not None:
+            self._call("tc_object_set_sides", obj, side)
+        return obj
+
+    def set_albedo(self, obj: int, albedo) -> None:
+        """A diffuse object's albedo (RGB, each in [0, 1); ``tc_object_set_albedo``). The library
+        refuses a value out of range or a translucent object (``TC_INVALID_ARGUMENT`` naming it)."""
+        self._call("tc_object_set_albedo", obj, _vec3(albedo, "albedo"))
+
+    def set_emission(self, obj: int, emission) -> None:
+        """A diffuse object's emitted exitance M (RGB, finite, >= 0; ``tc_object_set_emission``):
+        alone it has radiance M/π. The library refuses a translucent object."""
+        self._call("tc_object_set_emission", obj, _vec3(emission, "emission"))
+
+    def set_sides(self, obj: int, sides) -> None:
+        """Which sides of a diffuse object reflect and emit (``tc_object_set_sides``):
+        ``"both"``, ``"front"``, ``"back"`` or a ``TC_SIDES_*`` value (another raises
+        ValueError). The library refuses a translucent object."""
+        self._call("tc_object_set_sides", obj, _sides(sides))
+
+    def material(self, obj: int) -> str:
+        """What the object is made of (``tc_object_material``): ``"translucent"`` (a medium; added
+        by :meth:`add_mesh`, :meth:`add_tet_mesh`) or ``"diffuse"`` (:meth:`add_diffuse_mesh`)."""
+        out = c_uint32()
+        self._call("tc_object_material", obj, ctypes.byref(out))
+        return MATERIAL_NAMES.get(int(out.value), f"material {int(out.value)}")
 
     def set_transform(self, obj: int, matrix) -> None:
         """Object → world matrix, given as a row-major 4×4 (NumPy / ``mathutils`` layout);
@@ -536,6 +664,14 @@ class Scene:
         geometry: str | int | None = None,
         budget: int | None = None,
         radiance: str | int | None = None,
+        patch_size: float | None = None,
+        rays: int | None = None,
+        iteration: str | int | None = None,
+        radiosity_tolerance: float | None = None,
+        radiosity_max_iterations: int | None = None,
+        bounces: int | None = None,
+        seed: int | None = None,
+        covered_fraction: float | None = None,
         **options,
     ) -> None:
         """Bakes every object (``tc_scene_bake``) with the subsurface ``method``.
@@ -554,8 +690,21 @@ class Scene:
         ``"incremental"``), ``budget`` (incremental mode: the most links per update, 0 = no
         limit), ``geometry`` (``"distance"`` or ``"paper"``) and ``radiance`` (``"transcut"`` or
         ``"jensen"``); names in any case (:data:`DIPOLE_CHOICES`) or the ``TC_DIPOLE_*``
-        values; unset: ``tc_dipole_options_init``'s defaults. A method's options given with
-        another method raise ValueError.
+        values; unset: ``tc_dipole_options_init``'s defaults.
+        Translucent radiosity's options (``method="radiosity"``), the
+        :class:`TcRadiosityOptions` fields: ``patch_size`` (the longest patch edge on diffuse
+        objects, in mm; 0: the scene's diagonal / 80), ``rays`` (rays per patch for the form
+        factors), ``iteration`` (``"jacobi"`` or ``"gauss-seidel"``, any case, or a
+        ``TC_RADIOSITY_*`` value), ``bounces`` (exactly that many bounces, Jacobi only; 0: until
+        the tolerance), ``radiosity_tolerance`` (the estimated relative error in power at
+        which the iteration stops), ``radiosity_max_iterations`` (its sweeps at most), ``seed``
+        (of the rays) and ``covered_fraction``, and ``solver`` (the translucent objects'
+        diffusion solver; their ``tets``, ``tolerance``, ``max_iterations`` and ``backend``
+        are the :class:`TcBakeOptions` fields, as for TransCut); unset:
+        ``tc_radiosity_options_init``'s defaults. A negative or fractional count, or an unknown
+        name, raises ValueError before the call; the library names a value out of range
+        (``TC_INVALID_ARGUMENT``, ``options->method_options->`` and the field's name).
+        A method's options given with another method raise ValueError.
         ``options`` are the other :class:`TcBakeOptions` field names (``tets``, ``tolerance``,
         ``max_iterations``, ``threads``, ``shadows``, ``area_samples``,
         ``environment_samples``, ``backend``); unset fields keep the library's defaults.
@@ -569,7 +718,7 @@ class Scene:
         names = {f[0] for f in TcBakeOptions._fields_} - {"size", "method", "method_options"}
         for key, value in options.items():
             if key not in names:
-                known = sorted(names | {"method", "solver", "edit_solver", *DIPOLE_OPTIONS})
+                known = sorted(names | {"method", "solver", "edit_solver", *DIPOLE_OPTIONS, *RADIOSITY_OPTIONS})
                 raise TypeError(f"unknown bake option {key!r} (known: {', '.join(known)})")
             if key == "backend" and isinstance(value, str):
                 if value.lower() not in BACKENDS:
@@ -581,9 +730,38 @@ class Scene:
             opts.method = self.lib.method_number(method) if isinstance(method, str) else int(method)
         # Kept alive by this frame until tc_scene_bake, which reads it, has returned.
         method_options = None
-        if solver is not None or edit_solver is not None:
+        radiosity = {
+            k: v
+            for k, v in zip(
+                RADIOSITY_OPTIONS,
+                (
+                    patch_size,
+                    rays,
+                    iteration,
+                    radiosity_tolerance,
+                    radiosity_max_iterations,
+                    bounces,
+                    seed,
+                    covered_fraction,
+                ),
+                strict=True,
+            )
+            if v is not None
+        }
+        if radiosity and opts.method != TC_METHOD_RADIOSITY:
+            raise ValueError(
+                f"{', '.join(radiosity)} {'is an option' if len(radiosity) == 1 else 'are options'} of "
+                f"radiosity, not of method {method if method is not None else 'transcut'!r}"
+            )
+        if opts.method == TC_METHOD_RADIOSITY and edit_solver is None:
+            if radiosity or solver is not None:
+                method_options = self._radiosity_options(solver, radiosity)
+        elif solver is not None or edit_solver is not None:
             if opts.method != TC_METHOD_TRANSCUT:
-                raise ValueError(f"solver and edit_solver are options of transcut, not of method {method!r}")
+                raise ValueError(
+                    "solver and edit_solver are options of transcut (solver also of radiosity), "
+                    f"not of method {method!r}"
+                )
             method_options = self.lib.default_transcut_options()
             if solver is not None:
                 method_options.solver = _solver(solver, "solver")
@@ -615,6 +793,25 @@ class Scene:
             opts.method_options = ctypes.addressof(method_options)
         self._call_with_progress("tc_scene_bake", progress, ctypes.byref(opts))
 
+    def _radiosity_options(self, solver, given: dict) -> TcRadiosityOptions:
+        """``tc_radiosity_options_init``'s defaults with the :meth:`bake` keywords ``given``
+        (:data:`RADIOSITY_OPTIONS`) and ``solver`` set, counts and names checked."""
+        options = self.lib.default_radiosity_options()
+        if solver is not None:
+            options.solver = _solver(solver, "solver")
+        for key, value in given.items():
+            field = RADIOSITY_OPTIONS[key]
+            if key == "iteration":
+                value = _iteration(value)
+            elif key == "seed":
+                value = _unsigned(value, key, 64)
+            elif field in ("rays_per_patch", "max_iterations", "bounces"):
+                value = _unsigned(value, key)
+            else:
+                value = float(value)
+            setattr(options, field, value)
+        return options
+
     def radiance(self, obj: int) -> np.ndarray:
         """The baked radiance of an object: float32 (vertex_count, 3), linear RGB."""
         out = np.empty((self.vertex_count(obj), 3), dtype=np.float32)
@@ -627,6 +824,18 @@ class Scene:
         st.size = ctypes.sizeof(TcBakeStats)
         self._call("tc_object_stats", obj, ctypes.byref(st))
         return _stats_dict(st)
+
+    def radiosity_stats(self) -> dict:
+        """``tc_scene_radiosity_stats`` as a dict (``size`` left out): what translucent radiosity
+        measured of the whole scene in the last bake (``patches``, ``translucent_patches``,
+        ``covered_patches``, ``nonzeros``, ``form_factor_bytes``, ``patch_size_mm``, the stages'
+        ``*_ms``, ``iterations`` (sweeps), ``scatterings``, ``estimated_error``,
+        ``energy_defect``). ``TC_NOT_BAKED`` before a bake or after a change, ``TC_UNSUPPORTED``
+        after another method's bake."""
+        st = TcRadiosityStats()
+        st.size = ctypes.sizeof(TcRadiosityStats)
+        self._call("tc_scene_radiosity_stats", ctypes.byref(st))
+        return {name: getattr(st, name) for name, _ in st._fields_ if name != "size"}
 
     def dipole_stats(self, obj: int) -> dict:
         """``tc_object_dipole_stats`` as a dict (``size`` left out): what the hierarchical
