@@ -15,14 +15,20 @@
 //! - [`analytic`]: the closed-form form factors the tests compare with.
 
 pub mod analytic;
+mod distance;
 mod error;
 mod form_factor;
+mod heterogeneous;
 mod patches;
 mod profile;
+mod profile_scattering;
 mod solver;
 
+pub use distance::{pair_distances, DistanceMode, InteriorGraph, PairDistances, MAX_VOXELS};
 pub use error::RadiosityError;
 pub use form_factor::{FormFactorOptions, FormFactors};
+pub use heterogeneous::{merge_lengths, HetRule};
 pub use patches::{refine_to_edge_length, PatchSet, Surface, MAX_REFINED_TRIANGLES};
 pub use profile::{Exponentials, HalfSpace, Profile, Tabulated};
+pub use profile_scattering::{radiance_factor, ObjectPatches, ProfileMatrix, ProfileOptions, ProfileScattering, SampleCache};
 pub use solver::{solve, solve_coupled, EnergyBalance, Iteration, Opaque, Scattering, Solution, SolveOptions, Translucent};

@@ -1,0 +1,608 @@
+//! The profile scattering matrix S of one translucent object (Sheng et al. 2014 §4–5, eq. 8;
+//! design/radiosity.md §1.5 (b)): B_j = Σᵢ S_ji qᵢ + δ_j q_j, with the entry
+//!
+//! S_ji = ∫_{Aᵢ} R(d(x_j, y)) dA_y (Mertens' point-to-patch factor; design §1.1),
+//!
+//! x_j the receiving patch's vertex, Aᵢ the source patch's dual cell, R a [`Profile`] per
+//! channel truncated at its cutoff radius, d the optical distance ([`DistanceMode`]) and δ the
+//! profile's local term. q is the *transmitted* irradiance (after Fresnel at entry, t = 1 −
+//! F_ext for diffuse light) and B the exitance leaving the surface; the radiance along the
+//! normal is Lo = Ft(n)/(π(1 − Fdr)) · B ([`radiance_factor`], ARCHITECTURE.md: Fresnel at exit).
+//!
+//! # Quadrature (design §1.5, "Quadrature")
+//!
+//! With ρᵢ the radius of cell i about its vertex and e = |x_j − xᵢ|:
+//!
+//! - e ≤ 2ρᵢ (the patch itself and its first ring): each piece (a sixth of a triangle) of the
+//!   cell is integrated in polar coordinates about the foot of x_j on its plane (height h),
+//!   exactly in the radius through the disc integral C of the profile,
+//!   ∫_T R dA = (1/2π) Σ_edges ∫_{Δθ} [C(√(ρ_e(θ)² + h²)) − C(h)] dθ (Mertens et al. 2003 eq. 18
+//!   with the radial integral in closed form for every profile), 8 Gauss–Legendre points per
+//!   π/8 of angle; chord distances.
+//! - e ≤ 6ρᵢ: the 7-point degree-5 rule on each piece, each point y at distance
+//!   d_ji + (|x_j − y| − e) (the optical distance of the vertices corrected to first order).
+//! - beyond: one point, R(d_ji)·Aᵢ.
+//!
+//! # Re-indexing (design §1.5, "Changing translucency"; check A11)
+//!
+//! The build keeps every sample as an f32 pair (distance, weight), per entry, in a
+//! [`SampleCache`]; a new medium or profile re-evaluates S from it ([`ProfileMatrix::reindex`])
+//! without any geometry, bit-identical to a fresh build with the same gathering radius.
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::mesh::TriangleBvh;
+use crate::optics::{fdr, ft_out};
+
+use super::distance::{pair_distances, DistanceMode, PairDistances};
+use super::error::RadiosityError;
+use super::patches::{PatchSet, Surface};
+use super::profile::{gauss_legendre, Profile};
+use super::solver::Scattering;
+
+/// Cells within this many cell radii of the receiver are integrated in polar coordinates.
+const NEAR: f64 = 2.0;
+/// Cells within this many cell radii of the receiver get the 7-point rule per piece.
+const MID: f64 = 6.0;
+/// Angle (radians) per 8-point Gauss–Legendre panel of the polar quadrature.
+const PANEL_ANGLE: f64 = PI / 8.0;
+
+/// Lo(x, n) per unit exitance B for a medium of index `eta`: T(η, 0)/(π η² (1 − Fdr))
+/// (ARCHITECTURE.md, "What a bake returns", the energy-consistent constant of dipole-based
+/// methods; 0.33345 at η = 1.3 with the Fdr fit, 0.06% above the design's 1 − Fdr_exact).
+#[must_use]
+pub fn radiance_factor(eta: f64) -> f64 {
+    ft_out(eta, 1.0) / (PI * (1.0 - fdr(eta)))
+}
+
+/// The patches of one translucent object: vertex, outward normal, dual-cell area and pieces,
+/// the cell's radius about its vertex, and a BVH of the object's own triangles (for sight).
+#[derive(Debug, Clone)]
+pub struct ObjectPatches {
+    positions: Vec<DVec3>,
+    normals: Vec<DVec3>,
+    areas: Vec<f64>,
+    radii: Vec<f64>,
+    piece_start: Vec<usize>,
+    pieces: Vec<[DVec3; 3]>,
+    bvh: TriangleBvh,
+}
+
+impl ObjectPatches {
+    /// The front patches of surface `surface` of `patches` (one translucent object, its patches
+    /// `patches.front_range(surface)` in that order).
+    ///
+    /// # Panics
+    /// When `surface` is not a surface of `patches`.
+    #[must_use]
+    pub fn from_patch_set(patches: &PatchSet, surface: usize) -> ObjectPatches {
+        let range = patches.front_range(surface);
+        let positions = patches.positions()[range.clone()].to_vec();
+        let normals = patches.normals()[range.clone()].to_vec();
+        let areas = patches.areas()[range.clone()].to_vec();
+        let (mut piece_start, mut pieces, mut radii) = (vec![0], Vec::new(), Vec::new());
+        for p in range.clone() {
+            let x = patches.positions()[p];
+            let mut r: f64 = 0.0;
+            for piece in patches.cell_pieces(p) {
+                r = piece.iter().fold(r, |r, c| r.max((*c - x).length()));
+                pieces.push(piece);
+            }
+            radii.push(r);
+            piece_start.push(pieces.len());
+        }
+        let own = |t: &[u32; 3]| t.iter().all(|&v| range.contains(&(v as usize)));
+        let corners: Vec<[DVec3; 3]> =
+            patches.front_triangles().iter().filter(|t| own(t)).map(|t| t.map(|v| patches.positions()[v as usize])).collect();
+        ObjectPatches { positions, normals, areas, radii, piece_start, pieces, bvh: TriangleBvh::new(corners) }
+    }
+
+    /// The patches of one closed surface given by `positions` and `triangles` (counter-clockwise
+    /// seen from outside), as [`PatchSet::new`] would make them.
+    ///
+    /// # Errors
+    /// As [`PatchSet::new`].
+    pub fn from_surface(positions: &[DVec3], triangles: &[[u32; 3]]) -> Result<ObjectPatches, RadiosityError> {
+        let set = PatchSet::new(&[Surface { positions, triangles, two_sided: false }])?;
+        Ok(Self::from_patch_set(&set, 0))
+    }
+
+    /// The number of patches.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether there is no patch.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Each patch's vertex.
+    #[must_use]
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    /// Each patch's area.
+    #[must_use]
+    pub fn areas(&self) -> &[f64] {
+        &self.areas
+    }
+
+    /// Each cell's radius about its vertex (the farthest corner of its pieces).
+    #[must_use]
+    pub fn cell_radii(&self) -> &[f64] {
+        &self.radii
+    }
+
+    /// The BVH of the object's triangles.
+    #[must_use]
+    pub fn bvh(&self) -> &TriangleBvh {
+        &self.bvh
+    }
+
+    fn pieces(&self, i: usize) -> &[[DVec3; 3]] {
+        &self.pieces[self.piece_start[i]..self.piece_start[i + 1]]
+    }
+}
+
+/// How the profile matrix is built.
+#[derive(Debug, Clone)]
+pub struct ProfileOptions {
+    /// How distances are measured.
+    pub distance: DistanceMode,
+    /// Each channel's profile is cut where at most this fraction of its regular total is left
+    /// beyond (design: 10⁻³).
+    pub tail: f64,
+    /// The radius (mm) within which samples are gathered; `None`: the largest channel cutoff.
+    /// A re-indexed profile must have its cutoffs within it.
+    pub gather_radius: Option<f64>,
+}
+
+impl Default for ProfileOptions {
+    fn default() -> Self {
+        Self { distance: DistanceMode::Euclidean, tail: 1e-3, gather_radius: None }
+    }
+}
+
+/// The geometry of the matrix: its pattern and every entry's samples (module documentation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleCache {
+    row_ptr: Vec<usize>,
+    cols: Vec<u32>,
+    /// Per entry, its value samples R(d)·w and its cumulative samples C(d)·w.
+    value_start: Vec<usize>,
+    values: Vec<[f32; 2]>,
+    cumulative_start: Vec<usize>,
+    cumulative: Vec<[f32; 2]>,
+    gather_radius: f64,
+}
+
+impl SampleCache {
+    /// The samples of `patches` within `gather_radius` (mm) at the distances `distances`.
+    fn build(patches: &ObjectPatches, distances: &PairDistances, gather_radius: f64) -> SampleCache {
+        let n = patches.len();
+        let nodes = gauss_legendre(8);
+        let rows: Vec<(Vec<u32>, Vec<[f32; 2]>, Vec<usize>, Vec<[f32; 2]>, Vec<usize>)> = (0..n)
+            .into_par_iter()
+            .map(|j| {
+                let x = patches.positions[j];
+                let (sources, dist) = distances.row(j);
+                let (mut cols, mut values, mut vstart, mut cum, mut cstart) =
+                    (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                for (&i, &d) in sources.iter().zip(dist) {
+                    let i = i as usize;
+                    let rho = patches.radii[i];
+                    if patches.areas[i] <= 0.0 || d - rho > gather_radius {
+                        continue;
+                    }
+                    cols.push(i as u32);
+                    vstart.push(values.len());
+                    cstart.push(cum.len());
+                    let e = (patches.positions[i] - x).length();
+                    if e <= NEAR * rho {
+                        for piece in patches.pieces(i) {
+                            polar_samples(*piece, x, &nodes, &mut cum);
+                        }
+                    } else if e <= MID * rho {
+                        for piece in patches.pieces(i) {
+                            for (y, w) in rule7(*piece) {
+                                values.push([(d + ((y - x).length() - e)).max(0.0) as f32, w as f32]);
+                            }
+                        }
+                    } else {
+                        values.push([d as f32, patches.areas[i] as f32]);
+                    }
+                }
+                (cols, values, vstart, cum, cstart)
+            })
+            .collect();
+        let mut cache = SampleCache {
+            row_ptr: vec![0],
+            cols: Vec::new(),
+            value_start: Vec::new(),
+            values: Vec::new(),
+            cumulative_start: Vec::new(),
+            cumulative: Vec::new(),
+            gather_radius,
+        };
+        for (cols, values, vstart, cum, cstart) in rows {
+            let (v0, c0) = (cache.values.len(), cache.cumulative.len());
+            cache.cols.extend(cols);
+            cache.value_start.extend(vstart.iter().map(|s| s + v0));
+            cache.cumulative_start.extend(cstart.iter().map(|s| s + c0));
+            cache.values.extend(values);
+            cache.cumulative.extend(cum);
+            cache.row_ptr.push(cache.cols.len());
+        }
+        cache.value_start.push(cache.values.len());
+        cache.cumulative_start.push(cache.cumulative.len());
+        cache
+    }
+
+    /// The number of entries.
+    #[must_use]
+    pub fn nonzeros(&self) -> usize {
+        self.cols.len()
+    }
+
+    /// The number of samples kept (each 8 bytes).
+    #[must_use]
+    pub fn samples(&self) -> usize {
+        self.values.len() + self.cumulative.len()
+    }
+
+    /// The gathering radius (mm).
+    #[must_use]
+    pub fn gather_radius(&self) -> f64 {
+        self.gather_radius
+    }
+
+    /// Entry k's value for `profile` truncated at `cutoff`: Σ w R(d) (d ≤ cutoff) + Σ w C(min(d, cutoff)).
+    fn entry(&self, k: usize, profile: &Profile, cutoff: f64) -> f64 {
+        let mut sum = 0.0;
+        for &[d, w] in &self.values[self.value_start[k]..self.value_start[k + 1]] {
+            let d = f64::from(d);
+            if d <= cutoff {
+                sum += f64::from(w) * profile.value(d);
+            }
+        }
+        for &[d, w] in &self.cumulative[self.cumulative_start[k]..self.cumulative_start[k + 1]] {
+            sum += f64::from(w) * profile.disc_integral(f64::from(d).min(cutoff));
+        }
+        sum
+    }
+}
+
+/// The samples of ∫_T R(|x − y|) dA_y in polar coordinates about the foot of `x` on the plane
+/// of the triangle `t` (module documentation): per edge, C(√(ρ(θ)² + h²))·w at the
+/// Gauss–Legendre angles, w = Δθ-weight/(2π) (signed by the edge's turn), then C(|h|) with
+/// −Θ/(2π), Θ the signed angle the triangle subtends at the foot.
+fn polar_samples(t: [DVec3; 3], x: DVec3, nodes: &[(f64, f64)], out: &mut Vec<[f32; 2]>) {
+    let cross = (t[1] - t[0]).cross(t[2] - t[0]);
+    let double_area = cross.length();
+    if !(double_area > 0.0) {
+        return;
+    }
+    let n = cross / double_area;
+    let h = (x - t[0]).dot(n);
+    let foot = x - h * n;
+    let u = (t[1] - t[0]).normalize();
+    let v = n.cross(u);
+    let flat = |p: DVec3| glam::DVec2::new((p - foot).dot(u), (p - foot).dot(v));
+    let mut theta_total = 0.0;
+    for k in 0..3 {
+        let (a, b) = (flat(t[k]), flat(t[(k + 1) % 3]));
+        let edge = b - a;
+        let turn = a.perp_dot(b);
+        if turn.abs() <= 1e-12 * edge.length() * a.length().max(b.length()) {
+            continue;
+        }
+        let dtheta = turn.atan2(a.dot(b));
+        theta_total += dtheta;
+        let start = a.y.atan2(a.x);
+        let numerator = a.perp_dot(edge);
+        let panels = (dtheta.abs() / PANEL_ANGLE).ceil().max(1.0) as usize;
+        let width = dtheta / panels as f64;
+        for p in 0..panels {
+            let mid = start + (p as f64 + 0.5) * width;
+            for &(z, w) in nodes {
+                let theta = mid + 0.5 * width * z;
+                let dir = glam::DVec2::new(theta.cos(), theta.sin());
+                let rho = numerator / dir.perp_dot(edge);
+                let s = rho.hypot(h);
+                out.push([s as f32, (0.5 * width * w / (2.0 * PI)) as f32]);
+            }
+        }
+    }
+    if theta_total.abs() > 1e-9 && h != 0.0 {
+        out.push([h.abs() as f32, (-theta_total / (2.0 * PI)) as f32]);
+    }
+}
+
+/// The 7-point degree-5 rule on a triangle (Radon 1948; Stroud T2:5-1): points and weights
+/// (weights summing to the area).
+fn rule7([a, b, c]: [DVec3; 3]) -> [(DVec3, f64); 7] {
+    let area = 0.5 * (b - a).cross(c - a).length();
+    let s15 = 15f64.sqrt();
+    let (a1, b1) = ((6.0 - s15) / 21.0, (9.0 + 2.0 * s15) / 21.0);
+    let (a2, b2) = ((6.0 + s15) / 21.0, (9.0 - 2.0 * s15) / 21.0);
+    let (w1, w2) = ((155.0 - s15) / 1200.0 * area, (155.0 + s15) / 1200.0 * area);
+    let at = |l0: f64, l1: f64, l2: f64| a * l0 + b * l1 + c * l2;
+    [
+        (at(1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0), 9.0 / 40.0 * area),
+        (at(b1, a1, a1), w1),
+        (at(a1, b1, a1), w1),
+        (at(a1, a1, b1), w1),
+        (at(b2, a2, a2), w2),
+        (at(a2, b2, a2), w2),
+        (at(a2, a2, b2), w2),
+    ]
+}
+
+/// The profile matrix S of one object, per channel, with its samples for re-indexing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProfileMatrix {
+    cache: SampleCache,
+    /// S per entry and channel (the local term on the diagonal included).
+    values: Vec<[f64; 3]>,
+    cutoffs: [f64; 3],
+    tail: f64,
+}
+
+impl ProfileMatrix {
+    /// S of `patches` for the channel profiles `profiles` (module documentation).
+    ///
+    /// # Errors
+    /// [`RadiosityError::InvalidOptions`] unless `tail` is in (0, 1) and the gathering radius
+    /// (when given) finite and > 0.
+    pub fn build(
+        patches: &ObjectPatches,
+        profiles: &[Profile; 3],
+        options: &ProfileOptions,
+    ) -> Result<ProfileMatrix, RadiosityError> {
+        if !(options.tail > 0.0 && options.tail < 1.0) {
+            return Err(RadiosityError::InvalidOptions(format!("profile tail must be in (0, 1), got {}", options.tail)));
+        }
+        let cutoffs: [f64; 3] = std::array::from_fn(|c| profiles[c].cutoff(options.tail));
+        let radius = match options.gather_radius {
+            Some(r) if r.is_finite() && r > 0.0 => r,
+            Some(r) => return Err(RadiosityError::InvalidOptions(format!("gather radius must be finite and > 0, got {r}"))),
+            None => cutoffs.iter().copied().fold(0.0, f64::max),
+        };
+        let max_cell = patches.radii.iter().copied().fold(0.0, f64::max);
+        let mean_cell = patches.radii.iter().sum::<f64>() / patches.len().max(1) as f64;
+        let distances = pair_distances(
+            &patches.positions,
+            &patches.normals,
+            &patches.bvh,
+            &options.distance,
+            radius + max_cell,
+            1e-3 * mean_cell,
+        );
+        let cache = SampleCache::build(patches, &distances, radius);
+        Self::evaluate(cache, profiles, options.tail)
+    }
+
+    /// The same geometry re-evaluated for new `profiles` (a changed medium): bit-identical to
+    /// [`ProfileMatrix::build`] with the same distances and gathering radius.
+    ///
+    /// # Errors
+    /// [`RadiosityError::InvalidOptions`] when a channel's new cutoff exceeds the gathering
+    /// radius (entries beyond it were never sampled: build afresh).
+    pub fn reindex(&self, profiles: &[Profile; 3]) -> Result<ProfileMatrix, RadiosityError> {
+        Self::evaluate(self.cache.clone(), profiles, self.tail)
+    }
+
+    fn evaluate(cache: SampleCache, profiles: &[Profile; 3], tail: f64) -> Result<ProfileMatrix, RadiosityError> {
+        let cutoffs: [f64; 3] = std::array::from_fn(|c| profiles[c].cutoff(tail));
+        if let Some(c) = (0..3).find(|&c| cutoffs[c] > cache.gather_radius * (1.0 + 1e-12)) {
+            return Err(RadiosityError::InvalidOptions(format!(
+                "channel {c}'s profile reaches {:.3} mm, beyond the {:.3} mm its samples were gathered within: build the matrix afresh",
+                cutoffs[c], cache.gather_radius
+            )));
+        }
+        let n = cache.row_ptr.len() - 1;
+        let locals: [f64; 3] = std::array::from_fn(|c| profiles[c].local());
+        let rows: Vec<Vec<[f64; 3]>> = (0..n)
+            .into_par_iter()
+            .map(|j| {
+                (cache.row_ptr[j]..cache.row_ptr[j + 1])
+                    .map(|k| {
+                        std::array::from_fn(|c| {
+                            let v = cache.entry(k, &profiles[c], cutoffs[c]);
+                            if cache.cols[k] as usize == j {
+                                v + locals[c]
+                            } else {
+                                v
+                            }
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        Ok(ProfileMatrix { values: rows.concat(), cache, cutoffs, tail })
+    }
+
+    /// The number of patches (rows and columns).
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.cache.row_ptr.len() - 1
+    }
+
+    /// Whether the matrix has no row.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Row `j`: its columns and their values per channel.
+    #[must_use]
+    pub fn row(&self, j: usize) -> (&[u32], &[[f64; 3]]) {
+        let r = self.cache.row_ptr[j]..self.cache.row_ptr[j + 1];
+        (&self.cache.cols[r.clone()], &self.values[r])
+    }
+
+    /// The entry S_ji per channel (0 outside the pattern).
+    #[must_use]
+    pub fn get(&self, j: usize, i: usize) -> [f64; 3] {
+        let (cols, values) = self.row(j);
+        cols.binary_search(&(i as u32)).map_or([0.0; 3], |k| values[k])
+    }
+
+    /// Each channel's cutoff radius (mm).
+    #[must_use]
+    pub fn cutoffs(&self) -> [f64; 3] {
+        self.cutoffs
+    }
+
+    /// The samples behind the matrix.
+    #[must_use]
+    pub fn cache(&self) -> &SampleCache {
+        &self.cache
+    }
+
+    /// The bytes the matrix and its samples hold.
+    #[must_use]
+    pub fn bytes(&self) -> usize {
+        self.values.len() * (24 + 4 + 16) + self.cache.samples() * 8
+    }
+
+    /// B = S q per channel.
+    ///
+    /// # Errors
+    /// [`RadiosityError::WrongLength`] unless `q` has one value per patch.
+    pub fn apply(&self, q: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, RadiosityError> {
+        if q.len() != self.len() {
+            return Err(RadiosityError::WrongLength { what: "transmitted irradiance", expected: self.len(), got: q.len() });
+        }
+        Ok((0..self.len())
+            .into_par_iter()
+            .map(|j| {
+                let (cols, values) = self.row(j);
+                let mut b = [0.0; 3];
+                for (&i, s) in cols.iter().zip(values) {
+                    for c in 0..3 {
+                        b[c] += s[c] * q[i as usize][c];
+                    }
+                }
+                b
+            })
+            .collect())
+    }
+}
+
+/// S of one translucent object as a profile matrix, the radiosity solver's [`Scattering`]
+/// (module documentation). The method builds it once per object and geometry, from the object's
+/// front patches ([`ObjectPatches::from_patch_set`]) and its medium's profiles, and passes it as
+/// the object's `Translucent::scattering`; a medium change is [`ProfileScattering::set_profiles`].
+#[derive(Debug, Clone)]
+pub struct ProfileScattering {
+    matrix: ProfileMatrix,
+}
+
+impl ProfileScattering {
+    /// S of `patches` for `profiles` ([`ProfileMatrix::build`]).
+    ///
+    /// # Errors
+    /// As [`ProfileMatrix::build`].
+    pub fn new(patches: &ObjectPatches, profiles: &[Profile; 3], options: &ProfileOptions) -> Result<Self, RadiosityError> {
+        Ok(Self { matrix: ProfileMatrix::build(patches, profiles, options)? })
+    }
+
+    /// The matrix.
+    #[must_use]
+    pub fn matrix(&self) -> &ProfileMatrix {
+        &self.matrix
+    }
+
+    /// Re-evaluates S for new profiles on the same geometry ([`ProfileMatrix::reindex`]).
+    ///
+    /// # Errors
+    /// As [`ProfileMatrix::reindex`]; nothing changes on error.
+    pub fn set_profiles(&mut self, profiles: &[Profile; 3]) -> Result<(), RadiosityError> {
+        self.matrix = self.matrix.reindex(profiles)?;
+        Ok(())
+    }
+}
+
+impl Scattering for ProfileScattering {
+    type Error = RadiosityError;
+
+    fn scatter(&mut self, q: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, RadiosityError> {
+        self.matrix.apply(q)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optics::Medium;
+
+    /// A flat square grid of `k`×`k` cells of side `h` in z = 0, normal +z.
+    fn grid(k: usize, h: f64) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let mut p = Vec::new();
+        for y in 0..=k {
+            for x in 0..=k {
+                p.push(DVec3::new(x as f64 * h, y as f64 * h, 0.0));
+            }
+        }
+        let id = |x: usize, y: usize| (y * (k + 1) + x) as u32;
+        let mut t = Vec::new();
+        for y in 0..k {
+            for x in 0..k {
+                t.push([id(x, y), id(x + 1, y), id(x + 1, y + 1)]);
+                t.push([id(x, y), id(x + 1, y + 1), id(x, y + 1)]);
+            }
+        }
+        (p, t)
+    }
+
+    #[test]
+    fn polar_samples_integrate_constants_and_areas() {
+        // With R ≡ 1 on a disc of any radius, C(ρ) = πρ²: the polar samples of a triangle
+        // sum C to its area, for feet inside, outside, at a corner and above the plane.
+        let t = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.5, 1.5, 0.0)];
+        let nodes = gauss_legendre(8);
+        for x in [DVec3::new(0.7, 0.4, 0.0), DVec3::new(3.0, 2.0, 0.0), DVec3::new(0.0, 0.0, 0.0), DVec3::new(0.7, 0.4, 0.8)] {
+            let mut s = Vec::new();
+            polar_samples(t, x, &nodes, &mut s);
+            let area: f64 = s.iter().map(|&[d, w]| f64::from(w) * PI * f64::from(d).powi(2)).sum();
+            assert!((area / 1.5 - 1.0).abs() < 1e-6, "{x}: {area}");
+        }
+        let total: f64 = rule7(t).iter().map(|p| p.1).sum();
+        assert!((total - 1.5).abs() < 1e-14);
+    }
+
+    #[test]
+    fn patches_of_a_grid_and_self_entries() {
+        let (p, t) = grid(4, 1.0);
+        let patches = ObjectPatches::from_surface(&p, &t).unwrap();
+        assert_eq!(patches.len(), 25);
+        assert!((patches.areas().iter().sum::<f64>() - 16.0).abs() < 1e-12);
+        let m = Medium { eta: 1.3, ..Medium::preset("marble").unwrap() };
+        let profiles = Profile::dipole_rgb(&m);
+        let s = ProfileMatrix::build(&patches, &profiles, &ProfileOptions::default()).unwrap();
+        // Every pair of a 4 mm grid is within marble's cutoff: a full matrix.
+        assert_eq!(s.cache().nonzeros(), 25 * 25);
+        // The centre's self entry: Rd is nearly flat over a 1 mm² cell (Rd(0)·A to 30%).
+        let c = 12;
+        let d = m.dipole(0);
+        let v = s.get(c, c)[0];
+        assert!(v > 0.5 * d.rd(0.7) * patches.areas()[c] && v < d.rd(0.0) * patches.areas()[c], "{v}");
+        // B = S q is linear and its length is checked.
+        let q = vec![[1.0; 3]; 25];
+        let b = s.apply(&q).unwrap();
+        assert!(b.iter().all(|x| x[0] > 0.0));
+        assert!(s.apply(&q[..3]).is_err());
+        let mut op = ProfileScattering { matrix: s.clone() };
+        assert_eq!(op.scatter(&q).unwrap(), b);
+        // (1 − (0.3/2.3)²)/1.69/(π(1 − 0.444763)) with the Fdr fit.
+        assert!((radiance_factor(1.3) - 0.333452).abs() < 1e-6, "{}", radiance_factor(1.3));
+    }
+}
