@@ -92,6 +92,7 @@ pub(crate) fn session_failure(e: &SessionError) -> Failure {
         SessionError::Unsupported { .. } => TC_UNSUPPORTED,
         SessionError::Edit { source, .. } => edit_status(source),
         SessionError::Cancelled(_) => TC_CANCELLED,
+        SessionError::Coupled(source) => return scene_failure(source),
         _ => TC_INVALID_ARGUMENT,
     };
     Failure::new(status, e.to_string())

@@ -15,12 +15,12 @@
 //! a method's radiance is finite, non-negative and one value per output vertex, and the
 //! timings. The methods are in [`crate::methods`].
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use crate::methods::{
-    bake_object, object_stage, radiosity, targets, world_surfaces, HierarchicalDipole, Lighting, ObjectBake, RadiosityStats,
-    SubsurfaceMethod, TransCut,
+    bake_object, object_stage, radiosity, targets, world_surfaces, HierarchicalDipole, Lighting, ObjectBake, RadiositySession,
+    RadiosityStats, SubsurfaceMethod, TransCut,
 };
 use crate::progress::{ms, Progress};
 use crate::scene::{BakeOptions, Method, Scene, SceneError};
@@ -33,6 +33,10 @@ pub struct Bake {
     /// What the radiosity method measured of the whole scene (it bakes all objects together);
     /// `None` for the other methods.
     pub radiosity: Option<RadiosityStats>,
+    /// The radiosity method's whole-scene state (patches, form factors, every translucent
+    /// object's system), which [`crate::Session::new`] edits without computing them again;
+    /// `None` for the other methods.
+    pub coupled: Option<Arc<RadiositySession>>,
     /// Wall time of the whole bake.
     pub total_ms: f64,
 }
@@ -60,9 +64,10 @@ pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Re
         Method::HierarchicalDipole(o) => bake_all::<HierarchicalDipole>(scene, options, o, progress),
         Method::Radiosity(o) => {
             let start = Instant::now();
-            radiosity::bake_scene(scene, options, o, progress).map(|(objects, stats)| Bake {
+            radiosity::bake_scene(scene, options, o, progress).map(|(objects, stats, session)| Bake {
                 objects,
                 radiosity: Some(stats),
+                coupled: Some(Arc::new(session)),
                 total_ms: ms(start),
             })
         }
@@ -104,5 +109,5 @@ fn bake_all<M: SubsurfaceMethod>(
         objects.push(bake_object::<M>(target, method, name, &lighting, &stage)?);
         stage("done", 1.0)?;
     }
-    Ok(Bake { objects, radiosity: None, total_ms: ms(start) })
+    Ok(Bake { objects, radiosity: None, coupled: None, total_ms: ms(start) })
 }

@@ -68,7 +68,7 @@ pub mod workers;
 
 pub use bake::{bake, bake_with, Bake};
 pub use glam::DVec3;
-pub use methods::{BakedState, ObjectBake, ObjectStats};
+pub use methods::{BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 pub use progress::{Cancelled, Progress};
 pub use scene::{
     BakeOptions, Diffuse, Material, MediumSource, Method, Object, RadiosityOptions, Scene, SceneError, Shape, Sides,

@@ -5,7 +5,9 @@
 use glam::DVec3;
 use transcut::mesh::icosphere;
 use transcut::radiosity::analytic::{coaxial_discs, parallel_rectangles, perpendicular_rectangles, point_to_disc};
-use transcut::radiosity::{solve, FormFactorOptions, FormFactors, Iteration, PatchSet, SolveOptions, Surface};
+use transcut::radiosity::{
+    solve, solve_coupled, FormFactorOptions, FormFactors, Iteration, Opaque, PatchSet, RadiosityError, SolveOptions, Surface,
+};
 
 /// A mesh: positions and counter-clockwise triangles.
 type Mesh = (Vec<DVec3>, Vec<[u32; 3]>);
@@ -229,4 +231,45 @@ fn bad_values_are_named() {
     let e = solve(&f, patches.areas(), &ok[1..], &ok, &ok, &o, &|| true).unwrap_err().to_string();
     assert!(e.contains("albedo: expected"), "{e}");
     assert!(solve(&f, patches.areas(), &ok, &ok, &ok, &o, &|| false).is_err());
+    // A warm start of the wrong length, not finite, or with a count of bounces.
+    let opaque = Opaque { albedo: &ok, direct: &ok, emission: &ok };
+    let warm = |initial: &[[f64; 3]], options: &SolveOptions| {
+        solve_coupled::<RadiosityError>(&f, patches.areas(), &opaque, &mut [], Some(initial), options, &|| true)
+            .unwrap_err()
+            .to_string()
+    };
+    assert!(warm(&ok[1..], &o).contains("initial radiosity: expected"), "{}", warm(&ok[1..], &o));
+    let mut nan = ok.clone();
+    nan[5] = [0.0, f64::INFINITY, 0.0];
+    assert!(warm(&nan, &o).contains("initial radiosity of patch 5"), "{}", warm(&nan, &o));
+    assert!(warm(&ok, &SolveOptions { bounces: Some(2), ..o }).contains("bounces"));
+}
+
+/// A warm start from the solution of a nearby problem reaches the same answer in fewer sweeps
+/// (the closed sphere at ρ = 0.9, its light 10% brighter).
+#[test]
+fn a_warm_start_converges_to_the_same_answer_sooner() {
+    let sphere = inner_sphere(10.0, 3);
+    let patches = PatchSet::new(&[Surface { positions: &sphere.0, triangles: &sphere.1, two_sided: false }]).unwrap();
+    let f = FormFactors::gather(&patches, &FormFactorOptions { rays_per_patch: 128, ..Default::default() }, &|| true).unwrap();
+    let n = patches.len();
+    let direct = |scale: f64| -> Vec<[f64; 3]> {
+        patches
+            .positions()
+            .iter()
+            .zip(patches.normals())
+            .map(|(&x, &nrm)| [scale * (nrm.dot(-x) / x.length()).max(0.0); 3])
+            .collect()
+    };
+    let (albedo, zero) = (vec![[0.9; 3]; n], vec![[0.0; 3]; n]);
+    let options = SolveOptions { tolerance: 1e-8, max_iterations: 1000, ..SolveOptions::default() };
+    let (before, after) = (direct(1.0), direct(1.1));
+    let old = solve(&f, patches.areas(), &albedo, &before, &zero, &options, &|| true).unwrap();
+    let cold = solve(&f, patches.areas(), &albedo, &after, &zero, &options, &|| true).unwrap();
+    let opaque = Opaque { albedo: &albedo, direct: &after, emission: &zero };
+    let warm =
+        solve_coupled::<RadiosityError>(&f, patches.areas(), &opaque, &mut [], Some(&old.radiosity), &options, &|| true).unwrap();
+    let worst = warm.radiosity.iter().zip(&cold.radiosity).map(|(w, c)| (w[0] - c[0]).abs() / c[0]).fold(0.0, f64::max);
+    assert!(worst < 1e-6, "warm and cold differ by {worst}");
+    assert!(warm.iterations < cold.iterations, "warm {} sweeps, cold {}", warm.iterations, cold.iterations);
 }

@@ -136,6 +136,31 @@ pub fn validate_lights(lights: &[Light]) -> Result<(), LightError> {
 }
 
 impl Light {
+    /// The light as its strength per channel times the same light at unit strength (intensity,
+    /// irradiance or radiance 1 in every channel; an equirectangular map at multiplier 1, its
+    /// strength the multiplier in each channel): `(unit, strength)`. Light transport is linear
+    /// in each channel, so what `self` lights is `strength ⊙` what `unit` lights, and two lights
+    /// of the same `unit` differ in colour and brightness only (a radiosity session reuses
+    /// their solution).
+    #[must_use]
+    pub fn split_strength(&self) -> (Light, [f64; 3]) {
+        let mut unit = self.clone();
+        let strength = match &mut unit {
+            Light::Directional { irradiance: s, .. }
+            | Light::Point { intensity: s, .. }
+            | Light::Spot { intensity: s, .. }
+            | Light::RectArea { radiance: s, .. }
+            | Light::DiscArea { radiance: s, .. }
+            | Light::Environment(Environment::Constant(s)) => std::mem::replace(s, [1.0; 3]),
+            Light::Environment(Environment::Equirect(map)) => {
+                let m = map.intensity();
+                map.set_intensity(1.0).expect("1 is a valid multiplier");
+                [m; 3]
+            }
+        };
+        (unit, strength)
+    }
+
     /// A short name of the kind of light, as used in error messages.
     #[must_use]
     pub fn kind(&self) -> &'static str {
@@ -254,6 +279,41 @@ mod tests {
         match r {
             Err(LightError::InvalidLight { field, .. }) => field,
             other => panic!("expected InvalidLight, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_light_is_its_strength_times_its_unit_light() {
+        let lights = [
+            Light::Point { position: DVec3::new(0.3, -0.2, 2.0), intensity: [0.5, 2.0, 0.0] },
+            Light::RectArea {
+                center: DVec3::new(0.0, 0.0, 1.5),
+                half_u: DVec3::X * 0.4,
+                half_v: DVec3::Y * 0.3,
+                radiance: [3.0, 1.0, 0.25],
+                two_sided: true,
+            },
+            Light::Environment(Environment::Constant([0.2, 0.4, 0.8])),
+        ];
+        let points = [DVec3::ZERO, DVec3::new(0.5, 0.1, 0.0)];
+        let normals = [DVec3::Z, DVec3::new(0.0, 0.6, 0.8)];
+        let options = SourceOptions::default();
+        for light in &lights {
+            let (unit, strength) = light.split_strength();
+            let (again, ones) = unit.split_strength();
+            assert_eq!((again, ones), (unit.clone(), [1.0; 3]), "a unit light is its own unit");
+            let whole = irradiance(std::slice::from_ref(light), &points, &normals, None, &options).unwrap();
+            let part = irradiance(std::slice::from_ref(&unit), &points, &normals, None, &options).unwrap();
+            for (w, p) in whole.iter().zip(&part) {
+                for c in 0..3 {
+                    assert!(
+                        (w[c] - strength[c] * p[c]).abs() <= 1e-12 * w[c].abs().max(1e-300),
+                        "{}: {w:?} vs {p:?}",
+                        light.kind()
+                    );
+                }
+            }
+            assert!(part.iter().all(|p| p.iter().all(|&x| x > 0.0)), "{}: the points are lit", light.kind());
         }
     }
 

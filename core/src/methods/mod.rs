@@ -37,7 +37,7 @@ pub mod transcut;
 
 pub use hierarchical_dipole::{DipoleState, HierarchicalDipole};
 pub use lighting::Lighting;
-pub use radiosity::{RadiosityObject, RadiosityStats};
+pub use radiosity::{RadiosityObject, RadiositySession, RadiosityStats, RadiosityUpdate};
 pub use result::{BakedState, ObjectBake, ObjectStats};
 pub use transcut::{TransCut, TransCutState};
 

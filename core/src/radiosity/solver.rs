@@ -209,34 +209,50 @@ pub fn solve(
     options: &SolveOptions,
     keep_going: &(dyn Fn() -> bool + Sync),
 ) -> Result<Solution, RadiosityError> {
-    solve_coupled::<RadiosityError>(factors, areas, &Opaque { albedo, direct, emission }, &mut [], options, keep_going)
+    solve_coupled::<RadiosityError>(factors, areas, &Opaque { albedo, direct, emission }, &mut [], None, options, keep_going)
 }
 
 /// Solves translucent radiosity (module documentation): the opaque patches' `opaque` values and
 /// the translucent objects `translucent` (disjoint patch ranges; the opaque values of their
 /// patches are not read); `keep_going` is asked between sweeps.
 ///
+/// `initial` warm-starts the iteration from a radiosity close to the answer (the last one, when
+/// a light moved or an albedo changed): the first update gathers it instead of nothing, so
+/// fewer sweeps reach the tolerance. A count of bounces starts from no light and takes none.
+///
 /// # Errors
 /// [`RadiosityError::WrongLength`], [`RadiosityError::InvalidValue`] naming the patch and the
-/// field, [`RadiosityError::InvalidOptions`] (also for overlapping translucent ranges) or
-/// [`RadiosityError::Cancelled`]; a scattering's error.
+/// field, [`RadiosityError::InvalidOptions`] (also for overlapping translucent ranges, and for
+/// `initial` with a count of bounces) or [`RadiosityError::Cancelled`]; a scattering's error.
 pub fn solve_coupled<E: From<RadiosityError>>(
     factors: &FormFactors,
     areas: &[f64],
     opaque: &Opaque<'_>,
     translucent: &mut [Translucent<'_, E>],
+    initial: Option<&[[f64; 3]]>,
     options: &SolveOptions,
     keep_going: &(dyn Fn() -> bool + Sync),
 ) -> Result<Solution, E> {
     let n = factors.len();
     let is_translucent = check_inputs(n, areas, opaque, translucent, options)?;
+    if let Some(initial) = initial {
+        if options.bounces.is_some() {
+            return Err(
+                RadiosityError::InvalidOptions("a count of bounces starts from no light: it takes no warm start".into()).into()
+            );
+        }
+        if initial.len() != n {
+            return Err(RadiosityError::WrongLength { what: "initial radiosity", expected: n, got: initial.len() }.into());
+        }
+        check("initial radiosity", initial, 0, f64::is_finite)?;
+    }
     let Opaque { albedo, direct, emission } = *opaque;
     let update =
         |i: usize, e: [f64; 3]| -> [f64; 3] { std::array::from_fn(|c| albedo[i][c] * (direct[i][c] + e[c]) + emission[i][c]) };
-    let zero = vec![[0.0; 3]; n];
-    let mut b: Vec<[f64; 3]> = (0..n).map(|i| if is_translucent[i] { [0.0; 3] } else { update(i, [0.0; 3]) }).collect();
+    let start = initial.map_or_else(|| vec![[0.0; 3]; n], |b| factors.apply(b));
+    let mut b: Vec<[f64; 3]> = (0..n).map(|i| if is_translucent[i] { [0.0; 3] } else { update(i, start[i]) }).collect();
     for block in translucent.iter_mut() {
-        block.update(&zero[block.range()], &mut b)?;
+        block.update(&start[block.range()], &mut b)?;
     }
     let mut scatterings = 1;
     let power = |b: &[[f64; 3]]| -> f64 { b.iter().zip(areas).map(|(x, a)| a * (x[0] + x[1] + x[2])).sum() };

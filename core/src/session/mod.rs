@@ -13,7 +13,10 @@
 //!   naming the method ([`crate::methods::capability`]).
 //!
 //! Each object is lit by the session's lights with its own shadows: unlike a bake, other
-//! objects cast none on it in updates.
+//! objects cast none on it in updates. A bake by translucent radiosity is the exception: its
+//! objects exchange light, so the whole scene is one live state ([`RadiositySession`]) that
+//! relights, and changes albedos, emissions and media, as a whole, with every object's
+//! shadows; it offers no per-object edits (regions, paint, cuts, deformation).
 
 use glam::DMat4;
 
@@ -22,9 +25,9 @@ use crate::edit::{Cutter, EditError, EditOptions, Editor, MediumEdit, PaintStrok
 use crate::light::Light;
 use crate::methods::capability::{Cut, Deform, EditMedium, Relight};
 use crate::methods::hierarchical_dipole::{DipoleLive, DipoleUndo};
-use crate::methods::{BakedState, ObjectBake, ObjectStats};
+use crate::methods::{BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 use crate::progress::{Cancelled, Progress};
-use crate::scene::{BakeOptions, Method, Scene, SceneError};
+use crate::scene::{BakeOptions, MediumSource, Method, Scene, SceneError};
 
 /// Why a session call failed. Nothing changed.
 #[derive(Debug, thiserror::Error)]
@@ -44,6 +47,9 @@ pub enum SessionError {
         #[source]
         source: Box<EditError>,
     },
+    /// An update of a radiosity bake failed (the error names the object at fault).
+    #[error("{0}")]
+    Coupled(Box<SceneError>),
     /// The worker threads could not be started.
     #[error("invalid session option: {0}")]
     InvalidOptions(String),
@@ -166,6 +172,8 @@ pub struct Session {
     lights: Vec<Light>,
     options: BakeOptions,
     objects: Vec<Slot>,
+    /// The whole scene's live state of a radiosity bake.
+    coupled: Option<Box<RadiositySession>>,
 }
 
 impl Session {
@@ -193,7 +201,8 @@ impl Session {
                 last: None,
             })
             .collect();
-        Self { lights: scene.lights.clone(), options: options.clone(), objects }
+        let coupled = bake.coupled.map(|c| Box::new(std::sync::Arc::try_unwrap(c).unwrap_or_else(|c| (*c).clone())));
+        Self { lights: scene.lights.clone(), options: options.clone(), objects, coupled }
     }
 
     /// The number of objects.
@@ -221,8 +230,8 @@ impl Session {
     }
 
     /// [`SessionError::Unsupported`] for an object baked by translucent radiosity: its objects
-    /// are coupled through the whole scene's form factors, which a per-object session does not
-    /// keep, so it offers no update yet (a radiosity session of its own is to come).
+    /// are coupled through the whole scene's form factors, so it has only the scene-wide
+    /// updates of [`RadiositySession`] (relight, albedo, emission, medium).
     fn refuse_coupled(&self, index: usize, capability: &'static str) -> Result<(), SessionError> {
         let slot = self.slot(index)?;
         match &slot.state {
@@ -231,6 +240,72 @@ impl Session {
             }
             _ => Ok(()),
         }
+    }
+
+    /// The radiosity bake's live state (`None` for the other methods).
+    #[must_use]
+    pub fn radiosity(&self) -> Option<&RadiositySession> {
+        self.coupled.as_deref()
+    }
+
+    /// Runs a scene-wide update of a radiosity bake on the session's threads, then records
+    /// each object's statistics; [`SessionError::Unsupported`] naming `capability` when the
+    /// bake is of another method.
+    fn update_coupled(
+        &mut self,
+        index: Option<usize>,
+        capability: &'static str,
+        op: impl FnOnce(&mut RadiositySession) -> Result<RadiosityUpdate, SceneError> + Send,
+    ) -> Result<Vec<UpdateStats>, SessionError> {
+        if let Some(index) = index {
+            self.slot(index)?;
+        }
+        let threads = self.options.threads;
+        let Some(coupled) = self.coupled.as_deref_mut() else {
+            let index = index.unwrap_or(0);
+            let slot = self.slot(index)?;
+            return Err(SessionError::Unsupported { index, name: slot.name.clone(), method: slot.method, capability });
+        };
+        let update = with_threads(threads, || op(coupled)).map_err(SessionError::InvalidOptions)?.map_err(|e| match e {
+            SceneError::Cancelled(c) => SessionError::Cancelled(c),
+            e => SessionError::Coupled(Box::new(e)),
+        })?;
+        let stats: Vec<UpdateStats> = (0..self.objects.len()).map(|i| coupled_stats(&update, coupled.object_stats(i))).collect();
+        for (slot, s) in self.objects.iter_mut().zip(&stats) {
+            slot.last = Some(s.clone());
+        }
+        Ok(stats)
+    }
+
+    /// Sets diffuse object `index`'s albedo in a radiosity bake and re-solves the scene
+    /// ([`RadiositySession::set_albedo`]); returns the object's update statistics.
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`] for a bake of another method; [`SessionError::Coupled`]
+    /// (a translucent object, an albedo outside [0, 1)); [`SessionError::Cancelled`].
+    pub fn set_albedo(&mut self, index: usize, albedo: [f64; 3], progress: Progress) -> Result<&UpdateStats, SessionError> {
+        self.update_coupled(Some(index), "set an albedo", |c| c.set_albedo(index, albedo, progress))?;
+        Ok(self.objects[index].last.as_ref().expect("an update that succeeded stored its statistics"))
+    }
+
+    /// Sets diffuse object `index`'s emitted exitance in a radiosity bake and re-solves.
+    ///
+    /// # Errors
+    /// As [`Session::set_albedo`].
+    pub fn set_emission(&mut self, index: usize, emission: [f64; 3], progress: Progress) -> Result<&UpdateStats, SessionError> {
+        self.update_coupled(Some(index), "set an emission", |c| c.set_emission(index, emission, progress))?;
+        Ok(self.objects[index].last.as_ref().expect("an update that succeeded stored its statistics"))
+    }
+
+    /// Puts `medium` on translucent object `index` of a radiosity bake (its tets kept) and
+    /// re-solves the scene ([`RadiositySession::set_medium`]). For TransCut,
+    /// [`Session::edit_medium`] changes a medium in place.
+    ///
+    /// # Errors
+    /// As [`Session::set_albedo`] (an opaque object, a medium the mesh does not resolve).
+    pub fn set_medium(&mut self, index: usize, medium: MediumSource, progress: Progress) -> Result<&UpdateStats, SessionError> {
+        self.update_coupled(Some(index), "set the whole medium", |c| c.set_medium(index, medium, progress))?;
+        Ok(self.objects[index].last.as_ref().expect("an update that succeeded stored its statistics"))
     }
 
     fn slot(&self, index: usize) -> Result<&Slot, SessionError> {
@@ -294,7 +369,11 @@ impl Session {
     /// # Errors
     /// [`SessionError::NoSuchObject`].
     pub fn radiance(&self, index: usize) -> Result<Option<Vec<[f64; 3]>>, SessionError> {
-        Ok(match &self.slot(index)?.state {
+        let slot = self.slot(index)?;
+        if let Some(c) = &self.coupled {
+            return Ok(c.radiance(index).map(<[[f64; 3]]>::to_vec));
+        }
+        Ok(match &slot.state {
             State::Live(live) => live.user_radiance(),
             State::Baked(b) => Some(b.radiance.clone()),
         })
@@ -307,7 +386,9 @@ impl Session {
     /// [`SessionError::NoSuchObject`]; [`SessionError::Edit`] when the live state cannot be made;
     /// [`SessionError::Cancelled`].
     pub fn start(&mut self, index: usize, progress: Progress) -> Result<(), SessionError> {
-        self.refuse_coupled(index, "start an interactive update")?;
+        if self.coupled.is_some() {
+            return self.slot(index).map(|_| ()); // live since the bake
+        }
         self.update_with(index, progress, |_, _| Ok(None)).map(|_| ())
     }
 
@@ -321,11 +402,13 @@ impl Session {
     /// # Errors
     /// [`SessionError::Edit`] naming the object that failed; [`SessionError::Cancelled`].
     pub fn relight(&mut self, lights: &[Light], progress: Progress) -> Result<Vec<UpdateStats>, SessionError> {
-        for index in 0..self.objects.len() {
-            self.refuse_coupled(index, "relight")?;
+        if self.coupled.is_some() {
+            let stats = self.update_coupled(None, "relight", |c| c.relight(lights, progress))?;
+            self.lights = lights.to_vec();
+            return Ok(stats);
         }
         let threads = self.options.threads;
-        let Self { lights: baked, options, objects } = self;
+        let Self { lights: baked, options, objects, .. } = self;
         let n = objects.len();
         let stats = with_threads(threads, || -> Result<Vec<UpdateStats>, SessionError> {
             let mut done: Vec<(UpdateStats, Relit)> = Vec::with_capacity(n);
@@ -494,7 +577,7 @@ impl Session {
     ) -> Result<(), SessionError> {
         let count = self.objects.len();
         let threads = self.options.threads;
-        let Self { lights, options, objects } = self;
+        let Self { lights, options, objects, .. } = self;
         let slot = objects.get_mut(index).ok_or(SessionError::NoSuchObject { index, count })?;
         let name = slot.name.clone();
         let outcome = with_threads(threads, || -> Result<Option<UpdateStats>, Failed> {
@@ -576,5 +659,24 @@ fn undo_relight(slot: &mut Slot, relit: Relit) {
             }
         }
         Relit::Created(before) => slot.state = before,
+    }
+}
+
+/// One object's statistics of a radiosity update: the scene's solve times, and the object's
+/// diffusion iterations of its last solve (`stats`, zero for an opaque object).
+fn coupled_stats(update: &RadiosityUpdate, stats: Option<&ObjectStats>) -> UpdateStats {
+    let translucent = stats.is_some_and(|s| s.tets > 0);
+    UpdateStats {
+        pieces_solved: usize::from(translucent && update.solves > 0),
+        iterations: stats.filter(|_| translucent).map_or([0; 3], |s| s.iterations),
+        rows_rebuilt: 0,
+        tets_changed: 0,
+        select_ms: 0.0,
+        source_ms: update.direct_ms,
+        assembly_ms: 0.0,
+        hierarchy_ms: 0.0,
+        solve_ms: update.solve_ms,
+        total_ms: update.total_ms,
+        cut: None,
     }
 }

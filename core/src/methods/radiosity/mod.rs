@@ -15,26 +15,21 @@
 //!    is Lo = B/π at its vertices (design §1.2).
 
 mod scattering;
+mod session;
 mod surfaces;
 
+pub use session::{RadiositySession, RadiosityUpdate};
+
 use std::sync::Mutex;
-use std::time::Instant;
 
 use glam::DVec3;
 
-use super::transcut::{Prepared, TransCut};
-use super::{
-    check_radiance, targets, world_surfaces, BakedState, Lighting, ObjectBake, ObjectStats, SubsurfaceMethod, Target,
-    TransCutState,
-};
-use crate::light;
-use crate::optics::fresnel::f_ext;
-use crate::progress::{ms, Progress};
-use crate::radiosity::{solve_coupled, FormFactors, Opaque, PatchSet, Translucent};
+use super::{ObjectBake, ObjectStats, Target, TransCutState};
+use crate::progress::Progress;
+use crate::radiosity::PatchSet;
 use crate::scene::{BakeOptions, Diffuse, RadiosityOptions, Scene, SceneError};
 
-use scattering::DiffusionScattering;
-use surfaces::{patch_surface, PatchSurface};
+use surfaces::PatchSurface;
 
 /// The method's name.
 const NAME: &str = "radiosity";
@@ -97,8 +92,8 @@ pub struct RadiosityObject {
     pub eta: f64,
 }
 
-/// Bakes `scene` by translucent radiosity (module documentation): every object's bake, and
-/// the scene's statistics.
+/// Bakes `scene` by translucent radiosity (module documentation): every object's bake, the
+/// scene's statistics and the session later updates start from.
 ///
 /// # Errors
 /// [`SceneError`] naming the object at fault; [`SceneError::InvalidOptions`] when the objects
@@ -108,203 +103,9 @@ pub(crate) fn bake_scene(
     options: &BakeOptions,
     radiosity: &RadiosityOptions,
     progress: Progress,
-) -> Result<(Vec<ObjectBake>, RadiosityStats), SceneError> {
-    let world = world_surfaces(scene)?;
-    let targets = targets(scene, &world);
-    let mm_per_unit = common_scale(&targets)?;
-    for target in &targets {
-        if target.object.medium().is_some() {
-            TransCut::check(target, &radiosity.transcut)?;
-        }
-    }
-
-    // 1. The translucent objects, prepared as TransCut prepares them.
-    let t = Instant::now();
-    let count = targets.len();
-    let furthest = Mutex::new(0.0f64);
-    let mut stats: Vec<ObjectStats> = targets.iter().map(|t| object_stats(t)).collect();
-    let mut prepared: Vec<Option<Prepared>> = Vec::with_capacity(count);
-    for (target, stats) in targets.iter().zip(&mut stats) {
-        prepared.push(match target.object.medium() {
-            Some(_) => {
-                let stage = |s: &str, f: f64| report(&progress, &furthest, &format!("{}: {s}", target.object.name), 0.3 * f);
-                let t = Instant::now();
-                let p = TransCut::prepare(target, &radiosity.transcut, stats, &stage)?;
-                stats.total_ms += ms(t);
-                Some(p)
-            }
-            None => None,
-        });
-    }
-    let prepare_ms = ms(t);
-
-    // 2. The patches.
-    report(&progress, &furthest, "radiosity: patches", 0.3)?;
-    let t = Instant::now();
-    let patch_size_mm = radiosity.patch_size_mm.unwrap_or_else(|| scene_diagonal(&world) * mm_per_unit / 80.0);
-    let surfaces: Vec<PatchSurface> = targets
-        .iter()
-        .zip(&prepared)
-        .map(|(target, p)| patch_surface(target, p.as_ref(), patch_size_mm / mm_per_unit))
-        .collect::<Result<_, _>>()?;
-    let patches = PatchSet::new(&surfaces.iter().map(PatchSurface::as_surface).collect::<Vec<_>>())?;
-    let patches_ms = ms(t);
-
-    // 3. The form factors.
-    let t = Instant::now();
-    let counter = Mutex::new(0usize);
-    let keep_going = || {
-        let mut done = counter.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        *done += 1;
-        let f = *done as f64 / patches.len() as f64;
-        report(&progress, &furthest, "radiosity: form factors", 0.3 + 0.3 * f).is_ok()
-    };
-    let factors = FormFactors::gather(&patches, &radiosity.form_factors, &keep_going)?;
-    let form_factor_ms = ms(t);
-
-    // 4. The direct light.
-    report(&progress, &furthest, "radiosity: light", 0.6)?;
-    let t = Instant::now();
-    let occluder = options.shadows.then(|| Lighting::occluder_of(&world));
-    let lighting = Lighting { lights: &scene.lights, occluder: occluder.as_ref(), source: &options.source };
-    let n = patches.len();
-    let (mut albedo, mut emission) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
-    let mut opaque_patches = Vec::new();
-    let mut transmitted: Vec<Option<Vec<[f64; 3]>>> = Vec::with_capacity(count);
-    for (s, (target, p)) in targets.iter().zip(&prepared).enumerate() {
-        match (target.object.material.diffuse(), p) {
-            (Some(d), _) => {
-                for i in surface_patches(&patches, s, surfaces[s].vertex_count()) {
-                    albedo[i] = d.albedo;
-                    emission[i] = d.emission;
-                    opaque_patches.push(i);
-                }
-                transmitted.push(None);
-            }
-            (None, Some(p)) => {
-                let boundary = p.system().boundary();
-                let points: Vec<DVec3> = boundary.ids.iter().map(|&v| p.tet_mesh().positions()[v as usize]).collect();
-                transmitted.push(Some(lighting.transmitted_source(
-                    &points,
-                    &boundary.normal,
-                    p.system().boundary_terms().eta,
-                )?));
-            }
-            (None, None) => unreachable!("every translucent object was prepared"),
-        }
-    }
-    let points: Vec<DVec3> = opaque_patches.iter().map(|&i| patches.positions()[i]).collect();
-    let normals: Vec<DVec3> = opaque_patches.iter().map(|&i| patches.normals()[i]).collect();
-    let irradiance = light::irradiance(lighting.lights, &points, &normals, lighting.occluder, lighting.source)?;
-    let mut direct = vec![[0.0; 3]; n];
-    for (&i, e) in opaque_patches.iter().zip(irradiance) {
-        direct[i] = e;
-    }
-    let direct_ms = ms(t);
-
-    // 5. The coupled solve.
-    let t = Instant::now();
-    let solve_stage = |f: f64| report(&progress, &furthest, "radiosity: solve", 0.65 + 0.33 * f);
-    let mut operators: Vec<(usize, DiffusionScattering<'_>)> = Vec::new();
-    for (s, ((target, p), stats)) in targets.iter().zip(prepared.iter_mut()).zip(stats.iter_mut()).enumerate() {
-        if let Some(p) = p.as_mut() {
-            operators.push((s, DiffusionScattering::new(p, target, &radiosity.transcut, stats, &solve_stage)));
-        }
-    }
-    let mut blocks: Vec<Translucent<'_, SceneError>> = operators
-        .iter_mut()
-        .map(|(s, op)| Translucent {
-            first: patches.patch_of(*s, 0, false).expect("every surface has front patches"),
-            transmittance: 1.0 - f_ext(op.eta()),
-            direct: transmitted[*s].as_deref().expect("a translucent object's q_d"),
-            scattering: op,
-        })
-        .collect();
-    let opaque = Opaque { albedo: &albedo, direct: &direct, emission: &emission };
-    let sweeps = Mutex::new(0usize);
-    let keep_going = || {
-        let mut k = sweeps.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        *k += 1;
-        solve_stage(1.0 - 0.5f64.powi(*k as i32)).is_ok()
-    };
-    let solution = solve_coupled(&factors, patches.areas(), &opaque, &mut blocks, &radiosity.solve, &keep_going)?;
-    drop(blocks);
-    drop(operators);
-    let solve_ms = ms(t);
-
-    // 6. The radiance of every object.
-    let covered = factors.covered();
-    let b = fill_covered(&patches, &surfaces, covered, &solution.radiosity);
-    let mut objects = Vec::with_capacity(count);
-    for (s, ((target, p), mut stats)) in targets.iter().zip(prepared).zip(stats).enumerate() {
-        let surface = &surfaces[s];
-        let side = |back: bool| -> Option<Vec<[f64; 3]>> {
-            (0..surface.vertex_count()).map(|v| patches.patch_of(s, v, back).map(|i| b[i])).collect::<Option<Vec<_>>>()
-        };
-        let (radiance, state) = match p {
-            Some(p) => {
-                let radiance = p.user_radiance(target, &mut stats)?;
-                let lo = p.boundary_radiance(target)?.into_iter().map(|l| l.map(|x| x.max(0.0))).collect();
-                let state = RadiosityObject {
-                    patch_positions: surface.positions.clone(),
-                    patch_triangles: surface.triangles.clone(),
-                    patch_radiance: lo,
-                    back_radiance: None,
-                    eta: p.system().boundary_terms().eta,
-                    diffuse: None,
-                    transcut: Some(p.into_state()),
-                };
-                (radiance, state)
-            }
-            None => {
-                let d = *target.object.material.diffuse().expect("an opaque object");
-                let to_radiance = |b: Vec<[f64; 3]>| -> Vec<[f64; 3]> {
-                    b.into_iter().map(|x| x.map(|x| (x / std::f64::consts::PI).max(0.0))).collect()
-                };
-                let front = to_radiance(side(false).expect("front patches"));
-                let back = side(true).map(to_radiance);
-                let user = target.world.user_to_internal().iter().map(|&v| front[v as usize]).collect();
-                let state = RadiosityObject {
-                    patch_positions: surface.positions.clone(),
-                    patch_triangles: surface.triangles.clone(),
-                    patch_radiance: front,
-                    back_radiance: back,
-                    eta: 1.0,
-                    diffuse: Some(d),
-                    transcut: None,
-                };
-                stats.boundary_vertices = surface.vertex_count();
-                stats.vertices = surface.vertex_count();
-                (user, state)
-            }
-        };
-        check_radiance(target, NAME, &radiance)?;
-        objects.push(ObjectBake { radiance, stats, state: BakedState::Radiosity(Box::new(state)) });
-    }
-    report(&progress, &furthest, "radiosity: done", 1.0)?;
-    let radiosity = RadiosityStats {
-        patches: n,
-        translucent_patches: targets
-            .iter()
-            .zip(&surfaces)
-            .filter(|(t, _)| t.object.medium().is_some())
-            .map(|(_, s)| s.vertex_count())
-            .sum(),
-        covered_patches: covered.iter().filter(|&&c| c).count(),
-        nonzeros: factors.nonzeros(),
-        form_factor_bytes: factors.nonzeros() * 12,
-        patch_size_mm,
-        prepare_ms,
-        patches_ms,
-        form_factor_ms,
-        direct_ms,
-        solve_ms,
-        iterations: solution.iterations,
-        scatterings: solution.scatterings,
-        estimated_error: solution.estimated_error,
-        energy_defect: solution.energy.defect(),
-    };
-    Ok((objects, radiosity))
+) -> Result<(Vec<ObjectBake>, RadiosityStats, RadiositySession), SceneError> {
+    let session = RadiositySession::bake(scene, options, radiosity, progress)?;
+    Ok((session.object_bakes()?, session.stats().clone(), session))
 }
 
 /// The one `mm_per_unit` of every object: the patches share one space, so the objects must

@@ -54,6 +54,7 @@ pub struct TransCutState {
 }
 
 /// TransCut between `prepare` and the end of the bake: the state and the assembled system.
+#[derive(Debug, Clone)]
 pub(crate) struct Prepared {
     tet_mesh: TetMesh,
     media: Vec<Medium>,
@@ -124,6 +125,60 @@ impl Prepared {
             name: target.object.name.clone(),
             source,
         })
+    }
+
+    /// The fluence φ of the last solve (zero before the first).
+    pub(crate) fn fluence(&self) -> &[[f64; 3]] {
+        &self.fluence
+    }
+
+    /// Puts back a solution: the source `q` per boundary vertex and its fluence φ per vertex
+    /// (a sum of solutions is one: the system is linear).
+    ///
+    /// # Errors
+    /// [`DiffusionError`] for a `q` of another length or not finite and ≥ 0; nothing changed.
+    pub(crate) fn set_solution(&mut self, q: &[[f64; 3]], fluence: Vec<[f64; 3]>) -> Result<(), DiffusionError> {
+        if fluence.len() != self.fluence.len() {
+            return Err(DiffusionError::LengthMismatch { what: "fluence", expected: self.fluence.len(), found: fluence.len() });
+        }
+        self.system.set_source(q)?;
+        self.fluence = fluence;
+        Ok(())
+    }
+
+    /// The object with a new medium on the same tets: `medium` put on the tet mesh and the
+    /// system assembled again (the fluence kept as a warm start), after the resolution check of
+    /// a bake, filling `stats`' resolution and assembly time.
+    ///
+    /// # Errors
+    /// [`SceneError::Medium`], [`SceneError::Unresolved`] or [`SceneError::Diffusion`] naming
+    /// the object; `self` is not changed.
+    pub(crate) fn with_medium(
+        &self,
+        target: &Target<'_>,
+        medium: &crate::scene::MediumSource,
+        stats: &mut ObjectStats,
+    ) -> Result<Self, SceneError> {
+        let (index, object) = (target.index, target.object);
+        let name = || object.name.clone();
+        let t = Instant::now();
+        let mut tet_mesh = self.tet_mesh.clone();
+        let media = medium
+            .apply(&mut tet_mesh, &object.transform.inverse(), object.mm_per_unit)
+            .map_err(|source| SceneError::Medium { index, name: name(), source })?;
+        let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
+        let surface_media = resolution::surface_media(&tet_mesh, &media);
+        let checked = resolution::resolution(&surface_media, spacing);
+        resolution::check(&surface_media, spacing, tet_mesh.tet_count()).map_err(|u| SceneError::unresolved(index, name(), u))?;
+        let mut system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(|source| SceneError::Diffusion {
+            index,
+            name: name(),
+            source,
+        })?;
+        system.set_source(self.system.source()).map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
+        stats.resolution = checked;
+        stats.assembly_ms = ms(t);
+        Ok(Self { tet_mesh, media, system, fluence: self.fluence.clone() })
     }
 
     /// The state a bake keeps ([`TransCutState`]).

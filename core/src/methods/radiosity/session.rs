@@ -1,0 +1,853 @@
+//! A translucent-radiosity bake kept for interactive work (design/radiosity.md §1.6), the
+//! counterpart of TransCut's editor for a scene whose objects exchange light: the patches, the
+//! form factors F and every translucent object's assembled diffusion system stay, so a change
+//! of lights, of a light's colour or brightness, of an albedo, an emission or a medium costs
+//! solves only, never F again.
+//!
+//! - Every solve is warm-started: the radiosity from the last one ([`crate::radiosity::solve_coupled`]'s
+//!   `initial`), each diffusion solve from its object's last fluence.
+//! - Light transport is linear, so the session keeps the solution of each light at unit
+//!   strength ([`Light::split_strength`]) and of the emission: lights that differ from the last
+//!   ones only in colour or brightness are a weighted sum of those, with no solve; moving one
+//!   light of several solves that light only (from its last solution). A scene baked under one
+//!   light (or emission only) has its one response from the bake; one baked under several lights
+//!   solves each on its first relight.
+//! - A change of albedo, emission or medium changes every response: it solves the scene under
+//!   its lights once, from the last solution, and the responses are solved again when the lights
+//!   next change.
+//! - A failed or cancelled call changes nothing.
+//!
+//! Updates run on the caller's rayon pool; lights shadow every object, as in the bake.
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::scattering::DiffusionScattering;
+use super::surfaces::{patch_surface, PatchSurface};
+use super::{common_scale, fill_covered, object_stats, scene_diagonal, surface_patches, RadiosityObject, RadiosityStats, NAME};
+use crate::light::{self, Light};
+use crate::mesh::{TriMesh, TriangleBvh};
+use crate::methods::transcut::{Prepared, TransCut};
+use crate::methods::{
+    check_radiance, targets, world_surfaces, BakedState, Lighting, ObjectBake, ObjectStats, SubsurfaceMethod, Target,
+};
+use crate::optics::fresnel::f_ext;
+use crate::progress::{ms, Cancelled, Progress};
+use crate::radiosity::{solve_coupled, FormFactors, Opaque, PatchSet, Solution, Translucent};
+use crate::scene::{BakeOptions, Diffuse, MediumSource, Object, RadiosityOptions, Scene, SceneError};
+
+/// One translucent object's share of a solution: the source q of its last diffusion solve and
+/// the fluence φ it gave.
+#[derive(Debug, Clone)]
+struct Field {
+    source: Vec<[f64; 3]>,
+    fluence: Vec<[f64; 3]>,
+}
+
+/// The scene's solution for one set of sources: B per patch and each translucent object's
+/// field (`None` for opaque objects). Linear in the sources.
+#[derive(Debug, Clone)]
+struct Response {
+    radiosity: Vec<[f64; 3]>,
+    fields: Vec<Option<Field>>,
+}
+
+impl Response {
+    /// The response of nothing, shaped as `like`.
+    fn zero_like(like: &Response) -> Response {
+        let zero = |v: &[[f64; 3]]| vec![[0.0; 3]; v.len()];
+        Response {
+            radiosity: zero(&like.radiosity),
+            fields: like
+                .fields
+                .iter()
+                .map(|f| f.as_ref().map(|f| Field { source: zero(&f.source), fluence: zero(&f.fluence) }))
+                .collect(),
+        }
+    }
+
+    /// `self += s ⊙ other`, per channel.
+    fn add_scaled(&mut self, s: [f64; 3], other: &Response) {
+        let axpy = |y: &mut [[f64; 3]], x: &[[f64; 3]]| {
+            for (y, x) in y.iter_mut().zip(x) {
+                for c in 0..3 {
+                    y[c] += s[c] * x[c];
+                }
+            }
+        };
+        axpy(&mut self.radiosity, &other.radiosity);
+        for (mine, theirs) in self.fields.iter_mut().zip(&other.fields) {
+            if let (Some(m), Some(t)) = (mine, theirs) {
+                axpy(&mut m.source, &t.source);
+                axpy(&mut m.fluence, &t.fluence);
+            }
+        }
+    }
+
+    /// `self` with each channel divided by `s` (every channel > 0).
+    fn divided(&self, s: [f64; 3]) -> Response {
+        let mut out = Response::zero_like(self);
+        out.add_scaled(s.map(|x| 1.0 / x), self);
+        out
+    }
+}
+
+/// What a cached response is the solution of.
+#[derive(Debug, Clone, PartialEq)]
+enum Source {
+    /// A light at unit strength ([`Light::split_strength`]).
+    Light(Light),
+    /// The emission of the diffuse objects.
+    Emission,
+}
+
+/// The direct light of a set of lights: E_d per patch (0 on translucent patches) and the
+/// transmitted q_d per translucent object (in its patch order).
+struct Direct {
+    opaque: Vec<[f64; 3]>,
+    transmitted: Vec<Option<Vec<[f64; 3]>>>,
+}
+
+/// What one object shows: its radiance at the user's vertices and on its patch surface.
+#[derive(Debug, Clone)]
+struct Output {
+    radiance: Vec<[f64; 3]>,
+    patch_radiance: Vec<[f64; 3]>,
+    back_radiance: Option<Vec<[f64; 3]>>,
+}
+
+/// What one update of a [`RadiositySession`] did.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct RadiosityUpdate {
+    /// Coupled solves made (0 when the lights were a weighted sum of known responses).
+    pub solves: usize,
+    /// Sweeps of the iteration, summed over the solves.
+    pub iterations: usize,
+    /// Diffusion solves per translucent object, summed over the solves.
+    pub scatterings: usize,
+    /// The largest a-posteriori error estimate of the solves (0 when none was made).
+    pub estimated_error: f64,
+    /// The largest energy defect of the solves.
+    pub energy_defect: f64,
+    /// The direct light on the patches.
+    pub direct_ms: f64,
+    /// The coupled solves.
+    pub solve_ms: f64,
+    /// Everything, the radiance at the user's vertices included.
+    pub total_ms: f64,
+}
+
+/// What does not change in a session: the scene's geometry, the patches and the form factors.
+#[derive(Clone)]
+struct Fixed {
+    objects: Vec<Object>,
+    world: Vec<TriMesh>,
+    /// Every object's world surface, when shadows are on.
+    occluder: Option<TriangleBvh>,
+    options: BakeOptions,
+    radiosity: RadiosityOptions,
+    surfaces: Vec<PatchSurface>,
+    patches: PatchSet,
+    factors: FormFactors,
+}
+
+/// A radiosity bake being edited (module documentation).
+#[derive(Clone)]
+pub struct RadiositySession {
+    fixed: Fixed,
+    /// Each translucent object's tets and assembled system (`None` for an opaque object); its
+    /// source and fluence are scratch, set before each use.
+    prepared: Vec<Option<Prepared>>,
+    object_stats: Vec<ObjectStats>,
+    /// ρ and M per patch (0 on translucent patches).
+    albedo: Vec<[f64; 3]>,
+    emission: Vec<[f64; 3]>,
+    lights: Vec<Light>,
+    /// The solution under `lights`.
+    current: Response,
+    /// Solutions of single sources under the current materials.
+    responses: Vec<(Source, Response)>,
+    outputs: Vec<Output>,
+    stats: RadiosityStats,
+}
+
+impl std::fmt::Debug for RadiositySession {
+    /// Counts, not the matrices.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RadiositySession")
+            .field("objects", &self.fixed.objects.len())
+            .field("patches", &self.fixed.patches.len())
+            .field("lights", &self.lights.len())
+            .field("responses", &self.responses.len())
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+impl RadiositySession {
+    /// Bakes `scene` by translucent radiosity (the module documentation of
+    /// [`super`]), keeping what later updates start from.
+    ///
+    /// # Errors
+    /// [`SceneError`] naming the object at fault; [`SceneError::InvalidOptions`] when the
+    /// objects have different `mm_per_unit` or the radiosity stage refuses its input.
+    pub(crate) fn bake(
+        scene: &Scene,
+        options: &BakeOptions,
+        radiosity: &RadiosityOptions,
+        progress: Progress,
+    ) -> Result<Self, SceneError> {
+        let world = world_surfaces(scene)?;
+        let targets = targets(scene, &world);
+        let mm_per_unit = common_scale(&targets)?;
+        for target in &targets {
+            if target.object.medium().is_some() {
+                TransCut::check(target, &radiosity.transcut)?;
+            }
+        }
+        let furthest = std::sync::Mutex::new(0.0f64);
+        let report = |stage: &str, fraction: f64| super::report(&progress, &furthest, stage, fraction);
+
+        // 1. The translucent objects, prepared as TransCut prepares them.
+        let t = Instant::now();
+        let mut object_stats: Vec<ObjectStats> = targets.iter().map(object_stats).collect();
+        let mut prepared: Vec<Option<Prepared>> = Vec::with_capacity(targets.len());
+        for (target, stats) in targets.iter().zip(&mut object_stats) {
+            prepared.push(match target.object.medium() {
+                Some(_) => {
+                    let stage = |s: &str, f: f64| report(&format!("{}: {s}", target.object.name), 0.3 * f);
+                    let t = Instant::now();
+                    let p = TransCut::prepare(target, &radiosity.transcut, stats, &stage)?;
+                    stats.total_ms += ms(t);
+                    Some(p)
+                }
+                None => None,
+            });
+        }
+        let prepare_ms = ms(t);
+
+        // 2. The patches.
+        report("radiosity: patches", 0.3)?;
+        let t = Instant::now();
+        let patch_size_mm = radiosity.patch_size_mm.unwrap_or_else(|| scene_diagonal(&world) * mm_per_unit / 80.0);
+        let surfaces: Vec<PatchSurface> = targets
+            .iter()
+            .zip(&prepared)
+            .map(|(target, p)| patch_surface(target, p.as_ref(), patch_size_mm / mm_per_unit))
+            .collect::<Result<_, _>>()?;
+        let patches = PatchSet::new(&surfaces.iter().map(PatchSurface::as_surface).collect::<Vec<_>>())?;
+        let patches_ms = ms(t);
+
+        // 3. The form factors.
+        let t = Instant::now();
+        let counter = std::sync::Mutex::new(0usize);
+        let keep_going = || {
+            let mut done = counter.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            *done += 1;
+            report("radiosity: form factors", 0.3 + 0.3 * *done as f64 / patches.len() as f64).is_ok()
+        };
+        let factors = FormFactors::gather(&patches, &radiosity.form_factors, &keep_going)?;
+        let form_factor_ms = ms(t);
+
+        let n = patches.len();
+        let (mut albedo, mut emission) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
+        for (s, target) in targets.iter().enumerate() {
+            if let Some(d) = target.object.material.diffuse() {
+                for i in surface_patches(&patches, s, surfaces[s].vertex_count()) {
+                    albedo[i] = d.albedo;
+                    emission[i] = d.emission;
+                }
+            }
+        }
+        let translucent_patches =
+            targets.iter().zip(&surfaces).filter(|(t, _)| t.object.medium().is_some()).map(|(_, s)| s.vertex_count()).sum();
+        let stats = RadiosityStats {
+            patches: n,
+            translucent_patches,
+            covered_patches: factors.covered().iter().filter(|&&c| c).count(),
+            nonzeros: factors.nonzeros(),
+            form_factor_bytes: factors.nonzeros() * 12,
+            patch_size_mm,
+            prepare_ms,
+            patches_ms,
+            form_factor_ms,
+            direct_ms: 0.0,
+            solve_ms: 0.0,
+            iterations: 0,
+            scatterings: 0,
+            estimated_error: 0.0,
+            energy_defect: 0.0,
+        };
+        drop(targets);
+        let occluder = options.shadows.then(|| Lighting::occluder_of(&world));
+        let fixed = Fixed {
+            objects: scene.objects.clone(),
+            world,
+            occluder,
+            options: options.clone(),
+            radiosity: radiosity.clone(),
+            surfaces,
+            patches,
+            factors,
+        };
+
+        // 4. The direct light and 5. the coupled solve, 6. the radiance.
+        report("radiosity: light", 0.6)?;
+        let t = Instant::now();
+        let direct = fixed.direct(&prepared, &scene.lights)?;
+        let direct_ms = ms(t);
+        let t = Instant::now();
+        let poll = |f: f64| report("radiosity: solve", 0.65 + 0.33 * f);
+        let (current, solution) = fixed.solve(&mut prepared, &mut object_stats, &albedo, &emission, &direct, None, &poll)?;
+        let solve_ms = ms(t);
+        let mut session = Self {
+            fixed,
+            prepared,
+            object_stats,
+            albedo,
+            emission,
+            lights: scene.lights.clone(),
+            current,
+            responses: Vec::new(),
+            outputs: Vec::new(),
+            stats,
+        };
+        session.record(&solution, direct_ms, solve_ms);
+        session.cache_single_source();
+        session.outputs = session.outputs()?;
+        report("radiosity: done", 1.0)?;
+        Ok(session)
+    }
+
+    /// The statistics of the bake, with those of the last solve.
+    #[must_use]
+    pub fn stats(&self) -> &RadiosityStats {
+        &self.stats
+    }
+
+    /// The lights the scene is solved under.
+    #[must_use]
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
+    /// The number of objects.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.fixed.objects.len()
+    }
+
+    /// Whether the session has no objects (never, for a session made by a bake).
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.fixed.objects.is_empty()
+    }
+
+    /// The objects as the session has them (with the albedos, emissions and media set since).
+    #[must_use]
+    pub fn objects(&self) -> &[Object] {
+        &self.fixed.objects
+    }
+
+    /// Object `index`'s statistics: the bake's, with its last diffusion solve's iterations and
+    /// residual (and its assembly after a new medium).
+    #[must_use]
+    pub fn object_stats(&self, index: usize) -> Option<&ObjectStats> {
+        self.object_stats.get(index)
+    }
+
+    /// Object `index`'s radiance at its user's vertices (as [`ObjectBake::radiance`]), `None`
+    /// for an index out of range.
+    #[must_use]
+    pub fn radiance(&self, index: usize) -> Option<&[[f64; 3]]> {
+        self.outputs.get(index).map(|o| o.radiance.as_slice())
+    }
+
+    /// Object `index`'s radiance on its patch surface's vertices, the front side (as
+    /// [`RadiosityObject::patch_radiance`]).
+    #[must_use]
+    pub fn patch_radiance(&self, index: usize) -> Option<&[[f64; 3]]> {
+        self.outputs.get(index).map(|o| o.patch_radiance.as_slice())
+    }
+
+    /// Object `index`'s radiance on its patch surface's back side, for a two-sided surface.
+    #[must_use]
+    pub fn back_radiance(&self, index: usize) -> Option<&[[f64; 3]]> {
+        self.outputs.get(index).and_then(|o| o.back_radiance.as_deref())
+    }
+
+    /// Every object's bake as it stands now (the bake's, updated by the calls since).
+    ///
+    /// # Errors
+    /// [`SceneError::Diffusion`] for a non-finite fluence (cannot happen after a successful
+    /// update).
+    pub fn object_bakes(&self) -> Result<Vec<ObjectBake>, SceneError> {
+        let mut prepared = self.prepared.clone();
+        let mut out = Vec::with_capacity(self.len());
+        for (s, ((p, output), stats)) in prepared.iter_mut().zip(&self.outputs).zip(&self.object_stats).enumerate() {
+            let surface = &self.fixed.surfaces[s];
+            let state = RadiosityObject {
+                patch_positions: surface.positions.clone(),
+                patch_triangles: surface.triangles.clone(),
+                patch_radiance: output.patch_radiance.clone(),
+                back_radiance: output.back_radiance.clone(),
+                eta: p.as_ref().map_or(1.0, |p| p.system().boundary_terms().eta),
+                diffuse: self.fixed.objects[s].material.diffuse().copied(),
+                transcut: match (p.take(), &self.current.fields[s]) {
+                    (Some(mut p), Some(field)) => {
+                        p.set_solution(&field.source, field.fluence.clone()).map_err(|e| self.diffusion_error(s, e))?;
+                        Some(p.into_state())
+                    }
+                    _ => None,
+                },
+            };
+            out.push(ObjectBake {
+                radiance: output.radiance.clone(),
+                stats: stats.clone(),
+                state: BakedState::Radiosity(Box::new(state)),
+            });
+        }
+        Ok(out)
+    }
+
+    /// Re-solves the scene under `lights` (module documentation: a weighted sum of known
+    /// responses where the lights differ only in strength, a warm-started solve of each new
+    /// light otherwise). Nothing changes on failure.
+    ///
+    /// # Errors
+    /// [`SceneError::Light`] for an invalid light; a solve's error; [`SceneError::Cancelled`].
+    pub fn relight(&mut self, lights: &[Light], progress: Progress) -> Result<RadiosityUpdate, SceneError> {
+        let start = Instant::now();
+        light::validate_lights(lights).map_err(SceneError::from)?;
+        let split: Vec<(Light, [f64; 3])> = lights.iter().map(Light::split_strength).collect();
+        let mut sources: Vec<Source> = Vec::new();
+        for (unit, _) in &split {
+            let source = Source::Light(unit.clone());
+            if !sources.contains(&source) {
+                sources.push(source);
+            }
+        }
+        if self.emits() {
+            sources.push(Source::Emission);
+        }
+        let missing: Vec<&Source> = sources.iter().filter(|s| !self.responses.iter().any(|(c, _)| c == *s)).collect();
+        let mut update = RadiosityUpdate::new();
+        let mut fresh: Vec<(Source, Response)> = Vec::new();
+        let mut scratch = self.prepared.clone();
+        let mut stats = self.object_stats.clone();
+        let count = missing.len();
+        for (k, &source) in missing.iter().enumerate() {
+            let poll = |f: f64| progress.report("radiosity: solve", (k as f64 + f) / count as f64);
+            let t = Instant::now();
+            let direct = match source {
+                Source::Light(unit) => self.fixed.direct(&scratch, std::slice::from_ref(unit))?,
+                Source::Emission => self.fixed.no_direct(&scratch),
+            };
+            update.direct_ms += ms(t);
+            let emission = match source {
+                Source::Light(_) => vec![[0.0; 3]; self.albedo.len()],
+                Source::Emission => self.emission.clone(),
+            };
+            let initial = self.warm_start(source, lights);
+            let t = Instant::now();
+            let (response, solution) =
+                self.fixed.solve(&mut scratch, &mut stats, &self.albedo, &emission, &direct, initial, &poll)?;
+            update.solve_ms += ms(t);
+            update.add(&solution);
+            fresh.push((source.clone(), response));
+        }
+        let find = |source: &Source| -> &Response {
+            fresh
+                .iter()
+                .chain(&self.responses)
+                .find(|(s, _)| s == source)
+                .map(|(_, r)| r)
+                .expect("every source was solved or cached")
+        };
+        let mut current = Response::zero_like(&self.current);
+        for (unit, strength) in &split {
+            current.add_scaled(*strength, find(&Source::Light(unit.clone())));
+        }
+        if self.emits() {
+            current.add_scaled([1.0; 3], find(&Source::Emission));
+        }
+        let outputs = self.fixed.outputs(&mut scratch, &current, &mut stats)?;
+        progress.report("radiosity: done", 1.0)?;
+        // Commit: keep the responses the new lights use.
+        let kept: Vec<(Source, Response)> =
+            std::mem::take(&mut self.responses).into_iter().filter(|(s, _)| sources.contains(s)).collect();
+        self.responses = fresh;
+        self.responses.extend(kept);
+        self.prepared = scratch;
+        self.object_stats = stats;
+        self.lights = lights.to_vec();
+        self.current = current;
+        self.outputs = outputs;
+        update.total_ms = ms(start);
+        self.record_update(&update);
+        Ok(update)
+    }
+
+    /// Sets diffuse object `index`'s albedo and re-solves (module documentation).
+    ///
+    /// # Errors
+    /// [`SceneError::InvalidObject`] for a translucent object or an albedo outside [0, 1);
+    /// [`SceneError::NoSuchObject`]; a solve's error; [`SceneError::Cancelled`].
+    pub fn set_albedo(&mut self, index: usize, albedo: [f64; 3], progress: Progress) -> Result<RadiosityUpdate, SceneError> {
+        let mut diffuse = self.diffuse(index, "an albedo")?;
+        diffuse.albedo = albedo;
+        self.set_diffuse(index, diffuse, progress)
+    }
+
+    /// Sets diffuse object `index`'s emitted exitance and re-solves.
+    ///
+    /// # Errors
+    /// As [`RadiositySession::set_albedo`], for an emission not finite and ≥ 0.
+    pub fn set_emission(&mut self, index: usize, emission: [f64; 3], progress: Progress) -> Result<RadiosityUpdate, SceneError> {
+        let mut diffuse = self.diffuse(index, "an emission")?;
+        diffuse.emission = emission;
+        self.set_diffuse(index, diffuse, progress)
+    }
+
+    /// Puts `medium` on translucent object `index`'s tets (the mesh kept), assembles its
+    /// system again and re-solves.
+    ///
+    /// # Errors
+    /// [`SceneError::InvalidObject`] for an opaque object; the medium's, the resolution check's
+    /// or a solve's error naming the object; [`SceneError::Cancelled`].
+    pub fn set_medium(&mut self, index: usize, medium: MediumSource, progress: Progress) -> Result<RadiosityUpdate, SceneError> {
+        let start = Instant::now();
+        let target = self.target(index)?;
+        let prepared = self.prepared[index]
+            .as_ref()
+            .ok_or_else(|| target.invalid("it is an opaque diffuse surface: set its albedo or emission, not a medium"))?;
+        let mut stats = self.object_stats.clone();
+        let changed = prepared.with_medium(&target, &medium, &mut stats[index])?;
+        let mut scratch = self.prepared.clone();
+        scratch[index] = Some(changed);
+        let mut objects = self.fixed.objects.clone();
+        objects[index].material = medium.into();
+        self.resolve(scratch, stats, self.albedo.clone(), self.emission.clone(), Some(objects), start, progress)
+    }
+
+    /// Object `index`'s diffuse material, or an error naming `what` could not be set.
+    fn diffuse(&self, index: usize, what: &str) -> Result<Diffuse, SceneError> {
+        let target = self.target(index)?;
+        target
+            .object
+            .material
+            .diffuse()
+            .copied()
+            .ok_or_else(|| target.invalid(format!("it is translucent: its colour comes from its medium, so it takes no {what}")))
+    }
+
+    /// Replaces diffuse object `index`'s material by `diffuse` and re-solves.
+    fn set_diffuse(&mut self, index: usize, diffuse: Diffuse, progress: Progress) -> Result<RadiosityUpdate, SceneError> {
+        let start = Instant::now();
+        diffuse.validate().map_err(|e| self.target(index).map_or_else(|e| e, |t| t.invalid(e)))?;
+        let (mut albedo, mut emission) = (self.albedo.clone(), self.emission.clone());
+        let patches = &self.fixed.patches;
+        for i in surface_patches(patches, index, self.fixed.surfaces[index].vertex_count()) {
+            albedo[i] = diffuse.albedo;
+            emission[i] = diffuse.emission;
+        }
+        let mut objects = self.fixed.objects.clone();
+        objects[index].material = diffuse.into();
+        self.resolve(self.prepared.clone(), self.object_stats.clone(), albedo, emission, Some(objects), start, progress)
+    }
+
+    /// Solves the scene under its lights with new materials (`prepared`, `albedo`, `emission`,
+    /// `objects`), warm-started from the current solution, and commits it: the responses are
+    /// dropped (they were of the old materials) and kept again when there is one source.
+    #[allow(clippy::too_many_arguments)]
+    fn resolve(
+        &mut self,
+        mut prepared: Vec<Option<Prepared>>,
+        mut stats: Vec<ObjectStats>,
+        albedo: Vec<[f64; 3]>,
+        emission: Vec<[f64; 3]>,
+        objects: Option<Vec<Object>>,
+        start: Instant,
+        progress: Progress,
+    ) -> Result<RadiosityUpdate, SceneError> {
+        let mut update = RadiosityUpdate::new();
+        let t = Instant::now();
+        let direct = self.fixed.direct(&prepared, &self.lights)?;
+        update.direct_ms = ms(t);
+        let poll = |f: f64| progress.report("radiosity: solve", f);
+        let t = Instant::now();
+        let initial = (self.fixed.radiosity.solve.bounces.is_none()).then_some(&self.current);
+        let (current, solution) = self.fixed.solve(&mut prepared, &mut stats, &albedo, &emission, &direct, initial, &poll)?;
+        update.solve_ms = ms(t);
+        update.add(&solution);
+        let outputs = self.fixed.outputs(&mut prepared, &current, &mut stats)?;
+        progress.report("radiosity: done", 1.0)?;
+        self.prepared = prepared;
+        self.object_stats = stats;
+        self.albedo = albedo;
+        self.emission = emission;
+        if let Some(objects) = objects {
+            self.fixed.objects = objects;
+        }
+        self.current = current;
+        self.outputs = outputs;
+        self.responses.clear();
+        self.cache_single_source();
+        update.total_ms = ms(start);
+        self.record_update(&update);
+        Ok(update)
+    }
+
+    /// Keeps the current solution as the one response when the scene has a single source
+    /// (one light of strength > 0 in every channel and no emission, or emission and no light).
+    fn cache_single_source(&mut self) {
+        match (self.lights.as_slice(), self.emits()) {
+            ([light], false) => {
+                let (unit, strength) = light.split_strength();
+                if strength.iter().all(|&s| s > 0.0) {
+                    self.responses = vec![(Source::Light(unit), self.current.divided(strength))];
+                }
+            }
+            ([], true) => self.responses = vec![(Source::Emission, self.current.clone())],
+            _ => {}
+        }
+    }
+
+    /// Whether any diffuse patch emits.
+    fn emits(&self) -> bool {
+        self.emission.iter().any(|e| e.iter().any(|&x| x > 0.0))
+    }
+
+    /// Where the solve of `source` starts: the response of the light that had its place in the
+    /// last lights (a light being moved), none for a light without one, or when the options
+    /// ask for a count of bounces.
+    fn warm_start(&self, source: &Source, lights: &[Light]) -> Option<&Response> {
+        if self.fixed.radiosity.solve.bounces.is_some() {
+            return None;
+        }
+        let Source::Light(unit) = source else { return None };
+        let place = lights.iter().position(|l| &l.split_strength().0 == unit)?;
+        let before = Source::Light(self.lights.get(place)?.split_strength().0);
+        self.responses.iter().find(|(s, _)| *s == before).map(|(_, r)| r)
+    }
+
+    /// Object `index` as a target.
+    fn target(&self, index: usize) -> Result<Target<'_>, SceneError> {
+        let count = self.len();
+        match (self.fixed.objects.get(index), self.fixed.world.get(index)) {
+            (Some(object), Some(world)) => Ok(Target { index, object, world }),
+            _ => Err(SceneError::InvalidOptions(format!("object {index} does not exist (the scene has {count} objects)"))),
+        }
+    }
+
+    fn diffusion_error(&self, index: usize, source: crate::diffusion::DiffusionError) -> SceneError {
+        SceneError::Diffusion { index, name: self.fixed.objects[index].name.clone(), source }
+    }
+
+    /// The outputs of the current solution.
+    fn outputs(&mut self) -> Result<Vec<Output>, SceneError> {
+        self.fixed.outputs(&mut self.prepared, &self.current, &mut self.object_stats)
+    }
+
+    /// The bake's statistics of the last solve.
+    fn record(&mut self, solution: &Solution, direct_ms: f64, solve_ms: f64) {
+        self.stats.direct_ms = direct_ms;
+        self.stats.solve_ms = solve_ms;
+        self.stats.iterations = solution.iterations;
+        self.stats.scatterings = solution.scatterings;
+        self.stats.estimated_error = solution.estimated_error;
+        self.stats.energy_defect = solution.energy.defect();
+    }
+
+    /// The statistics of the last update, when it solved.
+    fn record_update(&mut self, update: &RadiosityUpdate) {
+        if update.solves > 0 {
+            self.stats.direct_ms = update.direct_ms;
+            self.stats.solve_ms = update.solve_ms;
+            self.stats.iterations = update.iterations;
+            self.stats.scatterings = update.scatterings;
+            self.stats.estimated_error = update.estimated_error;
+            self.stats.energy_defect = update.energy_defect;
+        }
+    }
+}
+
+impl RadiosityUpdate {
+    fn new() -> Self {
+        Self {
+            solves: 0,
+            iterations: 0,
+            scatterings: 0,
+            estimated_error: 0.0,
+            energy_defect: 0.0,
+            direct_ms: 0.0,
+            solve_ms: 0.0,
+            total_ms: 0.0,
+        }
+    }
+
+    /// Counts one solve.
+    fn add(&mut self, solution: &Solution) {
+        self.solves += 1;
+        self.iterations += solution.iterations;
+        self.scatterings += solution.scatterings;
+        self.estimated_error = self.estimated_error.max(solution.estimated_error);
+        self.energy_defect = self.energy_defect.max(solution.energy.defect());
+    }
+}
+
+impl Fixed {
+    /// Every object's radiance for the solution `response` (set into `prepared` to read the
+    /// translucent objects'), checked as a bake's (clamped vertices counted into `stats`).
+    fn outputs(
+        &self,
+        prepared: &mut [Option<Prepared>],
+        response: &Response,
+        stats: &mut [ObjectStats],
+    ) -> Result<Vec<Output>, SceneError> {
+        let fixed = self;
+        let b = fill_covered(&fixed.patches, &fixed.surfaces, fixed.factors.covered(), &response.radiosity);
+        let mut out = Vec::with_capacity(fixed.objects.len());
+        for (s, (p, stats)) in prepared.iter_mut().zip(stats.iter_mut()).enumerate() {
+            let target = Target { index: s, object: &fixed.objects[s], world: &fixed.world[s] };
+            let surface = &fixed.surfaces[s];
+            let side = |back: bool| -> Option<Vec<[f64; 3]>> {
+                (0..surface.vertex_count()).map(|v| fixed.patches.patch_of(s, v, back).map(|i| b[i])).collect()
+            };
+            let output = match (p, &response.fields[s]) {
+                (Some(p), Some(field)) => {
+                    p.set_solution(&field.source, field.fluence.clone()).map_err(|source| SceneError::Diffusion {
+                        index: s,
+                        name: target.object.name.clone(),
+                        source,
+                    })?;
+                    let radiance = p.user_radiance(&target, stats)?;
+                    let lo = p.boundary_radiance(&target)?.into_iter().map(|l| l.map(|x| x.max(0.0))).collect();
+                    Output { radiance, patch_radiance: lo, back_radiance: None }
+                }
+                _ => {
+                    let to_radiance = |b: Vec<[f64; 3]>| -> Vec<[f64; 3]> {
+                        b.into_iter().map(|x| x.map(|x| (x / std::f64::consts::PI).max(0.0))).collect()
+                    };
+                    let front = to_radiance(side(false).expect("front patches"));
+                    let back = side(true).map(to_radiance);
+                    let radiance = target.world.user_to_internal().iter().map(|&v| front[v as usize]).collect();
+                    stats.boundary_vertices = surface.vertex_count();
+                    stats.vertices = surface.vertex_count();
+                    Output { radiance, patch_radiance: front, back_radiance: back }
+                }
+            };
+            check_radiance(&target, NAME, &output.radiance)?;
+            out.push(output);
+        }
+        Ok(out)
+    }
+
+    /// The direct light of `lights` on every patch, shadowed by every object when shadows are on.
+    fn direct(&self, prepared: &[Option<Prepared>], lights: &[Light]) -> Result<Direct, SceneError> {
+        let lighting = Lighting { lights, occluder: self.occluder.as_ref(), source: &self.options.source };
+        let n = self.patches.len();
+        let mut opaque_patches = Vec::new();
+        let mut transmitted = Vec::with_capacity(prepared.len());
+        for (s, p) in prepared.iter().enumerate() {
+            match p {
+                None => {
+                    opaque_patches.extend(surface_patches(&self.patches, s, self.surfaces[s].vertex_count()));
+                    transmitted.push(None);
+                }
+                Some(p) => {
+                    let boundary = p.system().boundary();
+                    let points: Vec<DVec3> = boundary.ids.iter().map(|&v| p.tet_mesh().positions()[v as usize]).collect();
+                    transmitted.push(Some(lighting.transmitted_source(
+                        &points,
+                        &boundary.normal,
+                        p.system().boundary_terms().eta,
+                    )?));
+                }
+            }
+        }
+        let points: Vec<DVec3> = opaque_patches.iter().map(|&i| self.patches.positions()[i]).collect();
+        let normals: Vec<DVec3> = opaque_patches.iter().map(|&i| self.patches.normals()[i]).collect();
+        let irradiance = light::irradiance(lights, &points, &normals, lighting.occluder, lighting.source)?;
+        let mut opaque = vec![[0.0; 3]; n];
+        for (&i, e) in opaque_patches.iter().zip(irradiance) {
+            opaque[i] = e;
+        }
+        Ok(Direct { opaque, transmitted })
+    }
+
+    /// No direct light (the emission's response).
+    fn no_direct(&self, prepared: &[Option<Prepared>]) -> Direct {
+        Direct {
+            opaque: vec![[0.0; 3]; self.patches.len()],
+            transmitted: prepared.iter().map(|p| p.as_ref().map(|p| vec![[0.0; 3]; p.system().boundary().len()])).collect(),
+        }
+    }
+
+    /// The coupled solve for `direct`, `emission` and the materials, from `initial` (its
+    /// radiosity, and each translucent object's fluence as its diffusion warm start).
+    #[allow(clippy::too_many_arguments)]
+    fn solve(
+        &self,
+        prepared: &mut [Option<Prepared>],
+        stats: &mut [ObjectStats],
+        albedo: &[[f64; 3]],
+        emission: &[[f64; 3]],
+        direct: &Direct,
+        initial: Option<&Response>,
+        poll: &(dyn Fn(f64) -> Result<(), Cancelled> + Sync),
+    ) -> Result<(Response, Solution), SceneError> {
+        let targets: Vec<Target<'_>> =
+            (0..self.objects.len()).map(|s| Target { index: s, object: &self.objects[s], world: &self.world[s] }).collect();
+        if let Some(initial) = initial {
+            for (s, (p, field)) in prepared.iter_mut().zip(&initial.fields).enumerate() {
+                if let (Some(p), Some(field)) = (p, field) {
+                    p.set_solution(&field.source, field.fluence.clone()).map_err(|source| SceneError::Diffusion {
+                        index: s,
+                        name: self.objects[s].name.clone(),
+                        source,
+                    })?;
+                }
+            }
+        }
+        let mut operators: Vec<(usize, DiffusionScattering<'_>)> = Vec::new();
+        for (s, ((target, p), stats)) in targets.iter().zip(prepared.iter_mut()).zip(stats.iter_mut()).enumerate() {
+            if let Some(p) = p.as_mut() {
+                operators.push((s, DiffusionScattering::new(p, target, &self.radiosity.transcut, stats, poll)));
+            }
+        }
+        let mut blocks: Vec<Translucent<'_, SceneError>> = operators
+            .iter_mut()
+            .map(|(s, op)| Translucent {
+                first: self.patches.patch_of(*s, 0, false).expect("every surface has front patches"),
+                transmittance: 1.0 - f_ext(op.eta()),
+                direct: direct.transmitted[*s].as_deref().expect("a translucent object's q_d"),
+                scattering: op,
+            })
+            .collect();
+        let opaque = Opaque { albedo, direct: &direct.opaque, emission };
+        let sweeps = std::sync::Mutex::new(0usize);
+        let keep_going = || {
+            let mut k = sweeps.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            *k += 1;
+            poll(1.0 - 0.5f64.powi(*k as i32)).is_ok()
+        };
+        let solution = solve_coupled(
+            &self.factors,
+            self.patches.areas(),
+            &opaque,
+            &mut blocks,
+            initial.map(|r| r.radiosity.as_slice()),
+            &self.radiosity.solve,
+            &keep_going,
+        )?;
+        drop(blocks);
+        drop(operators);
+        let fields = prepared
+            .iter()
+            .map(|p| p.as_ref().map(|p| Field { source: p.system().source().to_vec(), fluence: p.fluence().to_vec() }))
+            .collect();
+        Ok((Response { radiosity: solution.radiosity.clone(), fields }, solution))
+    }
+}
