@@ -229,6 +229,32 @@ pub struct BakeTable {
     pub bounces: Option<u64>,
 }
 
+impl BakeTable {
+    /// The table of a parsed scene file's `[bake]`.
+    #[must_use]
+    pub fn from_spec(b: &crate::scene_file::schema::BakeSpec) -> Self {
+        Self {
+            method: b.method.clone(),
+            tets: b.tets,
+            tolerance: b.tolerance,
+            solver: b.solver.clone(),
+            theta: b.theta,
+            oracle: b.oracle.clone(),
+            eps1: b.eps1,
+            eps2: b.eps2,
+            rule: b.rule.clone(),
+            receivers: b.receivers.clone(),
+            mode: b.mode.clone(),
+            budget: b.budget,
+            patch_size: b.patch_size,
+            rays: b.rays,
+            iteration: b.iteration.clone(),
+            radiosity_tolerance: b.radiosity_tolerance,
+            bounces: b.bounces,
+        }
+    }
+}
+
 /// The value of `[bake] key` among the names of `T` (any case).
 ///
 /// # Errors

@@ -1,12 +1,13 @@
-//! `transcut bench radiosity` on a coarse Cornell box: every field is there and the numbers agree
-//! with each other (no timings are asserted).
+//! `transcut bench radiosity` on a coarse Cornell box, opaque and with the example's marble
+//! block: every field is there and the numbers agree with each other (no timings are asserted).
 
 use std::process::Command;
 
 #[test]
 fn the_radiosity_suite_reports_every_patch_size() {
     let out = Command::new(env!("CARGO_BIN_EXE_transcut"))
-        .args(["bench", "radiosity", "--runs", "1", "--patch-sizes", "50,35"])
+        .args(["bench", "radiosity", "--runs", "1", "--patch-sizes", "50,35", "--radiosity-tets", "8000"])
+        .args(["--scene", concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/cornell_marble.toml")])
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -30,4 +31,24 @@ fn the_radiosity_suite_reports_every_patch_size() {
     }
     // A finer patch size makes more patches.
     assert!(entries[1]["patches"].as_u64() > entries[0]["patches"].as_u64());
+
+    let coupled = report["coupled"].as_array().unwrap();
+    assert_eq!(coupled.len(), 2);
+    for e in coupled {
+        let (patches, translucent) = (e["patches"].as_u64().unwrap(), e["translucent_patches"].as_u64().unwrap());
+        assert!(translucent > 0 && patches > translucent, "{e}");
+        assert!(e["tets"].as_u64().unwrap() >= 4000, "{e}");
+        let (jacobi, gs) = (e["jacobi_sweeps"].as_u64().unwrap(), e["gauss_seidel_sweeps"].as_u64().unwrap());
+        assert!(gs >= 1 && gs <= jacobi, "Gauss–Seidel took {gs} sweeps, Jacobi {jacobi}");
+        // The warm start after turning the light 5° needs no more sweeps than the bake's cold solve.
+        assert!(e["relight_sweeps"].as_u64().unwrap() <= e["solve_sweeps"].as_u64().unwrap(), "{e}");
+        assert!(e["energy_defect"].as_f64().unwrap() < 1e-2, "{e}");
+        for (fps, ms) in [("relight_fps", "median_relight_ms"), ("medium_fps", "median_medium_ms")] {
+            assert!((e[fps].as_f64().unwrap() * e[ms].as_f64().unwrap() - 1e3).abs() < 1e-6, "{fps}: {e}");
+        }
+        for key in ["median_form_factor_ms", "median_prepare_ms", "median_recolour_ms", "median_albedo_ms"] {
+            assert!(e[key].as_f64().unwrap() > 0.0, "{key}: {e}");
+        }
+    }
+    assert!(coupled[1]["patches"].as_u64() > coupled[0]["patches"].as_u64());
 }

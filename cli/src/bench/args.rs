@@ -30,9 +30,12 @@ pub enum Suite {
     /// on-the-fly, render and incremental (after a Perlin deformation) at --subdivisions, the
     /// error against the O(n²) sum for several oracles, and the paper's 98k-leaf case.
     Dipole,
-    /// The radiosity stage on an opaque Cornell box (200 mm, a diffuse 60 × 60 × 120 mm block,
-    /// a point light) at --patch-sizes: patches, nonzeros and memory of the form factors, their
-    /// time, and Jacobi against Gauss–Seidel to 1e-3 (sweeps, time, energy defect).
+    /// Translucent radiosity at --patch-sizes: the radiosity stage on an opaque Cornell box
+    /// (200 mm, a diffuse 60 × 60 × 120 mm block, a point light: patches, nonzeros and memory of
+    /// the form factors, their time, Jacobi against Gauss–Seidel to 1e-3), then the --scene
+    /// (a marble block in the box) through the bake and its session: each stage's time,
+    /// memory, Jacobi against Gauss–Seidel, a relight after turning the light 5°, a change of
+    /// its colour, of the translucency and of an albedo.
     Radiosity,
 }
 
@@ -71,6 +74,12 @@ pub struct BenchArgs {
     pub no_paper_case: bool,
     /// The `radiosity` suite's patch sizes (the longest edge the surfaces are refined to, mm),
     /// comma-separated.
-    #[arg(long, value_delimiter = ',', default_values_t = [8.0f64, 4.4])]
+    #[arg(long, value_delimiter = ',', default_values_t = [6.0f64, 3.0])]
     pub patch_sizes: Vec<f64>,
+    /// The `radiosity` suite's coupled scene: a scene file whose `[bake] method` is radiosity.
+    #[arg(long, default_value = "examples/cornell_marble.toml")]
+    pub scene: PathBuf,
+    /// The `radiosity` suite's tets per translucent object (default: the scene file's).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=20_000_000))]
+    pub radiosity_tets: Option<u64>,
 }

@@ -11,6 +11,7 @@ mod fig7;
 mod mesh;
 mod multires;
 mod radiosity;
+mod radiosity_coupled;
 mod solve;
 mod stats;
 

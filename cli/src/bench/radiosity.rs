@@ -1,4 +1,6 @@
-//! `transcut bench radiosity`: the radiosity stage (`transcut::radiosity`) on an opaque Cornell
+//! `transcut bench radiosity`: the translucent radiosity of a scene file through the bake and its
+//! session ([`super::radiosity_coupled`], `"coupled"`), and first the radiosity stage
+//! (`transcut::radiosity`, `"entries"`) on an opaque Cornell
 //! box, the scene of design/radiosity.md §3.8 with the block diffuse: a 200 mm box open at the
 //! front (white 0.73, the left wall red, the right green), a 60 × 60 × 120 mm block on the floor
 //! (white) and a point light under the ceiling, its direct light shadowed through the patches'
@@ -132,6 +134,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             peak_rss_mib: peak_rss_mib(),
         });
     }
+    let coupled = super::radiosity_coupled::run(&args.scene, &args.patch_sizes, args.radiosity_tets, args.runs)?;
     let report = serde_json::json!({
         "suite": "radiosity",
         "scene": "Cornell box, 200 mm, open front, diffuse 60 x 60 x 120 mm block, point light 10 mm under the ceiling",
@@ -140,6 +143,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "threads": rayon::current_num_threads(),
         "runs": args.runs,
         "entries": entries,
+        "coupled_scene": args.scene.display().to_string(),
+        "coupled": coupled,
     });
     println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())

@@ -34,7 +34,7 @@ use crate::methods::{
 };
 use crate::optics::fresnel::f_ext;
 use crate::progress::{ms, Cancelled, Progress};
-use crate::radiosity::{solve_coupled, FormFactors, Opaque, PatchSet, Solution, Translucent};
+use crate::radiosity::{solve_coupled, FormFactors, Opaque, PatchSet, Solution, SolveOptions, Translucent};
 use crate::scene::{BakeOptions, Diffuse, MediumSource, Object, RadiosityOptions, Scene, SceneError};
 
 /// One translucent object's share of a solution: the source q of its last diffusion solve and
@@ -528,7 +528,33 @@ impl RadiositySession {
         scratch[index] = Some(changed);
         let mut objects = self.fixed.objects.clone();
         objects[index].material = medium.into();
-        self.resolve(scratch, stats, self.albedo.clone(), self.emission.clone(), Some(objects), start, progress)
+        self.resolve(scratch, stats, self.albedo.clone(), self.emission.clone(), Some(objects), true, start, progress)
+    }
+
+    /// Solves the scene again from nothing with `solve` (another iteration, tolerance, sweep
+    /// limit or count of bounces) and keeps it for later updates: what a bake with these
+    /// options gives, without the form factors again.
+    ///
+    /// # Errors
+    /// [`SceneError::InvalidOptions`] for options out of range; a solve's error;
+    /// [`SceneError::Cancelled`]. Nothing changes on failure.
+    pub fn set_solve_options(&mut self, solve: SolveOptions, progress: Progress) -> Result<RadiosityUpdate, SceneError> {
+        let start = Instant::now();
+        solve.validate().map_err(|e| SceneError::InvalidOptions(format!("{NAME}: {e}")))?;
+        let old = std::mem::replace(&mut self.fixed.radiosity.solve, solve);
+        let (prepared, stats) = (self.prepared.clone(), self.object_stats.clone());
+        let (albedo, emission) = (self.albedo.clone(), self.emission.clone());
+        let result = self.resolve(prepared, stats, albedo, emission, None, false, start, progress);
+        if result.is_err() {
+            self.fixed.radiosity.solve = old;
+        }
+        result
+    }
+
+    /// The options the scene is solved with.
+    #[must_use]
+    pub fn solve_options(&self) -> &SolveOptions {
+        &self.fixed.radiosity.solve
     }
 
     /// Object `index`'s diffuse material, or an error naming `what` could not be set.
@@ -554,11 +580,11 @@ impl RadiositySession {
         }
         let mut objects = self.fixed.objects.clone();
         objects[index].material = diffuse.into();
-        self.resolve(self.prepared.clone(), self.object_stats.clone(), albedo, emission, Some(objects), start, progress)
+        self.resolve(self.prepared.clone(), self.object_stats.clone(), albedo, emission, Some(objects), true, start, progress)
     }
 
     /// Solves the scene under its lights with new materials (`prepared`, `albedo`, `emission`,
-    /// `objects`), warm-started from the current solution, and commits it: the responses are
+    /// `objects`), warm-started from the current solution when `warm`, and commits it: the responses are
     /// dropped (they were of the old materials) and kept again when there is one source.
     #[allow(clippy::too_many_arguments)]
     fn resolve(
@@ -568,6 +594,7 @@ impl RadiositySession {
         albedo: Vec<[f64; 3]>,
         emission: Vec<[f64; 3]>,
         objects: Option<Vec<Object>>,
+        warm: bool,
         start: Instant,
         progress: Progress,
     ) -> Result<RadiosityUpdate, SceneError> {
@@ -577,7 +604,7 @@ impl RadiositySession {
         update.direct_ms = ms(t);
         let poll = |f: f64| progress.report("radiosity: solve", f);
         let t = Instant::now();
-        let initial = (self.fixed.radiosity.solve.bounces.is_none()).then_some(&self.current);
+        let initial = (warm && self.fixed.radiosity.solve.bounces.is_none()).then_some(&self.current);
         let (current, solution) = self.fixed.solve(&mut prepared, &mut stats, &albedo, &emission, &direct, initial, &poll)?;
         update.solve_ms = ms(t);
         update.add(&solution);
