@@ -80,13 +80,26 @@ impl PointGrid {
 impl InteriorGraph {
     /// The graph of a tet mesh's vertices and edges (the mesh a TransCut bake already builds;
     /// its boundary vertices are then the patches themselves).
+    ///
+    /// The boundary vertices are moved inward along their (area-weighted) normals by 10⁻³ of
+    /// the mean edge length, so that an edge along the surface is in sight while a segment
+    /// across air between two boundary vertices is not.
     #[must_use]
     pub fn from_tet_mesh(mesh: &TetMesh) -> InteriorGraph {
-        let positions = mesh.positions().to_vec();
+        let mut positions = mesh.positions().to_vec();
         let (offsets, ring) = mesh.one_rings();
         let edges = mesh.edges();
         let spacing = edges.iter().map(|e| (positions[e[0] as usize] - positions[e[1] as usize]).length()).sum::<f64>()
             / edges.len().max(1) as f64;
+        let mut normals = vec![DVec3::ZERO; positions.len()];
+        for (f, face) in mesh.boundary_faces().iter().enumerate() {
+            for v in face.vertices {
+                normals[v as usize] += mesh.boundary_normal(f) * mesh.boundary_area(f);
+            }
+        }
+        for (p, n) in positions.iter_mut().zip(&normals) {
+            *p -= 1e-3 * spacing * n.normalize_or_zero();
+        }
         let grid = PointGrid::new(&positions, spacing.max(f64::MIN_POSITIVE));
         InteriorGraph {
             positions,

@@ -19,9 +19,13 @@
 //!   ∫_T R dA = (1/2π) Σ_edges ∫_{Δθ} [C(√(ρ_e(θ)² + h²)) − C(h)] dθ (Mertens et al. 2003 eq. 18
 //!   with the radial integral in closed form for every profile), 8 Gauss–Legendre points per
 //!   π/8 of angle; chord distances.
-//! - e ≤ 6ρᵢ: the 7-point degree-5 rule on each piece, each point y at distance
+//! - e ≤ 5ρᵢ: the 7-point degree-5 rule on each piece, each point y at distance
 //!   d_ji + (|x_j − y| − e) (the optical distance of the vertices corrected to first order).
-//! - beyond: one point, R(d_ji)·Aᵢ.
+//! - beyond: two points in distance, μ ± σ with weights Aᵢ/2, where μ and σ² are the mean and
+//!   variance of the distance over the cell (from each piece's centroid, its covariance along
+//!   and across the line of sight; [`distance_rule`]): exact for profiles cubic in d over the
+//!   cell. One point R(d)·Aᵢ is not enough: for the dipole's e^{−σr}/r³ on a 1 mm grid it is
+//!   1.7% off at 5.4 mm and 1.1% (blue) at 14 mm, the curvature over the cell.
 //!
 //! # Re-indexing (design §1.5, "Changing translucency"; check A11)
 //!
@@ -46,7 +50,8 @@ use super::solver::Scattering;
 /// Cells within this many cell radii of the receiver are integrated in polar coordinates.
 const NEAR: f64 = 2.0;
 /// Cells within this many cell radii of the receiver get the 7-point rule per piece.
-const MID: f64 = 6.0;
+const RULE7: f64 = 5.0;
+
 /// Angle (radians) per 8-point Gauss–Legendre panel of the polar quadrature.
 const PANEL_ANGLE: f64 = PI / 8.0;
 
@@ -188,7 +193,7 @@ impl SampleCache {
     fn build(patches: &ObjectPatches, distances: &PairDistances, gather_radius: f64) -> SampleCache {
         let n = patches.len();
         let nodes = gauss_legendre(8);
-        let rows: Vec<(Vec<u32>, Vec<[f32; 2]>, Vec<usize>, Vec<[f32; 2]>, Vec<usize>)> = (0..n)
+        let rows: Vec<RowSamples> = (0..n)
             .into_par_iter()
             .map(|j| {
                 let x = patches.positions[j];
@@ -209,14 +214,16 @@ impl SampleCache {
                         for piece in patches.pieces(i) {
                             polar_samples(*piece, x, &nodes, &mut cum);
                         }
-                    } else if e <= MID * rho {
+                    } else if e <= RULE7 * rho {
                         for piece in patches.pieces(i) {
                             for (y, w) in rule7(*piece) {
                                 values.push([(d + ((y - x).length() - e)).max(0.0) as f32, w as f32]);
                             }
                         }
                     } else {
-                        values.push([d as f32, patches.areas[i] as f32]);
+                        let [(d0, w0), (d1, w1)] = distance_rule(patches.pieces(i), x, d - e, patches.areas[i]);
+                        values.push([d0 as f32, w0 as f32]);
+                        values.push([d1 as f32, w1 as f32]);
                     }
                 }
                 (cols, values, vstart, cum, cstart)
@@ -279,6 +286,9 @@ impl SampleCache {
     }
 }
 
+/// One row's columns, value samples and their starts, cumulative samples and their starts.
+type RowSamples = (Vec<u32>, Vec<[f32; 2]>, Vec<usize>, Vec<[f32; 2]>, Vec<usize>);
+
 /// The samples of ∫_T R(|x − y|) dA_y in polar coordinates about the foot of `x` on the plane
 /// of the triangle `t` (module documentation): per edge, C(√(ρ(θ)² + h²))·w at the
 /// Gauss–Legendre angles, w = Δθ-weight/(2π) (signed by the edge's turn), then C(|h|) with
@@ -323,6 +333,36 @@ fn polar_samples(t: [DVec3; 3], x: DVec3, nodes: &[(f64, f64)], out: &mut Vec<[f
     if theta_total.abs() > 1e-9 && h != 0.0 {
         out.push([h.abs() as f32, (-theta_total / (2.0 * PI)) as f32]);
     }
+}
+
+/// The two-point rule in distance for a cell far from the receiver `x` (module documentation):
+/// with piece k's area w_k, centroid c_k at distance d_k along u_k and covariance
+/// Σ_k = (1/12) Σ_v (v − c_k)(v − c_k)ᵀ (a uniform triangle's), the distance's mean
+/// μ = Σ w_k [d_k + (tr Σ_k − u_kᵀΣ_k u_k)/(2d_k)]/A (the spread across the line of sight
+/// lengthens the distance to second order) and variance σ² = Σ w_k [(d_k − μ)² + u_kᵀΣ_k u_k]/A;
+/// `shift` (the optical distance minus the chord) is added to both nodes. Returns
+/// [(μ − σ, A/2), (μ + σ, A/2)].
+fn distance_rule(pieces: &[[DVec3; 3]], x: DVec3, shift: f64, area: f64) -> [(f64, f64); 2] {
+    let mut stats = Vec::with_capacity(pieces.len());
+    for &[a, b, c] in pieces {
+        let w = 0.5 * (b - a).cross(c - a).length();
+        let centroid = (a + b + c) / 3.0;
+        let to = centroid - x;
+        let d = to.length();
+        let u = to / d;
+        let (mut along, mut trace) = (0.0, 0.0);
+        for v in [a, b, c] {
+            let o = v - centroid;
+            along += o.dot(u).powi(2) / 12.0;
+            trace += o.length_squared() / 12.0;
+        }
+        stats.push((w, d, along, trace));
+    }
+    let total: f64 = stats.iter().map(|s| s.0).sum();
+    let mean = stats.iter().map(|&(w, d, along, trace)| w * (d + (trace - along) / (2.0 * d))).sum::<f64>() / total;
+    let var = stats.iter().map(|&(w, d, along, _)| w * ((d - mean).powi(2) + along)).sum::<f64>() / total;
+    let sd = var.max(0.0).sqrt();
+    [((mean - sd + shift).max(0.0), 0.5 * area), (mean + sd + shift, 0.5 * area)]
 }
 
 /// The 7-point degree-5 rule on a triangle (Radon 1948; Stroud T2:5-1): points and weights
@@ -577,6 +617,23 @@ mod tests {
         }
         let total: f64 = rule7(t).iter().map(|p| p.1).sum();
         assert!((total - 1.5).abs() < 1e-14);
+    }
+
+    #[test]
+    fn distance_rule_matches_the_cell_moments() {
+        // A unit square as two triangles' six pieces... here simply two triangles, far away: the
+        // rule integrates d and d² exactly to second order; check ∫ d² = Σ w (μ ± σ)² against
+        // the exact ∫|x − y|² dA = A(|x − c|² + tr Cov) of the square (Cov = I/12 in-plane).
+        let sq = [[DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0)], [DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0), DVec3::Y]];
+        let x = DVec3::new(20.5, 0.5, 0.0);
+        let rule = distance_rule(&sq, x, 0.0, 1.0);
+        let second: f64 = rule.iter().map(|&(d, w)| w * d * d).sum();
+        let exact = 400.0 + 2.0 / 12.0;
+        assert!((second / exact - 1.0).abs() < 1e-5, "{second} vs {exact}");
+        let first: f64 = rule.iter().map(|&(d, w)| w * d).sum();
+        // ∫ d over the square at distance 20: 20 + (1/12)/(2·20) to second order.
+        assert!((first - (20.0 + 1.0 / 480.0)).abs() < 1e-5, "{first}");
+        assert_eq!(distance_rule(&sq, x, 1.5, 1.0)[1].0, rule[1].0 + 1.5);
     }
 
     #[test]
