@@ -80,6 +80,9 @@ pub enum IterationName {
     Jacobi,
     /// Opaque patches in place, then each translucent object (about half the sweeps).
     GaussSeidel,
+    /// BiCGSTAB on the coupled system, stopped by a bound on the error (two scatterings an
+    /// iteration, few iterations).
+    Bicgstab,
 }
 
 impl IterationName {
@@ -87,6 +90,7 @@ impl IterationName {
         match self {
             Self::Jacobi => Iteration::Jacobi,
             Self::GaussSeidel => Iteration::GaussSeidel,
+            Self::Bicgstab => Iteration::BiCgStab,
         }
     }
 }
@@ -227,32 +231,6 @@ pub struct BakeTable {
     pub iteration: Option<String>,
     pub radiosity_tolerance: Option<f64>,
     pub bounces: Option<u64>,
-}
-
-impl BakeTable {
-    /// The table of a parsed scene file's `[bake]`.
-    #[must_use]
-    pub fn from_spec(b: &crate::scene_file::schema::BakeSpec) -> Self {
-        Self {
-            method: b.method.clone(),
-            tets: b.tets,
-            tolerance: b.tolerance,
-            solver: b.solver.clone(),
-            theta: b.theta,
-            oracle: b.oracle.clone(),
-            eps1: b.eps1,
-            eps2: b.eps2,
-            rule: b.rule.clone(),
-            receivers: b.receivers.clone(),
-            mode: b.mode.clone(),
-            budget: b.budget,
-            patch_size: b.patch_size,
-            rays: b.rays,
-            iteration: b.iteration.clone(),
-            radiosity_tolerance: b.radiosity_tolerance,
-            bounces: b.bounces,
-        }
-    }
 }
 
 /// The value of `[bake] key` among the names of `T` (any case).
@@ -690,7 +668,12 @@ mod tests {
         let e = error(MethodArgs::default(), &file);
         assert!(e.contains("bounces") && e.contains("Jacobi"), "{e}");
         let e = MethodDefaults::from_bake_table(BakeTable { iteration: Some("sor".into()), ..BakeTable::default() }).unwrap_err();
-        assert!(e.to_string().contains("jacobi, gauss-seidel"), "{e}");
+        assert!(e.to_string().contains("jacobi, gauss-seidel, bicgstab"), "{e}");
+        let file = BakeTable { method: Some(RADIOSITY.into()), iteration: Some("BiCGSTAB".into()), ..BakeTable::default() };
+        let Method::Radiosity(o) = MethodArgs::default().method(&MethodDefaults::from_bake_table(file).unwrap()).unwrap() else {
+            panic!()
+        };
+        assert_eq!(o.solve.iteration, Iteration::BiCgStab);
     }
 
     #[test]

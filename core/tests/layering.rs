@@ -24,8 +24,8 @@ const CORE: Table = &[
     ("volume", &["input", "mesh", "optics", "output"]),
     ("light", &["input", "mesh", "optics", "progress"]),
     ("hierarchy", &["optics", "progress"]),
-    ("radiosity", &["light", "mesh", "optics", "progress"]),
     ("sparse", &["input", "progress"]),
+    ("radiosity", &["light", "mesh", "optics", "progress", "sparse"]),
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
     ("gpu", &["diffusion", "hierarchy", "optics", "progress", "sparse"]),
     ("render", &["input", "light", "optics", "output"]),
@@ -87,7 +87,7 @@ const CLI: Table = &[
     ("spec", &[]),
     ("method_args", &[]),
     ("object_args", &["method_args", "spec"]),
-    ("scene_file/schema", &[]),
+    ("scene_file/schema", &["method_args"]),
     ("scene_file/media", &["scene_file/schema"]),
     ("scene_file/edits", &["scene_file/media", "scene_file/schema"]),
     ("scene_file/apply", &["scene_file/edits"]),
@@ -101,7 +101,8 @@ const CLI: Table = &[
     ("bench/multires", &["bench/args", "bench/fig7"]),
     ("bench/edit", &["bench/args", "bench/fig7", "bench/stats"]),
     ("bench/dipole", &["bench/args", "bench/stats"]),
-    ("bench/radiosity", &["bench/args", "bench/stats"]),
+    ("bench/radiosity_coupled", &["bench/stats", "method_args", "scene_file"]),
+    ("bench/radiosity", &["bench/args", "bench/radiosity_coupled", "bench/stats"]),
     (
         "bench",
         &[

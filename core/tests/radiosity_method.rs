@@ -136,6 +136,18 @@ fn concentric_spheres_match_their_closed_forms() {
     assert!(baked.objects[0].stats.tets >= 200_000, "{} tets", baked.objects[0].stats.tets);
     assert!(stats.energy_defect < 10.0 * 1e-4, "energy defect {}", stats.energy_defect);
 
+    // BiCGSTAB and Jacobi reach the same answer at 20k tets.
+    let krylov = SolveOptions { iteration: Iteration::BiCgStab, tolerance: 1e-5, ..SolveOptions::default() };
+    let jacobi = SolveOptions { tolerance: 1e-5, ..SolveOptions::default() };
+    let (k, j) = (bake(&scene, &options(20_000, 10.0, krylov)).unwrap(), bake(&scene, &options(20_000, 10.0, jacobi)).unwrap());
+    for o in 0..2 {
+        let worst = worst_relative(&k.objects[o].radiance, &j.objects[o].radiance);
+        assert!(worst < 1e-4, "object {o}: BiCGSTAB is {worst} off Jacobi");
+    }
+    let (ks, js) = (k.radiosity.unwrap(), j.radiosity.unwrap());
+    assert!(ks.energy_defect < 1e-4 && ks.estimated_error <= 1e-5, "{ks:?}");
+    assert!(ks.scatterings < js.scatterings, "BiCGSTAB scattered {} times, Jacobi {}", ks.scatterings, js.scatterings);
+
     // One bounce: the enclosure's own emission, the sphere lit by it directly; all bounces only add.
     let first = bake(&scene, &options(20_000, 10.0, SolveOptions { bounces: Some(1), ..SolveOptions::default() })).unwrap();
     let again = bake(&scene, &options(20_000, 10.0, SolveOptions::default())).unwrap();

@@ -18,7 +18,7 @@ use transcut::radiosity::{Iteration, SolveOptions};
 use transcut::{bake, BakeOptions, DVec3, MediumSource, Method, Progress, RadiositySession, Scene};
 
 use super::stats::{median, ms, peak_rss_mib};
-use crate::method_args::{BakeTable, MethodArgs, MethodDefaults};
+use crate::method_args::{MethodArgs, MethodDefaults};
 use crate::scene_file;
 
 /// One patch size's measurements (times: medians of the runs, ms).
@@ -60,7 +60,7 @@ pub struct Entry {
 /// The scene file's scene and bake options, the translucent objects at `tets` when given.
 fn load(path: &Path, tets: Option<u64>) -> anyhow::Result<(Scene, BakeOptions)> {
     let loaded = scene_file::load(path)?;
-    let defaults = MethodDefaults::from_bake_table(BakeTable::from_spec(&loaded.file.bake))?;
+    let defaults = MethodDefaults::from_bake_table(loaded.file.bake.table())?;
     let Method::Radiosity(mut radiosity) = MethodArgs::default().method(&defaults)? else {
         return Err(anyhow!("its [bake] method is not radiosity"));
     };

@@ -8,6 +8,8 @@ use serde::Deserialize;
 use transcut::light::{Environment, EquirectMap, Light};
 use transcut::DVec3;
 
+use crate::method_args::BakeTable;
+
 /// A colour: one number for grey or three for RGB.
 #[derive(Debug, Clone, Copy, Deserialize)]
 #[serde(untagged)]
@@ -354,5 +356,32 @@ mod tests {
         let key = "k".repeat(5000);
         let err = SceneFile::parse(&format!("{MINIMAL}{key} = 1\n")).unwrap_err().to_string();
         assert!(err.len() < 400, "{} bytes", err.len());
+    }
+}
+
+impl BakeSpec {
+    /// The table of a parsed scene file's `[bake]`.
+    #[must_use]
+    pub fn table(&self) -> BakeTable {
+        let b = self;
+        BakeTable {
+            method: b.method.clone(),
+            tets: b.tets,
+            tolerance: b.tolerance,
+            solver: b.solver.clone(),
+            theta: b.theta,
+            oracle: b.oracle.clone(),
+            eps1: b.eps1,
+            eps2: b.eps2,
+            rule: b.rule.clone(),
+            receivers: b.receivers.clone(),
+            mode: b.mode.clone(),
+            budget: b.budget,
+            patch_size: b.patch_size,
+            rays: b.rays,
+            iteration: b.iteration.clone(),
+            radiosity_tolerance: b.radiosity_tolerance,
+            bounces: b.bounces,
+        }
     }
 }

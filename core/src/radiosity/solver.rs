@@ -14,6 +14,7 @@ use rayon::prelude::*;
 
 use super::error::RadiosityError;
 use super::form_factor::FormFactors;
+use crate::sparse::{bicgstab_operator, LinearOperator};
 
 /// The iteration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -25,11 +26,16 @@ pub enum Iteration {
     /// each translucent object from them (sequential, about half the sweeps of Jacobi and half
     /// its scattering solves).
     GaussSeidel,
+    /// BiCGSTAB on (I − K) B = B₁, K the light's one bounce and B₁ the first bounce
+    /// ([`crate::sparse::bicgstab_operator`]; two applications of K, so two scatterings, per
+    /// iteration), stopped when the residual bounds the error in power below the tolerance,
+    /// then one Jacobi sweep that leaves every scattering in the state of the answer.
+    BiCgStab,
 }
 
 impl Iteration {
     /// Every name, in the order front ends list them.
-    pub const NAMES: [&'static str; 2] = ["jacobi", "gauss-seidel"];
+    pub const NAMES: [&'static str; 3] = ["jacobi", "gauss-seidel", "bicgstab"];
 
     /// The name front ends use.
     #[must_use]
@@ -37,6 +43,7 @@ impl Iteration {
         match self {
             Self::Jacobi => "jacobi",
             Self::GaussSeidel => "gauss-seidel",
+            Self::BiCgStab => "bicgstab",
         }
     }
 
@@ -46,6 +53,7 @@ impl Iteration {
         match name.trim().to_ascii_lowercase().as_str() {
             "jacobi" => Some(Self::Jacobi),
             "gauss-seidel" => Some(Self::GaussSeidel),
+            "bicgstab" => Some(Self::BiCgStab),
             _ => None,
         }
     }
@@ -182,6 +190,14 @@ impl<E> Translucent<'_, E> {
         self.first..self.first + self.direct.len()
     }
 
+    /// S(t E): what the object sends out of the indirect irradiance E alone (K's translucent
+    /// rows).
+    fn scatter_indirect(&mut self, gathered: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, E> {
+        let t = self.transmittance;
+        let q: Vec<[f64; 3]> = gathered.iter().map(|e| e.map(|x| t * x)).collect();
+        self.scattering.scatter(&q)
+    }
+
     /// Scatters the light q = q_d + t E transmitted under the gathered irradiance E of the
     /// object's patches into `b`'s entries of the object.
     fn update(&mut self, gathered: &[[f64; 3]], b: &mut [[f64; 3]]) -> Result<(), E> {
@@ -255,6 +271,15 @@ pub fn solve_coupled<E: From<RadiosityError>>(
         block.update(&start[block.range()], &mut b)?;
     }
     let mut scatterings = 1;
+    if options.iteration == Iteration::BiCgStab {
+        let krylov = Krylov { factors, areas, opaque, translucent, is_translucent: &is_translucent };
+        let mut solution = krylov.solve(b, initial, options, keep_going)?;
+        solution.energy = balance(factors, areas, opaque, translucent, &is_translucent, &solution.radiosity);
+        if translucent.is_empty() {
+            solution.scatterings = 0;
+        }
+        return Ok(solution);
+    }
     let power = |b: &[[f64; 3]]| -> f64 { b.iter().zip(areas).map(|(x, a)| a * (x[0] + x[1] + x[2])).sum() };
     let change = |x: &[f64; 3], y: &[f64; 3], a: f64| a * (0..3).map(|c| (x[c] - y[c]).abs()).sum::<f64>();
     let sweeps = options.bounces.map_or(options.max_iterations, |k| k - 1);
@@ -272,6 +297,7 @@ pub fn solve_coupled<E: From<RadiosityError>>(
                     block.update(&gathered[block.range()], &mut b)?;
                 }
             }
+            Iteration::BiCgStab => unreachable!("solved above"),
             Iteration::GaussSeidel => {
                 for i in (0..n).filter(|&i| !is_translucent[i]) {
                     b[i] = update(i, factors.apply_row(i, &b));
@@ -303,6 +329,152 @@ pub fn solve_coupled<E: From<RadiosityError>>(
     let energy = balance(factors, areas, opaque, translucent, &is_translucent, &b);
     let scatterings = if translucent.is_empty() { 0 } else { scatterings };
     Ok(Solution { radiosity: b, iterations, scatterings, estimated_error: estimated, energy })
+}
+
+/// The coupled system as an operator for BiCGSTAB: (I − K) x, K x = ρ ⊙ F x on opaque patches
+/// and S(t (F x)) on each translucent object's.
+struct Krylov<'a, 'b, 'c, E> {
+    factors: &'a FormFactors,
+    areas: &'a [f64],
+    opaque: &'a Opaque<'a>,
+    translucent: &'a mut [Translucent<'b, E>],
+    is_translucent: &'c [bool],
+}
+
+/// [`Krylov`] counting its scatterings.
+struct Counted<'k, 'a, 'b, 'c, E> {
+    system: &'k mut Krylov<'a, 'b, 'c, E>,
+    scatterings: usize,
+}
+
+impl<E> LinearOperator for Counted<'_, '_, '_, '_, E> {
+    type Error = E;
+
+    fn len(&self) -> usize {
+        self.system.factors.len()
+    }
+
+    fn apply(&mut self, x: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, E> {
+        let Krylov { factors, opaque, translucent, is_translucent, .. } = &mut *self.system;
+        let gathered = factors.apply(x);
+        let mut y: Vec<[f64; 3]> = x
+            .par_iter()
+            .enumerate()
+            .map(
+                |(i, x)| {
+                    if is_translucent[i] {
+                        *x
+                    } else {
+                        std::array::from_fn(|c| x[c] - opaque.albedo[i][c] * gathered[i][c])
+                    }
+                },
+            )
+            .collect();
+        for block in translucent.iter_mut() {
+            let range = block.range();
+            let s = block.scatter_indirect(&gathered[range.clone()])?;
+            for (y, s) in y[range].iter_mut().zip(s) {
+                for c in 0..3 {
+                    y[c] -= s[c];
+                }
+            }
+        }
+        if !translucent.is_empty() {
+            self.scatterings += 1;
+        }
+        Ok(y)
+    }
+}
+
+impl<E: From<RadiosityError>> Krylov<'_, '_, '_, E> {
+    /// BiCGSTAB from `initial` (else from the first bounce `first`), stopped when the residual
+    /// r bounds the relative error in power: ‖e‖ ≤ ‖r‖/(1 − κ) in the area-weighted L1 norm,
+    /// where κ, the largest albedo or transmittance, bounds ‖K‖ there (F's columns carry at most
+    /// a patch's power, ρ and S lose power, t passes a part of it), and ‖B‖ ≥ ‖B₁‖ as K ≥ 0.
+    /// Returns B after the closing Jacobi sweep, the iterations, the scatterings and the bound
+    /// (the energy balance left to the caller).
+    fn solve(
+        mut self,
+        first: Vec<[f64; 3]>,
+        initial: Option<&[[f64; 3]]>,
+        options: &SolveOptions,
+        keep_going: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Solution, E> {
+        let n = self.factors.len();
+        let mut scatterings = 1;
+        // The right-hand side B₁ (with a warm start, `first` gathered `initial`: one more scatter).
+        let rhs = match initial {
+            None => first.clone(),
+            Some(_) => {
+                let mut b: Vec<[f64; 3]> = (0..n)
+                    .map(|i| {
+                        if self.is_translucent[i] {
+                            [0.0; 3]
+                        } else {
+                            std::array::from_fn(|c| {
+                                self.opaque.albedo[i][c] * self.opaque.direct[i][c] + self.opaque.emission[i][c]
+                            })
+                        }
+                    })
+                    .collect();
+                let zero = vec![[0.0; 3]; n];
+                for block in self.translucent.iter_mut() {
+                    block.update(&zero[block.range()], &mut b)?;
+                }
+                scatterings += usize::from(!self.translucent.is_empty());
+                b
+            }
+        };
+        let mut x = initial.map_or(first, <[[f64; 3]]>::to_vec);
+        let kappa = self
+            .opaque
+            .albedo
+            .iter()
+            .zip(self.is_translucent)
+            .filter(|(_, &t)| !t)
+            .flat_map(|(a, _)| a.iter().copied())
+            .chain(self.translucent.iter().map(|b| b.transmittance))
+            .fold(0.0f64, f64::max);
+        let areas = self.areas;
+        let norm = |v: &[[f64; 3]]| -> [f64; 3] {
+            let mut s = [0.0; 3];
+            for (x, a) in v.iter().zip(areas) {
+                for c in 0..3 {
+                    s[c] += a * x[c].abs();
+                }
+            }
+            s
+        };
+        let mut op = Counted { system: &mut self, scatterings: 0 };
+        let mut poll = || if keep_going() { Ok(()) } else { Err(RadiosityError::Cancelled(crate::progress::Cancelled).into()) };
+        let tolerance = options.tolerance * (1.0 - kappa);
+        let solved = bicgstab_operator(&mut op, &rhs, &mut x, tolerance, options.max_iterations, &norm, &mut poll)?;
+        scatterings += op.scatterings;
+        let estimated = solved.relative_residual.iter().fold(0.0f64, |m, &r| m.max(r)) / (1.0 - kappa);
+        // The closing sweep: B = K x + B₁, which leaves each scattering at the answer's state.
+        let gathered = self.factors.apply(&x);
+        let Opaque { albedo, direct, emission } = *self.opaque;
+        let mut b: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                if self.is_translucent[i] {
+                    [0.0; 3]
+                } else {
+                    std::array::from_fn(|c| albedo[i][c] * (direct[i][c] + gathered[i][c]) + emission[i][c])
+                }
+            })
+            .collect();
+        for block in self.translucent.iter_mut() {
+            block.update(&gathered[block.range()], &mut b)?;
+        }
+        scatterings += usize::from(!self.translucent.is_empty());
+        Ok(Solution {
+            radiosity: b,
+            iterations: solved.iterations,
+            scatterings,
+            estimated_error: estimated,
+            energy: EnergyBalance::default(),
+        })
+    }
 }
 
 /// The lengths, the values and the options, and which patches are translucent.

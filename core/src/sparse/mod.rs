@@ -1,5 +1,6 @@
 //! Sparse linear algebra for the diffusion solvers: CSR matrices with one pattern shared by the
-//! three colour channels, a parallel SpMV, preconditioned CG, BiCGSTAB and preconditioners.
+//! three colour channels, a parallel SpMV, preconditioned CG, BiCGSTAB and preconditioners, and
+//! BiCGSTAB on operators given by their action ([`LinearOperator`]).
 //!
 //! # Layout (designed for memory bandwidth)
 //!
@@ -56,6 +57,7 @@ mod error;
 mod fixtures;
 pub mod hierarchy;
 mod mm;
+mod operator;
 mod ops;
 mod ordering;
 mod pcg;
@@ -69,6 +71,7 @@ pub use error::{SparseError, CHANNEL_NAMES};
 pub use mm::{
     read_array_matrix_market, write_array_matrix_market, write_vector3_matrix_market, write_vector_matrix_market, MmArray,
 };
+pub use operator::{bicgstab_operator, LinearOperator, OperatorSolve};
 pub use ops::{dot3, interleave_channels, norm3, split_channels};
 pub use pcg::pcg;
 pub use precond::{Chebyshev, Jacobi, Preconditioner, PreconditionerKind};
