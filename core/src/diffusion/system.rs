@@ -117,11 +117,17 @@ pub fn assemble_with(
 /// [`DiffusionError::InvalidSource`] naming the first negative or non-finite value.
 pub fn rhs(system: &DiffusionSystem, q: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, DiffusionError> {
     let s = &system.structure;
-    check_source(&s.boundary, q)?;
-    Ok(match system.discretization {
+    check_source(&s.boundary, q, false)?;
+    Ok(rhs_unchecked(system, q))
+}
+
+/// b for a checked `q` ([`rhs`]).
+fn rhs_unchecked(system: &DiffusionSystem, q: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let s = &system.structure;
+    match system.discretization {
         Discretization::TransCut => transcut::rhs_transcut(s, &system.terms, q),
         Discretization::ConsistentFem => fem::rhs_consistent(s, &system.terms, q),
-    })
+    }
 }
 
 impl DiffusionSystem {
@@ -351,6 +357,20 @@ impl DiffusionSystem {
         Ok(())
     }
 
+    /// [`DiffusionSystem::set_source`] for a `q` of either sign: a difference of lightings, which
+    /// a Krylov iteration of translucent radiosity scatters (the system is linear in q; only
+    /// the light a bake computes must be ≥ 0).
+    ///
+    /// # Errors
+    /// [`DiffusionError::LengthMismatch`]; [`DiffusionError::InvalidSource`] naming the first
+    /// value that is not finite. On error the system is unchanged.
+    pub(crate) fn set_signed_source(&mut self, q: &[[f64; 3]]) -> Result<(), DiffusionError> {
+        check_source(&self.structure.boundary, q, true)?;
+        self.rhs = rhs_unchecked(self, q);
+        self.source = q.to_vec();
+        Ok(())
+    }
+
     /// The sparsity pattern (the mesh's vertex graph plus the diagonal), shared with the matrix.
     #[must_use]
     pub fn pattern(&self) -> &Arc<CsrPattern> {
@@ -490,7 +510,7 @@ fn fill_matrix(s: &Structure, discretization: Discretization, c: &Coefficients, 
 }
 
 /// q must have one finite, non-negative entry per boundary vertex.
-fn check_source(boundary: &BoundaryVertices, q: &[[f64; 3]]) -> Result<(), DiffusionError> {
+fn check_source(boundary: &BoundaryVertices, q: &[[f64; 3]], signed: bool) -> Result<(), DiffusionError> {
     if q.len() != boundary.len() {
         return Err(DiffusionError::LengthMismatch {
             what: "source q (one entry per boundary vertex)",
@@ -499,7 +519,7 @@ fn check_source(boundary: &BoundaryVertices, q: &[[f64; 3]]) -> Result<(), Diffu
         });
     }
     for (index, v) in q.iter().enumerate() {
-        if let Some(channel) = v.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+        if let Some(channel) = v.iter().position(|x| !(x.is_finite() && (signed || *x >= 0.0))) {
             return Err(DiffusionError::InvalidSource { index, vertex: boundary.ids[index], channel, value: v[channel] });
         }
     }

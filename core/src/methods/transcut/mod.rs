@@ -75,7 +75,7 @@ impl Prepared {
 
     /// Solves M φ = b for the source `q` per boundary vertex, warm-started from the last φ,
     /// keeping φ: the diffusion solve of TransCut's bake alone, shared with the radiosity
-    /// method's scattering. Fills the solve's statistics into `stats`.
+    /// method's scattering (whose Krylov iteration scatters sources of either sign). Fills the solve's statistics into `stats`.
     ///
     /// # Errors
     /// [`SceneError`] naming the object; [`SceneError::Cancelled`] through `stage`.
@@ -89,7 +89,7 @@ impl Prepared {
     ) -> Result<(), SceneError> {
         let (index, name) = (target.index, || target.object.name.clone());
         let diffusion_error = |source| SceneError::Diffusion { index, name: name(), source };
-        self.system.set_source(q).map_err(diffusion_error)?;
+        self.system.set_signed_source(q).map_err(diffusion_error)?;
         stage("solve", 0.8)?;
         // Progress through the solve: the residual's way from 1 down to the tolerance, in decades.
         let monitor =
