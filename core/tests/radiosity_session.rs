@@ -188,7 +188,15 @@ fn failures_change_nothing() {
     let e = session.relight(&[point(above(5.0), [2000.0; 3])], Progress::new(&stop)).unwrap_err();
     assert!(matches!(e, SessionError::Cancelled(_)), "{e}");
     assert!(matches!(session.set_albedo(1, [0.1; 3], Progress::new(&stop)), Err(SessionError::Cancelled(_))));
+    let thicker = Medium { sigma_s_prime: marble().sigma_s_prime.map(|s| 2.0 * s), ..marble() };
+    let e = session.set_medium(0, MediumSource::Homogeneous(thicker), Progress::new(&stop)).unwrap_err();
+    assert!(matches!(e, SessionError::Cancelled(_)), "{e}");
     unchanged(&session);
+    // The old system is back: a relight to the same lights reproduces the radiance exactly.
+    session.relight(&[point(above(0.0), [2000.0; 3])], Progress::none()).unwrap();
+    unchanged(&session);
+    let objects = session.radiosity().unwrap().objects();
+    assert_eq!(objects[0].medium(), Some(&MediumSource::Homogeneous(marble())));
     assert_eq!(session.lights().len(), 1);
 
     // The radiosity bake offers no per-object edits; a TransCut bake no albedo.
