@@ -27,7 +27,7 @@ const CORE: Table = &[
     ("sparse", &["input", "progress"]),
     ("radiosity", &["light", "mesh", "optics", "progress", "sparse"]),
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
-    ("gpu", &["diffusion", "hierarchy", "optics", "progress", "sparse"]),
+    ("gpu", &["diffusion", "hierarchy", "optics", "progress", "radiosity", "sparse"]),
     ("render", &["input", "light", "optics", "output"]),
     (
         "scene",

@@ -68,6 +68,8 @@ mod pool;
 #[cfg(feature = "gpu")]
 mod radiance;
 #[cfg(feature = "gpu")]
+mod radiosity;
+#[cfg(feature = "gpu")]
 pub mod shaders;
 
 #[cfg(feature = "gpu")]
@@ -84,5 +86,7 @@ pub use ops::{dot, spmv_dot};
 pub use pcg::{solve, GpuSolution, GpuSolver, GpuStats};
 #[cfg(feature = "gpu")]
 pub use radiance::surface_radiance;
+#[cfg(feature = "gpu")]
+pub use radiosity::{GpuRadiosity, Sweep};
 #[cfg(feature = "gpu")]
 pub use shaders::Kernel;

@@ -68,11 +68,13 @@ pub enum Kernel {
     DipoleTraverse,
     /// Hierarchical dipole: the local expansions pushed down one receiver subtree.
     DipolePush,
+    /// Radiosity: one Jacobi sweep, the gathered F B and the opaque patches' update.
+    RadSweep,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 27] = [
+    pub const ALL: [Kernel; 28] = [
         Kernel::TetGeometry,
         Kernel::Assemble,
         Kernel::JacobiDiag,
@@ -100,6 +102,7 @@ impl Kernel {
         Kernel::DipolePull,
         Kernel::DipoleTraverse,
         Kernel::DipolePush,
+        Kernel::RadSweep,
     ];
 
     /// The file name in `shaders/`.
@@ -133,6 +136,7 @@ impl Kernel {
             Kernel::DipolePull => "dipole_pull.wgsl",
             Kernel::DipoleTraverse => "dipole_traverse.wgsl",
             Kernel::DipolePush => "dipole_push.wgsl",
+            Kernel::RadSweep => "rad_sweep.wgsl",
         }
     }
 
@@ -167,6 +171,7 @@ impl Kernel {
             Kernel::DipolePull => include_str!("../../../shaders/dipole_pull.wgsl"),
             Kernel::DipoleTraverse => include_str!("../../../shaders/dipole_traverse.wgsl"),
             Kernel::DipolePush => include_str!("../../../shaders/dipole_push.wgsl"),
+            Kernel::RadSweep => include_str!("../../../shaders/rad_sweep.wgsl"),
         }
     }
 

@@ -183,6 +183,13 @@ impl FormFactors {
         self.hit_fraction[i]
     }
 
+    /// The rows as CSR: row i's entries are `columns[row_start[i]..row_start[i + 1]]` (in
+    /// increasing order) with `values` at the same places (for the device's copy).
+    #[must_use]
+    pub fn csr(&self) -> (&[usize], &[u32], &[f64]) {
+        (&self.row_start, &self.columns, &self.values)
+    }
+
     /// Whether each patch lies inside geometry (its rays mostly hit back faces; its row is empty).
     #[must_use]
     pub fn covered(&self) -> &[bool] {

@@ -1,0 +1,145 @@
+//! Translucent radiosity's iteration on the device (design/radiosity.md §1.6, A12): the form
+//! factors F uploaded once (scalar CSR, f32 values) with the opaque patches' ρ and
+//! ρ ⊙ E_d + M, and Jacobi sweeps by `rad_sweep.wgsl`. A sweep returns the gathered F B with
+//! the opaque update, so that the host scatters the translucent patches' share
+//! ([`GpuRadiosity::sweep`]); a scene without translucent objects runs every sweep on the device
+//! with no read-back between them ([`GpuRadiosity::jacobi`]). CPU twins:
+//! [`crate::radiosity::FormFactors::apply`] and [`crate::radiosity::solve`].
+
+use super::context::{dispatch, GpuContext};
+use super::error::GpuError;
+use super::layout::{from_vec4, to_vec4, Params};
+use super::pool::Lease;
+use super::shaders::Kernel;
+use crate::radiosity::{FormFactors, Opaque};
+
+/// F and the opaque side of a scene on the device (module documentation).
+pub struct GpuRadiosity<'c> {
+    ctx: &'c GpuContext,
+    n: usize,
+    grid: (u32, u32),
+    params: Lease<'c>,
+    row_start: Lease<'c>,
+    columns: Lease<'c>,
+    values: Lease<'c>,
+    albedo: Lease<'c>,
+    base: Lease<'c>,
+}
+
+/// One sweep's result: B' (ρ(E_d + F B) + M on opaque patches, 0 on translucent ones) and the
+/// gathered irradiance F B on every patch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sweep {
+    pub radiosity: Vec<[f64; 3]>,
+    pub gathered: Vec<[f64; 3]>,
+}
+
+impl<'c> GpuRadiosity<'c> {
+    /// Uploads `factors` and the opaque values of `opaque` (`translucent[i]`: patch i belongs to
+    /// a translucent object, whose ρ and base are 0 on the device).
+    ///
+    /// # Errors
+    /// [`GpuError::TooLarge`] when F does not fit a buffer of the device (or has more than
+    /// 2³² nonzeros); [`GpuError::Unsupported`] for inputs of another length than F's.
+    pub fn new(ctx: &'c GpuContext, factors: &FormFactors, opaque: &Opaque<'_>, translucent: &[bool]) -> Result<Self, GpuError> {
+        let n = factors.len();
+        if [opaque.albedo.len(), opaque.direct.len(), opaque.emission.len(), translucent.len()].iter().any(|&l| l != n) {
+            return Err(GpuError::Unsupported { what: "radiosity with opaque values or flags of another length than F" });
+        }
+        let (row_start, columns, values) = factors.csr();
+        let too_large = || GpuError::TooLarge {
+            what: "form factors (nonzeros)",
+            needed: values.len() as u64,
+            limit: u64::from(u32::MAX),
+            device: ctx.device_name().to_owned(),
+        };
+        let starts: Vec<u32> = row_start.iter().map(|&s| u32::try_from(s).map_err(|_| too_large())).collect::<Result<_, _>>()?;
+        let values32: Vec<f32> = values.iter().map(|&v| v as f32).collect();
+        let albedo: Vec<[f64; 3]> = (0..n).map(|i| if translucent[i] { [0.0; 3] } else { opaque.albedo[i] }).collect();
+        let base: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                if translucent[i] {
+                    [0.0; 3]
+                } else {
+                    std::array::from_fn(|c| opaque.albedo[i][c] * opaque.direct[i][c] + opaque.emission[i][c])
+                }
+            })
+            .collect();
+        let (gx, gy, _) = ctx.grid(n)?;
+        let params = Params { n: n as u32, nnz: values.len() as u32, ..Params::default() };
+        Ok(Self {
+            ctx,
+            n,
+            grid: (gx, gy),
+            params: ctx.uniform(&params, "radiosity params"),
+            row_start: ctx.upload(&starts, "form factor rows")?,
+            columns: ctx.upload(columns, "form factor columns")?,
+            values: ctx.upload(&values32, "form factor values")?,
+            albedo: ctx.upload(&to_vec4(&albedo), "albedo")?,
+            base: ctx.upload(&to_vec4(&base), "rho E_d + M")?,
+        })
+    }
+
+    /// The bind group of one sweep from `b_in` into `b_out`, gathering into `gathered`.
+    fn bind(&self, b_in: &wgpu::Buffer, b_out: &wgpu::Buffer, gathered: &wgpu::Buffer) -> wgpu::BindGroup {
+        self.ctx.bind(
+            Kernel::RadSweep,
+            &[&self.params, &self.row_start, &self.columns, &self.values, &self.albedo, &self.base, b_in, b_out, gathered],
+        )
+    }
+
+    /// One Jacobi sweep from `b` ([`Sweep`]).
+    ///
+    /// # Errors
+    /// [`GpuError::Unsupported`] for a `b` of another length; device errors.
+    pub fn sweep(&self, b: &[[f64; 3]]) -> Result<Sweep, GpuError> {
+        self.check(b)?;
+        let bytes = 16 * self.n as u64;
+        let b_in = self.ctx.upload(&to_vec4(b), "radiosity in")?;
+        let b_out = self.ctx.storage(bytes, "radiosity out")?;
+        let gathered = self.ctx.storage(bytes, "gathered")?;
+        let bind = self.bind(&b_in, &b_out, &gathered);
+        let mut encoder = self.ctx.encoder();
+        {
+            let mut pass =
+                encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("rad_sweep"), timestamp_writes: None });
+            dispatch(&mut pass, self.ctx, Kernel::RadSweep, &bind, self.grid);
+        }
+        encoder.copy_buffer_to_buffer(&b_out, 0, &b_in, 0, bytes);
+        let gathered = from_vec4(&self.ctx.read_back(encoder, &gathered, bytes, "gathered read-back")?, self.n);
+        let radiosity = from_vec4(&self.ctx.read_back(self.ctx.encoder(), &b_in, bytes, "radiosity read-back")?, self.n);
+        Ok(Sweep { radiosity, gathered })
+    }
+
+    /// `sweeps` Jacobi sweeps from `b` on the device, for a scene without translucent objects
+    /// (every patch's B' is the device's), read back once at the end.
+    ///
+    /// # Errors
+    /// As [`GpuRadiosity::sweep`].
+    pub fn jacobi(&self, b: &[[f64; 3]], sweeps: usize) -> Result<Vec<[f64; 3]>, GpuError> {
+        self.check(b)?;
+        let bytes = 16 * self.n as u64;
+        let ping = self.ctx.upload(&to_vec4(b), "radiosity ping")?;
+        let pong = self.ctx.storage(bytes, "radiosity pong")?;
+        let gathered = self.ctx.storage(bytes, "gathered")?;
+        let binds = [self.bind(&ping, &pong, &gathered), self.bind(&pong, &ping, &gathered)];
+        let mut encoder = self.ctx.encoder();
+        {
+            let mut pass =
+                encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("rad_jacobi"), timestamp_writes: None });
+            for k in 0..sweeps {
+                dispatch(&mut pass, self.ctx, Kernel::RadSweep, &binds[k % 2], self.grid);
+            }
+        }
+        let last = if sweeps % 2 == 1 { &pong } else { &ping };
+        Ok(from_vec4(&self.ctx.read_back(encoder, last, bytes, "radiosity read-back")?, self.n))
+    }
+
+    fn check(&self, b: &[[f64; 3]]) -> Result<(), GpuError> {
+        if b.len() == self.n {
+            Ok(())
+        } else {
+            Err(GpuError::Unsupported { what: "a radiosity of another length than F" })
+        }
+    }
+}
