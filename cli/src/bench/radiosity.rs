@@ -5,13 +5,15 @@
 //! front (white 0.73, the left wall red, the right green), a 60 × 60 × 120 mm block on the floor
 //! (white) and a point light under the ceiling, its direct light shadowed through the patches'
 //! BVH. Per patch size: patches, nonzeros and memory of F, the form factors' time, and Jacobi
-//! and Gauss–Seidel to 1e-3 with their sweeps and energy defect.
+//! and Gauss–Seidel and BiCGSTAB to 1e-3 with their sweeps and energy defect, and on the
+//! `--backend`'s GPU the Jacobi's sweeps (`GpuRadiosity`) against the CPU's.
 
 use std::time::Instant;
 
 use serde::Serialize;
+use transcut::gpu::{Backend, GpuContext, GpuRadiosity};
 use transcut::radiosity::{
-    refine_to_edge_length, solve, FormFactorOptions, FormFactors, Iteration, PatchSet, SolveOptions, Surface,
+    refine_to_edge_length, solve, FormFactorOptions, FormFactors, Iteration, Opaque, PatchSet, SolveOptions, Surface,
 };
 use transcut::DVec3;
 
@@ -40,8 +42,25 @@ struct Entry {
     median_gauss_seidel_ms: f64,
     gauss_seidel_sweeps: usize,
     jacobi_to_gauss_seidel: f64,
+    /// BiCGSTAB to the same tolerance (two applications of F an iteration).
+    median_bicgstab_ms: f64,
+    bicgstab_iterations: usize,
+    jacobi_to_bicgstab: f64,
     energy_defect: f64,
+    /// The Jacobi's sweeps on the `--backend`'s GPU (`GpuRadiosity::jacobi`, F uploaded once,
+    /// not timed): the time of the CPU's sweeps, the device's, their ratio and agreement.
+    gpu: Option<GpuEntry>,
     peak_rss_mib: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct GpuEntry {
+    sweeps: usize,
+    median_upload_ms: f64,
+    median_cpu_sweeps_ms: f64,
+    median_gpu_sweeps_ms: f64,
+    cpu_to_gpu: f64,
+    relative_rms: f64,
 }
 
 /// A surface: positions and counter-clockwise triangles.
@@ -73,8 +92,69 @@ fn scene() -> Vec<(Mesh, [f64; 3])> {
     out
 }
 
+/// The GPU sweeps' times over the runs of one patch size.
+#[derive(Default)]
+struct GpuTimes {
+    upload: Vec<f64>,
+    cpu: Vec<f64>,
+    gpu: Vec<f64>,
+    relative_rms: f64,
+}
+
+/// Sweeps per measurement (the Jacobi's to 1e-3 on this box, about).
+const GPU_SWEEPS: usize = 10;
+
+impl GpuTimes {
+    /// Times `GPU_SWEEPS` Jacobi sweeps from nothing on the device and on the CPU (the solver's
+    /// Jacobi with that count of bounces, so one sweep fewer), and their agreement.
+    fn measure(
+        &mut self,
+        ctx: &GpuContext,
+        f: &FormFactors,
+        patches: &PatchSet,
+        albedo: &[[f64; 3]],
+        direct: &[[f64; 3]],
+        emission: &[[f64; 3]],
+    ) -> anyhow::Result<()> {
+        let n = patches.len();
+        let t = Instant::now();
+        let opaque = Opaque { albedo, direct, emission };
+        let gpu = GpuRadiosity::new(ctx, f, &opaque, &vec![false; n])?;
+        self.upload.push(ms(t));
+        let zero = vec![[0.0; 3]; n];
+        let t = Instant::now();
+        let on_device = gpu.jacobi(&zero, GPU_SWEEPS)?;
+        self.gpu.push(ms(t));
+        let options = SolveOptions { bounces: Some(GPU_SWEEPS), ..SolveOptions::default() };
+        let t = Instant::now();
+        let cpu = solve(f, patches.areas(), albedo, direct, emission, &options, &|| true)?;
+        self.cpu.push(ms(t));
+        self.relative_rms = super::stats::relative_error(&on_device, &cpu.radiosity);
+        Ok(())
+    }
+
+    fn entry(self) -> Option<GpuEntry> {
+        (!self.gpu.is_empty()).then(|| {
+            let (cpu, gpu) = (median(self.cpu), median(self.gpu));
+            GpuEntry {
+                sweeps: GPU_SWEEPS,
+                median_upload_ms: median(self.upload),
+                median_cpu_sweeps_ms: cpu,
+                median_gpu_sweeps_ms: gpu,
+                cpu_to_gpu: cpu / gpu,
+                relative_rms: self.relative_rms,
+            }
+        })
+    }
+}
+
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let light = DVec3::new(0.5 * SIDE, 0.5 * SIDE, SIDE - 10.0);
+    let context = match args.backend {
+        Backend::Cpu => Err("backend cpu: the GPU was not asked for".to_owned()),
+        Backend::Gpu => Ok(GpuContext::shared()?),
+        Backend::Auto => GpuContext::shared().map_err(|e| e.to_string()),
+    };
     let mut entries = Vec::new();
     for &h in &args.patch_sizes {
         let surfaces = scene()
@@ -101,12 +181,19 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         let emission = vec![[0.0; 3]; n];
         let (mut ff_ms, mut jacobi_ms, mut gs_ms) = (Vec::new(), Vec::new(), Vec::new());
         let (mut jacobi_sweeps, mut gs_sweeps, mut defect, mut nonzeros) = (0, 0, 0.0, 0);
+        let (mut krylov_ms, mut krylov_iterations) = (Vec::new(), 0);
+        let mut device = GpuTimes::default();
         for _ in 0..args.runs {
             let t = Instant::now();
             let f = FormFactors::gather(&patches, &FormFactorOptions::default(), &|| true)?;
             ff_ms.push(ms(t));
+            if let Ok(ctx) = &context {
+                device.measure(ctx, &f, &patches, &albedo, &direct, &emission)?;
+            }
             nonzeros = f.nonzeros();
-            for (iteration, times) in [(Iteration::Jacobi, &mut jacobi_ms), (Iteration::GaussSeidel, &mut gs_ms)] {
+            for (iteration, times) in
+                [(Iteration::Jacobi, &mut jacobi_ms), (Iteration::GaussSeidel, &mut gs_ms), (Iteration::BiCgStab, &mut krylov_ms)]
+            {
                 let options = SolveOptions { iteration, ..SolveOptions::default() };
                 let t = Instant::now();
                 let s = solve(&f, patches.areas(), &albedo, &direct, &emission, &options, &|| true)?;
@@ -114,10 +201,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                 match iteration {
                     Iteration::Jacobi => (jacobi_sweeps, defect) = (s.iterations, s.energy.defect()),
                     Iteration::GaussSeidel => gs_sweeps = s.iterations,
+                    _ => krylov_iterations = s.iterations,
                 }
             }
         }
-        let (jacobi, gs) = (median(jacobi_ms), median(gs_ms));
+        let (jacobi, gs, krylov) = (median(jacobi_ms), median(gs_ms), median(krylov_ms));
         entries.push(Entry {
             patch_size_mm: h,
             patches: n,
@@ -130,7 +218,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             median_gauss_seidel_ms: gs,
             gauss_seidel_sweeps: gs_sweeps,
             jacobi_to_gauss_seidel: jacobi / gs,
+            median_bicgstab_ms: krylov,
+            bicgstab_iterations: krylov_iterations,
+            jacobi_to_bicgstab: jacobi / krylov,
             energy_defect: defect,
+            gpu: device.entry(),
             peak_rss_mib: peak_rss_mib(),
         });
     }
@@ -140,6 +232,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "scene": "Cornell box, 200 mm, open front, diffuse 60 x 60 x 120 mm block, point light 10 mm under the ceiling",
         "rays_per_patch": FormFactorOptions::default().rays_per_patch,
         "tolerance": SolveOptions::default().tolerance,
+        "gpu_device": context.as_ref().map_or_else(|e| serde_json::json!({ "fallback": e }), |c| {
+            serde_json::json!({ "name": c.device_name(), "software": c.is_software() })
+        }),
         "threads": rayon::current_num_threads(),
         "runs": args.runs,
         "entries": entries,
