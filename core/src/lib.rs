@@ -71,7 +71,7 @@ pub use glam::DVec3;
 pub use methods::{BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 pub use progress::{Cancelled, Progress};
 pub use scene::{
-    BakeOptions, Diffuse, Material, MediumSource, Method, Object, RadiosityOptions, Scene, SceneError, Shape, Sides,
-    TransCutOptions,
+    BakeOptions, Diffuse, Material, MediumSource, Method, Object, OpticalDistance, ProfileKind, ProfileScatteringOptions,
+    RadiosityOptions, Scene, SceneError, Shape, Sides, TransCutOptions, TranslucentScattering,
 };
 pub use session::{Session, SessionError};

@@ -11,6 +11,8 @@ use crate::gpu::Backend;
 use crate::hierarchy::DipoleOptions;
 use crate::radiosity::{FormFactorOptions, SolveOptions};
 
+use super::scattering::TranslucentScattering;
+
 /// The subsurface method of a bake, with its options.
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
@@ -205,8 +207,11 @@ pub struct RadiosityOptions {
     pub form_factors: FormFactorOptions,
     /// How the radiosity is solved (tolerance on the power, iteration, bounces).
     pub solve: SolveOptions,
-    /// The tets and diffusion solves of the translucent objects.
+    /// The tets and diffusion solves of the translucent objects (with the diffusion S).
     pub transcut: TransCutOptions,
+    /// The scattering operator S of the translucent objects: their diffusion solve (default)
+    /// or a profile matrix on their surface.
+    pub scattering: TranslucentScattering,
 }
 
 impl RadiosityOptions {
@@ -222,6 +227,7 @@ impl RadiosityOptions {
         }
         self.form_factors.validate()?;
         self.solve.validate()?;
+        self.scattering.validate()?;
         self.transcut.validate().map_err(|e| format!("transcut: {e}"))
     }
 }
@@ -276,6 +282,17 @@ mod tests {
         assert!(bad(RadiosityOptions { solve, ..d() }).contains("bounces"));
         let transcut = TransCutOptions { tets: 0, ..TransCutOptions::default() };
         assert!(bad(RadiosityOptions { transcut, ..d() }).contains("radiosity: transcut: tets"));
+        let profile = |tail, distance| {
+            TranslucentScattering::Profile(super::super::ProfileScatteringOptions { tail, distance, ..Default::default() })
+        };
+        let scattering = profile(0.0, super::super::OpticalDistance::Chord);
+        assert!(bad(RadiosityOptions { scattering, ..d() }).starts_with("radiosity: scattering.tail"));
+        let voxels = super::super::OpticalDistance::Interior { voxel_mm: Some(-1.0), any_angle: true };
+        assert!(bad(RadiosityOptions { scattering: profile(1e-3, voxels), ..d() }).contains("scattering.voxel_mm"));
+        for name in TranslucentScattering::NAMES {
+            assert_eq!(TranslucentScattering::from_name(name).unwrap().name(), *name);
+        }
+        assert_eq!(TranslucentScattering::from_name("nonsense"), None);
         assert_eq!(Method::Radiosity(d()).validate(), Ok(()));
     }
 }

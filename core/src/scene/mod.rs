@@ -10,12 +10,14 @@ mod material;
 mod method;
 mod object;
 mod options;
+mod scattering;
 
 pub use error::SceneError;
 pub use material::{Diffuse, Material, Sides};
 pub use method::{Method, RadiosityOptions, TransCutOptions};
 pub use object::{MediumSource, Object, Shape};
 pub use options::BakeOptions;
+pub use scattering::{OpticalDistance, ProfileKind, ProfileScatteringOptions, TranslucentScattering};
 
 use crate::light::{self, Light};
 

@@ -3,7 +3,9 @@
 //!
 //! 1. every translucent object is prepared as TransCut prepares it (tets, media, the matrix M),
 //!    and its patches are its tet mesh's boundary vertices, so its scattering S is its own
-//!    diffusion solve ([`scattering::DiffusionScattering`]: q → φ → B = (φ − 2q)/(2A));
+//!    diffusion solve ([`scattering::DiffusionScattering`]: q → φ → B = (φ − 2q)/(2A)); or, with
+//!    [`crate::TranslucentScattering::Profile`], its surface is refined to the patch size as an
+//!    opaque one's and S is a profile matrix on it ([`profile_object`], eq. 8: no tets);
 //! 2. every opaque diffuse object's surface is refined to the patch size, keeping its vertices;
 //! 3. the form factors between all patches, with visibility ([`crate::radiosity::FormFactors`]);
 //! 4. the direct light: q_d transmitted into translucent patches exactly as TransCut computes
@@ -11,9 +13,12 @@
 //! 5. B = S(q_d + tFB) on translucent patches, B = ρ(E_d + FB) + M on opaque ones
 //!    ([`crate::radiosity::solve_coupled`]);
 //! 6. the radiance: a translucent object's is TransCut's eq. 3 from its last solve (the one
-//!    whose exitance is in B), so with one bounce it is its TransCut bake; an opaque object's
-//!    is Lo = B/π at its vertices (design §1.2).
+//!    whose exitance is in B), so with one bounce it is its TransCut bake; a profile object's
+//!    is Lo = T(η, 0)/(π η² (1 − Fdr))·B, an opaque object's Lo = B/π, at their vertices
+//!    (design §1.2).
 
+mod profile_object;
+mod scatterer;
 mod scattering;
 mod session;
 mod surfaces;
@@ -54,6 +59,12 @@ pub struct RadiosityStats {
     pub prepare_ms: f64,
     /// Building the patches (refinement, dual cells, the BVH).
     pub patches_ms: f64,
+    /// Building the profile matrices (distances, samples, values); 0 with the diffusion S.
+    pub scattering_ms: f64,
+    /// Nonzero entries of the profile matrices (0 with the diffusion S).
+    pub scattering_nonzeros: usize,
+    /// Memory of the profile matrices and their re-indexing samples.
+    pub scattering_bytes: usize,
     /// Casting and symmetrising the form factors.
     pub form_factor_ms: f64,
     /// The direct light on every patch.
@@ -75,13 +86,13 @@ pub struct RadiosityStats {
 #[non_exhaustive]
 pub struct RadiosityObject {
     /// The translucent object's TransCut state (tet mesh, media, fluence of its last solve);
-    /// `None` for an opaque one.
+    /// `None` for an opaque one and for one scattered by a profile matrix (it has no tets).
     pub transcut: Option<TransCutState>,
     /// The opaque surface; `None` for a translucent object.
     pub diffuse: Option<Diffuse>,
     /// The surface the patches are on, world space: the refined mesh of an opaque object, the
-    /// tet mesh's boundary of a translucent one (so that a renderer can draw a two-triangle wall
-    /// with its colour bleeding).
+    /// tet mesh's boundary of a translucent one (its refined surface with a profile S), so that a
+    /// renderer can draw a two-triangle wall with its colour bleeding.
     pub patch_positions: Vec<DVec3>,
     pub patch_triangles: Vec<[u32; 3]>,
     /// Lo(x, n) at each vertex of the patch surface, its front side.

@@ -23,19 +23,21 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+use super::profile_object::{homogeneous_medium, ProfileObject};
+use super::scatterer::{Operator, Scatterer};
 use super::scattering::DiffusionScattering;
 use super::surfaces::{patch_surface, PatchSurface};
 use super::{common_scale, fill_covered, object_stats, scene_diagonal, surface_patches, RadiosityObject, RadiosityStats, NAME};
 use crate::light::{self, Light};
 use crate::mesh::{TriMesh, TriangleBvh};
-use crate::methods::transcut::{Prepared, TransCut};
+use crate::methods::transcut::TransCut;
 use crate::methods::{
     check_radiance, targets, world_surfaces, BakedState, Lighting, ObjectBake, ObjectStats, SubsurfaceMethod, Target,
 };
 use crate::optics::fresnel::f_ext;
 use crate::progress::{ms, Cancelled, Progress};
 use crate::radiosity::{solve_coupled, FormFactors, Opaque, PatchSet, Solution, SolveOptions, Translucent};
-use crate::scene::{BakeOptions, Diffuse, MediumSource, Object, RadiosityOptions, Scene, SceneError};
+use crate::scene::{BakeOptions, Diffuse, MediumSource, Object, RadiosityOptions, Scene, SceneError, TranslucentScattering};
 
 /// One translucent object's share of a solution: the source q of its last diffusion solve and
 /// the fluence φ it gave.
@@ -158,7 +160,7 @@ pub struct RadiositySession {
     fixed: Fixed,
     /// Each translucent object's tets and assembled system (`None` for an opaque object); its
     /// source and fluence are scratch, set before each use.
-    prepared: Vec<Option<Prepared>>,
+    scatterers: Vec<Option<Scatterer>>,
     object_stats: Vec<ObjectStats>,
     /// ρ and M per patch (0 on translucent patches).
     albedo: Vec<[f64; 3]>,
@@ -201,28 +203,33 @@ impl RadiositySession {
         let world = world_surfaces(scene)?;
         let targets = targets(scene, &world);
         let mm_per_unit = common_scale(&targets)?;
-        for target in &targets {
-            if target.object.medium().is_some() {
-                TransCut::check(target, &radiosity.transcut)?;
+        let profile = match radiosity.scattering {
+            TranslucentScattering::Profile(p) => Some(p),
+            _ => None,
+        };
+        for target in targets.iter().filter(|t| t.object.medium().is_some()) {
+            match profile {
+                None => TransCut::check(target, &radiosity.transcut)?,
+                Some(_) => drop(homogeneous_medium(target, target.object.medium())?),
             }
         }
         let furthest = std::sync::Mutex::new(0.0f64);
         let report = |stage: &str, fraction: f64| super::report(&progress, &furthest, stage, fraction);
 
-        // 1. The translucent objects, prepared as TransCut prepares them.
+        // 1. The translucent objects of the diffusion S, prepared as TransCut prepares them.
         let t = Instant::now();
         let mut object_stats: Vec<ObjectStats> = targets.iter().map(object_stats).collect();
-        let mut prepared: Vec<Option<Prepared>> = Vec::with_capacity(targets.len());
+        let mut scatterers: Vec<Option<Scatterer>> = Vec::with_capacity(targets.len());
         for (target, stats) in targets.iter().zip(&mut object_stats) {
-            prepared.push(match target.object.medium() {
-                Some(_) => {
+            scatterers.push(match (target.object.medium(), profile) {
+                (Some(_), None) => {
                     let stage = |s: &str, f: f64| report(&format!("{}: {s}", target.object.name), 0.3 * f);
                     let t = Instant::now();
                     let p = TransCut::prepare(target, &radiosity.transcut, stats, &stage)?;
                     stats.total_ms += ms(t);
-                    Some(p)
+                    Some(Scatterer::Diffusion(p))
                 }
-                None => None,
+                _ => None,
             });
         }
         let prepare_ms = ms(t);
@@ -233,11 +240,30 @@ impl RadiositySession {
         let patch_size_mm = radiosity.patch_size_mm.unwrap_or_else(|| scene_diagonal(&world) * mm_per_unit / 80.0);
         let surfaces: Vec<PatchSurface> = targets
             .iter()
-            .zip(&prepared)
-            .map(|(target, p)| patch_surface(target, p.as_ref(), patch_size_mm / mm_per_unit))
+            .zip(&scatterers)
+            .map(|(target, p)| patch_surface(target, p.as_ref().and_then(Scatterer::prepared), patch_size_mm / mm_per_unit))
             .collect::<Result<_, _>>()?;
         let patches = PatchSet::new(&surfaces.iter().map(PatchSurface::as_surface).collect::<Vec<_>>())?;
         let patches_ms = ms(t);
+
+        // 2b. The profile matrices of the translucent objects of the profile S, on those patches.
+        let t = Instant::now();
+        if let Some(profile) = profile {
+            for ((target, surface), (slot, stats)) in
+                targets.iter().zip(&surfaces).zip(scatterers.iter_mut().zip(&mut object_stats))
+            {
+                if target.object.medium().is_some() {
+                    report(&format!("{}: profile matrix", target.object.name), 0.3)?;
+                    let t = Instant::now();
+                    *slot = Some(Scatterer::Profile(ProfileObject::build(target, surface, mm_per_unit, &profile)?));
+                    stats.total_ms += ms(t);
+                }
+            }
+        }
+        let scattering_ms = ms(t);
+        let profiles: Vec<&ProfileObject> = scatterers.iter().flatten().filter_map(Scatterer::profile).collect();
+        let (scattering_nonzeros, scattering_bytes) =
+            (profiles.iter().map(|o| o.nonzeros()).sum(), profiles.iter().map(|o| o.bytes()).sum());
 
         // 3. The form factors.
         let t = Instant::now();
@@ -271,6 +297,9 @@ impl RadiositySession {
             patch_size_mm,
             prepare_ms,
             patches_ms,
+            scattering_ms,
+            scattering_nonzeros,
+            scattering_bytes,
             form_factor_ms,
             direct_ms: 0.0,
             solve_ms: 0.0,
@@ -295,15 +324,15 @@ impl RadiositySession {
         // 4. The direct light and 5. the coupled solve, 6. the radiance.
         report("radiosity: light", 0.6)?;
         let t = Instant::now();
-        let direct = fixed.direct(&prepared, &scene.lights)?;
+        let direct = fixed.direct(&scatterers, &scene.lights)?;
         let direct_ms = ms(t);
         let t = Instant::now();
         let poll = |f: f64| report("radiosity: solve", 0.65 + 0.33 * f);
-        let (current, solution) = fixed.solve(&mut prepared, &mut object_stats, &albedo, &emission, &direct, None, &poll)?;
+        let (current, solution) = fixed.solve(&mut scatterers, &mut object_stats, &albedo, &emission, &direct, None, &poll)?;
         let solve_ms = ms(t);
         let mut session = Self {
             fixed,
-            prepared,
+            scatterers,
             object_stats,
             albedo,
             emission,
@@ -383,19 +412,19 @@ impl RadiositySession {
     /// [`SceneError::Diffusion`] for a non-finite fluence (cannot happen after a successful
     /// update).
     pub fn object_bakes(&self) -> Result<Vec<ObjectBake>, SceneError> {
-        let mut prepared = self.prepared.clone();
         let mut out = Vec::with_capacity(self.len());
-        for (s, ((p, output), stats)) in prepared.iter_mut().zip(&self.outputs).zip(&self.object_stats).enumerate() {
+        for (s, ((p, output), stats)) in self.scatterers.iter().zip(&self.outputs).zip(&self.object_stats).enumerate() {
             let surface = &self.fixed.surfaces[s];
             let state = RadiosityObject {
                 patch_positions: surface.positions.clone(),
                 patch_triangles: surface.triangles.clone(),
                 patch_radiance: output.patch_radiance.clone(),
                 back_radiance: output.back_radiance.clone(),
-                eta: p.as_ref().map_or(1.0, |p| p.system().boundary_terms().eta),
+                eta: p.as_ref().map_or(1.0, Scatterer::eta),
                 diffuse: self.fixed.objects[s].material.diffuse().copied(),
-                transcut: match (p.take(), &self.current.fields[s]) {
-                    (Some(mut p), Some(field)) => {
+                transcut: match (p.as_ref().and_then(Scatterer::prepared), &self.current.fields[s]) {
+                    (Some(p), Some(field)) => {
+                        let mut p = p.clone();
                         p.set_solution(&field.source, field.fluence.clone()).map_err(|e| self.diffusion_error(s, e))?;
                         Some(p.into_state())
                     }
@@ -434,25 +463,25 @@ impl RadiositySession {
         let missing: Vec<&Source> = sources.iter().filter(|s| !self.responses.iter().any(|(c, _)| c == *s)).collect();
         let mut update = RadiosityUpdate::new();
         let mut fresh: Vec<(Source, Response)> = Vec::new();
-        let mut scratch = self.prepared.clone();
         let mut stats = self.object_stats.clone();
         let count = missing.len();
         for (k, &source) in missing.iter().enumerate() {
             let poll = |f: f64| progress.report("radiosity: solve", (k as f64 + f) / count as f64);
             let t = Instant::now();
             let direct = match source {
-                Source::Light(unit) => self.fixed.direct(&scratch, std::slice::from_ref(unit))?,
-                Source::Emission => self.fixed.no_direct(&scratch),
+                Source::Light(unit) => self.fixed.direct(&self.scatterers, std::slice::from_ref(unit))?,
+                Source::Emission => self.fixed.no_direct(&self.scatterers),
             };
             update.direct_ms += ms(t);
             let emission = match source {
                 Source::Light(_) => vec![[0.0; 3]; self.albedo.len()],
                 Source::Emission => self.emission.clone(),
             };
-            let initial = self.warm_start(source, lights);
+            let bounces = self.fixed.radiosity.solve.bounces;
+            let initial = warm_start(&self.responses, &self.lights, bounces, source, lights);
             let t = Instant::now();
             let (response, solution) =
-                self.fixed.solve(&mut scratch, &mut stats, &self.albedo, &emission, &direct, initial, &poll)?;
+                self.fixed.solve(&mut self.scatterers, &mut stats, &self.albedo, &emission, &direct, initial, &poll)?;
             update.solve_ms += ms(t);
             update.add(&solution);
             fresh.push((source.clone(), response));
@@ -472,14 +501,13 @@ impl RadiositySession {
         if self.emits() {
             current.add_scaled([1.0; 3], find(&Source::Emission));
         }
-        let outputs = self.fixed.outputs(&mut scratch, &current, &mut stats)?;
+        let outputs = self.fixed.outputs(&mut self.scatterers, &current, &mut stats)?;
         progress.report("radiosity: done", 1.0)?;
         // Commit: keep the responses the new lights use.
         let kept: Vec<(Source, Response)> =
             std::mem::take(&mut self.responses).into_iter().filter(|(s, _)| sources.contains(s)).collect();
         self.responses = fresh;
         self.responses.extend(kept);
-        self.prepared = scratch;
         self.object_stats = stats;
         self.lights = lights.to_vec();
         self.current = current;
@@ -510,8 +538,10 @@ impl RadiositySession {
         self.set_diffuse(index, diffuse, progress)
     }
 
-    /// Puts `medium` on translucent object `index`'s tets (the mesh kept), assembles its
-    /// system again and re-solves.
+    /// Puts `medium` on translucent object `index` and re-solves: on its tets (the mesh kept),
+    /// its system assembled again, with the diffusion S; its profiles (S re-indexed from its
+    /// samples, or built afresh when they reach further, η and Fresnel with them) with a
+    /// profile S.
     ///
     /// # Errors
     /// [`SceneError::InvalidObject`] for an opaque object; the medium's, the resolution check's
@@ -519,16 +549,16 @@ impl RadiositySession {
     pub fn set_medium(&mut self, index: usize, medium: MediumSource, progress: Progress) -> Result<RadiosityUpdate, SceneError> {
         let start = Instant::now();
         let target = self.target(index)?;
-        let prepared = self.prepared[index]
-            .as_ref()
-            .ok_or_else(|| target.invalid("it is an opaque diffuse surface: set its albedo or emission, not a medium"))?;
         let mut stats = self.object_stats.clone();
-        let changed = prepared.with_medium(&target, &medium, &mut stats[index])?;
-        let mut scratch = self.prepared.clone();
-        scratch[index] = Some(changed);
+        let changed = match &self.scatterers[index] {
+            Some(Scatterer::Diffusion(p)) => Scatterer::Diffusion(p.with_medium(&target, &medium, &mut stats[index])?),
+            Some(Scatterer::Profile(o)) => Scatterer::Profile(o.with_medium(&target, &medium)?),
+            None => return Err(target.invalid("it is an opaque diffuse surface: set its albedo or emission, not a medium")),
+        };
         let mut objects = self.fixed.objects.clone();
         objects[index].material = medium.into();
-        self.resolve(scratch, stats, self.albedo.clone(), self.emission.clone(), Some(objects), true, start, progress)
+        let change = Change { scatterers: Some((index, changed)), albedo: None, emission: None, objects: Some(objects) };
+        self.resolve(change, stats, true, start, progress)
     }
 
     /// Solves the scene again from nothing with `solve` (another iteration, tolerance, sweep
@@ -542,9 +572,7 @@ impl RadiositySession {
         let start = Instant::now();
         solve.validate().map_err(|e| SceneError::InvalidOptions(format!("{NAME}: {e}")))?;
         let old = std::mem::replace(&mut self.fixed.radiosity.solve, solve);
-        let (prepared, stats) = (self.prepared.clone(), self.object_stats.clone());
-        let (albedo, emission) = (self.albedo.clone(), self.emission.clone());
-        let result = self.resolve(prepared, stats, albedo, emission, None, false, start, progress);
+        let result = self.resolve(Change::default(), self.object_stats.clone(), false, start, progress);
         if result.is_err() {
             self.fixed.radiosity.solve = old;
         }
@@ -580,50 +608,76 @@ impl RadiositySession {
         }
         let mut objects = self.fixed.objects.clone();
         objects[index].material = diffuse.into();
-        self.resolve(self.prepared.clone(), self.object_stats.clone(), albedo, emission, Some(objects), true, start, progress)
+        let change = Change { scatterers: None, albedo: Some(albedo), emission: Some(emission), objects: Some(objects) };
+        self.resolve(change, self.object_stats.clone(), true, start, progress)
     }
 
-    /// Solves the scene under its lights with new materials (`prepared`, `albedo`, `emission`,
-    /// `objects`), warm-started from the current solution when `warm`, and commits it: the responses are
-    /// dropped (they were of the old materials) and kept again when there is one source.
-    #[allow(clippy::too_many_arguments)]
+    /// Solves the scene under its lights with `change` made, warm-started from the current
+    /// solution when `warm`, and commits it: the responses are dropped (they were of the old
+    /// materials) and kept again when there is one source. On failure the change is undone.
     fn resolve(
         &mut self,
-        mut prepared: Vec<Option<Prepared>>,
+        mut change: Change,
         mut stats: Vec<ObjectStats>,
-        albedo: Vec<[f64; 3]>,
-        emission: Vec<[f64; 3]>,
-        objects: Option<Vec<Object>>,
         warm: bool,
         start: Instant,
         progress: Progress,
     ) -> Result<RadiosityUpdate, SceneError> {
+        // The new system in place, the old one kept to put back on failure.
+        let replaced = change.scatterers.take().map(|(index, p)| (index, self.scatterers[index].replace(p)));
+        let result = self.resolve_changed(&change, &mut stats, warm, progress);
+        match result {
+            Ok((current, outputs, mut update)) => {
+                if let Some(albedo) = change.albedo {
+                    self.albedo = albedo;
+                }
+                if let Some(emission) = change.emission {
+                    self.emission = emission;
+                }
+                if let Some(objects) = change.objects {
+                    self.fixed.objects = objects;
+                }
+                self.object_stats = stats;
+                self.current = current;
+                self.outputs = outputs;
+                self.responses.clear();
+                self.cache_single_source();
+                update.total_ms = ms(start);
+                self.record_update(&update);
+                Ok(update)
+            }
+            Err(e) => {
+                if let Some((index, old)) = replaced {
+                    self.scatterers[index] = old;
+                }
+                Err(e)
+            }
+        }
+    }
+
+    /// The solve of [`RadiositySession::resolve`], with the new system already in place.
+    fn resolve_changed(
+        &mut self,
+        change: &Change,
+        stats: &mut [ObjectStats],
+        warm: bool,
+        progress: Progress,
+    ) -> Result<(Response, Vec<Output>, RadiosityUpdate), SceneError> {
+        let albedo = change.albedo.as_ref().unwrap_or(&self.albedo);
+        let emission = change.emission.as_ref().unwrap_or(&self.emission);
         let mut update = RadiosityUpdate::new();
         let t = Instant::now();
-        let direct = self.fixed.direct(&prepared, &self.lights)?;
+        let direct = self.fixed.direct(&self.scatterers, &self.lights)?;
         update.direct_ms = ms(t);
         let poll = |f: f64| progress.report("radiosity: solve", f);
         let t = Instant::now();
         let initial = (warm && self.fixed.radiosity.solve.bounces.is_none()).then_some(&self.current);
-        let (current, solution) = self.fixed.solve(&mut prepared, &mut stats, &albedo, &emission, &direct, initial, &poll)?;
+        let (current, solution) = self.fixed.solve(&mut self.scatterers, stats, albedo, emission, &direct, initial, &poll)?;
         update.solve_ms = ms(t);
         update.add(&solution);
-        let outputs = self.fixed.outputs(&mut prepared, &current, &mut stats)?;
+        let outputs = self.fixed.outputs(&mut self.scatterers, &current, stats)?;
         progress.report("radiosity: done", 1.0)?;
-        self.prepared = prepared;
-        self.object_stats = stats;
-        self.albedo = albedo;
-        self.emission = emission;
-        if let Some(objects) = objects {
-            self.fixed.objects = objects;
-        }
-        self.current = current;
-        self.outputs = outputs;
-        self.responses.clear();
-        self.cache_single_source();
-        update.total_ms = ms(start);
-        self.record_update(&update);
-        Ok(update)
+        Ok((current, outputs, update))
     }
 
     /// Keeps the current solution as the one response when the scene has a single source
@@ -646,19 +700,6 @@ impl RadiositySession {
         self.emission.iter().any(|e| e.iter().any(|&x| x > 0.0))
     }
 
-    /// Where the solve of `source` starts: the response of the light that had its place in the
-    /// last lights (a light being moved), none for a light without one, or when the options
-    /// ask for a count of bounces.
-    fn warm_start(&self, source: &Source, lights: &[Light]) -> Option<&Response> {
-        if self.fixed.radiosity.solve.bounces.is_some() {
-            return None;
-        }
-        let Source::Light(unit) = source else { return None };
-        let place = lights.iter().position(|l| &l.split_strength().0 == unit)?;
-        let before = Source::Light(self.lights.get(place)?.split_strength().0);
-        self.responses.iter().find(|(s, _)| *s == before).map(|(_, r)| r)
-    }
-
     /// Object `index` as a target.
     fn target(&self, index: usize) -> Result<Target<'_>, SceneError> {
         let count = self.len();
@@ -674,7 +715,7 @@ impl RadiositySession {
 
     /// The outputs of the current solution.
     fn outputs(&mut self) -> Result<Vec<Output>, SceneError> {
-        self.fixed.outputs(&mut self.prepared, &self.current, &mut self.object_stats)
+        self.fixed.outputs(&mut self.scatterers, &self.current, &mut self.object_stats)
     }
 
     /// The bake's statistics of the last solve.
@@ -698,6 +739,35 @@ impl RadiositySession {
             self.stats.energy_defect = update.energy_defect;
         }
     }
+}
+
+/// What a material change replaces: one translucent object's system, the albedo and emission
+/// per patch, the objects as described.
+#[derive(Default)]
+struct Change {
+    scatterers: Option<(usize, Scatterer)>,
+    albedo: Option<Vec<[f64; 3]>>,
+    emission: Option<Vec<[f64; 3]>>,
+    objects: Option<Vec<Object>>,
+}
+
+/// Where the solve of `source` starts: the response (among `responses`) of the light that had
+/// its place in the last lights `before` (a light being moved); none for a light without one,
+/// for the emission, or for a count of bounces (which starts from no light).
+fn warm_start<'a>(
+    responses: &'a [(Source, Response)],
+    before: &[Light],
+    bounces: Option<usize>,
+    source: &Source,
+    lights: &[Light],
+) -> Option<&'a Response> {
+    if bounces.is_some() {
+        return None;
+    }
+    let Source::Light(unit) = source else { return None };
+    let place = lights.iter().position(|l| &l.split_strength().0 == unit)?;
+    let old = Source::Light(before.get(place)?.split_strength().0);
+    responses.iter().find(|(s, _)| *s == old).map(|(_, r)| r)
 }
 
 impl RadiosityUpdate {
@@ -725,25 +795,26 @@ impl RadiosityUpdate {
 }
 
 impl Fixed {
-    /// Every object's radiance for the solution `response` (set into `prepared` to read the
+    /// Every object's radiance for the solution `response` (set into `scatterers` to read the
     /// translucent objects'), checked as a bake's (clamped vertices counted into `stats`).
     fn outputs(
         &self,
-        prepared: &mut [Option<Prepared>],
+        scatterers: &mut [Option<Scatterer>],
         response: &Response,
         stats: &mut [ObjectStats],
     ) -> Result<Vec<Output>, SceneError> {
         let fixed = self;
         let b = fill_covered(&fixed.patches, &fixed.surfaces, fixed.factors.covered(), &response.radiosity);
         let mut out = Vec::with_capacity(fixed.objects.len());
-        for (s, (p, stats)) in prepared.iter_mut().zip(stats.iter_mut()).enumerate() {
+        for (s, (p, stats)) in scatterers.iter_mut().zip(stats.iter_mut()).enumerate() {
             let target = Target { index: s, object: &fixed.objects[s], world: &fixed.world[s] };
             let surface = &fixed.surfaces[s];
             let side = |back: bool| -> Option<Vec<[f64; 3]>> {
                 (0..surface.vertex_count()).map(|v| fixed.patches.patch_of(s, v, back).map(|i| b[i])).collect()
             };
-            let output = match (p, &response.fields[s]) {
-                (Some(p), Some(field)) => {
+            let front = side(false).expect("front patches");
+            let output = match (p.as_mut(), &response.fields[s]) {
+                (Some(Scatterer::Diffusion(p)), Some(field)) => {
                     p.set_solution(&field.source, field.fluence.clone()).map_err(|source| SceneError::Diffusion {
                         index: s,
                         name: target.object.name.clone(),
@@ -753,16 +824,16 @@ impl Fixed {
                     let lo = p.boundary_radiance(&target)?.into_iter().map(|l| l.map(|x| x.max(0.0))).collect();
                     Output { radiance, patch_radiance: lo, back_radiance: None }
                 }
+                (Some(Scatterer::Profile(o)), _) => {
+                    let (front, clamped) = o.radiance(&front);
+                    stats.clamped_vertices = target.world.user_to_internal().iter().filter(|&&v| clamped[v as usize]).count();
+                    surface_output(&target, surface, front, None, stats)
+                }
                 _ => {
                     let to_radiance = |b: Vec<[f64; 3]>| -> Vec<[f64; 3]> {
                         b.into_iter().map(|x| x.map(|x| (x / std::f64::consts::PI).max(0.0))).collect()
                     };
-                    let front = to_radiance(side(false).expect("front patches"));
-                    let back = side(true).map(to_radiance);
-                    let radiance = target.world.user_to_internal().iter().map(|&v| front[v as usize]).collect();
-                    stats.boundary_vertices = surface.vertex_count();
-                    stats.vertices = surface.vertex_count();
-                    Output { radiance, patch_radiance: front, back_radiance: back }
+                    surface_output(&target, surface, to_radiance(front), side(true).map(to_radiance), stats)
                 }
             };
             check_radiance(&target, NAME, &output.radiance)?;
@@ -772,18 +843,18 @@ impl Fixed {
     }
 
     /// The direct light of `lights` on every patch, shadowed by every object when shadows are on.
-    fn direct(&self, prepared: &[Option<Prepared>], lights: &[Light]) -> Result<Direct, SceneError> {
+    fn direct(&self, scatterers: &[Option<Scatterer>], lights: &[Light]) -> Result<Direct, SceneError> {
         let lighting = Lighting { lights, occluder: self.occluder.as_ref(), source: &self.options.source };
         let n = self.patches.len();
         let mut opaque_patches = Vec::new();
-        let mut transmitted = Vec::with_capacity(prepared.len());
-        for (s, p) in prepared.iter().enumerate() {
+        let mut transmitted = Vec::with_capacity(scatterers.len());
+        for (s, p) in scatterers.iter().enumerate() {
             match p {
                 None => {
                     opaque_patches.extend(surface_patches(&self.patches, s, self.surfaces[s].vertex_count()));
                     transmitted.push(None);
                 }
-                Some(p) => {
+                Some(Scatterer::Diffusion(p)) => {
                     let boundary = p.system().boundary();
                     let points: Vec<DVec3> = boundary.ids.iter().map(|&v| p.tet_mesh().positions()[v as usize]).collect();
                     transmitted.push(Some(lighting.transmitted_source(
@@ -791,6 +862,11 @@ impl Fixed {
                         &boundary.normal,
                         p.system().boundary_terms().eta,
                     )?));
+                }
+                Some(Scatterer::Profile(o)) => {
+                    let range = self.patches.front_range(s);
+                    let (points, normals) = (&self.patches.positions()[range.clone()], &self.patches.normals()[range]);
+                    transmitted.push(Some(lighting.transmitted_source(points, normals, o.eta())?));
                 }
             }
         }
@@ -805,10 +881,10 @@ impl Fixed {
     }
 
     /// No direct light (the emission's response).
-    fn no_direct(&self, prepared: &[Option<Prepared>]) -> Direct {
+    fn no_direct(&self, scatterers: &[Option<Scatterer>]) -> Direct {
         Direct {
             opaque: vec![[0.0; 3]; self.patches.len()],
-            transmitted: prepared.iter().map(|p| p.as_ref().map(|p| vec![[0.0; 3]; p.system().boundary().len()])).collect(),
+            transmitted: scatterers.iter().map(|p| p.as_ref().map(|p| vec![[0.0; 3]; p.patch_count()])).collect(),
         }
     }
 
@@ -817,7 +893,7 @@ impl Fixed {
     #[allow(clippy::too_many_arguments)]
     fn solve(
         &self,
-        prepared: &mut [Option<Prepared>],
+        scatterers: &mut [Option<Scatterer>],
         stats: &mut [ObjectStats],
         albedo: &[[f64; 3]],
         emission: &[[f64; 3]],
@@ -828,8 +904,8 @@ impl Fixed {
         let targets: Vec<Target<'_>> =
             (0..self.objects.len()).map(|s| Target { index: s, object: &self.objects[s], world: &self.world[s] }).collect();
         if let Some(initial) = initial {
-            for (s, (p, field)) in prepared.iter_mut().zip(&initial.fields).enumerate() {
-                if let (Some(p), Some(field)) = (p, field) {
+            for (s, (p, field)) in scatterers.iter_mut().zip(&initial.fields).enumerate() {
+                if let (Some(p), Some(field)) = (p.as_mut().and_then(Scatterer::prepared_mut), field) {
                     p.set_solution(&field.source, field.fluence.clone()).map_err(|source| SceneError::Diffusion {
                         index: s,
                         name: self.objects[s].name.clone(),
@@ -838,17 +914,22 @@ impl Fixed {
                 }
             }
         }
-        let mut operators: Vec<(usize, DiffusionScattering<'_>)> = Vec::new();
-        for (s, ((target, p), stats)) in targets.iter().zip(prepared.iter_mut()).zip(stats.iter_mut()).enumerate() {
-            if let Some(p) = p.as_mut() {
-                operators.push((s, DiffusionScattering::new(p, target, &self.radiosity.transcut, stats, poll)));
+        let mut operators: Vec<(usize, f64, Operator<'_>)> = Vec::new();
+        for (s, ((target, p), stats)) in targets.iter().zip(scatterers.iter_mut()).zip(stats.iter_mut()).enumerate() {
+            match p.as_mut() {
+                Some(Scatterer::Diffusion(p)) => {
+                    let op = DiffusionScattering::new(p, target, &self.radiosity.transcut, stats, poll);
+                    operators.push((s, 1.0 - f_ext(op.eta()), Operator::Diffusion(op)));
+                }
+                Some(Scatterer::Profile(o)) => operators.push((s, o.transmittance(), Operator::Profile(o.operator()))),
+                None => {}
             }
         }
         let mut blocks: Vec<Translucent<'_, SceneError>> = operators
             .iter_mut()
-            .map(|(s, op)| Translucent {
+            .map(|(s, transmittance, op)| Translucent {
                 first: self.patches.patch_of(*s, 0, false).expect("every surface has front patches"),
-                transmittance: 1.0 - f_ext(op.eta()),
+                transmittance: *transmittance,
                 direct: direct.transmitted[*s].as_deref().expect("a translucent object's q_d"),
                 scattering: op,
             })
@@ -871,10 +952,29 @@ impl Fixed {
         )?;
         drop(blocks);
         drop(operators);
-        let fields = prepared
+        let fields = scatterers
             .iter()
-            .map(|p| p.as_ref().map(|p| Field { source: p.system().source().to_vec(), fluence: p.fluence().to_vec() }))
+            .map(|p| {
+                p.as_ref()
+                    .and_then(Scatterer::prepared)
+                    .map(|p| Field { source: p.system().source().to_vec(), fluence: p.fluence().to_vec() })
+            })
             .collect();
         Ok((Response { radiosity: solution.radiosity.clone(), fields }, solution))
     }
+}
+
+/// The output of an object whose patches are its refined surface: Lo per patch `front` (and
+/// `back`) and, at the user's vertices (the refinement keeps them first), their front values.
+fn surface_output(
+    target: &Target<'_>,
+    surface: &PatchSurface,
+    front: Vec<[f64; 3]>,
+    back: Option<Vec<[f64; 3]>>,
+    stats: &mut ObjectStats,
+) -> Output {
+    let radiance = target.world.user_to_internal().iter().map(|&v| front[v as usize]).collect();
+    stats.boundary_vertices = surface.vertex_count();
+    stats.vertices = surface.vertex_count();
+    Output { radiance, patch_radiance: front, back_radiance: back }
 }

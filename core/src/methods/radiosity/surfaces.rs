@@ -1,7 +1,9 @@
 //! The surface each object's patches lie on (design/radiosity.md §1.3): a translucent object's
 //! tet-mesh boundary, its vertices in the order of the diffusion system's boundary (so patch k
 //! of the object is boundary vertex k, where q and B live); an opaque object's world surface
-//! refined to the patch size, its vertices first in their welded order, facing as its sides say.
+//! refined to the patch size, its vertices first in their welded order, facing as its sides say;
+//! a translucent object scattered by a profile, its world surface refined likewise, one-sided,
+//! facing out.
 
 use glam::DVec3;
 
@@ -29,8 +31,9 @@ impl PatchSurface {
     }
 }
 
-/// The patch surface of `target`: from its prepared tets when translucent, else its world
-/// surface refined to edges of at most `max_edge` scene units.
+/// The patch surface of `target`: from its prepared tets when it has them, else its world
+/// surface refined to edges of at most `max_edge` scene units (one-sided, front out, for a
+/// translucent object).
 ///
 /// # Errors
 /// [`SceneError::InvalidObject`] when the refinement refuses (too fine a patch size).
@@ -45,7 +48,7 @@ pub(super) fn patch_surface(target: &Target<'_>, prepared: Option<&Prepared>, ma
         let triangles = p.tet_mesh().boundary_faces().iter().map(|f| f.vertices.map(|v| index[v as usize])).collect();
         return Ok(PatchSurface { positions, triangles, two_sided: false });
     }
-    let diffuse = target.object.material.diffuse().ok_or_else(|| target.invalid("a translucent object was not prepared"))?;
+    let sides = target.object.material.diffuse().map_or(Sides::Front, |d| d.sides);
     let world = target.world;
     let (positions, mut triangles) = refine_to_edge_length(world.positions(), world.triangles(), max_edge).map_err(|e| {
         let message = match e {
@@ -54,10 +57,10 @@ pub(super) fn patch_surface(target: &Target<'_>, prepared: Option<&Prepared>, ma
         };
         target.invalid(format!("patches: {message}"))
     })?;
-    if diffuse.sides == Sides::Back {
+    if sides == Sides::Back {
         for t in &mut triangles {
             t.swap(1, 2);
         }
     }
-    Ok(PatchSurface { positions, triangles, two_sided: diffuse.sides == Sides::Both })
+    Ok(PatchSurface { positions, triangles, two_sided: sides == Sides::Both })
 }
