@@ -49,6 +49,18 @@ fn the_radiosity_suite_reports_every_patch_size() {
         for key in ["median_form_factor_ms", "median_prepare_ms", "median_recolour_ms", "median_albedo_ms"] {
             assert!(e[key].as_f64().unwrap() > 0.0, "{key}: {e}");
         }
+        // The profile S beside it: the same patches but the block's (its surface refined, no
+        // tets), a matrix of at most one entry per pair, 44 bytes an entry plus 8 a sample.
+        let p = &e["profile"];
+        let (translucent, nonzeros) = (p["translucent_patches"].as_u64().unwrap(), p["nonzeros"].as_u64().unwrap());
+        assert!(translucent > 0 && nonzeros >= translucent && nonzeros <= translucent * translucent, "{p}");
+        assert!(p["matrix_mib"].as_f64().unwrap() * 1024.0 * 1024.0 >= 44.0 * nonzeros as f64, "{p}");
+        assert_eq!(p["patches"].as_u64().unwrap() - translucent, patches - e["translucent_patches"].as_u64().unwrap(), "{p}");
+        assert!(p["relight_sweeps"].as_u64().unwrap() <= p["solve_sweeps"].as_u64().unwrap(), "{p}");
+        assert!(p["energy_defect"].as_f64().unwrap() < 1e-2, "{p}");
+        for key in ["median_build_ms", "median_solve_ms", "median_relight_ms", "median_medium_ms"] {
+            assert!(p[key].as_f64().unwrap() > 0.0, "{key}: {p}");
+        }
     }
     assert!(coupled[1]["patches"].as_u64() > coupled[0]["patches"].as_u64());
 }

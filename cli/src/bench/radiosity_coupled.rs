@@ -4,7 +4,10 @@
 //! objects' preparation, which is S through the diffusion solve; the patches; F; the direct
 //! light; the solve), the memory, Jacobi against Gauss–Seidel from nothing on the same F, and
 //! the interactive updates: a relight after the light turned 5°, a change of the light's colour
-//! (a weighted sum of the kept response), a change of translucency and of an albedo.
+//! (a weighted sum of the kept response), a change of translucency and of an albedo; and beside
+//! them the same scene with the half-space profile matrix as S (no tets): its build (time,
+//! memory, nonzeros), its solve from nothing, the relight after 5° and the translucency change
+//! (S re-indexed from its samples).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -15,10 +18,13 @@ use glam::DMat3;
 use serde::Serialize;
 use transcut::light::Light;
 use transcut::radiosity::{Iteration, SolveOptions};
-use transcut::{bake, BakeOptions, DVec3, MediumSource, Method, Progress, RadiositySession, Scene};
+use transcut::{
+    bake, BakeOptions, DVec3, MediumSource, Method, ProfileKind, Progress, RadiosityOptions, RadiositySession, Scene,
+    TranslucentScattering,
+};
 
 use super::stats::{median, ms, peak_rss_mib};
-use crate::method_args::{MethodArgs, MethodDefaults};
+use crate::method_args::MethodArgs;
 use crate::scene_file;
 
 /// One patch size's measurements (times: medians of the runs, ms).
@@ -55,12 +61,38 @@ pub struct Entry {
     medium_fps: f64,
     /// The first diffuse object's albedo scaled by 0.9.
     median_albedo_ms: f64,
+    /// The same patch size with the half-space profile matrix as S.
+    profile: ProfileEntry,
+}
+
+/// One patch size's measurements with the profile S (half-space, chord distances; medians, ms).
+#[derive(Serialize)]
+pub struct ProfileEntry {
+    patches: usize,
+    translucent_patches: usize,
+    /// Nonzero entries of the translucent objects' profile matrices.
+    nonzeros: usize,
+    /// The matrices and their re-indexing samples.
+    matrix_mib: f64,
+    median_bake_ms: f64,
+    /// Building S (distances, samples, values).
+    median_build_ms: f64,
+    median_form_factor_ms: f64,
+    /// The bake's solve, from nothing.
+    median_solve_ms: f64,
+    solve_sweeps: usize,
+    /// The light turned 5°: a warm-started solve.
+    median_relight_ms: f64,
+    relight_sweeps: usize,
+    /// σ′s scaled by 1.25: S re-indexed (or rebuilt) and a warm-started solve.
+    median_medium_ms: f64,
+    energy_defect: f64,
 }
 
 /// The scene file's scene and bake options, the translucent objects at `tets` when given.
 fn load(path: &Path, tets: Option<u64>) -> anyhow::Result<(Scene, BakeOptions)> {
     let loaded = scene_file::load(path)?;
-    let defaults = MethodDefaults::from_bake_table(loaded.file.bake.table())?;
+    let defaults = loaded.file.bake.method_defaults()?;
     let Method::Radiosity(mut radiosity) = MethodArgs::default().method(&defaults)? else {
         return Err(anyhow!("its [bake] method is not radiosity"));
     };
@@ -173,6 +205,12 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
             last = Some((stats, tets, jacobi_sweeps, gs_sweeps, defect, relit.iterations));
         }
         let (stats, tets, jacobi_sweeps, gauss_seidel_sweeps, energy_defect, relight_sweeps) = last.expect("runs ≥ 1");
+        let turn = |run: u32| {
+            let mut lights = scene.lights.clone();
+            lights[0] = turned(&first_light, centre, if run.is_multiple_of(2) { 5.0 } else { -5.0 });
+            lights
+        };
+        let profile = profile_entry(&scene, &options, runs, translucent, &turn)?;
         let (jacobi, gs, relight, medium) = (median(t.jacobi), median(t.gauss_seidel), median(t.relight), median(t.medium));
         entries.push(Entry {
             patch_size_mm: size,
@@ -201,9 +239,67 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
             median_medium_ms: medium,
             medium_fps: 1e3 / medium,
             median_albedo_ms: median(t.albedo),
+            profile,
         });
     }
     Ok(entries)
+}
+
+/// The measurements of `options` with the half-space profile matrix as S, `runs` runs, the
+/// lights of run k `turn(k)`.
+fn profile_entry(
+    scene: &Scene,
+    options: &BakeOptions,
+    runs: u32,
+    translucent: Option<usize>,
+    turn: &dyn Fn(u32) -> Vec<Light>,
+) -> anyhow::Result<ProfileEntry> {
+    let Method::Radiosity(radiosity) = &options.method else { unreachable!("a radiosity scene") };
+    let radiosity = RadiosityOptions { scattering: TranslucentScattering::profile(ProfileKind::HalfSpace), ..radiosity.clone() };
+    let options = BakeOptions { method: Method::Radiosity(radiosity), ..options.clone() };
+    let mut t = Timings::default();
+    let (mut build, mut last) = (Vec::new(), None);
+    for run in 0..runs {
+        let start = Instant::now();
+        let baked = bake(scene, &options).context("the profile S")?;
+        t.bake.push(ms(start));
+        let stats = baked.radiosity.clone().expect("a radiosity bake");
+        build.push(stats.scattering_ms);
+        t.form_factor.push(stats.form_factor_ms);
+        t.solve.push(stats.solve_ms);
+        let coupled = baked.coupled.expect("a radiosity bake keeps its session");
+        drop(baked.objects);
+        let mut session = Arc::try_unwrap(coupled).map_err(|_| anyhow!("the bake's session is shared"))?;
+        let start = Instant::now();
+        let relit = session.relight(&turn(run), Progress::none())?;
+        t.relight.push(ms(start));
+        if let Some(i) = translucent {
+            let Some(MediumSource::Homogeneous(m)) = session.objects()[i].medium().cloned() else {
+                return Err(anyhow!("the radiosity suite thickens a homogeneous medium"));
+            };
+            let thicker = transcut::optics::Medium { sigma_s_prime: m.sigma_s_prime.map(|s| 1.25 * s), ..m };
+            let start = Instant::now();
+            session.set_medium(i, MediumSource::Homogeneous(thicker), Progress::none())?;
+            t.medium.push(ms(start));
+        }
+        last = Some((stats, relit.iterations));
+    }
+    let (stats, relight_sweeps) = last.expect("runs ≥ 1");
+    Ok(ProfileEntry {
+        patches: stats.patches,
+        translucent_patches: stats.translucent_patches,
+        nonzeros: stats.scattering_nonzeros,
+        matrix_mib: stats.scattering_bytes as f64 / (1024.0 * 1024.0),
+        median_bake_ms: median(t.bake),
+        median_build_ms: median(build),
+        median_form_factor_ms: median(t.form_factor),
+        median_solve_ms: median(t.solve),
+        solve_sweeps: stats.iterations,
+        median_relight_ms: median(t.relight),
+        relight_sweeps,
+        median_medium_ms: median(t.medium),
+        energy_defect: stats.energy_defect,
+    })
 }
 
 /// Every run's times of one patch size.

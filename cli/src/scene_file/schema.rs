@@ -8,7 +8,7 @@ use serde::Deserialize;
 use transcut::light::{Environment, EquirectMap, Light};
 use transcut::DVec3;
 
-use crate::method_args::BakeTable;
+use crate::method_args::{BakeTable, MethodDefaults};
 
 /// A colour: one number for grey or three for RGB.
 #[derive(Debug, Clone, Copy, Deserialize)]
@@ -98,6 +98,11 @@ pub struct BakeSpec {
     pub radiosity_tolerance: Option<f64>,
     /// radiosity: exactly this many bounces of light (`--bounces`).
     pub bounces: Option<u64>,
+    /// radiosity: the translucent objects' scattering S, `diffusion`, `half-space` or `dipole`
+    /// (`--scattering`).
+    pub scattering: Option<String>,
+    /// radiosity, a profile scattering: `chord` or `interior` (`--profile-distance`).
+    pub profile_distance: Option<String>,
 }
 
 /// One `[[object]]`.
@@ -307,6 +312,43 @@ impl LightSpec {
     }
 }
 
+impl BakeSpec {
+    /// The method defaults of this `[bake]` ([`MethodDefaults::from_bake_table`] of its
+    /// [`BakeSpec::table`], with its `scattering` and `profile_distance`).
+    ///
+    /// # Errors
+    /// An unknown name or a value out of range, naming the key.
+    pub fn method_defaults(&self) -> anyhow::Result<MethodDefaults> {
+        MethodDefaults::from_bake_table(self.table())?
+            .with_scattering(self.scattering.as_deref(), self.profile_distance.as_deref())
+    }
+
+    /// The table of a parsed scene file's `[bake]`.
+    #[must_use]
+    pub fn table(&self) -> BakeTable {
+        let b = self;
+        BakeTable {
+            method: b.method.clone(),
+            tets: b.tets,
+            tolerance: b.tolerance,
+            solver: b.solver.clone(),
+            theta: b.theta,
+            oracle: b.oracle.clone(),
+            eps1: b.eps1,
+            eps2: b.eps2,
+            rule: b.rule.clone(),
+            receivers: b.receivers.clone(),
+            mode: b.mode.clone(),
+            budget: b.budget,
+            patch_size: b.patch_size,
+            rays: b.rays,
+            iteration: b.iteration.clone(),
+            radiosity_tolerance: b.radiosity_tolerance,
+            bounces: b.bounces,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -356,32 +398,5 @@ mod tests {
         let key = "k".repeat(5000);
         let err = SceneFile::parse(&format!("{MINIMAL}{key} = 1\n")).unwrap_err().to_string();
         assert!(err.len() < 400, "{} bytes", err.len());
-    }
-}
-
-impl BakeSpec {
-    /// The table of a parsed scene file's `[bake]`.
-    #[must_use]
-    pub fn table(&self) -> BakeTable {
-        let b = self;
-        BakeTable {
-            method: b.method.clone(),
-            tets: b.tets,
-            tolerance: b.tolerance,
-            solver: b.solver.clone(),
-            theta: b.theta,
-            oracle: b.oracle.clone(),
-            eps1: b.eps1,
-            eps2: b.eps2,
-            rule: b.rule.clone(),
-            receivers: b.receivers.clone(),
-            mode: b.mode.clone(),
-            budget: b.budget,
-            patch_size: b.patch_size,
-            rays: b.rays,
-            iteration: b.iteration.clone(),
-            radiosity_tolerance: b.radiosity_tolerance,
-            bounces: b.bounces,
-        }
     }
 }
