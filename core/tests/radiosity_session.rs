@@ -192,11 +192,14 @@ fn failures_change_nothing() {
     let e = session.set_medium(0, MediumSource::Homogeneous(thicker), Progress::new(&stop)).unwrap_err();
     assert!(matches!(e, SessionError::Cancelled(_)), "{e}");
     unchanged(&session);
-    // The old system is back: a relight to the same lights reproduces the radiance exactly.
+    // The old system is back: a relight to the same lights reproduces the radiance (to the
+    // rounding of the kept response, which is the solution divided by the light's strength).
     session.relight(&[point(above(0.0), [2000.0; 3])], Progress::none()).unwrap();
-    unchanged(&session);
+    for (i, old) in before.iter().enumerate() {
+        assert!(worst_relative(&session.radiance(i).unwrap().unwrap(), old) < 1e-12, "object {i} changed");
+    }
     let objects = session.radiosity().unwrap().objects();
-    assert_eq!(objects[0].medium(), Some(&MediumSource::Homogeneous(marble())));
+    assert!(matches!(objects[0].medium(), Some(MediumSource::Homogeneous(m)) if *m == marble()), "{:?}", objects[0].medium());
     assert_eq!(session.lights().len(), 1);
 
     // The radiosity bake offers no per-object edits; a TransCut bake no albedo.

@@ -11,7 +11,7 @@
 use std::time::Instant;
 
 use serde::Serialize;
-use transcut::gpu::{Backend, GpuContext, GpuRadiosity};
+use transcut::gpu::{Backend, GpuContext, GpuError, GpuRadiosity};
 use transcut::radiosity::{
     refine_to_edge_length, solve, FormFactorOptions, FormFactors, Iteration, Opaque, PatchSet, SolveOptions, Surface,
 };
@@ -50,6 +50,8 @@ struct Entry {
     /// The Jacobi's sweeps on the `--backend`'s GPU (`GpuRadiosity::jacobi`, F uploaded once,
     /// not timed): the time of the CPU's sweeps, the device's, their ratio and agreement.
     gpu: Option<GpuEntry>,
+    /// Why the GPU sweeps were not measured at this size (e.g. F larger than a device buffer).
+    gpu_skipped: Option<String>,
     peak_rss_mib: Option<f64>,
 }
 
@@ -99,6 +101,8 @@ struct GpuTimes {
     cpu: Vec<f64>,
     gpu: Vec<f64>,
     relative_rms: f64,
+    /// Why the device could not take this size.
+    skipped: Option<String>,
 }
 
 /// Sweeps per measurement (the Jacobi's to 1e-3 on this box, about).
@@ -119,7 +123,14 @@ impl GpuTimes {
         let n = patches.len();
         let t = Instant::now();
         let opaque = Opaque { albedo, direct, emission };
-        let gpu = GpuRadiosity::new(ctx, f, &opaque, &vec![false; n])?;
+        let gpu = match GpuRadiosity::new(ctx, f, &opaque, &vec![false; n]) {
+            Ok(gpu) => gpu,
+            Err(e @ GpuError::TooLarge { .. }) => {
+                self.skipped = Some(e.to_string());
+                return Ok(());
+            }
+            Err(e) => return Err(e.into()),
+        };
         self.upload.push(ms(t));
         let zero = vec![[0.0; 3]; n];
         let t = Instant::now();
@@ -222,6 +233,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             bicgstab_iterations: krylov_iterations,
             jacobi_to_bicgstab: jacobi / krylov,
             energy_defect: defect,
+            gpu_skipped: device.skipped.clone(),
             gpu: device.entry(),
             peak_rss_mib: peak_rss_mib(),
         });
