@@ -5,8 +5,11 @@
 //! recombined pieces, each warm-started), then every piece of every object drawn by the core's rasteriser
 //! (`transcut::render`) with its per-vertex radiance Lo(x, n) seen through the Fresnel boundary,
 //! GGX highlights of the sun, point and spot lights, the mean radiance of the environment
-//! reflected, and an optional grey ground plane. `.png` is tone-mapped (ACES) sRGB with alpha =
-//! object coverage; `.exr` is linear 32-bit float RGBA.
+//! reflected, and an optional grey ground plane. A radiosity bake's translucent objects are
+//! drawn on the user's mesh as any translucent object, its opaque ones on their refined patch
+//! surface (which carries their colour bleeding), both with the session's radiance (after the
+//! edits); its ground plane is a diffuse object of the scene ([`crate::scene_file`]). `.png` is
+//! tone-mapped (ACES) sRGB with alpha = object coverage; `.exr` is linear 32-bit float RGBA.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -14,8 +17,9 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::Args;
 use transcut::light::{Environment, Light};
+use transcut::mesh::TriMesh;
 use transcut::render::{render, Camera, GroundPlane, RenderObject, RenderOptions, RenderScene, SamplePattern, SpecularLight};
-use transcut::{bake_with, BakeOptions, DVec3, Progress, Scene, Session};
+use transcut::{bake_with, BakeOptions, DVec3, Diffuse, MediumSource, Method, Object, Progress, Scene, Session, Sides};
 
 use crate::method_args::{method_help, BakeTable, MethodArgs, MethodDefaults};
 use crate::progress::StageBar;
@@ -93,7 +97,15 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let defaults = MethodDefaults::from_bake_table(table).with_context(in_file)?;
     let method = args.method.method(&defaults).with_context(in_file)?;
     let options = BakeOptions { method, threads: args.threads, ..BakeOptions::default() };
-    let scene = Scene { objects: loaded.objects, lights: loaded.lights };
+    let mut scene = Scene { objects: loaded.objects, lights: loaded.lights };
+    let up = DVec3::from(camera_spec.up);
+    // Radiosity makes the ground a diffuse object of the scene, lit and shadowed with it.
+    let file_objects = scene.objects.len();
+    let radiosity_ground = matches!(options.method, Method::Radiosity(_)) && file.render.ground;
+    if radiosity_ground {
+        let ground = ground_object(&scene.objects, up).with_context(in_file)?;
+        scene.objects.push(ground);
+    }
     let load_ms = start.elapsed().as_secs_f64() * 1e3;
 
     let bar = StageBar::new(args.json);
@@ -134,25 +146,40 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let t_render = Instant::now();
     // World-space meshes over their welded vertices with the radiance of those vertices, and
     // the object's η: an edited object's pieces, else the baked surface.
-    let mut meshes: Vec<(transcut::mesh::TriMesh, Vec<[f64; 3]>, f64)> = Vec::new();
+    let radiosity = session.radiosity();
+    let mut meshes: Vec<(TriMesh, Vec<[f64; 3]>, f64)> = Vec::new();
+    // The meshes before the ground's: the objects' bounds place the highlights' lights.
+    let mut object_meshes = 0;
     for (i, object) in scene.objects.iter().enumerate() {
-        let eta = session.eta(i)?;
+        if i == file_objects {
+            object_meshes = meshes.len();
+        }
         if let Some(editor) = session.editor(i)? {
+            let eta = session.eta(i)?;
             meshes.extend(apply::piece_meshes(editor).into_iter().map(|(m, r)| (m, r, eta)));
             continue;
         }
-        // Radiosity's patch surface: the refined wall carries its colour bleeding.
-        if let Some(r) = session.baked(i)?.and_then(transcut::ObjectBake::radiosity) {
+        // An opaque object of a radiosity bake: its patch surface (the refined wall carries
+        // its colour bleeding) with the session's radiance, updated by the edits.
+        if let (Some(coupled), None) = (radiosity, object.medium()) {
+            let r = session.baked(i)?.and_then(transcut::ObjectBake::radiosity).context("internal: no patch surface")?;
+            let patch_radiance = coupled.patch_radiance(i).context("internal: no patch radiance")?;
             let positions: Vec<[f64; 3]> = r.patch_positions.iter().map(|p| p.to_array()).collect();
             let indices: Vec<u32> = r.patch_triangles.iter().flatten().copied().collect();
-            let mesh = transcut::mesh::TriMesh::from_triangles(&positions, &indices)?;
+            let mesh = TriMesh::from_triangles(&positions, &indices)?;
             let mut radiance = vec![[0.0; 3]; mesh.positions().len()];
             for (v, &internal) in mesh.user_to_internal().iter().enumerate() {
-                radiance[internal as usize] = r.patch_radiance[v];
+                radiance[internal as usize] = patch_radiance[v];
             }
-            meshes.push((mesh, radiance, eta));
+            meshes.push((mesh, radiance, 1.0));
             continue;
         }
+        // A translucent object (of any method): the user's mesh, so a box keeps its corners.
+        let eta = match radiosity.and_then(|c| c.objects()[i].medium()) {
+            // A medium edit of a radiosity bake replaces the whole medium, η included.
+            Some(MediumSource::Homogeneous(m)) => m.eta,
+            _ => session.eta(i)?,
+        };
         let mesh = object.world_surface()?;
         let radiance = session.radiance(i)?.context("internal: an unedited object without radiance")?;
         let mut r = vec![[0.0; 3]; mesh.positions().len()];
@@ -160,6 +187,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             r[internal as usize] = radiance[user];
         }
         meshes.push((mesh, r, eta));
+    }
+    if !radiosity_ground {
+        object_meshes = meshes.len();
     }
     let objects: Vec<RenderObject<'_>> = meshes
         .iter()
@@ -172,7 +202,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         })
         .collect();
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for (mesh, _, _) in &meshes {
+    for (mesh, _, _) in &meshes[..object_meshes] {
         let (a, b) = mesh.bounds();
         lo = lo.min(a);
         hi = hi.max(b);
@@ -203,13 +233,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if !r.specular {
         specular.clear();
     }
-    let up = DVec3::from(camera_spec.up);
     let render_scene = RenderScene {
         camera: camera(&camera_spec),
         objects,
         lights: specular,
         environment: (environment != [0.0; 3]).then_some(environment),
-        ground: r.ground.then(|| GroundPlane::below(lo, hi, up)),
+        // A radiosity bake's ground is an object of the scene, drawn above.
+        ground: (r.ground && !radiosity_ground).then(|| GroundPlane::below(lo, hi, up)),
     };
     let render_options = RenderOptions {
         exposure_ev: r.exposure_ev,
@@ -276,4 +306,34 @@ fn camera(spec: &CameraSpec) -> Camera {
         width: spec.width,
         height: spec.height,
     }
+}
+
+/// The ground of a radiosity bake, on a side, as a multiple of the objects' bounding-box
+/// diagonal: large enough for their shadows and colour bleeding under light from above, small
+/// enough that its patches stay few at the default patch size (the scene's diagonal / 80).
+pub const GROUND_SIDE_PER_DIAGONAL: f64 = 3.0;
+
+/// The renderer's ground plane ([`GroundPlane::below`] the objects along `up`: its plane,
+/// normal and albedo) as an opaque diffuse object for a radiosity bake: a square of
+/// [`GROUND_SIDE_PER_DIAGONAL`] × the objects' diagonal on a side, reflecting on its upper side,
+/// at the objects' `mm_per_unit`.
+fn ground_object(objects: &[Object], up: DVec3) -> anyhow::Result<Object> {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for object in objects {
+        let (a, b) = object.world_surface().with_context(|| format!("object {}", object.name))?.bounds();
+        lo = lo.min(a);
+        hi = hi.max(b);
+    }
+    let plane = GroundPlane::below(lo, hi, up);
+    let half = 0.5 * GROUND_SIDE_PER_DIAGONAL * (hi - lo).length().max(1e-9);
+    let n = plane.normal.normalize();
+    let t = n.any_orthonormal_vector() * half;
+    let b = n.cross(t);
+    let c = plane.point;
+    // t × b points along n: the corners run counter-clockwise seen from above.
+    let corners = [c - t - b, c + t - b, c + t + b, c - t + b].map(|p| p.to_array());
+    let mesh = TriMesh::from_triangles(&corners, &[0, 1, 2, 0, 2, 3])?;
+    let diffuse = Diffuse { albedo: plane.albedo, emission: [0.0; 3], sides: Sides::Front };
+    let mm_per_unit = objects.first().map_or(1.0, |o| o.mm_per_unit);
+    Ok(Object::diffuse("ground", mesh, diffuse, mm_per_unit))
 }

@@ -286,3 +286,200 @@ fn edit_errors_name_the_edit_and_key() {
         &["edit 1", "cut_plane"],
     );
 }
+
+/// A 30 mm block (box.obj) of a red translucent medium under a sun travelling along +x and down, seen from the
+/// front and above, written with `[render] ground` and `[bake] method` as given.
+fn red_block_on_the_ground(name: &str, method: &str, ground: bool) -> PathBuf {
+    let block = examples().join("box.obj");
+    let bake = if method == "radiosity" { "method = \"radiosity\"\npatch_size = 2.5\nrays = 256\n" } else { "" };
+    write_scene(
+        &format!("{name}.toml"),
+        &format!(
+            "[camera]\nposition = [0, 35, 90]\ntarget = [0, -3, 0]\nfov_deg = 40\nwidth = 96\nheight = 72\n\
+             [render]\nground = {ground}\n[bake]\n{bake}\
+             [[object]]\nmesh = \"{}\"\nname = \"block\"\nmedium = {{ sigma_a = [0.002, 0.12, 0.15], sigma_s = [1, 0.4, 0.35], eta = 1.3 }}\nfit_size_mm = 30\n\
+             [[light]]\nkind = \"sun\"\ndir = [0.7, -1, 0]\nirradiance = 3\n",
+            block.display()
+        ),
+    )
+}
+
+/// Renders `scene` to EXR: linear RGBA per pixel, row by row.
+fn render_exr(scene: &Path, name: &str) -> image::Rgba32FImage {
+    let output = out_dir().join(format!("{name}.exr"));
+    let (ok, stderr) = transcut_render(scene, &output, &[]);
+    assert!(ok, "{name}: {stderr}");
+    image::open(&output).unwrap().to_rgba32f()
+}
+
+/// The mean RGB of the pixels of `img` not covered by the block (`block[i]`) whose ray hits the
+/// ground (the plane under the block, y = −6.12 mm) inside `x`, `z` (mm).
+fn ground_mean(img: &image::Rgba32FImage, block: &[bool], x: [f64; 2], z: [f64; 2]) -> [f64; 3] {
+    let camera = transcut::render::Camera {
+        position: transcut::DVec3::new(0.0, 35.0, 90.0),
+        target: transcut::DVec3::new(0.0, -3.0, 0.0),
+        up: transcut::DVec3::Y,
+        vertical_fov_deg: 40.0,
+        width: 96,
+        height: 72,
+    };
+    // box.obj is 2 × 1 × 1 fitted to a 30 mm diagonal: its half height is 30 / √6 / 2.
+    let y0 = -15.0 / 6f64.sqrt();
+    let (mut sum, mut n) = ([0.0; 3], 0);
+    for (i, p) in img.pixels().enumerate() {
+        let (u, v) = ((i % 96) as f64 + 0.5, (i / 96) as f64 + 0.5);
+        let d = camera.ray_direction(u, v).unwrap();
+        let t = (y0 - camera.position.y) / d.y;
+        let hit = camera.position + t * d;
+        if !block[i] && t > 0.0 && (x[0]..x[1]).contains(&hit.x) && (z[0]..z[1]).contains(&hit.z) {
+            (0..3).for_each(|c| sum[c] += f64::from(p[c]));
+            n += 1;
+        }
+    }
+    assert!(n >= 8, "only {n} ground pixels in x {x:?}, z {z:?}");
+    sum.map(|s| s / f64::from(n))
+}
+
+/// `[render] ground = true` with radiosity puts the renderer's grey plane into the scene as a
+/// diffuse object: the block's shadow falls on it (the renderer's own plane is unshadowed), it
+/// takes the block's red (colour bleeding) and lights the block from below, so the block is
+/// brighter than baked without it.
+#[test]
+fn the_radiosity_ground_takes_shadows_and_colour_and_lights_the_block() {
+    let alone = render_exr(&red_block_on_the_ground("red_alone", "radiosity", false), "red_alone");
+    let block: Vec<bool> = alone.pixels().map(|p| p[3] > 0.0).collect();
+    let covered = block.iter().filter(|&&b| b).count();
+    assert!(covered > 300, "the block covers {covered} pixels");
+    let grounded = render_exr(&red_block_on_the_ground("red_ground", "radiosity", true), "red_ground");
+    let plane = render_exr(&red_block_on_the_ground("red_plane", "transcut", true), "red_plane");
+    // The block spans x in ±12.25 mm, z in ±6.12 mm; the sun travels along +x and down
+    // (tan = 0.7), so its shadow covers x up to 12.25 + 0.7 × 12.25 = 20.8 mm behind the block.
+    let (shadow, lit) = (([14.0, 19.0], [-5.0, 5.0]), ([-19.0, -14.0], [-5.0, 5.0]));
+    let far = ([-35.0, 35.0], [25.0, 42.0]);
+    let luminance = |c: [f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+    let region = |img: &image::Rgba32FImage, (x, z): ([f64; 2], [f64; 2])| ground_mean(img, &block, x, z);
+    let (s, l, f) = (region(&grounded, shadow), region(&grounded, lit), region(&grounded, far));
+    let (ps, pl) = (region(&plane, shadow), region(&plane, lit));
+    eprintln!("radiosity ground: shadow {s:?}, lit side {l:?}, far {f:?}; renderer's plane: shadow {ps:?}, lit side {pl:?}");
+    // The renderer's plane is one colour; the radiosity ground is dark in the block's shadow.
+    assert!((luminance(ps) / luminance(pl) - 1.0).abs() < 1e-3, "renderer's plane: {ps:?} vs {pl:?}");
+    assert!(luminance(s) < 0.5 * luminance(l), "shadow {s:?} vs lit side {l:?}");
+    // Far from the block it is the renderer's plane, lit by the sun (ρ = 0.5, E = 3 cos 35°).
+    let want = 0.5 * 3.0 / (1.0f64 + 0.49).sqrt() / std::f64::consts::PI;
+    assert!(f.iter().all(|&c| (c / want - 1.0).abs() < 0.1), "far ground {f:?}, want {want:.4}");
+    // Beside the block's lit face the ground is redder than far away (colour bleeding).
+    let (red_near, red_far) = (l[0] / l[1], f[0] / f[1]);
+    assert!(red_near > 1.05 * red_far, "red/green beside the block {red_near:.3}, far {red_far:.3}");
+    // The ground lights the block: its front face gets no sun at all.
+    let mean = |img: &image::Rgba32FImage| {
+        let y: f64 =
+            img.pixels().zip(&block).filter(|(_, &b)| b).map(|(p, _)| luminance([0, 1, 2].map(|c| f64::from(p[c])))).sum();
+        y / covered as f64
+    };
+    let (with, without) = (mean(&grounded), mean(&alone));
+    eprintln!("block: mean luminance {with:.4} on the radiosity ground, {without:.4} without");
+    assert!(with > 1.1 * without, "block on the ground {with:.4} vs alone {without:.4}");
+}
+
+/// The red block of [`red_block_on_the_ground`] on a grey diffuse floor (a 90 mm square,
+/// floor.obj), baked by radiosity: the scene file's text before its `[[edit]]` tables, with
+/// the sun's direction, the floor's albedo and emission and the block's medium as given.
+fn block_on_a_floor(sun: &str, albedo: &str, emission: &str, medium: &str) -> String {
+    let y0 = -15.0 / 6f64.sqrt();
+    let floor = out_dir().join("floor.obj");
+    std::fs::write(&floor, format!("v -45 {y0} -45\nv -45 {y0} 45\nv 45 {y0} 45\nv 45 {y0} -45\nf 1 2 3\nf 1 3 4\n")).unwrap();
+    format!(
+        "[camera]\nposition = [0, 35, 90]\ntarget = [0, -3, 0]\nfov_deg = 40\nwidth = 96\nheight = 72\n\
+         [render]\nground = false\n[bake]\nmethod = \"radiosity\"\npatch_size = 2.5\nrays = 256\nradiosity_tolerance = 1e-5\n\
+         [[object]]\nmesh = \"{}\"\nname = \"block\"\nmedium = {medium}\nfit_size_mm = 30\n\
+         [[object]]\nmesh = \"{}\"\nname = \"floor\"\nkind = \"diffuse\"\nalbedo = {albedo}\nemission = {emission}\n\
+         sides = \"front\"\n\
+         [[light]]\nkind = \"sun\"\ndir = {sun}\nirradiance = 3\n",
+        examples().join("box.obj").display(),
+        floor.display()
+    )
+}
+
+const RED: &str = "{ sigma_a = [0.002, 0.12, 0.15], sigma_s = [1, 0.4, 0.35], eta = 1.3 }";
+const MILKY: &str = "{ sigma_a = [0.01, 0.01, 0.02], sigma_s = [0.6, 0.8, 1.0], eta = 1.4 }";
+
+/// The largest difference of two images' RGB relative to the largest value of `b`.
+fn image_difference(a: &image::Rgba32FImage, b: &image::Rgba32FImage) -> f64 {
+    let max = b.pixels().flat_map(|p| p.0[..3].to_vec()).fold(0.0f32, f32::max);
+    let diff = a.pixels().zip(b.pixels()).flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs())).fold(0.0f32, f32::max);
+    f64::from(diff / max)
+}
+
+/// A radiosity bake's scene-file edits (relight, albedo, emission, a whole medium) re-solve the
+/// coupled scene, and the picture drawn from the session is that of a fresh bake of the edited
+/// scene.
+#[test]
+fn radiosity_edits_render_as_a_fresh_bake_of_the_edited_scene() {
+    let base = block_on_a_floor("[0.7, -1, 0]", "0.5", "0", RED);
+    let edits = format!(
+        "[[edit]]\nkind = \"relight\"\nlights = [{{ kind = \"sun\", dir = [-0.7, -1, 0.3], irradiance = 3 }}]\n\
+         [[edit]]\nkind = \"albedo\"\nobject = \"floor\"\nalbedo = [0.6, 0.3, 0.2]\n\
+         [[edit]]\nkind = \"emission\"\nobject = \"floor\"\nemission = 0.2\n\
+         [[edit]]\nkind = \"medium\"\nobject = \"block\"\nassign = {MILKY}\n"
+    );
+    let before = render_exr(&write_scene("floor_base.toml", &base), "floor_base");
+    let edited = render_exr(&write_scene("floor_edited.toml", &format!("{base}{edits}")), "floor_edited");
+    let fresh = block_on_a_floor("[-0.7, -1, 0.3]", "[0.6, 0.3, 0.2]", "0.2", MILKY);
+    let fresh = render_exr(&write_scene("floor_fresh.toml", &fresh), "floor_fresh");
+    let (d, change) = (image_difference(&edited, &fresh), image_difference(&before, &fresh));
+    eprintln!("radiosity edits: {d:.2e} from a fresh bake of the edited scene (the edits changed it by {change:.2})");
+    assert!(change > 0.2, "the edits changed the picture by {change:.2e} only");
+    assert!(d < 2e-3, "edited vs fresh bake: {d:.2e}");
+}
+
+#[test]
+fn radiosity_edit_errors_name_the_edit_and_key() {
+    let base = block_on_a_floor("[0.7, -1, 0]", "0.5", "0", RED);
+    let medium = "[[edit]]\nkind = \"medium\"\nobject = \"block\"\n";
+    expect_error(
+        "radiosity_region.toml",
+        &format!("{base}{medium}region = {{ kind = \"sphere\", center = [0, 0, 0], radius = 5 }}\nassign = \"marble\"\n"),
+        &["edit 1 (kind = \"medium\")", "'region'", "as a whole", "\"all\""],
+    );
+    expect_error(
+        "radiosity_scale.toml",
+        &format!("{base}{medium}scale = {{ sigma_a = 2 }}\n"),
+        &["edit 1 (kind = \"medium\")", "'scale'", "'assign'"],
+    );
+    expect_error(
+        "radiosity_albedo_translucent.toml",
+        &format!("{base}[[edit]]\nkind = \"albedo\"\nobject = \"block\"\nalbedo = 0.5\n"),
+        &["edit 1 (kind = \"albedo\")", "block", "translucent"],
+    );
+    expect_error(
+        "radiosity_medium_diffuse.toml",
+        &format!("{base}[[edit]]\nkind = \"medium\"\nobject = \"floor\"\nassign = \"marble\"\n"),
+        &["edit 1 (kind = \"medium\")", "floor", "diffuse"],
+    );
+    expect_error(
+        "radiosity_albedo_range.toml",
+        &format!("{base}[[edit]]\nkind = \"albedo\"\nobject = \"floor\"\nalbedo = [0.5, 1, 0.5]\n"),
+        &["edit 1 (kind = \"albedo\")", "'albedo' must lie in [0, 1)"],
+    );
+    expect_error(
+        "radiosity_emission_negative.toml",
+        &format!("{base}[[edit]]\nkind = \"emission\"\nobject = \"floor\"\nemission = -1\n"),
+        &["edit 1 (kind = \"emission\")", "'emission' must be ≥ 0"],
+    );
+    expect_error(
+        "radiosity_cut.toml",
+        &format!("{base}[[edit]]\nkind = \"cut_plane\"\nobject = \"block\"\npoint = [0, 0, 0]\nnormal = [1, 0, 0]\n"),
+        &["edit 1 (kind = \"cut_plane\")", "radiosity method cannot"],
+    );
+    // Another method has no albedo to edit.
+    let block = examples().join("box.obj");
+    expect_error(
+        "transcut_albedo.toml",
+        &format!(
+            "{HEAD}[[object]]\nmesh = \"{}\"\nname = \"block\"\nmedium = \"jade\"\nfit_size_mm = 80\n\
+             [[edit]]\nkind = \"albedo\"\nalbedo = 0.5\n",
+            block.display()
+        ),
+        &["edit 1 (kind = \"albedo\")", "transcut method cannot set an albedo"],
+    );
+}

@@ -4,16 +4,19 @@
 //!
 //! A relight applies to every object, all or none ([`Session::relight`]); every other edit to
 //! its object. Each object is solved with its own shadows: shadows cast by the other objects of
-//! the scene are not seen by edits.
+//! the scene are not seen by edits. A radiosity bake is the exception: it is one coupled
+//! solution ([`Session::radiosity`]), so a relight, an albedo, an emission or a whole medium
+//! re-solves the whole scene, every object shadowing and lighting every other; its other
+//! edits are refused by name.
 
-use anyhow::{anyhow, Context};
+use anyhow::{anyhow, bail, Context};
 use glam::DMat4;
 use serde::Serialize;
 use transcut::edit::{Cutter, Editor, MediumEdit, MediumOp, PaintStroke, Region, SweptStroke, UpdateStats};
 use transcut::mesh::TriMesh;
 use transcut::progress::ProgressFn;
 use transcut::render::Camera;
-use transcut::{DVec3, Progress, Session};
+use transcut::{DVec3, MediumSource, Progress, Session};
 
 use super::edits::{EditKind, EditStep, Keep, OpSpec, RegionSpec};
 
@@ -73,6 +76,20 @@ pub fn apply(
 fn run(session: &mut Session, o: usize, kind: &EditKind, camera: &Camera, p: Progress) -> anyhow::Result<UpdateStats> {
     Ok(match kind {
         EditKind::Relight(lights) => session.relight(lights, p)?[o].clone(),
+        EditKind::Medium { region, op } if session.radiosity().is_some() => {
+            // The objects are coupled: a translucent object's medium changes whole.
+            let why = "a radiosity bake changes a translucent object's medium as a whole";
+            if *region != RegionSpec::All {
+                bail!("'region': {why}: give region = \"all\" (or leave it out)");
+            }
+            match op {
+                OpSpec::Assign(m) => session.set_medium(o, MediumSource::Homogeneous(*m), p)?.clone(),
+                OpSpec::Scale { .. } => bail!("'scale': {why}: give the new medium with 'assign'"),
+                OpSpec::Add { .. } => bail!("'add': {why}: give the new medium with 'assign'"),
+            }
+        }
+        EditKind::Albedo(albedo) => session.set_albedo(o, *albedo, p)?.clone(),
+        EditKind::Emission(emission) => session.set_emission(o, *emission, p)?.clone(),
         EditKind::Medium { region, op } => {
             let region = match region {
                 RegionSpec::All => Region::All,

@@ -1,10 +1,11 @@
 //! The `[[edit]]` list of a scene file: edits applied in order after the bake, before rendering
-//! (relight, medium edits, paint, cuts, fracture, moving and recombining pieces; TransCut §5).
+//! (relight, medium edits, paint, cuts, fracture, moving and recombining pieces; TransCut §5;
+//! a radiosity bake's albedos, emissions and whole media).
 //!
 //! ```toml
 //! [[edit]]
 //! kind = "cut_plane"        # relight | medium | paint | cut_plane | cut_stroke | fracture
-//!                           # | move_piece | recombine
+//!                           # | move_piece | recombine | albedo | emission
 //! object = "bunny"          # the object's name (default: the only object; not for relight)
 //! point = [0, 0, 0]         # scene units (world space)
 //! normal = [0, 0, 1]        # points to the side that is kept
@@ -14,7 +15,8 @@
 //! Keys per kind (coordinates in scene units, world space, where the object was baked;
 //! colours and coefficients a number or [r, g, b]):
 //! - `relight`: `lights` = a list of light tables, as `[[light]]` (an empty list: the white
-//!   sky); replaces the scene's lights for every object and for the highlights.
+//!   sky); replaces the scene's lights for every object and for the highlights. A radiosity
+//!   bake is re-solved as a whole, every object shadowing and lighting every other.
 //! - `medium`: `region` = `"all"` (default) | `{ kind = "sphere", center, radius }` |
 //!   `{ kind = "depth", min_mm, max_mm }` (tets whose centroid lies that deep below the
 //!   original surface); and exactly one of `assign` = a medium (a preset name or a table as for
@@ -33,6 +35,14 @@
 //!   default 0), `axis` and `angle_deg` (a rotation about `axis` through `pivot`, default the
 //!   piece's centroid); the rotation is applied first.
 //! - `recombine`: none (pieces whose faces touch again are welded).
+//! - `albedo`: `albedo` (a number or [r, g, b], each in [0, 1)) of a `kind = "diffuse"`
+//!   object; `emission`: `emission` (finite, ≥ 0; the exitance, radiance emission/π). Only a
+//!   radiosity bake has diffuse objects; the whole scene is re-solved.
+//!
+//! A radiosity bake takes `relight`, `albedo`, `emission` and, for a translucent object, a
+//! `medium` edit of the whole object to a new medium (`region = "all"`, `assign`; the medium
+//! taken whole, its η and g too): its objects are coupled through the whole scene, so the
+//! other regions and operations, paint, cuts and pieces are refused by name.
 //!
 //! Every error names the edit (1-based, with its kind) and the key.
 
@@ -77,7 +87,8 @@ pub enum OpSpec {
     Add { sigma_a: [f64; 3], sigma_s: [f64; 3] },
 }
 
-/// One parsed edit.
+/// One parsed edit (`Albedo` and `Emission`: a diffuse object's new albedo and emitted
+/// exitance, of a radiosity bake).
 #[derive(Debug, Clone)]
 pub enum EditKind {
     Relight(Vec<Light>),
@@ -88,6 +99,8 @@ pub enum EditKind {
     Fracture,
     MovePiece { piece: usize, translate: DVec3, axis: Option<DVec3>, angle_deg: f64, pivot: Option<DVec3> },
     Recombine,
+    Albedo([f64; 3]),
+    Emission([f64; 3]),
 }
 
 /// One `[[edit]]`, resolved: its 1-based position, kind name, target object and parameters.
@@ -102,7 +115,8 @@ pub struct EditStep {
     pub kind: EditKind,
 }
 
-const KINDS: &[&str] = &["relight", "medium", "paint", "cut_plane", "cut_stroke", "fracture", "move_piece", "recombine"];
+const KINDS: &[&str] =
+    &["relight", "medium", "paint", "cut_plane", "cut_stroke", "fracture", "move_piece", "recombine", "albedo", "emission"];
 
 /// Parses and checks every `[[edit]]` table. `names` and `mm_per_unit` are the objects' names
 /// and millimetres per scene unit (artist media depend on it).
@@ -150,6 +164,8 @@ fn step(
         "cut_stroke" => &["stroke", "keep"],
         "fracture" | "recombine" => &[],
         "move_piece" => &["piece", "translate", "axis", "angle_deg", "pivot"],
+        "albedo" => &["albedo"],
+        "emission" => &["emission"],
         other => bail!("unknown edit kind {other} ({})", KINDS.join(", "), other = quote(other)),
     };
     if let Some(k) = t.keys().find(|k| !(k.as_str() == "kind" || k.as_str() == "object" || allowed.contains(&k.as_str()))) {
@@ -247,6 +263,20 @@ fn step(
         }
         "fracture" => EditKind::Fracture,
         "recombine" => EditKind::Recombine,
+        "albedo" => {
+            let albedo = rgb(t, "albedo")?;
+            if !albedo.iter().all(|a| (0.0..1.0).contains(a)) {
+                bail!("'albedo' must lie in [0, 1) in every channel, got {}", fmt_rgb(albedo));
+            }
+            EditKind::Albedo(albedo)
+        }
+        "emission" => {
+            let emission = rgb(t, "emission")?;
+            if !emission.iter().all(|&m| m >= 0.0) {
+                bail!("'emission' must be ≥ 0 in every channel, got {}", fmt_rgb(emission));
+            }
+            EditKind::Emission(emission)
+        }
         _ => {
             let piece = match t.get("piece") {
                 None => bail!("missing key 'piece' (a 0-based piece index)"),
@@ -299,6 +329,23 @@ fn number(t: &toml::Table, key: &str) -> anyhow::Result<f64> {
         bail!("{key} must be finite, got {}", fmt_num(v), key = quote(key));
     }
     Ok(v)
+}
+
+/// A colour `key`: a number or [r, g, b], finite.
+fn rgb(t: &toml::Table, key: &str) -> anyhow::Result<[f64; 3]> {
+    let v = t.get(key).ok_or_else(|| anyhow!("missing key {key} (a number or [r, g, b])", key = quote(key)))?;
+    let c = Rgb::deserialize(v.clone())
+        .map(Rgb::get)
+        .map_err(|_| anyhow!("{key} must be a number or [r, g, b]", key = quote(key)))?;
+    if !c.iter().all(|x| x.is_finite()) {
+        bail!("{key} must be finite, got {}", fmt_rgb(c), key = quote(key));
+    }
+    Ok(c)
+}
+
+/// `[r, g, b]` with each channel as `fmt_num` writes it.
+fn fmt_rgb(c: [f64; 3]) -> String {
+    format!("[{}, {}, {}]", fmt_num(c[0]), fmt_num(c[1]), fmt_num(c[2]))
 }
 
 fn positive(t: &toml::Table, key: &str) -> anyhow::Result<f64> {
@@ -495,6 +542,27 @@ add = { sigma_s = 0.25 }
                 op: OpSpec::Add { sigma_a: [0.0, 0.0, 0.0], sigma_s: [0.25, 0.25, 0.25] }
             }
         ));
+    }
+
+    #[test]
+    fn albedo_and_emission_edits_parse_and_check_their_values() {
+        let text = "[[edit]]\nkind = \"albedo\"\nobject = \"wall\"\nalbedo = [0.6, 0.3, 0.2]\n\
+                    [[edit]]\nkind = \"emission\"\nobject = \"wall\"\nemission = 2\n";
+        let steps = parse(text, &["block", "wall"]).unwrap();
+        assert!(matches!(steps[0].kind, EditKind::Albedo([0.6, 0.3, 0.2])) && steps[0].object == Some(1));
+        assert!(matches!(steps[1].kind, EditKind::Emission([2.0, 2.0, 2.0])) && steps[1].object == Some(1));
+        let e = err("[[edit]]\nkind = \"albedo\"\nalbedo = 1\n", &["a"]);
+        assert!(e.contains("edit 1 (kind = \"albedo\")") && e.contains("'albedo' must lie in [0, 1)"), "{e}");
+        let e = err("[[edit]]\nkind = \"albedo\"\nalbedo = [0.5, nan, 0.5]\n", &["a"]);
+        assert!(e.contains("'albedo' must be finite"), "{e}");
+        let e = err("[[edit]]\nkind = \"albedo\"\n", &["a"]);
+        assert!(e.contains("missing key 'albedo'"), "{e}");
+        let e = err("[[edit]]\nkind = \"emission\"\nemission = [0, -1, 0]\n", &["a"]);
+        assert!(e.contains("edit 1 (kind = \"emission\")") && e.contains("'emission' must be ≥ 0"), "{e}");
+        let e = err("[[edit]]\nkind = \"emission\"\nemission = \"bright\"\n", &["a"]);
+        assert!(e.contains("'emission' must be a number or [r, g, b]"), "{e}");
+        let e = err("[[edit]]\nkind = \"emission\"\nemission = 1\nalbedo = 0.5\n", &["a"]);
+        assert!(e.contains("unknown key 'albedo'") && e.contains("object, emission"), "{e}");
     }
 
     #[test]

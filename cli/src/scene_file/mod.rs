@@ -12,7 +12,7 @@
 //! [render]                  # optional
 //! exposure_ev = 0           # stops
 //! samples = 3               # n × n supersamples per pixel, n in 1..=8 (1 = none)
-//! ground = true             # a grey floor under the objects
+//! ground = true             # a grey floor under the objects (radiosity: a diffuse object, below)
 //! background = [0, 0, 0]    # linear RGB
 //! specular = true           # GGX highlights of the sun, point and spot lights
 //! roughness = 0.3           # perceptual roughness of the highlights
@@ -82,6 +82,16 @@
 //! to a choice a flag overrode goes with it (`theta` under `--oracle paper`, `eps1`/`eps2` under
 //! `--oracle opening-angle` or `--theta`, `budget` under another `--mode` than incremental). A
 //! file whose method is not the one a key belongs to is refused naming the key.
+//!
+//! With `method = "radiosity"`, `ground = true` adds the renderer's ground plane to the scene as
+//! a real diffuse object before the bake, named `ground`: a square of 3 × the objects'
+//! bounding-box diagonal on a side (the renderer's own plane is 100 ×), centred under them on
+//! the plane through their lowest point along the camera's `up`, of the renderer's grey
+//! (albedo 0.5), reflecting on its upper side. It takes part in the inter-reflection: it is
+//! lit and shadowed by the lights and the objects, lights them from below and takes their
+//! colour bleeding, and it is drawn with its radiosity instead of the renderer's plane (beyond
+//! it, the background). Its patches are of the bake's `patch_size`, and it counts in the
+//! default one (the scene's diagonal / 80).
 //!
 //! The object transform is `translate · rotate · scale`, applied after the centring and fitting
 //! of `fit_size_mm`. Every key not listed here is an error that names it; every error names the
