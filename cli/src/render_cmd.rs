@@ -21,7 +21,7 @@ use transcut::mesh::TriMesh;
 use transcut::render::{render, Camera, GroundPlane, RenderObject, RenderOptions, RenderScene, SamplePattern, SpecularLight};
 use transcut::{bake_with, BakeOptions, DVec3, Diffuse, MediumSource, Method, Object, Progress, Scene, Session, Sides};
 
-use crate::method_args::{method_help, BakeTable, MethodArgs, MethodDefaults};
+use crate::method_args::{method_help, MethodArgs};
 use crate::progress::StageBar;
 use crate::scene_file::{self, apply, schema::CameraSpec};
 
@@ -73,28 +73,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if let Some(h) = args.height {
         camera_spec.height = h;
     }
-    let b = &file.bake;
     let in_file = || format!("scene file {}", args.scene.display());
-    let table = BakeTable {
-        method: b.method.clone(),
-        tets: b.tets,
-        tolerance: b.tolerance,
-        solver: b.solver.clone(),
-        theta: b.theta,
-        oracle: b.oracle.clone(),
-        eps1: b.eps1,
-        eps2: b.eps2,
-        rule: b.rule.clone(),
-        receivers: b.receivers.clone(),
-        mode: b.mode.clone(),
-        budget: b.budget,
-        patch_size: b.patch_size,
-        rays: b.rays,
-        iteration: b.iteration.clone(),
-        radiosity_tolerance: b.radiosity_tolerance,
-        bounces: b.bounces,
-    };
-    let defaults = MethodDefaults::from_bake_table(table).with_context(in_file)?;
+    let defaults = file.bake.method_defaults().with_context(in_file)?;
     let method = args.method.method(&defaults).with_context(in_file)?;
     let options = BakeOptions { method, threads: args.threads, ..BakeOptions::default() };
     let mut scene = Scene { objects: loaded.objects, lights: loaded.lights };
