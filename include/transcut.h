@@ -1400,9 +1400,18 @@ TcStatus tc_object_tet_count(const struct TcScene *scene, uint32_t object, size_
  * vertices are rebuilt (TransCut §5.2). Regions are evaluated on the object as baked (also
  * parts a cut removed, so a later recombine sees them).
  *
+ * A `TC_METHOD_RADIOSITY` bake couples its objects, so it changes a translucent object's
+ * medium as a whole: `TC_REGION_ALL` with `TC_MEDIUM_ASSIGN` only (the other regions and
+ * operations are `TC_UNSUPPORTED`, saying so), the object becoming homogeneous with σa and σ′s
+ * of the edit and its η and g, on its tets as baked; the whole scene is then re-solved (as
+ * `tc_scene_relight` does), the scene's description takes the new medium (a later bake
+ * agrees) and `tc_scene_radiosity_stats` describes the solve. A diffuse object has no medium
+ * (`TC_INVALID_ARGUMENT`; `tc_object_edit_albedo`, `tc_object_edit_emission`).
+ *
  * Errors: `TC_NOT_BAKED`, `TC_INVALID_ARGUMENT` (unknown region or operation, a mask of the
  * wrong length, a negative radius, a result that is not a valid medium: the message names the
- * field or tetrahedron), `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`. Nothing changes on failure.
+ * field or tetrahedron), `TC_UNSUPPORTED`, `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`,
+ * `TC_CANCELLED`. Nothing changes on failure.
  */
 TcStatus tc_object_edit_medium(struct TcScene *scene,
                                uint32_t object,
@@ -1428,6 +1437,32 @@ TcStatus tc_object_paint(struct TcScene *scene,
                          double radius,
                          const struct TcMedium *medium,
                          double strength);
+
+/**
+ * Sets a diffuse object's albedo (3 doubles, linear RGB, each in [0, 1)) after a
+ * `TC_METHOD_RADIOSITY` bake and re-solves the whole coupled scene from the last solution,
+ * without new form factors: afterwards every object's `tc_object_radiance` is that of the
+ * scene with the new albedo (as a fresh bake would give it, within the solve's tolerance),
+ * the scene's description has the albedo too (a later bake agrees; unlike
+ * `tc_object_set_albedo`, the results are kept) and `tc_scene_radiosity_stats` describes the
+ * solve. The scene's progress callback (`tc_scene_set_progress`) sees the solve and may cancel
+ * it. The caller keeps ownership of `albedo`.
+ *
+ * Errors: `TC_NULL_POINTER`; `TC_NOT_BAKED` before a bake; `TC_UNSUPPORTED` after a bake by
+ * another method (its objects are not coupled: change the albedo with `tc_object_set_albedo`
+ * and bake again); `TC_INVALID_ARGUMENT` naming the object and the value for an albedo out of
+ * range or NaN, or a translucent object; `TC_INVALID_HANDLE`, `TC_SOLVE_FAILED`,
+ * `TC_CANCELLED`. Nothing changes on failure.
+ */
+TcStatus tc_object_edit_albedo(struct TcScene *scene, uint32_t object, const double *albedo);
+
+/**
+ * Sets the exitance a diffuse object emits (3 doubles, linear RGB, each finite and ≥ 0; see
+ * `tc_object_set_emission`) after a `TC_METHOD_RADIOSITY` bake and re-solves the whole
+ * coupled scene, as `tc_object_edit_albedo` does (the same errors, for an emission negative,
+ * NaN or infinite). Nothing changes on failure.
+ */
+TcStatus tc_object_edit_emission(struct TcScene *scene, uint32_t object, const double *emission);
 
 /**
  * Writes the named preset medium into `*out`. Names (case-insensitive): apple, chicken1,
@@ -1557,7 +1592,11 @@ TcStatus tc_object_piece_mesh(const struct TcScene *scene,
  * not cut or moved) and `tc_object_edit_stats` what each object's update did.
  *
  * Each object is lit by the scene's lights with its own shadows (the pieces of that object);
- * unlike `tc_scene_bake`, other objects cast no shadows on it. `progress` (nullable) is called
+ * unlike `tc_scene_bake`, other objects cast no shadows on it. A `TC_METHOD_RADIOSITY` bake
+ * is the exception: its objects are coupled, so the whole scene is re-solved as the bake
+ * solved it, every object shadowing and lighting every other (warm-started from the last
+ * solution; lights that differ from the last ones only in colour or brightness need no solve),
+ * and `tc_scene_radiosity_stats` then describes that solve. `progress` (nullable) is called
  * with `user` as objects finish, as for `tc_scene_bake`; a non-zero return cancels
  * (`TC_CANCELLED`). On any failure no object changes.
  *

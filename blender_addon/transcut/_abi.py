@@ -458,6 +458,8 @@ OPTIONAL = {
     "tc_scene_set_progress": (c_int32, [ScenePtr, TcProgressFn, c_void_p]),
     "tc_object_tet_count": (c_int32, [ScenePtr, c_uint32, POINTER(c_size_t)]),
     "tc_object_edit_medium": (c_int32, [ScenePtr, c_uint32, POINTER(TcMediumEdit)]),
+    "tc_object_edit_albedo": (c_int32, [ScenePtr, c_uint32, c_double_p]),
+    "tc_object_edit_emission": (c_int32, [ScenePtr, c_uint32, c_double_p]),
     "tc_object_paint": (c_int32, [ScenePtr, c_uint32, c_double_p, c_size_t, c_double, POINTER(TcMedium), c_double]),
     "tc_object_cut_plane": (c_int32, [ScenePtr, c_uint32, c_double_p, c_double_p, c_int32]),
     "tc_object_cut_stroke": (c_int32, [ScenePtr, c_uint32, c_double_p, c_double_p, c_size_t, c_int32]),

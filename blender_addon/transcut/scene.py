@@ -873,8 +873,24 @@ class Scene:
 
     def relight(self, progress: Callable[[str, float], bool] | None = None) -> None:
         """Re-solves every object for the scene's current lights (``tc_scene_relight``), warm
-        started from the last solution; ``progress`` as for :meth:`bake`."""
+        started from the last solution; ``progress`` as for :meth:`bake`. A radiosity bake is
+        re-solved as a whole, every object shadowing and lighting every other."""
         self._call_with_progress("tc_scene_relight", progress)
+
+    def edit_albedo(self, obj: int, albedo) -> None:
+        """Sets a diffuse object's albedo after a radiosity bake and re-solves the whole scene
+        from the last solution, without new form factors (``tc_object_edit_albedo``): the
+        results are kept and equal a fresh bake with that albedo, which the scene then also
+        has. Reports through the callback of :meth:`set_progress`, which may cancel. The library
+        refuses a value out of range or a translucent object (``TC_INVALID_ARGUMENT``), a bake
+        by another method (``TC_UNSUPPORTED``) and no bake (``TC_NOT_BAKED``); nothing changes
+        on failure."""
+        self._call("tc_object_edit_albedo", obj, _vec3(albedo, "albedo"))
+
+    def edit_emission(self, obj: int, emission) -> None:
+        """Sets a diffuse object's emitted exitance after a radiosity bake and re-solves the
+        whole scene (``tc_object_edit_emission``), as :meth:`edit_albedo` does."""
+        self._call("tc_object_edit_emission", obj, _vec3(emission, "emission"))
 
     def set_positions(self, obj: int, positions) -> None:
         """Moves the vertices of a baked object (``tc_object_set_positions``): ``positions``

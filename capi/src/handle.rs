@@ -142,6 +142,18 @@ impl SceneState {
         })
     }
 
+    /// After a successful update of a radiosity bake's coupled session (a relight, an albedo,
+    /// an emission or a medium): object `index`'s material in the scene description becomes
+    /// the session's, so a later bake agrees with the edit, and the scene's radiosity
+    /// statistics become those of the update's solve. The results stay as current as they were.
+    pub(crate) fn coupled_updated(&mut self, index: Option<usize>) {
+        let Some(coupled) = self.session.as_ref().and_then(Session::radiosity) else { return };
+        if let (Some(i), Some(o)) = (index, index.and_then(|i| coupled.objects().get(i))) {
+            self.scene.objects[i].material = o.material.clone();
+        }
+        self.radiosity = Some(coupled.stats().clone());
+    }
+
     /// Replaces an object's medium after checking it against the object's shape (a per-tet
     /// array must match the tet count, table ids must be in range, …); the object is unchanged
     /// on error. A diffuse object is refused: its kind is fixed when it is added (its surface

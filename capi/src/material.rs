@@ -1,11 +1,16 @@
 //! Material edits of a baked object (TransCut §5.2): a region's medium changed, or a stroke
-//! painted; only the matrix rows of the affected vertices are rebuilt.
+//! painted; only the matrix rows of the affected vertices are rebuilt. A radiosity bake's
+//! edits re-solve the whole coupled scene: a diffuse object's albedo or emission, a translucent
+//! object's whole medium.
 
 use glam::DVec3;
 use transcut_core::edit::{MediumEdit, MediumOp, PaintStroke, Region};
+use transcut_core::optics::Medium;
+use transcut_core::{MediumSource, Session, SessionError};
 
 use super::convert::{medium_from, session_failure, TcMedium};
-use super::handle::{update, with_scene, TcScene};
+use super::handle::{update, with_scene, SceneState, TcScene};
+use super::progress::Callback;
 use super::ptr;
 use super::status::{run, Failure, TcStatus, TC_UNSUPPORTED};
 
@@ -119,9 +124,18 @@ unsafe fn medium_edit(e: &TcMediumEdit) -> Result<(Region, u32, [f64; 3], [f64; 
 /// vertices are rebuilt (TransCut §5.2). Regions are evaluated on the object as baked (also
 /// parts a cut removed, so a later recombine sees them).
 ///
+/// A `TC_METHOD_RADIOSITY` bake couples its objects, so it changes a translucent object's
+/// medium as a whole: `TC_REGION_ALL` with `TC_MEDIUM_ASSIGN` only (the other regions and
+/// operations are `TC_UNSUPPORTED`, saying so), the object becoming homogeneous with σa and σ′s
+/// of the edit and its η and g, on its tets as baked; the whole scene is then re-solved (as
+/// `tc_scene_relight` does), the scene's description takes the new medium (a later bake
+/// agrees) and `tc_scene_radiosity_stats` describes the solve. A diffuse object has no medium
+/// (`TC_INVALID_ARGUMENT`; `tc_object_edit_albedo`, `tc_object_edit_emission`).
+///
 /// Errors: `TC_NOT_BAKED`, `TC_INVALID_ARGUMENT` (unknown region or operation, a mask of the
 /// wrong length, a negative radius, a result that is not a valid medium: the message names the
-/// field or tetrahedron), `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`. Nothing changes on failure.
+/// field or tetrahedron), `TC_UNSUPPORTED`, `TC_SOLVE_FAILED`, `TC_GPU_UNAVAILABLE`,
+/// `TC_CANCELLED`. Nothing changes on failure.
 #[no_mangle]
 pub unsafe extern "C" fn tc_object_edit_medium(scene: *mut TcScene, object: u32, edit: *const TcMediumEdit) -> TcStatus {
     run("tc_object_edit_medium", || {
@@ -134,6 +148,24 @@ pub unsafe extern "C" fn tc_object_edit_medium(scene: *mut TcScene, object: u32,
         }
         // SAFETY: checked; the caller's contract.
         let (region, op, sigma_a, sigma_s) = unsafe { medium_edit(&*edit)? };
+        // SAFETY: the caller's contract.
+        let radiosity = unsafe { with_scene(scene, |s| Ok(s.session.as_ref().and_then(Session::radiosity).is_some()))? };
+        if radiosity {
+            if !matches!(region, Region::All) || op != TC_MEDIUM_ASSIGN {
+                return Err(Failure::new(
+                    TC_UNSUPPORTED,
+                    "a radiosity bake couples its objects, so it changes a translucent object's medium as a whole: \
+                     edit->region = TC_REGION_ALL with edit->op = TC_MEDIUM_ASSIGN",
+                ));
+            }
+            // SAFETY: the caller's contract.
+            return unsafe {
+                coupled(scene, object, |s, i| {
+                    let medium = whole_medium(s, object, i, sigma_a, sigma_s)?;
+                    Ok(move |session: &mut Session, p: transcut_core::Progress<'_>| session.set_medium(i, medium, p).map(|_| ()))
+                })
+            };
+        }
         let op = match op {
             TC_MEDIUM_ASSIGN => MediumOp::Set { sigma_a, sigma_s },
             TC_MEDIUM_SCALE => MediumOp::Scale { sigma_a, sigma_s },
@@ -175,5 +207,110 @@ pub unsafe extern "C" fn tc_object_paint(
         let stroke = PaintStroke { points, radius, medium, strength };
         // SAFETY: the caller's contract.
         unsafe { update(scene, object, |session, i, p| session.paint(i, &stroke, p).map(|_| ())) }
+    })
+}
+
+/// Object `i`'s new medium of a radiosity medium edit: homogeneous, σa and σ′s of the edit, η
+/// and g of its medium in the scene description (of its first layer, table entry or base).
+fn whole_medium(s: &SceneState, object: u32, i: usize, sigma_a: [f64; 3], sigma_s: [f64; 3]) -> Result<MediumSource, Failure> {
+    let o = &s.scene.objects[i];
+    let (eta, g) = match o.medium() {
+        None => {
+            return Err(Failure::invalid(format!(
+                "object {object} ({}) is diffuse: it has no medium (tc_object_edit_albedo, tc_object_edit_emission)",
+                o.name
+            )))
+        }
+        Some(MediumSource::Homogeneous(m)) => (m.eta, m.g),
+        Some(MediumSource::Table(t)) => t.first().map_or((1.0, 0.0), |m| (m.eta, m.g)),
+        Some(MediumSource::PerTet(m)) => (m.eta(), m.g()),
+        Some(MediumSource::Voxels { eta, g, .. }) => (*eta, *g),
+        Some(MediumSource::Layers(l)) => l.layers().first().map_or((1.0, 0.0), |l| (l.medium.eta, l.medium.g)),
+        Some(MediumSource::Veins(v)) => (v.base().eta, v.base().g),
+        Some(_) => {
+            return Err(Failure::new(
+                TC_UNSUPPORTED,
+                format!("object {object} ({}): its kind of medium has no one η and g", o.name),
+            ))
+        }
+    };
+    let medium =
+        Medium::new(sigma_a, sigma_s, eta, g).map_err(|e| Failure::invalid(format!("edit->sigma_a, sigma_s_prime: {e}")))?;
+    Ok(MediumSource::Homogeneous(medium))
+}
+
+/// Runs an update of a radiosity bake's coupled session on object `object` with the scene's
+/// progress callback: `make` checks the input against the scene and gives the update; after
+/// a success the scene's description and statistics follow the session
+/// (`SceneState::coupled_updated`). `TC_NOT_BAKED` before a bake; the session's
+/// `TC_UNSUPPORTED` for a bake of another method. Nothing changes on failure.
+///
+/// # Safety
+/// `scene` as for every call.
+unsafe fn coupled<F>(
+    scene: *mut TcScene,
+    object: u32,
+    make: impl FnOnce(&SceneState, usize) -> Result<F, Failure>,
+) -> Result<(), Failure>
+where
+    F: FnOnce(&mut Session, transcut_core::Progress<'_>) -> Result<(), SessionError>,
+{
+    // SAFETY: forwarded.
+    unsafe {
+        with_scene(scene, |s| {
+            let i = s.object_index(object)?;
+            s.session()?;
+            let op = make(s, i)?;
+            let sink = s.progress;
+            Callback::with(sink.function, sink.user, |p| op(s.session_mut()?, p).map_err(|e| session_failure(&e)))?;
+            s.coupled_updated(Some(i));
+            Ok(())
+        })
+    }
+}
+
+/// Sets a diffuse object's albedo (3 doubles, linear RGB, each in [0, 1)) after a
+/// `TC_METHOD_RADIOSITY` bake and re-solves the whole coupled scene from the last solution,
+/// without new form factors: afterwards every object's `tc_object_radiance` is that of the
+/// scene with the new albedo (as a fresh bake would give it, within the solve's tolerance),
+/// the scene's description has the albedo too (a later bake agrees; unlike
+/// `tc_object_set_albedo`, the results are kept) and `tc_scene_radiosity_stats` describes the
+/// solve. The scene's progress callback (`tc_scene_set_progress`) sees the solve and may cancel
+/// it. The caller keeps ownership of `albedo`.
+///
+/// Errors: `TC_NULL_POINTER`; `TC_NOT_BAKED` before a bake; `TC_UNSUPPORTED` after a bake by
+/// another method (its objects are not coupled: change the albedo with `tc_object_set_albedo`
+/// and bake again); `TC_INVALID_ARGUMENT` naming the object and the value for an albedo out of
+/// range or NaN, or a translucent object; `TC_INVALID_HANDLE`, `TC_SOLVE_FAILED`,
+/// `TC_CANCELLED`. Nothing changes on failure.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_edit_albedo(scene: *mut TcScene, object: u32, albedo: *const f64) -> TcStatus {
+    run("tc_object_edit_albedo", || {
+        // SAFETY: the caller's contract (3 doubles).
+        let albedo = unsafe { ptr::vec3(albedo, "albedo")? };
+        // SAFETY: the caller's contract.
+        unsafe {
+            coupled(scene, object, |_, i| {
+                Ok(move |session: &mut Session, p: transcut_core::Progress<'_>| session.set_albedo(i, albedo, p).map(|_| ()))
+            })
+        }
+    })
+}
+
+/// Sets the exitance a diffuse object emits (3 doubles, linear RGB, each finite and ≥ 0; see
+/// `tc_object_set_emission`) after a `TC_METHOD_RADIOSITY` bake and re-solves the whole
+/// coupled scene, as `tc_object_edit_albedo` does (the same errors, for an emission negative,
+/// NaN or infinite). Nothing changes on failure.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_edit_emission(scene: *mut TcScene, object: u32, emission: *const f64) -> TcStatus {
+    run("tc_object_edit_emission", || {
+        // SAFETY: the caller's contract (3 doubles).
+        let emission = unsafe { ptr::vec3(emission, "emission")? };
+        // SAFETY: the caller's contract.
+        unsafe {
+            coupled(scene, object, |_, i| {
+                Ok(move |session: &mut Session, p: transcut_core::Progress<'_>| session.set_emission(i, emission, p).map(|_| ()))
+            })
+        }
     })
 }

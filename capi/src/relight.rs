@@ -14,7 +14,11 @@ use super::status::{run, TcStatus};
 /// not cut or moved) and `tc_object_edit_stats` what each object's update did.
 ///
 /// Each object is lit by the scene's lights with its own shadows (the pieces of that object);
-/// unlike `tc_scene_bake`, other objects cast no shadows on it. `progress` (nullable) is called
+/// unlike `tc_scene_bake`, other objects cast no shadows on it. A `TC_METHOD_RADIOSITY` bake
+/// is the exception: its objects are coupled, so the whole scene is re-solved as the bake
+/// solved it, every object shadowing and lighting every other (warm-started from the last
+/// solution; lights that differ from the last ones only in colour or brightness need no solve),
+/// and `tc_scene_radiosity_stats` then describes that solve. `progress` (nullable) is called
 /// with `user` as objects finish, as for `tc_scene_bake`; a non-zero return cancels
 /// (`TC_CANCELLED`). On any failure no object changes.
 ///
@@ -33,6 +37,7 @@ pub unsafe extern "C" fn tc_scene_relight(scene: *mut TcScene, progress: TcProgr
                     let lights = s.scene.lights.clone();
                     s.session_mut()?.relight(&lights, progress).map_err(|e| session_failure(&e))?;
                     s.current = true;
+                    s.coupled_updated(None);
                     Ok(())
                 })
             }

@@ -155,6 +155,32 @@ def test_inter_reflection_and_one_bounce(tclib, ball):
         assert s.radiosity_stats()["iterations"] <= 1
 
 
+def test_edit_albedo_and_emission_re_solve_the_baked_scene(tclib, ball):
+    """edit_albedo after a bake equals baking with that albedo (which the scene then has),
+    edit_emission likewise; a translucent object and a value out of range are refused with
+    nothing changed."""
+    s, b, r = room_scene(tclib, ball)
+    with s:
+        s.set_albedo(r, (0.5, 0.5, 0.5))
+        s.bake(**ROOM_BAKE)
+        before = s.radiance(b)
+        with pytest.raises(tc.TranscutError) as err:
+            s.edit_albedo(b, (0.5, 0.5, 0.5))
+        assert err.value.status == tc.TC_INVALID_ARGUMENT and "translucent" in str(err.value)
+        with pytest.raises(tc.TranscutError) as err:
+            s.edit_albedo(r, (0.5, 1.0, 0.5))
+        assert err.value.status == tc.TC_INVALID_ARGUMENT and "albedo" in str(err.value)
+        np.testing.assert_array_equal(s.radiance(b), before)
+        s.edit_albedo(r, (0.7, 0.3, 0.1))
+        s.edit_emission(r, 2.0 * EMISSION)
+        edited = s.radiance(b), s.radiance(r)
+        s.bake(**ROOM_BAKE)
+        rebaked = s.radiance(b), s.radiance(r)
+    for e, f in zip(edited, rebaked, strict=True):
+        np.testing.assert_allclose(e, f, rtol=1e-3, atol=1e-3 * float(np.abs(f).max()))
+    assert not np.allclose(edited[0], before, rtol=0.05)
+
+
 def test_bad_diffuse_input_is_named_and_adds_nothing(tclib, ball):
     s, b, r = room_scene(tclib, ball)
     with s:

@@ -14,9 +14,11 @@
  * 3. Bad input is named and changes nothing (the last bake's results stay readable): an
  *    albedo of 1 or NaN, a negative emission, unknown sides, albedo on the translucent ball, a
  *    medium on the diffuse room, radiosity options out of range.
- * 4. Albedo 0.5: inter-reflection brightens the room above M/pi; with one bounce only
- *    (TcRadiosityOptions.bounces = 1) it is M/pi again, exactly. The coupled session refuses
- *    a relight (TC_UNSUPPORTED).
+ * 4. Albedo 0.5: inter-reflection brightens the room above M/pi.
+ * 5. The coupled session: tc_object_edit_albedo refuses the ball and an albedo of 1.5 with
+ *    nothing changed, and at 0.25 re-solves the baked scene (the room between M/pi and its
+ *    radiance at 0.5); a point lamp and tc_scene_relight brighten every room vertex.
+ * 6. With one bounce only (TcRadiosityOptions.bounces = 1) the room is M/pi again, exactly.
  *
  * Exit status 0 when every check passes. Run under valgrind and LeakSanitizer by
  * tests/c/run.sh.
@@ -215,7 +217,41 @@ int main(void) {
                   room_rgb[3 * v + c]);
     printf("albedo 0.5: room Lo = (%.5f %.5f %.5f), M/pi = (%.5f %.5f %.5f)\n", room_rgb[0], room_rgb[1], room_rgb[2],
            emission[0] / PI, emission[1] / PI, emission[2] / PI);
-    CHECK(tc_scene_relight(scene, NULL, NULL) == TC_UNSUPPORTED && says("radiosity"), "no relight of a coupled bake");
+
+    /* 5. The coupled session: an edit of the albedo and a relight re-solve the baked scene. */
+    float *room_before = malloc(3 * nr * sizeof(float));
+    memcpy(room_before, room_rgb, 3 * nr * sizeof(float));
+    CHECK(tc_object_edit_albedo(scene, ball, (const double[3]){0.5, 0.5, 0.5}) == TC_INVALID_ARGUMENT &&
+              says("translucent"),
+          "edit albedo of the ball");
+    CHECK(tc_object_edit_albedo(scene, room, (const double[3]){0.5, 1.5, 0.5}) == TC_INVALID_ARGUMENT && says("albedo"),
+          "edit albedo 1.5");
+    OK(tc_object_radiance(scene, room, room_rgb, 3 * nr));
+    CHECK(memcmp(room_rgb, room_before, 3 * nr * sizeof(float)) == 0, "a refused edit changes nothing");
+    OK(tc_object_edit_albedo(scene, room, (const double[3]){0.25, 0.25, 0.25}));
+    OK(tc_object_radiance(scene, room, room_rgb, 3 * nr));
+    for (size_t v = 0; v < nr; v++)
+        for (int c = 0; c < 3; c++)
+            CHECK(room_rgb[3 * v + c] > emission[c] / PI && room_rgb[3 * v + c] < room_before[3 * v + c],
+                  "albedo 0.25: vertex %zu channel %d: %g, between %g and %g", v, c, room_rgb[3 * v + c],
+                  emission[c] / PI, room_before[3 * v + c]);
+    printf("edit albedo 0.25: room Lo = (%.5f %.5f %.5f)\n", room_rgb[0], room_rgb[1], room_rgb[2]);
+    memcpy(room_before, room_rgb, 3 * nr * sizeof(float));
+    OK(tc_scene_add_point(scene, (const double[3]){0.0, 20.0, 0.0}, (const double[3]){200.0, 200.0, 200.0}));
+    OK(tc_scene_relight(scene, NULL, NULL));
+    OK(tc_object_radiance(scene, room, room_rgb, 3 * nr));
+    for (size_t v = 0; v < nr; v++)
+        for (int c = 0; c < 3; c++)
+            CHECK(room_rgb[3 * v + c] > room_before[3 * v + c], "relit: vertex %zu channel %d: %g, not above %g", v, c,
+                  room_rgb[3 * v + c], room_before[3 * v + c]);
+    OK(tc_scene_radiosity_stats(scene, &stats));
+    CHECK(stats.iterations >= 1, "the relight solved: %u sweeps", stats.iterations);
+    printf("relit by a point lamp: room Lo = (%.5f %.5f %.5f), %u sweeps\n", room_rgb[0], room_rgb[1], room_rgb[2],
+           stats.iterations);
+    free(room_before);
+    OK(tc_scene_clear_lights(scene));
+    OK(tc_object_set_albedo(scene, room, (const double[3]){0.5, 0.5, 0.5}));
+
     radiosity.bounces = 1;
     OK(bake(scene, &options));
     OK(tc_object_radiance(scene, room, room_rgb, 3 * nr));

@@ -1,6 +1,7 @@
 //! Translucent radiosity through the ABI: diffuse objects added and set, the method's options
 //! struct, the scene's statistics, a marble ball inside an emissive room against the room's
-//! exact radiance, and every misuse named with nothing changed.
+//! exact radiance, the coupled session's updates (relight, albedo, emission, medium) against
+//! fresh bakes, and every misuse named with nothing changed.
 
 use std::ptr;
 
@@ -139,9 +140,6 @@ fn a_ball_in_an_emissive_room_bakes_and_the_room_has_its_exact_radiance() {
     assert!(stats.iterations >= 1 && stats.scatterings >= 1, "{stats:?}");
     assert!(stats.estimated_error < 1e-4 && stats.energy_defect < 1e-2, "{stats:?}");
     assert!(stats.form_factor_ms >= 0.0 && stats.solve_ms > 0.0, "{stats:?}");
-    // The coupled session offers no update: relight is refused by name.
-    // SAFETY: valid pointers.
-    unsafe { fails(tc_scene_relight(s, None, ptr::null_mut()), TC_UNSUPPORTED, &["radiosity"]) };
     destroy(s);
 }
 
@@ -305,5 +303,229 @@ fn an_open_diffuse_surface_is_accepted() {
     ok(bake_with(s, o, &TcRadiosityOptions { patch_size_mm: 25.0, ..r }), "floor");
     let lo = radiance(s, f);
     assert!(lo.iter().all(|x| x.is_finite() && *x > 0.0), "{lo:?}");
+    destroy(s);
+}
+
+/// The ball in a grey room (albedo 0.5, emitting 0.5) that reflects inwards, baked: the scene,
+/// the ball, the room.
+fn grey_room() -> (*mut TcScene, u32, u32) {
+    let (s, ball, room) = ball_in_room([0.5; 3]);
+    // SAFETY: valid pointers.
+    ok(unsafe { tc_object_set_albedo(s, room, [0.5; 3].as_ptr()) }, "albedo");
+    (s, ball, room)
+}
+
+/// Bakes `s` with the fast options.
+fn bake_fast(s: *mut TcScene) {
+    let (o, r) = fast(2_000);
+    ok(bake_with(s, o, &r), "radiosity bake");
+}
+
+/// Every object's radiance.
+fn radiances(s: *mut TcScene, objects: &[u32]) -> Vec<Vec<f32>> {
+    objects.iter().map(|&o| radiance(s, o)).collect()
+}
+
+/// The largest difference of `a` and `b` relative to the largest value of `b`.
+fn relative_difference(a: &[Vec<f32>], b: &[Vec<f32>]) -> f64 {
+    let max = b.iter().flatten().fold(0.0f32, |m, &x| m.max(x.abs()));
+    let diff = a.iter().flatten().zip(b.iter().flatten()).fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
+    assert!(a.iter().map(Vec::len).eq(b.iter().map(Vec::len)), "different vertex counts");
+    f64::from(diff / max)
+}
+
+/// A red point light inside the room, above the ball.
+fn add_lamp(s: *mut TcScene) {
+    // SAFETY: valid pointers.
+    ok(unsafe { tc_scene_add_point(s, [0.0, 20.0, 0.0].as_ptr(), [300.0, 100.0, 50.0].as_ptr()) }, "point light");
+}
+
+/// `tc_scene_relight` of a radiosity bake re-solves the whole coupled scene under the new lights:
+/// within the solve's tolerance of a fresh bake under them, the statistics those of the solve.
+#[test]
+fn a_relit_radiosity_bake_equals_a_fresh_bake_under_the_new_lights() {
+    let (s, ball, room) = grey_room();
+    bake_fast(s);
+    let before = radiances(s, &[ball, room]);
+    add_lamp(s);
+    let mut stats: TcRadiosityStats = unsafe { std::mem::zeroed() };
+    stats.size = size_of::<TcRadiosityStats>() as u32;
+    // SAFETY: valid pointers.
+    unsafe {
+        fails(tc_object_radiance(s, ball, [0.0f32; 3].as_mut_ptr(), 3), TC_NOT_BAKED, &["tc_scene_relight"]);
+        ok(tc_scene_relight(s, None, ptr::null_mut()), "relight");
+        ok(tc_scene_radiosity_stats(s, &mut stats), "stats after the relight");
+    }
+    let relit = radiances(s, &[ball, room]);
+    assert!(stats.iterations >= 1 && stats.estimated_error < 1e-4, "{stats:?}");
+    let (fresh, fresh_ball, fresh_room) = grey_room();
+    add_lamp(fresh);
+    bake_fast(fresh);
+    let want = radiances(fresh, &[fresh_ball, fresh_room]);
+    let (d, change) = (relative_difference(&relit, &want), relative_difference(&before, &want));
+    eprintln!("relight: {d:.2e} from a fresh bake (the lamp changed the radiance by {change:.2})");
+    assert!(d < 1e-3, "relit vs fresh bake: {d:.2e}");
+    assert!(change > 0.1, "the lamp changed the radiance by {change:.2e} only");
+    destroy(s);
+    destroy(fresh);
+}
+
+/// `tc_object_edit_albedo` and `tc_object_edit_emission` re-solve the baked scene with the new
+/// value: within the solve's tolerance of a fresh bake with it, the results kept, and the
+/// scene's description changed too, so baking again gives the same.
+#[test]
+fn edit_albedo_and_emission_equal_fresh_bakes_with_the_new_values() {
+    let (s, ball, room) = grey_room();
+    bake_fast(s);
+    let before = radiances(s, &[ball, room]);
+    let albedo = [0.7, 0.3, 0.1];
+    // SAFETY: valid pointers.
+    ok(unsafe { tc_object_edit_albedo(s, room, albedo.as_ptr()) }, "edit albedo");
+    let edited = radiances(s, &[ball, room]);
+    let (fresh, fresh_ball, fresh_room) = grey_room();
+    // SAFETY: valid pointers.
+    ok(unsafe { tc_object_set_albedo(fresh, fresh_room, albedo.as_ptr()) }, "albedo");
+    bake_fast(fresh);
+    let want = radiances(fresh, &[fresh_ball, fresh_room]);
+    let (d, change) = (relative_difference(&edited, &want), relative_difference(&before, &want));
+    eprintln!("edit albedo: {d:.2e} from a fresh bake (the albedo changed the radiance by {change:.2})");
+    assert!(d < 1e-3 && change > 0.1, "edited vs fresh bake: {d:.2e}, change {change:.2e}");
+    // The scene's description has the albedo: a bake of it now is the fresh bake.
+    bake_fast(s);
+    let rebaked = radiances(s, &[ball, room]);
+    assert!(relative_difference(&rebaked, &want) < 1e-6, "a rebake after the edit differs from the fresh bake");
+
+    let emission = [2.0, 1.0, 0.5];
+    // SAFETY: valid pointers.
+    ok(unsafe { tc_object_edit_emission(s, room, emission.as_ptr()) }, "edit emission");
+    let edited = radiances(s, &[ball, room]);
+    // SAFETY: valid pointers.
+    ok(unsafe { tc_object_set_emission(fresh, fresh_room, emission.as_ptr()) }, "emission");
+    bake_fast(fresh);
+    let want = radiances(fresh, &[fresh_ball, fresh_room]);
+    let d = relative_difference(&edited, &want);
+    eprintln!("edit emission: {d:.2e} from a fresh bake");
+    assert!(d < 1e-3, "edited vs fresh bake: {d:.2e}");
+    destroy(s);
+    destroy(fresh);
+}
+
+/// `tc_object_edit_medium` on a radiosity bake puts a whole new medium (σa, σ′s of the edit,
+/// the object's η and g) on a translucent object: a fresh bake with that medium.
+#[test]
+fn a_whole_medium_edit_of_a_radiosity_bake_equals_a_fresh_bake() {
+    let (s, ball, room) = grey_room();
+    bake_fast(s);
+    let before = radiances(s, &[ball, room]);
+    let milky = TcMedium { sigma_a: [0.05, 0.01, 0.02], sigma_s_prime: [0.8, 1.0, 1.2], eta: 1.5, g: 0.0 };
+    let mut edit: TcMediumEdit = unsafe { std::mem::zeroed() };
+    edit.size = size_of::<TcMediumEdit>() as u32;
+    edit.region = TC_REGION_ALL;
+    edit.op = TC_MEDIUM_ASSIGN;
+    edit.sigma_a = milky.sigma_a;
+    edit.sigma_s_prime = milky.sigma_s_prime;
+    // SAFETY: valid pointers.
+    ok(unsafe { tc_object_edit_medium(s, ball, &edit) }, "edit medium");
+    let edited = radiances(s, &[ball, room]);
+    let (fresh, fresh_ball, fresh_room) = grey_room();
+    // The edit keeps the object's η and g: marble's 1.5 and 0.
+    // SAFETY: valid pointers.
+    ok(unsafe { tc_object_set_medium(fresh, fresh_ball, &milky) }, "medium");
+    bake_fast(fresh);
+    let want = radiances(fresh, &[fresh_ball, fresh_room]);
+    let (d, change) = (relative_difference(&edited, &want), relative_difference(&before, &want));
+    eprintln!("edit medium: {d:.2e} from a fresh bake (the medium changed the radiance by {change:.2})");
+    assert!(d < 1e-3 && change > 0.1, "edited vs fresh bake: {d:.2e}, change {change:.2e}");
+    destroy(s);
+    destroy(fresh);
+}
+
+/// The coupled edits name what is wrong and change nothing: NULL, before a bake, after a bake
+/// by another method, a value out of range, the wrong kind of object, a medium edit of a
+/// region or by an operation the coupled scene cannot take.
+#[test]
+fn bad_coupled_edits_are_named_and_change_nothing() {
+    let (s, ball, room) = grey_room();
+    let mut edit: TcMediumEdit = unsafe { std::mem::zeroed() };
+    edit.size = size_of::<TcMediumEdit>() as u32;
+    edit.sigma_a = [0.01; 3];
+    edit.sigma_s_prime = [1.0; 3];
+    let room_name = format!("object {room}");
+    // SAFETY: valid pointers unless NULL on purpose.
+    unsafe {
+        fails(tc_object_edit_albedo(s, room, [0.3; 3].as_ptr()), TC_NOT_BAKED, &["tc_scene_bake"]);
+        fails(tc_object_edit_emission(s, room, [0.3; 3].as_ptr()), TC_NOT_BAKED, &["tc_scene_bake"]);
+    }
+    bake_fast(s);
+    let before = radiances(s, &[ball, room]);
+    let mut stats: TcRadiosityStats = unsafe { std::mem::zeroed() };
+    stats.size = size_of::<TcRadiosityStats>() as u32;
+    // SAFETY: valid pointers.
+    unsafe {
+        ok(tc_scene_radiosity_stats(s, &mut stats), "stats");
+        fails(tc_object_edit_albedo(s, room, ptr::null()), TC_NULL_POINTER, &["`albedo`"]);
+        fails(tc_object_edit_emission(s, room, ptr::null()), TC_NULL_POINTER, &["`emission`"]);
+        fails(tc_object_edit_albedo(s, room, [0.5, 1.0, 0.5].as_ptr()), TC_INVALID_ARGUMENT, &[&room_name, "albedo", "[0, 1)"]);
+        fails(tc_object_edit_albedo(s, room, [f64::NAN, 0.5, 0.5].as_ptr()), TC_INVALID_ARGUMENT, &[&room_name, "albedo"]);
+        fails(tc_object_edit_emission(s, room, [0.0, -1.0, 0.0].as_ptr()), TC_INVALID_ARGUMENT, &[&room_name, "emission"]);
+        fails(tc_object_edit_emission(s, room, [f64::INFINITY, 0.0, 0.0].as_ptr()), TC_INVALID_ARGUMENT, &["emission"]);
+        fails(
+            tc_object_edit_albedo(s, ball, [0.5; 3].as_ptr()),
+            TC_INVALID_ARGUMENT,
+            &[&format!("object {ball}"), "translucent"],
+        );
+        fails(tc_object_edit_albedo(s, 9, [0.5; 3].as_ptr()), TC_INVALID_HANDLE, &["object 9"]);
+        edit.region = TC_REGION_SPHERE;
+        edit.radius = 5.0;
+        fails(tc_object_edit_medium(s, ball, &edit), TC_UNSUPPORTED, &["radiosity", "TC_REGION_ALL", "TC_MEDIUM_ASSIGN"]);
+        edit.region = TC_REGION_ALL;
+        edit.op = TC_MEDIUM_SCALE;
+        fails(tc_object_edit_medium(s, ball, &edit), TC_UNSUPPORTED, &["radiosity", "TC_MEDIUM_ASSIGN"]);
+        edit.op = TC_MEDIUM_ASSIGN;
+        fails(tc_object_edit_medium(s, room, &edit), TC_INVALID_ARGUMENT, &[&room_name, "diffuse", "tc_object_edit_albedo"]);
+        edit.sigma_a = [-1.0; 3];
+        fails(tc_object_edit_medium(s, ball, &edit), TC_INVALID_ARGUMENT, &["sigma_a"]);
+        for (object, what) in [(ball, "paint"), (room, "paint")] {
+            let marble = TcMedium { sigma_a: [0.01; 3], sigma_s_prime: [1.0; 3], eta: 1.3, g: 0.0 };
+            let status = tc_object_paint(s, object, [0.0, 0.0, 10.0].as_ptr(), 1, 2.0, &marble, 1.0);
+            fails(status, TC_UNSUPPORTED, &["radiosity", what]);
+        }
+        let mut after: TcRadiosityStats = std::mem::zeroed();
+        after.size = size_of::<TcRadiosityStats>() as u32;
+        ok(tc_scene_radiosity_stats(s, &mut after), "stats");
+        assert_eq!(after, stats, "the statistics changed on a refused edit");
+        let mut kind = 9u32;
+        ok(tc_object_material(s, room, &mut kind), "material");
+        assert_eq!(kind, TC_MATERIAL_DIFFUSE);
+    }
+    assert_eq!(radiances(s, &[ball, room]), before, "a refused edit changed the radiance");
+    // A cancelled edit changes nothing either.
+    unsafe extern "C" fn cancel(_: *mut std::ffi::c_void, _: *const std::ffi::c_char, _: f64) -> i32 {
+        1
+    }
+    // SAFETY: valid pointers; the callback needs no user data.
+    unsafe {
+        ok(tc_scene_set_progress(s, Some(cancel), ptr::null_mut()), "progress");
+        fails(tc_object_edit_albedo(s, room, [0.2; 3].as_ptr()), TC_CANCELLED, &[]);
+        ok(tc_scene_set_progress(s, None, ptr::null_mut()), "no progress");
+    }
+    assert_eq!(radiances(s, &[ball, room]), before, "a cancelled edit changed the radiance");
+    // The description was not changed either: a rebake gives the bake's radiance.
+    bake_fast(s);
+    assert!(relative_difference(&radiances(s, &[ball, room]), &before) < 1e-6, "a refused edit changed the scene");
+    destroy(s);
+
+    // A TransCut bake has no coupled edits.
+    let s = scene();
+    let ball = add(s, &Mesh::uv_sphere(10.0, 16, 8));
+    // SAFETY: valid pointers.
+    unsafe {
+        ok(tc_scene_add_sun(s, [0.0, 0.0, -1.0].as_ptr(), [1.0; 3].as_ptr(), 0.0), "sun");
+        let mut o = options(2_000);
+        o.backend = TC_BACKEND_CPU;
+        ok(tc_scene_bake(s, &o, None, ptr::null_mut()), "transcut bake");
+        fails(tc_object_edit_albedo(s, ball, [0.5; 3].as_ptr()), TC_UNSUPPORTED, &["transcut", "albedo"]);
+        fails(tc_object_edit_emission(s, ball, [0.5; 3].as_ptr()), TC_UNSUPPORTED, &["transcut", "emission"]);
+    }
     destroy(s);
 }
