@@ -105,6 +105,36 @@ fn a_translucent_object_alone_is_its_transcut_bake() {
     assert_eq!(all.radiosity.as_ref().unwrap().translucent_patches, all.objects[0].stats.boundary_vertices);
 }
 
+/// A strongly absorbing channel lit by a sun has a negative exitance B = (φ − 2q)/(2A) at lit
+/// points (TransCut's eq. 3 is negative there too); the radiosity gathers it as it is (the
+/// system is linear) and the bake succeeds, its first bounce TransCut's.
+#[test]
+fn a_negative_exitance_is_gathered_as_it_is() {
+    let medium = Medium { sigma_a: [0.002, 0.25, 0.25], sigma_s_prime: [1.0, 0.25, 0.25], eta: 1.3, g: 0.0 };
+    // examples/box.obj (2 × 1 × 1) at 30 mm across, as the CLI's fit_size_mm = 30 puts it.
+    let block = transcut::mesh::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/box.obj")).unwrap();
+    let sun = Light::Directional { direction: DVec3::new(0.7, -1.0, 0.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 };
+    let scene = Scene { objects: vec![Object::new("block", block, medium, 30.0 / 6f64.sqrt())], lights: vec![sun] };
+    let transcut =
+        bake(&scene, &BakeOptions::with_method(TransCutOptions { tets: 8_000, ..TransCutOptions::default() })).unwrap();
+    // The CLI's options for this scene (TransCut's tolerance, 256 rays).
+    let cli = |solve: SolveOptions| {
+        BakeOptions::with_method(RadiosityOptions {
+            patch_size_mm: Some(2.5),
+            form_factors: transcut::radiosity::FormFactorOptions { rays_per_patch: 256, ..Default::default() },
+            solve,
+            transcut: TransCutOptions { tets: 8_000, ..TransCutOptions::default() },
+            ..RadiosityOptions::default()
+        })
+    };
+    let one = bake(&scene, &cli(SolveOptions { bounces: Some(1), ..SolveOptions::default() })).unwrap();
+    assert!(worst_relative(&one.objects[0].radiance, &transcut.objects[0].radiance) < 1e-6);
+    for iteration in [Iteration::Jacobi, Iteration::GaussSeidel, Iteration::BiCgStab] {
+        let all = bake(&scene, &cli(SolveOptions { iteration, ..SolveOptions::default() })).unwrap();
+        assert!(all.objects[0].radiance.iter().flatten().all(|x| x.is_finite() && *x >= 0.0), "{iteration:?}");
+    }
+}
+
 /// A marble sphere (R = 10 mm, η = 1.3) inside an emissive enclosure (R = 30 mm, ρ = 0.5,
 /// M = 1), no lights: the closed forms of design §3.3 (F₁₂ = 1, F₂₁ = 1/9, F₂₂ = 8/9, the
 /// uniformly lit sphere's B/q) give the inner Lo(n) and the enclosure's Lo (A4, S through the

@@ -149,6 +149,7 @@ fn material_changes_agree_with_fresh_bakes() {
     session.set_medium(0, MediumSource::Homogeneous(jade), Progress::none()).unwrap();
     changed.objects[0].material = MediumSource::Homogeneous(jade).into();
     assert_matches_a_fresh_bake(&session, &changed, "another medium and η");
+    assert_eq!(session.eta(0).unwrap(), 1.5, "the session reports the new medium's η");
 
     // The emission and the light as two responses: a relight is their sum.
     let moved = vec![point(above(5.0), [2000.0; 3])];

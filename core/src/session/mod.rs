@@ -356,7 +356,11 @@ impl Session {
     /// # Errors
     /// [`SessionError::NoSuchObject`].
     pub fn eta(&self, index: usize) -> Result<f64, SessionError> {
-        Ok(match &self.slot(index)?.state {
+        let slot = self.slot(index)?;
+        if let Some(eta) = self.coupled.as_ref().and_then(|c| c.eta(index)) {
+            return Ok(eta);
+        }
+        Ok(match &slot.state {
             State::Live(Live::TransCut(e)) => e.media().eta(),
             State::Live(Live::HierarchicalDipole(d)) => d.state().eta(),
             State::Baked(b) => b.eta(),

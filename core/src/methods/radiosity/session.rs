@@ -379,6 +379,13 @@ impl RadiositySession {
         &self.fixed.objects
     }
 
+    /// The refractive index at object `index`'s surface (after any `set_medium`; 1 for an
+    /// opaque object, which renders Lambertian), `None` for an index out of range.
+    #[must_use]
+    pub fn eta(&self, index: usize) -> Option<f64> {
+        self.scatterers.get(index).map(|s| s.as_ref().map_or(1.0, Scatterer::eta))
+    }
+
     /// Object `index`'s statistics: the bake's, with its last diffusion solve's iterations and
     /// residual (and its assembly after a new medium).
     #[must_use]

@@ -133,15 +133,17 @@ impl Prepared {
     }
 
     /// Puts back a solution: the source `q` per boundary vertex and its fluence φ per vertex
-    /// (a sum of solutions is one: the system is linear).
+    /// (a sum of solutions is one: the system is linear). `q` may be negative in places: the
+    /// exitance B = (φ − 2q)/(2A) that the radiosity gathers is, where a strongly absorbing
+    /// channel is lit (as TransCut's eq. 3 there).
     ///
     /// # Errors
-    /// [`DiffusionError`] for a `q` of another length or not finite and ≥ 0; nothing changed.
+    /// [`DiffusionError`] for a `q` of another length or not finite; nothing changed.
     pub(crate) fn set_solution(&mut self, q: &[[f64; 3]], fluence: Vec<[f64; 3]>) -> Result<(), DiffusionError> {
         if fluence.len() != self.fluence.len() {
             return Err(DiffusionError::LengthMismatch { what: "fluence", expected: self.fluence.len(), found: fluence.len() });
         }
-        self.system.set_source(q)?;
+        self.system.set_signed_source(q)?;
         self.fluence = fluence;
         Ok(())
     }
@@ -175,7 +177,7 @@ impl Prepared {
             name: name(),
             source,
         })?;
-        system.set_source(self.system.source()).map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
+        system.set_signed_source(self.system.source()).map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
         stats.resolution = checked;
         stats.assembly_ms = ms(t);
         Ok(Self { tet_mesh, media, system, fluence: self.fluence.clone() })
