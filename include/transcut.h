@@ -85,6 +85,12 @@
 #define TC_RADIOSITY_GAUSS_SEIDEL 1
 
 /**
+ * `TcRadiosityOptions.iteration`: BiCGSTAB on the coupled system (two diffusion solves of each
+ * translucent object an iteration, few iterations), stopped by a bound on the error in power.
+ */
+#define TC_RADIOSITY_BICGSTAB 2
+
+/**
  * The most rays per patch `TcRadiosityOptions.rays_per_patch` may ask for, 2^24.
  */
 #define TC_MAX_RAYS_PER_PATCH (1 << 24)
@@ -483,7 +489,7 @@ typedef struct TcRadiosityOptions {
    */
   uint32_t size;
   /**
-   * `TC_RADIOSITY_JACOBI` (default) or `TC_RADIOSITY_GAUSS_SEIDEL`.
+   * `TC_RADIOSITY_JACOBI` (default), `TC_RADIOSITY_GAUSS_SEIDEL` or `TC_RADIOSITY_BICGSTAB`.
    */
   uint32_t iteration;
   /**

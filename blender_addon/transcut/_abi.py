@@ -108,6 +108,7 @@ TC_DIPOLE_RADIANCE_JENSEN = 1  # Lo = T B/π (Jensen et al. 2001)
 # TcRadiosityOptions.iteration (tc_radiosity_options_init gives Jacobi).
 TC_RADIOSITY_JACOBI = 0  # every patch from the last sweep (the paper's)
 TC_RADIOSITY_GAUSS_SEIDEL = 1  # opaque patches from the values already updated in the sweep
+TC_RADIOSITY_BICGSTAB = 2  # BiCGSTAB on the coupled system, stopped by a bound on the error
 TC_MAX_RAYS_PER_PATCH = 1 << 24  # TcRadiosityOptions.rays_per_patch at most
 TC_MAX_RADIOSITY_ITERATIONS = 10_000  # TcRadiosityOptions.max_iterations and bounces at most
 
@@ -141,7 +142,11 @@ DIPOLE_CHOICES = {
 
 #: The names :meth:`Scene.bake` accepts for translucent radiosity's ``iteration`` (besides the
 #: ``TC_RADIOSITY_*`` values; the CLI's ``--iteration`` names, any case).
-RADIOSITY_ITERATIONS = {"jacobi": TC_RADIOSITY_JACOBI, "gauss-seidel": TC_RADIOSITY_GAUSS_SEIDEL}
+RADIOSITY_ITERATIONS = {
+    "jacobi": TC_RADIOSITY_JACOBI,
+    "gauss-seidel": TC_RADIOSITY_GAUSS_SEIDEL,
+    "bicgstab": TC_RADIOSITY_BICGSTAB,
+}
 
 #: The names :meth:`Scene.add_diffuse_mesh` and :meth:`Scene.set_sides` accept (besides the
 #: ``TC_SIDES_*`` values; the scene file's ``sides`` names, any case).

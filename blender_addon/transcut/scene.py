@@ -694,7 +694,7 @@ class Scene:
         Translucent radiosity's options (``method="radiosity"``), the
         :class:`TcRadiosityOptions` fields: ``patch_size`` (the longest patch edge on diffuse
         objects, in mm; 0: the scene's diagonal / 80), ``rays`` (rays per patch for the form
-        factors), ``iteration`` (``"jacobi"`` or ``"gauss-seidel"``, any case, or a
+        factors), ``iteration`` (``"jacobi"``, ``"gauss-seidel"`` or ``"bicgstab"``, any case, or a
         ``TC_RADIOSITY_*`` value), ``bounces`` (exactly that many bounces, Jacobi only; 0: until
         the tolerance), ``radiosity_tolerance`` (the estimated relative error in power at
         which the iteration stops), ``radiosity_max_iterations`` (its sweeps at most), ``seed``

@@ -46,6 +46,9 @@ pub const TC_RADIOSITY_JACOBI: u32 = 0;
 /// in the sweep (about half the sweeps, and half the translucent objects' diffusion solves, of
 /// Jacobi).
 pub const TC_RADIOSITY_GAUSS_SEIDEL: u32 = 1;
+/// `TcRadiosityOptions.iteration`: BiCGSTAB on the coupled system (two diffusion solves of each
+/// translucent object an iteration, few iterations), stopped by a bound on the error in power.
+pub const TC_RADIOSITY_BICGSTAB: u32 = 2;
 /// The most rays per patch `TcRadiosityOptions.rays_per_patch` may ask for, 2^24.
 pub const TC_MAX_RAYS_PER_PATCH: u32 = 1 << 24;
 /// The largest `TcRadiosityOptions.max_iterations` and `bounces`: a radiosity that has not
@@ -223,7 +226,7 @@ pub struct TcDipoleOptions {
 pub struct TcRadiosityOptions {
     /// The bytes of the struct the caller has, set by `tc_radiosity_options_init`.
     pub size: u32,
-    /// `TC_RADIOSITY_JACOBI` (default) or `TC_RADIOSITY_GAUSS_SEIDEL`.
+    /// `TC_RADIOSITY_JACOBI` (default), `TC_RADIOSITY_GAUSS_SEIDEL` or `TC_RADIOSITY_BICGSTAB`.
     pub iteration: u32,
     /// The longest patch edge on opaque objects, in mm (their meshes are refined to it, keeping
     /// their vertices): finite and > 0, or 0 for the default, the scene's bounding-box diagonal
@@ -262,6 +265,7 @@ pub(crate) fn default_radiosity_options() -> TcRadiosityOptions {
         iteration: match d.solve.iteration {
             Iteration::GaussSeidel => TC_RADIOSITY_GAUSS_SEIDEL,
             Iteration::Jacobi => TC_RADIOSITY_JACOBI,
+            Iteration::BiCgStab => TC_RADIOSITY_BICGSTAB,
         },
         patch_size_mm: d.patch_size_mm.unwrap_or(0.0),
         rays_per_patch: u32::try_from(d.form_factors.rays_per_patch).unwrap_or(u32::MAX),
@@ -281,10 +285,13 @@ fn radiosity_options(o: &TcRadiosityOptions, transcut: TransCutOptions) -> Resul
     let iteration = match o.iteration {
         TC_RADIOSITY_JACOBI => Iteration::Jacobi,
         TC_RADIOSITY_GAUSS_SEIDEL => Iteration::GaussSeidel,
+        TC_RADIOSITY_BICGSTAB => Iteration::BiCgStab,
         other => {
             return Err(field(
                 "iteration",
-                format!("{other}: unknown iteration (TC_RADIOSITY_JACOBI = 0, TC_RADIOSITY_GAUSS_SEIDEL = 1)"),
+                format!(
+                "{other}: unknown iteration (TC_RADIOSITY_JACOBI = 0, TC_RADIOSITY_GAUSS_SEIDEL = 1, TC_RADIOSITY_BICGSTAB = 2)"
+            ),
             ))
         }
     };
@@ -319,7 +326,7 @@ fn radiosity_options(o: &TcRadiosityOptions, transcut: TransCutOptions) -> Resul
         _ if iteration != Iteration::Jacobi => {
             return Err(field(
                 "bounces",
-                format!("{}: a count of bounces needs TC_RADIOSITY_JACOBI (a Gauss–Seidel sweep mixes bounces)", o.bounces),
+                format!("{}: a count of bounces needs TC_RADIOSITY_JACOBI (Gauss–Seidel and BiCGSTAB mix bounces)", o.bounces),
             ))
         }
         b => Some(b as usize),
@@ -334,6 +341,7 @@ fn radiosity_options(o: &TcRadiosityOptions, transcut: TransCutOptions) -> Resul
         },
         solve: SolveOptions { iteration, tolerance: o.tolerance, max_iterations: o.max_iterations as usize, bounces },
         transcut: TransCutOptions { solver, ..transcut },
+        ..RadiosityOptions::default()
     };
     // What the checks above do not cover (the core's own bounds, should they tighten).
     let own = RadiosityOptions { transcut: TransCutOptions::default(), ..options.clone() };
@@ -667,7 +675,10 @@ mod tests {
         assert_eq!(radiosity_options(&three, transcut.clone()).unwrap().solve.bounces, Some(3));
         let bad = |o: TcRadiosityOptions| radiosity_options(&o, TransCutOptions::default()).unwrap_err().message;
         let d = default_radiosity_options;
-        assert!(bad(TcRadiosityOptions { iteration: 2, ..d() }).contains("iteration = 2"));
+        assert!(bad(TcRadiosityOptions { iteration: 3, ..d() }).contains("iteration = 3"));
+        let krylov = TcRadiosityOptions { iteration: TC_RADIOSITY_BICGSTAB, ..d() };
+        assert_eq!(radiosity_options(&krylov, transcut.clone()).unwrap().solve.iteration, Iteration::BiCgStab);
+        assert!(bad(TcRadiosityOptions { bounces: 2, ..krylov }).contains("needs TC_RADIOSITY_JACOBI"));
         assert!(bad(TcRadiosityOptions { patch_size_mm: f64::INFINITY, ..d() }).contains("patch_size_mm = inf"));
         assert!(bad(TcRadiosityOptions { tolerance: 0.0, ..d() }).contains("tolerance = 0"));
         assert!(bad(TcRadiosityOptions { max_iterations: 10_001, ..d() }).contains("max_iterations = 10001"));

@@ -105,7 +105,7 @@ def test_radiosity_options_defaults_and_names(tclib):
     assert r.size == ctypes.sizeof(tc.TcRadiosityOptions)
     assert (r.iteration, r.patch_size_mm, r.rays_per_patch, r.bounces) == (tc.TC_RADIOSITY_JACOBI, 0.0, 512, 0)
     assert tclib.method_number("radiosity") == tc.TC_METHOD_RADIOSITY
-    assert tc.RADIOSITY_ITERATIONS == {"jacobi": 0, "gauss-seidel": 1}
+    assert tc.RADIOSITY_ITERATIONS == {"jacobi": 0, "gauss-seidel": 1, "bicgstab": 2}
     assert tc.SIDES == {"both": tc.TC_SIDES_BOTH, "front": tc.TC_SIDES_FRONT, "back": tc.TC_SIDES_BACK}
 
 
@@ -230,7 +230,7 @@ def test_radiosity_options_are_checked(tclib, ball):
             s.bake(method="radiosity", theta=0.5)
         with pytest.raises(ValueError, match="options of transcut"):
             s.bake(method="radiosity", edit_solver="pcg")
-        with pytest.raises(ValueError, match="unknown iteration 'southwell' \\(known: jacobi, gauss-seidel\\)"):
+        with pytest.raises(ValueError, match="unknown iteration 'southwell' \\(known: jacobi, gauss-seidel, bicgstab\\)"):
             s.bake(method="radiosity", iteration="southwell")
         for key, value, match in (("rays", -1, r"rays must be in \[0, 2\^32\)"), ("bounces", 2.5, "whole number")):
             with pytest.raises(ValueError, match=match):

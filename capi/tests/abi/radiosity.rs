@@ -254,7 +254,7 @@ fn bad_radiosity_options_name_the_field() {
     let (s, _, _) = ball_in_room([1.0; 3]);
     let (o, good) = fast(2_000);
     let cases: Vec<(TcRadiosityOptions, &[&str])> = vec![
-        (TcRadiosityOptions { iteration: 2, ..good }, &["method_options->iteration = 2", "TC_RADIOSITY_GAUSS_SEIDEL = 1"]),
+        (TcRadiosityOptions { iteration: 3, ..good }, &["method_options->iteration = 3", "TC_RADIOSITY_BICGSTAB = 2"]),
         (TcRadiosityOptions { patch_size_mm: -1.0, ..good }, &["method_options->patch_size_mm = -1"]),
         (TcRadiosityOptions { patch_size_mm: f64::NAN, ..good }, &["patch_size_mm = NaN"]),
         (TcRadiosityOptions { rays_per_patch: 0, ..good }, &["rays_per_patch = 0"]),

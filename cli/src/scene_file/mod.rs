@@ -32,9 +32,11 @@
 //! # budget = 5000           # hierarchical-dipole, mode "incremental": most links per update
 //! # patch_size = 4          # radiosity: longest patch edge on diffuse objects, mm (default: diagonal/80)
 //! # rays = 512              # radiosity: form-factor rays per patch
-//! # iteration = "jacobi"    # radiosity: jacobi or gauss-seidel
+//! # iteration = "jacobi"    # radiosity: jacobi, gauss-seidel or bicgstab
 //! # radiosity_tolerance = 1e-3  # radiosity: estimated relative error in power to stop at
 //! # bounces = 3             # radiosity: exactly this many bounces (jacobi), whatever the tolerance
+//! # scattering = "diffusion"  # radiosity: translucent objects' S: diffusion (their TransCut solve), half-space or dipole (a profile)
+//! # profile_distance = "chord"  # radiosity, with a profile: chord or interior (the shortest path inside)
 //!
 //! [[object]]                # one or more
 //! mesh = "bunny.obj"        # OBJ or PLY, relative to the scene file
