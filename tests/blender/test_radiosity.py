@@ -230,7 +230,9 @@ def test_radiosity_options_are_checked(tclib, ball):
             s.bake(method="radiosity", theta=0.5)
         with pytest.raises(ValueError, match="options of transcut"):
             s.bake(method="radiosity", edit_solver="pcg")
-        with pytest.raises(ValueError, match="unknown iteration 'southwell' \\(known: jacobi, gauss-seidel, bicgstab\\)"):
+        with pytest.raises(
+            ValueError, match="unknown iteration 'southwell' \\(known: jacobi, gauss-seidel, bicgstab\\)"
+        ):
             s.bake(method="radiosity", iteration="southwell")
         for key, value, match in (("rays", -1, r"rays must be in \[0, 2\^32\)"), ("bounces", 2.5, "whole number")):
             with pytest.raises(ValueError, match=match):
