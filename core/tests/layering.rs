@@ -70,7 +70,7 @@ const CAPI: Table = &[
     ("deform", &["handle", "ptr", "status"]),
     ("edit_stats", &["convert", "handle", "ptr", "status"]),
     ("light", &["handle", "ptr", "status"]),
-    ("material", &["convert", "handle", "ptr", "status"]),
+    ("material", &["convert", "handle", "progress", "ptr", "status"]),
     ("medium", &["convert", "handle", "ptr", "status"]),
     ("method", &["ptr", "status"]),
     ("pieces", &["handle", "ptr", "status"]),
