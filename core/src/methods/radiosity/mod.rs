@@ -18,6 +18,7 @@
 //!    (design §1.2).
 
 mod profile_object;
+mod responses;
 mod scatterer;
 mod scattering;
 mod session;

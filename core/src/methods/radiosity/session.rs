@@ -24,6 +24,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::profile_object::{homogeneous_medium, ProfileObject};
+use super::responses::{warm_start, Field, Response, Source};
 use super::scatterer::{Operator, Scatterer};
 use super::scattering::DiffusionScattering;
 use super::surfaces::{patch_surface, PatchSurface};
@@ -38,71 +39,6 @@ use crate::optics::fresnel::f_ext;
 use crate::progress::{ms, Cancelled, Progress};
 use crate::radiosity::{solve_coupled, FormFactors, Opaque, PatchSet, Solution, SolveOptions, Translucent};
 use crate::scene::{BakeOptions, Diffuse, MediumSource, Object, RadiosityOptions, Scene, SceneError, TranslucentScattering};
-
-/// One translucent object's share of a solution: the source q of its last diffusion solve and
-/// the fluence φ it gave.
-#[derive(Debug, Clone)]
-struct Field {
-    source: Vec<[f64; 3]>,
-    fluence: Vec<[f64; 3]>,
-}
-
-/// The scene's solution for one set of sources: B per patch and each translucent object's
-/// field (`None` for opaque objects). Linear in the sources.
-#[derive(Debug, Clone)]
-struct Response {
-    radiosity: Vec<[f64; 3]>,
-    fields: Vec<Option<Field>>,
-}
-
-impl Response {
-    /// The response of nothing, shaped as `like`.
-    fn zero_like(like: &Response) -> Response {
-        let zero = |v: &[[f64; 3]]| vec![[0.0; 3]; v.len()];
-        Response {
-            radiosity: zero(&like.radiosity),
-            fields: like
-                .fields
-                .iter()
-                .map(|f| f.as_ref().map(|f| Field { source: zero(&f.source), fluence: zero(&f.fluence) }))
-                .collect(),
-        }
-    }
-
-    /// `self += s ⊙ other`, per channel.
-    fn add_scaled(&mut self, s: [f64; 3], other: &Response) {
-        let axpy = |y: &mut [[f64; 3]], x: &[[f64; 3]]| {
-            for (y, x) in y.iter_mut().zip(x) {
-                for c in 0..3 {
-                    y[c] += s[c] * x[c];
-                }
-            }
-        };
-        axpy(&mut self.radiosity, &other.radiosity);
-        for (mine, theirs) in self.fields.iter_mut().zip(&other.fields) {
-            if let (Some(m), Some(t)) = (mine, theirs) {
-                axpy(&mut m.source, &t.source);
-                axpy(&mut m.fluence, &t.fluence);
-            }
-        }
-    }
-
-    /// `self` with each channel divided by `s` (every channel > 0).
-    fn divided(&self, s: [f64; 3]) -> Response {
-        let mut out = Response::zero_like(self);
-        out.add_scaled(s.map(|x| 1.0 / x), self);
-        out
-    }
-}
-
-/// What a cached response is the solution of.
-#[derive(Debug, Clone, PartialEq)]
-enum Source {
-    /// A light at unit strength ([`Light::split_strength`]).
-    Light(Light),
-    /// The emission of the diffuse objects.
-    Emission,
-}
 
 /// The direct light of a set of lights: E_d per patch (0 on translucent patches) and the
 /// transmitted q_d per translucent object (in its patch order).
@@ -756,25 +692,6 @@ struct Change {
     albedo: Option<Vec<[f64; 3]>>,
     emission: Option<Vec<[f64; 3]>>,
     objects: Option<Vec<Object>>,
-}
-
-/// Where the solve of `source` starts: the response (among `responses`) of the light that had
-/// its place in the last lights `before` (a light being moved); none for a light without one,
-/// for the emission, or for a count of bounces (which starts from no light).
-fn warm_start<'a>(
-    responses: &'a [(Source, Response)],
-    before: &[Light],
-    bounces: Option<usize>,
-    source: &Source,
-    lights: &[Light],
-) -> Option<&'a Response> {
-    if bounces.is_some() {
-        return None;
-    }
-    let Source::Light(unit) = source else { return None };
-    let place = lights.iter().position(|l| &l.split_strength().0 == unit)?;
-    let old = Source::Light(before.get(place)?.split_strength().0);
-    responses.iter().find(|(s, _)| *s == old).map(|(_, r)| r)
 }
 
 impl RadiosityUpdate {
