@@ -265,13 +265,16 @@ pub fn solve_coupled<E: From<RadiosityError>>(
     let Opaque { albedo, direct, emission } = *opaque;
     let update =
         |i: usize, e: [f64; 3]| -> [f64; 3] { std::array::from_fn(|c| albedo[i][c] * (direct[i][c] + e[c]) + emission[i][c]) };
-    let start = initial.map_or_else(|| vec![[0.0; 3]; n], |b| factors.apply(b));
-    let mut b: Vec<[f64; 3]> = (0..n).map(|i| if is_translucent[i] { [0.0; 3] } else { update(i, start[i]) }).collect();
-    for block in translucent.iter_mut() {
-        block.update(&start[block.range()], &mut b)?;
-    }
+    // BiCGSTAB starts from `initial` itself and needs the first bounce B₁ as its right-hand
+    // side; the sweeps start from the update of what `initial` gathers.
+    let krylov = options.iteration == Iteration::BiCgStab;
+    let start = match initial {
+        Some(b) if !krylov => factors.apply(b),
+        _ => vec![[0.0; 3]; n],
+    };
+    let mut b = jacobi_update(opaque, translucent, &is_translucent, &start)?;
     let mut scatterings = 1;
-    if options.iteration == Iteration::BiCgStab {
+    if krylov {
         let krylov = Krylov { factors, areas, opaque, translucent, is_translucent: &is_translucent };
         let mut solution = krylov.solve(b, initial, options, keep_going)?;
         solution.energy = balance(factors, areas, opaque, translucent, &is_translucent, &solution.radiosity);
@@ -290,13 +293,7 @@ pub fn solve_coupled<E: From<RadiosityError>>(
         }
         let before = b.clone();
         match options.iteration {
-            Iteration::Jacobi => {
-                let gathered = factors.apply(&b);
-                b.par_iter_mut().enumerate().filter(|(i, _)| !is_translucent[*i]).for_each(|(i, x)| *x = update(i, gathered[i]));
-                for block in translucent.iter_mut() {
-                    block.update(&gathered[block.range()], &mut b)?;
-                }
-            }
+            Iteration::Jacobi => b = jacobi_update(opaque, translucent, &is_translucent, &factors.apply(&b))?,
             Iteration::BiCgStab => unreachable!("solved above"),
             Iteration::GaussSeidel => {
                 for i in (0..n).filter(|&i| !is_translucent[i]) {
@@ -329,6 +326,32 @@ pub fn solve_coupled<E: From<RadiosityError>>(
     let energy = balance(factors, areas, opaque, translucent, &is_translucent, &b);
     let scatterings = if translucent.is_empty() { 0 } else { scatterings };
     Ok(Solution { radiosity: b, iterations, scatterings, estimated_error: estimated, energy })
+}
+
+/// One Jacobi update from the gathered irradiance E: ρ ⊙ (E_d + E) + M on opaque patches and
+/// S(q_d + t E) on each translucent object's (eqs. 13–14).
+fn jacobi_update<E>(
+    opaque: &Opaque<'_>,
+    translucent: &mut [Translucent<'_, E>],
+    is_translucent: &[bool],
+    gathered: &[[f64; 3]],
+) -> Result<Vec<[f64; 3]>, E> {
+    let Opaque { albedo, direct, emission } = *opaque;
+    let mut b: Vec<[f64; 3]> = gathered
+        .par_iter()
+        .enumerate()
+        .map(|(i, e)| {
+            if is_translucent[i] {
+                [0.0; 3]
+            } else {
+                std::array::from_fn(|c| albedo[i][c] * (direct[i][c] + e[c]) + emission[i][c])
+            }
+        })
+        .collect();
+    for block in translucent.iter_mut() {
+        block.update(&gathered[block.range()], &mut b)?;
+    }
+    Ok(b)
 }
 
 /// The coupled system as an operator for BiCGSTAB: (I − K) x, K x = ρ ⊙ F x on opaque patches
@@ -387,7 +410,8 @@ impl<E> LinearOperator for Counted<'_, '_, '_, '_, E> {
 }
 
 impl<E: From<RadiosityError>> Krylov<'_, '_, '_, E> {
-    /// BiCGSTAB from `initial` (else from the first bounce `first`), stopped when the residual
+    /// BiCGSTAB on (I − K) B = `rhs` (the first bounce B₁, already scattered once) from
+    /// `initial` (else from B₁), stopped when the residual
     /// r bounds the relative error in power: ‖e‖ ≤ ‖r‖/(1 − κ) in the area-weighted L1 norm,
     /// where κ, the largest albedo or transmittance, bounds ‖K‖ there (F's columns carry at most
     /// a patch's power, ρ and S lose power, t passes a part of it), and ‖B‖ ≥ ‖B₁‖ as K ≥ 0.
@@ -395,37 +419,13 @@ impl<E: From<RadiosityError>> Krylov<'_, '_, '_, E> {
     /// (the energy balance left to the caller).
     fn solve(
         mut self,
-        first: Vec<[f64; 3]>,
+        rhs: Vec<[f64; 3]>,
         initial: Option<&[[f64; 3]]>,
         options: &SolveOptions,
         keep_going: &(dyn Fn() -> bool + Sync),
     ) -> Result<Solution, E> {
-        let n = self.factors.len();
-        let mut scatterings = 1;
-        // The right-hand side B₁ (with a warm start, `first` gathered `initial`: one more scatter).
-        let rhs = match initial {
-            None => first.clone(),
-            Some(_) => {
-                let mut b: Vec<[f64; 3]> = (0..n)
-                    .map(|i| {
-                        if self.is_translucent[i] {
-                            [0.0; 3]
-                        } else {
-                            std::array::from_fn(|c| {
-                                self.opaque.albedo[i][c] * self.opaque.direct[i][c] + self.opaque.emission[i][c]
-                            })
-                        }
-                    })
-                    .collect();
-                let zero = vec![[0.0; 3]; n];
-                for block in self.translucent.iter_mut() {
-                    block.update(&zero[block.range()], &mut b)?;
-                }
-                scatterings += usize::from(!self.translucent.is_empty());
-                b
-            }
-        };
-        let mut x = initial.map_or(first, <[[f64; 3]]>::to_vec);
+        let mut scatterings = 1; // B₁'s
+        let mut x = initial.map_or_else(|| rhs.clone(), <[[f64; 3]]>::to_vec);
         let kappa = self
             .opaque
             .albedo
@@ -452,20 +452,7 @@ impl<E: From<RadiosityError>> Krylov<'_, '_, '_, E> {
         scatterings += op.scatterings;
         let estimated = solved.relative_residual.iter().fold(0.0f64, |m, &r| m.max(r)) / (1.0 - kappa);
         // The closing sweep: B = K x + B₁, which leaves each scattering at the answer's state.
-        let gathered = self.factors.apply(&x);
-        let Opaque { albedo, direct, emission } = *self.opaque;
-        let mut b: Vec<[f64; 3]> = (0..n)
-            .map(|i| {
-                if self.is_translucent[i] {
-                    [0.0; 3]
-                } else {
-                    std::array::from_fn(|c| albedo[i][c] * (direct[i][c] + gathered[i][c]) + emission[i][c])
-                }
-            })
-            .collect();
-        for block in self.translucent.iter_mut() {
-            block.update(&gathered[block.range()], &mut b)?;
-        }
+        let b = jacobi_update(self.opaque, self.translucent, self.is_translucent, &self.factors.apply(&x))?;
         scatterings += usize::from(!self.translucent.is_empty());
         Ok(Solution {
             radiosity: b,

@@ -278,7 +278,9 @@ impl RadiositySession {
             outputs: Vec::new(),
             stats,
         };
-        session.record(&solution, direct_ms, solve_ms);
+        let mut update = RadiosityUpdate { direct_ms, solve_ms, ..RadiosityUpdate::new() };
+        update.add(&solution);
+        session.record_update(&update);
         session.cache_single_source();
         session.outputs = session.outputs()?;
         report("radiosity: done", 1.0)?;
@@ -659,16 +661,6 @@ impl RadiositySession {
     /// The outputs of the current solution.
     fn outputs(&mut self) -> Result<Vec<Output>, SceneError> {
         self.fixed.outputs(&mut self.scatterers, &self.current, &mut self.object_stats)
-    }
-
-    /// The bake's statistics of the last solve.
-    fn record(&mut self, solution: &Solution, direct_ms: f64, solve_ms: f64) {
-        self.stats.direct_ms = direct_ms;
-        self.stats.solve_ms = solve_ms;
-        self.stats.iterations = solution.iterations;
-        self.stats.scatterings = solution.scatterings;
-        self.stats.estimated_error = solution.estimated_error;
-        self.stats.energy_defect = solution.energy.defect();
     }
 
     /// The statistics of the last update, when it solved.
