@@ -54,6 +54,9 @@ pub struct Entry {
     median_relight_ms: f64,
     relight_fps: f64,
     relight_sweeps: usize,
+    /// The relight's direct light (shadow rays to every patch) and its coupled solve.
+    median_relight_direct_ms: f64,
+    median_relight_solve_ms: f64,
     /// The same light in another colour: the kept response scaled, no solve.
     median_recolour_ms: f64,
     /// The translucent object's σ′s scaled by 1.25: assembly and a warm-started solve.
@@ -83,7 +86,11 @@ pub struct ProfileEntry {
     solve_sweeps: usize,
     /// The light turned 5°: a warm-started solve.
     median_relight_ms: f64,
+    relight_fps: f64,
     relight_sweeps: usize,
+    /// The relight's direct light and its coupled solve.
+    median_relight_direct_ms: f64,
+    median_relight_solve_ms: f64,
     /// σ′s scaled by 1.25: S re-indexed (or rebuilt) and a warm-started solve.
     median_medium_ms: f64,
     energy_defect: f64,
@@ -177,6 +184,8 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
             let start = Instant::now();
             let relit = session.relight(&lights, Progress::none())?;
             t.relight.push(ms(start));
+            t.relight_direct.push(relit.direct_ms);
+            t.relight_solve.push(relit.solve_ms);
             let (Light::RectArea { radiance, .. } | Light::DiscArea { radiance, .. }) = &mut lights[0] else {
                 return Err(anyhow!("the radiosity suite recolours a rect or disc light"));
             };
@@ -235,6 +244,8 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
             median_relight_ms: relight,
             relight_fps: 1e3 / relight,
             relight_sweeps,
+            median_relight_direct_ms: median(t.relight_direct),
+            median_relight_solve_ms: median(t.relight_solve),
             median_recolour_ms: median(t.recolour),
             median_medium_ms: medium,
             medium_fps: 1e3 / medium,
@@ -273,6 +284,8 @@ fn profile_entry(
         let start = Instant::now();
         let relit = session.relight(&turn(run), Progress::none())?;
         t.relight.push(ms(start));
+        t.relight_direct.push(relit.direct_ms);
+        t.relight_solve.push(relit.solve_ms);
         if let Some(i) = translucent {
             let Some(MediumSource::Homogeneous(m)) = session.objects()[i].medium().cloned() else {
                 return Err(anyhow!("the radiosity suite thickens a homogeneous medium"));
@@ -295,8 +308,11 @@ fn profile_entry(
         median_form_factor_ms: median(t.form_factor),
         median_solve_ms: median(t.solve),
         solve_sweeps: stats.iterations,
-        median_relight_ms: median(t.relight),
+        median_relight_ms: median(t.relight.clone()),
+        relight_fps: 1e3 / median(t.relight),
         relight_sweeps,
+        median_relight_direct_ms: median(t.relight_direct),
+        median_relight_solve_ms: median(t.relight_solve),
         median_medium_ms: median(t.medium),
         energy_defect: stats.energy_defect,
     })
@@ -313,6 +329,8 @@ struct Timings {
     jacobi: Vec<f64>,
     gauss_seidel: Vec<f64>,
     relight: Vec<f64>,
+    relight_direct: Vec<f64>,
+    relight_solve: Vec<f64>,
     recolour: Vec<f64>,
     medium: Vec<f64>,
     albedo: Vec<f64>,

@@ -9,6 +9,8 @@ use glam::DVec3;
 
 const LEAF_SIZE: usize = 4;
 const BINS: usize = 12;
+/// Traversal stack entries kept off the heap ([`NodeStack`]).
+const STACK_INLINE: usize = 64;
 
 /// A point on a triangle mesh: the triangle, its barycentric weights and the point itself.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -99,7 +101,7 @@ impl TriangleBvh {
         }
         let mut best: Option<SurfacePoint> = None;
         let mut best_d2 = f64::INFINITY;
-        let mut stack = vec![(0u32, 0.0f64)];
+        let mut stack = NodeStack::new((0u32, 0.0f64));
         while let Some((ni, d2)) = stack.pop() {
             if d2 >= best_d2 {
                 continue;
@@ -177,7 +179,7 @@ impl TriangleBvh {
             return;
         }
         let inv = DVec3::ONE / dir;
-        let mut stack = vec![0u32];
+        let mut stack = NodeStack::new(0u32);
         while let Some(ni) = stack.pop() {
             let node = &self.nodes[ni as usize];
             if !ray_box(origin, inv, node.lo, node.hi, t_min, *t_far) {
@@ -202,6 +204,40 @@ impl TriangleBvh {
         let n = &self.nodes[ni as usize];
         let d = (n.lo - p).max(p - n.hi).max(DVec3::ZERO);
         d.length_squared()
+    }
+}
+
+/// A traversal's stack of nodes to visit: the first [`STACK_INLINE`] entries on the call
+/// stack, deeper ones (only in a degenerate, very deep tree) on the heap, so that a query
+/// allocates nothing (a shadow ray is a few hundred nanoseconds; an allocation per ray made the
+/// threads queue on the allocator's lock).
+struct NodeStack<T: Copy> {
+    inline: [T; STACK_INLINE],
+    len: usize,
+    spill: Vec<T>,
+}
+
+impl<T: Copy> NodeStack<T> {
+    /// A stack holding `first`.
+    fn new(first: T) -> Self {
+        Self { inline: [first; STACK_INLINE], len: 1, spill: Vec::new() }
+    }
+
+    fn push(&mut self, value: T) {
+        if self.len < STACK_INLINE {
+            self.inline[self.len] = value;
+            self.len += 1;
+        } else {
+            self.spill.push(value);
+        }
+    }
+
+    fn pop(&mut self) -> Option<T> {
+        if let Some(value) = self.spill.pop() {
+            return Some(value);
+        }
+        self.len = self.len.checked_sub(1)?;
+        Some(self.inline[self.len])
     }
 }
 
@@ -382,6 +418,20 @@ mod tests {
                 [c, c + r() - 0.5, c + r() - 0.5]
             })
             .collect()
+    }
+
+    #[test]
+    fn node_stack_is_last_in_first_out_past_its_inline_part() {
+        let mut stack = NodeStack::new(0u32);
+        for v in 1..200 {
+            stack.push(v);
+        }
+        for v in (0..200).rev() {
+            assert_eq!(stack.pop(), Some(v));
+        }
+        assert_eq!(stack.pop(), None);
+        stack.push(7);
+        assert_eq!((stack.pop(), stack.pop()), (Some(7), None));
     }
 
     #[test]
