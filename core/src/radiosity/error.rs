@@ -19,6 +19,16 @@ pub enum RadiosityError {
     WrongLength { what: &'static str, expected: usize, got: usize },
     #[error("{what} of patch {patch} is out of range: {value:?} (albedo in [0, 1), irradiance and emission finite and ≥ 0)")]
     InvalidValue { what: &'static str, patch: usize, value: [f64; 3] },
+    #[error(
+        "the {rule} rule (Sheng et al. 2014 eq. 16) needs every medium's profile to have a finite R(0) > 0, and the {profile} \
+         profile has none: choose profile = \"dipole\", or the consistent rule"
+    )]
+    HetRuleProfile { rule: &'static str, profile: &'static str },
+    #[error(
+        "{media} distinct media in one object, more than the {limit} a profile matrix indexes (the media are quantised to at \
+         most that many)"
+    )]
+    TooManyMedia { media: usize, limit: usize },
     #[error("invalid options: {0}")]
     InvalidOptions(String),
     #[error("{0}")]

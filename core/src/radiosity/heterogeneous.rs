@@ -47,53 +47,100 @@ pub fn merge_lengths(segments: &[(usize, f64)]) -> Vec<(usize, f64)> {
 }
 
 impl HetRule {
+    /// The names front ends use (`consistent`, `sheng2014`), in the order they list them.
+    pub const NAMES: &'static [&'static str] = &["consistent", "sheng2014"];
+
+    /// The rule's name ([`HetRule::NAMES`]).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            HetRule::Consistent => "consistent",
+            HetRule::Sheng2014 => "sheng2014",
+        }
+    }
+
+    /// The rule called `name` (any case; `sheng-2014` and `sheng` also name eq. 16).
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<HetRule> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "consistent" => Some(HetRule::Consistent),
+            "sheng2014" | "sheng-2014" | "sheng" => Some(HetRule::Sheng2014),
+            _ => None,
+        }
+    }
+
+    /// Checks that the rule can use `profile` (as a medium of a path).
+    ///
+    /// # Errors
+    /// [`RadiosityError::HetRuleProfile`] under [`HetRule::Sheng2014`] for a profile whose R(0)
+    /// is infinite or not > 0 (the half-space profile, ∝ 1/r at 0).
+    pub fn check(self, profile: &Profile) -> Result<(), RadiosityError> {
+        match self {
+            HetRule::Consistent => Ok(()),
+            HetRule::Sheng2014 => match profile.value_at_zero() {
+                Some(v) if v.is_finite() && v > 0.0 => Ok(()),
+                _ => Err(RadiosityError::HetRuleProfile { rule: self.name(), profile: profile.name() }),
+            },
+        }
+    }
+
     /// The profile value (mm⁻²) of a path with lengths `segments` (medium index into `profiles`,
     /// length ≥ 0), merged per medium first ([`merge_lengths`]): the rule's formula (module
     /// documentation). A path of one medium gives that medium's R(r) under both rules.
     ///
     /// # Errors
-    /// [`RadiosityError::InvalidOptions`] for a medium index out of range, or under
-    /// [`HetRule::Sheng2014`] a profile whose R(0) is infinite or 0 (the half-space profile).
+    /// [`RadiosityError::InvalidOptions`] for a medium index out of range;
+    /// [`RadiosityError::HetRuleProfile`] under [`HetRule::Sheng2014`] for a profile whose R(0)
+    /// is infinite or 0 (the half-space profile).
     pub fn value(self, profiles: &[Profile], segments: &[(usize, f64)]) -> Result<f64, RadiosityError> {
         let merged = merge_lengths(segments);
         if let Some(&(m, _)) = merged.iter().find(|s| s.0 >= profiles.len()) {
             return Err(RadiosityError::InvalidOptions(format!("medium {m} of a path, but {} profiles", profiles.len())));
         }
+        if merged.len() > 1 {
+            for &(m, _) in &merged {
+                self.check(&profiles[m])?;
+            }
+        }
+        Ok(self.merged_value(|m| &profiles[m], &merged))
+    }
+
+    /// [`HetRule::value`] of lengths already merged per medium (distinct media), each medium's
+    /// profile given by `profile`, with no check and no allocation: the profile matrix's inner
+    /// loop. Under [`HetRule::Sheng2014`] every profile of a path of two media or more must
+    /// pass [`HetRule::check`] (a NaN otherwise).
+    pub(crate) fn merged_value<'p>(self, profile: impl Fn(usize) -> &'p Profile, merged: &[(usize, f64)]) -> f64 {
         let r: f64 = merged.iter().map(|s| s.1).sum();
         if let [(m, l)] = merged[..] {
-            return Ok(profiles[m].value(l));
+            return profile(m).value(l);
         }
         match self {
             HetRule::Consistent => {
                 if r == 0.0 {
-                    return Ok(profiles[merged[0].0].value(0.0));
+                    return profile(merged[0].0).value(0.0);
                 }
                 let mut log = 0.0;
-                for &(m, l) in &merged {
-                    let v = profiles[m].value(r);
+                for &(m, l) in merged {
                     if l > 0.0 {
+                        let v = profile(m).value(r);
                         if v <= 0.0 {
-                            return Ok(0.0);
+                            return 0.0;
                         }
                         log += l / r * v.ln();
                     }
                 }
-                Ok(log.exp())
+                log.exp()
             }
             HetRule::Sheng2014 => {
                 let mut mix = 0.0;
                 let mut product = 1.0;
-                for &(m, l) in &merged {
-                    let at_zero = profiles[m].value_at_zero().filter(|v| v.is_finite() && *v > 0.0).ok_or_else(|| {
-                        RadiosityError::InvalidOptions(format!(
-                            "the Sheng2014 rule needs a finite R(0) > 0; the {} profile of medium {m} has none",
-                            profiles[m].name()
-                        ))
-                    })?;
+                for &(m, l) in merged {
+                    let p = profile(m);
+                    let at_zero = p.value_at_zero().unwrap_or(f64::NAN);
                     mix += if r > 0.0 { at_zero * l / r } else { at_zero / merged.len() as f64 };
-                    product *= profiles[m].value(l) / at_zero;
+                    product *= p.value(l) / at_zero;
                 }
-                Ok(mix * product)
+                mix * product
             }
         }
     }

@@ -20,7 +20,9 @@ mod error;
 mod form_factor;
 mod heterogeneous;
 mod patches;
+mod path_media;
 mod profile;
+mod profile_media;
 mod profile_scattering;
 mod solver;
 
@@ -29,6 +31,8 @@ pub use error::RadiosityError;
 pub use form_factor::{FormFactorOptions, FormFactors};
 pub use heterogeneous::{merge_lengths, HetRule};
 pub use patches::{refine_to_edge_length, PatchSet, Surface, MAX_REFINED_TRIANGLES};
+pub use path_media::{path_fractions, MediumIndex, MAX_MEDIA, MAX_STEPS};
 pub use profile::{Exponentials, HalfSpace, Profile, Tabulated};
+pub use profile_media::{EntryMedia, RADIAL};
 pub use profile_scattering::{radiance_factor, ObjectPatches, ProfileMatrix, ProfileOptions, ProfileScattering, SampleCache};
 pub use solver::{solve, solve_coupled, EnergyBalance, Iteration, Opaque, Scattering, Solution, SolveOptions, Translucent};

@@ -43,12 +43,15 @@ use crate::optics::{fdr, ft_out};
 
 use super::distance::{pair_distances, DistanceMode, PairDistances};
 use super::error::RadiosityError;
+use super::heterogeneous::HetRule;
 use super::patches::{PatchSet, Surface};
+use super::path_media::MediumIndex;
 use super::profile::{gauss_legendre, Profile};
+use super::profile_media::EntryMedia;
 use super::solver::Scattering;
 
 /// Cells within this many cell radii of the receiver are integrated in polar coordinates.
-const NEAR: f64 = 2.0;
+pub(super) const NEAR: f64 = 2.0;
 /// Cells within this many cell radii of the receiver get the 7-point rule per piece.
 const RULE7: f64 = 5.0;
 
@@ -67,10 +70,10 @@ pub fn radiance_factor(eta: f64) -> f64 {
 /// the cell's radius about its vertex, and a BVH of the object's own triangles (for sight).
 #[derive(Debug, Clone)]
 pub struct ObjectPatches {
-    positions: Vec<DVec3>,
-    normals: Vec<DVec3>,
-    areas: Vec<f64>,
-    radii: Vec<f64>,
+    pub(super) positions: Vec<DVec3>,
+    pub(super) normals: Vec<DVec3>,
+    pub(super) areas: Vec<f64>,
+    pub(super) radii: Vec<f64>,
     piece_start: Vec<usize>,
     pieces: Vec<[DVec3; 3]>,
     bvh: TriangleBvh,
@@ -151,7 +154,7 @@ impl ObjectPatches {
         &self.bvh
     }
 
-    fn pieces(&self, i: usize) -> &[[DVec3; 3]] {
+    pub(super) fn pieces(&self, i: usize) -> &[[DVec3; 3]] {
         &self.pieces[self.piece_start[i]..self.piece_start[i + 1]]
     }
 }
@@ -186,17 +189,19 @@ pub struct SampleCache {
     cumulative_start: Vec<usize>,
     cumulative: Vec<[f32; 2]>,
     gather_radius: f64,
+    /// For a heterogeneous object, each entry's medium or its samples through several media
+    /// ([`EntryMedia`]); `None` for a homogeneous one.
+    pub(super) media: Option<Box<EntryMedia>>,
 }
 
 impl SampleCache {
     /// The samples of `patches` within `gather_radius` (mm) at the distances `distances`.
-    fn build(patches: &ObjectPatches, distances: &PairDistances, gather_radius: f64) -> SampleCache {
+    pub(super) fn build(patches: &ObjectPatches, distances: &PairDistances, gather_radius: f64) -> SampleCache {
         let n = patches.len();
         let nodes = gauss_legendre(8);
         let rows: Vec<RowSamples> = (0..n)
             .into_par_iter()
             .map(|j| {
-                let x = patches.positions[j];
                 let (sources, dist) = distances.row(j);
                 let (mut cols, mut values, mut vstart, mut cum, mut cstart) =
                     (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -209,26 +214,17 @@ impl SampleCache {
                     cols.push(i as u32);
                     vstart.push(values.len());
                     cstart.push(cum.len());
-                    let e = (patches.positions[i] - x).length();
-                    if e <= NEAR * rho {
-                        for piece in patches.pieces(i) {
-                            polar_samples(*piece, x, &nodes, &mut cum);
-                        }
-                    } else if e <= RULE7 * rho {
-                        for piece in patches.pieces(i) {
-                            for (y, w) in rule7(*piece) {
-                                values.push([(d + ((y - x).length() - e)).max(0.0) as f32, w as f32]);
-                            }
-                        }
-                    } else {
-                        let [(d0, w0), (d1, w1)] = distance_rule(patches.pieces(i), x, d - e, patches.areas[i]);
-                        values.push([d0 as f32, w0 as f32]);
-                        values.push([d1 as f32, w1 as f32]);
-                    }
+                    entry_samples(patches, j, i, d, &nodes, &mut values, &mut cum);
                 }
                 (cols, values, vstart, cum, cstart)
             })
             .collect();
+        Self::assemble(rows, gather_radius)
+    }
+
+    /// The cache of the rows `rows` (columns, value samples and starts, cumulative samples and
+    /// starts per row).
+    pub(super) fn assemble(rows: Vec<RowSamples>, gather_radius: f64) -> SampleCache {
         let mut cache = SampleCache {
             row_ptr: vec![0],
             cols: Vec::new(),
@@ -237,6 +233,7 @@ impl SampleCache {
             cumulative_start: Vec::new(),
             cumulative: Vec::new(),
             gather_radius,
+            media: None,
         };
         for (cols, values, vstart, cum, cstart) in rows {
             let (v0, c0) = (cache.values.len(), cache.cumulative.len());
@@ -261,7 +258,14 @@ impl SampleCache {
     /// The number of samples kept (each 8 bytes).
     #[must_use]
     pub fn samples(&self) -> usize {
-        self.values.len() + self.cumulative.len()
+        self.values.len() + self.cumulative.len() + self.media.as_ref().map_or(0, |m| m.samples())
+    }
+
+    /// For a heterogeneous object, each entry's medium or mixed samples; `None` for a
+    /// homogeneous one.
+    #[must_use]
+    pub fn media(&self) -> Option<&EntryMedia> {
+        self.media.as_deref()
     }
 
     /// The gathering radius (mm).
@@ -270,8 +274,23 @@ impl SampleCache {
         self.gather_radius
     }
 
+    /// The columns of row `j`'s entries and the range of their indices.
+    pub(super) fn row_range(&self, j: usize) -> std::ops::Range<usize> {
+        self.row_ptr[j]..self.row_ptr[j + 1]
+    }
+
+    /// The source patch of entry `k`.
+    pub(super) fn col(&self, k: usize) -> usize {
+        self.cols[k] as usize
+    }
+
+    /// The number of rows.
+    pub(super) fn rows(&self) -> usize {
+        self.row_ptr.len() - 1
+    }
+
     /// Entry k's value for `profile` truncated at `cutoff`: Σ w R(d) (d ≤ cutoff) + Σ w C(min(d, cutoff)).
-    fn entry(&self, k: usize, profile: &Profile, cutoff: f64) -> f64 {
+    pub(super) fn entry(&self, k: usize, profile: &Profile, cutoff: f64) -> f64 {
         let mut sum = 0.0;
         for &[d, w] in &self.values[self.value_start[k]..self.value_start[k + 1]] {
             let d = f64::from(d);
@@ -286,18 +305,109 @@ impl SampleCache {
     }
 }
 
+/// The optical distances of the pairs of `patches` whose cells may reach within `radius` (mm).
+fn gathered_distances(patches: &ObjectPatches, mode: &DistanceMode, radius: f64) -> PairDistances {
+    let max_cell = patches.radii.iter().copied().fold(0.0, f64::max);
+    let mean_cell = patches.radii.iter().sum::<f64>() / patches.len().max(1) as f64;
+    pair_distances(&patches.positions, &patches.normals, &patches.bvh, mode, radius + max_cell, 1e-3 * mean_cell)
+}
+
 /// One row's columns, value samples and their starts, cumulative samples and their starts.
-type RowSamples = (Vec<u32>, Vec<[f32; 2]>, Vec<usize>, Vec<[f32; 2]>, Vec<usize>);
+pub(super) type RowSamples = (Vec<u32>, Vec<[f32; 2]>, Vec<usize>, Vec<[f32; 2]>, Vec<usize>);
+
+/// Which rule of the module documentation integrates a source cell of radius `rho` whose vertex
+/// is `e` from the receiver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum CellRule {
+    /// e ≤ 2ρ: polar coordinates about the receiver's foot.
+    Polar,
+    /// e ≤ 5ρ: the 7-point rule per piece.
+    Rule7,
+    /// Beyond: two points in distance.
+    TwoPoint,
+}
+
+impl CellRule {
+    pub(super) fn of(e: f64, rho: f64) -> CellRule {
+        if e <= NEAR * rho {
+            CellRule::Polar
+        } else if e <= RULE7 * rho {
+            CellRule::Rule7
+        } else {
+            CellRule::TwoPoint
+        }
+    }
+}
+
+/// The samples of entry (receiver `j`, source `i`) at optical distance `d` (module
+/// documentation): value samples to `values`, cumulative ones to `cum`.
+pub(super) fn entry_samples(
+    patches: &ObjectPatches,
+    j: usize,
+    i: usize,
+    d: f64,
+    nodes: &[(f64, f64)],
+    values: &mut Vec<[f32; 2]>,
+    cum: &mut Vec<[f32; 2]>,
+) {
+    let x = patches.positions[j];
+    let e = (patches.positions[i] - x).length();
+    match CellRule::of(e, patches.radii[i]) {
+        CellRule::Polar => {
+            for piece in patches.pieces(i) {
+                polar_samples(*piece, x, nodes, cum);
+            }
+        }
+        CellRule::Rule7 => {
+            for piece in patches.pieces(i) {
+                for (y, w) in rule7(*piece) {
+                    values.push([(d + ((y - x).length() - e)).max(0.0) as f32, w as f32]);
+                }
+            }
+        }
+        CellRule::TwoPoint => {
+            let [(d0, w0), (d1, w1)] = distance_rule(patches.pieces(i), x, d - e, patches.areas[i]);
+            values.push([d0 as f32, w0 as f32]);
+            values.push([d1 as f32, w1 as f32]);
+        }
+    }
+}
+
+/// One ray of the polar quadrature of a triangle about the foot of a point x on its plane
+/// (height `h`): it ends at `end` on the triangle's edge, `s` = |x − end| from x, with the
+/// signed angular weight `w` (Δθ-weight/(2π)); `foot` is x's foot.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct PolarRay {
+    pub foot: DVec3,
+    pub end: DVec3,
+    pub s: f64,
+    pub h: f64,
+    pub w: f64,
+}
 
 /// The samples of ∫_T R(|x − y|) dA_y in polar coordinates about the foot of `x` on the plane
 /// of the triangle `t` (module documentation): per edge, C(√(ρ(θ)² + h²))·w at the
 /// Gauss–Legendre angles, w = Δθ-weight/(2π) (signed by the edge's turn), then C(|h|) with
 /// −Θ/(2π), Θ the signed angle the triangle subtends at the foot.
 fn polar_samples(t: [DVec3; 3], x: DVec3, nodes: &[(f64, f64)], out: &mut Vec<[f32; 2]>) {
+    let mut h = 0.0;
+    let theta_total = polar_rays(t, x, nodes, |ray| {
+        h = ray.h;
+        out.push([ray.s as f32, ray.w as f32]);
+    });
+    if theta_total.abs() > 1e-9 && h != 0.0 {
+        out.push([h.abs() as f32, (-theta_total / (2.0 * PI)) as f32]);
+    }
+}
+
+/// The rays of the polar quadrature of triangle `t` about the foot of `x` ([`polar_samples`]),
+/// each given to `ray`; returns Θ, the signed angle the triangle subtends at the foot (0 for a
+/// degenerate triangle, which has no ray).
+pub(super) fn polar_rays(t: [DVec3; 3], x: DVec3, nodes: &[(f64, f64)], mut ray: impl FnMut(PolarRay)) -> f64 {
     let cross = (t[1] - t[0]).cross(t[2] - t[0]);
     let double_area = cross.length();
     if !(double_area > 0.0) {
-        return;
+        return 0.0;
     }
     let n = cross / double_area;
     let h = (x - t[0]).dot(n);
@@ -326,13 +436,12 @@ fn polar_samples(t: [DVec3; 3], x: DVec3, nodes: &[(f64, f64)], out: &mut Vec<[f
                 let dir = glam::DVec2::new(theta.cos(), theta.sin());
                 let rho = numerator / dir.perp_dot(edge);
                 let s = rho.hypot(h);
-                out.push([s as f32, (0.5 * width * w / (2.0 * PI)) as f32]);
+                let end = foot + (rho * dir.x) * u + (rho * dir.y) * v;
+                ray(PolarRay { foot, end, s, h, w: 0.5 * width * w / (2.0 * PI) });
             }
         }
     }
-    if theta_total.abs() > 1e-9 && h != 0.0 {
-        out.push([h.abs() as f32, (-theta_total / (2.0 * PI)) as f32]);
-    }
+    theta_total
 }
 
 /// The two-point rule in distance for a cell far from the receiver `x` (module documentation):
@@ -342,7 +451,7 @@ fn polar_samples(t: [DVec3; 3], x: DVec3, nodes: &[(f64, f64)], out: &mut Vec<[f
 /// lengthens the distance to second order) and variance σ² = Σ w_k [(d_k − μ)² + u_kᵀΣ_k u_k]/A;
 /// `shift` (the optical distance minus the chord) is added to both nodes. Returns
 /// [(μ − σ, A/2), (μ + σ, A/2)].
-fn distance_rule(pieces: &[[DVec3; 3]], x: DVec3, shift: f64, area: f64) -> [(f64, f64); 2] {
+pub(super) fn distance_rule(pieces: &[[DVec3; 3]], x: DVec3, shift: f64, area: f64) -> [(f64, f64); 2] {
     let mut stats = Vec::with_capacity(pieces.len());
     for &[a, b, c] in pieces {
         let w = 0.5 * (b - a).cross(c - a).length();
@@ -367,7 +476,7 @@ fn distance_rule(pieces: &[[DVec3; 3]], x: DVec3, shift: f64, area: f64) -> [(f6
 
 /// The 7-point degree-5 rule on a triangle (Radon 1948; Stroud T2:5-1): points and weights
 /// (weights summing to the area).
-fn rule7([a, b, c]: [DVec3; 3]) -> [(DVec3, f64); 7] {
+pub(super) fn rule7([a, b, c]: [DVec3; 3]) -> [(DVec3, f64); 7] {
     let area = 0.5 * (b - a).cross(c - a).length();
     let s15 = 15f64.sqrt();
     let (a1, b1) = ((6.0 - s15) / 21.0, (9.0 + 2.0 * s15) / 21.0);
@@ -415,18 +524,63 @@ impl ProfileMatrix {
             Some(r) => return Err(RadiosityError::InvalidOptions(format!("gather radius must be finite and > 0, got {r}"))),
             None => cutoffs.iter().copied().fold(0.0, f64::max),
         };
-        let max_cell = patches.radii.iter().copied().fold(0.0, f64::max);
-        let mean_cell = patches.radii.iter().sum::<f64>() / patches.len().max(1) as f64;
-        let distances = pair_distances(
-            &patches.positions,
-            &patches.normals,
-            &patches.bvh,
-            &options.distance,
-            radius + max_cell,
-            1e-3 * mean_cell,
-        );
+        let distances = gathered_distances(patches, &options.distance, radius);
         let cache = SampleCache::build(patches, &distances, radius);
         Self::evaluate(cache, profiles, options.tail)
+    }
+
+    /// S of `patches` in a heterogeneous object (Sheng et al. 2014 §4, eq. 16;
+    /// [`super::profile_media`]): `media` says which of the media of `palette` (each medium's
+    /// three channel profiles) fills each point, and every sample's value is `rule` applied to
+    /// the lengths of its path in each medium ([`super::path_fractions`]). Media of equal
+    /// profiles are merged first, so a palette of one distinct medium gives exactly
+    /// [`ProfileMatrix::build`] with its profiles. The gathering radius is the largest cutoff of
+    /// every medium and channel. Chord distances only: `options.distance` must be
+    /// [`DistanceMode::Euclidean`].
+    ///
+    /// # Errors
+    /// As [`ProfileMatrix::build`]; [`RadiosityError::InvalidOptions`] for an interior distance
+    /// mode, an empty palette or one of a size other than `media.count()`;
+    /// [`RadiosityError::TooManyMedia`] beyond [`super::MAX_MEDIA`];
+    /// [`RadiosityError::HetRuleProfile`] when `rule` cannot use a profile of the palette.
+    pub fn build_media(
+        patches: &ObjectPatches,
+        palette: &[[Profile; 3]],
+        media: &dyn MediumIndex,
+        rule: HetRule,
+        options: &ProfileOptions,
+    ) -> Result<ProfileMatrix, RadiosityError> {
+        let Some(distinct) = EntryMedia::distinct(palette, media)? else {
+            return Self::build(patches, &palette[0], options);
+        };
+        if let DistanceMode::Interior { .. } = options.distance {
+            return Err(RadiosityError::InvalidOptions(
+                "interior distances through a heterogeneous medium are not gathered (only chords are): use chord distances, \
+                 or the diffusion S"
+                    .into(),
+            ));
+        }
+        for p in palette.iter().flatten() {
+            rule.check(p)?;
+        }
+        if !(options.tail > 0.0 && options.tail < 1.0) {
+            return Err(RadiosityError::InvalidOptions(format!("profile tail must be in (0, 1), got {}", options.tail)));
+        }
+        let reach = palette.iter().flatten().map(|p| p.cutoff(options.tail)).fold(0.0, f64::max);
+        let radius = match options.gather_radius {
+            Some(r) if r.is_finite() && r > 0.0 => r,
+            Some(r) => return Err(RadiosityError::InvalidOptions(format!("gather radius must be finite and > 0, got {r}"))),
+            None => reach,
+        };
+        if reach > radius * (1.0 + 1e-12) {
+            return Err(RadiosityError::InvalidOptions(format!(
+                "a medium's profile reaches {reach:.3} mm, beyond the {radius:.3} mm gathering radius"
+            )));
+        }
+        let distances = gathered_distances(patches, &options.distance, radius);
+        let cache = EntryMedia::build(patches, &distances, radius, &distinct);
+        let profiles: Vec<[Profile; 3]> = distinct.palette.iter().map(|&m| palette[m].clone()).collect();
+        Ok(EntryMedia::evaluate(cache, &profiles, rule, options.tail))
     }
 
     /// The same geometry re-evaluated for new `profiles` (a changed medium): bit-identical to
@@ -436,7 +590,17 @@ impl ProfileMatrix {
     /// [`RadiosityError::InvalidOptions`] when a channel's new cutoff exceeds the gathering
     /// radius (entries beyond it were never sampled: build afresh).
     pub fn reindex(&self, profiles: &[Profile; 3]) -> Result<ProfileMatrix, RadiosityError> {
+        if self.cache.media.is_some() {
+            return Err(RadiosityError::InvalidOptions(
+                "the matrix of a heterogeneous object is built afresh for a new medium, not re-indexed".into(),
+            ));
+        }
         Self::evaluate(self.cache.clone(), profiles, self.tail)
+    }
+
+    /// The matrix of its parts (the heterogeneous build's).
+    pub(super) fn from_parts(cache: SampleCache, values: Vec<[f64; 3]>, cutoffs: [f64; 3], tail: f64) -> ProfileMatrix {
+        ProfileMatrix { cache, values, cutoffs, tail }
     }
 
     fn evaluate(cache: SampleCache, profiles: &[Profile; 3], tail: f64) -> Result<ProfileMatrix, RadiosityError> {
@@ -559,6 +723,20 @@ impl ProfileScattering {
     #[must_use]
     pub fn matrix(&self) -> &ProfileMatrix {
         &self.matrix
+    }
+
+    /// S of `patches` in a heterogeneous object ([`ProfileMatrix::build_media`]).
+    ///
+    /// # Errors
+    /// As [`ProfileMatrix::build_media`].
+    pub fn with_media(
+        patches: &ObjectPatches,
+        palette: &[[Profile; 3]],
+        media: &dyn MediumIndex,
+        rule: HetRule,
+        options: &ProfileOptions,
+    ) -> Result<Self, RadiosityError> {
+        Ok(Self { matrix: ProfileMatrix::build_media(patches, palette, media, rule, options)? })
     }
 
     /// Re-evaluates S for new profiles on the same geometry ([`ProfileMatrix::reindex`]).

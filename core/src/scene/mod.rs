@@ -17,7 +17,7 @@ pub use material::{Diffuse, Material, Sides};
 pub use method::{Method, RadiosityOptions, TransCutOptions};
 pub use object::{MediumSource, Object, Shape};
 pub use options::BakeOptions;
-pub use scattering::{OpticalDistance, ProfileKind, ProfileScatteringOptions, TranslucentScattering};
+pub use scattering::{HetRule, OpticalDistance, ProfileKind, ProfileScatteringOptions, TranslucentScattering};
 
 use crate::light::{self, Light};
 

@@ -2,6 +2,8 @@
 //! (design/radiosity.md §1.5): their own TransCut diffusion solve, or the paper's profile matrix
 //! (Sheng et al. 2014 eq. 8, S_ji = ∫_{Aᵢ} R(d(x_j, y)) dA_y).
 
+pub use crate::radiosity::HetRule;
+
 /// The scattering operator S of every translucent object of a radiosity bake.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[non_exhaustive]
@@ -10,8 +12,8 @@ pub enum TranslucentScattering {
     /// TransCut, concavities and heterogeneous media included; the accuracy default.
     #[default]
     Diffusion,
-    /// A profile matrix on the object's own surface refined to the patch size: no tets, a
-    /// homogeneous medium only.
+    /// A profile matrix on the object's own surface refined to the patch size: no tets; a
+    /// heterogeneous medium (layers, voxels, veins) through [`ProfileScatteringOptions::het`].
     Profile(ProfileScatteringOptions),
 }
 
@@ -67,11 +69,15 @@ pub struct ProfileScatteringOptions {
     /// Each channel's profile is cut where at most this fraction of its total lies beyond, in
     /// (0, 0.5] (design §1.5: 10⁻³, about 35 mm for marble's red).
     pub tail: f64,
+    /// How a path through several media of a heterogeneous object is given a profile value
+    /// (Sheng et al. 2014 eq. 16 or the consistent rule, design pitfall 4); unused for a
+    /// homogeneous one. [`HetRule::Sheng2014`] needs a finite R(0): the dipole profile.
+    pub het: HetRule,
 }
 
 impl Default for ProfileScatteringOptions {
     fn default() -> Self {
-        Self { profile: ProfileKind::HalfSpace, distance: OpticalDistance::Chord, tail: 1e-3 }
+        Self { profile: ProfileKind::HalfSpace, distance: OpticalDistance::Chord, tail: 1e-3, het: HetRule::Consistent }
     }
 }
 

@@ -17,6 +17,7 @@
 //!    is Lo = T(η, 0)/(π η² (1 − Fdr))·B, an opaque object's Lo = B/π, at their vertices
 //!    (design §1.2).
 
+mod profile_media;
 mod profile_object;
 mod responses;
 mod scatterer;

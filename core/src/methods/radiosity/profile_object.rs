@@ -7,16 +7,24 @@
 //! - the radiosity B = S(q_d + tFB) with t = 1 − F_ext(η) (design §1.2);
 //! - the radiance Lo(x, n) = T(η, 0)/(π η² (1 − Fdr)) · B ([`radiance_factor`]), clamped at 0.
 //!
-//! The medium must be homogeneous: the heterogeneous rules of `radiosity::heterogeneous` need
-//! per-material path lengths along each pair's optical path, which no distance mode gathers yet.
-//! A new medium re-indexes S from its cached samples (no geometry) when its profiles reach no
-//! further than the build's, and builds S afresh otherwise.
+//! A heterogeneous medium (layers, voxels, veins; [`super::profile_media`]) is quantised into at
+//! most [`crate::radiosity::MAX_MEDIA`] distinct media, each path's lengths in each gathered along
+//! its chord, and each sample's profile value is the options' rule of those lengths
+//! ([`crate::radiosity::HetRule`]: the consistent one by default, or Sheng et al. 2014 eq. 16;
+//! [`ProfileMatrix::build_media`](crate::radiosity::ProfileMatrix::build_media)). A field of one
+//! distinct medium is that homogeneous medium, with no per-pair cost. Chord distances only for a
+//! heterogeneous medium; material tables and per-tet media (which need tets) are refused.
+//!
+//! A new homogeneous medium in place of a homogeneous one re-indexes S from its cached samples
+//! (no geometry) when its profiles reach no further than the build's, and builds S afresh
+//! otherwise; a heterogeneous medium, old or new, builds S afresh on the same patches.
 
 use std::sync::Arc;
 
 use glam::DVec3;
 
 use super::super::Target;
+use super::profile_media::{check_medium, ObjectMedia, ProfileMediumError};
 use super::surfaces::PatchSurface;
 use crate::optics::fresnel::f_ext;
 use crate::optics::Medium;
@@ -24,7 +32,7 @@ use crate::radiosity::{
     radiance_factor, DistanceMode, InteriorGraph, ObjectPatches, Profile, ProfileOptions, ProfileScattering, RadiosityError,
     Scattering, MAX_VOXELS,
 };
-use crate::scene::{MediumSource, OpticalDistance, ProfileKind, ProfileScatteringOptions, SceneError, Shape};
+use crate::scene::{MediumSource, OpticalDistance, ProfileKind, ProfileScatteringOptions, SceneError};
 
 /// One translucent object's profile S, with what a rebuild for a new medium needs.
 #[derive(Debug, Clone)]
@@ -35,59 +43,77 @@ pub(super) struct ProfileObject {
     patches: Arc<ObjectPatches>,
     distance: Arc<DistanceMode>,
     options: ProfileScatteringOptions,
-    medium: Medium,
+    media: Arc<ObjectMedia>,
+    mm_per_unit: f64,
 }
 
 impl ProfileObject {
     /// The profile S of `target` on its patch surface `surface` (scene units, `mm_per_unit`).
     ///
     /// # Errors
-    /// [`SceneError::InvalidObject`] for a heterogeneous medium, a tet-mesh shape, or a distance
-    /// graph beyond its budget; [`SceneError::Medium`] for an invalid medium.
+    /// [`SceneError::InvalidObject`] for a medium [`check_medium`] refuses, a heterogeneous
+    /// medium with interior distances, a tet-mesh shape, a distance graph beyond its budget, or
+    /// a het rule the profile cannot take; [`SceneError::Medium`] for an invalid medium.
     pub(super) fn build(
         target: &Target<'_>,
         surface: &PatchSurface,
         mm_per_unit: f64,
         options: &ProfileScatteringOptions,
     ) -> Result<ProfileObject, SceneError> {
-        let medium = homogeneous_medium(target, target.object.medium())?;
+        check_medium(target, target.object.medium())?;
+        let source = target.object.medium().expect("checked");
         let invalid = |e: RadiosityError| target.invalid(format!("profile scattering: {e}"));
         let positions: Vec<DVec3> = surface.positions.iter().map(|&p| p * mm_per_unit).collect();
         let patches = ObjectPatches::from_surface(&positions, &surface.triangles).map_err(invalid)?;
-        let distance = distance_mode(&patches, &positions, &surface.triangles, &medium, &options.distance).map_err(invalid)?;
-        let scattering = matrix(&patches, &distance, options, &medium).map_err(invalid)?;
+        let media = object_media(target, source, &patches, mm_per_unit, options)?;
+        let distance = match &media {
+            ObjectMedia::Homogeneous(medium) => {
+                distance_mode(&patches, &positions, &surface.triangles, medium, &options.distance).map_err(invalid)?
+            }
+            ObjectMedia::Heterogeneous(_) => DistanceMode::Euclidean,
+        };
+        let scattering = matrix(&patches, &distance, options, &media).map_err(invalid)?;
         Ok(ProfileObject {
             scattering: Arc::new(scattering),
             patches: Arc::new(patches),
             distance: Arc::new(distance),
             options: *options,
-            medium,
+            media: Arc::new(media),
+            mm_per_unit,
         })
     }
 
-    /// The same object with `medium` (the geometry kept): S re-indexed, or built afresh when a
-    /// channel's profile now reaches beyond the samples gathered.
+    /// The same object with `medium` (the geometry kept): S re-indexed when both media are
+    /// homogeneous, or built afresh when a channel's profile now reaches beyond the samples
+    /// gathered or either medium is heterogeneous.
     ///
     /// # Errors
     /// As [`ProfileObject::build`].
     pub(super) fn with_medium(&self, target: &Target<'_>, medium: &MediumSource) -> Result<ProfileObject, SceneError> {
-        let medium = homogeneous_medium(target, Some(medium))?;
-        let new = profiles(self.options.profile, &medium);
-        let mut scattering = (*self.scattering).clone();
-        if scattering.set_profiles(&new).is_err() {
-            scattering = self.matrix_for(&medium).map_err(|e| target.invalid(format!("profile scattering: {e}")))?;
-        }
-        Ok(ProfileObject { scattering: Arc::new(scattering), medium, ..self.clone() })
+        check_medium(target, Some(medium))?;
+        let media = object_media(target, medium, &self.patches, self.mm_per_unit, &self.options)?;
+        let invalid = |e: RadiosityError| target.invalid(format!("profile scattering: {e}"));
+        let scattering = match (&*self.media, &media) {
+            (ObjectMedia::Homogeneous(_), ObjectMedia::Homogeneous(m)) => {
+                let mut scattering = (*self.scattering).clone();
+                match scattering.set_profiles(&profiles(self.options.profile, m)) {
+                    Ok(()) => scattering,
+                    Err(_) => self.matrix_for(&media).map_err(invalid)?,
+                }
+            }
+            _ => self.matrix_for(&media).map_err(invalid)?,
+        };
+        Ok(ProfileObject { scattering: Arc::new(scattering), media: Arc::new(media), ..self.clone() })
     }
 
-    /// S built from the geometry for `medium`, gathering within its own cutoffs.
-    fn matrix_for(&self, medium: &Medium) -> Result<ProfileScattering, RadiosityError> {
-        matrix(&self.patches, &self.distance, &self.options, medium)
+    /// S built from the geometry for `media`, gathering within its own cutoffs.
+    fn matrix_for(&self, media: &ObjectMedia) -> Result<ProfileScattering, RadiosityError> {
+        matrix(&self.patches, &self.distance, &self.options, media)
     }
 
     /// The refractive index of the object's medium.
     pub(super) fn eta(&self) -> f64 {
-        self.medium.eta
+        self.media.eta()
     }
 
     /// t = 1 − F_ext(η): the part of diffuse light that enters (design §1.2).
@@ -137,15 +163,22 @@ impl Scattering for ProfileOperator<'_> {
     }
 }
 
-/// S of `patches` at the distances of `distance` for `medium`'s profiles of `options`.
+/// S of `patches` at the distances of `distance` for `media`'s profiles of `options` (the
+/// heterogeneous matrix under `options.het` for several media).
 fn matrix(
     patches: &ObjectPatches,
     distance: &DistanceMode,
     options: &ProfileScatteringOptions,
-    medium: &Medium,
+    media: &ObjectMedia,
 ) -> Result<ProfileScattering, RadiosityError> {
     let build = ProfileOptions { distance: distance.clone(), tail: options.tail, gather_radius: None };
-    ProfileScattering::new(patches, &profiles(options.profile, medium), &build)
+    match media {
+        ObjectMedia::Homogeneous(medium) => ProfileScattering::new(patches, &profiles(options.profile, medium), &build),
+        ObjectMedia::Heterogeneous(q) => {
+            let palette: Vec<[Profile; 3]> = q.palette().iter().map(|m| profiles(options.profile, m)).collect();
+            ProfileScattering::with_media(patches, &palette, q, options.het, &build)
+        }
+    }
 }
 
 /// Each channel's profile of `kind` for `medium`.
@@ -156,29 +189,30 @@ fn profiles(kind: ProfileKind, medium: &Medium) -> [Profile; 3] {
     }
 }
 
-/// The one medium of a profile object, or an error naming what the profile S cannot take.
-///
-/// # Errors
-/// [`SceneError::InvalidObject`] for a tet-mesh shape or a medium other than
-/// [`MediumSource::Homogeneous`]; [`SceneError::Medium`] for an invalid one.
-pub(super) fn homogeneous_medium(target: &Target<'_>, medium: Option<&MediumSource>) -> Result<Medium, SceneError> {
-    if matches!(target.object.shape, Shape::Tetrahedra(_)) {
-        return Err(target.invalid(
-            "profile scattering works on surfaces: give the object as a surface, or use scattering = \"diffusion\" for a tet mesh",
-        ));
-    }
-    match medium {
-        Some(MediumSource::Homogeneous(m)) => {
-            m.validate().map_err(|e| target.invalid(format!("medium: {e}")))?;
-            Ok(*m)
+/// The media of `source` on `patches`, refused by name when heterogeneous under interior
+/// distances, or when the het rule cannot take the profile kind.
+fn object_media(
+    target: &Target<'_>,
+    source: &MediumSource,
+    patches: &ObjectPatches,
+    mm_per_unit: f64,
+    options: &ProfileScatteringOptions,
+) -> Result<ObjectMedia, SceneError> {
+    let media = ObjectMedia::new(target, source, patches, mm_per_unit);
+    if let ObjectMedia::Heterogeneous(q) = &media {
+        if let OpticalDistance::Interior { .. } = options.distance {
+            return Err(target.invalid(ProfileMediumError::InteriorHeterogeneous.to_string()));
         }
-        Some(_) => Err(target.invalid(
-            "profile scattering needs a homogeneous medium (per-material path lengths are not gathered yet): use scattering = \
-             \"diffusion\" for a heterogeneous one",
-        )),
-        None => Err(target.invalid("an opaque diffuse surface has no profile")),
+        for p in q.palette().iter().flat_map(|m| profiles(options.profile, m)) {
+            options.het.check(&p).map_err(|e| target.invalid(format!("profile scattering: {e}")))?;
+        }
     }
+    Ok(media)
 }
+
+/// The checks of a profile object's medium, under the name the session calls them by (they
+/// take heterogeneous media now; [`check_medium`]).
+pub(super) use super::profile_media::check_medium as homogeneous_medium;
 
 /// The distance mode of `options` on the object of `patches` (mm): for the interior one, its
 /// voxel graph at the voxel size asked for, or a quarter of its smallest 1/σtr, coarsened to
