@@ -567,7 +567,7 @@ typedef struct TcRadiosityStats {
    */
   uint64_t nonzeros;
   /**
-   * Memory of the form factors, in bytes (12 per nonzero).
+   * Memory of the form factors, in bytes (8 per nonzero).
    */
   uint64_t form_factor_bytes;
   /**

@@ -161,7 +161,7 @@ pub struct TcRadiosityStats {
     pub covered_patches: u64,
     /// Nonzero form factors.
     pub nonzeros: u64,
-    /// Memory of the form factors, in bytes (12 per nonzero).
+    /// Memory of the form factors, in bytes (8 per nonzero).
     pub form_factor_bytes: u64,
     /// The patch size used on opaque objects, in mm (the default resolved, when 0 was asked).
     pub patch_size_mm: f64,

@@ -81,10 +81,7 @@ fn surface_factor(meshes: &[(&Mesh, bool)], from: usize, to: usize, total_rays: 
     let area: f64 = emitters.iter().map(|&i| a[i]).sum();
     let flux: f64 = emitters
         .iter()
-        .map(|&i| {
-            let (columns, values) = f.row(i);
-            a[i] * columns.iter().zip(values).filter(|(&j, _)| patches.surface_of(j as usize) == to).map(|(_, v)| v).sum::<f64>()
-        })
+        .map(|&i| a[i] * f.row(i).filter(|&(j, _)| patches.surface_of(j) == to).map(|(_, v)| v).sum::<f64>())
         .sum();
     flux / area
 }
@@ -131,7 +128,8 @@ fn inner_sphere(radius: f64, subdivisions: u32) -> Mesh {
     (m.positions().to_vec(), m.triangles().iter().map(|t| [t[0], t[2], t[1]]).collect())
 }
 
-/// A2: reciprocity to rounding, every row ≤ 1, and in a closed scene every row exactly 1.
+/// A2: reciprocity to rounding, every row ≤ 1, and in a closed scene every row 1 (to the f32
+/// rounding of the stored factors).
 #[test]
 fn factors_are_reciprocal_and_closed_rows_sum_to_one() {
     let sphere = inner_sphere(10.0, 3);
@@ -139,21 +137,17 @@ fn factors_are_reciprocal_and_closed_rows_sum_to_one() {
     let f = FormFactors::gather(&patches, &FormFactorOptions { rays_per_patch: 128, ..Default::default() }, &|| true).unwrap();
     let a = patches.areas();
     for i in 0..f.len() {
-        let (columns, values) = f.row(i);
-        for (&j, &v) in columns.iter().zip(values) {
-            let (x, y) = (a[i] * v, a[j as usize] * f.get(j as usize, i));
+        for (j, v) in f.row(i) {
+            let (x, y) = (a[i] * v, a[j] * f.get(j, i));
             assert!((x - y).abs() <= 1e-12 * x.abs().max(y.abs()), "A{i}F{i},{j} = {x}, A{j}F{j},{i} = {y}");
         }
-        assert!((f.row_sum(i) - 1.0).abs() <= 1e-9, "row {i} of a closed sphere sums to {}", f.row_sum(i));
+        // Balanced to 1, then each factor rounded down to f32 (relative 2⁻²³ at most).
+        let deficit = 1.0 - f.row_sum(i);
+        assert!((-1e-12..=2f64.powi(-23)).contains(&deficit), "row {i} of a closed sphere sums to {}", f.row_sum(i));
     }
     // Every kernel is 1/(4πR²): a patch sees each half of the sphere as half of its light.
     let upper: Vec<bool> = patches.positions().iter().map(|p| p.z > 0.0).collect();
-    let share: Vec<f64> = (0..f.len())
-        .map(|i| {
-            let (columns, values) = f.row(i);
-            columns.iter().zip(values).filter(|(&j, _)| upper[j as usize]).map(|(_, v)| v).sum::<f64>()
-        })
-        .collect();
+    let share: Vec<f64> = (0..f.len()).map(|i| f.row(i).filter(|&(j, _)| upper[j]).map(|(_, v)| v).sum::<f64>()).collect();
     let half: f64 = (0..f.len()).filter(|&j| upper[j]).map(|j| a[j]).sum::<f64>() / a.iter().sum::<f64>();
     let mean = share.iter().sum::<f64>() / share.len() as f64;
     let worst = share.iter().map(|s| (s - half).abs()).fold(0.0, f64::max);
@@ -216,7 +210,9 @@ fn a_closed_sphere_with_a_point_light_has_the_closed_form() {
             assert!(s.estimated_error <= options.tolerance, "ρ = {rho}: the bound {} is above the tolerance", s.estimated_error);
         }
         assert!(s.energy.defect() <= 10.0 * options.tolerance, "ρ = {rho}: energy defect {}", s.energy.defect());
-        assert!(s.energy.escaped[0].abs() < 1e-9 * s.energy.direct[0], "light escaped a closed sphere");
+        // Nothing escapes but the f32 rounding of the rows (each at most 2⁻²³ below 1) lets out.
+        let leak = 2f64.powi(-23) * sum + 1e-12 * s.energy.direct[0];
+        assert!(s.energy.escaped[0].abs() <= leak, "light escaped a closed sphere: {} > {leak}", s.energy.escaped[0]);
     }
 }
 

@@ -191,7 +191,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             .collect();
         let emission = vec![[0.0; 3]; n];
         let (mut ff_ms, mut jacobi_ms, mut gs_ms) = (Vec::new(), Vec::new(), Vec::new());
-        let (mut jacobi_sweeps, mut gs_sweeps, mut defect, mut nonzeros) = (0, 0, 0.0, 0);
+        let (mut jacobi_sweeps, mut gs_sweeps, mut defect, mut nonzeros, mut bytes) = (0, 0, 0.0, 0, 0);
         let (mut krylov_ms, mut krylov_iterations) = (Vec::new(), 0);
         let mut device = GpuTimes::default();
         for _ in 0..args.runs {
@@ -201,7 +201,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             if let Ok(ctx) = &context {
                 device.measure(ctx, &f, &patches, &albedo, &direct, &emission)?;
             }
-            nonzeros = f.nonzeros();
+            (nonzeros, bytes) = (f.nonzeros(), f.bytes());
             for (iteration, times) in
                 [(Iteration::Jacobi, &mut jacobi_ms), (Iteration::GaussSeidel, &mut gs_ms), (Iteration::BiCgStab, &mut krylov_ms)]
             {
@@ -222,7 +222,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             patches: n,
             nonzeros,
             nonzeros_per_patch: nonzeros as f64 / n as f64,
-            form_factor_mib: (nonzeros * (size_of::<u32>() + size_of::<f64>())) as f64 / (1024.0 * 1024.0),
+            form_factor_mib: bytes as f64 / (1024.0 * 1024.0),
             median_form_factor_ms: median(ff_ms),
             median_jacobi_ms: jacobi,
             jacobi_sweeps,

@@ -46,15 +46,18 @@ impl<'c> GpuRadiosity<'c> {
         if [opaque.albedo.len(), opaque.direct.len(), opaque.emission.len(), translucent.len()].iter().any(|&l| l != n) {
             return Err(GpuError::Unsupported { what: "radiosity with opaque values or flags of another length than F" });
         }
-        let (row_start, columns, values) = factors.csr();
+        let (row_start, columns, exchange, inverse_area) = factors.csr();
         let too_large = || GpuError::TooLarge {
             what: "form factors (nonzeros)",
-            needed: values.len() as u64,
+            needed: exchange.len() as u64,
             limit: u64::from(u32::MAX),
             device: ctx.device_name().to_owned(),
         };
         let starts: Vec<u32> = row_start.iter().map(|&s| u32::try_from(s).map_err(|_| too_large())).collect::<Result<_, _>>()?;
-        let values32: Vec<f32> = values.iter().map(|&v| v as f32).collect();
+        // F_ij = G′_ij/Aᵢ, rounded to f32 once.
+        let values32: Vec<f32> = (0..n)
+            .flat_map(|i| (row_start[i]..row_start[i + 1]).map(move |k| (f64::from(exchange[k]) * inverse_area[i]) as f32))
+            .collect();
         let albedo: Vec<[f64; 3]> = (0..n).map(|i| if translucent[i] { [0.0; 3] } else { opaque.albedo[i] }).collect();
         let base: Vec<[f64; 3]> = (0..n)
             .map(|i| {
@@ -66,7 +69,7 @@ impl<'c> GpuRadiosity<'c> {
             })
             .collect();
         let (gx, gy, _) = ctx.grid(n)?;
-        let params = Params { n: n as u32, nnz: values.len() as u32, ..Params::default() };
+        let params = Params { n: n as u32, nnz: values32.len() as u32, ..Params::default() };
         Ok(Self {
             ctx,
             n,

@@ -53,7 +53,7 @@ pub struct RadiosityStats {
     pub covered_patches: usize,
     /// Nonzero form factors.
     pub nonzeros: usize,
-    /// Memory of the form factors (8 B value + 4 B column per nonzero).
+    /// Memory of the form factors (a 4 B f32 exchange and a 4 B column per nonzero).
     pub form_factor_bytes: usize,
     /// The patch size used on opaque objects, in mm.
     pub patch_size_mm: f64,

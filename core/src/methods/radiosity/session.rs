@@ -229,7 +229,7 @@ impl RadiositySession {
             translucent_patches,
             covered_patches: factors.covered().iter().filter(|&&c| c).count(),
             nonzeros: factors.nonzeros(),
-            form_factor_bytes: factors.nonzeros() * 12,
+            form_factor_bytes: factors.bytes(),
             patch_size_mm,
             prepare_ms,
             patches_ms,
