@@ -10,7 +10,7 @@ use transcut::gpu::Backend;
 use transcut::hierarchy::{DipoleOptions, EvalMode, Oracle, Receivers};
 use transcut::input::quote;
 use transcut::optics::EdgeRule;
-use transcut::radiosity::{FormFactorOptions, Iteration, SolveOptions};
+use transcut::radiosity::{FormFactorOptions, HetRule, Iteration, SolveOptions};
 use transcut::{
     Method, OpticalDistance, ProfileKind, ProfileScatteringOptions, RadiosityOptions, TransCutOptions, TranslucentScattering,
 };
@@ -104,9 +104,11 @@ pub enum ScatteringName {
     /// heterogeneous media and concavities included (the accuracy default).
     Diffusion,
     /// A profile matrix of TransCut's half-space Green's function on the object's surface: no
-    /// tets, homogeneous media; 8% under the diffusion S on a 10 mm marble sphere, 1% at 100 mm.
+    /// tets; homogeneous media, layers, voxels or veins; 8% under the diffusion S on a 10 mm marble
+    /// sphere, 1% at 100 mm.
     HalfSpace,
-    /// A profile matrix of the classical dipole (Sheng et al.'s): no tets, homogeneous media.
+    /// A profile matrix of the classical dipole (Sheng et al.'s): no tets; homogeneous media,
+    /// layers, voxels or veins.
     Dipole,
 }
 
@@ -121,11 +123,14 @@ pub enum DistanceName {
 }
 
 impl ScatteringName {
-    /// The core's choice, with `distance` for a profile.
-    fn scattering(self, distance: Option<DistanceName>) -> anyhow::Result<TranslucentScattering> {
+    /// The core's choice, with `distance` and `het` for a profile.
+    fn scattering(self, distance: Option<DistanceName>, het: Option<HetName>) -> anyhow::Result<TranslucentScattering> {
         let profile = match self {
             Self::Diffusion if distance.is_some() => {
                 bail!("the profile distance is an option of --scattering half-space or dipole, not of diffusion")
+            }
+            Self::Diffusion if het.is_some() => {
+                bail!("the profile's heterogeneous rule is an option of --scattering half-space or dipole, not of diffusion")
             }
             Self::Diffusion => return Ok(TranslucentScattering::Diffusion),
             Self::HalfSpace => ProfileKind::HalfSpace,
@@ -135,7 +140,32 @@ impl ScatteringName {
             DistanceName::Chord => OpticalDistance::Chord,
             DistanceName::Interior => OpticalDistance::INTERIOR,
         };
-        Ok(TranslucentScattering::Profile(ProfileScatteringOptions { profile, distance, ..ProfileScatteringOptions::default() }))
+        let het = het.map_or(HetRule::Consistent, HetName::rule);
+        Ok(TranslucentScattering::Profile(ProfileScatteringOptions {
+            profile,
+            distance,
+            het,
+            ..ProfileScatteringOptions::default()
+        }))
+    }
+}
+
+/// How the profile S values a path through several media of a heterogeneous object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum HetName {
+    /// The length-weighted geometric mean of the media's profiles, Π R_m(r)^{r_m/r}: exact for
+    /// identical media, any profile (the default).
+    Consistent,
+    /// Sheng et al. 2014 eq. 16 (the paper's heuristic; needs the dipole profile).
+    Sheng2014,
+}
+
+impl HetName {
+    fn rule(self) -> HetRule {
+        match self {
+            Self::Consistent => HetRule::Consistent,
+            Self::Sheng2014 => HetRule::Sheng2014,
+        }
     }
 }
 
@@ -220,13 +250,18 @@ pub struct MethodArgs {
     pub bounces: Option<u64>,
     /// radiosity: the translucent objects' scattering: their diffusion solve on tets, or a
     /// half-space or dipole profile matrix on their surface refined to --patch-size (no tets;
-    /// homogeneous media only) [default: diffusion]
+    /// no material tables or per-tet media) [default: diffusion]
     #[arg(long, value_enum, value_name = "S", help_heading = "Radiosity options")]
     pub scattering: Option<ScatteringName>,
     /// radiosity, --scattering half-space or dipole: the distance between two patches of an
     /// object [default: chord]
     #[arg(long, value_enum, value_name = "D", help_heading = "Radiosity options")]
     pub profile_distance: Option<DistanceName>,
+    /// radiosity, --scattering half-space or dipole: how a path through several media of a
+    /// heterogeneous object (layers, voxels, veins) is valued: the consistent rule, or Sheng et
+    /// al. 2014 eq. 16 (dipole only) [default: consistent]
+    #[arg(long, value_enum, value_name = "RULE", help_heading = "Radiosity options")]
+    pub profile_het: Option<HetName>,
 }
 
 /// The defaults under the command line: what a scene file's `[bake]` table says, or a
@@ -263,6 +298,7 @@ pub struct MethodDefaults {
     pub bounces: Option<u64>,
     pub scattering: Option<ScatteringName>,
     pub profile_distance: Option<DistanceName>,
+    pub profile_het: Option<HetName>,
 }
 
 /// A scene file's `[bake]` table as written (names not yet parsed): the keys that choose the
@@ -355,6 +391,7 @@ impl MethodDefaults {
             bounces: table.bounces,
             scattering: None,
             profile_distance: None,
+            profile_het: None,
         })
     }
 
@@ -367,6 +404,16 @@ impl MethodDefaults {
         let scattering = bake_name::<ScatteringName>("scattering", scattering, "scattering", "scatterings")?;
         let profile_distance = bake_name::<DistanceName>("profile_distance", profile_distance, "distance", "distances")?;
         Ok(Self { scattering, profile_distance, ..self })
+    }
+
+    /// These defaults with a scene file's radiosity `[bake] profile_het` (`consistent`,
+    /// `sheng2014`).
+    ///
+    /// # Errors
+    /// An unknown rule name, listing the valid ones.
+    pub fn with_profile_het(self, profile_het: Option<&str>) -> anyhow::Result<Self> {
+        let profile_het = bake_name::<HetName>("profile_het", profile_het, "rule", "rules")?;
+        Ok(Self { profile_het, ..self })
     }
 }
 
@@ -413,7 +460,7 @@ impl MethodArgs {
     }
 
     /// Every method option: whether it was given, its flag and its method.
-    fn options(&self) -> [OptionOwner; 19] {
+    fn options(&self) -> [OptionOwner; 20] {
         [
             (self.tets.is_some(), "--tets", DIFFUSION),
             (self.tolerance.is_some(), "--tolerance", DIFFUSION),
@@ -434,6 +481,7 @@ impl MethodArgs {
             (self.bounces.is_some(), "--bounces", &[RADIOSITY]),
             (self.scattering.is_some(), "--scattering", &[RADIOSITY]),
             (self.profile_distance.is_some(), "--profile-distance", &[RADIOSITY]),
+            (self.profile_het.is_some(), "--profile-het", &[RADIOSITY]),
         ]
     }
 
@@ -453,7 +501,7 @@ impl MethodArgs {
         // A scene file's TransCut options, when the file itself chose another method: written
         // for nothing. (When the command line chose the method, they were for the file's.)
         if self.method.is_none() && defaults.from_file {
-            let file: [OptionOwner; 18] = [
+            let file: [OptionOwner; 19] = [
                 (defaults.tets.is_some(), "tets", DIFFUSION),
                 (defaults.tolerance.is_some(), "tolerance", DIFFUSION),
                 (defaults.solver.is_some(), "solver", DIFFUSION),
@@ -472,6 +520,7 @@ impl MethodArgs {
                 (defaults.bounces.is_some(), "bounces", &[RADIOSITY]),
                 (defaults.scattering.is_some(), "scattering", &[RADIOSITY]),
                 (defaults.profile_distance.is_some(), "profile_distance", &[RADIOSITY]),
+                (defaults.profile_het.is_some(), "profile_het", &[RADIOSITY]),
             ];
             if let Some((option, owner)) = foreign(&file, method.name()) {
                 bail!("[bake] {option} is an option of the {owner}, not of {} (the file's method)", method.name());
@@ -502,13 +551,16 @@ impl MethodArgs {
         Ok(method)
     }
 
-    /// Radiosity's scattering S from `--scattering` and `--profile-distance` over a scene file's
-    /// `scattering` and `profile_distance`; `None` when neither is given.
+    /// Radiosity's scattering S from `--scattering`, `--profile-distance` and `--profile-het`
+    /// over a scene file's `scattering`, `profile_distance` and `profile_het`; `None` when none
+    /// is given.
     fn scattering(&self, defaults: &MethodDefaults) -> anyhow::Result<Option<TranslucentScattering>> {
         let distance = self.profile_distance.or(defaults.profile_distance);
+        let het = self.profile_het.or(defaults.profile_het);
         match self.scattering.or(defaults.scattering) {
-            Some(name) => name.scattering(distance).map(Some),
+            Some(name) => name.scattering(distance, het).map(Some),
             None if distance.is_some() => bail!("--profile-distance (profile_distance) needs --scattering half-space or dipole"),
+            None if het.is_some() => bail!("--profile-het (profile_het) needs --scattering half-space or dipole"),
             None => Ok(None),
         }
     }
@@ -795,6 +847,29 @@ mod tests {
         assert_eq!(p.distance, OpticalDistance::INTERIOR);
         let flag = MethodArgs { scattering: Some(ScatteringName::Diffusion), ..MethodArgs::default() };
         assert!(radiosity(flag, &file).unwrap_err().contains("not of diffusion"), "the file's distance with the flag's S");
+        // The heterogeneous rule: the flag, the file's, and refused without a profile.
+        let sheng = MethodArgs {
+            scattering: Some(ScatteringName::Dipole),
+            profile_het: Some(HetName::Sheng2014),
+            ..MethodArgs::default()
+        };
+        let Ok(TranslucentScattering::Profile(p)) = radiosity(sheng, &none) else { panic!() };
+        assert_eq!((p.profile, p.het), (ProfileKind::Dipole, HetRule::Sheng2014));
+        let Ok(TranslucentScattering::Profile(p)) = radiosity(MethodArgs::default(), &file) else { panic!() };
+        assert_eq!(p.het, HetRule::Consistent);
+        let file_het = file.clone().with_profile_het(Some("sheng2014")).unwrap();
+        let Ok(TranslucentScattering::Profile(p)) = radiosity(MethodArgs::default(), &file_het) else { panic!() };
+        assert_eq!(p.het, HetRule::Sheng2014);
+        let alone = MethodArgs { profile_het: Some(HetName::Consistent), ..MethodArgs::default() };
+        assert!(radiosity(alone, &none).unwrap_err().contains("--profile-het (profile_het) needs --scattering"));
+        let diffusion = MethodArgs {
+            scattering: Some(ScatteringName::Diffusion),
+            profile_het: Some(HetName::Sheng2014),
+            ..MethodArgs::default()
+        };
+        assert!(radiosity(diffusion, &none).unwrap_err().contains("not of diffusion"));
+        let e = MethodDefaults::default().with_profile_het(Some("mean")).unwrap_err().to_string();
+        assert!(e.contains("[bake] profile_het") && e.contains("consistent, sheng2014"), "{e}");
         let e = MethodDefaults::default().with_scattering(Some("table"), None).unwrap_err().to_string();
         assert!(e.contains("[bake] scattering") && e.contains("diffusion, half-space, dipole"), "{e}");
         let e = error(MethodArgs { scattering: Some(ScatteringName::Dipole), ..MethodArgs::default() }, &none);

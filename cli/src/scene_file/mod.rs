@@ -37,6 +37,7 @@
 //! # bounces = 3             # radiosity: exactly this many bounces (jacobi), whatever the tolerance
 //! # scattering = "diffusion"  # radiosity: translucent objects' S: diffusion (their TransCut solve), half-space or dipole (a profile)
 //! # profile_distance = "chord"  # radiosity, with a profile: chord or interior (the shortest path inside)
+//! # profile_het = "consistent"  # radiosity, with a profile, heterogeneous media: consistent or sheng2014 (eq. 16)
 //!
 //! [[object]]                # one or more
 //! mesh = "bunny.obj"        # OBJ or PLY, relative to the scene file

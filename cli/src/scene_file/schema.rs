@@ -103,6 +103,9 @@ pub struct BakeSpec {
     pub scattering: Option<String>,
     /// radiosity, a profile scattering: `chord` or `interior` (`--profile-distance`).
     pub profile_distance: Option<String>,
+    /// radiosity, a profile scattering of a heterogeneous medium: `consistent` or `sheng2014`
+    /// (`--profile-het`).
+    pub profile_het: Option<String>,
 }
 
 /// One `[[object]]`.
@@ -314,13 +317,14 @@ impl LightSpec {
 
 impl BakeSpec {
     /// The method defaults of this `[bake]` ([`MethodDefaults::from_bake_table`] of its
-    /// [`BakeSpec::table`], with its `scattering` and `profile_distance`).
+    /// [`BakeSpec::table`], with its `scattering`, `profile_distance` and `profile_het`).
     ///
     /// # Errors
     /// An unknown name or a value out of range, naming the key.
     pub fn method_defaults(&self) -> anyhow::Result<MethodDefaults> {
         MethodDefaults::from_bake_table(self.table())?
-            .with_scattering(self.scattering.as_deref(), self.profile_distance.as_deref())
+            .with_scattering(self.scattering.as_deref(), self.profile_distance.as_deref())?
+            .with_profile_het(self.profile_het.as_deref())
     }
 
     /// The table of a parsed scene file's `[bake]`.

@@ -111,7 +111,7 @@ pub(super) fn check_medium(target: &Target<'_>, medium: Option<&MediumSource>) -
 #[derive(Debug, Clone)]
 pub(super) enum ObjectMedia {
     Homogeneous(Medium),
-    Heterogeneous(QuantisedMedia),
+    Heterogeneous(Box<QuantisedMedia>),
 }
 
 impl ObjectMedia {
@@ -153,7 +153,7 @@ impl ObjectMedia {
         if media.palette.len() == 1 {
             ObjectMedia::Homogeneous(media.palette[0])
         } else {
-            ObjectMedia::Heterogeneous(media)
+            ObjectMedia::Heterogeneous(Box::new(media))
         }
     }
 

@@ -176,7 +176,7 @@ fn matrix(
         ObjectMedia::Homogeneous(medium) => ProfileScattering::new(patches, &profiles(options.profile, medium), &build),
         ObjectMedia::Heterogeneous(q) => {
             let palette: Vec<[Profile; 3]> = q.palette().iter().map(|m| profiles(options.profile, m)).collect();
-            ProfileScattering::with_media(patches, &palette, q, options.het, &build)
+            ProfileScattering::with_media(patches, &palette, &**q, options.het, &build)
         }
     }
 }
