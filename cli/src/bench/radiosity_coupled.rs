@@ -3,7 +3,7 @@
 //! bake and its [`RadiositySession`], at each patch size: the bake's stages (the translucent
 //! objects' preparation, which is S through the diffusion solve; the patches; F; the direct
 //! light; the solve), the memory, Jacobi against Gauss–Seidel from nothing on the same F, and
-//! the interactive updates: a relight after the light turned 5°, a change of the light's colour
+//! the interactive updates: a relight after the light moved by 5° about the centre, a change of the light's colour
 //! (a weighted sum of the kept response), a change of translucency and of an albedo; and beside
 //! them the same scene with the half-space profile matrix as S (no tets): its build (time,
 //! memory, nonzeros), its solve from nothing, the relight after 5° and the translucency change
@@ -50,7 +50,7 @@ pub struct Entry {
     gauss_seidel_sweeps: usize,
     jacobi_to_gauss_seidel: f64,
     energy_defect: f64,
-    /// The light turned 5° about the box's centre: a warm-started solve.
+    /// The light moved by turning it 5° about the box's centre ([`turned`]): a warm-started solve.
     median_relight_ms: f64,
     relight_fps: f64,
     relight_sweeps: usize,
@@ -84,7 +84,7 @@ pub struct ProfileEntry {
     /// The bake's solve, from nothing.
     median_solve_ms: f64,
     solve_sweeps: usize,
-    /// The light turned 5°: a warm-started solve.
+    /// The light moved 5° ([`turned`]): a warm-started solve.
     median_relight_ms: f64,
     relight_fps: f64,
     relight_sweeps: usize,
@@ -110,21 +110,16 @@ fn load(path: &Path, tets: Option<u64>) -> anyhow::Result<(Scene, BakeOptions)> 
     Ok((scene, BakeOptions::with_method(Method::Radiosity(radiosity))))
 }
 
-/// `light` turned by `degrees` about the axis through `centre` along +z.
+/// `light` moved by turning its position `degrees` about the axis through `centre` along +z:
+/// an area light keeps its orientation (it slides, as a light dragged in a viewport does; tilted
+/// with the turn, the example's light under the ceiling would pass through the ceiling), a
+/// directional light turns.
 fn turned(light: &Light, centre: DVec3, degrees: f64) -> Light {
     let r = DMat3::from_rotation_z(degrees.to_radians());
     let mut out = light.clone();
     match &mut out {
         Light::Point { position, .. } | Light::Spot { position, .. } => *position = centre + r * (*position - centre),
-        Light::RectArea { center, half_u, half_v, .. } => {
-            *center = centre + r * (*center - centre);
-            *half_u = r * *half_u;
-            *half_v = r * *half_v;
-        }
-        Light::DiscArea { center, normal, .. } => {
-            *center = centre + r * (*center - centre);
-            *normal = r * *normal;
-        }
+        Light::RectArea { center, .. } | Light::DiscArea { center, .. } => *center = centre + r * (*center - centre),
         Light::Directional { direction, .. } => *direction = r * *direction,
         _ => {}
     }

@@ -48,8 +48,10 @@
 
 mod environment;
 mod error;
+mod polygon;
 pub(crate) mod sampling;
 pub mod sh;
+mod shaft;
 mod source;
 
 use glam::DVec3;

@@ -172,6 +172,32 @@ impl TriangleBvh {
         out[start..].sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
     }
 
+    /// Whether any triangle passes `triangle`, visiting only the nodes whose boxes (lo, hi) pass
+    /// `node`: a query for any convex region, `node` conservative (true wherever the region may
+    /// meet the box) and `triangle` exact.
+    pub fn any_triangle(&self, node: impl Fn(DVec3, DVec3) -> bool, triangle: impl Fn(&[DVec3; 3]) -> bool) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let mut stack = NodeStack::new(0u32);
+        while let Some(ni) = stack.pop() {
+            let n = &self.nodes[ni as usize];
+            if !node(n.lo, n.hi) {
+                continue;
+            }
+            if n.count > 0 {
+                let leaf = &self.order[n.start_or_right as usize..(n.start_or_right + n.count) as usize];
+                if leaf.iter().any(|&t| triangle(&self.corners[t as usize])) {
+                    return true;
+                }
+            } else {
+                stack.push(n.start_or_right);
+                stack.push(ni + 1);
+            }
+        }
+        false
+    }
+
     /// Visits triangles hit by the ray within `(t_min, *t_far)`; `visit(t, tri, bary, t_far)`
     /// returns `true` to stop. The visitor may shrink `t_far`.
     fn traverse_ray(&self, origin: DVec3, dir: DVec3, t_min: f64, t_far: &mut f64, visit: &mut HitVisitor<'_>) {
@@ -448,6 +474,28 @@ mod tests {
             let q = a * got.bary[0] + b * got.bary[1] + c * got.bary[2];
             assert!((q - got.point).length() < 1e-9);
         }
+    }
+
+    #[test]
+    fn any_triangle_matches_brute_force() {
+        let tris = random_soup(400, 5);
+        let bvh = TriangleBvh::new(tris.clone());
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(6);
+        let (mut some, mut none) = (0, 0);
+        for _ in 0..300 {
+            // A ball: boxes within its radius, triangles with a corner inside it.
+            let (c, r) = (DVec3::new(rng.random(), rng.random(), rng.random()) * 12.0 - 1.0, 0.6);
+            let near_box = |lo: DVec3, hi: DVec3| (c.clamp(lo, hi) - c).length() <= r;
+            let inside = |t: &[DVec3; 3]| t.iter().any(|v| (*v - c).length() <= r);
+            let want = tris.iter().any(inside);
+            assert_eq!(bvh.any_triangle(near_box, inside), want);
+            if want {
+                some += 1;
+            } else {
+                none += 1;
+            }
+        }
+        assert!(some > 20 && none > 20, "{some} balls with a corner, {none} without");
     }
 
     #[test]

@@ -210,10 +210,6 @@ fn object_media(
     Ok(media)
 }
 
-/// The checks of a profile object's medium, under the name the session calls them by (they
-/// take heterogeneous media now; [`check_medium`]).
-pub(super) use super::profile_media::check_medium as homogeneous_medium;
-
 /// The distance mode of `options` on the object of `patches` (mm): for the interior one, its
 /// voxel graph at the voxel size asked for, or a quarter of its smallest 1/σtr, coarsened to
 /// stay within half of [`MAX_VOXELS`].

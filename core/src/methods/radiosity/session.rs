@@ -23,7 +23,8 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::profile_object::{homogeneous_medium, ProfileObject};
+use super::profile_media::check_medium;
+use super::profile_object::ProfileObject;
 use super::responses::{warm_start, Field, Response, Source};
 use super::scatterer::{Operator, Scatterer};
 use super::scattering::DiffusionScattering;
@@ -146,7 +147,7 @@ impl RadiositySession {
         for target in targets.iter().filter(|t| t.object.medium().is_some()) {
             match profile {
                 None => TransCut::check(target, &radiosity.transcut)?,
-                Some(_) => drop(homogeneous_medium(target, target.object.medium())?),
+                Some(_) => check_medium(target, target.object.medium())?,
             }
         }
         let furthest = std::sync::Mutex::new(0.0f64);
@@ -484,9 +485,10 @@ impl RadiositySession {
     }
 
     /// Puts `medium` on translucent object `index` and re-solves: on its tets (the mesh kept),
-    /// its system assembled again, with the diffusion S; its profiles (S re-indexed from its
-    /// samples, or built afresh when they reach further, η and Fresnel with them) with a
-    /// profile S.
+    /// its system assembled again, with the diffusion S; its profiles with a profile S (S
+    /// re-indexed from its samples from one homogeneous medium to another, built afresh on the
+    /// same patches when the profiles reach further or either medium is heterogeneous; η and
+    /// Fresnel with them).
     ///
     /// # Errors
     /// [`SceneError::InvalidObject`] for an opaque object; the medium's, the resolution check's
