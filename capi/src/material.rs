@@ -214,26 +214,15 @@ pub unsafe extern "C" fn tc_object_paint(
 /// and g of its medium in the scene description (of its first layer, table entry or base).
 fn whole_medium(s: &SceneState, object: u32, i: usize, sigma_a: [f64; 3], sigma_s: [f64; 3]) -> Result<MediumSource, Failure> {
     let o = &s.scene.objects[i];
-    let (eta, g) = match o.medium() {
-        None => {
-            return Err(Failure::invalid(format!(
-                "object {object} ({}) is diffuse: it has no medium (tc_object_edit_albedo, tc_object_edit_emission)",
-                o.name
-            )))
-        }
-        Some(MediumSource::Homogeneous(m)) => (m.eta, m.g),
-        Some(MediumSource::Table(t)) => t.first().map_or((1.0, 0.0), |m| (m.eta, m.g)),
-        Some(MediumSource::PerTet(m)) => (m.eta(), m.g()),
-        Some(MediumSource::Voxels { eta, g, .. }) => (*eta, *g),
-        Some(MediumSource::Layers(l)) => l.layers().first().map_or((1.0, 0.0), |l| (l.medium.eta, l.medium.g)),
-        Some(MediumSource::Veins(v)) => (v.base().eta, v.base().g),
-        Some(_) => {
-            return Err(Failure::new(
-                TC_UNSUPPORTED,
-                format!("object {object} ({}): its kind of medium has no one η and g", o.name),
-            ))
-        }
+    let Some(source) = o.medium() else {
+        return Err(Failure::invalid(format!(
+            "object {object} ({}) is diffuse: it has no medium (tc_object_edit_albedo, tc_object_edit_emission)",
+            o.name
+        )));
     };
+    let (eta, g) = source.eta_and_g().ok_or_else(|| {
+        Failure::new(TC_UNSUPPORTED, format!("object {object} ({}): its medium has no entries to take η and g from", o.name))
+    })?;
     let medium =
         Medium::new(sigma_a, sigma_s, eta, g).map_err(|e| Failure::invalid(format!("edit->sigma_a, sigma_s_prime: {e}")))?;
     Ok(MediumSource::Homogeneous(medium))

@@ -18,7 +18,7 @@ use transcut::radiosity::{
 use transcut::DVec3;
 
 use super::args::BenchArgs;
-use super::stats::{median, ms, peak_rss_mib};
+use super::stats::{median, ms, peak_rss_mib, reset_peak_rss, rss_mib};
 
 /// The box's side and the block's size (mm).
 const SIDE: f64 = 200.0;
@@ -52,6 +52,9 @@ struct Entry {
     gpu: Option<GpuEntry>,
     /// Why the GPU sweeps were not measured at this size (e.g. F larger than a device buffer).
     gpu_skipped: Option<String>,
+    /// Resident memory when this size started, and its peak while it ran (`None` where the
+    /// peak cannot be started again, so it would be an earlier size's).
+    start_rss_mib: Option<f64>,
     peak_rss_mib: Option<f64>,
 }
 
@@ -168,6 +171,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     };
     let mut entries = Vec::new();
     for &h in &args.patch_sizes {
+        let (start_rss_mib, reset) = (rss_mib(), reset_peak_rss());
         let surfaces = scene()
             .into_iter()
             .map(|((p, t), albedo)| refine_to_edge_length(&p, &t, h).map(|m| (m, albedo)))
@@ -235,7 +239,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             energy_defect: defect,
             gpu_skipped: device.skipped.clone(),
             gpu: device.entry(),
-            peak_rss_mib: peak_rss_mib(),
+            start_rss_mib,
+            peak_rss_mib: peak_rss_mib().filter(|_| reset),
         });
     }
     let coupled = super::radiosity_coupled::run(&args.scene, &args.patch_sizes, args.radiosity_tets, args.runs)?;

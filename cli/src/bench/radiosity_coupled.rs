@@ -23,7 +23,7 @@ use transcut::{
     TranslucentScattering,
 };
 
-use super::stats::{median, ms, peak_rss_mib};
+use super::stats::{median, ms, peak_rss_mib, reset_peak_rss, rss_mib};
 use crate::method_args::MethodArgs;
 use crate::scene_file;
 
@@ -36,6 +36,9 @@ pub struct Entry {
     tets: usize,
     nonzeros: usize,
     form_factor_mib: f64,
+    /// Resident memory when this configuration started, and its peak while it ran (`None`
+    /// where the peak cannot be started again, so it would be an earlier configuration's).
+    start_rss_mib: Option<f64>,
     peak_rss_mib: Option<f64>,
     median_bake_ms: f64,
     median_prepare_ms: f64,
@@ -77,6 +80,9 @@ pub struct ProfileEntry {
     nonzeros: usize,
     /// The matrices and their re-indexing samples.
     matrix_mib: f64,
+    /// As [`Entry`]'s, for this configuration.
+    start_rss_mib: Option<f64>,
+    peak_rss_mib: Option<f64>,
     median_bake_ms: f64,
     /// Building S (distances, samples, values).
     median_build_ms: f64,
@@ -145,6 +151,7 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
         let Method::Radiosity(mut radiosity) = base.method.clone() else { unreachable!("a radiosity scene") };
         radiosity.patch_size_mm = Some(size);
         let options = BakeOptions { method: Method::Radiosity(radiosity.clone()), ..base.clone() };
+        let (start_rss_mib, reset) = (rss_mib(), reset_peak_rss());
         let mut t = Timings::default();
         let mut last = None;
         for run in 0..runs {
@@ -214,6 +221,7 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
             lights[0] = turned(&first_light, centre, if run.is_multiple_of(2) { 5.0 } else { -5.0 });
             lights
         };
+        let peak = peak_rss_mib().filter(|_| reset);
         let profile = profile_entry(&scene, &options, runs, translucent, &turn)?;
         let (jacobi, gs, relight, medium) = (median(t.jacobi), median(t.gauss_seidel), median(t.relight), median(t.medium));
         entries.push(Entry {
@@ -223,7 +231,8 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
             tets,
             nonzeros: stats.nonzeros,
             form_factor_mib: stats.form_factor_bytes as f64 / (1024.0 * 1024.0),
-            peak_rss_mib: peak_rss_mib(),
+            start_rss_mib,
+            peak_rss_mib: peak,
             median_bake_ms: median(t.bake),
             median_prepare_ms: median(t.prepare),
             median_form_factor_ms: median(t.form_factor),
@@ -263,6 +272,7 @@ fn profile_entry(
     let Method::Radiosity(radiosity) = &options.method else { unreachable!("a radiosity scene") };
     let radiosity = RadiosityOptions { scattering: TranslucentScattering::profile(ProfileKind::HalfSpace), ..radiosity.clone() };
     let options = BakeOptions { method: Method::Radiosity(radiosity), ..options.clone() };
+    let (start_rss_mib, reset) = (rss_mib(), reset_peak_rss());
     let mut t = Timings::default();
     let (mut build, mut last) = (Vec::new(), None);
     for run in 0..runs {
@@ -298,6 +308,8 @@ fn profile_entry(
         translucent_patches: stats.translucent_patches,
         nonzeros: stats.scattering_nonzeros,
         matrix_mib: stats.scattering_bytes as f64 / (1024.0 * 1024.0),
+        start_rss_mib,
+        peak_rss_mib: peak_rss_mib().filter(|_| reset),
         median_bake_ms: median(t.bake),
         median_build_ms: median(build),
         median_form_factor_ms: median(t.form_factor),

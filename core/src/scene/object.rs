@@ -66,6 +66,22 @@ impl From<Medium> for MediumSource {
 }
 
 impl MediumSource {
+    /// The object's refractive index and scattering anisotropy (η, g): the medium's, a voxel
+    /// grid's or per-tet media's own, veins' base medium's, a table's or layers' first entry's
+    /// (what a medium made homogeneous from new coefficients keeps); `None` for an empty table
+    /// or no layers.
+    #[must_use]
+    pub fn eta_and_g(&self) -> Option<(f64, f64)> {
+        match self {
+            Self::Homogeneous(m) => Some((m.eta, m.g)),
+            Self::Table(table) => table.first().map(|m| (m.eta, m.g)),
+            Self::PerTet(media) => Some((media.eta(), media.g())),
+            Self::Voxels { eta, g, .. } => Some((*eta, *g)),
+            Self::Layers(layers) => layers.layers().first().map(|l| (l.medium.eta, l.medium.g)),
+            Self::Veins(veins) => Some((veins.base().eta, veins.base().g)),
+        }
+    }
+
     /// Checks what can be checked without the tet mesh.
     ///
     /// # Errors
