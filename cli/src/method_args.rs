@@ -190,8 +190,9 @@ pub struct MethodArgs {
     #[arg(long, value_parser = solver_kind, help_heading = "TransCut options")]
     pub solver: Option<SolverKind>,
     /// transcut, radiosity: where the diffusion solve runs: cpu, gpu (an error without a GPU) or auto (a hardware
-    /// GPU when there is one, else the CPU). Default: the TRANSCUT_BACKEND environment
-    /// variable, else auto.
+    /// GPU when there is one, else the CPU); for radiosity also its iteration's gathers F·B
+    /// (Jacobi, BiCGSTAB; Gauss–Seidel stays on the CPU). Default: the TRANSCUT_BACKEND
+    /// environment variable, else auto.
     #[arg(long, help_heading = "TransCut options")]
     pub backend: Option<Backend>,
     /// hierarchical-dipole: the opening-angle oracle's θ in (0, 1]: a far link joins two
@@ -543,6 +544,7 @@ impl MethodArgs {
                     },
                     transcut: self.transcut(d.transcut, defaults)?,
                     scattering: self.scattering(defaults)?.unwrap_or(d.scattering),
+                    backend: self.backend.or(d.backend),
                 })
             }
             _ => bail!("{}", Method::unknown(name)),
@@ -810,6 +812,18 @@ mod tests {
             panic!()
         };
         assert_eq!(o.solve.iteration, Iteration::BiCgStab);
+    }
+
+    #[test]
+    fn the_backend_reaches_the_radiosity_gathers_and_the_diffusion_solves() {
+        for backend in [Backend::Cpu, Backend::Gpu, Backend::Auto] {
+            let args = MethodArgs { method: Some(RADIOSITY.into()), backend: Some(backend), ..MethodArgs::default() };
+            let Method::Radiosity(o) = args.method(&MethodDefaults::default()).unwrap() else { panic!() };
+            assert_eq!((o.backend, o.transcut.backend), (Some(backend), Some(backend)));
+        }
+        let args = MethodArgs { method: Some(RADIOSITY.into()), ..MethodArgs::default() };
+        let Method::Radiosity(o) = args.method(&MethodDefaults::default()).unwrap() else { panic!() };
+        assert_eq!((o.backend, o.transcut.backend), (None, None), "no flag: TRANSCUT_BACKEND decides at the bake");
     }
 
     #[test]

@@ -31,6 +31,10 @@ pub enum RadiosityError {
     TooManyMedia { media: usize, limit: usize },
     #[error("invalid options: {0}")]
     InvalidOptions(String),
+    /// The device computing the gather F B failed (its error's message: the device's own error
+    /// type is of a layer above this one).
+    #[error("the radiosity gather on the GPU failed: {0}")]
+    Device(String),
     #[error("{0}")]
     Cancelled(#[from] Cancelled),
 }

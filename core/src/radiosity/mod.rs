@@ -35,4 +35,7 @@ pub use path_media::{path_fractions, MediumIndex, MAX_MEDIA, MAX_STEPS};
 pub use profile::{Exponentials, HalfSpace, Profile, Tabulated};
 pub use profile_media::{EntryMedia, RADIAL};
 pub use profile_scattering::{radiance_factor, ObjectPatches, ProfileMatrix, ProfileOptions, ProfileScattering, SampleCache};
-pub use solver::{solve, solve_coupled, EnergyBalance, Iteration, Opaque, Scattering, Solution, SolveOptions, Translucent};
+pub use solver::{
+    solve, solve_coupled, solve_coupled_with, EnergyBalance, Gather, Iteration, Opaque, Scattering, Solution, SolveOptions,
+    Translucent,
+};

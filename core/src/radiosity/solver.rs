@@ -8,6 +8,13 @@
 //! from the values already updated), stopped by an a-posteriori estimate of the remaining
 //! error, with the energy balance of the result.
 //!
+//! The gather E = F B of a whole radiosity vector, the product that dominates a sweep, goes
+//! through [`Gather`] ([`solve_coupled_with`]): [`FormFactors`] computes it on the CPU, and a
+//! device can (`crate::gpu::GpuRadiosity`, which this module cannot name: the device layer
+//! depends on this one). Jacobi sweeps, a warm start's first gather and BiCGSTAB's operator
+//! applications use it; Gauss–Seidel reads F row by row from values updated within the sweep,
+//! which is sequential by nature, so its sweeps always run on the CPU.
+//!
 //! The estimate: with δ_k the area-weighted change of power between sweeps relative to the
 //! power, and ρ̂ = δ_k/δ_{k−1} the observed contraction, the error left is about
 //! δ_k ρ̂/(1 − ρ̂) (the tail of a geometric series).
@@ -153,6 +160,43 @@ pub struct Solution {
     pub energy: EnergyBalance,
 }
 
+/// The gather E = F B of a whole radiosity vector B for one F (module documentation):
+/// [`FormFactors`] on the CPU, or a device's copy of the same F.
+pub trait Gather {
+    /// The number of patches of F (B's and E's length).
+    fn patches(&self) -> usize;
+
+    /// E_i = Σ_j F_ij B_j for every patch i, `b` and the result in patch order.
+    ///
+    /// # Errors
+    /// [`RadiosityError::WrongLength`] for a `b` of another length than F's;
+    /// [`RadiosityError::Device`] when a device failed.
+    fn gather(&self, b: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, RadiosityError>;
+}
+
+/// The CPU's gather ([`FormFactors::apply`], rows in parallel).
+impl Gather for FormFactors {
+    fn patches(&self) -> usize {
+        self.len()
+    }
+
+    fn gather(&self, b: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, RadiosityError> {
+        if b.len() != self.len() {
+            return Err(RadiosityError::WrongLength { what: "radiosity to gather", expected: self.len(), got: b.len() });
+        }
+        Ok(self.apply(b))
+    }
+}
+
+/// `gather`'s E = F B, checked to have one value per patch (a device's read-back included).
+fn gather_checked(gather: &dyn Gather, b: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, RadiosityError> {
+    let e = gather.gather(b)?;
+    if e.len() != b.len() {
+        return Err(RadiosityError::WrongLength { what: "gathered irradiance", expected: b.len(), got: e.len() });
+    }
+    Ok(e)
+}
+
 /// The subsurface scattering of one translucent object, S: the light transmitted into each of
 /// its patches (irradiance, after Fresnel) to the exitance B leaving each (design/radiosity.md
 /// §1.2). It is linear and keeps what its next application starts from (a warm start).
@@ -253,8 +297,39 @@ pub fn solve_coupled<E: From<RadiosityError>>(
     options: &SolveOptions,
     keep_going: &(dyn Fn() -> bool + Sync),
 ) -> Result<Solution, E> {
+    solve_coupled_with(factors, factors, areas, opaque, translucent, initial, options, keep_going)
+}
+
+/// [`solve_coupled`] with the gather E = F B of `gather` (a device's copy of `factors`) in the
+/// Jacobi sweeps, a warm start's first gather and BiCGSTAB's operator applications and closing
+/// sweep. Gauss–Seidel sweeps read `factors` row by row on the CPU whatever `gather` is (each
+/// patch gathers from values updated earlier in the same sweep); the energy balance uses
+/// `factors` too, so that it checks the answer against the f64 F.
+///
+/// # Errors
+/// As [`solve_coupled`]; [`RadiosityError::WrongLength`] when `gather` has another number of
+/// patches than `factors`; [`RadiosityError::Device`] when the device failed.
+#[allow(clippy::too_many_arguments)] // solve_coupled's arguments and the gather
+pub fn solve_coupled_with<E: From<RadiosityError>>(
+    factors: &FormFactors,
+    gather: &dyn Gather,
+    areas: &[f64],
+    opaque: &Opaque<'_>,
+    translucent: &mut [Translucent<'_, E>],
+    initial: Option<&[[f64; 3]]>,
+    options: &SolveOptions,
+    keep_going: &(dyn Fn() -> bool + Sync),
+) -> Result<Solution, E> {
     let n = factors.len();
     let is_translucent = check_inputs(n, areas, opaque, translucent, options)?;
+    if gather.patches() != n {
+        return Err(RadiosityError::WrongLength {
+            what: "patches of the gather's form factors",
+            expected: n,
+            got: gather.patches(),
+        }
+        .into());
+    }
     if let Some(initial) = initial {
         if options.bounces.is_some() {
             return Err(
@@ -273,13 +348,13 @@ pub fn solve_coupled<E: From<RadiosityError>>(
     // side; the sweeps start from the update of what `initial` gathers.
     let krylov = options.iteration == Iteration::BiCgStab;
     let start = match initial {
-        Some(b) if !krylov => factors.apply(b),
+        Some(b) if !krylov => gather_checked(gather, b)?,
         _ => vec![[0.0; 3]; n],
     };
     let mut b = jacobi_update(opaque, translucent, &is_translucent, &start)?;
     let mut scatterings = 1;
     if krylov {
-        let krylov = Krylov { factors, areas, opaque, translucent, is_translucent: &is_translucent };
+        let krylov = Krylov { gather, areas, opaque, translucent, is_translucent: &is_translucent };
         let mut solution = krylov.solve(b, initial, options, keep_going)?;
         solution.energy = balance(factors, areas, opaque, translucent, &is_translucent, &solution.radiosity);
         if translucent.is_empty() {
@@ -297,7 +372,7 @@ pub fn solve_coupled<E: From<RadiosityError>>(
         }
         let before = b.clone();
         match options.iteration {
-            Iteration::Jacobi => b = jacobi_update(opaque, translucent, &is_translucent, &factors.apply(&b))?,
+            Iteration::Jacobi => b = jacobi_update(opaque, translucent, &is_translucent, &gather_checked(gather, &b)?)?,
             Iteration::BiCgStab => unreachable!("solved above"),
             Iteration::GaussSeidel => {
                 // Interleaved sets, set k holding patches k, k + K, k + 2K, … for K threads:
@@ -373,9 +448,9 @@ fn jacobi_update<E>(
 }
 
 /// The coupled system as an operator for BiCGSTAB: (I − K) x, K x = ρ ⊙ F x on opaque patches
-/// and S(t (F x)) on each translucent object's.
+/// and S(t (F x)) on each translucent object's, F x by `gather`.
 struct Krylov<'a, 'b, 'c, E> {
-    factors: &'a FormFactors,
+    gather: &'a dyn Gather,
     areas: &'a [f64],
     opaque: &'a Opaque<'a>,
     translucent: &'a mut [Translucent<'b, E>],
@@ -388,16 +463,16 @@ struct Counted<'k, 'a, 'b, 'c, E> {
     scatterings: usize,
 }
 
-impl<E> LinearOperator for Counted<'_, '_, '_, '_, E> {
+impl<E: From<RadiosityError>> LinearOperator for Counted<'_, '_, '_, '_, E> {
     type Error = E;
 
     fn len(&self) -> usize {
-        self.system.factors.len()
+        self.system.gather.patches()
     }
 
     fn apply(&mut self, x: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, E> {
-        let Krylov { factors, opaque, translucent, is_translucent, .. } = &mut *self.system;
-        let gathered = factors.apply(x);
+        let Krylov { gather, opaque, translucent, is_translucent, .. } = &mut *self.system;
+        let gathered = gather_checked(*gather, x)?;
         let mut y: Vec<[f64; 3]> = x
             .par_iter()
             .enumerate()
@@ -470,7 +545,7 @@ impl<E: From<RadiosityError>> Krylov<'_, '_, '_, E> {
         scatterings += op.scatterings;
         let estimated = solved.relative_residual.iter().fold(0.0f64, |m, &r| m.max(r)) / (1.0 - kappa);
         // The closing sweep: B = K x + B₁, which leaves each scattering at the answer's state.
-        let b = jacobi_update(self.opaque, self.translucent, self.is_translucent, &self.factors.apply(&x))?;
+        let b = jacobi_update(self.opaque, self.translucent, self.is_translucent, &gather_checked(self.gather, &x)?)?;
         scatterings += usize::from(!self.translucent.is_empty());
         Ok(Solution {
             radiosity: b,

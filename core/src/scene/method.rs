@@ -212,6 +212,12 @@ pub struct RadiosityOptions {
     /// The scattering operator S of the translucent objects: their diffusion solve (default)
     /// or a profile matrix on their surface.
     pub scattering: TranslucentScattering,
+    /// Where the iteration's gather E = F B runs (Jacobi sweeps, a warm start, BiCGSTAB; the
+    /// Gauss–Seidel sweeps always run on the CPU); `None`: as `TRANSCUT_BACKEND` says, else
+    /// [`Backend::Auto`] (a hardware GPU when one exists, never a software adapter; F that does
+    /// not fit the device stays on the CPU). The statistics name the device and say why not.
+    /// The translucent objects' diffusion solves follow [`TransCutOptions::backend`].
+    pub backend: Option<Backend>,
 }
 
 impl RadiosityOptions {

@@ -81,6 +81,13 @@ pub struct RadiosityStats {
     pub estimated_error: f64,
     /// |in − out|/in of the energy balance, worst channel.
     pub energy_defect: f64,
+    /// The GPU that computed the last solve's gathers F B ([`crate::RadiosityOptions::backend`]);
+    /// `None`: the CPU.
+    pub device: Option<String>,
+    /// Why the last solve's gathers ran on the CPU although the backend was `gpu` or `auto`
+    /// (no hardware GPU, only a software adapter, F too large for the device, Gauss–Seidel);
+    /// `None` when they ran where asked.
+    pub device_fallback: Option<String>,
 }
 
 /// What the radiosity method keeps of one object ([`BakedState::Radiosity`]).

@@ -17,7 +17,9 @@
 //!   next change.
 //! - A failed or cancelled call changes nothing.
 //!
-//! Updates run on the caller's rayon pool; lights shadow every object, as in the bake.
+//! Updates run on the caller's rayon pool; lights shadow every object, as in the bake. The
+//! iteration's gathers F B run on the GPU that [`RadiosityOptions::backend`] resolves to
+//! (`SweepDevice`: F uploaded once per session, at the first solve that gathers on it).
 
 use std::time::Instant;
 
@@ -30,6 +32,7 @@ use super::scatterer::{Operator, Scatterer};
 use super::scattering::DiffusionScattering;
 use super::surfaces::{patch_surface, PatchSurface};
 use super::{common_scale, fill_covered, object_stats, scene_diagonal, surface_patches, RadiosityObject, RadiosityStats, NAME};
+use crate::gpu::{self, Backend, DeviceChoice};
 use crate::light::{self, Light};
 use crate::mesh::{TriMesh, TriangleBvh};
 use crate::methods::transcut::TransCut;
@@ -38,7 +41,9 @@ use crate::methods::{
 };
 use crate::optics::fresnel::f_ext;
 use crate::progress::{ms, Cancelled, Progress};
-use crate::radiosity::{solve_coupled, FormFactors, Opaque, PatchSet, Solution, SolveOptions, Translucent};
+use crate::radiosity::{
+    solve_coupled_with, FormFactors, Gather, Iteration, Opaque, PatchSet, RadiosityError, Solution, SolveOptions, Translucent,
+};
 use crate::scene::{BakeOptions, Diffuse, MediumSource, Object, RadiosityOptions, Scene, SceneError, TranslucentScattering};
 
 /// The direct light of a set of lights: E_d per patch (0 on translucent patches) and the
@@ -75,6 +80,124 @@ pub struct RadiosityUpdate {
     pub solve_ms: f64,
     /// Everything, the radiance at the user's vertices included.
     pub total_ms: f64,
+    /// The GPU that computed the gathers F B of the last solve; `None`: the CPU.
+    pub device: Option<String>,
+    /// Why the last solve's gathers ran on the CPU although the backend was `gpu` or `auto`.
+    pub device_fallback: Option<String>,
+}
+
+/// Where the coupled solves' gathers E = F B run: the GPU [`RadiosityOptions::backend`]
+/// resolves to ([`gpu::choose_device`]: `auto` never takes a software adapter), F uploaded at
+/// the first solve that gathers there and kept; else the CPU, with the reason. F too large for
+/// the device ([`gpu::GpuError::TooLarge`]) and the Gauss–Seidel iteration (sequential sweeps)
+/// stay on the CPU and say so.
+#[derive(Default)]
+struct SweepDevice {
+    #[cfg(feature = "gpu")]
+    context: Option<&'static gpu::GpuContext>,
+    #[cfg(feature = "gpu")]
+    uploaded: Option<Box<gpu::GpuRadiosity<'static>>>,
+    /// The backend asked for (`auto` falls back on any failure to upload F, `gpu` only when F
+    /// is too large).
+    requested: Option<Backend>,
+    /// Why the gathers run on the CPU, when a GPU was asked for or looked for and none is used.
+    fallback: Option<String>,
+}
+
+impl Clone for SweepDevice {
+    /// The same device; the copy uploads its own F at its first solve.
+    fn clone(&self) -> Self {
+        Self {
+            #[cfg(feature = "gpu")]
+            context: self.context,
+            #[cfg(feature = "gpu")]
+            uploaded: None,
+            requested: self.requested,
+            fallback: self.fallback.clone(),
+        }
+    }
+}
+
+/// The gather of one solve: the device's, or `None` for the CPU's, and where it ran.
+struct SweepsOn<'g> {
+    gather: Option<&'g dyn Gather>,
+    placed: Placed,
+}
+
+/// Where one solve's gathers ran: the device's name, or why the CPU.
+#[derive(Debug, Clone, Default)]
+struct Placed {
+    device: Option<String>,
+    fallback: Option<String>,
+}
+
+impl SweepDevice {
+    /// The device `options.backend` (else `TRANSCUT_BACKEND`, else `auto`) picks.
+    ///
+    /// # Errors
+    /// [`SceneError::InvalidOptions`] for an unknown `TRANSCUT_BACKEND`;
+    /// [`SceneError::Radiosity`] ([`RadiosityError::Device`]) when `gpu` was asked for and no
+    /// device can be had.
+    fn choose(options: &RadiosityOptions) -> Result<Self, SceneError> {
+        let backend = match options.backend {
+            Some(b) => b,
+            None => Backend::from_env_or(Backend::Auto).map_err(|e| SceneError::InvalidOptions(format!("{NAME}: {e}")))?,
+        };
+        let (choice, fallback) = gpu::choose_device(backend).map_err(|e| RadiosityError::Device(e.to_string()))?;
+        Ok(match choice {
+            DeviceChoice::Cpu => Self {
+                #[cfg(feature = "gpu")]
+                context: None,
+                #[cfg(feature = "gpu")]
+                uploaded: None,
+                requested: Some(backend),
+                fallback,
+            },
+            #[cfg(feature = "gpu")]
+            DeviceChoice::Gpu(context) => Self { context: Some(context), requested: Some(backend), ..Self::default() },
+        })
+    }
+
+    /// The gather of a solve by `iteration` of `factors`: the device's (F uploaded on first
+    /// use), or `None` for the CPU's, with where it runs.
+    ///
+    /// # Errors
+    /// [`SceneError::Radiosity`] when `gpu` was asked for and F could not be uploaded for
+    /// another reason than its size.
+    fn gather(&mut self, factors: &FormFactors, iteration: Iteration) -> Result<SweepsOn<'_>, SceneError> {
+        let on_cpu = |fallback: Option<String>| SweepsOn { gather: None, placed: Placed { device: None, fallback } };
+        if iteration == Iteration::GaussSeidel {
+            // Why there is no GPU, when there is none; else why Gauss–Seidel does not use it.
+            let asked = self.requested.is_some_and(|b| b != Backend::Cpu);
+            return Ok(on_cpu(self.fallback.clone().or_else(|| {
+                asked.then(|| {
+                    "Gauss–Seidel sweeps run on the CPU (each patch gathers from values updated within the sweep); \
+                     jacobi and bicgstab gather on the GPU"
+                        .to_owned()
+                })
+            })));
+        }
+        #[cfg(feature = "gpu")]
+        if let Some(context) = self.context {
+            if self.uploaded.is_none() {
+                match gpu::GpuRadiosity::for_gather(context, factors) {
+                    Ok(device) => self.uploaded = Some(Box::new(device)),
+                    Err(e) if matches!(e, gpu::GpuError::TooLarge { .. }) || self.requested == Some(Backend::Auto) => {
+                        self.context = None;
+                        self.fallback = Some(format!("the form factors stay on the CPU: {e}"));
+                    }
+                    Err(e) => return Err(RadiosityError::Device(e.to_string()).into()),
+                }
+            }
+            if let Some(device) = &self.uploaded {
+                let name = device.device_name().to_owned();
+                return Ok(SweepsOn { gather: Some(&**device), placed: Placed { device: Some(name), fallback: None } });
+            }
+        }
+        #[cfg(not(feature = "gpu"))]
+        let _ = factors;
+        Ok(on_cpu(self.fallback.clone()))
+    }
 }
 
 /// What does not change in a session: the scene's geometry, the patches and the form factors.
@@ -89,6 +212,8 @@ struct Fixed {
     surfaces: Vec<PatchSurface>,
     patches: PatchSet,
     factors: FormFactors,
+    /// Where the gathers F B run.
+    device: SweepDevice,
 }
 
 /// A radiosity bake being edited (module documentation).
@@ -150,6 +275,7 @@ impl RadiositySession {
                 Some(_) => check_medium(target, target.object.medium())?,
             }
         }
+        let device = SweepDevice::choose(radiosity)?;
         let furthest = std::sync::Mutex::new(0.0f64);
         let report = |stage: &str, fraction: f64| super::report(&progress, &furthest, stage, fraction);
 
@@ -244,10 +370,12 @@ impl RadiositySession {
             scatterings: 0,
             estimated_error: 0.0,
             energy_defect: 0.0,
+            device: None,
+            device_fallback: None,
         };
         drop(targets);
         let occluder = options.shadows.then(|| Lighting::occluder_of(&world));
-        let fixed = Fixed {
+        let mut fixed = Fixed {
             objects: scene.objects.clone(),
             world,
             occluder,
@@ -256,6 +384,7 @@ impl RadiositySession {
             surfaces,
             patches,
             factors,
+            device,
         };
 
         // 4. The direct light and 5. the coupled solve, 6. the radiance.
@@ -265,7 +394,8 @@ impl RadiositySession {
         let direct_ms = ms(t);
         let t = Instant::now();
         let poll = |f: f64| report("radiosity: solve", 0.65 + 0.33 * f);
-        let (current, solution) = fixed.solve(&mut scatterers, &mut object_stats, &albedo, &emission, &direct, None, &poll)?;
+        let (current, solution, placed) =
+            fixed.solve(&mut scatterers, &mut object_stats, &albedo, &emission, &direct, None, &poll)?;
         let solve_ms = ms(t);
         let mut session = Self {
             fixed,
@@ -280,7 +410,7 @@ impl RadiositySession {
             stats,
         };
         let mut update = RadiosityUpdate { direct_ms, solve_ms, ..RadiosityUpdate::new() };
-        update.add(&solution);
+        update.add(&solution, placed);
         session.record_update(&update);
         session.cache_single_source();
         session.outputs = session.outputs()?;
@@ -426,10 +556,10 @@ impl RadiositySession {
             let bounces = self.fixed.radiosity.solve.bounces;
             let initial = warm_start(&self.responses, &self.lights, bounces, source, lights);
             let t = Instant::now();
-            let (response, solution) =
+            let (response, solution, placed) =
                 self.fixed.solve(&mut self.scatterers, &mut stats, &self.albedo, &emission, &direct, initial, &poll)?;
             update.solve_ms += ms(t);
-            update.add(&solution);
+            update.add(&solution, placed);
             fresh.push((source.clone(), response));
         }
         let find = |source: &Source| -> &Response {
@@ -619,9 +749,10 @@ impl RadiositySession {
         let poll = |f: f64| progress.report("radiosity: solve", f);
         let t = Instant::now();
         let initial = (warm && self.fixed.radiosity.solve.bounces.is_none()).then_some(&self.current);
-        let (current, solution) = self.fixed.solve(&mut self.scatterers, stats, albedo, emission, &direct, initial, &poll)?;
+        let (current, solution, placed) =
+            self.fixed.solve(&mut self.scatterers, stats, albedo, emission, &direct, initial, &poll)?;
         update.solve_ms = ms(t);
-        update.add(&solution);
+        update.add(&solution, placed);
         let outputs = self.fixed.outputs(&mut self.scatterers, &current, stats)?;
         progress.report("radiosity: done", 1.0)?;
         Ok((current, outputs, update))
@@ -674,6 +805,8 @@ impl RadiositySession {
             self.stats.scatterings = update.scatterings;
             self.stats.estimated_error = update.estimated_error;
             self.stats.energy_defect = update.energy_defect;
+            self.stats.device.clone_from(&update.device);
+            self.stats.device_fallback.clone_from(&update.device_fallback);
         }
     }
 }
@@ -699,11 +832,15 @@ impl RadiosityUpdate {
             direct_ms: 0.0,
             solve_ms: 0.0,
             total_ms: 0.0,
+            device: None,
+            device_fallback: None,
         }
     }
 
-    /// Counts one solve.
-    fn add(&mut self, solution: &Solution) {
+    /// Counts one solve, whose gathers ran as `placed` says.
+    fn add(&mut self, solution: &Solution, placed: Placed) {
+        self.device = placed.device;
+        self.device_fallback = placed.fallback;
         self.solves += 1;
         self.iterations += solution.iterations;
         self.scatterings += solution.scatterings;
@@ -810,7 +947,7 @@ impl Fixed {
     /// radiosity, and each translucent object's fluence as its diffusion warm start).
     #[allow(clippy::too_many_arguments)]
     fn solve(
-        &self,
+        &mut self,
         scatterers: &mut [Option<Scatterer>],
         stats: &mut [ObjectStats],
         albedo: &[[f64; 3]],
@@ -818,7 +955,7 @@ impl Fixed {
         direct: &Direct,
         initial: Option<&Response>,
         poll: &(dyn Fn(f64) -> Result<(), Cancelled> + Sync),
-    ) -> Result<(Response, Solution), SceneError> {
+    ) -> Result<(Response, Solution, Placed), SceneError> {
         let targets: Vec<Target<'_>> =
             (0..self.objects.len()).map(|s| Target { index: s, object: &self.objects[s], world: &self.world[s] }).collect();
         if let Some(initial) = initial {
@@ -859,8 +996,11 @@ impl Fixed {
             *k += 1;
             poll(1.0 - 0.5f64.powi(*k as i32)).is_ok()
         };
-        let solution = solve_coupled(
+        let on = self.device.gather(&self.factors, self.radiosity.solve.iteration)?;
+        let placed = on.placed.clone();
+        let solution = solve_coupled_with(
             &self.factors,
+            on.gather.unwrap_or(&self.factors),
             self.patches.areas(),
             &opaque,
             &mut blocks,
@@ -878,7 +1018,7 @@ impl Fixed {
                     .map(|p| Field { source: p.system().source().to_vec(), fluence: p.fluence().to_vec() })
             })
             .collect();
-        Ok((Response { radiosity: solution.radiosity.clone(), fields }, solution))
+        Ok((Response { radiosity: solution.radiosity.clone(), fields }, solution, placed))
     }
 }
 
