@@ -181,6 +181,9 @@ fn auto_takes_no_software_adapter() {
         assert_eq!(auto.device, None, "auto with only {} stays on the CPU: {auto:?}", ctx.device_name());
         let why = auto.device_fallback.as_deref().unwrap_or_default();
         assert!(why.contains("software") || why.contains("no GPU device node"), "auto says why: {why:?}");
+        // Gauss–Seidel under auto: the reason is still that there is no GPU to use.
+        let seidel = stats(&baked(Iteration::GaussSeidel, Backend::Auto));
+        assert_eq!((seidel.device, seidel.device_fallback.as_deref()), (None, Some(why)));
     } else {
         eprintln!("a hardware GPU ({}) is present: auto uses it", ctx.device_name());
         assert_eq!(auto.device.as_deref(), Some(ctx.device_name()), "{auto:?}");
