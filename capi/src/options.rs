@@ -340,6 +340,7 @@ fn radiosity_options(o: &TcRadiosityOptions, transcut: TransCutOptions) -> Resul
             covered_fraction: o.covered_fraction,
         },
         solve: SolveOptions { iteration, tolerance: o.tolerance, max_iterations: o.max_iterations as usize, bounces },
+        backend: transcut.backend,
         transcut: TransCutOptions { solver, ..transcut },
         ..RadiosityOptions::default()
     };
