@@ -141,7 +141,7 @@ int main(void) {
            stats.estimated_error, stats.energy_defect, stats.form_factor_ms, stats.solve_ms);
     CHECK(stats.size == sizeof stats, "stats size %u", stats.size);
     CHECK(stats.patches > stats.translucent_patches && stats.translucent_patches > 0, "patches");
-    CHECK(stats.nonzeros > 0 && stats.form_factor_bytes == 12 * stats.nonzeros, "form factors");
+    CHECK(stats.nonzeros > 0 && stats.form_factor_bytes == 8 * stats.nonzeros, "form factors");
     CHECK(stats.patch_size_mm == 12.0 && stats.iterations >= 1 && stats.scatterings >= 1, "sweeps");
     CHECK(stats.estimated_error < 1e-4 && stats.energy_defect < 1e-2, "converged: %g, %g", stats.estimated_error,
           stats.energy_defect);

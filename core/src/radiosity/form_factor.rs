@@ -96,10 +96,11 @@ pub struct FormFactors {
     hit_fraction: Vec<f64>,
 }
 
-/// One patch's raw row: its entries sorted by column, the fraction of its rays that hit a lit
-/// side, whether every ray did (a closed row) and whether it is covered.
+/// One patch's raw row: its entries sorted by column (the rays that gave their hit to that
+/// patch: exact counts, 8 bytes an entry, F_ij = count/N), the fraction of its rays that hit a
+/// lit side, whether every ray did (a closed row) and whether it is covered.
 struct RawRow {
-    entries: Vec<(u32, f64)>,
+    entries: Vec<(u32, u32)>,
     hit: f64,
     closed: bool,
     covered: bool,
@@ -125,7 +126,7 @@ impl FormFactors {
         let closed: Vec<bool> = raw.iter().map(|r| r.closed).collect();
         let covered = raw.iter().map(|r| r.covered).collect();
         let hit_fraction = raw.iter().map(|r| r.hit).collect();
-        let symmetric = symmetrise(&mut raw, areas);
+        let symmetric = symmetrise(&mut raw, areas, 1.0 / options.rays_per_patch as f64);
         drop(raw);
         let x = balance(&symmetric, areas, &closed);
         let (row_start, columns, mut values) = symmetric;
@@ -277,7 +278,7 @@ fn cast_row(patches: &PatchSet, options: &FormFactorOptions, i: usize) -> RawRow
     let order = shuffled(n, hash_combine(options.seed, !(i as u64)));
     let t_min = RAY_EPSILON * patches.diagonal();
     let weight = 1.0 / n as f64;
-    let mut entries: Vec<(u32, f64)> = Vec::with_capacity(n);
+    let mut entries: Vec<u32> = Vec::with_capacity(n);
     let (mut hits, mut absorbed) = (0usize, 0usize);
     for (r, &shuffled_r) in order.iter().enumerate() {
         let Some((origin, normal)) = patches.sample_cell(i, origins.get(r)) else { break };
@@ -297,7 +298,7 @@ fn cast_row(patches: &PatchSet, options: &FormFactorOptions, i: usize) -> RawRow
                 } else {
                     2
                 };
-                entries.push((corners[k], weight));
+                entries.push(corners[k]);
             }
             None => absorbed += 1,
         }
@@ -305,14 +306,15 @@ fn cast_row(patches: &PatchSet, options: &FormFactorOptions, i: usize) -> RawRow
     if absorbed as f64 > options.covered_fraction * n as f64 {
         return RawRow { entries: Vec::new(), hit: 0.0, closed: false, covered: true };
     }
-    entries.sort_unstable_by_key(|e| e.0);
-    let mut merged: Vec<(u32, f64)> = Vec::with_capacity(entries.len());
-    for (j, f) in entries {
+    entries.sort_unstable();
+    let mut merged: Vec<(u32, u32)> = Vec::new();
+    for j in entries {
         match merged.last_mut() {
-            Some(last) if last.0 == j => last.1 += f,
-            _ => merged.push((j, f)),
+            Some(last) if last.0 == j => last.1 += 1,
+            _ => merged.push((j, 1)),
         }
     }
+    merged.shrink_to_fit();
     RawRow { entries: merged, hit: hits as f64 * weight, closed: hits == n, covered: false }
 }
 
@@ -337,9 +339,10 @@ fn shuffled(n: usize, key: u64) -> Vec<usize> {
 type Csr = (Vec<usize>, Vec<u32>, Vec<f64>);
 
 /// G_ij = AᵢAⱼ(F_ij + F_ji)/(Aᵢ + Aⱼ) on the union of the two patterns (module documentation):
-/// row i of F merged with column i. The raw rows are consumed block by block, so the memory
-/// peaks at the result and the transpose.
-fn symmetrise(raw: &mut [RawRow], areas: &[f64]) -> Csr {
+/// row i of F merged with column i, F_ij = count/N with `weight` = 1/N. The raw rows are
+/// consumed block by block, so the memory peaks at the result and the transpose (both of
+/// counts, 8 bytes an entry).
+fn symmetrise(raw: &mut [RawRow], areas: &[f64], weight: f64) -> Csr {
     let n = raw.len();
     // The transpose by counting: for each column, the rows that have it, in increasing order.
     let mut count = vec![0usize; n + 1];
@@ -352,7 +355,7 @@ fn symmetrise(raw: &mut [RawRow], areas: &[f64]) -> Csr {
         count[j + 1] += count[j];
     }
     let mut next = count.clone();
-    let mut transposed = vec![(0u32, 0.0f64); count[n]];
+    let mut transposed = vec![(0u32, 0u32); count[n]];
     for (i, row) in raw.iter().enumerate() {
         for &(j, f) in &row.entries {
             transposed[next[j as usize]] = (i as u32, f);
@@ -377,17 +380,17 @@ fn symmetrise(raw: &mut [RawRow], areas: &[f64]) -> Csr {
                     let ja = a.get(p).map_or(u32::MAX, |e| e.0);
                     let jb = b.get(q).map_or(u32::MAX, |e| e.0);
                     let j = ja.min(jb);
-                    let mut v = 0.0;
+                    let mut hits = 0u32;
                     if ja == j {
-                        v += a[p].1;
+                        hits += a[p].1;
                         p += 1;
                     }
                     if jb == j {
-                        v += b[q].1;
+                        hits += b[q].1;
                         q += 1;
                     }
                     let (ai, aj) = (areas[i], areas[j as usize]);
-                    out.push((j, ai * aj / (ai + aj) * v));
+                    out.push((j, ai * aj / (ai + aj) * (f64::from(hits) * weight)));
                 }
                 out
             })

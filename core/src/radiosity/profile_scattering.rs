@@ -34,6 +34,7 @@
 //! without any geometry, bit-identical to a fresh build with the same gathering radius.
 
 use std::f64::consts::PI;
+use std::sync::Arc;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -497,7 +498,8 @@ pub(super) fn rule7([a, b, c]: [DVec3; 3]) -> [(DVec3, f64); 7] {
 /// The profile matrix S of one object, per channel, with its samples for re-indexing.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProfileMatrix {
-    cache: SampleCache,
+    /// Shared between a matrix and the ones re-indexed from it (never changed in place).
+    cache: Arc<SampleCache>,
     /// S per entry and channel (the local term on the diagonal included).
     values: Vec<[f64; 3]>,
     cutoffs: [f64; 3],
@@ -526,7 +528,7 @@ impl ProfileMatrix {
         };
         let distances = gathered_distances(patches, &options.distance, radius);
         let cache = SampleCache::build(patches, &distances, radius);
-        Self::evaluate(cache, profiles, options.tail)
+        Self::evaluate(Arc::new(cache), profiles, options.tail)
     }
 
     /// S of `patches` in a heterogeneous object (Sheng et al. 2014 §4, eq. 16;
@@ -595,15 +597,15 @@ impl ProfileMatrix {
                 "the matrix of a heterogeneous object is built afresh for a new medium, not re-indexed".into(),
             ));
         }
-        Self::evaluate(self.cache.clone(), profiles, self.tail)
+        Self::evaluate(Arc::clone(&self.cache), profiles, self.tail)
     }
 
     /// The matrix of its parts (the heterogeneous build's).
     pub(super) fn from_parts(cache: SampleCache, values: Vec<[f64; 3]>, cutoffs: [f64; 3], tail: f64) -> ProfileMatrix {
-        ProfileMatrix { cache, values, cutoffs, tail }
+        ProfileMatrix { cache: Arc::new(cache), values, cutoffs, tail }
     }
 
-    fn evaluate(cache: SampleCache, profiles: &[Profile; 3], tail: f64) -> Result<ProfileMatrix, RadiosityError> {
+    fn evaluate(cache: Arc<SampleCache>, profiles: &[Profile; 3], tail: f64) -> Result<ProfileMatrix, RadiosityError> {
         let cutoffs: [f64; 3] = std::array::from_fn(|c| profiles[c].cutoff(tail));
         if let Some(c) = (0..3).find(|&c| cutoffs[c] > cache.gather_radius * (1.0 + 1e-12)) {
             return Err(RadiosityError::InvalidOptions(format!(
