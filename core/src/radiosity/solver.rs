@@ -310,7 +310,7 @@ pub fn solve_coupled<E: From<RadiosityError>>(
 /// Jacobi sweeps, a warm start's first gather and BiCGSTAB's operator applications and closing
 /// sweep. Gauss–Seidel sweeps read `factors` row by row on the CPU whatever `gather` is (each
 /// patch gathers from values updated earlier in the same sweep); the energy balance uses
-/// `factors` too, so that it checks the answer against the f64 F.
+/// `factors` too, so that it checks the answer against the CPU's F, accumulated in f64.
 ///
 /// # Errors
 /// As [`solve_coupled`]; [`RadiosityError::WrongLength`] when `gather` has another number of
