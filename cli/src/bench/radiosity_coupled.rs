@@ -19,8 +19,8 @@ use serde::Serialize;
 use transcut::light::Light;
 use transcut::radiosity::{Iteration, SolveOptions};
 use transcut::{
-    bake, BakeOptions, DVec3, MediumSource, Method, ProfileKind, Progress, RadiosityOptions, RadiositySession, Scene,
-    TranslucentScattering,
+    bake, BakeOptions, DVec3, MediumSource, Method, ProfileKind, Progress, RadiosityOptions, RadiositySession, RadiosityUpdate,
+    Scene, TranslucentScattering,
 };
 
 use super::stats::{median, ms, peak_rss_mib, reset_peak_rss, rss_mib};
@@ -146,6 +146,12 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
             })
         })?;
     let centre = 0.5 * (lo + hi);
+    // The light turned 5°, alternately either way, so the runs stay near the bake's.
+    let turn = |run: u32| {
+        let mut lights = scene.lights.clone();
+        lights[0] = turned(&first_light, centre, if run.is_multiple_of(2) { 5.0 } else { -5.0 });
+        lights
+    };
     let mut entries = Vec::new();
     for &size in sizes {
         let Method::Radiosity(mut radiosity) = base.method.clone() else { unreachable!("a radiosity scene") };
@@ -179,15 +185,8 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
             t.jacobi.push(jacobi_ms);
             t.gauss_seidel.push(gs_ms);
 
-            // Turn the light 5° (alternately either way, so the runs stay near the bake's).
-            let sign = if run % 2 == 0 { 1.0 } else { -1.0 };
-            let mut lights = scene.lights.clone();
-            lights[0] = turned(&first_light, centre, sign * 5.0);
-            let start = Instant::now();
-            let relit = session.relight(&lights, Progress::none())?;
-            t.relight.push(ms(start));
-            t.relight_direct.push(relit.direct_ms);
-            t.relight_solve.push(relit.solve_ms);
+            let mut lights = turn(run);
+            let relit = t.relight(&mut session, &lights)?;
             let (Light::RectArea { radiance, .. } | Light::DiscArea { radiance, .. }) = &mut lights[0] else {
                 return Err(anyhow!("the radiosity suite recolours a rect or disc light"));
             };
@@ -199,13 +198,7 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
                 return Err(anyhow!("a recoloured light solved {} times instead of reusing its response", recoloured.solves));
             }
             if let Some(i) = translucent {
-                let Some(MediumSource::Homogeneous(m)) = session.objects()[i].medium().cloned() else {
-                    return Err(anyhow!("the radiosity suite thickens a homogeneous medium"));
-                };
-                let thicker = transcut::optics::Medium { sigma_s_prime: m.sigma_s_prime.map(|s| 1.25 * s), ..m };
-                let start = Instant::now();
-                session.set_medium(i, MediumSource::Homogeneous(thicker), Progress::none())?;
-                t.medium.push(ms(start));
+                t.thicken(&mut session, i)?;
             }
             if let Some(i) = diffuse {
                 let albedo = session.objects()[i].material.diffuse().expect("diffuse").albedo.map(|a| 0.9 * a);
@@ -216,11 +209,6 @@ pub fn run(path: &Path, sizes: &[f64], tets: Option<u64>, runs: u32) -> anyhow::
             last = Some((stats, tets, jacobi_sweeps, gs_sweeps, defect, relit.iterations));
         }
         let (stats, tets, jacobi_sweeps, gauss_seidel_sweeps, energy_defect, relight_sweeps) = last.expect("runs ≥ 1");
-        let turn = |run: u32| {
-            let mut lights = scene.lights.clone();
-            lights[0] = turned(&first_light, centre, if run.is_multiple_of(2) { 5.0 } else { -5.0 });
-            lights
-        };
         let peak = peak_rss_mib().filter(|_| reset);
         let profile = profile_entry(&scene, &options, runs, translucent, &turn)?;
         let (jacobi, gs, relight, medium) = (median(t.jacobi), median(t.gauss_seidel), median(t.relight), median(t.medium));
@@ -286,19 +274,9 @@ fn profile_entry(
         let coupled = baked.coupled.expect("a radiosity bake keeps its session");
         drop(baked.objects);
         let mut session = Arc::try_unwrap(coupled).map_err(|_| anyhow!("the bake's session is shared"))?;
-        let start = Instant::now();
-        let relit = session.relight(&turn(run), Progress::none())?;
-        t.relight.push(ms(start));
-        t.relight_direct.push(relit.direct_ms);
-        t.relight_solve.push(relit.solve_ms);
+        let relit = t.relight(&mut session, &turn(run))?;
         if let Some(i) = translucent {
-            let Some(MediumSource::Homogeneous(m)) = session.objects()[i].medium().cloned() else {
-                return Err(anyhow!("the radiosity suite thickens a homogeneous medium"));
-            };
-            let thicker = transcut::optics::Medium { sigma_s_prime: m.sigma_s_prime.map(|s| 1.25 * s), ..m };
-            let start = Instant::now();
-            session.set_medium(i, MediumSource::Homogeneous(thicker), Progress::none())?;
-            t.medium.push(ms(start));
+            t.thicken(&mut session, i)?;
         }
         last = Some((stats, relit.iterations));
     }
@@ -341,4 +319,28 @@ struct Timings {
     recolour: Vec<f64>,
     medium: Vec<f64>,
     albedo: Vec<f64>,
+}
+
+impl Timings {
+    /// Relights `session` with `lights`, recording the time and its direct light and solve.
+    fn relight(&mut self, session: &mut RadiositySession, lights: &[Light]) -> anyhow::Result<RadiosityUpdate> {
+        let start = Instant::now();
+        let relit = session.relight(lights, Progress::none())?;
+        self.relight.push(ms(start));
+        self.relight_direct.push(relit.direct_ms);
+        self.relight_solve.push(relit.solve_ms);
+        Ok(relit)
+    }
+
+    /// Scales translucent object `i`'s σ′s by 1.25, recording the time.
+    fn thicken(&mut self, session: &mut RadiositySession, i: usize) -> anyhow::Result<()> {
+        let Some(MediumSource::Homogeneous(m)) = session.objects()[i].medium().cloned() else {
+            return Err(anyhow!("the radiosity suite thickens a homogeneous medium"));
+        };
+        let thicker = transcut::optics::Medium { sigma_s_prime: m.sigma_s_prime.map(|s| 1.25 * s), ..m };
+        let start = Instant::now();
+        session.set_medium(i, MediumSource::Homogeneous(thicker), Progress::none())?;
+        self.medium.push(ms(start));
+        Ok(())
+    }
 }
