@@ -58,6 +58,7 @@ pub mod methods;
 pub mod optics;
 pub mod output;
 pub mod progress;
+pub mod prt;
 pub mod radiosity;
 pub mod render;
 pub mod scene;

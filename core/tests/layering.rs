@@ -24,6 +24,7 @@ const CORE: Table = &[
     ("volume", &["input", "mesh", "optics", "output"]),
     ("light", &["input", "mesh", "optics", "progress"]),
     ("hierarchy", &["optics", "progress"]),
+    ("prt", &["light", "mesh", "optics", "progress"]),
     ("sparse", &["input", "progress"]),
     ("radiosity", &["light", "mesh", "optics", "progress", "sparse"]),
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
