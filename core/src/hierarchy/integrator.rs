@@ -853,18 +853,7 @@ fn receiver_items(positions: &[DVec3], triangles: &[[u32; 3]], receivers: Receiv
 }
 
 /// The area-weighted unit normal per vertex (zero on no triangle).
-#[must_use]
-pub fn vertex_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3> {
-    let mut normals = vec![DVec3::ZERO; positions.len()];
-    for t in triangles {
-        let [a, b, c] = t.map(|v| positions[v as usize]);
-        let cross = (b - a).cross(c - a);
-        for &v in t {
-            normals[v as usize] += cross;
-        }
-    }
-    normals.iter().map(|n| n.normalize_or_zero()).collect()
-}
+pub use crate::mesh::area_weighted_normals as vertex_normals;
 
 /// Per vertex, the area-weighted mean of its triangles' values (Gouraud).
 pub(crate) fn face_to_vertex(positions: &[DVec3], triangles: &[[u32; 3]], per_face: &[[f64; 3]]) -> Vec<[f64; 3]> {

@@ -18,6 +18,7 @@ mod trimesh;
 mod vtk;
 mod weld;
 
+pub(crate) use bvh::closest_point_on_triangle;
 pub use bvh::{RayHit, SurfacePoint, TriangleBvh};
 pub use error::MeshError;
 pub use obj::{load_obj, load_obj_with, parse_obj, parse_obj_with};
@@ -25,7 +26,7 @@ pub use ply::{load_ply, load_ply_with, parse_ply, parse_ply_with};
 pub use quality::{dihedral_angles, dihedral_cotangents, tet_volume, QualityReport};
 pub use shapes::icosphere;
 pub use tetmesh::{BoundaryFace, BoundaryTopology, TetMesh, TetMeshError};
-pub use trimesh::{TriMesh, WeldOptions, MAX_COORDINATE};
+pub use trimesh::{area_weighted_normals, TriMesh, WeldOptions, MAX_COORDINATE};
 pub use vtk::write_vtk;
 
 use std::path::Path;

@@ -301,6 +301,25 @@ impl TriMesh {
     }
 }
 
+/// Area-weighted vertex normals: n_i = normalize(Σ_{t ∋ i} (p1 − p0) × (p2 − p0)), the cross
+/// product being twice the triangle's area times its unit normal. Vertices no (non-degenerate)
+/// triangle uses get a zero normal. Indices must be in range.
+#[must_use]
+pub fn area_weighted_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3> {
+    let mut sum = vec![DVec3::ZERO; positions.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let cross = (b - a).cross(c - a);
+        for &i in t {
+            sum[i as usize] += cross;
+        }
+    }
+    for n in &mut sum {
+        *n = n.normalize_or_zero();
+    }
+    sum
+}
+
 pub(crate) fn check_finite(vertex: usize, p: DVec3) -> Result<(), MeshError> {
     if !p.is_finite() {
         return Err(MeshError::NonFinite { vertex, x: p.x, y: p.y, z: p.z, path: None, line: None });

@@ -49,20 +49,33 @@ fn refine<F: Fn(f64) -> f64>(f: &F, a: f64, b: f64, fa: f64, fm: f64, fb: f64, w
 /// ∫ f over the triangle `[a, b, c]` by the 7-point degree-5 rule (Radon 1948; Stroud T2:5-1):
 /// exact for polynomials of degree ≤ 5. `T` is a scalar or a vector of them (three channels
 /// as a `DVec3`).
-pub(crate) fn triangle_rule7<T>(f: &impl Fn(DVec3) -> T, [a, b, c]: [DVec3; 3]) -> T
+pub(crate) fn triangle_rule7<T>(f: &impl Fn(DVec3) -> T, corners: [DVec3; 3]) -> T
 where
     T: std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
 {
+    let [p0, p1, p2, p3, p4, p5, p6] = triangle_rule7_points(corners);
+    let term = |(p, w): (DVec3, f64)| f(p) * w;
+    term(p0) + term(p1) + term(p2) + term(p3) + term(p4) + term(p5) + term(p6)
+}
+
+/// The points of [`triangle_rule7`] on the triangle `[a, b, c]`, each with its weight times the
+/// triangle's area (the weights sum to the area).
+pub(crate) fn triangle_rule7_points([a, b, c]: [DVec3; 3]) -> [(DVec3, f64); 7] {
     let area = 0.5 * (b - a).cross(c - a).length();
     let s15 = 15f64.sqrt();
     let (a1, b1) = ((6.0 - s15) / 21.0, (9.0 + 2.0 * s15) / 21.0);
     let (a2, b2) = ((6.0 + s15) / 21.0, (9.0 - 2.0 * s15) / 21.0);
-    let (w1, w2) = ((155.0 - s15) / 1200.0, (155.0 + s15) / 1200.0);
-    let at = |l0: f64, l1: f64, l2: f64| f(a * l0 + b * l1 + c * l2);
-    let centre = at(1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0) * (9.0 / 40.0);
-    let ring1 = (at(b1, a1, a1) + at(a1, b1, a1) + at(a1, a1, b1)) * w1;
-    let ring2 = (at(b2, a2, a2) + at(a2, b2, a2) + at(a2, a2, b2)) * w2;
-    (centre + ring1 + ring2) * area
+    let (w1, w2) = ((155.0 - s15) / 1200.0 * area, (155.0 + s15) / 1200.0 * area);
+    let at = |l0: f64, l1: f64, l2: f64| a * l0 + b * l1 + c * l2;
+    [
+        (at(1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0), 9.0 / 40.0 * area),
+        (at(b1, a1, a1), w1),
+        (at(a1, b1, a1), w1),
+        (at(a1, a1, b1), w1),
+        (at(b2, a2, a2), w2),
+        (at(a2, b2, a2), w2),
+        (at(a2, a2, b2), w2),
+    ]
 }
 
 #[cfg(test)]

@@ -336,15 +336,15 @@ pub fn generate(training: &Training) -> (Vec<f64>, Vec<f64>) {
     (singular, values)
 }
 
-/// The bytes of a table: the singular values, then the node values.
-fn encode(singular: &[f64], values: &[f64]) -> Vec<u8> {
-    singular.iter().chain(values).flat_map(|v| v.to_le_bytes()).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::optics::PRESET_NAMES;
+
+    /// The bytes of a table: the singular values, then the node values.
+    fn encode(singular: &[f64], values: &[f64]) -> Vec<u8> {
+        singular.iter().chain(values).flat_map(|v| v.to_le_bytes()).collect()
+    }
 
     /// The committed tables equal what [`generate`] builds now (1e-10 of the largest value:
     /// eigenvectors agree to rounding across machines); `TRANSCUT_BLESS=1` writes them.

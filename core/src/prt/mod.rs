@@ -1,2 +1,96 @@
-//! Precomputed translucent transfer (R. Wang et al. 2008, papers/001; design/prt.md).
+//! Precomputed translucent transfer with a PCA basis of the dipole profile (R. Wang et al. 2008,
+//! "Real-time editing and relighting of homogeneous translucent materials", papers/001;
+//! design/prt.md): the light-independent, material-independent part of a dipole bake done
+//! once, so that a material edit is a K-term re-weighting and a relight one sparse product.
+//!
+//! With the profile in its basis, Rd(r; σ) ≈ Σₖ bₖ(r) sₖ(σ) ([`basis`], eq. 4), the exitance at a
+//! vertex under transmitted irradiance q is
+//!
+//! B(x) = ∫ Rd(‖x − y‖) q(y) dA ≈ Σₖ sₖ(σ) Σⱼ Tₖ[x, j] qⱼ,  Tₖ[x, j] = aⱼ bₖ(‖x − xⱼ‖)
+//!
+//! over 2ⁿ surface samples xⱼ of area aⱼ ([`samples`], eqs. 5–7), each row corrected in the near
+//! field ([`near`]) and kept as its largest Haar coefficients ([`haar`], [`transfer`], eq. 8).
+//! The radiance is the quantity every method returns (ARCHITECTURE.md, "What a bake returns"):
+//! Lo(x, n) = T(η, 0)/(π η² (1 − Fdr)) · B(x), the energy-consistent constant of the dipole
+//! methods (0.33345 at η = 1.3; Jensen's literal T/π is 1.066× brighter).
+//!
+//! The transfer depends on geometry alone: one per object, shared by the three channels, and a
+//! change of the object's scale s (mm per unit) is the material edit σ → sσ
+//! (Rd(sr; σ) s² = Rd(r; sσ)).
+
 pub mod basis;
+pub mod haar;
+pub(crate) mod near;
+pub mod samples;
+pub mod transfer;
+
+pub use basis::{BasisSize, RdBasis};
+pub use samples::SurfaceSamples;
+pub use transfer::{haar_irradiance, Transfer, TransferStats};
+
+use crate::progress::Cancelled;
+
+/// How a PRT precompute samples, corrects and compresses the transfer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PrtOptions {
+    /// log₂ of the irradiance samples N, in [4, [`samples::MAX_SAMPLES_LOG2`]] (default 16).
+    pub samples_log2: u32,
+    /// The PCA basis (default [`BasisSize::K16`]).
+    pub basis: BasisSize,
+    /// Haar coefficients kept per vertex over all its K rows (default 3072, the bytes of the
+    /// paper's 256 per row at K = 12); at least K (every row keeps its mean).
+    pub terms_per_vertex: usize,
+    /// The near-field correction of the rows ([`near`]; default on).
+    pub near_field: bool,
+    /// The near field's radius in sample spacings √(A/N) (default 4), in [1, 64].
+    pub near_radius: f64,
+    /// The seed of the sample pattern.
+    pub seed: u64,
+}
+
+impl Default for PrtOptions {
+    fn default() -> Self {
+        Self { samples_log2: 16, basis: BasisSize::K16, terms_per_vertex: 3072, near_field: true, near_radius: 4.0, seed: 0 }
+    }
+}
+
+impl PrtOptions {
+    /// The most coefficients per vertex.
+    pub const MAX_TERMS_PER_VERTEX: usize = 1 << 20;
+
+    /// Checks the options.
+    ///
+    /// # Errors
+    /// A message naming the option out of range.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(4..=samples::MAX_SAMPLES_LOG2).contains(&self.samples_log2) {
+            return Err(format!("samples_log2 {} is not in [4, {}]", self.samples_log2, samples::MAX_SAMPLES_LOG2));
+        }
+        let k = self.basis.terms();
+        if !(k..=Self::MAX_TERMS_PER_VERTEX).contains(&self.terms_per_vertex) {
+            return Err(format!(
+                "terms_per_vertex {} is not in [{k}, {}] (every one of the {k} rows keeps its mean)",
+                self.terms_per_vertex,
+                Self::MAX_TERMS_PER_VERTEX
+            ));
+        }
+        if !(self.near_radius >= 1.0 && self.near_radius <= 64.0) {
+            return Err(format!("near_radius {} is not in [1, 64] sample spacings", self.near_radius));
+        }
+        Ok(())
+    }
+}
+
+/// What can go wrong in the PRT stage.
+#[derive(Debug, thiserror::Error)]
+pub enum PrtError {
+    /// The surface cannot be sampled as asked.
+    #[error("samples: {0}")]
+    Samples(String),
+    /// A medium the precomputed transfer cannot represent.
+    #[error("medium: {0}")]
+    Medium(String),
+    /// The caller stopped the work.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
+}

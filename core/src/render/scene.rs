@@ -1,6 +1,7 @@
 //! What a render draws (objects, lights, ground plane) and how (options), with validation.
 
 use crate::input::fmt_vec;
+pub use crate::mesh::area_weighted_normals;
 use std::borrow::Cow;
 
 use glam::DVec3;
@@ -397,23 +398,6 @@ impl RenderObject<'_> {
             None => Cow::Owned(area_weighted_normals(self.positions, self.triangles)),
         }
     }
-}
-
-/// Area-weighted vertex normals: n_i = normalize(Σ_{t ∋ i} (p1 − p0) × (p2 − p0)), the cross
-/// product being twice the triangle's area times its unit normal. Vertices no (non-degenerate)
-/// triangle uses get a zero normal. Indices must be in range.
-#[must_use]
-pub fn area_weighted_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3> {
-    let mut sum = vec![DVec3::ZERO; positions.len()];
-    for t in triangles {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
-        let cross = (b - a).cross(c - a);
-        for &i in t {
-            sum[i as usize] += cross;
-        }
-    }
-    sum.par_iter_mut().for_each(|n| *n = n.normalize_or_zero());
-    sum
 }
 
 #[cfg(test)]

@@ -1,0 +1,238 @@
+//! The irradiance samples xⱼ of the transfer (R. Wang et al. 2008 §3.2: "uniformly distributed
+//! surface sample points"), N = 2ⁿ of them so the Haar transform of [`super::haar`] applies, in
+//! the leaf order of a balanced k-d tree so that every dyadic block of the order is a compact
+//! patch of surface (what the paper's quadtree textures give, without an m-way partition).
+//!
+//! Each triangle gets its share of the samples by systematic sampling of the cumulative area
+//! (counts within one of N·Aₜ/A), placed inside it by an Owen-scrambled Sobol pattern, and each
+//! sample weighs aⱼ = Aₜ/nₜ, so every triangle's area is carried exactly; a triangle too small
+//! for a sample gives its area to the nearer sample-bearing neighbour in the cumulative order,
+//! so Σ aⱼ = A always.
+
+use glam::DVec3;
+
+use crate::light::sampling::{hash_combine, Pattern};
+use crate::mesh::area_weighted_normals;
+
+use super::PrtError;
+
+/// The most samples: 2¹⁸ (the 18-bit index of [`super::transfer`]'s packed terms).
+pub const MAX_SAMPLES_LOG2: u32 = 18;
+
+/// The irradiance samples of one surface, in k-d tree leaf order.
+#[derive(Debug, Clone)]
+pub struct SurfaceSamples {
+    /// Positions (the surface's units).
+    pub positions: Vec<DVec3>,
+    /// Unit normals, interpolated from the area-weighted vertex normals (the triangle's normal
+    /// where those cancel).
+    pub normals: Vec<DVec3>,
+    /// The area each sample stands for (the surface's units squared).
+    pub areas: Vec<f64>,
+    /// The triangle each sample lies on.
+    pub triangles: Vec<u32>,
+    /// Per triangle, its samples: `by_triangle[start[t]..start[t + 1]]`.
+    pub triangle_start: Vec<u32>,
+    pub by_triangle: Vec<u32>,
+}
+
+impl SurfaceSamples {
+    /// 2^`log2` samples of the surface (`positions`, `triangles`), seeded by `seed`.
+    ///
+    /// # Errors
+    /// [`PrtError::Samples`] for `log2` above [`MAX_SAMPLES_LOG2`] or a surface without area.
+    pub fn new(positions: &[DVec3], triangles: &[[u32; 3]], log2: u32, seed: u64) -> Result<SurfaceSamples, PrtError> {
+        if log2 > MAX_SAMPLES_LOG2 {
+            return Err(PrtError::Samples(format!("2^{log2} samples: at most 2^{MAX_SAMPLES_LOG2}")));
+        }
+        let n = 1usize << log2;
+        let tri_area = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|v| positions[v as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        };
+        let areas: Vec<f64> = triangles.iter().map(tri_area).collect();
+        let total: f64 = areas.iter().sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return Err(PrtError::Samples(format!("the surface's area is {total}: nothing to sample")));
+        }
+        // Systematic sampling: sample j at cumulative area (j + ξ) A/N.
+        let xi = (hash_combine(seed, 0x5EED) >> 11) as f64 / (1u64 << 53) as f64;
+        let mut counts = vec![0u32; triangles.len()];
+        let mut cumulative = 0.0;
+        for (t, &a) in areas.iter().enumerate() {
+            let before = (cumulative * n as f64 / total - xi).ceil().max(0.0) as usize;
+            cumulative += a;
+            let after =
+                if t + 1 == areas.len() { n } else { ((cumulative * n as f64 / total - xi).ceil().max(0.0) as usize).min(n) };
+            counts[t] = (after - before.min(after)) as u32;
+        }
+        // The area of each sample: Aₜ/nₜ, plus the area of sample-less triangles next to it.
+        let mut extra = vec![0.0; triangles.len()];
+        let centroid = |t: usize| triangles[t].iter().map(|&v| positions[v as usize]).sum::<DVec3>() / 3.0;
+        let bearing: Vec<usize> = (0..triangles.len()).filter(|&t| counts[t] > 0).collect();
+        for t in (0..triangles.len()).filter(|&t| counts[t] == 0 && areas[t] > 0.0) {
+            let after = bearing.partition_point(|&b| b < t);
+            let candidates = [after.checked_sub(1).map(|i| bearing[i]), bearing.get(after).copied()];
+            let c = centroid(t);
+            let target = candidates
+                .into_iter()
+                .flatten()
+                .min_by(|&a, &b| centroid(a).distance_squared(c).total_cmp(&centroid(b).distance_squared(c)))
+                .expect("a sample exists");
+            extra[target] += areas[t];
+        }
+        let vertex_normals = area_weighted_normals(positions, triangles);
+        let mut samples = Vec::with_capacity(n);
+        for (t, tri) in triangles.iter().enumerate() {
+            let count = counts[t] as usize;
+            if count == 0 {
+                continue;
+            }
+            let [a, b, c] = tri.map(|v| positions[v as usize]);
+            let face = (b - a).cross(c - a).normalize_or_zero();
+            let [na, nb, nc] = tri.map(|v| vertex_normals[v as usize]);
+            let pattern = Pattern::new(hash_combine(seed, t as u64));
+            let weight = (areas[t] + extra[t]) / count as f64;
+            for i in 0..count {
+                let [u, v] = pattern.get(i);
+                // Area-preserving square → triangle map: (1 − √u, √u (1 − v), √u v).
+                let s = u.sqrt();
+                let (w0, w1, w2) = (1.0 - s, s * (1.0 - v), s * v);
+                let p = a * w0 + b * w1 + c * w2;
+                let normal = (na * w0 + nb * w1 + nc * w2).try_normalize().unwrap_or(face);
+                samples.push(Sample { position: p, normal, area: weight, triangle: t as u32 });
+            }
+        }
+        debug_assert_eq!(samples.len(), n);
+        kd_order(&mut samples);
+        let mut triangle_start = vec![0u32; triangles.len() + 1];
+        for s in &samples {
+            triangle_start[s.triangle as usize + 1] += 1;
+        }
+        for t in 0..triangles.len() {
+            triangle_start[t + 1] += triangle_start[t];
+        }
+        let mut fill = triangle_start.clone();
+        let mut by_triangle = vec![0u32; n];
+        for (j, s) in samples.iter().enumerate() {
+            let slot = &mut fill[s.triangle as usize];
+            by_triangle[*slot as usize] = j as u32;
+            *slot += 1;
+        }
+        Ok(SurfaceSamples {
+            positions: samples.iter().map(|s| s.position).collect(),
+            normals: samples.iter().map(|s| s.normal).collect(),
+            areas: samples.iter().map(|s| s.area).collect(),
+            triangles: samples.iter().map(|s| s.triangle).collect(),
+            triangle_start,
+            by_triangle,
+        })
+    }
+
+    /// The number of samples N.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether there are none (never: N ≥ 1).
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// The samples on triangle `t`.
+    #[must_use]
+    pub fn on_triangle(&self, t: usize) -> &[u32] {
+        &self.by_triangle[self.triangle_start[t] as usize..self.triangle_start[t + 1] as usize]
+    }
+
+    /// The mean spacing h = √(A/N) (the surface's units).
+    #[must_use]
+    pub fn spacing(&self) -> f64 {
+        (self.areas.iter().sum::<f64>() / self.len() as f64).sqrt()
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    position: DVec3,
+    normal: DVec3,
+    area: f64,
+    triangle: u32,
+}
+
+/// Sorts `samples` (a power of two of them) into the leaf order of a balanced k-d tree: split
+/// at the median of the longest axis of the bounding box, halves recursively.
+fn kd_order(samples: &mut [Sample]) {
+    if samples.len() <= 1 {
+        return;
+    }
+    let (lo, hi) =
+        samples.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), s| (lo.min(s.position), hi.max(s.position)));
+    let extent = hi - lo;
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let half = samples.len() / 2;
+    samples.select_nth_unstable_by(half, |a, b| a.position[axis].total_cmp(&b.position[axis]).then(a.triangle.cmp(&b.triangle)));
+    let (left, right) = samples.split_at_mut(half);
+    rayon::join(|| kd_order(left), || kd_order(right));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::icosphere;
+
+    /// 2ⁿ samples whose areas sum to the surface's exactly, every triangle's own area carried by
+    /// its samples (or by a neighbour's), and each sample on its triangle.
+    #[test]
+    fn samples_carry_the_area() {
+        let sphere = icosphere(10.0, 3);
+        for log2 in [6, 10, 12] {
+            let s = SurfaceSamples::new(sphere.positions(), sphere.triangles(), log2, 7).unwrap();
+            assert_eq!(s.len(), 1 << log2);
+            let total: f64 = s.areas.iter().sum();
+            assert!((total / sphere.area() - 1.0).abs() < 1e-12, "{total} vs {}", sphere.area());
+            for (j, &t) in s.triangles.iter().enumerate() {
+                let [a, b, c] = sphere.triangle(t as usize);
+                let n = (b - a).cross(c - a);
+                assert!((s.positions[j] - a).dot(n).abs() < 1e-9 * n.length());
+                assert!(s.on_triangle(t as usize).contains(&(j as u32)));
+                assert!(s.normals[j].dot(n) > 0.0);
+            }
+            if log2 == 12 {
+                // 1280 triangles of nearly equal area, 3.2 samples each: every one has some.
+                assert!((0..sphere.triangles().len()).all(|t| !s.on_triangle(t).is_empty()));
+            }
+        }
+    }
+
+    /// The k-d order makes dyadic blocks compact: the 8 blocks of N/8 each span less than the
+    /// sphere's diameter; each of the 64 blocks of N/64 (A/64 = 19.6 mm², a disc of 5 mm
+    /// across) spans less than 8 mm.
+    #[test]
+    fn dyadic_blocks_are_compact() {
+        let sphere = icosphere(10.0, 4);
+        let s = SurfaceSamples::new(sphere.positions(), sphere.triangles(), 12, 1).unwrap();
+        for (blocks, bound) in [(8, 20.0), (64, 8.0)] {
+            for block in s.positions.chunks(s.len() / blocks) {
+                let (lo, hi) = block.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+                assert!((hi - lo).length() < bound, "{blocks} blocks: one spans {}", (hi - lo).length());
+            }
+        }
+    }
+
+    #[test]
+    fn bad_requests_are_named() {
+        let sphere = icosphere(1.0, 1);
+        assert!(matches!(SurfaceSamples::new(sphere.positions(), sphere.triangles(), 19, 0), Err(PrtError::Samples(_))));
+        let flat = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
+        assert!(matches!(SurfaceSamples::new(&flat, &[[0, 1, 2]], 4, 0), Err(PrtError::Samples(_))));
+    }
+}

@@ -1,0 +1,409 @@
+//! The precomputed transfer (R. Wang et al. 2008 §3.2, eqs. 5–8): per receiver vertex v and
+//! basis function k, the row Tₖ[v, j] = aⱼ bₖ(‖x_v − xⱼ‖) over the irradiance samples, so that
+//! the exitance of any medium under any irradiance q is
+//!
+//! B(v) = Σₖ sₖ Σⱼ Tₖ[v, j] qⱼ = Σₖ sₖ (Tₖ^w q^w)[v]  (eq. 7, in the Haar basis eq. 8),
+//!
+//! with the near-field correction of [`super::near`] in every row. The rows are kept compressed:
+//! per vertex the `terms_per_vertex` Haar coefficients of largest |c|·σₖ/σ₁ over all its K rows
+//! together (σₖ the basis's singular values: a high-order row oscillates and carries a small
+//! sₖ, so it gets fewer terms; 2–4× less error than the paper's fixed 256 per row at the same
+//! bytes, design/prt.md §1.4), every row's coefficient 0 always among them (so uniform light is
+//! exact), each packed in 32 bits: the sample index in n bits (N = 2ⁿ) and the value in 32 − n
+//! bits against one scale per row (16 + 16 at 2¹⁶ samples, the paper's choice).
+
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::progress::Cancelled;
+
+use super::basis::{locate, RdBasis, MAX_TERMS};
+use super::haar;
+use super::near::{triangle_integral, TriangleGrid};
+use super::samples::SurfaceSamples;
+use super::{PrtError, PrtOptions};
+
+/// What a precompute measured.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TransferStats {
+    /// Terms kept over all vertices.
+    pub terms: usize,
+    /// Bytes of the compressed transfer.
+    pub bytes: usize,
+    /// The weighted coefficient energy dropped by the compression, √(Σ dropped (c σₖ)²/Σ (c σₖ)²),
+    /// as the mean over the vertices and the largest one.
+    pub dropped_mean: f64,
+    pub dropped_max: f64,
+    /// The near-field radius used (mm): the triangles within it were integrated exactly.
+    pub near_radius: f64,
+}
+
+/// The compressed transfer of one surface.
+#[derive(Debug, Clone)]
+pub struct Transfer {
+    terms_per_row: usize,
+    vertices: usize,
+    samples: usize,
+    index_bits: u32,
+    /// Per (vertex, k), its terms: `terms[row_start[v K + k]..row_start[v K + k + 1]]`.
+    row_start: Vec<u32>,
+    terms: Vec<u32>,
+    /// Per (vertex, k), the value of one quantisation step.
+    steps: Vec<f32>,
+    stats: TransferStats,
+}
+
+/// The per-thread work space of the precompute.
+struct Scratch {
+    rows: Vec<f32>,
+    haar: Vec<f32>,
+    keys: Vec<f32>,
+    near: Vec<u32>,
+}
+
+impl Transfer {
+    /// The transfer from `samples` to `receivers` (mm) over the surface (`positions` in mm,
+    /// `triangles`) with `basis`, compressed as `options` says; `poll` gets the fraction done
+    /// and stops the work when it returns `Err`.
+    ///
+    /// # Errors
+    /// [`PrtError::Cancelled`] through `poll`.
+    pub fn precompute(
+        receivers: &[DVec3],
+        positions: &[DVec3],
+        triangles: &[[u32; 3]],
+        samples: &SurfaceSamples,
+        basis: &RdBasis,
+        options: &PrtOptions,
+        poll: &(dyn Fn(f64) -> Result<(), Cancelled> + Sync),
+    ) -> Result<Transfer, PrtError> {
+        let k = basis.terms();
+        let n = samples.len();
+        let index_bits = n.trailing_zeros().max(1);
+        let budget = options.terms_per_vertex.min(k * n).max(k);
+        let near_radius = options.near_radius * samples.spacing();
+        let grid = options.near_field.then(|| TriangleGrid::new(positions, triangles, near_radius.max(1e-9)));
+        let weights: Vec<f32> = basis.singular_values().iter().map(|s| (s / basis.singular_values()[0]) as f32).collect();
+        let done = AtomicUsize::new(0);
+        let stop = AtomicBool::new(false);
+        let per_vertex: Vec<Option<(Vec<u32>, [u32; MAX_TERMS], [f32; MAX_TERMS], f64)>> = receivers
+            .par_iter()
+            .map_init(
+                || Scratch { rows: vec![0.0; k * n], haar: vec![0.0; n], keys: Vec::with_capacity(k * n), near: Vec::new() },
+                |scratch, &x| {
+                    if stop.load(Ordering::Relaxed) {
+                        return None;
+                    }
+                    let nearest = fill_rows(basis, samples, x, &mut scratch.rows);
+                    if let Some(grid) = &grid {
+                        correct_near(basis, samples, positions, triangles, grid, x, near_radius, nearest, scratch);
+                    }
+                    for row in scratch.rows.chunks_exact_mut(n) {
+                        haar::forward(row, &mut scratch.haar);
+                    }
+                    let kept = compress(&scratch.rows, n, &weights, budget, index_bits, &mut scratch.keys);
+                    let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    if finished % 64 == 0 && poll(finished as f64 / receivers.len() as f64).is_err() {
+                        stop.store(true, Ordering::Relaxed);
+                    }
+                    Some(kept)
+                },
+            )
+            .collect();
+        if stop.load(Ordering::Relaxed) {
+            return Err(PrtError::Cancelled(Cancelled));
+        }
+        let mut row_start = Vec::with_capacity(receivers.len() * k + 1);
+        row_start.push(0u32);
+        let total: usize = per_vertex.iter().flatten().map(|p| p.0.len()).sum();
+        let mut terms = Vec::with_capacity(total);
+        let mut steps = Vec::with_capacity(receivers.len() * k);
+        let (mut dropped_sum, mut dropped_max) = (0.0, 0.0f64);
+        for (packed, counts, row_steps, dropped) in per_vertex.into_iter().flatten() {
+            terms.extend_from_slice(&packed);
+            for j in 0..k {
+                row_start.push(row_start.last().unwrap() + counts[j]);
+                steps.push(row_steps[j]);
+            }
+            dropped_sum += dropped;
+            dropped_max = dropped_max.max(dropped);
+        }
+        let bytes = terms.len() * 4 + row_start.len() * 4 + steps.len() * 4;
+        let stats = TransferStats {
+            terms: terms.len(),
+            bytes,
+            dropped_mean: dropped_sum / receivers.len().max(1) as f64,
+            dropped_max,
+            near_radius: if options.near_field { near_radius } else { 0.0 },
+        };
+        Ok(Transfer { terms_per_row: k, vertices: receivers.len(), samples: n, index_bits, row_start, terms, steps, stats })
+    }
+
+    /// The number of basis functions K of the rows.
+    #[must_use]
+    pub fn basis_terms(&self) -> usize {
+        self.terms_per_row
+    }
+
+    /// The number of receiver vertices.
+    #[must_use]
+    pub fn vertices(&self) -> usize {
+        self.vertices
+    }
+
+    /// The number of irradiance samples N.
+    #[must_use]
+    pub fn samples(&self) -> usize {
+        self.samples
+    }
+
+    /// What the precompute measured.
+    #[must_use]
+    pub fn stats(&self) -> &TransferStats {
+        &self.stats
+    }
+
+    /// Per vertex v, basis function k and channel c, (Tₖ^w q^w)[v] into `out[(v K + k) 3 + c]`,
+    /// from the Haar-transformed irradiance `q_haar` ([`haar_irradiance`]): each row summed in
+    /// its stored order, so the result does not depend on the thread count.
+    ///
+    /// # Panics
+    /// If `q_haar` has another length than the samples or `out` than 3 K per vertex.
+    pub fn apply(&self, q_haar: &[[f32; 4]], out: &mut [f64]) {
+        let k = self.terms_per_row;
+        assert_eq!(q_haar.len(), self.samples, "one irradiance per sample");
+        assert_eq!(out.len(), self.vertices * k * 3, "3 K values per vertex");
+        let value_bits = 32 - self.index_bits;
+        let shift = self.index_bits;
+        out.par_chunks_mut(k * 3).enumerate().for_each(|(v, o)| {
+            for j in 0..k {
+                let row = v * k + j;
+                let terms = &self.terms[self.row_start[row] as usize..self.row_start[row + 1] as usize];
+                let mut acc = [0.0f32; 3];
+                for &p in terms {
+                    let e = q_haar[(p >> value_bits) as usize];
+                    let q = ((p << shift) as i32 >> shift) as f32;
+                    acc[0] += q * e[0];
+                    acc[1] += q * e[1];
+                    acc[2] += q * e[2];
+                }
+                let step = f64::from(self.steps[row]);
+                for c in 0..3 {
+                    o[j * 3 + c] = f64::from(acc[c]) * step;
+                }
+            }
+        });
+    }
+}
+
+/// The Haar transform of the irradiance at the samples (one transform per channel), as the
+/// f32 vectors [`Transfer::apply`] reads (the fourth lane is padding).
+#[must_use]
+pub fn haar_irradiance(q: &[[f64; 3]]) -> Vec<[f32; 4]> {
+    let n = q.len();
+    let mut channels: Vec<Vec<f64>> = (0..3).map(|c| q.iter().map(|v| v[c]).collect()).collect();
+    channels.par_iter_mut().for_each(|ch| {
+        let mut scratch = vec![0.0; n];
+        haar::forward(ch, &mut scratch);
+    });
+    (0..n).map(|j| [channels[0][j] as f32, channels[1][j] as f32, channels[2][j] as f32, 0.0]).collect()
+}
+
+/// Every row Tₖ[v, ·] = aⱼ bₖ(‖x − xⱼ‖) into `rows` (row k at k N), and the nearest sample.
+fn fill_rows(basis: &RdBasis, samples: &SurfaceSamples, x: DVec3, rows: &mut [f32]) -> usize {
+    let n = samples.len();
+    let k = basis.terms();
+    let (mut nearest, mut best) = (0, f64::INFINITY);
+    for (j, (p, &a)) in samples.positions.iter().zip(&samples.areas).enumerate() {
+        let d2 = p.distance_squared(x);
+        if d2 < best {
+            best = d2;
+            nearest = j;
+        }
+        match locate(d2.sqrt()) {
+            Some((i, t)) => {
+                let (lo, hi) = basis.rows_f32(i);
+                let (a, t) = (a as f32, t as f32);
+                for kk in 0..k {
+                    rows[kk * n + j] = a * (lo[kk] + t * (hi[kk] - lo[kk]));
+                }
+            }
+            None => {
+                for kk in 0..k {
+                    rows[kk * n + j] = 0.0;
+                }
+            }
+        }
+    }
+    nearest
+}
+
+/// Adds the near-field correction Gₖ − Σ_{near j} aⱼ bₖ (module [`super::near`]) to the rows'
+/// entries of sample `nearest`.
+#[allow(clippy::too_many_arguments)]
+fn correct_near(
+    basis: &RdBasis,
+    samples: &SurfaceSamples,
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    grid: &TriangleGrid,
+    x: DVec3,
+    radius: f64,
+    nearest: usize,
+    scratch: &mut Scratch,
+) {
+    let k = basis.terms();
+    let n = samples.len();
+    let mut correction = [0.0f64; MAX_TERMS];
+    let mut row = [0.0f64; MAX_TERMS];
+    grid.near(x, radius, &mut scratch.near);
+    for &t in &scratch.near {
+        let corners = triangles[t as usize].map(|v| positions[v as usize]);
+        triangle_integral(basis, corners, x, &mut correction[..k]);
+        for &j in samples.on_triangle(t as usize) {
+            let j = j as usize;
+            basis.eval(samples.positions[j].distance(x), &mut row[..k]);
+            for (c, b) in correction[..k].iter_mut().zip(&row[..k]) {
+                *c -= samples.areas[j] * b;
+            }
+        }
+    }
+    for (kk, c) in correction[..k].iter().enumerate() {
+        scratch.rows[kk * n + nearest] += *c as f32;
+    }
+}
+
+/// One vertex's rows (Haar coefficients, row k at k N) compressed: the `budget` coefficients of
+/// largest |c| wₖ (every row's coefficient 0 first), packed per row in index order; the count
+/// and quantisation step per row; the dropped weighted energy's relative norm.
+fn compress(
+    rows: &[f32],
+    n: usize,
+    weights: &[f32],
+    budget: usize,
+    index_bits: u32,
+    keys: &mut Vec<f32>,
+) -> (Vec<u32>, [u32; MAX_TERMS], [f32; MAX_TERMS], f64) {
+    let k = weights.len();
+    let key = |kk: usize, i: usize| if i == 0 { f32::INFINITY } else { rows[kk * n + i].abs() * weights[kk] };
+    // The threshold: the budget-th largest key (every key kept when the budget is everything).
+    let threshold = if budget >= k * n {
+        f32::NEG_INFINITY
+    } else {
+        keys.clear();
+        keys.extend((0..k).flat_map(|kk| (0..n).map(move |i| (kk, i))).map(|(kk, i)| key(kk, i)));
+        let (_, t, _) = keys.select_nth_unstable_by(budget - 1, |a, b| b.total_cmp(a));
+        *t
+    };
+    let above = (0..k).flat_map(|kk| (0..n).map(move |i| (kk, i))).filter(|&(kk, i)| key(kk, i) > threshold).count();
+    let mut ties = budget.saturating_sub(above);
+    let value_bits = 32 - index_bits;
+    let qmax = ((1u32 << (value_bits - 1)) - 1) as f32;
+    let mut packed = Vec::with_capacity(budget);
+    let (mut counts, mut steps) = ([0u32; MAX_TERMS], [0.0f32; MAX_TERMS]);
+    let (mut all, mut dropped) = (0.0f64, 0.0f64);
+    let mut kept: Vec<(u32, f32)> = Vec::new();
+    for kk in 0..k {
+        kept.clear();
+        for i in 0..n {
+            let c = rows[kk * n + i];
+            let kv = key(kk, i);
+            let energy = f64::from(c * weights[kk]).powi(2);
+            all += energy;
+            let keep = kv > threshold
+                || (kv == threshold && ties > 0 && {
+                    ties -= 1;
+                    true
+                });
+            if keep {
+                kept.push((i as u32, c));
+            } else {
+                dropped += energy;
+            }
+        }
+        let largest = kept.iter().fold(0.0f32, |m, &(_, c)| m.max(c.abs()));
+        let step = if largest > 0.0 { largest / qmax } else { 1.0 };
+        for &(i, c) in &kept {
+            let q = (c / step).round() as i32;
+            packed.push((i << value_bits) | (q as u32 & ((1u32 << value_bits) - 1)));
+        }
+        counts[kk] = kept.len() as u32;
+        steps[kk] = step;
+    }
+    let dropped = if all > 0.0 { (dropped / all).sqrt() } else { 0.0 };
+    (packed, counts, steps, dropped)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::basis::BasisSize;
+    use super::*;
+    use crate::mesh::icosphere;
+
+    fn sphere_transfer(terms_per_vertex: usize, near_field: bool) -> (Transfer, SurfaceSamples, crate::mesh::TriMesh) {
+        let sphere = icosphere(10.0, 3);
+        let samples = SurfaceSamples::new(sphere.positions(), sphere.triangles(), 10, 3).unwrap();
+        let options = PrtOptions { samples_log2: 10, terms_per_vertex, near_field, ..PrtOptions::default() };
+        let basis = RdBasis::get(BasisSize::K16);
+        let t =
+            Transfer::precompute(sphere.positions(), sphere.positions(), sphere.triangles(), &samples, basis, &options, &|_| {
+                Ok(())
+            })
+            .unwrap();
+        (t, samples, sphere)
+    }
+
+    /// Uncompressed (every coefficient kept), the transfer applied to q equals the direct sum
+    /// Σⱼ aⱼ bₖ(r) qⱼ (no near field) to the packing's precision.
+    #[test]
+    fn uncompressed_transfer_is_the_direct_sum() {
+        let (t, samples, sphere) = sphere_transfer(usize::MAX, false);
+        let basis = RdBasis::get(BasisSize::K16);
+        let q: Vec<[f64; 3]> =
+            samples.positions.iter().map(|p| [1.0 + p.x.max(0.0), 2.0 - p.y * 0.1, (p.z > 3.0) as u8 as f64]).collect();
+        let mut out = vec![0.0; sphere.positions().len() * 16 * 3];
+        t.apply(&haar_irradiance(&q), &mut out);
+        let mut row = [0.0; 16];
+        for v in [0, 17, 300] {
+            let x = sphere.positions()[v];
+            let mut want = [[0.0f64; 3]; 16];
+            for j in 0..samples.len() {
+                basis.eval(samples.positions[j].distance(x), &mut row);
+                for kk in 0..16 {
+                    for c in 0..3 {
+                        want[kk][c] += samples.areas[j] * row[kk] * q[j][c];
+                    }
+                }
+            }
+            let scale = (0..16).map(|kk| want[kk][0].abs()).fold(0.0, f64::max);
+            for kk in 0..16 {
+                for c in 0..3 {
+                    let got = out[(v * 16 + kk) * 3 + c];
+                    assert!((got - want[kk][c]).abs() < 1e-4 * scale, "v {v} k {kk} c {c}: {got} vs {}", want[kk][c]);
+                }
+            }
+        }
+    }
+
+    /// Under uniform q the rows with the near field integrate bₖ over the near triangles
+    /// exactly, whatever the budget: the compressed and uncompressed transfers agree to the
+    /// quantisation (coefficient 0 is always kept), and the stats count the kept terms.
+    #[test]
+    fn uniform_light_survives_any_compression() {
+        let (full, samples, _) = sphere_transfer(usize::MAX, true);
+        let (small, _, _) = sphere_transfer(48, true);
+        assert_eq!(small.stats().terms, 48 * full.vertices());
+        assert!(small.stats().dropped_mean > 0.0 && full.stats().dropped_max == 0.0);
+        let q = vec![[1.0, 0.5, 2.0]; samples.len()];
+        let qh = haar_irradiance(&q);
+        let (mut a, mut b) = (vec![0.0; full.vertices() * 48], vec![0.0; full.vertices() * 48]);
+        full.apply(&qh, &mut a);
+        small.apply(&qh, &mut b);
+        let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() < 2e-5 * scale, "{x} vs {y}");
+        }
+    }
+}
