@@ -19,8 +19,8 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use crate::methods::{
-    bake_object, object_stage, radiosity, targets, world_surfaces, HierarchicalDipole, Lighting, ObjectBake, RadiositySession,
-    RadiosityStats, SubsurfaceMethod, TransCut,
+    bake_object, object_stage, radiosity, targets, world_surfaces, HierarchicalDipole, Lighting, ObjectBake, Prt,
+    RadiositySession, RadiosityStats, SubsurfaceMethod, TransCut,
 };
 use crate::progress::{ms, Progress};
 use crate::scene::{BakeOptions, Method, Scene, SceneError};
@@ -62,6 +62,7 @@ pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Re
     with_threads(options.threads, || match &options.method {
         Method::TransCut(o) => bake_all::<TransCut>(scene, options, o, progress),
         Method::HierarchicalDipole(o) => bake_all::<HierarchicalDipole>(scene, options, o, progress),
+        Method::Prt(o) => bake_all::<Prt>(scene, options, o, progress),
         Method::Radiosity(o) => {
             let start = Instant::now();
             radiosity::bake_scene(scene, options, o, progress).map(|(objects, stats, session)| Bake {

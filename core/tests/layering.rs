@@ -32,9 +32,25 @@ const CORE: Table = &[
     ("render", &["input", "light", "mesh", "optics", "output"]),
     (
         "scene",
-        &["diffusion", "gpu", "hierarchy", "light", "mesh", "mesher", "optics", "progress", "radiosity", "volume", "workers"],
+        &[
+            "diffusion",
+            "gpu",
+            "hierarchy",
+            "light",
+            "mesh",
+            "mesher",
+            "optics",
+            "progress",
+            "prt",
+            "radiosity",
+            "volume",
+            "workers",
+        ],
     ),
-    ("edit", &["diffusion", "gpu", "hierarchy", "light", "mesh", "mesher", "optics", "progress", "scene", "sparse", "volume"]),
+    (
+        "edit",
+        &["diffusion", "gpu", "hierarchy", "light", "mesh", "mesher", "optics", "progress", "prt", "scene", "sparse", "volume"],
+    ),
     (
         "methods",
         &[
@@ -47,6 +63,7 @@ const CORE: Table = &[
             "mesher",
             "optics",
             "progress",
+            "prt",
             "radiosity",
             "scene",
             "sparse",

@@ -55,9 +55,21 @@ pub enum EditError {
     /// finite).
     #[error("hierarchical dipole: {0}")]
     Hierarchy(crate::hierarchy::HierarchyError),
+    /// The PRT method refused the update (a medium its transfer cannot take).
+    #[error("prt: {0}")]
+    Prt(crate::prt::PrtError),
     /// Cancelled through the progress callback.
     #[error(transparent)]
     Cancelled(#[from] crate::progress::Cancelled),
+}
+
+impl From<crate::prt::PrtError> for EditError {
+    fn from(e: crate::prt::PrtError) -> Self {
+        match e {
+            crate::prt::PrtError::Cancelled(c) => Self::Cancelled(c),
+            e => Self::Prt(e),
+        }
+    }
 }
 
 /// A light error of an update: a cancellation while sampling is [`EditError::Cancelled`],

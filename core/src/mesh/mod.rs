@@ -18,6 +18,7 @@ mod trimesh;
 mod vtk;
 mod weld;
 
+#[cfg(test)]
 pub(crate) use bvh::closest_point_on_triangle;
 pub use bvh::{RayHit, SurfacePoint, TriangleBvh};
 pub use error::MeshError;

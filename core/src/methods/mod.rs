@@ -31,12 +31,14 @@
 pub mod capability;
 pub mod hierarchical_dipole;
 mod lighting;
+pub mod prt;
 pub mod radiosity;
 mod result;
 pub mod transcut;
 
 pub use hierarchical_dipole::{DipoleState, HierarchicalDipole};
 pub use lighting::Lighting;
+pub use prt::{Prt, PrtLive, PrtState};
 pub use radiosity::{RadiosityObject, RadiositySession, RadiosityStats, RadiosityUpdate};
 pub use result::{BakedState, ObjectBake, ObjectStats};
 pub use transcut::{TransCut, TransCutState};
@@ -45,8 +47,9 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use crate::mesh::TriMesh;
+use crate::optics::Medium;
 use crate::progress::{ms, Cancelled, Progress};
-use crate::scene::{MediumSource, Object, Scene, SceneError};
+use crate::scene::{MediumSource, Object, Scene, SceneError, Shape};
 
 /// The object a method bakes: its place in the scene (for error messages) and its surface in
 /// world space.
@@ -103,6 +106,48 @@ pub(crate) fn world_surfaces(scene: &Scene) -> Result<Vec<TriMesh>, SceneError> 
 /// The scene's objects as targets, with their world surfaces.
 pub(crate) fn targets<'a>(scene: &'a Scene, world: &'a [TriMesh]) -> Vec<Target<'a>> {
     scene.objects.iter().zip(world).enumerate().map(|(index, (object, world))| Target { index, object, world }).collect()
+}
+
+/// The object's medium when it is one medium everywhere (a surface's table has every tet at
+/// id 0); why not otherwise.
+pub(crate) fn homogeneous_medium(object: &Object) -> Result<Medium, String> {
+    let Some(medium) = object.medium() else {
+        return Err("it is an opaque diffuse surface, not a translucent medium".into());
+    };
+    match (medium, &object.shape) {
+        (MediumSource::Homogeneous(m), _) => Ok(*m),
+        (MediumSource::Table(t), Shape::Surface(_)) if !t.is_empty() => Ok(t[0]),
+        (MediumSource::Table(t), Shape::Tetrahedra(mesh)) if !t.is_empty() => {
+            let ids: std::collections::BTreeSet<u32> = mesh.materials().iter().copied().collect();
+            match ids.iter().map(|&i| t.get(i as usize)).collect::<Option<Vec<_>>>() {
+                Some(media) if media.windows(2).all(|w| w[0] == w[1]) => Ok(*media[0]),
+                Some(_) => Err("its tets hold different media; the dipole needs one homogeneous medium".into()),
+                None => Err("a tet's material id is beyond the media table".into()),
+            }
+        }
+        (MediumSource::Table(_), _) => Err("the media table is empty".into()),
+        _ => Err("its medium is heterogeneous (voxels, layers, veins or per-tet media); the dipole is the solution for one \
+                  homogeneous medium (use transcut)"
+            .into()),
+    }
+}
+
+/// Per output vertex, the surface vertex it takes its radiance from: through the user's vertex
+/// map for a surface; at the boundary vertices of a tet mesh (`None` inside).
+pub(crate) fn output_map(object: &Object, surface: &TriMesh) -> Vec<Option<u32>> {
+    let on_surface = |v: usize| Some(surface.user_to_internal()[v]);
+    match &object.shape {
+        Shape::Surface(_) => (0..surface.user_vertex_count()).map(on_surface).collect(),
+        Shape::Tetrahedra(mesh) => {
+            let mut boundary = vec![false; mesh.vertex_count()];
+            for f in mesh.boundary_faces() {
+                for v in f.vertices {
+                    boundary[v as usize] = true;
+                }
+            }
+            (0..mesh.vertex_count()).map(|v| if boundary[v] { on_surface(v) } else { None }).collect()
+        }
+    }
 }
 
 /// Reports a stage of one object's bake: a stage name and the fraction of the object done, in

@@ -4,6 +4,7 @@ use crate::gpu::Backend;
 use crate::mesher::MesherStats;
 
 use super::hierarchical_dipole::DipoleState;
+use super::prt::PrtState;
 use super::radiosity::RadiosityObject;
 use super::transcut::TransCutState;
 
@@ -25,6 +26,7 @@ impl ObjectBake {
         match &self.state {
             BakedState::TransCut(s) => s.eta,
             BakedState::HierarchicalDipole(s) => s.eta(),
+            BakedState::Prt(s) => s.eta(),
             BakedState::Radiosity(s) => s.eta,
         }
     }
@@ -34,7 +36,7 @@ impl ObjectBake {
     pub fn transcut(&self) -> Option<&TransCutState> {
         match &self.state {
             BakedState::TransCut(s) => Some(s),
-            BakedState::HierarchicalDipole(_) | BakedState::Radiosity(_) => None,
+            BakedState::HierarchicalDipole(_) | BakedState::Radiosity(_) | BakedState::Prt(_) => None,
         }
     }
 
@@ -43,7 +45,7 @@ impl ObjectBake {
     pub fn dipole(&self) -> Option<&DipoleState> {
         match &self.state {
             BakedState::HierarchicalDipole(s) => Some(s),
-            BakedState::TransCut(_) | BakedState::Radiosity(_) => None,
+            BakedState::TransCut(_) | BakedState::Radiosity(_) | BakedState::Prt(_) => None,
         }
     }
 
@@ -52,7 +54,16 @@ impl ObjectBake {
     pub fn radiosity(&self) -> Option<&RadiosityObject> {
         match &self.state {
             BakedState::Radiosity(s) => Some(s),
-            BakedState::TransCut(_) | BakedState::HierarchicalDipole(_) => None,
+            BakedState::TransCut(_) | BakedState::HierarchicalDipole(_) | BakedState::Prt(_) => None,
+        }
+    }
+
+    /// The PRT method's state, when that method baked the object.
+    #[must_use]
+    pub fn prt(&self) -> Option<&PrtState> {
+        match &self.state {
+            BakedState::Prt(s) => Some(s),
+            _ => None,
         }
     }
 
@@ -74,6 +85,8 @@ pub enum BakedState {
     /// Translucent radiosity: the object's patch surface and its radiance, with its TransCut
     /// state when translucent.
     Radiosity(Box<RadiosityObject>),
+    /// PRT: the samples, the compressed transfer, the medium's basis weights.
+    Prt(PrtState),
 }
 
 /// What was measured for one object. Fields that a method does not have are 0 (or `None`); the

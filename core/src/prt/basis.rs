@@ -215,13 +215,16 @@ impl RdBasis {
     }
 
     /// Every disc integral Dₖ(ρ) = ∫₀^ρ bₖ(r) 2πr dr of the piecewise-linear bₖ, exact, into `out`.
+    #[inline]
     pub fn disc(&self, rho: f64, out: &mut [f64]) {
         let k = self.terms();
         match locate(rho) {
             Some((i, t)) => {
-                for (j, o) in out[..k].iter_mut().enumerate() {
-                    let (a, b) = (self.values[i * k + j], self.values[(i + 1) * k + j]);
-                    *o = self.discs[i * k + j] + interval_integral(i, a, b, t);
+                let (f0, f1) = interval_moments(i, t);
+                let (lo, hi, base) =
+                    (&self.values[i * k..(i + 1) * k], &self.values[(i + 1) * k..(i + 2) * k], &self.discs[i * k..]);
+                for j in 0..k {
+                    out[j] = base[j] + lo[j] * f0 + (hi[j] - lo[j]) * f1;
                 }
             }
             None if rho.is_nan() => out[..k].fill(f64::NAN),
@@ -258,14 +261,22 @@ impl RdBasis {
 }
 
 /// ∫ over the first `t` of interval `i` of the linear function from `a` (node i) to `b` (node
-/// i + 1) times 2πr dr = 4π R_max² (i + τ)³/N⁴ dτ, in closed form:
-/// ∫₀ᵗ (i + τ)³ dτ = i³t + 3i²t²/2 + it³ + t⁴/4 and ∫₀ᵗ τ(i + τ)³ dτ = i³t²/2 + i²t³ + 3it⁴/4 + t⁵/5.
+/// i + 1) times 2πr dr = 4π R_max² (i + τ)³/N⁴ dτ: a f₀ + (b − a) f₁ ([`interval_moments`]).
 fn interval_integral(i: usize, a: f64, b: f64, t: f64) -> f64 {
+    let (f0, f1) = interval_moments(i, t);
+    a * f0 + (b - a) * f1
+}
+
+/// The moments of interval `i` up to `t`, in closed form: f₀ = c ∫₀ᵗ (i + τ)³ dτ = c (i³t + 3i²t²/2
+/// + it³ + t⁴/4) and f₁ = c ∫₀ᵗ τ(i + τ)³ dτ = c (i³t²/2 + i²t³ + 3it⁴/4 + t⁵/5), c = 4π R_max²/N⁴.
+#[inline]
+fn interval_moments(i: usize, t: f64) -> (f64, f64) {
     let x = i as f64;
     let (t2, t3, t4) = (t * t, t * t * t, t * t * t * t);
+    let c = 4.0 * PI * R_MAX * R_MAX / (INTERVALS as f64).powi(4);
     let f0 = x * x * x * t + 1.5 * x * x * t2 + x * t3 + 0.25 * t4;
     let f1 = 0.5 * x * x * x * t2 + x * x * t3 + 0.75 * x * t4 + 0.2 * t4 * t;
-    4.0 * PI * R_MAX * R_MAX / (INTERVALS as f64).powi(4) * (a * f0 + (b - a) * f1)
+    (c * f0, c * f1)
 }
 
 /// Builds the basis of `training` (what the committed tables hold): the training profiles at

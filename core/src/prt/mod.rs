@@ -42,7 +42,9 @@ pub struct PrtOptions {
     pub terms_per_vertex: usize,
     /// The near-field correction of the rows ([`near`]; default on).
     pub near_field: bool,
-    /// The near field's radius in sample spacings √(A/N) (default 4), in [1, 64].
+    /// The near field's radius in sample spacings √(A/N) (default 8), in [1, 64]: beyond it the
+    /// samples' point rule errs by about 0.05/c³ of the exitance for c spacings (measured on the
+    /// uniformly lit 10 mm marble sphere: 8e-4 at 4, 1e-4 at 8, 4e-5 at 16).
     pub near_radius: f64,
     /// The seed of the sample pattern.
     pub seed: u64,
@@ -50,7 +52,7 @@ pub struct PrtOptions {
 
 impl Default for PrtOptions {
     fn default() -> Self {
-        Self { samples_log2: 16, basis: BasisSize::K16, terms_per_vertex: 3072, near_field: true, near_radius: 4.0, seed: 0 }
+        Self { samples_log2: 16, basis: BasisSize::K16, terms_per_vertex: 3072, near_field: true, near_radius: 8.0, seed: 0 }
     }
 }
 

@@ -4,14 +4,15 @@
 //! patch of surface (what the paper's quadtree textures give, without an m-way partition).
 //!
 //! Each triangle gets its share of the samples by systematic sampling of the cumulative area
-//! (counts within one of N·Aₜ/A), placed inside it by an Owen-scrambled Sobol pattern, and each
-//! sample weighs aⱼ = Aₜ/nₜ, so every triangle's area is carried exactly; a triangle too small
+//! (counts within one of N·Aₜ/A), each sample at the centroid of its own piece of the triangle
+//! (the triangle cut into nₜ pieces of equal area, [`split_into`]: the midpoint rule, second
+//! order), weighing aⱼ = Aₜ/nₜ, so every triangle's area is carried exactly; a triangle too small
 //! for a sample gives its area to the nearer sample-bearing neighbour in the cumulative order,
 //! so Σ aⱼ = A always.
 
 use glam::DVec3;
 
-use crate::light::sampling::{hash_combine, Pattern};
+use crate::light::sampling::hash_combine;
 use crate::mesh::area_weighted_normals;
 
 use super::PrtError;
@@ -34,6 +35,12 @@ pub struct SurfaceSamples {
     /// Per triangle, its samples: `by_triangle[start[t]..start[t + 1]]`.
     pub triangle_start: Vec<u32>,
     pub by_triangle: Vec<u32>,
+    /// Per triangle, the triangle whose samples carry its area (itself when it has samples).
+    pub owner: Vec<u32>,
+    /// Per triangle with samples, the triangles whose area its samples carry (its cell: itself
+    /// and the sample-less triangles that gave it their area): `cells[cell_start[t]..cell_start[t + 1]]`.
+    pub cell_start: Vec<u32>,
+    pub cells: Vec<u32>,
 }
 
 impl SurfaceSamples {
@@ -68,9 +75,10 @@ impl SurfaceSamples {
         }
         // The area of each sample: Aₜ/nₜ, plus the area of sample-less triangles next to it.
         let mut extra = vec![0.0; triangles.len()];
+        let mut owner: Vec<u32> = (0..triangles.len() as u32).collect();
         let centroid = |t: usize| triangles[t].iter().map(|&v| positions[v as usize]).sum::<DVec3>() / 3.0;
         let bearing: Vec<usize> = (0..triangles.len()).filter(|&t| counts[t] > 0).collect();
-        for t in (0..triangles.len()).filter(|&t| counts[t] == 0 && areas[t] > 0.0) {
+        for t in (0..triangles.len()).filter(|&t| counts[t] == 0) {
             let after = bearing.partition_point(|&b| b < t);
             let candidates = [after.checked_sub(1).map(|i| bearing[i]), bearing.get(after).copied()];
             let c = centroid(t);
@@ -80,6 +88,20 @@ impl SurfaceSamples {
                 .min_by(|&a, &b| centroid(a).distance_squared(c).total_cmp(&centroid(b).distance_squared(c)))
                 .expect("a sample exists");
             extra[target] += areas[t];
+            owner[t] = target as u32;
+        }
+        let mut cell_start = vec![0u32; triangles.len() + 1];
+        for &o in &owner {
+            cell_start[o as usize + 1] += 1;
+        }
+        for t in 0..triangles.len() {
+            cell_start[t + 1] += cell_start[t];
+        }
+        let mut fill = cell_start.clone();
+        let mut cells = vec![0u32; triangles.len()];
+        for (t, &o) in owner.iter().enumerate() {
+            cells[fill[o as usize] as usize] = t as u32;
+            fill[o as usize] += 1;
         }
         let vertex_normals = area_weighted_normals(positions, triangles);
         let mut samples = Vec::with_capacity(n);
@@ -91,13 +113,10 @@ impl SurfaceSamples {
             let [a, b, c] = tri.map(|v| positions[v as usize]);
             let face = (b - a).cross(c - a).normalize_or_zero();
             let [na, nb, nc] = tri.map(|v| vertex_normals[v as usize]);
-            let pattern = Pattern::new(hash_combine(seed, t as u64));
             let weight = (areas[t] + extra[t]) / count as f64;
-            for i in 0..count {
-                let [u, v] = pattern.get(i);
-                // Area-preserving square → triangle map: (1 − √u, √u (1 − v), √u v).
-                let s = u.sqrt();
-                let (w0, w1, w2) = (1.0 - s, s * (1.0 - v), s * v);
+            let mut pieces = Vec::with_capacity(count);
+            split_into(count, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [a, b, c], &mut pieces);
+            for [w0, w1, w2] in pieces {
                 let p = a * w0 + b * w1 + c * w2;
                 let normal = (na * w0 + nb * w1 + nc * w2).try_normalize().unwrap_or(face);
                 samples.push(Sample { position: p, normal, area: weight, triangle: t as u32 });
@@ -126,6 +145,9 @@ impl SurfaceSamples {
             triangles: samples.iter().map(|s| s.triangle).collect(),
             triangle_start,
             by_triangle,
+            owner,
+            cell_start,
+            cells,
         })
     }
 
@@ -147,11 +169,40 @@ impl SurfaceSamples {
         &self.by_triangle[self.triangle_start[t] as usize..self.triangle_start[t + 1] as usize]
     }
 
+    /// The triangles whose area the samples of triangle `t` carry (empty for a triangle without
+    /// samples).
+    #[must_use]
+    pub fn cell(&self, t: usize) -> &[u32] {
+        &self.cells[self.cell_start[t] as usize..self.cell_start[t + 1] as usize]
+    }
+
     /// The mean spacing h = √(A/N) (the surface's units).
     #[must_use]
     pub fn spacing(&self) -> f64 {
         (self.areas.iter().sum::<f64>() / self.len() as f64).sqrt()
     }
+}
+
+/// The barycentric centroids of `count` pieces of equal area of the triangle `piece` (barycentric
+/// corners) of the triangle `corners`: the piece is cut from the corner opposite its longest
+/// edge at the fraction ⌊count/2⌋/count of that edge, and each part split again, so every
+/// sample is the midpoint rule of its own piece (second order for a smooth integrand, where a
+/// random point in the piece is first order).
+fn split_into(count: usize, piece: [[f64; 3]; 3], corners: [DVec3; 3], out: &mut Vec<[f64; 3]>) {
+    if count == 1 {
+        out.push([0, 1, 2].map(|i| (piece[0][i] + piece[1][i] + piece[2][i]) / 3.0));
+        return;
+    }
+    let at = |l: [f64; 3]| corners[0] * l[0] + corners[1] * l[1] + corners[2] * l[2];
+    let length = |e: usize| at(piece[(e + 1) % 3]).distance_squared(at(piece[(e + 2) % 3]));
+    // The longest edge is opposite corner `o`.
+    let o = (0..3).max_by(|&i, &j| length(i).total_cmp(&length(j))).unwrap_or(0);
+    let (p, q) = (piece[(o + 1) % 3], piece[(o + 2) % 3]);
+    let first = count / 2;
+    let f = first as f64 / count as f64;
+    let cut = [0, 1, 2].map(|i| p[i] + f * (q[i] - p[i]));
+    split_into(first, [piece[o], p, cut], corners, out);
+    split_into(count - first, [piece[o], cut, q], corners, out);
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -206,11 +257,31 @@ mod tests {
                 assert!(s.on_triangle(t as usize).contains(&(j as u32)));
                 assert!(s.normals[j].dot(n) > 0.0);
             }
+            // Every triangle belongs to exactly one cell, that of a triangle with samples, whose
+            // samples weigh the cell's area.
+            let mut seen = vec![0; sphere.triangles().len()];
+            for t in 0..sphere.triangles().len() {
+                let cell = s.cell(t);
+                assert_eq!(cell.is_empty(), s.on_triangle(t).is_empty());
+                let area: f64 = cell.iter().map(|&c| sphere_area(&sphere, c as usize)).sum();
+                let carried: f64 = s.on_triangle(t).iter().map(|&j| s.areas[j as usize]).sum();
+                assert!((area - carried).abs() < 1e-12 * sphere.area());
+                for &c in cell {
+                    seen[c as usize] += 1;
+                    assert_eq!(s.owner[c as usize] as usize, t);
+                }
+            }
+            assert!(seen.iter().all(|&n| n == 1));
             if log2 == 12 {
                 // 1280 triangles of nearly equal area, 3.2 samples each: every one has some.
                 assert!((0..sphere.triangles().len()).all(|t| !s.on_triangle(t).is_empty()));
             }
         }
+    }
+
+    fn sphere_area(mesh: &crate::mesh::TriMesh, t: usize) -> f64 {
+        let [a, b, c] = mesh.triangle(t);
+        0.5 * (b - a).cross(c - a).length()
     }
 
     /// The k-d order makes dyadic blocks compact: the 8 blocks of N/8 each span less than the

@@ -55,6 +55,17 @@ pub struct Transfer {
     stats: TransferStats,
 }
 
+/// One vertex's rows compressed ([`compress`]).
+struct Compressed {
+    /// The kept terms, row by row, each row in index order.
+    packed: Vec<u32>,
+    /// Per row, its number of terms and its quantisation step.
+    counts: [u32; MAX_TERMS],
+    steps: [f32; MAX_TERMS],
+    /// The dropped weighted energy's relative norm.
+    dropped: f64,
+}
+
 /// The per-thread work space of the precompute.
 struct Scratch {
     rows: Vec<f32>,
@@ -88,7 +99,7 @@ impl Transfer {
         let weights: Vec<f32> = basis.singular_values().iter().map(|s| (s / basis.singular_values()[0]) as f32).collect();
         let done = AtomicUsize::new(0);
         let stop = AtomicBool::new(false);
-        let per_vertex: Vec<Option<(Vec<u32>, [u32; MAX_TERMS], [f32; MAX_TERMS], f64)>> = receivers
+        let per_vertex: Vec<Option<Compressed>> = receivers
             .par_iter()
             .map_init(
                 || Scratch { rows: vec![0.0; k * n], haar: vec![0.0; n], keys: Vec::with_capacity(k * n), near: Vec::new() },
@@ -96,16 +107,16 @@ impl Transfer {
                     if stop.load(Ordering::Relaxed) {
                         return None;
                     }
-                    let nearest = fill_rows(basis, samples, x, &mut scratch.rows);
+                    fill_rows(basis, samples, x, &mut scratch.rows);
                     if let Some(grid) = &grid {
-                        correct_near(basis, samples, positions, triangles, grid, x, near_radius, nearest, scratch);
+                        correct_near(basis, samples, positions, triangles, grid, x, near_radius, scratch);
                     }
                     for row in scratch.rows.chunks_exact_mut(n) {
                         haar::forward(row, &mut scratch.haar);
                     }
                     let kept = compress(&scratch.rows, n, &weights, budget, index_bits, &mut scratch.keys);
                     let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
-                    if finished % 64 == 0 && poll(finished as f64 / receivers.len() as f64).is_err() {
+                    if finished.is_multiple_of(64) && poll(finished as f64 / receivers.len() as f64).is_err() {
                         stop.store(true, Ordering::Relaxed);
                     }
                     Some(kept)
@@ -117,11 +128,11 @@ impl Transfer {
         }
         let mut row_start = Vec::with_capacity(receivers.len() * k + 1);
         row_start.push(0u32);
-        let total: usize = per_vertex.iter().flatten().map(|p| p.0.len()).sum();
+        let total: usize = per_vertex.iter().flatten().map(|p| p.packed.len()).sum();
         let mut terms = Vec::with_capacity(total);
         let mut steps = Vec::with_capacity(receivers.len() * k);
         let (mut dropped_sum, mut dropped_max) = (0.0, 0.0f64);
-        for (packed, counts, row_steps, dropped) in per_vertex.into_iter().flatten() {
+        for Compressed { packed, counts, steps: row_steps, dropped } in per_vertex.into_iter().flatten() {
             terms.extend_from_slice(&packed);
             for j in 0..k {
                 row_start.push(row_start.last().unwrap() + counts[j]);
@@ -211,18 +222,12 @@ pub fn haar_irradiance(q: &[[f64; 3]]) -> Vec<[f32; 4]> {
     (0..n).map(|j| [channels[0][j] as f32, channels[1][j] as f32, channels[2][j] as f32, 0.0]).collect()
 }
 
-/// Every row Tₖ[v, ·] = aⱼ bₖ(‖x − xⱼ‖) into `rows` (row k at k N), and the nearest sample.
-fn fill_rows(basis: &RdBasis, samples: &SurfaceSamples, x: DVec3, rows: &mut [f32]) -> usize {
+/// Every row Tₖ[v, ·] = aⱼ bₖ(‖x − xⱼ‖) into `rows` (row k at k N).
+fn fill_rows(basis: &RdBasis, samples: &SurfaceSamples, x: DVec3, rows: &mut [f32]) {
     let n = samples.len();
     let k = basis.terms();
-    let (mut nearest, mut best) = (0, f64::INFINITY);
     for (j, (p, &a)) in samples.positions.iter().zip(&samples.areas).enumerate() {
-        let d2 = p.distance_squared(x);
-        if d2 < best {
-            best = d2;
-            nearest = j;
-        }
-        match locate(d2.sqrt()) {
+        match locate(p.distance(x)) {
             Some((i, t)) => {
                 let (lo, hi) = basis.rows_f32(i);
                 let (a, t) = (a as f32, t as f32);
@@ -237,11 +242,23 @@ fn fill_rows(basis: &RdBasis, samples: &SurfaceSamples, x: DVec3, rows: &mut [f3
             }
         }
     }
-    nearest
 }
 
-/// Adds the near-field correction Gₖ − Σ_{near j} aⱼ bₖ (module [`super::near`]) to the rows'
-/// entries of sample `nearest`.
+/// The samples of the linear interpolation at x ([`interpolation_weights`]).
+const STENCIL: usize = 6;
+
+/// Adds the near-field correction ([`super::near`]) to the rows: its total over the near cells,
+/// C = Σ_cells [∫_cell bₖ − Σ_{j in cell} aⱼ bₖ(‖x − xⱼ‖)], put on the samples around x with
+/// weights that interpolate linear functions at x, so the corrected rows integrate
+/// ∫_near bₖ q ≈ Σ aⱼ bₖ qⱼ + C q(x): exact for uniform q, and the correction, which is
+/// concentrated where the profile peaks, meets the irradiance there.
+///
+/// Two other placements measured worse under a sun on the 60 mm spot at 2¹⁴ samples (relative
+/// L² against brute force): shared among each cell's own samples, a cell's exact integral meets
+/// the irradiance where its samples happen to lie, not where the profile weighs it (2.3e-2,
+/// against 1.3e-2 this way); and with weights that also cancel the point rule's tangential first
+/// moment (exact for linear q on a symmetric neighbourhood), the asymmetry of real surfaces over
+/// the near field puts large weights on the stencil (6.8e-2).
 #[allow(clippy::too_many_arguments)]
 fn correct_near(
     basis: &RdBasis,
@@ -251,41 +268,87 @@ fn correct_near(
     grid: &TriangleGrid,
     x: DVec3,
     radius: f64,
-    nearest: usize,
     scratch: &mut Scratch,
 ) {
     let k = basis.terms();
     let n = samples.len();
-    let mut correction = [0.0f64; MAX_TERMS];
     let mut row = [0.0f64; MAX_TERMS];
+    let mut correction = [0.0f64; MAX_TERMS];
+    // The near triangles' cells whole: the samples of a cell carry the area of all of its
+    // triangles, so the exact integral replaces exactly what those samples stood for.
     grid.near(x, radius, &mut scratch.near);
-    for &t in &scratch.near {
-        let corners = triangles[t as usize].map(|v| positions[v as usize]);
-        triangle_integral(basis, corners, x, &mut correction[..k]);
-        for &j in samples.on_triangle(t as usize) {
-            let j = j as usize;
-            basis.eval(samples.positions[j].distance(x), &mut row[..k]);
+    for t in scratch.near.iter_mut() {
+        *t = samples.owner[*t as usize];
+    }
+    scratch.near.sort_unstable();
+    scratch.near.dedup();
+    let mut stencil = [(f64::INFINITY, 0u32); STENCIL];
+    for &o in &scratch.near {
+        for &t in samples.cell(o as usize) {
+            let corners = triangles[t as usize].map(|v| positions[v as usize]);
+            triangle_integral(basis, corners, x, &mut correction[..k]);
+        }
+        for &j in samples.on_triangle(o as usize) {
+            let d = samples.positions[j as usize].distance(x);
+            basis.eval(d, &mut row[..k]);
             for (c, b) in correction[..k].iter_mut().zip(&row[..k]) {
-                *c -= samples.areas[j] * b;
+                *c -= samples.areas[j as usize] * b;
+            }
+            if d < stencil[STENCIL - 1].0 {
+                stencil[STENCIL - 1] = (d, j);
+                stencil.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
             }
         }
     }
-    for (kk, c) in correction[..k].iter().enumerate() {
-        scratch.rows[kk * n + nearest] += *c as f32;
+    let stencil: Vec<u32> = stencil.iter().filter(|s| s.0.is_finite()).map(|s| s.1).collect();
+    if stencil.is_empty() {
+        return;
+    }
+    for (j, w) in interpolation_weights(samples, &stencil, x) {
+        for (kk, c) in correction[..k].iter().enumerate() {
+            scratch.rows[kk * n + j as usize] += (c * w) as f32;
+        }
     }
 }
 
+/// Weights wⱼ over the samples `stencil` (nearest first) with Σ wⱼ f(xⱼ) = f(x) for every f
+/// linear on the tangent plane at x (the nearest sample's normal): weighted least squares,
+/// θⱼ = 1/(dⱼ² + d₀²), d₀ the nearest distance; the nearest sample alone where the stencil
+/// does not span the plane.
+fn interpolation_weights(samples: &SurfaceSamples, stencil: &[u32], x: DVec3) -> Vec<(u32, f64)> {
+    let nearest = stencil[0];
+    let (t, b) = tangent_frame(samples.normals[nearest as usize]);
+    let d0 = samples.positions[nearest as usize].distance_squared(x).max(1e-24);
+    let points: Vec<(u32, DVec3, f64)> = stencil
+        .iter()
+        .map(|&j| {
+            let d = samples.positions[j as usize] - x;
+            (j, DVec3::new(1.0, d.dot(t), d.dot(b)), 1.0 / (d.length_squared() + d0))
+        })
+        .collect();
+    let a = points
+        .iter()
+        .fold(glam::DMat3::ZERO, |m, (_, p, w)| m + glam::DMat3::from_cols(*p * p.x * *w, *p * p.y * *w, *p * p.z * *w));
+    // The stencil must span the plane (scale-free: the moment matrix normalised by its size).
+    let spread = points.iter().map(|(_, p, _)| p.y * p.y + p.z * p.z).fold(0.0, f64::max).max(1e-24).sqrt();
+    let unit = glam::DMat3::from_diagonal(DVec3::new(1.0, 1.0 / spread, 1.0 / spread));
+    let det = (unit * a * unit).determinant() / a.x_axis.x.powi(3);
+    if points.len() < 3 || !(det.abs() > 1e-6) {
+        return vec![(nearest, 1.0)];
+    }
+    let row = a.inverse().row(0);
+    points.iter().map(|(j, p, w)| (*j, w * row.dot(*p))).collect()
+}
+
+/// Two unit vectors completing `n` to an orthonormal frame.
+fn tangent_frame(n: DVec3) -> (DVec3, DVec3) {
+    let t = n.any_orthonormal_vector();
+    (t, n.cross(t))
+}
+
 /// One vertex's rows (Haar coefficients, row k at k N) compressed: the `budget` coefficients of
-/// largest |c| wₖ (every row's coefficient 0 first), packed per row in index order; the count
-/// and quantisation step per row; the dropped weighted energy's relative norm.
-fn compress(
-    rows: &[f32],
-    n: usize,
-    weights: &[f32],
-    budget: usize,
-    index_bits: u32,
-    keys: &mut Vec<f32>,
-) -> (Vec<u32>, [u32; MAX_TERMS], [f32; MAX_TERMS], f64) {
+/// largest |c| wₖ (every row's coefficient 0 first), packed per row in index order.
+fn compress(rows: &[f32], n: usize, weights: &[f32], budget: usize, index_bits: u32, keys: &mut Vec<f32>) -> Compressed {
     let k = weights.len();
     let key = |kk: usize, i: usize| if i == 0 { f32::INFINITY } else { rows[kk * n + i].abs() * weights[kk] };
     // The threshold: the budget-th largest key (every key kept when the budget is everything).
@@ -333,7 +396,7 @@ fn compress(
         steps[kk] = step;
     }
     let dropped = if all > 0.0 { (dropped / all).sqrt() } else { 0.0 };
-    (packed, counts, steps, dropped)
+    Compressed { packed, counts, steps, dropped }
 }
 
 #[cfg(test)]
@@ -369,11 +432,11 @@ mod tests {
         for v in [0, 17, 300] {
             let x = sphere.positions()[v];
             let mut want = [[0.0f64; 3]; 16];
-            for j in 0..samples.len() {
-                basis.eval(samples.positions[j].distance(x), &mut row);
+            for ((p, a), qj) in samples.positions.iter().zip(&samples.areas).zip(&q) {
+                basis.eval(p.distance(x), &mut row);
                 for kk in 0..16 {
                     for c in 0..3 {
-                        want[kk][c] += samples.areas[j] * row[kk] * q[j][c];
+                        want[kk][c] += a * row[kk] * qj[c];
                     }
                 }
             }

@@ -9,6 +9,7 @@
 use crate::diffusion::SolverKind;
 use crate::gpu::Backend;
 use crate::hierarchy::DipoleOptions;
+use crate::prt::PrtOptions;
 use crate::radiosity::{FormFactorOptions, SolveOptions};
 
 use super::scattering::TranslucentScattering;
@@ -29,6 +30,16 @@ pub enum Method {
     /// their TransCut diffusion solve and opaque diffuse objects reflecting and emitting it;
     /// inter-reflection and colour bleeding between all objects.
     Radiosity(RadiosityOptions),
+    /// Precomputed translucent transfer (R. Wang et al. 2008): the dipole of a homogeneous
+    /// medium in a PCA basis, its transfer from surface samples to the vertices precomputed and
+    /// compressed once; material edits and relights without a new precompute.
+    Prt(PrtOptions),
+}
+
+impl From<PrtOptions> for Method {
+    fn from(options: PrtOptions) -> Self {
+        Self::Prt(options)
+    }
 }
 
 impl From<RadiosityOptions> for Method {
@@ -58,7 +69,7 @@ impl From<TransCutOptions> for Method {
 impl Method {
     /// The names of every method this library has, in the order front ends list them (also
     /// the order of the C ABI's `TC_METHOD_*` values).
-    pub const NAMES: &'static [&'static str] = &["transcut", "hierarchical-dipole", "radiosity"];
+    pub const NAMES: &'static [&'static str] = &["transcut", "hierarchical-dipole", "radiosity", "prt"];
 
     /// Every method with its default options, in the order of [`Method::NAMES`].
     #[must_use]
@@ -66,14 +77,15 @@ impl Method {
         Self::NAMES.iter().filter_map(|name| Self::from_name(name)).collect()
     }
 
-    /// The name front ends use: `transcut`, `hierarchical-dipole`, `radiosity` (later
-    /// `polygrid`, `prt`).
+    /// The name front ends use: `transcut`, `hierarchical-dipole`, `radiosity`, `prt` (later
+    /// `polygrid`).
     #[must_use]
     pub fn name(&self) -> &'static str {
         match self {
             Self::TransCut(_) => "transcut",
             Self::HierarchicalDipole(_) => "hierarchical-dipole",
             Self::Radiosity(_) => "radiosity",
+            Self::Prt(_) => "prt",
         }
     }
 
@@ -92,6 +104,10 @@ impl Method {
                 "translucent radiosity (Sheng et al. 2014): translucent and opaque diffuse objects exchanging light; \
                  inter-reflection, colour bleeding, emissive surfaces"
             }
+            Self::Prt(_) => {
+                "precomputed translucent transfer (R. Wang et al. 2008): the dipole in a PCA basis over precomputed surface \
+                 transfer; homogeneous media, real-time material edits and relights"
+            }
         }
     }
 
@@ -103,6 +119,7 @@ impl Method {
             "transcut" => Some(Self::TransCut(TransCutOptions::default())),
             "hierarchical-dipole" => Some(Self::HierarchicalDipole(DipoleOptions::default())),
             "radiosity" => Some(Self::Radiosity(RadiosityOptions::default())),
+            "prt" => Some(Self::Prt(PrtOptions::default())),
             _ => None,
         }
     }
@@ -122,6 +139,7 @@ impl Method {
             Self::TransCut(o) => o.validate(),
             Self::HierarchicalDipole(o) => o.validate(),
             Self::Radiosity(o) => o.validate(),
+            Self::Prt(o) => o.validate(),
         }
         .map_err(|e| format!("{}: {e}", self.name()))
     }

@@ -25,6 +25,7 @@ use crate::edit::{Cutter, EditError, EditOptions, Editor, MediumEdit, PaintStrok
 use crate::light::Light;
 use crate::methods::capability::{Cut, Deform, EditMedium, Relight};
 use crate::methods::hierarchical_dipole::{DipoleLive, DipoleUndo};
+use crate::methods::prt::{PrtLive, PrtUndo};
 use crate::methods::{BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 use crate::progress::{Cancelled, Progress};
 use crate::scene::{BakeOptions, MediumSource, Method, Scene, SceneError};
@@ -63,12 +64,14 @@ pub enum SessionError {
 enum Live {
     TransCut(Box<Editor>),
     HierarchicalDipole(Box<DipoleLive>),
+    Prt(Box<PrtLive>),
 }
 
 /// What a relight of a live state replaced, per method.
 enum LiveUndo {
     TransCut(RelightUndo),
     HierarchicalDipole(DipoleUndo),
+    Prt(PrtUndo),
 }
 
 impl Live {
@@ -83,6 +86,10 @@ impl Live {
             (BakedState::HierarchicalDipole(state), Method::HierarchicalDipole(_)) => Ok(Self::HierarchicalDipole(Box::new(
                 DipoleLive::new(state.clone(), lights, bake.radiance.clone(), options.shadows, options.source),
             ))),
+            (BakedState::Prt(state), Method::Prt(_)) => {
+                let surface = options.shadows.then_some(state.surface.as_ref());
+                Ok(Self::Prt(Box::new(PrtLive::new(state.clone(), lights, bake.radiance.clone(), surface, options.source))))
+            }
             (state, method) => Err(EditError::InvalidOptions(format!(
                 "the object was baked by another method than the session's {} ({state:?} is not its state)",
                 method.name()
@@ -96,6 +103,7 @@ impl Live {
             Self::HierarchicalDipole(d) => {
                 Relight::relight(d.as_mut(), lights, progress).map(|(s, u)| (s, LiveUndo::HierarchicalDipole(u)))
             }
+            Self::Prt(p) => Relight::relight(p.as_mut(), lights, progress).map(|(s, u)| (s, LiveUndo::Prt(u))),
         }
     }
 
@@ -103,6 +111,7 @@ impl Live {
         match (self, undo) {
             (Self::TransCut(e), LiveUndo::TransCut(u)) => Relight::undo_relight(e.as_mut(), u),
             (Self::HierarchicalDipole(d), LiveUndo::HierarchicalDipole(u)) => Relight::undo_relight(d.as_mut(), u),
+            (Self::Prt(p), LiveUndo::Prt(u)) => Relight::undo_relight(p.as_mut(), u),
             _ => Err(EditError::InvalidOptions("the undo is of another method's relight".into())),
         }
     }
@@ -111,12 +120,14 @@ impl Live {
         match self {
             Self::TransCut(e) => Relight::user_radiance(e.as_ref()),
             Self::HierarchicalDipole(d) => Relight::user_radiance(d.as_ref()),
+            Self::Prt(p) => Relight::user_radiance(p.as_ref()),
         }
     }
 
     fn edit_medium(&mut self) -> Option<&mut dyn EditMedium> {
         match self {
             Self::TransCut(e) => Some(e.as_mut()),
+            Self::Prt(p) => Some(p.as_mut()),
             Self::HierarchicalDipole(_) => None,
         }
     }
@@ -124,13 +135,13 @@ impl Live {
     fn cut(&mut self) -> Option<&mut dyn Cut> {
         match self {
             Self::TransCut(e) => Some(e.as_mut()),
-            Self::HierarchicalDipole(_) => None,
+            Self::HierarchicalDipole(_) | Self::Prt(_) => None,
         }
     }
 
     fn deform(&mut self) -> Option<&mut dyn Deform> {
         match self {
-            Self::TransCut(_) => None,
+            Self::TransCut(_) | Self::Prt(_) => None,
             Self::HierarchicalDipole(d) => Some(d.as_mut()),
         }
     }
@@ -347,7 +358,7 @@ impl Session {
     pub fn editor(&self, index: usize) -> Result<Option<&Editor>, SessionError> {
         Ok(match &self.slot(index)?.state {
             State::Live(Live::TransCut(e)) => Some(e),
-            State::Live(Live::HierarchicalDipole(_)) | State::Baked(_) => None,
+            State::Live(Live::HierarchicalDipole(_) | Live::Prt(_)) | State::Baked(_) => None,
         })
     }
 
@@ -363,6 +374,7 @@ impl Session {
         Ok(match &slot.state {
             State::Live(Live::TransCut(e)) => e.media().eta(),
             State::Live(Live::HierarchicalDipole(d)) => d.state().eta(),
+            State::Live(Live::Prt(p)) => p.state().eta(),
             State::Baked(b) => b.eta(),
         })
     }
@@ -539,7 +551,30 @@ impl Session {
     pub fn dipole(&self, index: usize) -> Result<Option<&DipoleLive>, SessionError> {
         Ok(match &self.slot(index)?.state {
             State::Live(Live::HierarchicalDipole(d)) => Some(d),
-            State::Live(Live::TransCut(_)) | State::Baked(_) => None,
+            State::Live(Live::TransCut(_) | Live::Prt(_)) | State::Baked(_) => None,
+        })
+    }
+
+    /// The PRT live state of object `index`, from its first update on.
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`].
+    pub fn prt(&self, index: usize) -> Result<Option<&PrtLive>, SessionError> {
+        Ok(match &self.slot(index)?.state {
+            State::Live(Live::Prt(p)) => Some(p),
+            State::Live(Live::TransCut(_) | Live::HierarchicalDipole(_)) | State::Baked(_) => None,
+        })
+    }
+
+    /// Object `index` at a new scale, `mm_per_unit` millimetres per scene unit, without a new
+    /// bake: for PRT the material edit σ → σ s of its transfer ([`PrtLive::set_mm_per_unit`]).
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`] for other methods; [`SessionError::Edit`].
+    pub fn set_mm_per_unit(&mut self, index: usize, mm_per_unit: f64, progress: Progress) -> Result<&UpdateStats, SessionError> {
+        self.update(index, "change the scale without a new bake", progress, |live, _| match live {
+            Live::Prt(p) => Some(p.set_mm_per_unit(mm_per_unit)),
+            _ => None,
         })
     }
 

@@ -35,10 +35,9 @@ use glam::DMat4;
 use crate::gpu::Backend;
 use crate::hierarchy::{DipoleHierarchy, DipoleOptions, DipoleStats, HierarchyError};
 use crate::light::LightError;
-use crate::mesh::TriMesh;
 use crate::optics::{Dipole, Medium};
 use crate::progress::ms;
-use crate::scene::{MediumSource, Object, SceneError, Shape};
+use crate::scene::SceneError;
 
 /// The hierarchical dipole method ([`SubsurfaceMethod`]).
 pub struct HierarchicalDipole;
@@ -87,30 +86,6 @@ pub(crate) fn dipoles(medium: &Medium) -> [Dipole; 3] {
     [0, 1, 2].map(|c| medium.dipole(c))
 }
 
-/// The object's medium when it is one medium everywhere (a surface's table has every tet at
-/// id 0); why not otherwise.
-fn homogeneous(object: &Object) -> Result<Medium, String> {
-    let Some(medium) = object.medium() else {
-        return Err("it is an opaque diffuse surface, not a translucent medium".into());
-    };
-    match (medium, &object.shape) {
-        (MediumSource::Homogeneous(m), _) => Ok(*m),
-        (MediumSource::Table(t), Shape::Surface(_)) if !t.is_empty() => Ok(t[0]),
-        (MediumSource::Table(t), Shape::Tetrahedra(mesh)) if !t.is_empty() => {
-            let ids: std::collections::BTreeSet<u32> = mesh.materials().iter().copied().collect();
-            match ids.iter().map(|&i| t.get(i as usize)).collect::<Option<Vec<_>>>() {
-                Some(media) if media.windows(2).all(|w| w[0] == w[1]) => Ok(*media[0]),
-                Some(_) => Err("its tets hold different media; the dipole needs one homogeneous medium".into()),
-                None => Err("a tet's material id is beyond the media table".into()),
-            }
-        }
-        (MediumSource::Table(_), _) => Err("the media table is empty".into()),
-        _ => Err("its medium is heterogeneous (voxels, layers, veins or per-tet media); the dipole is the solution for one \
-                  homogeneous medium (use transcut)"
-            .into()),
-    }
-}
-
 /// The light entering at every vertex of `hierarchy` along its area-weighted normal; 0 at a
 /// vertex on no triangle of positive area (a tet mesh's interior vertices, which its boundary
 /// surface keeps), which has no normal and emits nothing.
@@ -132,24 +107,6 @@ pub(crate) fn surface_irradiance(
         q[v] = value;
     }
     Ok(q)
-}
-
-/// Per output vertex, the surface vertex it takes its radiance from: through the user's vertex
-/// map for a surface; at the boundary vertices of a tet mesh (`None` inside).
-fn output_map(object: &Object, surface: &TriMesh) -> Vec<Option<u32>> {
-    let on_surface = |v: usize| Some(surface.user_to_internal()[v]);
-    match &object.shape {
-        Shape::Surface(_) => (0..surface.user_vertex_count()).map(on_surface).collect(),
-        Shape::Tetrahedra(mesh) => {
-            let mut boundary = vec![false; mesh.vertex_count()];
-            for f in mesh.boundary_faces() {
-                for v in f.vertices {
-                    boundary[v as usize] = true;
-                }
-            }
-            (0..mesh.vertex_count()).map(|v| if boundary[v] { on_surface(v) } else { None }).collect()
-        }
-    }
 }
 
 impl DipoleState {
@@ -190,7 +147,7 @@ impl SubsurfaceMethod for HierarchicalDipole {
     fn check(target: &Target<'_>, options: &DipoleOptions) -> Result<(), SceneError> {
         options.validate().map_err(SceneError::InvalidOptions)?;
         target.medium(NAME)?;
-        homogeneous(target.object).map(|_| ()).map_err(|reason| SceneError::Unsupported {
+        super::homogeneous_medium(target.object).map(|_| ()).map_err(|reason| SceneError::Unsupported {
             index: target.index,
             name: target.object.name.clone(),
             method: NAME,
@@ -206,7 +163,7 @@ impl SubsurfaceMethod for HierarchicalDipole {
     ) -> Result<DipoleState, SceneError> {
         stage("hierarchy", 0.0)?;
         let t = Instant::now();
-        let medium = homogeneous(target.object).map_err(|reason| target.invalid(reason))?;
+        let medium = super::homogeneous_medium(target.object).map_err(|reason| target.invalid(reason))?;
         medium.validate().map_err(|e| target.invalid(format!("medium: {e}")))?;
         let mm = target.object.mm_per_unit;
         let surface = target.world;
@@ -225,7 +182,7 @@ impl SubsurfaceMethod for HierarchicalDipole {
             stats.device = Some(name);
         }
         stats.backend_fallback = fallback;
-        let output = output_map(target.object, surface);
+        let output = super::output_map(target.object, surface);
         let mut first_output = vec![u32::MAX; surface.positions().len()];
         for (o, v) in output.iter().enumerate().rev() {
             if let Some(v) = v {
