@@ -72,6 +72,27 @@
 #define TC_METHOD_RADIOSITY 2
 
 /**
+ * Precomputed translucent transfer (R. Wang et al. 2008): the dipole of a homogeneous medium
+ * in a PCA basis, its transfer from 2ⁿ surface samples to the vertices precomputed and
+ * compressed once, so that a relight (`tc_scene_relight`) and a whole-object medium edit
+ * (`tc_object_edit_medium` with `TC_REGION_ALL`) need no new precompute. `TcPrtOptions` in
+ * `TcBakeOptions.method_options`. Heterogeneous media, media the basis does not represent and
+ * media too dense for the samples are refused with `TC_UNSUPPORTED`; other regions, paint and
+ * cuts with `TC_UNSUPPORTED` or `TC_INVALID_ARGUMENT`, naming the method.
+ */
+#define TC_METHOD_PRT 3
+
+/**
+ * `TcPrtOptions.basis_terms`: the 16-function basis (default).
+ */
+#define TC_PRT_BASIS_16 16
+
+/**
+ * `TcPrtOptions.basis_terms`: the paper's 12-function basis.
+ */
+#define TC_PRT_BASIS_12 12
+
+/**
  * `TcRadiosityOptions.iteration`: Jacobi, every patch from the last sweep (the paper's; sweep
  * k adds bounce k + 1; the default, and the one `bounces` needs).
  */
@@ -346,8 +367,8 @@ typedef struct TcBakeOptions {
    */
   uint32_t size;
   /**
-   * The subsurface method: `TC_METHOD_TRANSCUT` (default), `TC_METHOD_HIERARCHICAL_DIPOLE`
-   * or `TC_METHOD_RADIOSITY`.
+   * The subsurface method: `TC_METHOD_TRANSCUT` (default), `TC_METHOD_HIERARCHICAL_DIPOLE`,
+   * `TC_METHOD_RADIOSITY` or `TC_METHOD_PRT`.
    */
   uint32_t method;
   /**
@@ -473,6 +494,44 @@ typedef struct TcDipoleOptions {
    */
   uint32_t radiance;
 } TcDipoleOptions;
+
+/**
+ * The PRT method's own options (`TcBakeOptions.method_options` with `TC_METHOD_PRT`). Fill it
+ * with `tc_prt_options_init(&options, sizeof options)`, which sets `size`, then change fields.
+ * `TcBakeOptions.tets`, `tolerance`, `max_iterations` and `backend` do not apply to this method.
+ * A value out of range fails the bake with `TC_INVALID_ARGUMENT` naming the field.
+ */
+typedef struct TcPrtOptions {
+  /**
+   * The bytes of the struct the caller has, set by `tc_prt_options_init`.
+   */
+  uint32_t size;
+  /**
+   * log₂ of the irradiance samples, 4 to 18 (default 16: 65536 samples).
+   */
+  uint32_t samples_log2;
+  /**
+   * `TC_PRT_BASIS_16` (default) or `TC_PRT_BASIS_12` (the paper's).
+   */
+  uint32_t basis_terms;
+  /**
+   * Haar coefficients kept per vertex over all its basis rows, from `basis_terms` to 2²⁰
+   * (default 3072; the transfer takes about 4 bytes each).
+   */
+  uint32_t terms_per_vertex;
+  /**
+   * 1 (default): the near-field correction of the transfer rows; 0: none.
+   */
+  uint32_t near_field;
+  /**
+   * The near field's radius in sample spacings, in [1, 64] (default 8).
+   */
+  double near_radius;
+  /**
+   * The seed of the samples' systematic offset.
+   */
+  uint64_t seed;
+} TcPrtOptions;
 
 /**
  * Translucent radiosity's own options (`TcBakeOptions.method_options` with
@@ -1087,6 +1146,15 @@ TcStatus tc_transcut_options_init(struct TcTransCutOptions *options, size_t size
  * below `sizeof(TcDipoleOptions)`; nothing is written on failure.
  */
 TcStatus tc_dipole_options_init(struct TcDipoleOptions *options, size_t size);
+
+/**
+ * Fills the first `size` bytes of `*options` with the PRT method's defaults (2¹⁶ samples, the
+ * 16-function basis, 3072 terms per vertex, the near-field correction over 8 sample spacings,
+ * seed 0), as `tc_bake_options_init` fills its struct; pass `sizeof(TcPrtOptions)`.
+ * `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size below `sizeof(TcPrtOptions)`;
+ * nothing is written on failure.
+ */
+TcStatus tc_prt_options_init(struct TcPrtOptions *options, size_t size);
 
 /**
  * Fills the first `size` bytes of `*options` with translucent radiosity's defaults (Jacobi,
@@ -1923,6 +1991,14 @@ TC_LAYOUT_CHECK(TcDipoleOptions_mode, offsetof(TcDipoleOptions, mode) == 40);
 TC_LAYOUT_CHECK(TcDipoleOptions_geometry, offsetof(TcDipoleOptions, geometry) == 44);
 TC_LAYOUT_CHECK(TcDipoleOptions_budget, offsetof(TcDipoleOptions, budget) == 48);
 TC_LAYOUT_CHECK(TcDipoleOptions_radiance, offsetof(TcDipoleOptions, radiance) == 56);
+TC_LAYOUT_CHECK(TcPrtOptions__sizeof, sizeof(TcPrtOptions) == 40);
+TC_LAYOUT_CHECK(TcPrtOptions_size, offsetof(TcPrtOptions, size) == 0);
+TC_LAYOUT_CHECK(TcPrtOptions_samples_log2, offsetof(TcPrtOptions, samples_log2) == 4);
+TC_LAYOUT_CHECK(TcPrtOptions_basis_terms, offsetof(TcPrtOptions, basis_terms) == 8);
+TC_LAYOUT_CHECK(TcPrtOptions_terms_per_vertex, offsetof(TcPrtOptions, terms_per_vertex) == 12);
+TC_LAYOUT_CHECK(TcPrtOptions_near_field, offsetof(TcPrtOptions, near_field) == 16);
+TC_LAYOUT_CHECK(TcPrtOptions_near_radius, offsetof(TcPrtOptions, near_radius) == 24);
+TC_LAYOUT_CHECK(TcPrtOptions_seed, offsetof(TcPrtOptions, seed) == 32);
 TC_LAYOUT_CHECK(TcRadiosityOptions__sizeof, sizeof(TcRadiosityOptions) == 56);
 TC_LAYOUT_CHECK(TcRadiosityOptions_size, offsetof(TcRadiosityOptions, size) == 0);
 TC_LAYOUT_CHECK(TcRadiosityOptions_iteration, offsetof(TcRadiosityOptions, iteration) == 4);

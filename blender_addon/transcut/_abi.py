@@ -71,6 +71,11 @@ STATUS_NAMES = {
 TC_METHOD_TRANSCUT = 0
 TC_METHOD_HIERARCHICAL_DIPOLE = 1  # homogeneous media only; relight and tc_object_set_positions
 TC_METHOD_RADIOSITY = 2  # translucent radiosity: translucent and diffuse objects lighting each other
+TC_METHOD_PRT = 3  # precomputed translucent transfer: homogeneous media, edits and relights without a new precompute
+
+# TcPrtOptions.basis_terms: the PCA basis of the dipole profile.
+TC_PRT_BASIS_16 = 16  # default
+TC_PRT_BASIS_12 = 12  # the paper's
 
 # TcBakeOptions.backend: where the diffusion solve runs; TcBakeStats.backend_used: 1 or 2.
 TC_BACKEND_DEFAULT = 0  # TRANSCUT_BACKEND (cpu, gpu, auto), else auto
@@ -250,6 +255,21 @@ class TcDipoleOptions(Structure):
         ("geometry", c_uint32),
         ("budget", c_uint64),  # incremental mode: the most links per update; 0 = no limit
         ("radiance", c_uint32),
+    ]
+
+
+class TcPrtOptions(Structure):
+    """``TcPrtOptions``: the PRT method's own options, pointed to by ``TcBakeOptions.method_options``
+    (filled by ``tc_prt_options_init``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("samples_log2", c_uint32),  # log2 of the irradiance samples, 4 to 18 (default 16)
+        ("basis_terms", c_uint32),  # TC_PRT_BASIS_16 or TC_PRT_BASIS_12
+        ("terms_per_vertex", c_uint32),  # Haar coefficients kept per vertex (default 3072)
+        ("near_field", c_uint32),  # 1: the near-field correction of the rows (default)
+        ("near_radius", c_double),  # in sample spacings (default 8)
+        ("seed", c_uint64),
     ]
 
 
@@ -448,6 +468,7 @@ OPTIONAL = {
     "tc_transcut_options_init": (c_int32, [POINTER(TcTransCutOptions), c_size_t]),
     "tc_dipole_options_init": (c_int32, [POINTER(TcDipoleOptions), c_size_t]),
     "tc_radiosity_options_init": (c_int32, [POINTER(TcRadiosityOptions), c_size_t]),
+    "tc_prt_options_init": (c_int32, [POINTER(TcPrtOptions), c_size_t]),
     "tc_scene_radiosity_stats": (c_int32, [ScenePtr, POINTER(TcRadiosityStats)]),
     # Diffuse objects (translucent radiosity).
     "tc_scene_add_diffuse_mesh": (

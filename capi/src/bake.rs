@@ -7,8 +7,9 @@ use transcut_core::{bake_with, ObjectStats, Session};
 use super::convert::scene_failure;
 use super::handle::{with_scene, TcScene};
 use super::options::{
-    backend_used, default_bake_options, default_dipole_options, default_radiosity_options, default_transcut_options,
-    read_bake_options, TcBakeOptions, TcDipoleOptions, TcRadiosityOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1,
+    backend_used, default_bake_options, default_dipole_options, default_prt_options, default_radiosity_options,
+    default_transcut_options, read_bake_options, TcBakeOptions, TcDipoleOptions, TcPrtOptions, TcRadiosityOptions,
+    TcTransCutOptions, BAKE_OPTIONS_SIZE_V1,
 };
 use super::progress::{Callback, TcProgressFn};
 use super::ptr;
@@ -124,6 +125,20 @@ pub unsafe extern "C" fn tc_dipole_options_init(options: *mut TcDipoleOptions, s
         let first = size_of::<TcDipoleOptions>();
         // SAFETY: the caller's contract: `size` writable bytes.
         unsafe { init(options, size, first, default_dipole_options()) }
+    })
+}
+
+/// Fills the first `size` bytes of `*options` with the PRT method's defaults (2¹⁶ samples, the
+/// 16-function basis, 3072 terms per vertex, the near-field correction over 8 sample spacings,
+/// seed 0), as `tc_bake_options_init` fills its struct; pass `sizeof(TcPrtOptions)`.
+/// `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size below `sizeof(TcPrtOptions)`;
+/// nothing is written on failure.
+#[no_mangle]
+pub unsafe extern "C" fn tc_prt_options_init(options: *mut TcPrtOptions, size: usize) -> TcStatus {
+    run("tc_prt_options_init", || {
+        let first = size_of::<TcPrtOptions>();
+        // SAFETY: the caller's contract: `size` writable bytes.
+        unsafe { init(options, size, first, default_prt_options()) }
     })
 }
 

@@ -14,6 +14,7 @@ use transcut_core::gpu::Backend;
 use transcut_core::hierarchy::{DipoleOptions, DipoleRadiance, EvalMode, Oracle, Receivers};
 use transcut_core::light::SourceOptions;
 use transcut_core::optics::{DipoleGeometry, EdgeRule};
+use transcut_core::prt::{BasisSize, PrtOptions};
 use transcut_core::radiosity::{FormFactorOptions, Iteration, SolveOptions};
 use transcut_core::{BakeOptions, Method, RadiosityOptions, TransCutOptions};
 
@@ -38,6 +39,19 @@ pub const TC_METHOD_HIERARCHICAL_DIPOLE: u32 = 1;
 /// coupled, so the bake's session offers no per-object update (relight, edits, cuts:
 /// `TC_UNSUPPORTED`): change the scene and bake again.
 pub const TC_METHOD_RADIOSITY: u32 = 2;
+/// Precomputed translucent transfer (R. Wang et al. 2008): the dipole of a homogeneous medium
+/// in a PCA basis, its transfer from 2ⁿ surface samples to the vertices precomputed and
+/// compressed once, so that a relight (`tc_scene_relight`) and a whole-object medium edit
+/// (`tc_object_edit_medium` with `TC_REGION_ALL`) need no new precompute. `TcPrtOptions` in
+/// `TcBakeOptions.method_options`. Heterogeneous media, media the basis does not represent and
+/// media too dense for the samples are refused with `TC_UNSUPPORTED`; other regions, paint and
+/// cuts with `TC_UNSUPPORTED` or `TC_INVALID_ARGUMENT`, naming the method.
+pub const TC_METHOD_PRT: u32 = 3;
+
+/// `TcPrtOptions.basis_terms`: the 16-function basis (default).
+pub const TC_PRT_BASIS_16: u32 = 16;
+/// `TcPrtOptions.basis_terms`: the paper's 12-function basis.
+pub const TC_PRT_BASIS_12: u32 = 12;
 
 /// `TcRadiosityOptions.iteration`: Jacobi, every patch from the last sweep (the paper's; sweep
 /// k adds bounce k + 1; the default, and the one `bounces` needs).
@@ -133,8 +147,8 @@ pub const TC_MAX_ITERATIONS: u32 = 1_000_000;
 pub struct TcBakeOptions {
     /// The bytes of the struct the caller has, set by `tc_bake_options_init`.
     pub size: u32,
-    /// The subsurface method: `TC_METHOD_TRANSCUT` (default), `TC_METHOD_HIERARCHICAL_DIPOLE`
-    /// or `TC_METHOD_RADIOSITY`.
+    /// The subsurface method: `TC_METHOD_TRANSCUT` (default), `TC_METHOD_HIERARCHICAL_DIPOLE`,
+    /// `TC_METHOD_RADIOSITY` or `TC_METHOD_PRT`.
     pub method: u32,
     /// TransCut (and radiosity's translucent objects): target number of tetrahedra per surface
     /// object, 1 to `TC_MAX_TETS` (default 200 000).
@@ -212,6 +226,30 @@ pub struct TcDipoleOptions {
     pub budget: u64,
     /// `TC_DIPOLE_RADIANCE_TRANSCUT` (default) or `TC_DIPOLE_RADIANCE_JENSEN`.
     pub radiance: u32,
+}
+
+/// The PRT method's own options (`TcBakeOptions.method_options` with `TC_METHOD_PRT`). Fill it
+/// with `tc_prt_options_init(&options, sizeof options)`, which sets `size`, then change fields.
+/// `TcBakeOptions.tets`, `tolerance`, `max_iterations` and `backend` do not apply to this method.
+/// A value out of range fails the bake with `TC_INVALID_ARGUMENT` naming the field.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcPrtOptions {
+    /// The bytes of the struct the caller has, set by `tc_prt_options_init`.
+    pub size: u32,
+    /// log₂ of the irradiance samples, 4 to 18 (default 16: 65536 samples).
+    pub samples_log2: u32,
+    /// `TC_PRT_BASIS_16` (default) or `TC_PRT_BASIS_12` (the paper's).
+    pub basis_terms: u32,
+    /// Haar coefficients kept per vertex over all its basis rows, from `basis_terms` to 2²⁰
+    /// (default 3072; the transfer takes about 4 bytes each).
+    pub terms_per_vertex: u32,
+    /// 1 (default): the near-field correction of the transfer rows; 0: none.
+    pub near_field: u32,
+    /// The near field's radius in sample spacings, in [1, 64] (default 8).
+    pub near_radius: f64,
+    /// The seed of the samples' systematic offset.
+    pub seed: u64,
 }
 
 /// Translucent radiosity's own options (`TcBakeOptions.method_options` with
@@ -347,6 +385,47 @@ fn radiosity_options(o: &TcRadiosityOptions, transcut: TransCutOptions) -> Resul
     // What the checks above do not cover (the core's own bounds, should they tighten).
     let own = RadiosityOptions { transcut: TransCutOptions::default(), ..options.clone() };
     own.validate().map_err(|e| Failure::invalid(format!("options->method_options: {e}")))?;
+    Ok(options)
+}
+
+/// The defaults, as `tc_prt_options_init` writes them.
+pub(crate) fn default_prt_options() -> TcPrtOptions {
+    let d = PrtOptions::default();
+    TcPrtOptions {
+        size: size_of::<TcPrtOptions>() as u32,
+        samples_log2: d.samples_log2,
+        basis_terms: d.basis.terms() as u32,
+        terms_per_vertex: d.terms_per_vertex as u32,
+        near_field: u32::from(d.near_field),
+        near_radius: d.near_radius,
+        seed: d.seed,
+    }
+}
+
+/// The core's options from the caller's struct (the ranges are checked by the bake, naming the
+/// field).
+fn prt_options(o: &TcPrtOptions) -> Result<PrtOptions, Failure> {
+    let basis = match o.basis_terms {
+        TC_PRT_BASIS_16 => BasisSize::K16,
+        TC_PRT_BASIS_12 => BasisSize::K12,
+        other => {
+            return Err(Failure::invalid(format!("options->method_options->basis_terms = {other}: must be 12 or 16")));
+        }
+    };
+    let near_field = match o.near_field {
+        0 => false,
+        1 => true,
+        other => return Err(Failure::invalid(format!("options->method_options->near_field = {other}: must be 0 or 1"))),
+    };
+    let options = PrtOptions {
+        samples_log2: o.samples_log2,
+        basis,
+        terms_per_vertex: o.terms_per_vertex as usize,
+        near_field,
+        near_radius: o.near_radius,
+        seed: o.seed,
+    };
+    options.validate().map_err(|e| Failure::invalid(format!("options->method_options: {e}")))?;
     Ok(options)
 }
 
@@ -594,6 +673,20 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
                 unsafe { read_sized(d, size_of::<TcDipoleOptions>(), default_dipole_options(), &sized)? }
             };
             Method::HierarchicalDipole(dipole_options(&d)?)
+        }
+        TC_METHOD_PRT => {
+            let p = if o.method_options.is_null() {
+                default_prt_options()
+            } else {
+                let p = o.method_options.cast::<TcPrtOptions>();
+                if !p.is_aligned() {
+                    return Err(Failure::invalid("`options->method_options` is not aligned for TcPrtOptions"));
+                }
+                let sized = Sized { what: "options->method_options", type_name: "TcPrtOptions", filler: "tc_prt_options_init" };
+                // SAFETY: the caller's contract, checked for NULL and alignment.
+                unsafe { read_sized(p, size_of::<TcPrtOptions>(), default_prt_options(), &sized)? }
+            };
+            Method::Prt(prt_options(&p)?)
         }
         other => {
             return Err(Failure::invalid(format!(

@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use abi::{
     TcArtistMedium, TcBakeOptions, TcBakeStats, TcDipoleOptions, TcDipoleStats, TcEditStats, TcMedium, TcMediumEdit,
-    TcRadiosityOptions, TcRadiosityStats, TcTransCutOptions,
+    TcPrtOptions, TcRadiosityOptions, TcRadiosityStats, TcTransCutOptions,
 };
 
 fn crate_dir() -> PathBuf {
@@ -70,6 +70,7 @@ fn layouts() -> Vec<Layout> {
         }),
         layout!(TcTransCutOptions { size, solver, edit_solver }),
         layout!(TcDipoleOptions { size, oracle, theta, eps1, eps2, rule, receivers, mode, geometry, budget, radiance }),
+        layout!(TcPrtOptions { size, samples_log2, basis_terms, terms_per_vertex, near_field, near_radius, seed }),
         layout!(TcRadiosityOptions {
             size,
             iteration,

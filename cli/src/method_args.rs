@@ -10,6 +10,7 @@ use transcut::gpu::Backend;
 use transcut::hierarchy::{DipoleOptions, EvalMode, Oracle, Receivers};
 use transcut::input::quote;
 use transcut::optics::EdgeRule;
+use transcut::prt::{BasisSize, PrtOptions};
 use transcut::radiosity::{FormFactorOptions, HetRule, Iteration, SolveOptions};
 use transcut::{
     Method, OpticalDistance, ProfileKind, ProfileScatteringOptions, RadiosityOptions, TransCutOptions, TranslucentScattering,
@@ -19,6 +20,7 @@ use transcut::{
 const TRANSCUT: &str = "transcut";
 const DIPOLE: &str = transcut::methods::hierarchical_dipole::NAME;
 const RADIOSITY: &str = "radiosity";
+const PRT: &str = transcut::methods::prt::NAME;
 
 /// The methods that solve TransCut's diffusion (radiosity through its translucent objects).
 const DIFFUSION: &[&str] = &[TRANSCUT, RADIOSITY];
@@ -172,7 +174,7 @@ impl HetName {
 /// The subsurface method and its options.
 #[derive(Args, Debug, Clone, Default)]
 pub struct MethodArgs {
-    /// The subsurface method: transcut, hierarchical-dipole or radiosity (the default is the
+    /// The subsurface method: transcut, hierarchical-dipole, radiosity or prt (the default is the
     /// command's: transcut for bake and render, hierarchical-dipole for animate). `--method
     /// help` lists every method with one line each.
     #[arg(long, value_name = "NAME")]
@@ -263,6 +265,18 @@ pub struct MethodArgs {
     /// al. 2014 eq. 16 (dipole only) [default: consistent]
     #[arg(long, value_enum, value_name = "RULE", help_heading = "Radiosity options")]
     pub profile_het: Option<HetName>,
+    /// prt: log₂ of the irradiance samples, 4 to 18; more resolve denser media (σ′t up to 3
+    /// over the spacing √(area/N)) and shadows better, the precompute and the transfer grow
+    /// with them [default: 16]
+    #[arg(long, value_name = "LOG2", value_parser = clap::value_parser!(u32).range(4..=18), help_heading = "PRT options")]
+    pub prt_samples: Option<u32>,
+    /// prt: Haar coefficients kept per vertex over all its basis rows (4 bytes each); fewer are
+    /// faster to relight and less accurate under sharp light [default: 3072]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(12..=1_048_576), help_heading = "PRT options")]
+    pub prt_terms: Option<u64>,
+    /// prt: the PCA basis of the dipole profile: 16 functions, or the paper's 12 [default: 16]
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(12..=16), help_heading = "PRT options")]
+    pub prt_basis: Option<u32>,
 }
 
 /// The defaults under the command line: what a scene file's `[bake]` table says, or a
@@ -461,7 +475,7 @@ impl MethodArgs {
     }
 
     /// Every method option: whether it was given, its flag and its method.
-    fn options(&self) -> [OptionOwner; 20] {
+    fn options(&self) -> [OptionOwner; 23] {
         [
             (self.tets.is_some(), "--tets", DIFFUSION),
             (self.tolerance.is_some(), "--tolerance", DIFFUSION),
@@ -483,6 +497,9 @@ impl MethodArgs {
             (self.scattering.is_some(), "--scattering", &[RADIOSITY]),
             (self.profile_distance.is_some(), "--profile-distance", &[RADIOSITY]),
             (self.profile_het.is_some(), "--profile-het", &[RADIOSITY]),
+            (self.prt_samples.is_some(), "--prt-samples", &[PRT]),
+            (self.prt_terms.is_some(), "--prt-terms", &[PRT]),
+            (self.prt_basis.is_some(), "--prt-basis", &[PRT]),
         ]
     }
 
@@ -547,6 +564,17 @@ impl MethodArgs {
                     backend: self.backend.or(d.backend),
                 })
             }
+            Method::Prt(d) => Method::Prt(PrtOptions {
+                samples_log2: self.prt_samples.unwrap_or(d.samples_log2),
+                terms_per_vertex: self.prt_terms.map_or(Ok(d.terms_per_vertex), usize::try_from)?,
+                basis: match self.prt_basis {
+                    None => d.basis,
+                    Some(12) => BasisSize::K12,
+                    Some(16) => BasisSize::K16,
+                    Some(k) => bail!("--prt-basis {k}: the bases have 12 or 16 functions"),
+                },
+                ..d
+            }),
             _ => bail!("{}", Method::unknown(name)),
         };
         method.validate().map_err(|e| anyhow!(e))?;

@@ -74,6 +74,9 @@ fn uniform_sphere_matches_the_closed_form() {
     }
 }
 
+/// q at points with unit normals.
+type LightAt<'a> = dyn Fn(&[DVec3], &[DVec3]) -> Vec<[f64; 3]> + 'a;
+
 /// The exitance of `medium` at `receivers` by direct summation of the exact dipole: over
 /// `samples` (with their irradiance `q`) for the cells beyond `near` mm, and by adaptive
 /// cubature of Rd(‖y − x‖) q(y) on the triangles of the cells within it, with q computed at
@@ -86,7 +89,7 @@ fn brute_force(
     medium: &Medium,
     receivers: &[DVec3],
     near: f64,
-    light: &dyn Fn(&[DVec3], &[DVec3]) -> Vec<[f64; 3]>,
+    light: &LightAt<'_>,
 ) -> Vec<[f64; 3]> {
     let dipoles = [0, 1, 2].map(|c| medium.dipole(c));
     let z_r = dipoles.iter().map(|d| d.z_r).fold(f64::INFINITY, f64::min);
@@ -95,13 +98,13 @@ fn brute_force(
         .iter()
         .map(|&x| {
             let mut b = [0.0; 3];
-            for j in 0..samples.len() {
+            for (j, qj) in q.iter().enumerate() {
                 if near_triangle(mesh, samples, samples.triangles[j] as usize, x, near) {
                     continue;
                 }
                 let r = samples.positions[j].distance(x);
                 for c in 0..3 {
-                    b[c] += samples.areas[j] * dipoles[c].rd(r) * q[j][c];
+                    b[c] += samples.areas[j] * dipoles[c].rd(r) * qj[c];
                 }
             }
             let (mut points, mut point_normals, mut weights) = (Vec::new(), Vec::new(), Vec::new());

@@ -147,6 +147,7 @@ STRUCTS = [
     binding.TcBakeStats,
     binding.TcDipoleStats,
     binding.TcRadiosityOptions,
+    binding.TcPrtOptions,
     binding.TcRadiosityStats,
     binding.TcMediumEdit,
     binding.TcEditStats,
