@@ -33,6 +33,8 @@
 //! | [`mesher`] | surface → quality tetrahedra (winding numbers, isosurface stuffing) |
 //! | [`volume`] | heterogeneous media on tets: tables, layers, veins, voxels |
 //! | [`light`] | lights and environments, the transmitted source q(x) |
+//! | [`hierarchy`] | the hierarchical dipole's cluster trees and links |
+//! | [`prt`] | precomputed translucent transfer: the dipole's PCA basis, samples, Haar, compressed rows |
 //! | [`sparse`] | CSR matrices, CG/BiCGSTAB, preconditioners, multiresolution hierarchies |
 //! | [`diffusion`] | TransCut's diffusion system (eqs. 9–14), solvers, eq. 3 |
 //! | [`gpu`] | the wgpu backend and the CPU/GPU choice |
