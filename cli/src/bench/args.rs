@@ -30,6 +30,11 @@ pub enum Suite {
     /// on-the-fly, render and incremental (after a Perlin deformation) at --subdivisions, the
     /// error against the O(n²) sum for several oracles, and the paper's 98k-leaf case.
     Dipole,
+    /// PRT (R. Wang et al. 2008) on --input (60 mm, marble, a shadowed sun) at --prt-samples:
+    /// the precompute (time, transfer bytes, dropped energy, peak memory), a relight after
+    /// turning the sun 5°, a whole-object material edit and a scale change, and the TransCut
+    /// editor's same edit at the first --tets for the ratio.
+    Prt,
     /// Translucent radiosity at --patch-sizes: the radiosity stage on an opaque Cornell box
     /// (200 mm, a diffuse 60 × 60 × 120 mm block, a point light: patches, nonzeros and memory of
     /// the form factors, their time, Jacobi against Gauss–Seidel to 1e-3), then the --scene
@@ -82,4 +87,7 @@ pub struct BenchArgs {
     /// The `radiosity` suite's tets per translucent object (default: the scene file's).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=20_000_000))]
     pub radiosity_tets: Option<u64>,
+    /// The `prt` suite's irradiance samples, log₂.
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(4..=18))]
+    pub prt_samples: u32,
 }

@@ -10,6 +10,7 @@ mod edit;
 mod fig7;
 mod mesh;
 mod multires;
+mod prt;
 mod radiosity;
 mod radiosity_coupled;
 mod solve;
@@ -26,5 +27,6 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Suite::Edit => edit::run(args),
         Suite::Dipole => dipole::run(args),
         Suite::Radiosity => radiosity::run(args),
+        Suite::Prt => prt::run(args),
     }
 }
