@@ -477,23 +477,7 @@ pub(super) fn distance_rule(pieces: &[[DVec3; 3]], x: DVec3, shift: f64, area: f
 
 /// The 7-point degree-5 rule on a triangle (Radon 1948; Stroud T2:5-1): points and weights
 /// (weights summing to the area).
-pub(super) fn rule7([a, b, c]: [DVec3; 3]) -> [(DVec3, f64); 7] {
-    let area = 0.5 * (b - a).cross(c - a).length();
-    let s15 = 15f64.sqrt();
-    let (a1, b1) = ((6.0 - s15) / 21.0, (9.0 + 2.0 * s15) / 21.0);
-    let (a2, b2) = ((6.0 + s15) / 21.0, (9.0 - 2.0 * s15) / 21.0);
-    let (w1, w2) = ((155.0 - s15) / 1200.0 * area, (155.0 + s15) / 1200.0 * area);
-    let at = |l0: f64, l1: f64, l2: f64| a * l0 + b * l1 + c * l2;
-    [
-        (at(1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0), 9.0 / 40.0 * area),
-        (at(b1, a1, a1), w1),
-        (at(a1, b1, a1), w1),
-        (at(a1, a1, b1), w1),
-        (at(b2, a2, a2), w2),
-        (at(a2, b2, a2), w2),
-        (at(a2, a2, b2), w2),
-    ]
-}
+pub(super) use crate::optics::quadrature::triangle_rule7_points as rule7;
 
 /// The profile matrix S of one object, per channel, with its samples for re-indexing.
 #[derive(Debug, Clone, PartialEq)]
