@@ -281,6 +281,16 @@ fn edits_equal_fresh_bakes() {
     assert!(relative_l2(&doubled, &fresh) > 0.01);
 }
 
+/// The bake does not depend on the number of threads: every row is one vertex's, summed in a
+/// fixed order.
+#[test]
+fn the_bake_does_not_depend_on_the_thread_count() {
+    let scene = Scene { objects: vec![ball(Medium::preset("marble").unwrap())], lights: vec![sun(DVec3::new(0.3, -0.2, -1.0))] };
+    let one = bake(&scene, &BakeOptions { threads: 1, ..prt_options() }).unwrap().objects.remove(0).radiance;
+    let two = bake(&scene, &BakeOptions { threads: 2, ..prt_options() }).unwrap().objects.remove(0).radiance;
+    assert_eq!(one, two);
+}
+
 /// What the method cannot represent is refused with the method named, before any work, and an
 /// update it cannot do leaves the object as it was.
 #[test]

@@ -487,6 +487,48 @@ mod tests {
         }
     }
 
+    /// The paper's Fig. 4c/d analogue for the K = 12 basis (design/prt.md §7): over a 60 × 60 log
+    /// grid of σa, σ′s ∈ [1e-6, 5] mm⁻¹ at η = 1.3 (off the training grid), restricted to
+    /// σ′s ≥ 0.1 and σa ≤ σ′s, at least 98% of the media have a planar exitance (the disc
+    /// integral to R_max, against the closed form) within 1e-3 (98.1%; the note measured
+    /// 99.4%). The note's second share, a relative L∞ error of the profile below 1e-2 for 95% of
+    /// them, is not reached: 56% against the profile's peak at the nodes (the note does not say
+    /// how it measured L∞; a 12-term basis trained at η = 1.3 alone on a 100 × 100 grid, as the
+    /// note's, gives 58%), so it is reported, not asserted.
+    #[test]
+    fn k12_covers_the_papers_region() {
+        let b = RdBasis::get(BasisSize::K12);
+        let k = b.terms();
+        let mut discs = vec![0.0; k];
+        b.disc(R_MAX, &mut discs);
+        let sigma = |i: usize| 1e-6 * (5e6f64).powf(i as f64 / 59.0);
+        let (mut count, mut linf_ok, mut planar_ok) = (0, 0, 0);
+        for ia in 0..60 {
+            for is in 0..60 {
+                let (sa, ss) = (sigma(ia), sigma(is));
+                if ss < 0.1 || sa > ss {
+                    continue;
+                }
+                count += 1;
+                let d = Dipole::new(sa, ss, 1.3);
+                let (w, _) = b.project(&d);
+                let (mut worst, mut peak) = (0.0f64, 0.0f64);
+                for i in 0..NODES {
+                    let exact = d.rd(node_radius(i));
+                    let approx: f64 = (0..k).map(|j| w[j] * b.node_value(i, j)).sum();
+                    worst = worst.max((approx - exact).abs());
+                    peak = peak.max(exact.abs());
+                }
+                linf_ok += usize::from(worst < 1e-2 * peak);
+                let planar: f64 = (0..k).map(|j| w[j] * discs[j]).sum();
+                planar_ok += usize::from((planar / d.disc_integral(R_MAX) - 1.0).abs() < 1e-3);
+            }
+        }
+        let (linf, planar) = (linf_ok as f64 / count as f64, planar_ok as f64 / count as f64);
+        eprintln!("K12 over {count} media: L∞ < 1e-2 for {:.1}%, planar < 1e-3 for {:.1}%", 100.0 * linf, 100.0 * planar);
+        assert!(planar >= 0.98, "planar share {planar} (L∞ share {linf})");
+    }
+
     /// The projection's residual is the weighted relative L² at the nodes, computed directly.
     #[test]
     fn residual_is_the_weighted_error_at_the_nodes() {
