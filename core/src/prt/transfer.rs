@@ -48,17 +48,15 @@ pub struct Transfer {
     samples: usize,
     index_bits: u32,
     /// Per (vertex, k), its terms: `terms[row_start[v K + k]..row_start[v K + k + 1]]`.
-    row_start: Vec<u32>,
+    row_start: Vec<u64>,
     terms: Vec<u32>,
     /// Per (vertex, k), the value of one quantisation step.
     steps: Vec<f32>,
     stats: TransferStats,
 }
 
-/// One vertex's rows compressed ([`compress`]).
+/// One vertex's rows compressed ([`compress`]; the terms themselves are written in place).
 struct Compressed {
-    /// The kept terms, row by row, each row in index order.
-    packed: Vec<u32>,
     /// Per row, its number of terms and its quantisation step.
     counts: [u32; MAX_TERMS],
     steps: [f32; MAX_TERMS],
@@ -99,11 +97,14 @@ impl Transfer {
         let weights: Vec<f32> = basis.singular_values().iter().map(|s| (s / basis.singular_values()[0]) as f32).collect();
         let done = AtomicUsize::new(0);
         let stop = AtomicBool::new(false);
+        // Every vertex keeps exactly `budget` terms: each writes its own slice, in place.
+        let mut terms = vec![0u32; receivers.len() * budget];
         let per_vertex: Vec<Option<Compressed>> = receivers
             .par_iter()
+            .zip(terms.par_chunks_mut(budget))
             .map_init(
                 || Scratch { rows: vec![0.0; k * n], haar: vec![0.0; n], keys: Vec::with_capacity(k * n), near: Vec::new() },
-                |scratch, &x| {
+                |scratch, (&x, out)| {
                     if stop.load(Ordering::Relaxed) {
                         return None;
                     }
@@ -114,7 +115,7 @@ impl Transfer {
                     for row in scratch.rows.chunks_exact_mut(n) {
                         haar::forward(row, &mut scratch.haar);
                     }
-                    let kept = compress(&scratch.rows, n, &weights, budget, index_bits, &mut scratch.keys);
+                    let kept = compress(&scratch.rows, n, &weights, index_bits, &mut scratch.keys, out);
                     let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
                     if finished.is_multiple_of(64) && poll(finished as f64 / receivers.len() as f64).is_err() {
                         stop.store(true, Ordering::Relaxed);
@@ -127,21 +128,18 @@ impl Transfer {
             return Err(PrtError::Cancelled(Cancelled));
         }
         let mut row_start = Vec::with_capacity(receivers.len() * k + 1);
-        row_start.push(0u32);
-        let total: usize = per_vertex.iter().flatten().map(|p| p.packed.len()).sum();
-        let mut terms = Vec::with_capacity(total);
+        row_start.push(0u64);
         let mut steps = Vec::with_capacity(receivers.len() * k);
         let (mut dropped_sum, mut dropped_max) = (0.0, 0.0f64);
-        for Compressed { packed, counts, steps: row_steps, dropped } in per_vertex.into_iter().flatten() {
-            terms.extend_from_slice(&packed);
+        for Compressed { counts, steps: row_steps, dropped } in per_vertex.into_iter().flatten() {
             for j in 0..k {
-                row_start.push(row_start.last().unwrap() + counts[j]);
+                row_start.push(row_start.last().unwrap() + u64::from(counts[j]));
                 steps.push(row_steps[j]);
             }
             dropped_sum += dropped;
             dropped_max = dropped_max.max(dropped);
         }
-        let bytes = terms.len() * 4 + row_start.len() * 4 + steps.len() * 4;
+        let bytes = terms.len() * 4 + row_start.len() * 8 + steps.len() * 4;
         let stats = TransferStats {
             terms: terms.len(),
             bytes,
@@ -374,10 +372,12 @@ fn largest_key(keys: &mut Vec<f32>, budget: usize) -> (f32, usize) {
     (t, above + larger_in_bucket)
 }
 
-/// One vertex's rows (Haar coefficients, row k at k N) compressed: the `budget` coefficients of
-/// largest |c| wₖ (every row's coefficient 0 first), packed per row in index order.
-fn compress(rows: &[f32], n: usize, weights: &[f32], budget: usize, index_bits: u32, keys: &mut Vec<f32>) -> Compressed {
+/// One vertex's rows (Haar coefficients, row k at k N) compressed into `out`: its length in
+/// coefficients of largest |c| wₖ (every row's coefficient 0 first), packed per row in index
+/// order.
+fn compress(rows: &[f32], n: usize, weights: &[f32], index_bits: u32, keys: &mut Vec<f32>, out: &mut [u32]) -> Compressed {
     let k = weights.len();
+    let budget = out.len();
     let key = |kk: usize, i: usize| if i == 0 { f32::INFINITY } else { rows[kk * n + i].abs() * weights[kk] };
     // The threshold: the budget-th largest key (every key kept when the budget is everything).
     let (threshold, above) = if budget >= k * n {
@@ -392,7 +392,7 @@ fn compress(rows: &[f32], n: usize, weights: &[f32], budget: usize, index_bits: 
     let mut ties = budget.saturating_sub(above);
     let value_bits = 32 - index_bits;
     let qmax = ((1u32 << (value_bits - 1)) - 1) as f32;
-    let mut packed = Vec::with_capacity(budget);
+    let mut written = 0;
     let (mut counts, mut steps) = ([0u32; MAX_TERMS], [0.0f32; MAX_TERMS]);
     let (mut all, mut dropped) = (0.0f64, 0.0f64);
     let mut kept: Vec<(u32, f32)> = Vec::new();
@@ -418,13 +418,15 @@ fn compress(rows: &[f32], n: usize, weights: &[f32], budget: usize, index_bits: 
         let step = if largest > 0.0 { largest / qmax } else { 1.0 };
         for &(i, c) in &kept {
             let q = (c / step).round() as i32;
-            packed.push((i << value_bits) | (q as u32 & ((1u32 << value_bits) - 1)));
+            out[written] = (i << value_bits) | (q as u32 & ((1u32 << value_bits) - 1));
+            written += 1;
         }
         counts[kk] = kept.len() as u32;
         steps[kk] = step;
     }
     let dropped = if all > 0.0 { (dropped / all).sqrt() } else { 0.0 };
-    Compressed { packed, counts, steps, dropped }
+    debug_assert_eq!(written, budget);
+    Compressed { counts, steps, dropped }
 }
 
 #[cfg(test)]
