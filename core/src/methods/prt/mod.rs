@@ -135,22 +135,25 @@ fn weights_of(
     medium: &Medium,
     scale: f64,
 ) -> Result<([Vec<f64>; 3], [f64; 3]), PrtError> {
-    let scaled = PrtState::scaled_medium(medium, scale);
-    scaled.validate().map_err(|e| PrtError::Medium(e.to_string()))?;
-    let h = samples.spacing();
+    weights_for(basis, &PrtState::scaled_medium(medium, scale), samples.spacing(), samples.len())
+}
+
+/// The basis weights of `medium` for `count` samples `spacing` mm apart, or why the transfer
+/// cannot take it: σ′t h above [`MAX_RESOLUTION`], a projection residual above [`MAX_RESIDUAL`].
+fn weights_for(basis: BasisSize, medium: &Medium, spacing: f64, count: usize) -> Result<([Vec<f64>; 3], [f64; 3]), PrtError> {
+    medium.validate().map_err(|e| PrtError::Medium(e.to_string()))?;
     for c in 0..3 {
-        let sigma_t = scaled.sigma_a[c] + scaled.sigma_s_prime[c];
-        if sigma_t * h > MAX_RESOLUTION {
+        let sigma_t = medium.sigma_a[c] + medium.sigma_s_prime[c];
+        if sigma_t * spacing > MAX_RESOLUTION {
             return Err(PrtError::Medium(format!(
-                "channel {c}: σ′t = {sigma_t:.3}/mm is too dense for {} samples {h:.3} mm apart (σ′t h = {:.2} > {MAX_RESOLUTION}): \
-                 bake with more samples (samples_log2) or use transcut",
-                samples.len(),
-                sigma_t * h
+                "channel {c}: σ′t = {sigma_t:.3}/mm is too dense for {count} samples {spacing:.3} mm apart (σ′t h = {:.2} > \
+                 {MAX_RESOLUTION}): bake with more samples (samples_log2) or use transcut",
+                sigma_t * spacing
             )));
         }
     }
     let basis = RdBasis::get(basis);
-    let (weights, residual) = basis.project_medium(&scaled);
+    let (weights, residual) = basis.project_medium(medium);
     for (c, r) in residual.iter().enumerate() {
         if !(*r <= MAX_RESIDUAL) {
             return Err(PrtError::Medium(format!(
@@ -159,8 +162,8 @@ fn weights_of(
                 basis.terms(),
                 100.0 * r,
                 100.0 * MAX_RESIDUAL,
-                scaled.sigma_a[c],
-                scaled.sigma_s_prime[c]
+                medium.sigma_a[c],
+                medium.sigma_s_prime[c]
             )));
         }
     }
@@ -215,27 +218,11 @@ impl SubsurfaceMethod for Prt {
         let unsupported =
             |reason| SceneError::Unsupported { index: target.index, name: target.object.name.clone(), method: NAME, reason };
         let medium = super::homogeneous_medium(target.object).map_err(unsupported)?;
-        // The resolution check needs the spacing: √(A/N) of the world surface in millimetres.
+        // The samples' spacing √(A/N) of the world surface in millimetres, before they exist.
         let mm = target.object.mm_per_unit;
-        let h = (target.world.area() * mm * mm / f64::from(1u32 << options.samples_log2)).sqrt();
-        let sigma_t = (0..3).map(|c| medium.sigma_a[c] + medium.sigma_s_prime[c]).fold(0.0, f64::max);
-        if sigma_t * h > MAX_RESOLUTION {
-            return Err(unsupported(format!(
-                "σ′t = {sigma_t:.3}/mm is too dense for 2^{} samples {h:.3} mm apart (σ′t h = {:.2} > {MAX_RESOLUTION}): raise \
-                 samples_log2 or use transcut",
-                options.samples_log2,
-                sigma_t * h
-            )));
-        }
-        let (_, residual) = RdBasis::get(options.basis).project_medium(&medium);
-        if let Some(c) = (0..3).find(|&c| !(residual[c] <= MAX_RESIDUAL)) {
-            return Err(unsupported(format!(
-                "channel {c}: the {}-term basis represents this medium's profile only to {:.1}% (at most {:.0}%)",
-                options.basis.terms(),
-                100.0 * residual[c],
-                100.0 * MAX_RESIDUAL
-            )));
-        }
+        let count = 1usize << options.samples_log2;
+        let h = (target.world.area() * mm * mm / count as f64).sqrt();
+        weights_for(options.basis, &medium, h, count).map_err(|e| scene_error(target, e))?;
         Ok(())
     }
 
