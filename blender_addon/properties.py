@@ -39,7 +39,12 @@ PRESET_ITEMS = tuple((n, n.capitalize(), f"Measured '{n}'") for n in PRESET_NAME
 
 
 #: The Method menu's labels of the library's method names (others: the name in title case).
-METHOD_LABELS = {"transcut": "TransCut", "hierarchical-dipole": "Hierarchical Dipole", "radiosity": "Radiosity"}
+METHOD_LABELS = {
+    "transcut": "TransCut",
+    "hierarchical-dipole": "Hierarchical Dipole",
+    "radiosity": "Radiosity",
+    "prt": "PRT",
+}
 
 #: Translucent radiosity's iterations (``Scene.bake(iteration=...)`` names, upper case with ``_``).
 RADIOSITY_ITERATION_ITEMS = (
