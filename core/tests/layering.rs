@@ -119,6 +119,7 @@ const CLI: Table = &[
     ("bench/multires", &["bench/args", "bench/fig7"]),
     ("bench/edit", &["bench/args", "bench/fig7", "bench/stats"]),
     ("bench/dipole", &["bench/args", "bench/stats"]),
+    ("bench/prt", &["bench/args", "bench/stats"]),
     ("bench/radiosity_coupled", &["bench/stats", "method_args", "scene_file"]),
     ("bench/radiosity", &["bench/args", "bench/radiosity_coupled", "bench/stats"]),
     (
@@ -130,6 +131,7 @@ const CLI: Table = &[
             "bench/edit",
             "bench/mesh",
             "bench/multires",
+            "bench/prt",
             "bench/radiosity",
             "bench/solve",
         ],
