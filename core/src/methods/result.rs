@@ -137,6 +137,9 @@ pub struct ObjectStats {
     pub backend_fallback: Option<String>,
     /// The mesher's own statistics (`None` for an object given as a ready tet mesh).
     pub meshing: Option<MesherStats>,
+    /// Whether the light-independent part was read from a saved precompute instead of computed
+    /// (PRT with a cache, [`crate::prt::PrtCache`]).
+    pub precompute_loaded: bool,
 }
 
 impl ObjectStats {
@@ -162,6 +165,7 @@ impl ObjectStats {
             device: None,
             backend_fallback: None,
             meshing: None,
+            precompute_loaded: false,
         }
     }
 }

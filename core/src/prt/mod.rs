@@ -20,18 +20,35 @@
 
 pub mod basis;
 pub mod haar;
+pub mod io;
 pub(crate) mod near;
 pub mod samples;
 pub mod transfer;
 
 pub use basis::{BasisSize, RdBasis};
+pub use io::{PrecomputeFileError, PrecomputeHeader, PrecomputeKey};
 pub use samples::SurfaceSamples;
 pub use transfer::{haar_irradiance, Transfer, TransferStats};
 
+use std::path::PathBuf;
+
 use crate::progress::Cancelled;
 
+/// Where precomputed transfers are kept between sessions ([`io`]): a bake looks there first and
+/// precomputes only when it finds no transfer of this surface and these options.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum PrtCache {
+    /// A folder of `.tcprt` files named by their [`PrecomputeKey`]: a transfer found there is
+    /// used, one not found (or unreadable: an old version, a damaged file) is precomputed and
+    /// written there.
+    Folder(PathBuf),
+    /// One `.tcprt` file: used when it exists (an error when it was made for another surface or
+    /// other options), precomputed and written when it does not.
+    File(PathBuf),
+}
+
 /// How a PRT precompute samples, corrects and compresses the transfer.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct PrtOptions {
     /// log₂ of the irradiance samples N, in [4, [`samples::MAX_SAMPLES_LOG2`]] (default 16).
     pub samples_log2: u32,
@@ -48,11 +65,21 @@ pub struct PrtOptions {
     pub near_radius: f64,
     /// The seed of the sample pattern.
     pub seed: u64,
+    /// Where transfers are kept between sessions (default none: every bake precomputes).
+    pub cache: Option<PrtCache>,
 }
 
 impl Default for PrtOptions {
     fn default() -> Self {
-        Self { samples_log2: 16, basis: BasisSize::K16, terms_per_vertex: 3072, near_field: true, near_radius: 8.0, seed: 0 }
+        Self {
+            samples_log2: 16,
+            basis: BasisSize::K16,
+            terms_per_vertex: 3072,
+            near_field: true,
+            near_radius: 8.0,
+            seed: 0,
+            cache: None,
+        }
     }
 }
 
@@ -92,6 +119,9 @@ pub enum PrtError {
     /// A medium the precomputed transfer cannot represent.
     #[error("medium: {0}")]
     Medium(String),
+    /// A saved transfer could not be read or written.
+    #[error("precompute file: {0}")]
+    File(#[from] PrecomputeFileError),
     /// The caller stopped the work.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),

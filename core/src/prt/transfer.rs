@@ -43,16 +43,16 @@ pub struct TransferStats {
 /// The compressed transfer of one surface.
 #[derive(Debug, Clone)]
 pub struct Transfer {
-    terms_per_row: usize,
-    vertices: usize,
-    samples: usize,
-    index_bits: u32,
+    pub(super) terms_per_row: usize,
+    pub(super) vertices: usize,
+    pub(super) samples: usize,
+    pub(super) index_bits: u32,
     /// Per (vertex, k), its terms: `terms[row_start[v K + k]..row_start[v K + k + 1]]`.
-    row_start: Vec<u64>,
-    terms: Vec<u32>,
+    pub(super) row_start: Vec<u64>,
+    pub(super) terms: Vec<u32>,
     /// Per (vertex, k), the value of one quantisation step.
-    steps: Vec<f32>,
-    stats: TransferStats,
+    pub(super) steps: Vec<f32>,
+    pub(super) stats: TransferStats,
 }
 
 /// One vertex's rows compressed ([`compress`]; the terms themselves are written in place).
@@ -172,6 +172,32 @@ impl Transfer {
     #[must_use]
     pub fn stats(&self) -> &TransferStats {
         &self.stats
+    }
+
+    /// The bits of a packed term's sample index (the top bits; the value takes the other
+    /// 32 − `index_bits`, signed), as [`Transfer::apply`] decodes them.
+    #[must_use]
+    pub fn index_bits(&self) -> u32 {
+        self.index_bits
+    }
+
+    /// Per row (vertex v, basis function k at v K + k), where its terms start in
+    /// [`Transfer::packed_terms`]; one more entry than rows, the last the number of terms.
+    #[must_use]
+    pub fn row_start(&self) -> &[u64] {
+        &self.row_start
+    }
+
+    /// The packed terms of every row, row after row ([`Transfer::index_bits`]).
+    #[must_use]
+    pub fn packed_terms(&self) -> &[u32] {
+        &self.terms
+    }
+
+    /// Per row, the value of one quantisation step.
+    #[must_use]
+    pub fn steps(&self) -> &[f32] {
+        &self.steps
     }
 
     /// Per vertex v, basis function k and channel c, (Tₖ^w q^w)[v] into `out[(v K + k) 3 + c]`,

@@ -25,7 +25,7 @@ use crate::edit::{Cutter, EditError, EditOptions, Editor, MediumEdit, PaintStrok
 use crate::light::Light;
 use crate::methods::capability::{Cut, Deform, EditMedium, Relight};
 use crate::methods::hierarchical_dipole::{DipoleLive, DipoleUndo};
-use crate::methods::prt::{PrtLive, PrtUndo};
+use crate::methods::prt::{PrtLive, PrtState, PrtUndo};
 use crate::methods::{BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 use crate::progress::{Cancelled, Progress};
 use crate::scene::{BakeOptions, MediumSource, Method, Scene, SceneError};
@@ -563,6 +563,40 @@ impl Session {
         Ok(match &self.slot(index)?.state {
             State::Live(Live::Prt(p)) => Some(p),
             State::Live(Live::TransCut(_) | Live::HierarchicalDipole(_)) | State::Baked(_) => None,
+        })
+    }
+
+    /// The PRT state of object `index`: its live state's from its first update on, else its
+    /// bake's; `None` for an object another method baked.
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`].
+    pub fn prt_state(&self, index: usize) -> Result<Option<&PrtState>, SessionError> {
+        Ok(match &self.slot(index)?.state {
+            State::Live(Live::Prt(p)) => Some(p.state()),
+            State::Live(_) => None,
+            State::Baked(bake) => bake.prt(),
+        })
+    }
+
+    /// Saves object `index`'s precomputed transfer to `path` ([`PrtState::save`]), for a later
+    /// bake of the same surface and options to read instead of precomputing.
+    ///
+    /// # Errors
+    /// [`SessionError::Unsupported`] for an object another method baked;
+    /// [`SessionError::Edit`] with the file's error.
+    pub fn save_prt(&self, index: usize, path: &std::path::Path) -> Result<(), SessionError> {
+        let slot = self.slot(index)?;
+        let state = self.prt_state(index)?.ok_or_else(|| SessionError::Unsupported {
+            index,
+            name: slot.name.clone(),
+            method: slot.method,
+            capability: "save a precomputed transfer",
+        })?;
+        state.save(path).map_err(|e| SessionError::Edit {
+            index,
+            name: slot.name.clone(),
+            source: Box::new(EditError::Prt(crate::prt::PrtError::File(e))),
         })
     }
 

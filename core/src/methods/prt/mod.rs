@@ -21,6 +21,7 @@ mod live;
 
 pub use live::{PrtLive, PrtUndo};
 
+use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -31,7 +32,10 @@ use crate::light::LightError;
 use crate::mesh::TriMesh;
 use crate::optics::{fdr, ft_out, Medium};
 use crate::progress::ms;
-use crate::prt::{haar_irradiance, BasisSize, PrtError, PrtOptions, RdBasis, SurfaceSamples, Transfer, TransferStats};
+use crate::prt::{
+    haar_irradiance, io, BasisSize, PrecomputeFileError, PrecomputeKey, PrtCache, PrtError, PrtOptions, RdBasis, SurfaceSamples,
+    Transfer, TransferStats,
+};
 use crate::scene::SceneError;
 
 /// The method's name.
@@ -78,6 +82,10 @@ pub struct PrtState {
     pub(crate) gathered: Vec<f64>,
     /// Per output vertex, the receiver whose radiance it takes (`None`: inside a tet mesh, 0).
     pub(crate) output: Vec<Option<u32>>,
+    /// What the transfer depends on, hashed: the name of its saved file.
+    pub key: PrecomputeKey,
+    /// The options the transfer was computed with (without a cache).
+    pub options: PrtOptions,
 }
 
 impl PrtState {
@@ -91,6 +99,15 @@ impl PrtState {
     #[must_use]
     pub fn transfer_stats(&self) -> &TransferStats {
         self.transfer.stats()
+    }
+
+    /// Saves the precomputed transfer to `path` (a `.tcprt` file, [`crate::prt::io`]), for a
+    /// later bake of the same surface and options to read ([`crate::prt::PrtCache`]).
+    ///
+    /// # Errors
+    /// [`PrecomputeFileError`] when the file cannot be written.
+    pub fn save(&self, path: &Path) -> Result<(), PrecomputeFileError> {
+        io::write(path, self.key, &self.options, self.transfer_mm_per_unit, &self.transfer)
     }
 
     /// The medium the transfer sees at the current scale: σ multiplied by mm_per_unit over the
@@ -168,6 +185,36 @@ fn weights_for(basis: BasisSize, medium: &Medium, spacing: f64, count: usize) ->
         }
     }
     Ok((weights, residual))
+}
+
+/// The transfer of `key` from `cache` when it holds it (and whether it did), else `compute`d and
+/// written there. For [`PrtCache::File`] an existing file must be this transfer's (its absence
+/// alone means "precompute"); in a [`PrtCache::Folder`] an unreadable entry (another version, a
+/// damaged file) is replaced.
+fn cached_transfer(
+    cache: Option<&PrtCache>,
+    key: PrecomputeKey,
+    options: &PrtOptions,
+    mm_per_unit: f64,
+    compute: impl FnOnce() -> Result<Transfer, PrtError>,
+) -> Result<(Transfer, bool), PrtError> {
+    let Some(cache) = cache else { return Ok((compute()?, false)) };
+    let path = match cache {
+        PrtCache::Folder(dir) => dir.join(format!("{key}.tcprt")),
+        PrtCache::File(path) => path.clone(),
+    };
+    match io::read(&path, key) {
+        Ok(transfer) => return Ok((transfer, true)),
+        Err(PrecomputeFileError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) if matches!(cache, PrtCache::File(_)) => return Err(e.into()),
+        Err(_) => {}
+    }
+    let transfer = compute()?;
+    if let PrtCache::Folder(dir) = cache {
+        std::fs::create_dir_all(dir).map_err(|source| PrtError::File(PrecomputeFileError::Io { path: dir.clone(), source }))?;
+    }
+    io::write(&path, key, options, mm_per_unit, &transfer)?;
+    Ok((transfer, false))
 }
 
 /// Lo per output vertex: C(η) Σₖ sₖ,c (Tₖ q)[v, c], clamped at 0; how many the clamp changed.
@@ -256,10 +303,15 @@ impl SubsurfaceMethod for Prt {
         stage("transfer", 0.05)?;
         let t = Instant::now();
         let basis = RdBasis::get(options.basis);
-        let transfer = Transfer::precompute(&receivers, &positions, surface.triangles(), &samples, basis, options, &|f| {
-            stage("transfer", 0.05 + 0.85 * f)
+        let key = PrecomputeKey::new(&positions, surface.triangles(), &receivers, options);
+        let uncached = PrtOptions { cache: None, ..options.clone() };
+        let (transfer, loaded) = cached_transfer(options.cache.as_ref(), key, &uncached, mm, || {
+            Transfer::precompute(&receivers, &positions, surface.triangles(), &samples, basis, options, &|f| {
+                stage("transfer", 0.05 + 0.85 * f)
+            })
         })
         .map_err(|e| scene_error(target, e))?;
+        stats.precompute_loaded = loaded;
         stats.assembly_ms = ms(t);
         stats.vertices = receivers.len();
         stats.boundary_vertices = receivers.len();
@@ -279,6 +331,8 @@ impl SubsurfaceMethod for Prt {
             irradiance: Vec::new(),
             gathered: Vec::new(),
             output,
+            key,
+            options: uncached,
         })
     }
 
