@@ -18,13 +18,13 @@
 
 use std::f64::consts::PI;
 use std::path::Path;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 use super::error::LightError;
-use super::sh::{AzimuthFactors, PolarFactors};
+use super::sh::{sh_azimuth_factors, sh_index, sh_polar_factors, AzimuthFactors, PolarFactors, MAX_ORDER};
 use crate::input::{quote, BoundedFile, Limits};
 
 /// The largest environment map file [`EquirectMap::load`] reads, in bytes (1 GiB).
@@ -139,6 +139,18 @@ struct MapData {
     sh9: [[f64; 9]; 3],
     /// `None` when every texel is black.
     sampler: Option<MapSampler>,
+    /// The projection to order [`MAX_ORDER`], made on first use ([`EquirectMap::sh`]).
+    sh: ShCache,
+}
+
+/// A projection made on first use; a function of the texels, so never part of a comparison.
+#[derive(Default)]
+struct ShCache(OnceLock<Vec<[f64; 3]>>);
+
+impl PartialEq for ShCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 /// The CDFs of the importance sampling described on [`EquirectMap`].
@@ -256,7 +268,7 @@ impl EquirectMap {
         if let Some(i) = texels.iter().position(|t| t.iter().any(|c| !c.is_finite() || *c < 0.0)) {
             return Err(LightError::ImageTexel { x: i % width, y: i / width, value: texels[i] });
         }
-        let mut data = MapData { width, height, texels, sh9: [[0.0; 9]; 3], sampler: None };
+        let mut data = MapData { width, height, texels, sh9: [[0.0; 9]; 3], sampler: None, sh: ShCache::default() };
         data.sh9 = data.project_sh9();
         data.sampler = data.build_sampler();
         Ok(Self { data: Arc::new(data), intensity })
@@ -323,6 +335,29 @@ impl EquirectMap {
     #[must_use]
     pub fn sh9(&self) -> [[f64; 9]; 3] {
         self.data.sh9.map(|c| c.map(|v| v * self.intensity))
+    }
+
+    /// The projection L_lm = ∫ L(ω) Y_lm(ω) dω of the (piecewise-constant) map to any order n
+    /// ≤ [`MAX_ORDER`] (bands l < n, the basis of [`super::sh`], per coefficient l(l + 1) + m
+    /// the three channels), with the multiplier. Each texel's integral of Y_lm is a θ factor
+    /// times a φ factor ([`super::sh::sh_polar_factors`], [`super::sh::sh_azimuth_factors`]), so
+    /// this is the stored image's projection to rounding, and its first nine coefficients are
+    /// [`EquirectMap::sh9`]'s. The projection to [`MAX_ORDER`] is made once per image, on the
+    /// first call (rows in parallel, summed in row order: independent of the thread count), and
+    /// shared by every clone and multiplier; lower orders are its leading coefficients.
+    ///
+    /// # Errors
+    /// [`LightError::InvalidOption`] (field `sh_order`) for an order outside [1, [`MAX_ORDER`]].
+    pub fn sh(&self, order: usize) -> Result<Vec<[f64; 3]>, LightError> {
+        if !(1..=MAX_ORDER).contains(&order) {
+            return Err(LightError::InvalidOption {
+                field: "sh_order",
+                value: order.to_string(),
+                requirement: format!("must be in [1, {MAX_ORDER}]"),
+            });
+        }
+        let all = self.data.sh.0.get_or_init(|| self.data.project_sh());
+        Ok(all[..order * order].iter().map(|c| c.map(|v| v * self.intensity)).collect())
     }
 
     /// Whether every texel is black (then it casts no light and cannot be sampled).
@@ -406,6 +441,63 @@ impl MapData {
             for (o, r) in out.iter_mut().zip(row) {
                 for (oi, ri) in o.iter_mut().zip(r) {
                     *oi += ri;
+                }
+            }
+        }
+        out
+    }
+
+    /// The projection to order [`MAX_ORDER`]: per row, Σ_x L(x, y) ∫cos mφ and ∫sin mφ over
+    /// the column, times the row's θ factors; rows in parallel, summed in row order.
+    fn project_sh(&self) -> Vec<[f64; 3]> {
+        let n = MAX_ORDER;
+        let cols: Vec<Vec<(f64, f64)>> = (0..self.width)
+            .map(|x| {
+                let (p0, p1) = self.col_phis(x);
+                sh_azimuth_factors(n, p0, p1)
+            })
+            .collect();
+        let rows: Vec<Vec<[f64; 3]>> = (0..self.height)
+            .into_par_iter()
+            .map(|y| {
+                // Σ_x L ∫cos mφ and Σ_x L ∫sin mφ per m and channel.
+                let mut cos_sums = [[0.0; 3]; MAX_ORDER];
+                let mut sin_sums = [[0.0; 3]; MAX_ORDER];
+                for (t, azimuth) in self.texels[y * self.width..(y + 1) * self.width].iter().zip(&cols) {
+                    if *t == [0.0; 3] {
+                        continue;
+                    }
+                    for (m, &(c, s)) in azimuth.iter().enumerate() {
+                        for ch in 0..3 {
+                            let l = f64::from(t[ch]);
+                            cos_sums[m][ch] += l * c;
+                            sin_sums[m][ch] += l * s;
+                        }
+                    }
+                }
+                let mut out = vec![[0.0; 3]; n * n];
+                if cos_sums.iter().chain(&sin_sums).all(|v| *v == [0.0; 3]) {
+                    return out;
+                }
+                let (t0, t1) = self.row_thetas(y);
+                let polar = sh_polar_factors(n, t0, t1);
+                for m in 0..n {
+                    for l in m..n {
+                        let f = polar[l * (l + 1) / 2 + m];
+                        out[sh_index(l, m as isize)] = cos_sums[m].map(|v| f * v);
+                        if m > 0 {
+                            out[sh_index(l, -(m as isize))] = sin_sums[m].map(|v| f * v);
+                        }
+                    }
+                }
+                out
+            })
+            .collect();
+        let mut out = vec![[0.0; 3]; n * n];
+        for row in &rows {
+            for (o, r) in out.iter_mut().zip(row) {
+                for (oc, rc) in o.iter_mut().zip(r) {
+                    *oc += rc;
                 }
             }
         }
@@ -575,6 +667,52 @@ mod tests {
         for i in [1, 2, 4, 5, 6, 7, 8] {
             assert!(sh[0][i].abs() < 1e-4, "{i}: {}", sh[0][i]);
         }
+    }
+
+    #[test]
+    fn any_order_projection() {
+        // Its first nine coefficients are the closed-form SH9 projection's.
+        let m = EquirectMap::from_fn(48, 24, 1.5, |d| [(3.0 * d.x).exp(), 1.0 + d.z * d.y, 0.2]).unwrap();
+        let sh9 = m.sh9();
+        let sh = m.sh(5).unwrap();
+        assert_eq!(sh.len(), 25);
+        for c in 0..3 {
+            for i in 0..9 {
+                assert!((sh[i][c] - sh9[c][i]).abs() < 1e-12 * sh9[c][0].abs(), "{c} {i}: {} vs {}", sh[i][c], sh9[c][i]);
+            }
+        }
+        // Lower orders are the leading coefficients of higher ones.
+        assert_eq!(m.sh(8).unwrap()[..25], sh[..]);
+        // A fine map of L = Y₃,₋₂ ∝ xyz and Y₄,₄ ∝ x⁴ − 6x²y² + y⁴ (independent closed forms):
+        // coefficient 1 at its own index, ~0 elsewhere.
+        let y3 = |d: DVec3| 0.5 * (105.0 / PI).sqrt() * d.x * d.y * d.z;
+        let y4 = |d: DVec3| 3.0 / 16.0 * (35.0 / PI).sqrt() * (d.x.powi(4) - 6.0 * d.x * d.x * d.y * d.y + d.y.powi(4));
+        let fine = EquirectMap::from_fn(720, 360, 1.0, |d| [y3(d) + 1.0, y4(d) + 1.0, 1.0]).unwrap();
+        let sh = fine.sh(6).unwrap();
+        for (i, c) in sh.iter().enumerate() {
+            let expect = [
+                if i == sh_index(3, -2) {
+                    1.0
+                } else if i == 0 {
+                    (4.0 * PI).sqrt()
+                } else {
+                    0.0
+                },
+                if i == sh_index(4, 4) {
+                    1.0
+                } else if i == 0 {
+                    (4.0 * PI).sqrt()
+                } else {
+                    0.0
+                },
+                if i == 0 { (4.0 * PI).sqrt() } else { 0.0 },
+            ];
+            for ch in 0..3 {
+                assert!((c[ch] - expect[ch]).abs() < 2e-4, "{i} channel {ch}: {} vs {}", c[ch], expect[ch]);
+            }
+        }
+        assert!(matches!(m.sh(0), Err(LightError::InvalidOption { field: "sh_order", .. })));
+        assert!(matches!(m.sh(9), Err(LightError::InvalidOption { field: "sh_order", .. })));
     }
 
     #[test]

@@ -60,6 +60,7 @@ use crate::input::{fmt_num, fmt_vec};
 
 pub use environment::{direction_to_equirect, equirect_to_direction, luminance, EnvSample, Environment, EquirectMap, LUMINANCE};
 pub use error::LightError;
+pub(crate) use source::{bounding_diagonal, check_inputs};
 pub use source::{irradiance, spot_falloff, transmitted_source, transmitted_source_with, EnvironmentMethod, Poll, SourceOptions};
 
 /// A light source, in scene units. Radiometric quantities are linear RGB.

@@ -645,7 +645,7 @@ fn scale(c: [f64; 3], s: f64) -> [f64; 3] {
 }
 
 /// Diagonal of the axis-aligned box around the occluder's triangles (0 when empty).
-fn bounding_diagonal(bvh: &TriangleBvh) -> f64 {
+pub(crate) fn bounding_diagonal(bvh: &TriangleBvh) -> f64 {
     let (lo, hi) = bvh
         .corners
         .iter()
@@ -658,7 +658,9 @@ fn bounding_diagonal(bvh: &TriangleBvh) -> f64 {
     }
 }
 
-fn check_inputs(points: &[DVec3], normals: &[DVec3]) -> Result<Vec<DVec3>, LightError> {
+/// The points' checks of [`transmitted_source`] ([`LightError::LengthMismatch`],
+/// [`LightError::InvalidPoint`]) and the unit normals.
+pub(crate) fn check_inputs(points: &[DVec3], normals: &[DVec3]) -> Result<Vec<DVec3>, LightError> {
     if points.len() != normals.len() {
         return Err(LightError::LengthMismatch { points: points.len(), normals: normals.len() });
     }

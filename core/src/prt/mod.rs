@@ -19,6 +19,7 @@
 //! (Rd(sr; σ) s² = Rd(r; sσ)).
 
 pub mod basis;
+pub mod env;
 pub mod haar;
 pub mod io;
 pub(crate) mod near;
