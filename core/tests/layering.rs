@@ -28,7 +28,7 @@ const CORE: Table = &[
     ("sparse", &["input", "progress"]),
     ("radiosity", &["light", "mesh", "optics", "progress", "sparse"]),
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
-    ("gpu", &["diffusion", "hierarchy", "optics", "progress", "radiosity", "sparse"]),
+    ("gpu", &["diffusion", "hierarchy", "optics", "progress", "prt", "radiosity", "sparse"]),
     ("render", &["input", "light", "mesh", "optics", "output"]),
     (
         "scene",

@@ -22,6 +22,9 @@
 //! - [`GpuDipole`]: the hierarchical dipole of a [`crate::hierarchy::DipoleHierarchy`] on the
 //!   device (refit, pull, traversal, push; `shaders/dipole_*.wgsl`), the twin of its on-the-fly
 //!   update.
+//! - [`GpuPrt`]: a PRT transfer on the device, its product with the Haar-transformed
+//!   irradiance (`prt_relight.wgsl`) and the combine into radiance (`prt_combine.wgsl`), the
+//!   twins of [`crate::prt::Transfer::apply`] and the PRT method's combine.
 //! - [`assemble`], [`spmv_dot`], [`dot`], [`surface_radiance`] (eq. 3), [`restrict`],
 //!   [`prolong_add`], [`vcycle`]: single kernels (or one V-cycle) with CPU twins, compared in
 //!   `core/tests/gpu*.rs`.
@@ -66,6 +69,8 @@ pub mod pcg;
 #[cfg(feature = "gpu")]
 mod pool;
 #[cfg(feature = "gpu")]
+mod prt;
+#[cfg(feature = "gpu")]
 mod radiance;
 #[cfg(feature = "gpu")]
 mod radiosity;
@@ -84,6 +89,8 @@ pub use multigrid::{prolong_add, restrict, vcycle};
 pub use ops::{dot, spmv_dot};
 #[cfg(feature = "gpu")]
 pub use pcg::{solve, GpuSolution, GpuSolver, GpuStats};
+#[cfg(feature = "gpu")]
+pub use prt::{GpuPrt, LANES_PER_VERTEX};
 #[cfg(feature = "gpu")]
 pub use radiance::surface_radiance;
 #[cfg(feature = "gpu")]

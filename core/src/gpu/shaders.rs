@@ -70,11 +70,16 @@ pub enum Kernel {
     DipolePush,
     /// Radiosity: one Jacobi sweep, the gathered F B and the opaque patches' update.
     RadSweep,
+    /// PRT: the compressed transfer's product with the Haar-transformed irradiance, per
+    /// receiver vertex and basis function (R. Wang et al. 2008 eqs. 7–8).
+    PrtRelight,
+    /// PRT: Lo = C(η) Σₖ sₖ (Tₖ q) per output vertex, clamped at 0 with the clamp flagged.
+    PrtCombine,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 28] = [
+    pub const ALL: [Kernel; 30] = [
         Kernel::TetGeometry,
         Kernel::Assemble,
         Kernel::JacobiDiag,
@@ -103,6 +108,8 @@ impl Kernel {
         Kernel::DipoleTraverse,
         Kernel::DipolePush,
         Kernel::RadSweep,
+        Kernel::PrtRelight,
+        Kernel::PrtCombine,
     ];
 
     /// The file name in `shaders/`.
@@ -137,6 +144,8 @@ impl Kernel {
             Kernel::DipoleTraverse => "dipole_traverse.wgsl",
             Kernel::DipolePush => "dipole_push.wgsl",
             Kernel::RadSweep => "rad_sweep.wgsl",
+            Kernel::PrtRelight => "prt_relight.wgsl",
+            Kernel::PrtCombine => "prt_combine.wgsl",
         }
     }
 
@@ -172,6 +181,8 @@ impl Kernel {
             Kernel::DipoleTraverse => include_str!("../../../shaders/dipole_traverse.wgsl"),
             Kernel::DipolePush => include_str!("../../../shaders/dipole_push.wgsl"),
             Kernel::RadSweep => include_str!("../../../shaders/rad_sweep.wgsl"),
+            Kernel::PrtRelight => include_str!("../../../shaders/prt_relight.wgsl"),
+            Kernel::PrtCombine => include_str!("../../../shaders/prt_combine.wgsl"),
         }
     }
 

@@ -17,6 +17,7 @@
 //! marble sphere), plus the basis's truncation (≤ 9e-4 for the presets with K = 16) and the
 //! compression's (the dropped energy is in the statistics).
 
+mod device;
 mod live;
 
 pub use live::{PrtLive, PrtUndo};
@@ -86,6 +87,8 @@ pub struct PrtState {
     pub key: PrecomputeKey,
     /// The options the transfer was computed with (without a cache).
     pub options: PrtOptions,
+    /// Where the transfer's product runs ([`device`]).
+    pub(crate) device: device::PrtDevice,
 }
 
 impl PrtState {
@@ -139,7 +142,7 @@ impl PrtState {
         let points: Vec<DVec3> = self.samples.positions.iter().map(|p| *p / self.transfer_mm_per_unit).collect();
         let q = lighting.transmitted_source_with(&points, &self.samples.normals, eta, poll)?;
         let mut gathered = vec![0.0; self.transfer.vertices() * self.transfer.basis_terms() * 3];
-        self.transfer.apply(&haar_irradiance(&q), &mut gathered);
+        self.device.apply(&self.transfer, &haar_irradiance(&q), &mut gathered);
         Ok((q, gathered))
     }
 }
@@ -318,6 +321,16 @@ impl SubsurfaceMethod for Prt {
         let (weights, residual) = weights_of(&samples, options.basis, &medium, 1.0).map_err(|e| scene_error(target, e))?;
         let h = samples.spacing();
         stats.resolution = [0, 1, 2].map(|c| (medium.sigma_a[c] + medium.sigma_s_prime[c]) * h);
+        let (device, fallback) = device::PrtDevice::choose(&transfer).map_err(|source| SceneError::Gpu {
+            index: target.index,
+            name: target.object.name.clone(),
+            source,
+        })?;
+        if let Some(name) = device.name() {
+            stats.backend = crate::gpu::Backend::Gpu;
+            stats.device = Some(name);
+        }
+        stats.backend_fallback = fallback;
         Ok(PrtState {
             transfer: Arc::new(transfer),
             samples: Arc::new(samples),
@@ -333,6 +346,7 @@ impl SubsurfaceMethod for Prt {
             output,
             key,
             options: uncached,
+            device,
         })
     }
 
@@ -348,6 +362,9 @@ impl SubsurfaceMethod for Prt {
         let t = Instant::now();
         let (q, gathered) = state.gather(lighting, state.medium.eta, &|f| stage("light", 0.9 + 0.09 * f))?;
         stats.source_ms = ms(t);
+        if let Some(why) = state.device.failure() {
+            (stats.backend, stats.device, stats.backend_fallback) = (crate::gpu::Backend::Cpu, None, Some(why));
+        }
         state.irradiance = q;
         state.gathered = gathered;
         let t = Instant::now();
