@@ -531,6 +531,14 @@ typedef struct TcPrtOptions {
    * The seed of the samples' systematic offset.
    */
   uint64_t seed;
+  /**
+   * A folder of saved precomputes (UTF-8 path; NULL, the default: none). A bake reads the
+   * transfer of an object from `<folder>/<key>.tcprt` when it is there, made for the same
+   * surface, placement, scale and options, and otherwise precomputes it and writes that file
+   * (creating the folder), replacing a damaged or outdated one. The library reads the string
+   * during `tc_scene_bake` only.
+   */
+  const char *cache_dir;
 } TcPrtOptions;
 
 /**
@@ -990,6 +998,67 @@ typedef struct TcArtistMedium {
    */
   double anisotropy;
 } TcArtistMedium;
+
+/**
+ * What the PRT precompute of an object holds and what its medium is now
+ * (`tc_object_prt_stats`). The caller sets `size` to `sizeof(TcPrtStats)` before the call.
+ */
+typedef struct TcPrtStats {
+  /**
+   * `sizeof(TcPrtStats)`.
+   */
+  uint32_t size;
+  /**
+   * The basis functions K of the transfer's rows (12 or 16).
+   */
+  uint32_t basis_terms;
+  /**
+   * log₂ of the irradiance samples.
+   */
+  uint32_t samples_log2;
+  /**
+   * 1 when the bake read the transfer from a saved precompute (`TcPrtOptions.cache_dir`),
+   * 0 when it computed it.
+   */
+  uint32_t precompute_loaded;
+  /**
+   * Receiver vertices of the transfer.
+   */
+  uint64_t vertices;
+  /**
+   * Haar coefficients kept over all receivers.
+   */
+  uint64_t terms;
+  /**
+   * Bytes of the compressed transfer.
+   */
+  uint64_t bytes;
+  /**
+   * The weighted coefficient energy the compression dropped, relative: mean over the
+   * receivers and the largest.
+   */
+  double dropped_mean;
+  double dropped_max;
+  /**
+   * The relative residual of the medium's projection onto the basis, per channel (a medium
+   * above 5% is refused).
+   */
+  double residual[3];
+  /**
+   * Millimetres per scene unit the transfer was computed at, and now.
+   */
+  double transfer_mm_per_unit;
+  double mm_per_unit;
+  /**
+   * The medium now (mm⁻¹; the scale change is not folded in).
+   */
+  struct TcMedium medium;
+  /**
+   * The 128-bit key of the precompute (the name of its file in a cache folder), as two
+   * 64-bit halves, high first.
+   */
+  uint64_t key[2];
+} TcPrtStats;
 
 /**
  * Success.
@@ -1659,6 +1728,70 @@ TcStatus tc_object_piece_mesh(const struct TcScene *scene,
                               size_t radiance_len);
 
 /**
+ * Writes what the PRT precompute of an object holds into `*out` (set `out->size =
+ * sizeof(TcPrtStats)` first; another size is `TC_INVALID_ARGUMENT`).
+ *
+ * Errors: `TC_NULL_POINTER`, `TC_INVALID_HANDLE`, `TC_NOT_BAKED` (before a bake), and
+ * `TC_UNSUPPORTED` for an object another method baked.
+ */
+TcStatus tc_object_prt_stats(const struct TcScene *scene, uint32_t object, struct TcPrtStats *out);
+
+/**
+ * Saves the precomputed transfer of a PRT object to the file `path` (a `.tcprt` file,
+ * written whole through a temporary file beside it). A later bake of the same surface,
+ * placement, scale and PRT options with `TcPrtOptions.cache_dir` naming the folder of a file
+ * called `<key>.tcprt` (`TcPrtStats.key` in hexadecimal) reads it instead of precomputing;
+ * `transcut prt eval` reads it by name.
+ *
+ * Errors: `TC_NULL_POINTER`, `TC_INVALID_HANDLE`, `TC_NOT_BAKED`, `TC_UNSUPPORTED` (another method), `TC_IO_ERROR` (the
+ * file cannot be written; no partial file is left).
+ */
+TcStatus tc_object_prt_save(const struct TcScene *scene,
+                            uint32_t object,
+                            const char *path);
+
+/**
+ * Gives a PRT object a new homogeneous medium without a new bake: the basis weights of the
+ * medium and one K-term sum per vertex (microseconds per thousand vertices). `medium` must
+ * have the object's η and g (they shape the transmitted light the precompute holds); the
+ * basis must represent it (projection residual ≤ 5%) and the samples resolve it (σ′t h ≤ 3).
+ * The scene's description takes the new medium, so a later bake agrees. `tc_object_radiance`
+ * then returns the new radiance.
+ *
+ * Errors: `TC_NULL_POINTER`, `TC_INVALID_HANDLE`, `TC_NOT_BAKED`, `TC_UNSUPPORTED` (another
+ * method), `TC_INVALID_ARGUMENT` (an invalid medium, another η or g, a medium the transfer
+ * cannot represent: the message says which). Nothing changes on failure.
+ */
+TcStatus tc_object_prt_set_medium(struct TcScene *scene,
+                                  uint32_t object,
+                                  const struct TcMedium *medium);
+
+/**
+ * Gives a PRT object a medium from artist parameters (Blender's Principled BSDF subsurface
+ * inputs) without a new bake, as `tc_object_prt_set_medium` does; the radius is in scene
+ * units, converted with the object's current millimetres per unit. `artist->ior` and
+ * `artist->anisotropy` must be the object's η and g.
+ *
+ * Errors: those of `tc_object_prt_set_medium`, and `TC_INVALID_ARGUMENT` naming an artist
+ * field out of range. Nothing changes on failure.
+ */
+TcStatus tc_object_prt_set_medium_artist(struct TcScene *scene,
+                                         uint32_t object,
+                                         const struct TcArtistMedium *artist);
+
+/**
+ * Changes how many millimetres one scene unit is for a PRT object without a new bake: for the
+ * precompute, the object's medium with every coefficient times the ratio of the new scale to
+ * the one it was computed at (the dipole's scale identity Rd(s r; σ) s² = Rd(r; s σ)). The
+ * scene's description takes the new scale. Artist media set later use it.
+ *
+ * Errors: `TC_INVALID_ARGUMENT` (not positive and finite, or a scaled medium the transfer
+ * cannot represent), `TC_INVALID_HANDLE`, `TC_NOT_BAKED`, `TC_UNSUPPORTED`. Nothing changes on
+ * failure.
+ */
+TcStatus tc_object_prt_set_scale(struct TcScene *scene, uint32_t object, double mm_per_unit);
+
+/**
  * Re-solves every object for the scene's CURRENT lights (after `tc_scene_clear_lights` /
  * `tc_scene_add_*`), warm-started from its last solution, without meshing or assembling again:
  * the interactive counterpart of `tc_scene_bake` after a change of lights. The matrices, media,
@@ -1991,7 +2124,7 @@ TC_LAYOUT_CHECK(TcDipoleOptions_mode, offsetof(TcDipoleOptions, mode) == 40);
 TC_LAYOUT_CHECK(TcDipoleOptions_geometry, offsetof(TcDipoleOptions, geometry) == 44);
 TC_LAYOUT_CHECK(TcDipoleOptions_budget, offsetof(TcDipoleOptions, budget) == 48);
 TC_LAYOUT_CHECK(TcDipoleOptions_radiance, offsetof(TcDipoleOptions, radiance) == 56);
-TC_LAYOUT_CHECK(TcPrtOptions__sizeof, sizeof(TcPrtOptions) == 40);
+TC_LAYOUT_CHECK(TcPrtOptions__sizeof, sizeof(TcPrtOptions) == 48);
 TC_LAYOUT_CHECK(TcPrtOptions_size, offsetof(TcPrtOptions, size) == 0);
 TC_LAYOUT_CHECK(TcPrtOptions_samples_log2, offsetof(TcPrtOptions, samples_log2) == 4);
 TC_LAYOUT_CHECK(TcPrtOptions_basis_terms, offsetof(TcPrtOptions, basis_terms) == 8);
@@ -1999,6 +2132,22 @@ TC_LAYOUT_CHECK(TcPrtOptions_terms_per_vertex, offsetof(TcPrtOptions, terms_per_
 TC_LAYOUT_CHECK(TcPrtOptions_near_field, offsetof(TcPrtOptions, near_field) == 16);
 TC_LAYOUT_CHECK(TcPrtOptions_near_radius, offsetof(TcPrtOptions, near_radius) == 24);
 TC_LAYOUT_CHECK(TcPrtOptions_seed, offsetof(TcPrtOptions, seed) == 32);
+TC_LAYOUT_CHECK(TcPrtOptions_cache_dir, offsetof(TcPrtOptions, cache_dir) == 40);
+TC_LAYOUT_CHECK(TcPrtStats__sizeof, sizeof(TcPrtStats) == 176);
+TC_LAYOUT_CHECK(TcPrtStats_size, offsetof(TcPrtStats, size) == 0);
+TC_LAYOUT_CHECK(TcPrtStats_basis_terms, offsetof(TcPrtStats, basis_terms) == 4);
+TC_LAYOUT_CHECK(TcPrtStats_samples_log2, offsetof(TcPrtStats, samples_log2) == 8);
+TC_LAYOUT_CHECK(TcPrtStats_precompute_loaded, offsetof(TcPrtStats, precompute_loaded) == 12);
+TC_LAYOUT_CHECK(TcPrtStats_vertices, offsetof(TcPrtStats, vertices) == 16);
+TC_LAYOUT_CHECK(TcPrtStats_terms, offsetof(TcPrtStats, terms) == 24);
+TC_LAYOUT_CHECK(TcPrtStats_bytes, offsetof(TcPrtStats, bytes) == 32);
+TC_LAYOUT_CHECK(TcPrtStats_dropped_mean, offsetof(TcPrtStats, dropped_mean) == 40);
+TC_LAYOUT_CHECK(TcPrtStats_dropped_max, offsetof(TcPrtStats, dropped_max) == 48);
+TC_LAYOUT_CHECK(TcPrtStats_residual, offsetof(TcPrtStats, residual) == 56);
+TC_LAYOUT_CHECK(TcPrtStats_transfer_mm_per_unit, offsetof(TcPrtStats, transfer_mm_per_unit) == 80);
+TC_LAYOUT_CHECK(TcPrtStats_mm_per_unit, offsetof(TcPrtStats, mm_per_unit) == 88);
+TC_LAYOUT_CHECK(TcPrtStats_medium, offsetof(TcPrtStats, medium) == 96);
+TC_LAYOUT_CHECK(TcPrtStats_key, offsetof(TcPrtStats, key) == 160);
 TC_LAYOUT_CHECK(TcRadiosityOptions__sizeof, sizeof(TcRadiosityOptions) == 56);
 TC_LAYOUT_CHECK(TcRadiosityOptions_size, offsetof(TcRadiosityOptions, size) == 0);
 TC_LAYOUT_CHECK(TcRadiosityOptions_iteration, offsetof(TcRadiosityOptions, iteration) == 4);

@@ -270,6 +270,28 @@ class TcPrtOptions(Structure):
         ("near_field", c_uint32),  # 1: the near-field correction of the rows (default)
         ("near_radius", c_double),  # in sample spacings (default 8)
         ("seed", c_uint64),
+        ("cache_dir", c_char_p),  # a folder of saved precomputes (None: none)
+    ]
+
+
+class TcPrtStats(Structure):
+    """``TcPrtStats`` (``tc_object_prt_stats``; the caller sets ``size``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("basis_terms", c_uint32),
+        ("samples_log2", c_uint32),
+        ("precompute_loaded", c_uint32),  # 1: read from the cache folder
+        ("vertices", c_uint64),
+        ("terms", c_uint64),
+        ("bytes", c_uint64),
+        ("dropped_mean", c_double),
+        ("dropped_max", c_double),
+        ("residual", c_double * 3),
+        ("transfer_mm_per_unit", c_double),
+        ("mm_per_unit", c_double),
+        ("medium", TcMedium),
+        ("key", c_uint64 * 2),
     ]
 
 
@@ -504,4 +526,10 @@ OPTIONAL = {
     # Deforming (the hierarchical dipole).
     "tc_object_set_positions": (c_int32, [ScenePtr, c_uint32, c_float_p, c_size_t]),
     "tc_object_dipole_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcDipoleStats)]),
+    # The PRT method's edits without a new bake, its statistics and saved precompute.
+    "tc_object_prt_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcPrtStats)]),
+    "tc_object_prt_save": (c_int32, [ScenePtr, c_uint32, c_char_p]),
+    "tc_object_prt_set_medium": (c_int32, [ScenePtr, c_uint32, POINTER(TcMedium)]),
+    "tc_object_prt_set_medium_artist": (c_int32, [ScenePtr, c_uint32, POINTER(TcArtistMedium)]),
+    "tc_object_prt_set_scale": (c_int32, [ScenePtr, c_uint32, c_double]),
 }

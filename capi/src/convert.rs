@@ -4,6 +4,7 @@
 use transcut_core::edit::EditError;
 use transcut_core::mesh::MeshError;
 use transcut_core::optics::Medium;
+use transcut_core::prt::PrtError;
 use transcut_core::{SceneError, SessionError};
 
 use super::status::{
@@ -80,6 +81,8 @@ fn edit_status(e: &EditError) -> super::status::TcStatus {
         EditError::Cancelled(_) => TC_CANCELLED,
         EditError::Unresolved(_) => TC_UNRESOLVED,
         EditError::Scene(s) => scene_failure(s).status,
+        EditError::Prt(PrtError::Medium(_)) => TC_INVALID_ARGUMENT,
+        EditError::Prt(PrtError::File(_)) => TC_IO_ERROR,
         _ => TC_SOLVE_FAILED,
     }
 }

@@ -38,7 +38,7 @@ fn preset(name: &str) -> Result<Medium, Failure> {
 }
 
 /// Artist parameters to a medium, at `mm_per_unit` millimetres per scene unit.
-fn artist_medium(a: &TcArtistMedium, mm_per_unit: f64) -> Result<Medium, Failure> {
+pub(crate) fn artist_medium(a: &TcArtistMedium, mm_per_unit: f64) -> Result<Medium, Failure> {
     let params = ArtistParams { albedo: a.albedo, radius: a.radius, scale: a.scale, mm_per_unit, eta: a.ior, g: a.anisotropy };
     params.to_medium().map_err(|e| Failure::invalid(format!("artist medium: {e}")))
 }

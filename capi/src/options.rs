@@ -7,17 +7,18 @@
 //! `TC_METHOD_HIERARCHICAL_DIPOLE`, `TcRadiosityOptions` for `TC_METHOD_RADIOSITY` (NULL: its
 //! defaults).
 
-use std::ffi::c_void;
+use std::ffi::{c_char, c_void};
 
 use transcut_core::diffusion::SolverKind;
 use transcut_core::gpu::Backend;
 use transcut_core::hierarchy::{DipoleOptions, DipoleRadiance, EvalMode, Oracle, Receivers};
 use transcut_core::light::SourceOptions;
 use transcut_core::optics::{DipoleGeometry, EdgeRule};
-use transcut_core::prt::{BasisSize, PrtOptions};
+use transcut_core::prt::{BasisSize, PrtCache, PrtOptions};
 use transcut_core::radiosity::{FormFactorOptions, Iteration, SolveOptions};
 use transcut_core::{BakeOptions, Method, RadiosityOptions, TransCutOptions};
 
+use super::ptr;
 use super::status::Failure;
 
 /// The TransCut method (Li et al. 2012): the diffusion equation on a tetrahedral mesh.
@@ -250,6 +251,12 @@ pub struct TcPrtOptions {
     pub near_radius: f64,
     /// The seed of the samples' systematic offset.
     pub seed: u64,
+    /// A folder of saved precomputes (UTF-8 path; NULL, the default: none). A bake reads the
+    /// transfer of an object from `<folder>/<key>.tcprt` when it is there, made for the same
+    /// surface, placement, scale and options, and otherwise precomputes it and writes that file
+    /// (creating the folder), replacing a damaged or outdated one. The library reads the string
+    /// during `tc_scene_bake` only.
+    pub cache_dir: *const c_char,
 }
 
 /// Translucent radiosity's own options (`TcBakeOptions.method_options` with
@@ -399,6 +406,7 @@ pub(crate) fn default_prt_options() -> TcPrtOptions {
         near_field: u32::from(d.near_field),
         near_radius: d.near_radius,
         seed: d.seed,
+        cache_dir: std::ptr::null(),
     }
 }
 
@@ -424,6 +432,11 @@ fn prt_options(o: &TcPrtOptions) -> Result<PrtOptions, Failure> {
         near_field,
         near_radius: o.near_radius,
         seed: o.seed,
+        // SAFETY: the caller's contract (a NUL-terminated string or NULL).
+        cache: match unsafe { ptr::optional_path(o.cache_dir, "options->method_options->cache_dir")? } {
+            Some(dir) => Some(PrtCache::Folder(dir.to_path_buf())),
+            None => None,
+        },
     };
     options.validate().map_err(|e| Failure::invalid(format!("options->method_options: {e}")))?;
     Ok(options)

@@ -72,6 +72,23 @@ pub(crate) unsafe fn utf8<'a>(ptr: *const c_char, name: &str) -> Result<&'a str,
     s.to_str().map_err(|e| Failure::invalid(format!("`{name}` is not valid UTF-8 ({e})")))
 }
 
+/// The caller's optional NUL-terminated file path ([`path`]): `None` for NULL; an empty string
+/// is refused by name.
+///
+/// # Safety
+/// As [`utf8`].
+pub(crate) unsafe fn optional_path<'a>(ptr: *const c_char, name: &str) -> Result<Option<&'a std::path::Path>, Failure> {
+    if ptr.is_null() {
+        return Ok(None);
+    }
+    // SAFETY: forwarded to the caller's contract.
+    let path = unsafe { path(ptr, name)? };
+    if path.as_os_str().is_empty() {
+        return Err(Failure::invalid(format!("`{name}` is an empty path (NULL means none)")));
+    }
+    Ok(Some(path))
+}
+
 /// The caller's NUL-terminated file path: any bytes on Unix (as the operating system takes
 /// them), UTF-8 elsewhere.
 ///

@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use abi::{
     TcArtistMedium, TcBakeOptions, TcBakeStats, TcDipoleOptions, TcDipoleStats, TcEditStats, TcMedium, TcMediumEdit,
-    TcPrtOptions, TcRadiosityOptions, TcRadiosityStats, TcTransCutOptions,
+    TcPrtOptions, TcPrtStats, TcRadiosityOptions, TcRadiosityStats, TcTransCutOptions,
 };
 
 fn crate_dir() -> PathBuf {
@@ -70,7 +70,23 @@ fn layouts() -> Vec<Layout> {
         }),
         layout!(TcTransCutOptions { size, solver, edit_solver }),
         layout!(TcDipoleOptions { size, oracle, theta, eps1, eps2, rule, receivers, mode, geometry, budget, radiance }),
-        layout!(TcPrtOptions { size, samples_log2, basis_terms, terms_per_vertex, near_field, near_radius, seed }),
+        layout!(TcPrtOptions { size, samples_log2, basis_terms, terms_per_vertex, near_field, near_radius, seed, cache_dir }),
+        layout!(TcPrtStats {
+            size,
+            basis_terms,
+            samples_log2,
+            precompute_loaded,
+            vertices,
+            terms,
+            bytes,
+            dropped_mean,
+            dropped_max,
+            residual,
+            transfer_mm_per_unit,
+            mm_per_unit,
+            medium,
+            key
+        }),
         layout!(TcRadiosityOptions {
             size,
             iteration,

@@ -122,7 +122,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
 }
 
 /// Writes per-user-vertex radiance in the format the extension names.
-fn write_radiance(path: &Path, mesh: &TriMesh, radiance: &[[f64; 3]]) -> anyhow::Result<()> {
+pub(crate) fn write_radiance(path: &Path, mesh: &TriMesh, radiance: &[[f64; 3]]) -> anyhow::Result<()> {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     if !matches!(ext.as_deref(), Some("ply" | "npy" | "raw")) {
         bail!("unknown output format (use .ply, .npy or .raw)");

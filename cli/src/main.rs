@@ -8,6 +8,7 @@ mod method_args;
 mod object_args;
 mod output;
 mod progress;
+mod prt_cmd;
 mod render_cmd;
 mod scene_file;
 mod spec;
@@ -36,6 +37,9 @@ enum Command {
     Animate(animate_cmd::AnimateArgs),
     /// Bake a TOML scene file and render it to PNG or EXR.
     Render(render_cmd::RenderArgs),
+    /// The PRT method's precompute saved once (`prt precompute`), then any medium and lights
+    /// evaluated from it (`prt eval`).
+    Prt(prt_cmd::PrtArgs),
     /// Run benchmarks and print JSON.
     Bench(bench::BenchArgs),
 }
@@ -47,6 +51,7 @@ fn main() -> ExitCode {
         Command::Bake(args) => bake_cmd::run(&args),
         Command::Animate(args) => animate_cmd::run(&args),
         Command::Render(args) => render_cmd::run(&args),
+        Command::Prt(args) => prt_cmd::run(&args),
         Command::Bench(args) => bench::run(&args),
     };
     match result {

@@ -10,7 +10,7 @@ use transcut::gpu::Backend;
 use transcut::hierarchy::{DipoleOptions, EvalMode, Oracle, Receivers};
 use transcut::input::quote;
 use transcut::optics::EdgeRule;
-use transcut::prt::{BasisSize, PrtOptions};
+use transcut::prt::{BasisSize, PrtCache, PrtOptions};
 use transcut::radiosity::{FormFactorOptions, HetRule, Iteration, SolveOptions};
 use transcut::{
     Method, OpticalDistance, ProfileKind, ProfileScatteringOptions, RadiosityOptions, TransCutOptions, TranslucentScattering,
@@ -277,6 +277,11 @@ pub struct MethodArgs {
     /// prt: the PCA basis of the dipole profile: 16 functions, or the paper's 12 [default: 16]
     #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(12..=16), help_heading = "PRT options")]
     pub prt_basis: Option<u32>,
+    /// prt: a folder of saved precomputes: a bake reads the transfer of this surface, scale and
+    /// these options from it when there (named by its key), and otherwise precomputes and
+    /// writes it there, so the next bake of the same object is fast [default: none]
+    #[arg(long, value_name = "DIR", help_heading = "PRT options")]
+    pub prt_cache: Option<std::path::PathBuf>,
 }
 
 /// The defaults under the command line: what a scene file's `[bake]` table says, or a
@@ -475,7 +480,7 @@ impl MethodArgs {
     }
 
     /// Every method option: whether it was given, its flag and its method.
-    fn options(&self) -> [OptionOwner; 23] {
+    fn options(&self) -> [OptionOwner; 24] {
         [
             (self.tets.is_some(), "--tets", DIFFUSION),
             (self.tolerance.is_some(), "--tolerance", DIFFUSION),
@@ -500,6 +505,7 @@ impl MethodArgs {
             (self.prt_samples.is_some(), "--prt-samples", &[PRT]),
             (self.prt_terms.is_some(), "--prt-terms", &[PRT]),
             (self.prt_basis.is_some(), "--prt-basis", &[PRT]),
+            (self.prt_cache.is_some(), "--prt-cache", &[PRT]),
         ]
     }
 
@@ -573,6 +579,7 @@ impl MethodArgs {
                     Some(16) => BasisSize::K16,
                     Some(k) => bail!("--prt-basis {k}: the bases have 12 or 16 functions"),
                 },
+                cache: self.prt_cache.clone().map(PrtCache::Folder).or(d.cache),
                 ..d
             }),
             _ => bail!("{}", Method::unknown(name)),

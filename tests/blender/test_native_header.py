@@ -88,6 +88,8 @@ def ctypes_name(t) -> str:
     }
     if t in simple:
         return simple[t]
+    if isinstance(t, type) and issubclass(t, ctypes.Structure):
+        return f"struct {t.__name__}"
     if t is abi.TcProgressFn:
         return "TcProgressFn"
     if t is abi.ScenePtr:
@@ -148,6 +150,7 @@ STRUCTS = [
     binding.TcDipoleStats,
     binding.TcRadiosityOptions,
     binding.TcPrtOptions,
+    binding.TcPrtStats,
     binding.TcRadiosityStats,
     binding.TcMediumEdit,
     binding.TcEditStats,

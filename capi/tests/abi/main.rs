@@ -16,5 +16,6 @@ mod edit;
 mod method;
 mod misuse;
 mod objects;
+mod prt;
 mod radiosity;
 mod tets;

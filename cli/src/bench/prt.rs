@@ -51,7 +51,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let absorbing = Medium { sigma_a: marble.sigma_a.map(|s| 2.0 * s), ..marble };
     let scene = Scene { objects: vec![Object::new("bench", input, marble, mm_per_unit)], lights: vec![sun(0.0)] };
     let prt = PrtOptions { samples_log2: args.prt_samples, ..PrtOptions::default() };
-    let options = BakeOptions::with_method(prt);
+    let options = BakeOptions::with_method(prt.clone());
 
     let start = Instant::now();
     let mut session = Session::bake(&scene, &options, Progress::none())?;
