@@ -83,6 +83,10 @@ pub struct PrtState {
     pub(crate) gathered: Vec<f64>,
     /// Per output vertex, the receiver whose radiance it takes (`None`: inside a tet mesh, 0).
     pub(crate) output: Vec<Option<u32>>,
+    /// The environment lights' per-sample SH transfer ([`crate::prt::env`]): made on the first
+    /// gather under an environment, for the occluder that gather is given (and made again when
+    /// another is given); a copy of the state starts with the transfer made so far.
+    pub env_sh: crate::prt::env::EnvShCache,
     /// What the transfer depends on, hashed: the name of its saved file.
     pub key: PrecomputeKey,
     /// The options the transfer was computed with (without a cache).
@@ -132,7 +136,9 @@ impl PrtState {
     }
 
     /// q at the samples under `lighting` (scene units: the samples' millimetres over the
-    /// transfer's scale), and the transfer's product with it.
+    /// transfer's scale; environments through the samples' SH transfer, [`crate::prt::env`],
+    /// every other light by [`crate::light::transmitted_source`]), and the transfer's product
+    /// with it.
     pub(crate) fn gather(
         &self,
         lighting: &Lighting<'_>,
@@ -140,7 +146,8 @@ impl PrtState {
         poll: crate::light::Poll<'_>,
     ) -> Result<(Vec<[f64; 3]>, Vec<f64>), LightError> {
         let points: Vec<DVec3> = self.samples.positions.iter().map(|p| *p / self.transfer_mm_per_unit).collect();
-        let q = lighting.transmitted_source_with(&points, &self.samples.normals, eta, poll)?;
+        let (lights, normals) = (lighting.lights, &self.samples.normals);
+        let q = self.env_sh.transmitted_source(lights, &points, normals, eta, lighting.occluder, lighting.source, poll)?;
         let mut gathered = vec![0.0; self.transfer.vertices() * self.transfer.basis_terms() * 3];
         self.device.apply(&self.transfer, &haar_irradiance(&q), &mut gathered);
         Ok((q, gathered))
@@ -344,6 +351,7 @@ impl SubsurfaceMethod for Prt {
             irradiance: Vec::new(),
             gathered: Vec::new(),
             output,
+            env_sh: crate::prt::env::EnvShCache::default(),
             key,
             options: uncached,
             device,
