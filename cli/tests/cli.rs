@@ -247,3 +247,69 @@ fn mesh_to_a_full_device_fails() {
     assert_ne!(code, 0);
     assert!(stderr.contains("writing /dev/full") && stderr.contains("No space left on device"), "{stderr}");
 }
+
+/// `prt precompute` then `prt eval` give what `bake --method prt` gives, bit for bit, for any
+/// medium and lights; `--prt-cache` writes and reuses the same precompute; a mesh at another
+/// scale than the file's is refused by its key.
+#[test]
+fn prt_precompute_then_eval_equals_a_bake() {
+    let dir = std::env::temp_dir().join(format!("transcut-prt-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let spot = shared_mesh("spot.obj");
+    let file = dir.join("spot.tcprt");
+    let prt = ["--prt-samples", "12", "--prt-terms", "512"];
+    let out = transcut()
+        .args(["prt", "precompute", spot.to_str().unwrap(), "--scale", "10", "--json"])
+        .args(prt)
+        .arg("-o")
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((json["samples"].as_u64(), json["vertices"].as_u64()), (Some(4096), Some(2930)));
+    let light = ["--medium", "skin1", "--light", "sun:dir=0,-1,-0.5,irradiance=3"];
+    let (eval, baked, cached) = (dir.join("eval.npy"), dir.join("bake.npy"), dir.join("cached.npy"));
+    let out = transcut()
+        .args(["prt", "eval"])
+        .arg(&file)
+        .args([spot.to_str().unwrap(), "--scale", "10", "--json"])
+        .args(light)
+        .arg("-o")
+        .arg(&eval)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["stats"]["precompute_loaded"].as_bool(), Some(true));
+    let bake = |output: &std::path::Path, extra: &[&str]| {
+        let out = transcut()
+            .args(["bake", spot.to_str().unwrap(), "--scale", "10", "--method", "prt", "--json"])
+            .args(prt)
+            .args(light)
+            .args(extra)
+            .arg("-o")
+            .arg(output)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()["stats"]["precompute_loaded"].as_bool()
+    };
+    assert_eq!(bake(&baked, &[]), Some(false));
+    assert_eq!(std::fs::read(&eval).unwrap(), std::fs::read(&baked).unwrap());
+    let cache = dir.join("cache");
+    assert_eq!(bake(&cached, &["--prt-cache", cache.to_str().unwrap()]), Some(false));
+    assert_eq!(bake(&cached, &["--prt-cache", cache.to_str().unwrap()]), Some(true));
+    assert_eq!(std::fs::read(&cached).unwrap(), std::fs::read(&baked).unwrap());
+    let entries: Vec<_> = std::fs::read_dir(&cache).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(entries.len(), 1);
+    assert_eq!(std::fs::read(&entries[0]).unwrap(), std::fs::read(&file).unwrap(), "the cache holds what precompute wrote");
+
+    let out = transcut().args(["prt", "eval"]).arg(&file).args([spot.to_str().unwrap(), "--scale", "11"]).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("another surface") && err.contains("spot.tcprt"), "{err}");
+    let out = transcut().args(["prt", "eval"]).arg(dir.join("none.tcprt")).arg(&spot).output().unwrap();
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("none.tcprt"));
+    std::fs::remove_dir_all(&dir).ok();
+}
