@@ -593,9 +593,9 @@ mod tests {
         for pair in dirs.windows(2) {
             let (ya, yb) = (basis(MAX_ORDER, pair[0]), basis(MAX_ORDER, pair[1]));
             let p = legendre_polynomials(MAX_ORDER, pair[0].dot(pair[1]));
-            for l in 0..MAX_ORDER {
+            for (l, p_l) in p.iter().enumerate() {
                 let sum: f64 = (l * l..(l + 1) * (l + 1)).map(|i| ya[i] * yb[i]).sum();
-                let expect = (2 * l + 1) as f64 / (4.0 * PI) * p[l];
+                let expect = (2 * l + 1) as f64 / (4.0 * PI) * p_l;
                 assert!((sum - expect).abs() < 1e-13, "l = {l}: {sum} vs {expect}");
             }
         }

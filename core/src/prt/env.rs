@@ -232,9 +232,9 @@ impl EnvTransfer {
                 match occluder {
                     None => {
                         sh_basis(order, n, &mut y);
-                        for l in 0..order {
+                        for (l, a_l) in lobe.iter().enumerate() {
                             for k in l * l..(l + 1) * (l + 1) {
-                                acc[k] = lobe[l] * y[k];
+                                acc[k] = a_l * y[k];
                             }
                         }
                     }
