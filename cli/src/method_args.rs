@@ -319,6 +319,12 @@ pub struct MethodDefaults {
     pub scattering: Option<ScatteringName>,
     pub profile_distance: Option<DistanceName>,
     pub profile_het: Option<HetName>,
+    /// PRT's options when their flags are not given (a scene file's; the cache folder resolved
+    /// against the file's folder).
+    pub prt_samples: Option<u32>,
+    pub prt_terms: Option<u64>,
+    pub prt_basis: Option<u32>,
+    pub prt_cache: Option<std::path::PathBuf>,
 }
 
 /// A scene file's `[bake]` table as written (names not yet parsed): the keys that choose the
@@ -342,6 +348,10 @@ pub struct BakeTable {
     pub iteration: Option<String>,
     pub radiosity_tolerance: Option<f64>,
     pub bounces: Option<u64>,
+    pub prt_samples: Option<u32>,
+    pub prt_terms: Option<u64>,
+    pub prt_basis: Option<u32>,
+    pub prt_cache: Option<std::path::PathBuf>,
 }
 
 /// The value of `[bake] key` among the names of `T` (any case).
@@ -412,6 +422,10 @@ impl MethodDefaults {
             scattering: None,
             profile_distance: None,
             profile_het: None,
+            prt_samples: table.prt_samples,
+            prt_terms: table.prt_terms,
+            prt_basis: table.prt_basis,
+            prt_cache: table.prt_cache,
         })
     }
 
@@ -525,7 +539,7 @@ impl MethodArgs {
         // A scene file's TransCut options, when the file itself chose another method: written
         // for nothing. (When the command line chose the method, they were for the file's.)
         if self.method.is_none() && defaults.from_file {
-            let file: [OptionOwner; 19] = [
+            let file: [OptionOwner; 23] = [
                 (defaults.tets.is_some(), "tets", DIFFUSION),
                 (defaults.tolerance.is_some(), "tolerance", DIFFUSION),
                 (defaults.solver.is_some(), "solver", DIFFUSION),
@@ -545,6 +559,10 @@ impl MethodArgs {
                 (defaults.scattering.is_some(), "scattering", &[RADIOSITY]),
                 (defaults.profile_distance.is_some(), "profile_distance", &[RADIOSITY]),
                 (defaults.profile_het.is_some(), "profile_het", &[RADIOSITY]),
+                (defaults.prt_samples.is_some(), "prt_samples", &[PRT]),
+                (defaults.prt_terms.is_some(), "prt_terms", &[PRT]),
+                (defaults.prt_basis.is_some(), "prt_basis", &[PRT]),
+                (defaults.prt_cache.is_some(), "prt_cache", &[PRT]),
             ];
             if let Some((option, owner)) = foreign(&file, method.name()) {
                 bail!("[bake] {option} is an option of the {owner}, not of {} (the file's method)", method.name());
@@ -571,15 +589,15 @@ impl MethodArgs {
                 })
             }
             Method::Prt(d) => Method::Prt(PrtOptions {
-                samples_log2: self.prt_samples.unwrap_or(d.samples_log2),
-                terms_per_vertex: self.prt_terms.map_or(Ok(d.terms_per_vertex), usize::try_from)?,
-                basis: match self.prt_basis {
+                samples_log2: self.prt_samples.or(defaults.prt_samples).unwrap_or(d.samples_log2),
+                terms_per_vertex: self.prt_terms.or(defaults.prt_terms).map_or(Ok(d.terms_per_vertex), usize::try_from)?,
+                basis: match self.prt_basis.or(defaults.prt_basis) {
                     None => d.basis,
                     Some(12) => BasisSize::K12,
                     Some(16) => BasisSize::K16,
                     Some(k) => bail!("--prt-basis {k}: the bases have 12 or 16 functions"),
                 },
-                cache: self.prt_cache.clone().map(PrtCache::Folder).or(d.cache),
+                cache: self.prt_cache.clone().or_else(|| defaults.prt_cache.clone()).map(PrtCache::Folder).or(d.cache),
                 ..d
             }),
             _ => bail!("{}", Method::unknown(name)),
@@ -947,6 +965,31 @@ mod tests {
         .unwrap();
         let e = error(MethodArgs::default(), &file);
         assert!(e.contains("[bake] solver") && e.contains("transcut"), "{e}");
+    }
+
+    /// A scene file's PRT keys set the method's options under the command line's flags; in a
+    /// file of another method they are refused by name.
+    #[test]
+    fn a_scene_files_prt_keys() {
+        let file = MethodDefaults::from_bake_table(BakeTable {
+            method: Some(PRT.into()),
+            prt_samples: Some(12),
+            prt_terms: Some(2048),
+            prt_basis: Some(12),
+            prt_cache: Some("cache".into()),
+            ..BakeTable::default()
+        })
+        .unwrap();
+        let Method::Prt(o) = MethodArgs::default().method(&file).unwrap() else { panic!("not prt") };
+        assert_eq!((o.samples_log2, o.terms_per_vertex, o.basis), (12, 2048, BasisSize::K12));
+        assert_eq!(o.cache, Some(PrtCache::Folder("cache".into())));
+        let args = MethodArgs { prt_samples: Some(14), prt_cache: Some("flag".into()), ..MethodArgs::default() };
+        let Method::Prt(o) = args.method(&file).unwrap() else { panic!("not prt") };
+        assert_eq!((o.samples_log2, o.terms_per_vertex), (14, 2048), "the flag wins over the file");
+        assert_eq!(o.cache, Some(PrtCache::Folder("flag".into())));
+        let transcut = MethodDefaults::from_bake_table(BakeTable { prt_terms: Some(2048), ..BakeTable::default() }).unwrap();
+        let e = MethodArgs::default().method(&transcut).unwrap_err().to_string();
+        assert!(e.contains("[bake] prt_terms is an option of the prt method"), "{e}");
     }
 
     /// Sets keys of a `[bake]` table.

@@ -74,7 +74,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         camera_spec.height = h;
     }
     let in_file = || format!("scene file {}", args.scene.display());
-    let defaults = file.bake.method_defaults().with_context(in_file)?;
+    let mut defaults = file.bake.method_defaults().with_context(in_file)?;
+    // A relative cache folder is the scene file's, as its meshes are.
+    if let Some(cache) = &mut defaults.prt_cache {
+        if cache.is_relative() {
+            *cache = args.scene.parent().unwrap_or(std::path::Path::new("")).join(&*cache);
+        }
+    }
     let method = args.method.method(&defaults).with_context(in_file)?;
     let options = BakeOptions { method, threads: args.threads, ..BakeOptions::default() };
     let mut scene = Scene { objects: loaded.objects, lights: loaded.lights };

@@ -106,6 +106,14 @@ pub struct BakeSpec {
     /// radiosity, a profile scattering of a heterogeneous medium: `consistent` or `sheng2014`
     /// (`--profile-het`).
     pub profile_het: Option<String>,
+    /// prt: log₂ of the irradiance samples (`--prt-samples`).
+    pub prt_samples: Option<u32>,
+    /// prt: Haar coefficients kept per vertex (`--prt-terms`).
+    pub prt_terms: Option<u64>,
+    /// prt: the basis, 12 or 16 functions (`--prt-basis`).
+    pub prt_basis: Option<u32>,
+    /// prt: a folder of saved precomputes, relative to the scene file (`--prt-cache`).
+    pub prt_cache: Option<std::path::PathBuf>,
 }
 
 /// One `[[object]]`.
@@ -349,6 +357,10 @@ impl BakeSpec {
             iteration: b.iteration.clone(),
             radiosity_tolerance: b.radiosity_tolerance,
             bounces: b.bounces,
+            prt_samples: b.prt_samples,
+            prt_terms: b.prt_terms,
+            prt_basis: b.prt_basis,
+            prt_cache: b.prt_cache.clone(),
         }
     }
 }
