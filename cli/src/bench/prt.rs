@@ -12,19 +12,27 @@
 //! - on the `--backend`'s GPU (`auto`: any adapter, software ones included; skipped with the
 //!   reason without one), the session's transfer uploaded ([`GpuPrt`]) and the relight's
 //!   product timed against the CPU's on the same irradiance (read back as the method reads it),
-//!   with the product and the combine in one submission, and their agreement.
+//!   with the product and the combine in one submission, and their agreement;
+//! - an environment (a 512 × 256 sky with a sun lobe) shadowed by the object: the samples' SH
+//!   transfer made once (its shadow rays), then q at every sample for a turned environment
+//!   (the coefficients rotated and summed against each sample's vector) against the sampled
+//!   path's q (`transmitted_source`, shadow rays at every sample, as every relight paid before),
+//!   their agreement, and the session's whole relight under the turned environment.
 
 use std::time::Instant;
 
 use anyhow::Context;
+use glam::DMat3;
 use serde::Serialize;
 use transcut::edit::{MediumEdit, MediumOp, Region};
 use transcut::gpu::{Backend, GpuContext, GpuPrt};
-use transcut::light::Light;
-use transcut::mesh;
+use transcut::light::sh::ShRotation;
+use transcut::light::{transmitted_source, Environment, EquirectMap, Light, SourceOptions};
+use transcut::mesh::{self, TriangleBvh};
 use transcut::methods::prt::radiance_per_exitance;
 use transcut::methods::PrtState;
 use transcut::optics::Medium;
+use transcut::prt::env::environment_coefficients;
 use transcut::prt::{haar_irradiance, PrtOptions, RdBasis};
 use transcut::{BakeOptions, DVec3, Object, Progress, Scene, Session, TransCutOptions};
 
@@ -108,6 +116,82 @@ fn gpu_relight(ctx: &'static GpuContext, state: &PrtState, runs: u32) -> anyhow:
     })
 }
 
+/// The bench's environment: a sky brighter at the zenith with a sun lobe, turned `degrees` about
+/// the vertical.
+fn sky(degrees: f64) -> anyhow::Result<Light> {
+    let (s, c) = degrees.to_radians().sin_cos();
+    let sun = DVec3::new(0.6 * c, 0.6 * s, 0.8);
+    let map = EquirectMap::from_fn(512, 256, 1.0, |d| {
+        let lobe = 20.0 * (8.0 * (d.dot(sun) - 1.0)).exp();
+        [0.2 + 0.6 * d.z.max(0.0) + lobe, 0.3 + 0.6 * d.z.max(0.0) + 0.9 * lobe, 0.5 + 0.5 * d.z.max(0.0) + 0.7 * lobe]
+    })?;
+    Ok(Light::Environment(Environment::Equirect(map)))
+}
+
+/// The environment through the samples' SH transfer against the sampled path ([`env_relight`]).
+#[derive(Debug, Serialize)]
+struct EnvRelight {
+    order: usize,
+    transfer_mib: f64,
+    /// Making the transfer: `environment_samples` shadow rays per sample, once.
+    transfer_ms: f64,
+    /// The sky's projection to the order (once per image).
+    projection_ms: f64,
+    /// q at every sample for a turned sky: the rotation of its coefficients and one dot
+    /// product per sample and channel.
+    sh_source: Timed,
+    /// q at every sample by the sampled path (`environment_samples` shadow rays per sample).
+    sampled_source_ms: f64,
+    sampled_to_sh: f64,
+    /// Of the SH path's q against the sampled path's (worst channel's relative RMS).
+    relative_rms: f64,
+}
+
+/// Times q at `state`'s samples under the bench's sky shadowed by the object's own surface (the
+/// session's occluder), through the SH transfer (made here, so the session's relights reuse it)
+/// and through the sampled path.
+fn env_relight(state: &PrtState, runs: u32) -> anyhow::Result<EnvRelight> {
+    let source = SourceOptions::default();
+    let occluder = TriangleBvh::from_indexed(state.surface.positions(), state.surface.triangles());
+    let points: Vec<DVec3> = state.samples.positions.iter().map(|p| *p / state.transfer_mm_per_unit).collect();
+    let normals = &state.samples.normals;
+    let eta = state.eta();
+    let t = Instant::now();
+    let (transfer, _) = state.env_sh.transfer(&points, normals, eta, Some(&occluder), &source, &|_| Ok(()))?;
+    let transfer_ms = ms(t);
+    let order = transfer.order();
+    let light = sky(0.0)?;
+    let t = Instant::now();
+    let coefficients = environment_coefficients(std::slice::from_ref(&light), order)?.context("the sky's coefficients")?;
+    let projection_ms = ms(t);
+    let mut timed = Vec::new();
+    let mut q = Vec::new();
+    for run in 0..runs.max(1) {
+        let angle = if run % 2 == 0 { 0.0 } else { 15f64.to_radians() };
+        let t = Instant::now();
+        let turned = ShRotation::new(order, DMat3::from_rotation_z(angle)).apply(&coefficients);
+        let q_run = transfer.source(&turned);
+        timed.push(ms(t));
+        if run == 0 {
+            q = q_run;
+        }
+    }
+    let t = Instant::now();
+    let sampled = transmitted_source(std::slice::from_ref(&light), &points, normals, eta, Some(&occluder), &source)?;
+    let sampled_source_ms = ms(t);
+    let sh_source = Timed::new(timed);
+    Ok(EnvRelight {
+        order,
+        transfer_mib: transfer.bytes() as f64 / f64::from(1 << 20),
+        transfer_ms,
+        projection_ms,
+        sampled_to_sh: sampled_source_ms / sh_source.median_ms,
+        sh_source,
+        sampled_source_ms,
+        relative_rms: relative_error(&q, &sampled),
+    })
+}
+
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
     let (lo, hi) = input.bounds();
@@ -148,6 +232,15 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             Err(e) => (None, Some(e.to_string())),
         },
     };
+    let env = env_relight(live.state(), args.runs)?;
+    // The session's whole relight under the sky turned in turn (the transfer made above).
+    let mut env_session = Vec::new();
+    for run in 0..args.runs {
+        let light = sky(if run % 2 == 0 { 15.0 } else { 0.0 })?;
+        let t = Instant::now();
+        session.relight(&[light], Progress::none())?;
+        env_session.push(ms(t));
+    }
 
     // TransCut's editor on the same object: the same whole-object edit.
     let tets = args.tets.first().copied().unwrap_or(200_000);
@@ -185,6 +278,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "edit_speedup_vs_transcut": transcut_edit.median_ms / edit.median_ms,
         "gpu_relight": gpu,
         "gpu_relight_skipped": gpu_skipped,
+        "env_relight": env,
+        "env_relight_ms": env.sh_source.median_ms,
+        "env_session_relight": Timed::new(env_session),
     });
     println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())
