@@ -31,9 +31,10 @@
 //!   constant environment is exact.
 //!
 //! What the order drops: the product L · (V (n·ω)⁺ T) keeps only the bands l < n of each factor.
-//! Without shadows that is the lobe's bands l ≥ n (the clamped cosine's Â₄ is π/24 against
-//! Â₀ = π; Â₆ = π/64): at the default order 5 (25 coefficients) the neglected lobe energy is
-//! below 0.2% of Â₀ for any map; with shadows the visibility's high bands also go, so sharp
+//! Without shadows that is the lobe's bands l ≥ n (the clamped cosine's Â₄ is −π/24 against
+//! Â₀ = π; Â₆ = π/64): at the default order 5 (25 coefficients) the lobe's energy
+//! Σ (2l + 1) Â_l² beyond l = 4 is 0.20% of its total (0.78% beyond l = 2, Ramamoorthi &
+//! Hanrahan's measure for SH9); with shadows the visibility's high bands also go, so sharp
 //! shadows of a small bright source in the map are blurred. A constant environment is exact at
 //! any order (shadowed or not, up to the directions' noise).
 //!
@@ -452,8 +453,9 @@ impl EnvShCache {
     /// The transmitted source q at the samples under `lights` ([`crate::light::transmitted_source`]'s
     /// quantity): the environment lights through the SH transfer ([`EnvShCache::transfer`],
     /// made on first use), every other light through [`crate::light::transmitted_source_with`];
-    /// per sample the environments' sum, then the other lights'. Without environment lights it
-    /// is exactly [`crate::light::transmitted_source_with`]. `poll` sees the fraction of the
+    /// per sample the environments' sum, then the other lights'. Without environment lights (or
+    /// with black ones only) it is exactly [`crate::light::transmitted_source_with`] of the
+    /// other lights. `poll` sees the fraction of the
     /// work: the transfer's making (when it is made) then the other lights.
     ///
     /// # Errors
@@ -472,9 +474,13 @@ impl EnvShCache {
         let Some(radiance) = environment_coefficients(lights, self.order)? else {
             return light::transmitted_source_with(lights, points, normals, eta, occluder, options, poll);
         };
+        let others: Vec<Light> = lights.iter().filter(|l| !matches!(l, Light::Environment(_))).cloned().collect();
+        // Black environments light nothing: no transfer is made for them.
+        if radiance.iter().all(|c| *c == [0.0; 3]) {
+            return light::transmitted_source_with(&others, points, normals, eta, occluder, options, poll);
+        }
         let (transfer, _) = self.transfer(points, normals, eta, occluder, options, &|f| poll(0.8 * f))?;
         let mut q = transfer.source(&radiance);
-        let others: Vec<Light> = lights.iter().filter(|l| !matches!(l, Light::Environment(_))).cloned().collect();
         if !others.is_empty() {
             let rest =
                 light::transmitted_source_with(&others, points, normals, eta, occluder, options, &|f| poll(0.8 + 0.2 * f))?;
@@ -676,6 +682,29 @@ mod tests {
         let (a, b) = (t.source(&rotated)[0], t.source(&projected)[0]);
         for c in 0..3 {
             assert!((a[c] - b[c]).abs() < 1e-4 * b[c], "{a:?} vs {b:?}");
+        }
+    }
+
+    /// Other lights go through the sampled path unchanged; black environments make no transfer.
+    #[test]
+    fn other_lights_and_black_environments() {
+        let bvh = sphere_over_floor();
+        let points = [DVec3::new(0.3, 0.0, 0.0), DVec3::new(1.0, 0.0, 1.5)];
+        let normals = [DVec3::Z, DVec3::X];
+        let sun = Light::Directional { direction: DVec3::new(-0.3, 0.1, -1.0), irradiance: [2.0; 3], angular_diameter_deg: 0.0 };
+        let opts = SourceOptions::default();
+        let alone = transmitted_source(std::slice::from_ref(&sun), &points, &normals, 1.3, Some(&bvh), &opts).unwrap();
+        let cache = EnvShCache::default();
+        let black = [Light::Environment(Environment::Constant([0.0; 3])), sun.clone()];
+        let q = cache.transmitted_source(&black, &points, &normals, 1.3, Some(&bvh), &opts, none()).unwrap();
+        assert_eq!(q, alone);
+        assert!(cache.current().is_none(), "no transfer for a black sky");
+        let sky = [Light::Environment(Environment::Constant([0.5; 3])), sun];
+        let q = cache.transmitted_source(&sky, &points, &normals, 1.3, Some(&bvh), &opts, none()).unwrap();
+        let (t, _) = cache.transfer(&points, &normals, 1.3, Some(&bvh), &opts, none()).unwrap();
+        let env = t.source(&[[0.5 * (4.0 * PI).sqrt(); 3]]);
+        for j in 0..2 {
+            assert_eq!(q[j][1], env[j][1] + alone[j][1], "the sky's q, then the sun's");
         }
     }
 
