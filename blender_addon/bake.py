@@ -17,6 +17,7 @@ marble's shadow and the colour it bleeds, as a light bake of the surroundings wo
 
 from __future__ import annotations
 
+import os
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -33,6 +34,21 @@ DIPOLE = "hierarchical-dipole"
 #: Translucent radiosity's method name: the selected translucent meshes and the visible opaque
 #: ones around them light each other (inter-reflection, colour bleeding, emissive surfaces).
 RADIOSITY = "radiosity"
+#: The PRT method's name: homogeneous media, a precompute per mesh, then material edits and
+#: relights without a new bake (Live Translucency).
+PRT = "prt"
+
+
+def prt_cache_folder() -> str:
+    """Where PRT precomputes are kept: ``transcut_cache/prt`` next to the saved .blend file, else
+    a folder in the system's temporary directory."""
+    import tempfile
+
+    import bpy
+
+    if bpy.data.filepath:
+        return bpy.path.abspath("//transcut_cache/prt")
+    return os.path.join(tempfile.gettempdir(), "transcut_cache", "prt")
 
 
 @dataclass
@@ -60,7 +76,7 @@ def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
     patch size (the setting is a length in scene units, sent in mm: × ``mm_per_unit``; 0 = the
     library's default), rays, iteration, bounces and tolerance (the options of the other
     methods, and of the oracle or mode not chosen, are left out: the binding refuses the
-    first)."""
+    first); for PRT its samples, terms, basis and the cache folder (``Keep Precomputes``)."""
     options = dict(method=method, shadows=1 if settings.shadows else 0)
     if method == DIPOLE:
         options.update(oracle=_name(settings.dipole_oracle))
@@ -75,6 +91,12 @@ def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
         )
         if settings.dipole_mode == "INCREMENTAL":
             options.update(budget=settings.dipole_budget)
+    elif method == PRT:
+        options.update(
+            prt_samples=settings.prt_samples, prt_terms=settings.prt_terms, prt_basis=int(settings.prt_basis)
+        )
+        if settings.prt_keep:
+            options.update(prt_cache=prt_cache_folder())
     else:
         options.update(tets=settings.tets, tolerance=settings.tolerance, backend=settings.backend.lower())
     if method == RADIOSITY:

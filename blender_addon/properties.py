@@ -264,6 +264,44 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         ),
         default=True,
     )
+    prt_samples: IntProperty(
+        name="Samples (log2)",
+        description=(
+            "PRT: log2 of the irradiance samples on the surface (16: 65536). More resolve denser media and sharper "
+            "shadows; the precompute and the transfer grow with them"
+        ),
+        default=16,
+        min=8,
+        max=18,
+    )
+    prt_terms: IntProperty(
+        name="Terms per Vertex",
+        description=(
+            "PRT: Haar coefficients kept per vertex (4 bytes each). Fewer relight faster and are less accurate "
+            "under sharp light"
+        ),
+        default=3072,
+        min=16,
+        max=65536,
+    )
+    prt_basis: EnumProperty(
+        name="Basis",
+        description="PRT: the PCA basis of the dipole profile",
+        items=(
+            ("16", "16 Functions", "Accurate for every measured medium, dense ones included (default)"),
+            ("12", "12 Functions", "The paper's basis: media up to 5/mm"),
+        ),
+        default="16",
+    )
+    prt_keep: BoolProperty(
+        name="Keep Precomputes",
+        description=(
+            "PRT: save each object's precompute in a cache folder (next to the .blend file in transcut_cache/prt, "
+            "else a temporary folder) and read it back when the same mesh, placement and options are baked again, "
+            "so a rebake or Live Translucency starts at once"
+        ),
+        default=True,
+    )
     shadows: BoolProperty(
         name="Shadows",
         description="Objects shadow the lights (each other and themselves)",

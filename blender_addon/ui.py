@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import bpy
 
-from . import library
+from . import library, live
 from .animation_ops import TRANSCUT_OT_bake_animation
-from .bake import DIPOLE, RADIOSITY
+from .bake import DIPOLE, PRT, RADIOSITY
 from .edit_ops import TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium
+from .live import TRANSCUT_OT_live_start, TRANSCUT_OT_live_stop
 from .operators import OBJECT_OT_transcut_bake
 from .preferences import draw_library_status
 from .properties import draw_medium
@@ -45,6 +46,11 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
             col.prop(settings, "dipole_mode")
             if settings.dipole_mode == "INCREMENTAL":
                 col.prop(settings, "dipole_budget")
+        elif settings.method == PRT:
+            col.prop(settings, "prt_samples")
+            col.prop(settings, "prt_terms")
+            col.prop(settings, "prt_basis")
+            col.prop(settings, "prt_keep")
         else:
             if settings.method in ("transcut", RADIOSITY):
                 col.prop(settings, "tets")
@@ -68,6 +74,12 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
             draw_medium(box, obj.transcut, ("sigma_a", "sigma_s_prime", "eta", "g"))
 
         layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
+        if live.active():
+            layout.operator(TRANSCUT_OT_live_stop.bl_idname, icon="PAUSE")
+        else:
+            layout.operator(TRANSCUT_OT_live_start.bl_idname, icon="PLAY")
+        if live.status():
+            layout.label(text=live.status(), icon="INFO")
         layout.operator(TRANSCUT_OT_bake_animation.bl_idname, icon="RENDER_ANIMATION")
         row = layout.row(align=True)
         row.operator(TRANSCUT_OT_cut_with_object.bl_idname, icon="MOD_BOOLEAN")

@@ -29,6 +29,7 @@ from ._abi import (
     SOLVERS,
     STATUS_NAMES,
     TC_METHOD_HIERARCHICAL_DIPOLE,
+    TC_METHOD_PRT,
     TC_METHOD_RADIOSITY,
     TC_METHOD_TRANSCUT,
     TC_NOT_FOUND,
@@ -42,6 +43,8 @@ from ._abi import (
     TcEditStats,
     TcMedium,
     TcProgressFn,
+    TcPrtOptions,
+    TcPrtStats,
     TcRadiosityOptions,
     TcRadiosityStats,
     TcTransCutOptions,
@@ -125,6 +128,16 @@ RADIOSITY_OPTIONS = {
     "bounces": "bounces",
     "seed": "seed",
     "covered_fraction": "covered_fraction",
+}
+
+
+#: The keyword arguments of :meth:`Scene.bake` that are ``TcPrtOptions`` fields, and the field
+#: each sets (``prt_cache``: a folder, sent as ``cache_dir``).
+PRT_OPTIONS = {
+    "prt_samples": "samples_log2",
+    "prt_terms": "terms_per_vertex",
+    "prt_basis": "basis_terms",
+    "prt_cache": "cache_dir",
 }
 
 
@@ -306,6 +319,12 @@ class Library:
         """``tc_radiosity_options_init``: translucent radiosity's defaults."""
         options = TcRadiosityOptions()
         self.call("tc_radiosity_options_init", ctypes.byref(options), ctypes.sizeof(options))
+        return options
+
+    def default_prt_options(self) -> TcPrtOptions:
+        """``tc_prt_options_init``: the PRT method's defaults."""
+        options = TcPrtOptions()
+        self.call("tc_prt_options_init", ctypes.byref(options), ctypes.sizeof(options))
         return options
 
     def scene(self) -> Scene:
@@ -672,6 +691,10 @@ class Scene:
         bounces: int | None = None,
         seed: int | None = None,
         covered_fraction: float | None = None,
+        prt_samples: int | None = None,
+        prt_terms: int | None = None,
+        prt_basis: int | None = None,
+        prt_cache: str | None = None,
         **options,
     ) -> None:
         """Bakes every object (``tc_scene_bake``) with the subsurface ``method``.
@@ -704,6 +727,11 @@ class Scene:
         ``tc_radiosity_options_init``'s defaults. A negative or fractional count, or an unknown
         name, raises ValueError before the call; the library names a value out of range
         (``TC_INVALID_ARGUMENT``, ``options->method_options->`` and the field's name).
+        PRT's options (``method="prt"``), the :class:`TcPrtOptions` fields: ``prt_samples``
+        (log₂ of the irradiance samples, 4 to 18), ``prt_terms`` (Haar coefficients kept per
+        vertex), ``prt_basis`` (12 or 16 functions) and ``prt_cache`` (a folder of saved
+        precomputes: a bake of the same surface, scale and options reads its transfer from
+        there, and writes it there otherwise); unset: ``tc_prt_options_init``'s defaults.
         A method's options given with another method raise ValueError.
         ``options`` are the other :class:`TcBakeOptions` field names (``tets``, ``tolerance``,
         ``max_iterations``, ``threads``, ``shadows``, ``area_samples``,
@@ -789,9 +817,32 @@ class Scene:
                 else:
                     value = float(value)
                 setattr(method_options, key, value)
+        prt = {
+            k: v
+            for k, v in zip(PRT_OPTIONS, (prt_samples, prt_terms, prt_basis, prt_cache), strict=True)
+            if v is not None
+        }
+        # The cache folder's bytes, kept alive with the struct until tc_scene_bake has returned.
+        cache_dir = None
+        if prt:
+            if opts.method != TC_METHOD_PRT:
+                raise ValueError(
+                    f"{', '.join(prt)} {'is an option' if len(prt) == 1 else 'are options'} of "
+                    f"prt, not of method {method if method is not None else 'transcut'!r}"
+                )
+            method_options = self.lib.default_prt_options()
+            for key, value in prt.items():
+                if key == "prt_cache":
+                    cache_dir = os.fsencode(value)
+                    if not cache_dir:
+                        raise ValueError("prt_cache is an empty path (None means no cache)")
+                    method_options.cache_dir = cache_dir
+                else:
+                    setattr(method_options, PRT_OPTIONS[key], _unsigned(value, key))
         if method_options is not None:
             opts.method_options = ctypes.addressof(method_options)
         self._call_with_progress("tc_scene_bake", progress, ctypes.byref(opts))
+        del cache_dir
 
     def _radiosity_options(self, solver, given: dict) -> TcRadiosityOptions:
         """``tc_radiosity_options_init``'s defaults with the :meth:`bake` keywords ``given``
@@ -811,6 +862,42 @@ class Scene:
                 value = float(value)
             setattr(options, field, value)
         return options
+
+    def prt_stats(self, obj: int) -> dict:
+        """``tc_object_prt_stats`` as a dict (``size`` left out; ``key`` as 32 hexadecimal
+        digits, the name of the precompute's file in a cache folder)."""
+        st = TcPrtStats()
+        st.size = ctypes.sizeof(TcPrtStats)
+        self._call("tc_object_prt_stats", obj, ctypes.byref(st))
+        out = {name: getattr(st, name) for name, _ in st._fields_ if name not in ("size", "residual", "key", "medium")}
+        out["residual"] = list(st.residual)
+        out["key"] = f"{st.key[0]:016x}{st.key[1]:016x}"
+        out["medium"] = medium(list(st.medium.sigma_a), list(st.medium.sigma_s_prime), st.medium.eta, st.medium.g)
+        return out
+
+    def prt_save(self, obj: int, path: str) -> None:
+        """Saves a PRT object's precomputed transfer as a ``.tcprt`` file
+        (``tc_object_prt_save``)."""
+        self._call("tc_object_prt_save", obj, os.fsencode(path))
+
+    def prt_set_medium(self, obj: int, sigma_a, sigma_s_prime, eta: float, g: float = 0.0) -> None:
+        """Gives a PRT object a new medium without a new bake (``tc_object_prt_set_medium``): the
+        radiance is updated at once (a K-term sum per vertex) and the scene's description
+        follows; η and g must be the object's. Nothing changes on failure."""
+        self._call("tc_object_prt_set_medium", obj, ctypes.byref(medium(sigma_a, sigma_s_prime, eta, g)))
+
+    def prt_set_medium_artist(
+        self, obj: int, albedo, radius, scale: float, ior: float, anisotropy: float = 0.0
+    ) -> None:
+        """As :meth:`prt_set_medium`, from artist parameters (``tc_object_prt_set_medium_artist``;
+        the radius in scene units at the object's scale)."""
+        artist = _artist(albedo, radius, scale, ior, anisotropy)
+        self._call("tc_object_prt_set_medium_artist", obj, ctypes.byref(artist))
+
+    def prt_set_scale(self, obj: int, mm_per_unit: float) -> None:
+        """A PRT object's millimetres per scene unit, without a new bake
+        (``tc_object_prt_set_scale``)."""
+        self._call("tc_object_prt_set_scale", obj, float(mm_per_unit))
 
     def radiance(self, obj: int) -> np.ndarray:
         """The baked radiance of an object: float32 (vertex_count, 3), linear RGB."""

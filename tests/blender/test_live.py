@@ -1,0 +1,110 @@
+"""Live Translucency (``transcut.live_start`` / ``live_stop``): after one PRT precompute the
+colour attribute follows the material's subsurface inputs and the lights with no button pressed,
+each state equal to a fresh PRT bake of it; what the precompute cannot follow (a moved object)
+stops it with the reason, a medium it cannot take (another IOR) is reported and changes nothing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import bpy, require_library
+from test_addon import add_light, add_sphere, attribute_rgb, select_only
+
+#: Small enough for a quick precompute of the 10 mm test sphere (482 vertices), fine enough for
+#: its marble (σ′t h ≈ 1.7).
+PRT_SETTINGS = dict(method="prt", prt_samples=11, prt_terms=512, prt_keep=False)
+
+
+@pytest.fixture
+def prt_scene(scene):
+    """The test scene with the PRT settings; the settings back to their defaults afterwards (the
+    scene's settings outlive the test)."""
+    for key, value in PRT_SETTINGS.items():
+        setattr(scene.transcut, key, value)
+    yield scene
+    for key in PRT_SETTINGS:
+        scene.transcut.property_unset(key)
+
+
+def fresh_bake(obj, name: str = "Fresh") -> np.ndarray:
+    """A PRT bake of ``obj`` as the scene is now, into attribute ``name``."""
+    settings = bpy.context.scene.transcut
+    kept = settings.attribute_name
+    settings.attribute_name = name
+    try:
+        select_only(obj)
+        assert bpy.ops.object.transcut_bake() == {"FINISHED"}
+    finally:
+        settings.attribute_name = kept
+    return attribute_rgb(obj, name)
+
+
+def test_live_follows_the_material_and_the_lights(prt_scene, addon):
+    require_library()
+    obj = add_sphere()
+    sun = add_light("SUN", rotation=(0.3, 0.2, 0.0), energy=3.0)
+    select_only(obj)
+    assert bpy.ops.transcut.live_start() == {"FINISHED"}
+    assert addon.live.active()
+    start = attribute_rgb(obj).copy()
+    assert np.all(np.isfinite(start)) and start.max() > 0.0
+    np.testing.assert_array_equal(start, fresh_bake(obj))
+
+    node = obj.active_material.node_tree.nodes["Principled BSDF"]
+    node.inputs["Subsurface Radius"].default_value = (0.07, 0.05, 0.04)
+    bpy.context.view_layer.update()
+    edited = attribute_rgb(obj).copy()
+    assert not np.array_equal(edited, start), "the radius change reached the attribute"
+    np.testing.assert_array_equal(edited, fresh_bake(obj))
+
+    sun.rotation_euler = (0.7, -0.4, 0.0)
+    bpy.context.view_layer.update()
+    relit = attribute_rgb(obj).copy()
+    assert not np.array_equal(relit, edited), "the light move reached the attribute"
+    np.testing.assert_array_equal(relit, fresh_bake(obj))
+
+    # A medium the precompute cannot take (another η) is reported; the attribute stays.
+    node.inputs["IOR"].default_value = 1.6
+    bpy.context.view_layer.update()
+    assert addon.live.active() and "eta" in addon.live.status()
+    np.testing.assert_array_equal(attribute_rgb(obj), relit)
+
+    assert bpy.ops.transcut.live_stop() == {"FINISHED"}
+    assert not addon.live.active()
+    node.inputs["IOR"].default_value = 1.3
+    sun.rotation_euler = (0.1, 0.1, 0.0)
+    bpy.context.view_layer.update()
+    np.testing.assert_array_equal(attribute_rgb(obj), relit, "nothing changes once stopped")
+
+
+def test_moving_the_object_stops_live_with_the_reason(prt_scene, addon):
+    require_library()
+    obj = add_sphere()
+    add_light("SUN", rotation=(0.3, 0.2, 0.0), energy=3.0)
+    select_only(obj)
+    assert bpy.ops.transcut.live_start() == {"FINISHED"}
+    obj.location.x += 0.5
+    bpy.context.view_layer.update()
+    assert not addon.live.active()
+    assert "moved or changed shape" in addon.live.status()
+
+
+def test_live_refuses_what_prt_cannot_bake(prt_scene, addon):
+    """A heterogeneous or too dense medium fails the precompute with the library's reason and
+    leaves the scene as it was (no attribute, live off)."""
+    require_library()
+    obj = add_sphere()
+    add_light("SUN", rotation=(0.3, 0.2, 0.0), energy=3.0)
+    obj.transcut.medium_source = "COEFFICIENTS"
+    obj.transcut.sigma_a = (0.01, 0.01, 0.01)
+    obj.transcut.sigma_s_prime = (40.0, 40.0, 40.0)
+    select_only(obj)
+    try:
+        bpy.ops.transcut.live_start()
+        raise AssertionError("a medium too dense for the samples was accepted")
+    except RuntimeError as exc:
+        assert "too dense" in str(exc)
+    assert not addon.live.active()
+    assert "SSS" not in obj.data.attributes
