@@ -64,11 +64,15 @@ struct Compressed {
     dropped: f64,
 }
 
-/// The per-thread work space of the precompute.
+/// The per-thread work space of the precompute. A vertex's K rows are stored interleaved,
+/// sample-major (`rows[j K + k]`): the basis's K values at a distance are written as one
+/// contiguous run, the Haar transform runs over K channels at once, and compression scans one
+/// array.
 struct Scratch {
     rows: Vec<f32>,
     haar: Vec<f32>,
     keys: Vec<f32>,
+    kept: Vec<(u32, f32)>,
     near: Vec<u32>,
 }
 
@@ -103,7 +107,13 @@ impl Transfer {
             .par_iter()
             .zip(terms.par_chunks_mut(budget))
             .map_init(
-                || Scratch { rows: vec![0.0; k * n], haar: vec![0.0; n], keys: Vec::with_capacity(k * n), near: Vec::new() },
+                || Scratch {
+                    rows: vec![0.0; k * n],
+                    haar: vec![0.0; k * n],
+                    keys: Vec::new(),
+                    kept: Vec::new(),
+                    near: Vec::new(),
+                },
                 |scratch, (&x, out)| {
                     if stop.load(Ordering::Relaxed) {
                         return None;
@@ -112,10 +122,8 @@ impl Transfer {
                     if let Some(grid) = &grid {
                         correct_near(basis, samples, positions, triangles, grid, x, near_radius, scratch);
                     }
-                    for row in scratch.rows.chunks_exact_mut(n) {
-                        haar::forward(row, &mut scratch.haar);
-                    }
-                    let kept = compress(&scratch.rows, n, &weights, index_bits, &mut scratch.keys, out);
+                    haar::forward_interleaved(&mut scratch.rows, k, &mut scratch.haar);
+                    let kept = compress(&scratch.rows, &weights, index_bits, &mut scratch.keys, &mut scratch.kept, out);
                     let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
                     if finished.is_multiple_of(64) && poll(finished as f64 / receivers.len() as f64).is_err() {
                         stop.store(true, Ordering::Relaxed);
@@ -246,24 +254,19 @@ pub fn haar_irradiance(q: &[[f64; 3]]) -> Vec<[f32; 4]> {
     (0..n).map(|j| [channels[0][j] as f32, channels[1][j] as f32, channels[2][j] as f32, 0.0]).collect()
 }
 
-/// Every row Tₖ[v, ·] = aⱼ bₖ(‖x − xⱼ‖) into `rows` (row k at k N).
+/// Every row Tₖ[v, ·] = aⱼ bₖ(‖x − xⱼ‖) into `rows`, interleaved (`rows[j K + k]`).
 fn fill_rows(basis: &RdBasis, samples: &SurfaceSamples, x: DVec3, rows: &mut [f32]) {
-    let n = samples.len();
     let k = basis.terms();
-    for (j, (p, &a)) in samples.positions.iter().zip(&samples.areas).enumerate() {
+    for ((p, &a), row) in samples.positions.iter().zip(&samples.areas).zip(rows.chunks_exact_mut(k)) {
         match locate(p.distance(x)) {
             Some((i, t)) => {
                 let (lo, hi) = basis.rows_f32(i);
                 let (a, t) = (a as f32, t as f32);
-                for kk in 0..k {
-                    rows[kk * n + j] = a * (lo[kk] + t * (hi[kk] - lo[kk]));
+                for ((r, l), h) in row.iter_mut().zip(&lo[..k]).zip(&hi[..k]) {
+                    *r = a * (l + t * (h - l));
                 }
             }
-            None => {
-                for kk in 0..k {
-                    rows[kk * n + j] = 0.0;
-                }
-            }
+            None => row.fill(0.0),
         }
     }
 }
@@ -295,7 +298,6 @@ fn correct_near(
     scratch: &mut Scratch,
 ) {
     let k = basis.terms();
-    let n = samples.len();
     let mut row = [0.0f64; MAX_TERMS];
     let mut correction = [0.0f64; MAX_TERMS];
     // The near triangles' cells whole: the samples of a cell carry the area of all of its
@@ -330,7 +332,7 @@ fn correct_near(
     }
     for (j, w) in interpolation_weights(samples, &stencil, x) {
         for (kk, c) in correction[..k].iter().enumerate() {
-            scratch.rows[kk * n + j as usize] += (c * w) as f32;
+            scratch.rows[j as usize * k + kk] += (c * w) as f32;
         }
     }
 }
@@ -379,88 +381,134 @@ fn tangent_frame(n: DVec3) -> (DVec3, DVec3) {
     (t, n.cross(t))
 }
 
-/// The `budget`-th largest of `keys` (all ≥ 0, `budget` ≤ their number) and how many are
-/// larger. Non-negative floats order as their bit patterns, so one pass counts the keys per
-/// 12-bit prefix from the top, the prefix holding the budget-th is found, and only its keys are
-/// selected among: two passes instead of a selection over all K N keys (the precompute's
-/// hottest step with `select_nth_unstable`).
-fn largest_key(keys: &mut Vec<f32>, budget: usize) -> (f32, usize) {
-    const BITS: u32 = 12;
-    let prefix = |x: f32| (x.to_bits() >> (32 - BITS)) as usize;
-    let mut histogram = vec![0usize; 1 << BITS];
-    for &x in keys.iter() {
-        histogram[prefix(x)] += 1;
-    }
-    let (mut above, mut bucket) = (0, 0);
+/// The bits of a key's prefix: keys are counted per prefix to find the threshold's bucket.
+const PREFIX_BITS: u32 = 12;
+
+/// The prefix of a non-negative key: non-negative floats order as their bit patterns.
+fn prefix(key: f32) -> usize {
+    (key.to_bits() >> (32 - PREFIX_BITS)) as usize
+}
+
+/// From the count of keys per prefix, the prefix holding the `budget`-th largest key and how
+/// many keys lie in higher prefixes.
+fn threshold_bucket(histogram: &[usize], budget: usize) -> (usize, usize) {
+    let mut above = 0;
     for b in (0..histogram.len()).rev() {
         if above + histogram[b] >= budget {
-            bucket = b;
-            break;
+            return (b, above);
         }
         above += histogram[b];
     }
-    keys.retain(|&x| prefix(x) == bucket);
-    let rank = budget - above - 1;
-    let (_, t, _) = keys.select_nth_unstable_by(rank, |a, b| b.total_cmp(a));
-    let t = *t;
-    let larger_in_bucket = keys.iter().filter(|&&x| x > t).count();
-    (t, above + larger_in_bucket)
+    (0, above)
 }
 
-/// One vertex's rows (Haar coefficients, row k at k N) compressed into `out`: its length in
-/// coefficients of largest |c| wₖ (every row's coefficient 0 first), packed per row in index
-/// order.
-fn compress(rows: &[f32], n: usize, weights: &[f32], index_bits: u32, keys: &mut Vec<f32>, out: &mut [u32]) -> Compressed {
+/// The `rank`-th largest (from 0) of `keys` (the keys of one bucket), and how many of them are
+/// larger.
+fn select_in_bucket(keys: &mut [f32], rank: usize) -> (f32, usize) {
+    let (_, t, _) = keys.select_nth_unstable_by(rank, |a, b| b.total_cmp(a));
+    let t = *t;
+    (t, keys.iter().filter(|&&x| x > t).count())
+}
+
+/// One vertex's rows (Haar coefficients, interleaved `rows[j K + k]`) compressed into `out`:
+/// its length in coefficients of largest key |c| wₖ (every row's coefficient 0 first), packed per
+/// row in index order. The budget-th largest key is found in three scans of the coefficients
+/// without storing the keys: the keys counted per 12-bit prefix (and the weighted energy summed,
+/// one accumulator per row so the sums do not wait on each other), the keys of the threshold's
+/// prefix collected and selected among, then the kept coefficients gathered.
+fn compress(
+    rows: &[f32],
+    weights: &[f32],
+    index_bits: u32,
+    keys: &mut Vec<f32>,
+    kept: &mut Vec<(u32, f32)>,
+    out: &mut [u32],
+) -> Compressed {
     let k = weights.len();
+    let n = rows.len() / k;
     let budget = out.len();
-    let key = |kk: usize, i: usize| if i == 0 { f32::INFINITY } else { rows[kk * n + i].abs() * weights[kk] };
-    // The threshold: the budget-th largest key (every key kept when the budget is everything).
+    // The coefficient 0 of every row is always kept: its key is infinite.
+    let key = |j: usize, kk: usize, c: f32| if j == 0 { f32::INFINITY } else { c.abs() * weights[kk] };
+    let mut all = [0.0f64; MAX_TERMS];
     let (threshold, above) = if budget >= k * n {
+        for row in rows.chunks_exact(k) {
+            for ((e, &c), &w) in all.iter_mut().zip(row).zip(weights) {
+                *e += f64::from(c * w) * f64::from(c * w);
+            }
+        }
         (f32::NEG_INFINITY, k * n)
     } else {
-        keys.clear();
-        for kk in 0..k {
-            keys.extend((0..n).map(|i| key(kk, i)));
+        let mut histogram = vec![0usize; 1 << PREFIX_BITS];
+        histogram[prefix(f32::INFINITY)] += k;
+        for (j, row) in rows.chunks_exact(k).enumerate() {
+            for (kk, ((e, &c), &w)) in all.iter_mut().zip(row).zip(weights).enumerate() {
+                *e += f64::from(c * w) * f64::from(c * w);
+                if j > 0 {
+                    histogram[prefix(key(j, kk, c))] += 1;
+                }
+            }
         }
-        largest_key(keys, budget)
+        let (bucket, above) = threshold_bucket(&histogram, budget);
+        keys.clear();
+        for (j, row) in rows.chunks_exact(k).enumerate() {
+            for (kk, &c) in row.iter().enumerate() {
+                let key = key(j, kk, c);
+                if prefix(key) == bucket {
+                    keys.push(key);
+                }
+            }
+        }
+        let (t, larger) = select_in_bucket(keys, budget - above - 1);
+        (t, above + larger)
     };
+    // The kept coefficients in sample order (so each row's come out in index order), then per row.
     let mut ties = budget.saturating_sub(above);
-    let value_bits = 32 - index_bits;
-    let qmax = ((1u32 << (value_bits - 1)) - 1) as f32;
-    let mut written = 0;
-    let (mut counts, mut steps) = ([0u32; MAX_TERMS], [0.0f32; MAX_TERMS]);
-    let (mut all, mut dropped) = (0.0f64, 0.0f64);
-    let mut kept: Vec<(u32, f32)> = Vec::new();
-    for kk in 0..k {
-        kept.clear();
-        for i in 0..n {
-            let c = rows[kk * n + i];
-            let kv = key(kk, i);
-            let energy = f64::from(c * weights[kk]).powi(2);
-            all += energy;
+    kept.clear();
+    let mut counts = [0u32; MAX_TERMS];
+    let mut kept_energy = [0.0f64; MAX_TERMS];
+    for (j, row) in rows.chunks_exact(k).enumerate() {
+        for (kk, &c) in row.iter().enumerate() {
+            let kv = key(j, kk, c);
             let keep = kv > threshold
                 || (kv == threshold && ties > 0 && {
                     ties -= 1;
                     true
                 });
             if keep {
-                kept.push((i as u32, c));
-            } else {
-                dropped += energy;
+                kept.push(((j * k + kk) as u32, c));
+                counts[kk] += 1;
+                kept_energy[kk] += f64::from(c * weights[kk]) * f64::from(c * weights[kk]);
             }
         }
-        let largest = kept.iter().fold(0.0f32, |m, &(_, c)| m.max(c.abs()));
-        let step = if largest > 0.0 { largest / qmax } else { 1.0 };
-        for &(i, c) in &kept {
-            let q = (c / step).round() as i32;
-            out[written] = (i << value_bits) | (q as u32 & ((1u32 << value_bits) - 1));
-            written += 1;
-        }
-        counts[kk] = kept.len() as u32;
-        steps[kk] = step;
     }
-    let dropped = if all > 0.0 { (dropped / all).sqrt() } else { 0.0 };
-    debug_assert_eq!(written, budget);
+    debug_assert_eq!(kept.len(), budget);
+    let value_bits = 32 - index_bits;
+    let qmax = ((1u32 << (value_bits - 1)) - 1) as f32;
+    let mut steps = [0.0f32; MAX_TERMS];
+    let mut largest = [0.0f32; MAX_TERMS];
+    for &(at, c) in kept.iter() {
+        let kk = at as usize % k;
+        largest[kk] = largest[kk].max(c.abs());
+    }
+    for kk in 0..k {
+        steps[kk] = if largest[kk] > 0.0 { largest[kk] / qmax } else { 1.0 };
+    }
+    // Row kk's terms start after the rows before it; within a row, sample order.
+    let mut next = [0usize; MAX_TERMS];
+    for kk in 1..k {
+        next[kk] = next[kk - 1] + counts[kk - 1] as usize;
+    }
+    for &(at, c) in kept.iter() {
+        let (j, kk) = (at as usize / k, at as usize % k);
+        let q = (c / steps[kk]).round() as i32;
+        out[next[kk]] = ((j as u32) << value_bits) | (q as u32 & ((1u32 << value_bits) - 1));
+        next[kk] += 1;
+    }
+    // What the compression dropped: the sums over all minus over the kept, per row, in the same
+    // order, so nothing is dropped exactly when every coefficient is kept.
+    let total: f64 = all[..k].iter().sum();
+    let dropped: f64 = all[..k].iter().zip(&kept_energy[..k]).map(|(a, b)| (a - b).max(0.0)).sum();
+    let dropped = if total > 0.0 { (dropped / total).sqrt() } else { 0.0 };
     Compressed { counts, steps, dropped }
 }
 
@@ -483,19 +531,25 @@ mod tests {
         (t, samples, sphere)
     }
 
-    /// The budget-th largest key and the count above it, against a full sort (ties, infinities
-    /// and zeros included).
+    /// The budget-th largest key and the count above it, by prefix bucket and selection in it,
+    /// against a full sort (ties, infinities and zeros included).
     #[test]
-    fn largest_key_is_the_sorted_one() {
+    fn the_threshold_is_the_sorted_one() {
         let mut keys: Vec<f32> = (0..5000u32).map(|i| ((i.wrapping_mul(2_654_435_761) >> 8) % 1000) as f32 * 1e-3).collect();
         keys.extend([f32::INFINITY; 7]);
         keys.extend([0.0; 50]);
         let mut sorted = keys.clone();
         sorted.sort_by(|a, b| b.total_cmp(a));
+        let mut histogram = vec![0usize; 1 << PREFIX_BITS];
+        for &x in &keys {
+            histogram[prefix(x)] += 1;
+        }
         for budget in [1, 7, 8, 100, 2500, 5006, 5057] {
-            let (t, above) = largest_key(&mut keys.clone(), budget);
+            let (bucket, above) = threshold_bucket(&histogram, budget);
+            let mut in_bucket: Vec<f32> = keys.iter().copied().filter(|&x| prefix(x) == bucket).collect();
+            let (t, larger) = select_in_bucket(&mut in_bucket, budget - above - 1);
             assert_eq!(t, sorted[budget - 1], "budget {budget}");
-            assert_eq!(above, sorted.iter().filter(|&&x| x > t).count(), "budget {budget}");
+            assert_eq!(above + larger, sorted.iter().filter(|&&x| x > t).count(), "budget {budget}");
         }
     }
 
