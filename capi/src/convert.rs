@@ -3,7 +3,7 @@
 
 use transcut_core::edit::EditError;
 use transcut_core::mesh::MeshError;
-use transcut_core::optics::Medium;
+use transcut_core::optics::{ArtistParams, Medium};
 use transcut_core::prt::PrtError;
 use transcut_core::{SceneError, SessionError};
 
@@ -110,4 +110,29 @@ pub(crate) fn mesh_failure(e: &MeshError) -> Failure {
         MeshError::Io { .. } | MeshError::Refused { .. } => Failure::new(TC_IO_ERROR, e.to_string()),
         _ => Failure::new(TC_INVALID_MESH, e.to_string()),
     }
+}
+
+/// A medium as an artist sets it (Blender's Principled BSDF subsurface inputs), converted to
+/// σa and σ′s by inverting the dipole's total diffuse reflectance: a thick slab reflects
+/// `albedo` of the diffuse light entering it, and `radius × scale` is the reduced mean free
+/// path 1/σ′t.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcArtistMedium {
+    /// Subsurface colour per channel, each in (0, 1).
+    pub albedo: [f64; 3],
+    /// Subsurface radius per channel, in scene units, > 0.
+    pub radius: [f64; 3],
+    /// Multiplier of `radius`, > 0.
+    pub scale: f64,
+    /// Refractive index, in [1, 4).
+    pub ior: f64,
+    /// Scattering anisotropy g, in (−1, 1).
+    pub anisotropy: f64,
+}
+
+/// Artist parameters to a medium, at `mm_per_unit` millimetres per scene unit.
+pub(crate) fn artist_medium(a: &TcArtistMedium, mm_per_unit: f64) -> Result<Medium, Failure> {
+    let params = ArtistParams { albedo: a.albedo, radius: a.radius, scale: a.scale, mm_per_unit, eta: a.ior, g: a.anisotropy };
+    params.to_medium().map_err(|e| Failure::invalid(format!("artist medium: {e}")))
 }

@@ -52,7 +52,7 @@ mod version;
 mod volume;
 
 pub use bake::*;
-pub use convert::TcMedium;
+pub use convert::{TcArtistMedium, TcMedium};
 pub use cut::*;
 pub use deform::*;
 pub use edit_stats::*;

@@ -2,32 +2,13 @@
 
 use std::ffi::c_char;
 
-use transcut_core::optics::{ArtistParams, Medium, OpticsError};
+use transcut_core::optics::{Medium, OpticsError};
 use transcut_core::MediumSource;
 
-use super::convert::{medium_from, TcMedium};
+use super::convert::{artist_medium, medium_from, TcArtistMedium, TcMedium};
 use super::handle::{with_scene, SceneState, TcScene};
 use super::ptr;
 use super::status::{run, Failure, TcStatus, TC_NOT_FOUND};
-
-/// A medium as an artist sets it (Blender's Principled BSDF subsurface inputs), converted to
-/// σa and σ′s by inverting the dipole's total diffuse reflectance: a thick slab reflects
-/// `albedo` of the diffuse light entering it, and `radius × scale` is the reduced mean free
-/// path 1/σ′t.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TcArtistMedium {
-    /// Subsurface colour per channel, each in (0, 1).
-    pub albedo: [f64; 3],
-    /// Subsurface radius per channel, in scene units, > 0.
-    pub radius: [f64; 3],
-    /// Multiplier of `radius`, > 0.
-    pub scale: f64,
-    /// Refractive index, in [1, 4).
-    pub ior: f64,
-    /// Scattering anisotropy g, in (−1, 1).
-    pub anisotropy: f64,
-}
 
 /// A preset by name; `TC_NOT_FOUND` listing the valid names.
 fn preset(name: &str) -> Result<Medium, Failure> {
@@ -35,12 +16,6 @@ fn preset(name: &str) -> Result<Medium, Failure> {
         OpticsError::UnknownPreset { .. } => Failure::new(TC_NOT_FOUND, e.to_string()),
         e => Failure::invalid(e.to_string()),
     })
-}
-
-/// Artist parameters to a medium, at `mm_per_unit` millimetres per scene unit.
-pub(crate) fn artist_medium(a: &TcArtistMedium, mm_per_unit: f64) -> Result<Medium, Failure> {
-    let params = ArtistParams { albedo: a.albedo, radius: a.radius, scale: a.scale, mm_per_unit, eta: a.ior, g: a.anisotropy };
-    params.to_medium().map_err(|e| Failure::invalid(format!("artist medium: {e}")))
 }
 
 /// Replaces object `object`'s medium by a homogeneous one.

@@ -433,10 +433,8 @@ fn prt_options(o: &TcPrtOptions) -> Result<PrtOptions, Failure> {
         near_radius: o.near_radius,
         seed: o.seed,
         // SAFETY: the caller's contract (a NUL-terminated string or NULL).
-        cache: match unsafe { ptr::optional_path(o.cache_dir, "options->method_options->cache_dir")? } {
-            Some(dir) => Some(PrtCache::Folder(dir.to_path_buf())),
-            None => None,
-        },
+        cache: unsafe { ptr::optional_path(o.cache_dir, "options->method_options->cache_dir")? }
+            .map(|dir| PrtCache::Folder(dir.to_path_buf())),
     };
     options.validate().map_err(|e| Failure::invalid(format!("options->method_options: {e}")))?;
     Ok(options)

@@ -13,9 +13,8 @@ use transcut_core::methods::PrtState;
 use transcut_core::optics::Medium;
 use transcut_core::{MediumSource, Session, SessionError};
 
-use super::convert::{medium_from, session_failure};
+use super::convert::{artist_medium, medium_from, session_failure, TcArtistMedium};
 use super::handle::{with_scene, SceneState, TcScene};
-use super::medium::{artist_medium, TcArtistMedium};
 use super::progress::Callback;
 use super::ptr;
 use super::status::{run, Failure, TcStatus, TC_IO_ERROR, TC_NOT_BAKED, TC_UNSUPPORTED};

@@ -1,16 +1,14 @@
 //! `transcut bake`: per-vertex subsurface radiance of a mesh, written with the mesh.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use clap::Args;
-use transcut::mesh::{self, TriMesh};
+use transcut::mesh;
 use transcut::{bake_with, diffusion, BakeOptions, Method, ObjectBake, Progress, Scene};
 
 use crate::method_args::{MethodArgs, MethodDefaults};
 use crate::object_args::{ObjectArgs, FORMS_HELP};
-use crate::output::{write_f32, write_npy_header};
 use crate::progress::StageBar;
 
 /// Arguments of `transcut bake`.
@@ -62,7 +60,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
     let baked = result?;
     let object = &baked.objects[0];
     if let Some(path) = &args.output {
-        write_radiance(path, &input, &object.radiance).with_context(|| format!("writing {}", path.display()))?;
+        crate::output::write_radiance(path, &input, &object.radiance).with_context(|| format!("writing {}", path.display()))?;
     }
     if let Some(dir) = &args.export_system {
         export_system(dir, &scene, object).with_context(|| format!("exporting the system to {}", dir.display()))?;
@@ -117,52 +115,6 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
     }
     if s.clamped_vertices > 0 {
         println!("note: {} of your vertices had a negative diffusion radiance, clamped to 0", s.clamped_vertices);
-    }
-    Ok(())
-}
-
-/// Writes per-user-vertex radiance in the format the extension names.
-pub(crate) fn write_radiance(path: &Path, mesh: &TriMesh, radiance: &[[f64; 3]]) -> anyhow::Result<()> {
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    if !matches!(ext.as_deref(), Some("ply" | "npy" | "raw")) {
-        bail!("unknown output format (use .ply, .npy or .raw)");
-    }
-    transcut::output::write_atomically(path, |out| match ext.as_deref() {
-        Some("ply") => write_ply(out, mesh, radiance),
-        Some("npy") => {
-            write_npy_header(out, &[radiance.len(), 3])?;
-            write_f32(out, radiance)
-        }
-        _ => write_f32(out, radiance),
-    })?;
-    Ok(())
-}
-
-/// The user's mesh as binary PLY: vertices in the user's order with float `red green blue`;
-/// faces are the welded triangles written with, for each welded vertex, its first user vertex.
-fn write_ply(out: &mut impl Write, mesh: &TriMesh, radiance: &[[f64; 3]]) -> std::io::Result<()> {
-    let map = mesh.user_to_internal();
-    let mut representative = vec![u32::MAX; mesh.positions().len()];
-    for (user, &internal) in map.iter().enumerate().rev() {
-        representative[internal as usize] = user as u32;
-    }
-    writeln!(out, "ply\nformat binary_little_endian 1.0\ncomment libtranscut bake: radiance Lo(x, n), linear RGB")?;
-    writeln!(out, "element vertex {}", map.len())?;
-    writeln!(out, "property float x\nproperty float y\nproperty float z")?;
-    writeln!(out, "property float red\nproperty float green\nproperty float blue")?;
-    writeln!(out, "element face {}", mesh.triangles().len())?;
-    writeln!(out, "property list uchar uint vertex_indices\nend_header")?;
-    for (user, &internal) in map.iter().enumerate() {
-        let p = mesh.positions()[internal as usize];
-        for c in [p.x, p.y, p.z].into_iter().chain(radiance[user]) {
-            out.write_all(&(c as f32).to_le_bytes())?;
-        }
-    }
-    for t in mesh.triangles() {
-        out.write_all(&[3u8])?;
-        for &v in t {
-            out.write_all(&representative[v as usize].to_le_bytes())?;
-        }
     }
     Ok(())
 }

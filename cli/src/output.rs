@@ -1,10 +1,12 @@
 //! Results written out: JSON on standard output with every write error reported (a closed
-//! pipe, a full disk behind a redirection), where `println!` would panic; NumPy arrays of
-//! radiance.
+//! pipe, a full disk behind a redirection), where `println!` would panic; per-vertex radiance
+//! as PLY, NumPy or raw f32.
 
 use std::io::Write;
+use std::path::Path;
 
-use anyhow::Context;
+use anyhow::{bail, Context};
+use transcut::mesh::TriMesh;
 
 /// Writes `value` as pretty-printed JSON and a newline to standard output, and flushes it.
 ///
@@ -45,6 +47,52 @@ pub fn write_f32(out: &mut impl Write, values: &[[f64; 3]]) -> std::io::Result<(
     for row in values {
         for c in row {
             out.write_all(&(*c as f32).to_le_bytes())?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes per-user-vertex radiance in the format the extension names.
+pub fn write_radiance(path: &Path, mesh: &TriMesh, radiance: &[[f64; 3]]) -> anyhow::Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("ply" | "npy" | "raw")) {
+        bail!("unknown output format (use .ply, .npy or .raw)");
+    }
+    transcut::output::write_atomically(path, |out| match ext.as_deref() {
+        Some("ply") => write_ply(out, mesh, radiance),
+        Some("npy") => {
+            write_npy_header(out, &[radiance.len(), 3])?;
+            write_f32(out, radiance)
+        }
+        _ => write_f32(out, radiance),
+    })?;
+    Ok(())
+}
+
+/// The user's mesh as binary PLY: vertices in the user's order with float `red green blue`;
+/// faces are the welded triangles written with, for each welded vertex, its first user vertex.
+fn write_ply(out: &mut impl Write, mesh: &TriMesh, radiance: &[[f64; 3]]) -> std::io::Result<()> {
+    let map = mesh.user_to_internal();
+    let mut representative = vec![u32::MAX; mesh.positions().len()];
+    for (user, &internal) in map.iter().enumerate().rev() {
+        representative[internal as usize] = user as u32;
+    }
+    writeln!(out, "ply\nformat binary_little_endian 1.0\ncomment libtranscut bake: radiance Lo(x, n), linear RGB")?;
+    writeln!(out, "element vertex {}", map.len())?;
+    writeln!(out, "property float x\nproperty float y\nproperty float z")?;
+    writeln!(out, "property float red\nproperty float green\nproperty float blue")?;
+    writeln!(out, "element face {}", mesh.triangles().len())?;
+    writeln!(out, "property list uchar uint vertex_indices\nend_header")?;
+    for (user, &internal) in map.iter().enumerate() {
+        let p = mesh.positions()[internal as usize];
+        for c in [p.x, p.y, p.z].into_iter().chain(radiance[user]) {
+            out.write_all(&(c as f32).to_le_bytes())?;
+        }
+    }
+    for t in mesh.triangles() {
+        out.write_all(&[3u8])?;
+        for &v in t {
+            out.write_all(&representative[v as usize].to_le_bytes())?;
         }
     }
     Ok(())

@@ -30,14 +30,14 @@ pub enum PrtCommand {
 
 Example:
   transcut prt precompute bunny.obj --scale 40 --prt-samples 16 -o bunny.tcprt")]
-    Precompute(PrecomputeArgs),
+    Precompute(Box<PrecomputeArgs>),
     /// Evaluate a saved transfer under a medium and lights, and write the radiance with the
     /// mesh (the same mesh and --scale as the precompute).
     #[command(after_help = format!("{FORMS_HELP}
 
 Example:
   transcut prt eval bunny.tcprt bunny.obj --scale 40 --medium skin1 --light sun:dir=0,-1,-1,irradiance=3 -o bunny.ply"))]
-    Eval(EvalArgs),
+    Eval(Box<EvalArgs>),
 }
 
 /// Arguments of `transcut prt precompute`.
@@ -169,7 +169,7 @@ fn eval(args: &EvalArgs) -> anyhow::Result<()> {
         bail!("{} was not used: the transfer was computed again", args.precompute.display());
     }
     if let Some(path) = &args.output {
-        crate::bake_cmd::write_radiance(path, &mesh, &object.radiance).with_context(|| format!("writing {}", path.display()))?;
+        crate::output::write_radiance(path, &mesh, &object.radiance).with_context(|| format!("writing {}", path.display()))?;
     }
     let s = &object.stats;
     if args.json {

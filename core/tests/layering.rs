@@ -80,7 +80,7 @@ const CAPI: Table = &[
     ("status", &[]),
     ("ptr", &["status"]),
     ("convert", &["status"]),
-    ("options", &["status"]),
+    ("options", &["ptr", "status"]),
     ("progress", &[]),
     ("handle", &["convert", "progress", "status"]),
     ("bake", &["convert", "handle", "options", "progress", "ptr", "status"]),
@@ -92,6 +92,7 @@ const CAPI: Table = &[
     ("medium", &["convert", "handle", "ptr", "status"]),
     ("method", &["ptr", "status"]),
     ("pieces", &["handle", "ptr", "status"]),
+    ("prt", &["convert", "handle", "progress", "ptr", "status"]),
     ("relight", &["convert", "handle", "progress", "status"]),
     ("scene", &["convert", "handle", "ptr", "status"]),
     ("test_hooks", &["status"]),
@@ -141,7 +142,8 @@ const CLI: Table = &[
     ("bake_cmd", &["method_args", "object_args", "output", "progress"]),
     ("animate_cmd", &["method_args", "object_args", "output", "progress"]),
     ("render_cmd", &["method_args", "output", "progress", "scene_file", "scene_file/apply", "scene_file/schema"]),
-    ("main", &["animate_cmd", "bake_cmd", "bench", "mesh_cmd", "render_cmd"]),
+    ("prt_cmd", &["method_args", "object_args", "output", "progress"]),
+    ("main", &["animate_cmd", "bake_cmd", "bench", "mesh_cmd", "prt_cmd", "render_cmd"]),
 ];
 
 /// The source text without comments (`//` to the end of the line; the sources use no block

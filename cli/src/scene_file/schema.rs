@@ -113,7 +113,7 @@ pub struct BakeSpec {
     /// prt: the basis, 12 or 16 functions (`--prt-basis`).
     pub prt_basis: Option<u32>,
     /// prt: a folder of saved precomputes, relative to the scene file (`--prt-cache`).
-    pub prt_cache: Option<std::path::PathBuf>,
+    pub prt_cache: Option<PathBuf>,
 }
 
 /// One `[[object]]`.

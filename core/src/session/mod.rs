@@ -593,11 +593,7 @@ impl Session {
             method: slot.method,
             capability: "save a precomputed transfer",
         })?;
-        state.save(path).map_err(|e| SessionError::Edit {
-            index,
-            name: slot.name.clone(),
-            source: Box::new(EditError::Prt(crate::prt::PrtError::File(e))),
-        })
+        state.save(path).map_err(|e| SessionError::Edit { index, name: slot.name.clone(), source: Box::new(EditError::from(e)) })
     }
 
     /// Object `index` at a new scale, `mm_per_unit` millimetres per scene unit, without a new

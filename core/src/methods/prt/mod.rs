@@ -112,9 +112,9 @@ impl PrtState {
     /// later bake of the same surface and options to read ([`crate::prt::PrtCache`]).
     ///
     /// # Errors
-    /// [`PrecomputeFileError`] when the file cannot be written.
-    pub fn save(&self, path: &Path) -> Result<(), PrecomputeFileError> {
-        io::write(path, self.key, &self.options, self.transfer_mm_per_unit, &self.transfer)
+    /// [`PrtError::File`] when the file cannot be written.
+    pub fn save(&self, path: &Path) -> Result<(), PrtError> {
+        Ok(io::write(path, self.key, &self.options, self.transfer_mm_per_unit, &self.transfer)?)
     }
 
     /// The medium the transfer sees at the current scale: σ multiplied by mm_per_unit over the
