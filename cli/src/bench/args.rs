@@ -59,7 +59,8 @@ pub struct BenchArgs {
     /// Runs per size; the median is reported.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub runs: u32,
-    /// Backend of the `solve` and `dipole` suites: cpu, gpu (fails without an adapter) or auto.
+    /// Backend of the `solve`, `dipole` and `prt` suites (prt: its relight product): cpu, gpu
+    /// (fails without an adapter) or auto.
     #[arg(long, default_value = "auto")]
     pub backend: transcut::gpu::Backend,
     /// Solver of the `edit` suite's updates: pcg, ssor-pcg, cascade, mg-pcg or sa-pcg
