@@ -97,7 +97,7 @@ fn stats_of(state: &PrtState, loaded: bool) -> TcPrtStats {
     let t = state.transfer_stats();
     TcPrtStats {
         size: size_of::<TcPrtStats>() as u32,
-        basis_terms: state.basis.terms() as u32,
+        basis_terms: state.basis().terms() as u32,
         samples_log2: state.options.samples_log2,
         precompute_loaded: u32::from(loaded),
         vertices: state.transfer.vertices() as u64,

@@ -402,7 +402,7 @@ fn a_shadowed_environment_bake_matches_the_sampled_path() {
     let q_sh = state.env_sh.transmitted_source(&lights, &points, normals, 1.3, Some(&occluder), &source, &|_| Ok(())).unwrap();
     let q_old = transmitted_source(&lights, &points, normals, 1.3, Some(&occluder), &source).unwrap();
     let unshadowed = transmitted_source(&lights, &points, normals, 1.3, None, &source).unwrap();
-    let basis = RdBasis::get(state.basis);
+    let basis = RdBasis::get(state.basis());
     let b_sh = exitance(&state.transfer, basis, &marble, &q_sh);
     let b_old = exitance(&state.transfer, basis, &marble, &q_old);
     let b_open = exitance(&state.transfer, basis, &marble, &unshadowed);

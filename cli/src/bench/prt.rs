@@ -86,7 +86,7 @@ fn gpu_relight(ctx: &'static GpuContext, state: &PrtState, runs: u32) -> anyhow:
     let towards = -direction.normalize();
     let q: Vec<[f64; 3]> = state.samples.normals.iter().map(|n| irradiance.map(|e| e * n.dot(towards).max(0.0))).collect();
     let q_haar = haar_irradiance(&q);
-    let (weights, _) = RdBasis::get(state.basis).project_medium(&state.medium);
+    let (weights, _) = RdBasis::get(state.basis()).project_medium(&state.medium);
     let output: Vec<Option<u32>> = (0..transfer.vertices() as u32).map(Some).collect();
     let per_exitance = radiance_per_exitance(state.medium.eta);
     let mut cpu = vec![0.0; transfer.vertices() * transfer.basis_terms() * 3];

@@ -65,8 +65,6 @@ pub struct PrtState {
     pub samples: Arc<SurfaceSamples>,
     /// The object's surface in world space (scene units), for its own shadows in updates.
     pub surface: Arc<TriMesh>,
-    /// The basis of the transfer's rows.
-    pub basis: BasisSize,
     /// The object's medium.
     pub medium: Medium,
     /// Millimetres per scene unit the transfer was computed at.
@@ -102,6 +100,12 @@ impl PrtState {
         self.medium.eta
     }
 
+    /// The basis of the transfer's rows (its options').
+    #[must_use]
+    pub fn basis(&self) -> BasisSize {
+        self.options.basis
+    }
+
     /// What the precompute measured.
     #[must_use]
     pub fn transfer_stats(&self) -> &TransferStats {
@@ -126,7 +130,7 @@ impl PrtState {
     /// The weights of `medium` at `mm_per_unit` (the projection onto the basis, step 3 of the
     /// paper's §3.3), or why the transfer cannot take it.
     pub(crate) fn weights_of(&self, medium: &Medium, mm_per_unit: f64) -> Result<([Vec<f64>; 3], [f64; 3]), PrtError> {
-        weights_of(&self.samples, self.basis, medium, mm_per_unit / self.transfer_mm_per_unit)
+        weights_of(&self.samples, self.basis(), medium, mm_per_unit / self.transfer_mm_per_unit)
     }
 
     /// Lo at the output vertices from the state's weights and gathered products, clamped at 0,
@@ -342,7 +346,6 @@ impl SubsurfaceMethod for Prt {
             transfer: Arc::new(transfer),
             samples: Arc::new(samples),
             surface: Arc::new(surface.clone()),
-            basis: options.basis,
             medium,
             transfer_mm_per_unit: mm,
             mm_per_unit: mm,
