@@ -155,7 +155,7 @@ pub fn run(args: &AnimateArgs) -> anyhow::Result<()> {
     }
     let start = Instant::now();
     let (first, frames) = load_frames(&args.frames)?;
-    let name = args.frames[0].file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned());
+    let name = crate::object_args::object_name(&args.frames[0]);
     let (vertices, triangles) = (first.user_vertex_count(), first.triangles().len());
     let scene = args.object.scene(name, first)?;
     let options = BakeOptions { method: method.clone(), threads: args.threads, ..BakeOptions::default() };

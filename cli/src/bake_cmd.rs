@@ -49,9 +49,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
     if args.export_system.is_some() && !matches!(method, Method::TransCut(_)) {
         bail!("--export-system writes TransCut's system, an option of the transcut method, not of {}", method.name());
     }
-    let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
-    let name = args.input.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned());
-    let scene = args.object.scene(name, input.clone())?;
+    let (scene, input) = args.object.load_scene(&args.input)?;
     let options = BakeOptions { method, threads: args.threads, ..BakeOptions::default() };
     let bar = StageBar::new(args.json);
     let callback = |stage: &str, f: f64| bar.update(stage, f);

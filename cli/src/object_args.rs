@@ -1,7 +1,9 @@
 //! What `bake` and `animate` share about the object they bake: its medium, its size
 //! (millimetres per mesh unit) and the lights, and the help text of their forms.
 
-use anyhow::bail;
+use std::path::Path;
+
+use anyhow::{bail, Context};
 use clap::Args;
 use transcut::light::{Environment, Light};
 use transcut::mesh::TriMesh;
@@ -51,6 +53,16 @@ impl ObjectArgs {
         true
     }
 
+    /// The scene of the mesh file `input` ([`ObjectArgs::scene`], named after the file), and the
+    /// mesh.
+    ///
+    /// # Errors
+    /// A file that cannot be loaded, naming it; those of [`ObjectArgs::scene`].
+    pub fn load_scene(&self, input: &Path) -> anyhow::Result<(Scene, TriMesh)> {
+        let mesh = transcut::mesh::load(input).with_context(|| format!("loading {}", input.display()))?;
+        Ok((self.scene(object_name(input), mesh.clone())?, mesh))
+    }
+
     /// The scene of one object, `mesh` named `name` in the medium at the scale, under the
     /// lights (a white sky without any).
     ///
@@ -67,4 +79,9 @@ impl ObjectArgs {
         }
         Ok(Scene { objects: vec![transcut::Object::new(name, mesh, medium, self.scale)], lights })
     }
+}
+
+/// The name of the object a mesh file holds: its file name without the extension.
+pub fn object_name(path: &Path) -> String {
+    path.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned())
 }

@@ -5,9 +5,8 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use clap::{Args, Subcommand};
-use transcut::mesh;
 use transcut::prt::{io, PrtCache};
-use transcut::{bake_with, BakeOptions, Method, Progress, Scene};
+use transcut::{bake_with, BakeOptions, Method, Progress};
 
 use crate::method_args::{MethodArgs, MethodDefaults};
 use crate::object_args::{ObjectArgs, FORMS_HELP};
@@ -87,27 +86,19 @@ pub fn run(args: &PrtArgs) -> anyhow::Result<()> {
     }
 }
 
-/// The one-object scene of `input` as `object` describes it.
-fn scene(input: &std::path::Path, object: &ObjectArgs) -> anyhow::Result<(Scene, mesh::TriMesh)> {
-    let mesh = mesh::load(input).with_context(|| format!("loading {}", input.display()))?;
-    let name = input.file_stem().map_or_else(|| "object".into(), |s| s.to_string_lossy().into_owned());
-    Ok((object.scene(name, mesh.clone())?, mesh))
-}
-
 fn precompute(args: &PrecomputeArgs) -> anyhow::Result<()> {
     if args.object.print_help(&args.method) {
         return Ok(());
     }
     let defaults = MethodDefaults { method: Some(transcut::methods::prt::NAME.into()), ..MethodDefaults::default() };
     let method = args.method.method(&defaults)?;
-    let Method::Prt(mut prt) = method else {
+    let Method::Prt(prt) = method else {
         bail!("transcut prt precomputes the prt method's transfer; --method {} has none", method.name());
     };
     if prt.cache.is_some() {
         bail!("--prt-cache is for bakes; `prt precompute` writes the file given by -o");
     }
-    prt.cache = None;
-    let (mut scene, _) = scene(&args.input, &args.object)?;
+    let (mut scene, _) = args.object.load_scene(&args.input)?;
     // The transfer does not depend on the lights: none are evaluated.
     scene.lights.clear();
     let options = BakeOptions { method: Method::Prt(prt), threads: args.threads, ..BakeOptions::default() };
@@ -155,7 +146,7 @@ fn eval(args: &EvalArgs) -> anyhow::Result<()> {
     }
     // The file says which options its transfer was made with; the bake must use the same.
     let header = io::read_header(&args.precompute)?;
-    let (scene, mesh) = scene(&args.input, &args.object)?;
+    let (scene, mesh) = args.object.load_scene(&args.input)?;
     let prt = transcut::prt::PrtOptions { cache: Some(PrtCache::File(args.precompute.clone())), ..header.options };
     let options = BakeOptions { method: Method::Prt(prt), threads: args.threads, ..BakeOptions::default() };
     let bar = StageBar::new(args.json);
