@@ -20,6 +20,7 @@ unchanged mesh's is read back at once).
 from __future__ import annotations
 
 import bpy
+import numpy as np
 from bpy.app.handlers import persistent
 
 from . import bake, library, preferences
@@ -30,6 +31,10 @@ from .operators import RunnerOperator
 
 #: Seconds between the timer's looks at the worker.
 POLL_SECONDS = 0.05
+
+
+class PrecomputeInvalid(BakeError):
+    """A live object was removed, moved or reshaped: its precompute no longer describes it."""
 
 
 class Live:
@@ -48,17 +53,18 @@ class Live:
         self.writing = False
 
     def state(self, scene, depsgraph) -> LiveState:
-        """The scene's state now; raises BakeError when a live object is gone, moved or reshaped."""
-        import numpy as np
-
+        """The scene's state now; raises :class:`PrecomputeInvalid` when a live object is gone,
+        moved or reshaped, BakeError for what the user can fix in place."""
         warnings: list = []
         media = []
         for name, count, matrix in zip(self.names, self.vertex_counts, self.matrices, strict=True):
             obj = bpy.data.objects.get(name)
             if obj is None or obj.type != "MESH":
-                raise BakeError(f"'{name}' was removed")
+                raise PrecomputeInvalid(f"'{name}' was removed")
             if len(obj.data.vertices) != count or not np.allclose(world_matrix(obj), matrix, rtol=0.0, atol=1e-9):
-                raise BakeError(f"'{name}' moved or changed shape; start Live Translucency again for a new precompute")
+                raise PrecomputeInvalid(
+                    f"'{name}' moved or changed shape; start Live Translucency again for a new precompute"
+                )
             media.append(object_medium(obj, warnings))
         lights = scene_lights(depsgraph, warnings) + world_lights(scene.world, warnings)
         if not lights:
@@ -67,8 +73,6 @@ class Live:
 
     def write(self, results: list) -> None:
         """Each object's radiance into its attribute (objects gone since are skipped)."""
-        import numpy as np
-
         self.writing = True
         try:
             for name, rgb in zip(self.names, results, strict=True):
@@ -143,11 +147,11 @@ def _on_depsgraph(scene, depsgraph) -> None:
         return
     try:
         state = live.state(scene, depsgraph)
+    except PrecomputeInvalid as exc:
+        stop(str(exc))
+        return
     except BakeError as exc:
-        if "moved or changed shape" in str(exc) or "was removed" in str(exc):
-            stop(str(exc))
-        else:
-            live.message = str(exc)
+        live.message = str(exc)
         return
     key = state.key()
     if key == live.last_key:
