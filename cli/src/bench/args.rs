@@ -91,4 +91,9 @@ pub struct BenchArgs {
     /// The `prt` suite's irradiance samples, log₂.
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(4..=18))]
     pub prt_samples: u32,
+    /// The `prt` suite's precompute cache folder: a transfer found there is read instead of
+    /// computed (`precompute_loaded` in the report), one computed is written there, so that
+    /// repeated runs measure the relight and the edits without the minutes of precompute.
+    #[arg(long, value_name = "DIR")]
+    pub prt_cache: Option<PathBuf>,
 }

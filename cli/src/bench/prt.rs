@@ -4,7 +4,8 @@
 //!
 //! - the precompute (samples and compressed transfer) and the first light, with the transfer's
 //!   bytes, terms, dropped coefficient energy and the process's peak memory;
-//! - a relight after turning the sun 5° (q at the samples with shadows, Haar, the product), a
+//! - a relight after turning the sun 5° (q at the samples with shadows; then Haar, the product
+//!   and the combine: `relight_light_ms` and `relight_product_ms` split it), a
 //!   whole-object material edit (marble ↔ marble with twice its σa: projection and K-term sums) and a scale
 //!   change, each the median of `--runs`;
 //! - the same material edit by the TransCut editor on the same object at `--tets` (its first
@@ -33,7 +34,7 @@ use transcut::methods::prt::radiance_per_exitance;
 use transcut::methods::PrtState;
 use transcut::optics::Medium;
 use transcut::prt::env::environment_coefficients;
-use transcut::prt::{haar_irradiance, PrtOptions, RdBasis};
+use transcut::prt::{haar_irradiance, PrtCache, PrtOptions, RdBasis};
 use transcut::{BakeOptions, DVec3, Object, Progress, Scene, Session, TransCutOptions};
 
 use super::args::BenchArgs;
@@ -200,7 +201,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     // The edit: marble twice as absorbing (a medium TransCut's mesh resolves as well).
     let absorbing = Medium { sigma_a: marble.sigma_a.map(|s| 2.0 * s), ..marble };
     let scene = Scene { objects: vec![Object::new("bench", input, marble, mm_per_unit)], lights: vec![sun(0.0)] };
-    let prt = PrtOptions { samples_log2: args.prt_samples, ..PrtOptions::default() };
+    let prt = PrtOptions {
+        samples_log2: args.prt_samples,
+        cache: args.prt_cache.clone().map(PrtCache::Folder),
+        ..PrtOptions::default()
+    };
     let options = BakeOptions::with_method(prt.clone());
 
     let start = Instant::now();
@@ -208,11 +213,14 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let bake_ms = ms(start);
     let stats = session.bake_stats(0)?.clone();
     let (mut relight, mut edit, mut scale) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut relight_light, mut relight_product) = (Vec::new(), Vec::new());
     for run in 0..args.runs {
         let angle = if run % 2 == 0 { 5.0 } else { 0.0 };
         let t = Instant::now();
-        session.relight(&[sun(angle)], Progress::none())?;
+        let update = session.relight(&[sun(angle)], Progress::none())?;
         relight.push(ms(t));
+        relight_light.push(update[0].source_ms);
+        relight_product.push(update[0].solve_ms);
         let medium = if run % 2 == 0 { absorbing } else { marble };
         let t = Instant::now();
         session.edit_medium(0, &MediumEdit { region: Region::All, op: MediumOp::Assign(medium) }, Progress::none())?;
@@ -265,12 +273,15 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "bake_ms": bake_ms,
         "samples_ms": stats.meshing_ms,
         "precompute_ms": stats.assembly_ms,
+        "precompute_loaded": stats.precompute_loaded,
         "first_light_ms": stats.source_ms,
         "backend": stats.backend,
         "device": stats.device,
         "transfer": transfer,
         "peak_rss_mib": peak,
         "relight_5deg": Timed::new(relight),
+        "relight_light_ms": median(relight_light),
+        "relight_product_ms": median(relight_product),
         "material_edit": edit,
         "scale_change": Timed::new(scale),
         "transcut_tets": tets,

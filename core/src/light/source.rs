@@ -32,6 +32,11 @@ const SAMPLES_PER_CHECK: usize = 1024;
 /// well within 0.1 s, seldom enough that the callback costs nothing next to the sampling.
 const POLL_EVERY: Duration = Duration::from_millis(10);
 
+/// Points per work item and per progress count: the shared counter and the clock are touched
+/// once per chunk, not per point (per point, two threads contending for them cost more than a
+/// shadow ray).
+const POINTS_PER_TICK: usize = 64;
+
 /// Shadow rays towards a light at a finite distance stop this fraction short of it, so that
 /// geometry coinciding with the light's own surface does not shadow it.
 const SHADOW_END: f64 = 1.0 - 1e-6;
@@ -737,26 +742,24 @@ fn evaluate(
         ticker: Ticker::new(poll, points.len()),
     };
     let light_keys: Vec<u64> = (0..prepared.len()).map(|li| hash_combine(options.seed, li as u64)).collect();
-    let q: Vec<[f64; 3]> = points
-        .par_iter()
-        .zip(normals.par_iter())
-        .enumerate()
-        .map(|(i, (&p, &n))| {
-            let origin = p + ctx.bias * n;
-            let mut q = [0.0; 3];
+    let mut q = vec![[0.0; 3]; points.len()];
+    q.par_chunks_mut(POINTS_PER_TICK).enumerate().for_each(|(chunk, out)| {
+        let first = chunk * POINTS_PER_TICK;
+        for (i, q) in (first..).zip(out.iter_mut()) {
             if ctx.ticker.stopped() {
-                return q;
+                return;
             }
+            let (p, n) = (points[i], normals[i]);
+            let origin = p + ctx.bias * n;
             for (light, &lk) in prepared.iter().zip(&light_keys) {
                 let c = ctx.evaluate(light, p, n, origin, hash_combine(lk, i as u64));
                 for (qc, cc) in q.iter_mut().zip(c) {
                     *qc += cc;
                 }
             }
-            ctx.ticker.tick(1);
-            q
-        })
-        .collect();
+        }
+        ctx.ticker.tick(out.len());
+    });
     // A stopped call's values are incomplete: only the cancellation is returned.
     if ctx.ticker.stopped() {
         return Err(LightError::Cancelled(Cancelled));

@@ -210,7 +210,8 @@ impl Transfer {
 
     /// Per vertex v, basis function k and channel c, (Tₖ^w q^w)[v] into `out[(v K + k) 3 + c]`,
     /// from the Haar-transformed irradiance `q_haar` ([`haar_irradiance`]): each row summed in
-    /// its stored order, so the result does not depend on the thread count.
+    /// one fixed order ([`row_sum`]), so the result depends neither on the thread count nor on
+    /// whether the CPU's vector path runs.
     ///
     /// # Panics
     /// If `q_haar` has another length than the samples or `out` than 3 K per vertex.
@@ -218,26 +219,170 @@ impl Transfer {
         let k = self.terms_per_row;
         assert_eq!(q_haar.len(), self.samples, "one irradiance per sample");
         assert_eq!(out.len(), self.vertices * k * 3, "3 K values per vertex");
-        let value_bits = 32 - self.index_bits;
-        let shift = self.index_bits;
+        let sum = RowSum::new(q_haar, self.index_bits);
         out.par_chunks_mut(k * 3).enumerate().for_each(|(v, o)| {
-            for j in 0..k {
-                let row = v * k + j;
-                let terms = &self.terms[self.row_start[row] as usize..self.row_start[row + 1] as usize];
-                let mut acc = [0.0f32; 3];
-                for &p in terms {
-                    let e = q_haar[(p >> value_bits) as usize];
-                    let q = ((p << shift) as i32 >> shift) as f32;
-                    acc[0] += q * e[0];
-                    acc[1] += q * e[1];
-                    acc[2] += q * e[2];
-                }
-                let step = f64::from(self.steps[row]);
+            let mut sums = [[0.0f32; 4]; MAX_TERMS];
+            sum.rows(&self.terms, &self.row_start[v * k..=v * k + k], &mut sums[..k]);
+            for (j, (acc, &step)) in sums.iter().zip(&self.steps[v * k..v * k + k]).enumerate() {
                 for c in 0..3 {
-                    o[j * 3 + c] = f64::from(acc[c]) * step;
+                    o[j * 3 + c] = f64::from(acc[c]) * f64::from(step);
                 }
             }
         });
+    }
+}
+
+/// The accumulators of a row's sum: term i adds into lane i mod `LANES`, and the lanes are
+/// added pairwise at the end ([`reduce_lanes`]). Independent lanes keep the adds from waiting
+/// on each other, and the fixed order makes the scalar and the vector paths agree bit for bit
+/// (f32 products and sums, never fused).
+const LANES: usize = 8;
+
+/// The sum Σ value · q_haar[index] of packed rows ([`Transfer::apply`]'s inner loop), with the
+/// vector path chosen once.
+struct RowSum<'a> {
+    q_haar: &'a [[f32; 4]],
+    index_bits: u32,
+    #[cfg(target_arch = "x86_64")]
+    avx2: bool,
+}
+
+impl<'a> RowSum<'a> {
+    /// # Panics
+    /// If `q_haar` is shorter than 2^`index_bits` (a packed index could fall outside it).
+    fn new(q_haar: &'a [[f32; 4]], index_bits: u32) -> Self {
+        assert!((1..32).contains(&index_bits) && q_haar.len() >= 1 << index_bits, "every packed index is a sample");
+        RowSum {
+            q_haar,
+            index_bits,
+            #[cfg(target_arch = "x86_64")]
+            avx2: std::arch::is_x86_feature_detected!("avx2"),
+        }
+    }
+
+    /// Per row j of consecutive rows (`terms[bounds[j]..bounds[j + 1]]`), Σ value ·
+    /// q_haar[index] into `out[j]` (channels 0–2; lane 3 is the padding's).
+    fn rows(&self, terms: &[u32], bounds: &[u64], out: &mut [[f32; 4]]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: the CPU has AVX2 (detected in `new`), and `new` checked that q_haar
+            // holds every index `index_bits` bits can name.
+            unsafe { avx2::rows(terms, bounds, self.q_haar, self.index_bits, out) };
+            return;
+        }
+        for (o, b) in out.iter_mut().zip(bounds.windows(2)) {
+            *o = row_sum(&terms[b[0] as usize..b[1] as usize], self.q_haar, self.index_bits);
+        }
+    }
+}
+
+/// A packed term's sample index (the top `index_bits` bits) and value (the rest, signed).
+#[inline(always)]
+fn unpack(p: u32, index_bits: u32) -> (usize, f32) {
+    ((p >> (32 - index_bits)) as usize, ((p << index_bits) as i32 >> index_bits) as f32)
+}
+
+/// Adds `value · e` into `lane`.
+#[inline(always)]
+fn accumulate(lane: &mut [f32; 4], value: f32, e: &[f32; 4]) {
+    for c in 0..4 {
+        lane[c] += value * e[c];
+    }
+}
+
+/// The lanes summed pairwise: ((l₀ + l₁) + (l₂ + l₃)) + ((l₄ + l₅) + (l₆ + l₇)).
+#[inline(always)]
+fn reduce_lanes(lanes: &[[f32; 4]; LANES]) -> [f32; 4] {
+    let pair = |a: &[f32; 4], b: &[f32; 4]| [0, 1, 2, 3].map(|c| a[c] + b[c]);
+    pair(
+        &pair(&pair(&lanes[0], &lanes[1]), &pair(&lanes[2], &lanes[3])),
+        &pair(&pair(&lanes[4], &lanes[5]), &pair(&lanes[6], &lanes[7])),
+    )
+}
+
+/// One row of [`RowSum::rows`] without vector instructions: the reference order every path follows.
+fn row_sum(terms: &[u32], q_haar: &[[f32; 4]], index_bits: u32) -> [f32; 4] {
+    let mut lanes = [[0.0f32; 4]; LANES];
+    for (i, &p) in terms.iter().enumerate() {
+        let (index, value) = unpack(p, index_bits);
+        accumulate(&mut lanes[i % LANES], value, &q_haar[index]);
+    }
+    reduce_lanes(&lanes)
+}
+
+/// The AVX2 row sum: eight terms unpacked at once, each term's value broadcast against its
+/// 128-bit irradiance entry into its own lane's accumulator (lane i mod 8 as in [`row_sum`]),
+/// the packed terms prefetched a few kilobytes ahead (the row's stream, not the irradiance,
+/// is what the loads wait for).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::{
+        __m128, _mm256_cvtepi32_ps, _mm256_loadu_si256, _mm256_sll_epi32, _mm256_sra_epi32, _mm256_srl_epi32, _mm256_storeu_ps,
+        _mm256_storeu_si256, _mm_add_ps, _mm_broadcast_ss, _mm_cvtsi32_si128, _mm_loadu_ps, _mm_mul_ps, _mm_prefetch,
+        _mm_setzero_ps, _mm_storeu_ps, _MM_HINT_T0,
+    };
+
+    use super::{accumulate, reduce_lanes, unpack, LANES};
+
+    /// How far ahead of the block being summed its row's terms are prefetched (u32s).
+    const PREFETCH_AHEAD: usize = 1024;
+
+    /// [`super::RowSum::rows`] with AVX2.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2, and `q_haar` must hold 2^`index_bits` entries.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn rows(terms: &[u32], bounds: &[u64], q_haar: &[[f32; 4]], index_bits: u32, out: &mut [[f32; 4]]) {
+        for (o, b) in out.iter_mut().zip(bounds.windows(2)) {
+            // SAFETY: as this function's.
+            *o = unsafe { row_sum(&terms[b[0] as usize..b[1] as usize], q_haar, index_bits) };
+        }
+    }
+
+    /// [`super::row_sum`] with AVX2.
+    ///
+    /// # Safety
+    /// As [`rows`].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn row_sum(terms: &[u32], q_haar: &[[f32; 4]], index_bits: u32) -> [f32; 4] {
+        let index_shift = _mm_cvtsi32_si128((32 - index_bits) as i32);
+        let value_shift = _mm_cvtsi32_si128(index_bits as i32);
+        let mut acc: [__m128; LANES] = [_mm_setzero_ps(); LANES];
+        let blocks = terms.chunks_exact(LANES);
+        let tail = blocks.remainder();
+        let q = q_haar.as_ptr().cast::<f32>();
+        for block in blocks {
+            // A prefetch never faults, wherever it points.
+            _mm_prefetch::<_MM_HINT_T0>(block.as_ptr().wrapping_add(PREFETCH_AHEAD).cast());
+            // SAFETY: `block` holds 8 u32.
+            let packed = unsafe { _mm256_loadu_si256(block.as_ptr().cast()) };
+            let (mut index, mut value) = ([0u32; LANES], [0.0f32; LANES]);
+            // SAFETY: `index` and `value` hold 8 values each.
+            unsafe {
+                _mm256_storeu_si256(index.as_mut_ptr().cast(), _mm256_srl_epi32(packed, index_shift));
+                _mm256_storeu_ps(
+                    value.as_mut_ptr(),
+                    _mm256_cvtepi32_ps(_mm256_sra_epi32(_mm256_sll_epi32(packed, value_shift), value_shift)),
+                );
+            }
+            for l in 0..LANES {
+                // SAFETY: an index of `index_bits` bits is below q_haar's length (the caller's
+                // promise), and each entry is 4 f32.
+                let e = unsafe { _mm_loadu_ps(q.add(4 * index[l] as usize)) };
+                acc[l] = _mm_add_ps(acc[l], _mm_mul_ps(_mm_broadcast_ss(&value[l]), e));
+            }
+        }
+        let mut lanes = [[0.0f32; 4]; LANES];
+        for (lane, a) in lanes.iter_mut().zip(acc) {
+            // SAFETY: `lane` holds 4 f32.
+            unsafe { _mm_storeu_ps(lane.as_mut_ptr(), a) };
+        }
+        for (i, &p) in tail.iter().enumerate() {
+            let (index, value) = unpack(p, index_bits);
+            accumulate(&mut lanes[i], value, &q_haar[index]);
+        }
+        reduce_lanes(&lanes)
     }
 }
 
@@ -550,6 +695,55 @@ mod tests {
             let (t, larger) = select_in_bucket(&mut in_bucket, budget - above - 1);
             assert_eq!(t, sorted[budget - 1], "budget {budget}");
             assert_eq!(above + larger, sorted.iter().filter(|&&x| x > t).count(), "budget {budget}");
+        }
+    }
+
+    /// The row sums: the vector path (where the CPU has one) equals the scalar reference bit
+    /// for bit, and both equal the f64 sum to f32 rounding, over rows of every length mod 8
+    /// (the lanes' tail), empty ones and indices at both ends of the irradiance.
+    #[test]
+    fn row_sums_agree_on_every_path() {
+        let index_bits = 10;
+        let q: Vec<[f32; 4]> = (0..1u32 << index_bits)
+            .map(|i| {
+                let x = (i.wrapping_mul(2_654_435_761) >> 8) as f32 / (1u32 << 24) as f32;
+                [x - 0.3, 2.0 * x, 1.0 - x, 0.0]
+            })
+            .collect();
+        let mut terms = Vec::new();
+        let mut bounds = vec![0u64];
+        for len in (0..40).chain([123, 1024]) {
+            for i in 0..len as u32 {
+                let index = if i == 0 { 0 } else { i.wrapping_mul(40_503) % (1 << index_bits) };
+                let value = (i.wrapping_mul(97) % 4001) as i32 - 2000;
+                terms.push(index << (32 - index_bits) | (value as u32 & ((1 << (32 - index_bits)) - 1)));
+            }
+            terms.push(((1 << index_bits) - 1) << (32 - index_bits) | 5);
+            bounds.push(terms.len() as u64);
+        }
+        let sum = RowSum::new(&q, index_bits);
+        let mut fast = vec![[0.0f32; 4]; bounds.len() - 1];
+        sum.rows(&terms, &bounds, &mut fast);
+        for (j, b) in bounds.windows(2).enumerate() {
+            let row = &terms[b[0] as usize..b[1] as usize];
+            assert_eq!(fast[j], row_sum(row, &q, index_bits), "row {j} of {} terms", row.len());
+            let exact: [f64; 3] = [0, 1, 2].map(|c| {
+                row.iter()
+                    .map(|&p| {
+                        let (i, v) = unpack(p, index_bits);
+                        f64::from(v) * f64::from(q[i][c])
+                    })
+                    .sum()
+            });
+            let scale: f64 = row.iter().map(|&p| f64::from(unpack(p, index_bits).1.abs()) * 2.0).sum();
+            for c in 0..3 {
+                assert!(
+                    (f64::from(fast[j][c]) - exact[c]).abs() <= 1e-6 * scale,
+                    "row {j} channel {c}: {} vs {}",
+                    fast[j][c],
+                    exact[c]
+                );
+            }
         }
     }
 

@@ -138,10 +138,11 @@ impl Relight for PrtLive {
     fn relight(&mut self, lights: &[Light], progress: Progress) -> Result<(UpdateStats, PrtUndo), EditError> {
         let start = Instant::now();
         let lighting = Lighting { lights, occluder: self.occluder.as_ref(), source: &self.source };
-        let (q, gathered) = self.state.gather(&lighting, self.state.medium.eta, &|f| progress.report("light", 0.9 * f))?;
+        let q = self.state.irradiance(&lighting, self.state.medium.eta, &|f| progress.report("light", 0.8 * f))?;
         let source_ms = ms(start);
-        progress.report("combine", 0.9)?;
+        progress.report("product", 0.8)?;
         let t = Instant::now();
+        let gathered = self.state.product(&q);
         let irradiance = std::mem::replace(&mut self.state.irradiance, q);
         let old_gathered = std::mem::replace(&mut self.state.gathered, gathered);
         let (radiance, clamped) = self.state.radiance();

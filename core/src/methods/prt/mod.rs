@@ -141,20 +141,24 @@ impl PrtState {
 
     /// q at the samples under `lighting` (scene units: the samples' millimetres over the
     /// transfer's scale; environments through the samples' SH transfer, [`crate::prt::env`],
-    /// every other light by [`crate::light::transmitted_source`]), and the transfer's product
-    /// with it.
-    pub(crate) fn gather(
+    /// every other light by [`crate::light::transmitted_source`]).
+    pub(crate) fn irradiance(
         &self,
         lighting: &Lighting<'_>,
         eta: f64,
         poll: crate::light::Poll<'_>,
-    ) -> Result<(Vec<[f64; 3]>, Vec<f64>), LightError> {
+    ) -> Result<Vec<[f64; 3]>, LightError> {
         let points: Vec<DVec3> = self.samples.positions.iter().map(|p| *p / self.transfer_mm_per_unit).collect();
         let (lights, normals) = (lighting.lights, &self.samples.normals);
-        let q = self.env_sh.transmitted_source(lights, &points, normals, eta, lighting.occluder, lighting.source, poll)?;
+        self.env_sh.transmitted_source(lights, &points, normals, eta, lighting.occluder, lighting.source, poll)
+    }
+
+    /// The transfer's product with the irradiance `q` at the samples: (Tₖ q)[v] per receiver,
+    /// basis function and channel.
+    pub(crate) fn product(&self, q: &[[f64; 3]]) -> Vec<f64> {
         let mut gathered = vec![0.0; self.transfer.vertices() * self.transfer.basis_terms() * 3];
-        self.device.apply(&self.transfer, &haar_irradiance(&q), &mut gathered);
-        Ok((q, gathered))
+        self.device.apply(&self.transfer, &haar_irradiance(q), &mut gathered);
+        gathered
     }
 }
 
@@ -371,14 +375,14 @@ impl SubsurfaceMethod for Prt {
     ) -> Result<Vec<[f64; 3]>, SceneError> {
         stage("light", 0.9)?;
         let t = Instant::now();
-        let (q, gathered) = state.gather(lighting, state.medium.eta, &|f| stage("light", 0.9 + 0.09 * f))?;
+        let q = state.irradiance(lighting, state.medium.eta, &|f| stage("light", 0.9 + 0.09 * f))?;
         stats.source_ms = ms(t);
+        let t = Instant::now();
+        state.gathered = state.product(&q);
+        state.irradiance = q;
         if let Some(why) = state.device.failure() {
             (stats.backend, stats.device, stats.backend_fallback) = (crate::gpu::Backend::Cpu, None, Some(why));
         }
-        state.irradiance = q;
-        state.gathered = gathered;
-        let t = Instant::now();
         let (radiance, clamped) = state.radiance();
         stats.solve_ms = ms(t);
         stats.clamped_vertices = clamped;
