@@ -8,7 +8,7 @@
 struct PrtParams {
     vertices: u32,        // receiver vertices V
     rows_per_vertex: u32, // basis functions K
-    index_bits: u32,      // bits of a term's sample index (prt_relight.wgsl)
+    samples: u32,         // irradiance samples (prt_relight.wgsl)
     outputs: u32,         // output vertices
 }
 

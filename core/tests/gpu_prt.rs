@@ -63,15 +63,12 @@ fn light(samples: &SurfaceSamples) -> Vec<[f64; 3]> {
 /// Per row and channel, step · Σ |value · q[index][c]| over the row's terms: the magnitude the
 /// f32 sum rounds against.
 fn magnitudes(transfer: &Transfer, q_haar: &[[f32; 4]]) -> Vec<f64> {
-    let (shift, value_bits) = (transfer.index_bits(), 32 - transfer.index_bits());
-    let (starts, terms) = (transfer.row_start(), transfer.packed_terms());
     let mut out = vec![0.0; 3 * transfer.steps().len()];
     for (row, step) in transfer.steps().iter().enumerate() {
-        for &p in &terms[starts[row] as usize..starts[row + 1] as usize] {
-            let value = f64::from(((p << shift) as i32) >> shift);
-            let e = q_haar[(p >> value_bits) as usize];
+        for (index, value) in transfer.row_entries(row) {
+            let e = q_haar[index as usize];
             for c in 0..3 {
-                out[3 * row + c] += (value * f64::from(e[c])).abs() * f64::from(*step);
+                out[3 * row + c] += (f64::from(value) * f64::from(e[c])).abs() * f64::from(*step);
             }
         }
     }

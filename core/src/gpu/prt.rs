@@ -1,5 +1,6 @@
 //! The PRT relight on the device (design/prt.md §4 "GPU"): a compressed [`Transfer`] uploaded
-//! once (its packed terms, row starts and quantisation steps), then per relight the
+//! once (per entry its sample index decoded and its 16-bit value, the row starts and the
+//! quantisation steps), then per relight the
 //! Haar-transformed irradiance in and the product (Tₖ^w q^w)[v] out (`prt_relight.wgsl`, R. Wang
 //! et al. 2008 eqs. 7–8), and per output vertex Lo = C(η) Σₖ sₖ (Tₖ^w q^w)[v] clamped at 0
 //! (`prt_combine.wgsl`). CPU twins: [`Transfer::apply`] and the `radiance` function of
@@ -26,7 +27,7 @@ pub const LANES_PER_VERTEX: usize = 64;
 struct PrtParams {
     vertices: u32,
     rows_per_vertex: u32,
-    index_bits: u32,
+    samples: u32,
     outputs: u32,
 }
 
@@ -38,11 +39,11 @@ pub struct GpuPrt<'c> {
     vertices: usize,
     rows_per_vertex: usize,
     samples: usize,
-    index_bits: u32,
     relight_grid: (u32, u32),
     _params: Lease<'c>,
     _row_start: Lease<'c>,
-    _terms: Lease<'c>,
+    _indices: Lease<'c>,
+    _values: Lease<'c>,
     _steps: Lease<'c>,
     q_haar: Lease<'c>,
     gathered: Lease<'c>,
@@ -85,57 +86,47 @@ impl<'c> GpuPrt<'c> {
     /// (a damaged transfer).
     pub fn new(ctx: &'c GpuContext, transfer: &Transfer) -> Result<Self, GpuError> {
         let (vertices, rows_per_vertex, samples) = (transfer.vertices(), transfer.basis_terms(), transfer.samples());
-        let (row_start, terms, steps) = (transfer.row_start(), transfer.packed_terms(), transfer.steps());
+        let (row_start, entries, steps) = (transfer.row_start(), transfer.gaps().len(), transfer.steps());
         let rows = vertices * rows_per_vertex;
         if row_start.len() != rows + 1
             || steps.len() != rows
             || row_start.first() != Some(&0)
-            || row_start.last() != Some(&(terms.len() as u64))
+            || row_start.last() != Some(&(entries as u64))
             || row_start.windows(2).any(|w| w[0] > w[1])
         {
-            return Err(GpuError::Unsupported { what: "a PRT transfer whose row starts do not rise to its number of terms" });
+            return Err(GpuError::Unsupported { what: "a PRT transfer whose row starts do not rise to its number of entries" });
         }
-        let starts: Vec<u32> = row_start
-            .iter()
-            .map(|&s| {
-                u32::try_from(s).map_err(|_| GpuError::TooLarge {
-                    what: "PRT transfer (terms)",
-                    needed: terms.len() as u64,
-                    limit: u64::from(u32::MAX),
-                    device: ctx.device_name().to_owned(),
-                })
-            })
-            .collect::<Result<_, _>>()?;
-        let vertices32 = u32::try_from(vertices).map_err(|_| GpuError::TooLarge {
-            what: "PRT receiver vertices",
-            needed: vertices as u64,
+        let too_large = |what, needed: u64| GpuError::TooLarge {
+            what,
+            needed,
             limit: u64::from(u32::MAX),
             device: ctx.device_name().to_owned(),
-        })?;
-        let (gx, gy, _) = ctx.grid(vertices * LANES_PER_VERTEX)?;
-        let params = PrtParams {
-            vertices: vertices32,
-            rows_per_vertex: rows_per_vertex as u32,
-            index_bits: transfer.index_bits(),
-            outputs: 0,
         };
+        let starts: Vec<u32> = row_start
+            .iter()
+            .map(|&s| u32::try_from(s).map_err(|_| too_large("PRT transfer (entries)", entries as u64)))
+            .collect::<Result<_, _>>()?;
+        let vertices32 = u32::try_from(vertices).map_err(|_| too_large("PRT receiver vertices", vertices as u64))?;
+        let samples32 = u32::try_from(samples).map_err(|_| too_large("PRT samples", samples as u64))?;
+        let (gx, gy, _) = ctx.grid(vertices * LANES_PER_VERTEX)?;
+        let params = PrtParams { vertices: vertices32, rows_per_vertex: rows_per_vertex as u32, samples: samples32, outputs: 0 };
         let params = ctx.uniform(&params, "prt params");
         let row_start = ctx.upload(&starts, "prt row starts")?;
-        let terms = ctx.upload(terms, "prt terms")?;
+        let (indices, values) = upload_entries(ctx, transfer)?;
         let steps = ctx.upload(steps, "prt steps")?;
         let q_haar = ctx.storage(16 * samples as u64, "prt haar irradiance")?;
         let gathered = ctx.storage(4 * 3 * rows as u64, "prt gathered")?;
-        let relight = ctx.bind(Kernel::PrtRelight, &[&params, &row_start, &terms, &steps, &q_haar, &gathered]);
+        let relight = ctx.bind(Kernel::PrtRelight, &[&params, &row_start, &indices, &values, &steps, &q_haar, &gathered]);
         Ok(Self {
             ctx,
             vertices,
             rows_per_vertex,
             samples,
-            index_bits: transfer.index_bits(),
             relight_grid: (gx, gy),
             _params: params,
             _row_start: row_start,
-            _terms: terms,
+            _indices: indices,
+            _values: values,
             _steps: steps,
             q_haar,
             gathered,
@@ -283,7 +274,7 @@ impl<'c> GpuPrt<'c> {
             .collect();
         let map: Vec<u32> = output.iter().map(|v| v.unwrap_or(u32::MAX)).collect();
         let params =
-            PrtParams { vertices: self.vertices as u32, rows_per_vertex: k as u32, index_bits: self.index_bits, outputs };
+            PrtParams { vertices: self.vertices as u32, rows_per_vertex: k as u32, samples: self.samples as u32, outputs };
         let params = self.ctx.uniform(&params, "prt combine params");
         let weights = self.ctx.upload(&w, "prt weights")?;
         let output_map = self.ctx.upload(&map, "prt output map")?;
@@ -308,6 +299,45 @@ impl<'c> GpuPrt<'c> {
         let clamped = lo.chunks_exact(4).filter(|x| x[3] > 0.0).count();
         Ok((lo.chunks_exact(4).map(|x| [f64::from(x[0]), f64::from(x[1]), f64::from(x[2])]).collect(), clamped))
     }
+}
+
+/// Entries decoded and written to the device per this many (an even number: two values share
+/// a word), so the host never holds a decoded copy of the whole transfer.
+const ENTRIES_PER_WRITE: usize = 1 << 20;
+
+/// The transfer's entries on the device: per entry its sample index (u32) and its value (16
+/// bits, two per word, an escape's 0), as [`Transfer::row_entries`] decodes them.
+fn upload_entries<'c>(ctx: &'c GpuContext, transfer: &Transfer) -> Result<(Lease<'c>, Lease<'c>), GpuError> {
+    let entries = transfer.gaps().len();
+    let indices = ctx.storage(4 * entries.max(1) as u64, "prt indices")?;
+    let values = ctx.storage(4 * entries.div_ceil(2).max(1) as u64, "prt values")?;
+    let (mut index, mut value) = (Vec::with_capacity(ENTRIES_PER_WRITE + 1), Vec::with_capacity(ENTRIES_PER_WRITE + 1));
+    let mut written = 0u64;
+    let mut flush = |index: &mut Vec<u32>, value: &mut Vec<f32>, last: bool| {
+        if value.len() % 2 == 1 && last {
+            value.push(0.0);
+        }
+        let words: Vec<u32> =
+            value.chunks_exact(2).map(|p| u32::from(p[0] as i16 as u16) | (u32::from(p[1] as i16 as u16) << 16)).collect();
+        ctx.queue().write_buffer(&indices, 4 * written, bytemuck::cast_slice(&index[..]));
+        ctx.queue().write_buffer(&values, 2 * written, bytemuck::cast_slice(&words));
+        written += index.len() as u64;
+        index.clear();
+        value.clear();
+    };
+    for row in 0..transfer.steps().len() {
+        for (i, v) in transfer.row_entries(row) {
+            index.push(i);
+            value.push(v);
+            if index.len() == ENTRIES_PER_WRITE {
+                flush(&mut index, &mut value, false);
+            }
+        }
+    }
+    if !index.is_empty() {
+        flush(&mut index, &mut value, true);
+    }
+    Ok((indices, values))
 }
 
 /// The f32 values of read-back bytes (the staging copy need not be aligned for f32).

@@ -15,14 +15,14 @@
 //! | 16 | the key |
 //! | 4 + 4 + 8 + 4 + 8 + 8 | the options: samples_log2, basis terms K, terms_per_vertex, near_field, near_radius, seed |
 //! | 8 | millimetres per scene unit of the surface (informative: the key holds the surface in mm) |
-//! | 8 + 8 + 4 + 4 + 8 + 8 | receivers V, samples N, K, index bits, row offsets (V K + 1), terms T |
-//! | 8 + 8 + 8 + 8 + 8 | the precompute's statistics: terms, bytes, dropped mean and max, near radius |
-//! | 8 (V K + 1) + 4 T + 4 V K | row offsets (u64), packed terms (u32), quantisation steps (f32) |
+//! | 8 + 8 + 4 + 8 + 8 | receivers V, samples N, K, row offsets (V K + 1), entries E |
+//! | 8 × 6 | the precompute's statistics: terms, entries, bytes, dropped mean and max, near radius |
+//! | 8 (V K + 1) + E + 2 E + 4 V K | row offsets (u64), gaps (u8), values (i16), quantisation steps (f32) |
 //! | 16 | a 128-bit hash of every byte before it |
 //!
-//! Reading checks every count against the others and the file's length, every row offset, and
-//! the checksum, so a truncated, corrupt or foreign file is an error naming what is wrong, never
-//! a wrong picture.
+//! Reading checks every count against the others and the file's length, every row offset, that
+//! no row's entries reach past the last sample, and the checksum, so a truncated, corrupt or
+//! foreign file is an error naming what is wrong, never a wrong picture.
 
 use std::fmt;
 use std::fs::File;
@@ -39,7 +39,7 @@ use super::{BasisSize, PrtOptions, RdBasis};
 pub const MAGIC: [u8; 8] = *b"TCPRT\r\n\x1a";
 
 /// The format version this library writes and reads.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 /// What went wrong reading or writing a `.tcprt` file.
 #[derive(Debug, thiserror::Error)]
@@ -156,18 +156,26 @@ pub fn write(
         w.u64(transfer.vertices as u64)?;
         w.u64(transfer.samples as u64)?;
         w.put(&(transfer.terms_per_row as u32).to_le_bytes())?;
-        w.put(&transfer.index_bits.to_le_bytes())?;
         w.u64(transfer.row_start.len() as u64)?;
-        w.u64(transfer.terms.len() as u64)?;
+        w.u64(transfer.gaps.len() as u64)?;
         let s = &transfer.stats;
-        for x in [s.terms as u64, s.bytes as u64, s.dropped_mean.to_bits(), s.dropped_max.to_bits(), s.near_radius.to_bits()] {
+        let stats = [
+            s.terms as u64,
+            s.entries as u64,
+            s.bytes as u64,
+            s.dropped_mean.to_bits(),
+            s.dropped_max.to_bits(),
+            s.near_radius.to_bits(),
+        ];
+        for x in stats {
             w.u64(x)?;
         }
         for chunk in transfer.row_start.chunks(1 << 14) {
             let bytes: Vec<u8> = chunk.iter().flat_map(|x| x.to_le_bytes()).collect();
             w.put(&bytes)?;
         }
-        for chunk in transfer.terms.chunks(1 << 15) {
+        w.put(&transfer.gaps)?;
+        for chunk in transfer.values.chunks(1 << 15) {
             let bytes: Vec<u8> = chunk.iter().flat_map(|x| x.to_le_bytes()).collect();
             w.put(&bytes)?;
         }
@@ -219,7 +227,7 @@ fn open(path: &Path) -> Result<Reader, PrecomputeFileError> {
 }
 
 /// The bytes of the fixed-size part before the arrays.
-const HEADER_BYTES: u64 = 8 + 4 + 16 + (4 + 4 + 8 + 4 + 8 + 8) + 8 + (8 + 8 + 4 + 4 + 8 + 8) + 5 * 8;
+const HEADER_BYTES: u64 = 8 + 4 + 16 + (4 + 4 + 8 + 4 + 8 + 8) + 8 + (8 + 8 + 4 + 8 + 8) + 6 * 8;
 
 /// A buffered writer that hashes what it writes.
 struct HashingWriter<W: Write> {
@@ -331,29 +339,27 @@ impl Reader {
         if k != header.options.basis.terms() {
             return Err(self.invalid(format!("rows of {k} basis functions in a {}-function file", header.options.basis.terms())));
         }
-        let index_bits = self.u32()?;
-        if index_bits != header.samples.trailing_zeros().max(1) {
-            return Err(self.invalid(format!("{index_bits} index bits for {} samples", header.samples)));
-        }
         let rows = header.vertices * k;
         let offsets = self.count("row offsets", self.length / 8)?;
         if offsets != rows + 1 {
             return Err(self.invalid(format!("{offsets} row offsets for {} vertices of {k} rows", header.vertices)));
         }
-        let terms = self.count("terms", self.length / 4)?;
-        let expected = HEADER_BYTES + 8 * offsets as u64 + 4 * terms as u64 + 4 * rows as u64 + 16;
+        let entries = self.count("entries", self.length / 3)?;
+        let expected = HEADER_BYTES + 8 * offsets as u64 + 3 * entries as u64 + 4 * rows as u64 + 16;
         if self.length != expected {
             return Err(self.invalid(format!("{} bytes where its counts say {expected}: truncated or corrupt", self.length)));
         }
         let stats = TransferStats {
             terms: self.u64()? as usize,
+            entries: self.u64()? as usize,
             bytes: self.u64()? as usize,
             dropped_mean: f64::from_bits(self.u64()?),
             dropped_max: f64::from_bits(self.u64()?),
             near_radius: f64::from_bits(self.u64()?),
         };
         let row_start: Vec<u64> = self.array(offsets, u64::from_le_bytes)?;
-        let packed: Vec<u32> = self.array(terms, u32::from_le_bytes)?;
+        let gaps: Vec<u8> = self.array(entries, u8::from_le_bytes)?;
+        let values: Vec<i16> = self.array(entries, i16::from_le_bytes)?;
         let steps: Vec<f32> = self.array(rows, f32::from_le_bytes)?;
         let want = self.hash.finish();
         let mut tail = [0; 16];
@@ -362,22 +368,26 @@ impl Reader {
         if found != want {
             return Err(self.invalid("the checksum does not match: the file is corrupt"));
         }
-        if row_start[0] != 0 || row_start.windows(2).any(|w| w[1] < w[0]) || row_start[rows] != terms as u64 {
-            return Err(self.invalid("the row offsets are not increasing from 0 to the term count"));
+        if row_start[0] != 0 || row_start.windows(2).any(|w| w[1] < w[0]) || row_start[rows] != entries as u64 {
+            return Err(self.invalid("the row offsets are not increasing from 0 to the entry count"));
         }
         if let Some(s) = steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
             return Err(self.invalid(format!("a quantisation step of {s}")));
         }
-        Ok(Transfer {
+        let transfer = Transfer {
             terms_per_row: k,
             vertices: header.vertices,
             samples: header.samples,
-            index_bits,
             row_start,
-            terms: packed,
+            gaps,
+            values,
             steps,
             stats,
-        })
+        };
+        if let Some(row) = transfer.row_beyond_samples() {
+            return Err(self.invalid(format!("row {row} names a sample beyond the last of {}", header.samples)));
+        }
+        Ok(transfer)
     }
 
     /// `n` little-endian values of `N` bytes each.
@@ -503,7 +513,7 @@ mod tests {
         assert_eq!(header, PrecomputeHeader { key, options: o.clone(), mm_per_unit: 2.5, vertices: t.vertices, samples: 256 });
         let back = read(&path, key).unwrap();
         assert_eq!(back.row_start, t.row_start);
-        assert_eq!(back.terms, t.terms);
+        assert_eq!((&back.gaps, &back.values), (&t.gaps, &t.values));
         assert_eq!(
             back.steps.iter().map(|s| s.to_bits()).collect::<Vec<_>>(),
             t.steps.iter().map(|s| s.to_bits()).collect::<Vec<_>>()
@@ -511,7 +521,7 @@ mod tests {
         assert_eq!(back.stats, t.stats);
         assert_eq!(
             std::fs::metadata(&path).unwrap().len(),
-            HEADER_BYTES + 8 * t.row_start.len() as u64 + 4 * t.terms.len() as u64 + 4 * t.steps.len() as u64 + 16
+            HEADER_BYTES + 8 * t.row_start.len() as u64 + 3 * t.gaps.len() as u64 + 4 * t.steps.len() as u64 + 16
         );
         std::fs::remove_dir_all(dir).unwrap();
     }
@@ -572,6 +582,19 @@ mod tests {
         let mut versioned = bytes.clone();
         versioned[8] = 9;
         assert!(message(&versioned).contains("version 9"));
+        // Entries reaching past the last sample, written whole (the checksum matches).
+        let mut beyond = t.clone();
+        let first = beyond.row_start[1] as usize;
+        beyond.gaps[first] = super::super::transfer::ESCAPE;
+        beyond.values[first] = 300;
+        let far = dir.join("far.tcprt");
+        write(&far, key, &o, 1.0, &beyond).unwrap();
+        match read(&far, key) {
+            Err(PrecomputeFileError::Invalid { reason, .. }) => {
+                assert!(reason.contains("row 1 names a sample beyond"), "{reason}")
+            }
+            other => panic!("accepted or other error: {other:?}"),
+        }
         // A flipped bit in the arrays, past every count: only the checksum sees it.
         for at in [HEADER_BYTES as usize + 3, bytes.len() / 2, bytes.len() - 20] {
             let mut flipped = bytes.clone();
