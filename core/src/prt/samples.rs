@@ -17,7 +17,7 @@ use crate::mesh::area_weighted_normals;
 
 use super::PrtError;
 
-/// The most samples: 2¹⁸ (the 18-bit index of [`super::transfer`]'s packed terms).
+/// The most samples: 2¹⁸ (the precompute's per-thread rows hold K · N values).
 pub const MAX_SAMPLES_LOG2: u32 = 18;
 
 /// The irradiance samples of one surface, in k-d tree leaf order.
