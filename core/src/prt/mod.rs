@@ -9,7 +9,8 @@
 //! B(x) = ∫ Rd(‖x − y‖) q(y) dA ≈ Σₖ sₖ(σ) Σⱼ Tₖ[x, j] qⱼ,  Tₖ[x, j] = aⱼ bₖ(‖x − xⱼ‖)
 //!
 //! over 2ⁿ surface samples xⱼ of area aⱼ ([`samples`], eqs. 5–7), each row corrected in the near
-//! field ([`near`]) and kept as its largest Haar coefficients ([`haar`], [`transfer`], eq. 8).
+//! field ([`near`]) and kept as its largest Haar coefficients ([`haar`], [`transfer`], eq. 8),
+//! qⱼ the mean over sample j's piece where a hard shadow's edge crosses it ([`cells`]).
 //! The radiance is the quantity every method returns (ARCHITECTURE.md, "What a bake returns"):
 //! Lo(x, n) = T(η, 0)/(π η² (1 − Fdr)) · B(x), the energy-consistent constant of the dipole
 //! methods (0.33345 at η = 1.3; Jensen's literal T/π is 1.066× brighter).
@@ -19,6 +20,7 @@
 //! (Rd(sr; σ) s² = Rd(r; sσ)).
 
 pub mod basis;
+pub mod cells;
 pub mod env;
 pub mod haar;
 pub mod io;
@@ -27,6 +29,7 @@ pub mod samples;
 pub mod transfer;
 
 pub use basis::{BasisSize, RdBasis};
+pub use cells::cell_irradiance;
 pub use io::{PrecomputeFileError, PrecomputeHeader, PrecomputeKey};
 pub use samples::SurfaceSamples;
 pub use transfer::{haar_irradiance, Transfer, TransferStats};

@@ -11,6 +11,7 @@
 //! so Σ aⱼ = A always.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::light::sampling::hash_combine;
 use crate::mesh::area_weighted_normals;
@@ -41,7 +42,22 @@ pub struct SurfaceSamples {
     /// and the sample-less triangles that gave it their area): `cells[cell_start[t]..cell_start[t + 1]]`.
     pub cell_start: Vec<u32>,
     pub cells: Vec<u32>,
+    /// Per sample, the corners of its piece of its triangle, barycentric ([`split_into`]).
+    pub pieces: Vec<[[f64; 3]; 3]>,
+    /// The surface's area-weighted vertex normals (the samples' normals are interpolated
+    /// from them).
+    pub vertex_normals: Vec<DVec3>,
+    /// Per sample, up to [`NEIGHBOURS`] nearest other samples within [`NEIGHBOUR_RADIUS`]
+    /// spacings: `neighbours[neighbour_start[j]..neighbour_start[j + 1]]`.
+    pub neighbour_start: Vec<u32>,
+    pub neighbours: Vec<u32>,
 }
+
+/// The most neighbours kept per sample.
+pub const NEIGHBOURS: usize = 8;
+
+/// How far a neighbour may lie, in sample spacings √(A/N).
+pub const NEIGHBOUR_RADIUS: f64 = 2.0;
 
 impl SurfaceSamples {
     /// 2^`log2` samples of the surface (`positions`, `triangles`), seeded by `seed`.
@@ -116,10 +132,11 @@ impl SurfaceSamples {
             let weight = (areas[t] + extra[t]) / count as f64;
             let mut pieces = Vec::with_capacity(count);
             split_into(count, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [a, b, c], &mut pieces);
-            for [w0, w1, w2] in pieces {
+            for piece in pieces {
+                let [w0, w1, w2] = [0, 1, 2].map(|i| (piece[0][i] + piece[1][i] + piece[2][i]) / 3.0);
                 let p = a * w0 + b * w1 + c * w2;
                 let normal = (na * w0 + nb * w1 + nc * w2).try_normalize().unwrap_or(face);
-                samples.push(Sample { position: p, normal, area: weight, triangle: t as u32 });
+                samples.push(Sample { position: p, normal, area: weight, triangle: t as u32, piece });
             }
         }
         debug_assert_eq!(samples.len(), n);
@@ -138,8 +155,11 @@ impl SurfaceSamples {
             by_triangle[*slot as usize] = j as u32;
             *slot += 1;
         }
+        let positions: Vec<DVec3> = samples.iter().map(|s| s.position).collect();
+        let spacing = (total / n as f64).sqrt();
+        let (neighbour_start, neighbours) = nearest_neighbours(&positions, NEIGHBOUR_RADIUS * spacing, NEIGHBOURS);
         Ok(SurfaceSamples {
-            positions: samples.iter().map(|s| s.position).collect(),
+            positions,
             normals: samples.iter().map(|s| s.normal).collect(),
             areas: samples.iter().map(|s| s.area).collect(),
             triangles: samples.iter().map(|s| s.triangle).collect(),
@@ -148,6 +168,10 @@ impl SurfaceSamples {
             owner,
             cell_start,
             cells,
+            pieces: samples.iter().map(|s| s.piece).collect(),
+            vertex_normals,
+            neighbour_start,
+            neighbours,
         })
     }
 
@@ -161,6 +185,13 @@ impl SurfaceSamples {
     #[must_use]
     pub fn is_empty(&self) -> bool {
         self.positions.is_empty()
+    }
+
+    /// The samples near sample `j` (up to [`NEIGHBOURS`] within [`NEIGHBOUR_RADIUS`] spacings,
+    /// nearest first).
+    #[must_use]
+    pub fn neighbours_of(&self, j: usize) -> &[u32] {
+        &self.neighbours[self.neighbour_start[j] as usize..self.neighbour_start[j + 1] as usize]
     }
 
     /// The samples on triangle `t`.
@@ -183,14 +214,14 @@ impl SurfaceSamples {
     }
 }
 
-/// The barycentric centroids of `count` pieces of equal area of the triangle `piece` (barycentric
+/// `count` pieces of equal area (barycentric corners) of the triangle `piece` (barycentric
 /// corners) of the triangle `corners`: the piece is cut from the corner opposite its longest
-/// edge at the fraction ⌊count/2⌋/count of that edge, and each part split again, so every
-/// sample is the midpoint rule of its own piece (second order for a smooth integrand, where a
-/// random point in the piece is first order).
-fn split_into(count: usize, piece: [[f64; 3]; 3], corners: [DVec3; 3], out: &mut Vec<[f64; 3]>) {
+/// edge at the fraction ⌊count/2⌋/count of that edge, and each part split again. Each sample
+/// sits at its piece's centroid, the midpoint rule of its own piece (second order for a smooth
+/// integrand, where a random point in the piece is first order).
+fn split_into(count: usize, piece: [[f64; 3]; 3], corners: [DVec3; 3], out: &mut Vec<[[f64; 3]; 3]>) {
     if count == 1 {
-        out.push([0, 1, 2].map(|i| (piece[0][i] + piece[1][i] + piece[2][i]) / 3.0));
+        out.push(piece);
         return;
     }
     let at = |l: [f64; 3]| corners[0] * l[0] + corners[1] * l[1] + corners[2] * l[2];
@@ -211,6 +242,48 @@ struct Sample {
     normal: DVec3,
     area: f64,
     triangle: u32,
+    piece: [[f64; 3]; 3],
+}
+
+/// Per point, up to `most` nearest other points within `radius`, nearest first, through a
+/// uniform grid of cells `radius` wide: (starts, lists) as [`SurfaceSamples::neighbours`].
+fn nearest_neighbours(points: &[DVec3], radius: f64, most: usize) -> (Vec<u32>, Vec<u32>) {
+    use std::collections::HashMap;
+    let cell = |p: DVec3| (p / radius).floor().as_ivec3();
+    let mut grid: HashMap<glam::IVec3, Vec<u32>> = HashMap::new();
+    for (j, p) in points.iter().enumerate() {
+        grid.entry(cell(*p)).or_default().push(j as u32);
+    }
+    let found: Vec<Vec<u32>> = points
+        .par_iter()
+        .enumerate()
+        .map(|(j, p)| {
+            let c = cell(*p);
+            let mut near: Vec<(f64, u32)> = Vec::new();
+            for dz in -1..=1 {
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        for &i in grid.get(&(c + glam::IVec3::new(dx, dy, dz))).into_iter().flatten() {
+                            let d = points[i as usize].distance_squared(*p);
+                            if i as usize != j && d <= radius * radius {
+                                near.push((d, i));
+                            }
+                        }
+                    }
+                }
+            }
+            near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            near.iter().take(most).map(|n| n.1).collect()
+        })
+        .collect();
+    let mut starts = Vec::with_capacity(points.len() + 1);
+    starts.push(0u32);
+    let mut lists = Vec::new();
+    for f in found {
+        lists.extend_from_slice(&f);
+        starts.push(lists.len() as u32);
+    }
+    (starts, lists)
 }
 
 /// Sorts `samples` (a power of two of them) into the leaf order of a balanced k-d tree: split

@@ -29,13 +29,13 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::{BakedState, Lighting, ObjectStats, Stage, SubsurfaceMethod, Target};
-use crate::light::LightError;
+use crate::light::{Light, LightError};
 use crate::mesh::TriMesh;
 use crate::optics::{fdr, ft_out, Medium};
 use crate::progress::ms;
 use crate::prt::{
-    haar_irradiance, io, BasisSize, PrecomputeFileError, PrecomputeKey, PrtCache, PrtError, PrtOptions, RdBasis, SurfaceSamples,
-    Transfer, TransferStats,
+    cells, haar_irradiance, io, BasisSize, PrecomputeFileError, PrecomputeKey, PrtCache, PrtError, PrtOptions, RdBasis,
+    SurfaceSamples, Transfer, TransferStats,
 };
 use crate::scene::SceneError;
 
@@ -140,8 +140,9 @@ impl PrtState {
     }
 
     /// q at the samples under `lighting` (scene units: the samples' millimetres over the
-    /// transfer's scale; environments through the samples' SH transfer, [`crate::prt::env`],
-    /// every other light by [`crate::light::transmitted_source`]).
+    /// transfer's scale): lights with hard shadows as their samples' pieces' means where a
+    /// shadow's edge crosses them ([`cells`]), environments through the samples' SH transfer
+    /// ([`crate::prt::env`]), every other light by [`crate::light::transmitted_source`].
     pub(crate) fn irradiance(
         &self,
         lighting: &Lighting<'_>,
@@ -149,8 +150,33 @@ impl PrtState {
         poll: crate::light::Poll<'_>,
     ) -> Result<Vec<[f64; 3]>, LightError> {
         let points: Vec<DVec3> = self.samples.positions.iter().map(|p| *p / self.transfer_mm_per_unit).collect();
-        let (lights, normals) = (lighting.lights, &self.samples.normals);
-        self.env_sh.transmitted_source(lights, &points, normals, eta, lighting.occluder, lighting.source, poll)
+        let (lights, normals, occluder) = (lighting.lights, &self.samples.normals, lighting.occluder);
+        let (hard, smooth): (Vec<Light>, Vec<Light>) = lights.iter().cloned().partition(cells::has_hard_shadows);
+        if occluder.is_none() || hard.is_empty() {
+            return self.env_sh.transmitted_source(lights, &points, normals, eta, occluder, lighting.source, poll);
+        }
+        let (surface, source) = (&self.surface, lighting.source);
+        let mut q = cells::cell_irradiance(
+            &self.samples,
+            surface.positions(),
+            surface.triangles(),
+            &points,
+            &hard,
+            eta,
+            occluder,
+            source,
+            &|f| poll(0.5 * f),
+        )?;
+        if !smooth.is_empty() {
+            let rest =
+                self.env_sh.transmitted_source(&smooth, &points, normals, eta, occluder, source, &|f| poll(0.5 + 0.5 * f))?;
+            for (a, b) in q.iter_mut().zip(rest) {
+                for (ac, bc) in a.iter_mut().zip(b) {
+                    *ac += bc;
+                }
+            }
+        }
+        Ok(q)
     }
 
     /// The transfer's product with the irradiance `q` at the samples: (Tₖ q)[v] per receiver,
