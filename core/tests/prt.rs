@@ -179,12 +179,12 @@ fn near_triangle(mesh: &TriMesh, samples: &SurfaceSamples, t: usize, x: DVec3, n
 /// varies sharply across the surface, so the compression is tested, unlike under uniform light
 /// where the rows' coefficient 0 alone matters): PRT with the default 2¹⁶ samples against the
 /// exact dipole over 2¹⁸ samples (the near field by cubature with the light computed at every
-/// cubature point). Relative L² over 50 vertices, by terms per vertex: 2.5e-3 uncompressed,
-/// 4.5e-3 at 6144, 1.1e-2 at the default 3072, 1.9e-2 at 1536, 4.3e-2 at 768 (asserted: ≤ 3e-3,
-/// ≤ 1%, ≤ 2%, and rising as the budget halves). The design's goal uncompressed is 2e-3,
-/// met without shadows (1.9e-3 under the sun alone) but not with them: the samples' point values
-/// of a shadowed light err at the shadows' edges. The error falls 4.9× from 2¹² to 2¹⁴ samples
-/// and 6.9× on to 2¹⁶ (6.4e-2, 1.3e-2, 1.9e-3 under the sun alone).
+/// cubature point), q at the samples as the method takes it (each sample's piece's mean where a
+/// shadow's edge crosses it, `prt::cells`). Relative L² over 50 vertices, by terms per vertex:
+/// 1.5e-3 uncompressed, 4.4e-3 at 6144, 1.0e-2 at the default 3072, 1.9e-2 at 1536, 4.3e-2 at
+/// 768 (asserted: the design's 2e-3, 1%, 2%, and rising as the budget halves). With the
+/// samples' centre values instead, the shadows' edges alone put the uncompressed transfer at
+/// 2.5e-3.
 #[test]
 fn shadowed_object_matches_brute_force() {
     let spot = transcut::mesh::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/meshes/spot.obj")).unwrap();
