@@ -372,6 +372,36 @@ mod tests {
         }
     }
 
+    /// The grid's neighbours are the brute force's: the `most` nearest within the radius,
+    /// nearest first, never the point itself; and the samples' lists are those of their own
+    /// positions.
+    #[test]
+    fn neighbours_are_the_nearest_within_the_radius() {
+        let points: Vec<DVec3> = (0..500u64)
+            .map(|i| {
+                let h = |k: u64| (hash_combine(i, k) >> 11) as f64 / (1u64 << 53) as f64;
+                DVec3::new(h(1), h(2), 0.3 * h(3)) * 10.0
+            })
+            .collect();
+        let (radius, most) = (1.2, 5);
+        let (starts, lists) = nearest_neighbours(&points, radius, most);
+        for (j, p) in points.iter().enumerate() {
+            let mut brute: Vec<(f64, u32)> = (0..points.len() as u32)
+                .filter(|&i| i as usize != j)
+                .map(|i| (points[i as usize].distance_squared(*p), i))
+                .filter(|(d, _)| *d <= radius * radius)
+                .collect();
+            brute.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let want: Vec<u32> = brute.iter().take(most).map(|b| b.1).collect();
+            assert_eq!(&lists[starts[j] as usize..starts[j + 1] as usize], &want[..], "point {j}");
+        }
+        let sphere = icosphere(10.0, 3);
+        let s = SurfaceSamples::new(sphere.positions(), sphere.triangles(), 10, 5).unwrap();
+        let (starts, lists) = nearest_neighbours(&s.positions, NEIGHBOUR_RADIUS * s.spacing(), NEIGHBOURS);
+        assert_eq!((starts, lists), (s.neighbour_start.clone(), s.neighbours.clone()));
+        assert!((0..s.len()).all(|j| !s.neighbours_of(j).is_empty()), "every sample on a sphere has neighbours");
+    }
+
     #[test]
     fn bad_requests_are_named() {
         let sphere = icosphere(1.0, 1);
