@@ -60,8 +60,10 @@ use crate::input::{fmt_num, fmt_vec};
 
 pub use environment::{direction_to_equirect, equirect_to_direction, luminance, EnvSample, Environment, EquirectMap, LUMINANCE};
 pub use error::LightError;
+pub use source::{
+    add_irradiance, irradiance, spot_falloff, transmitted_source, transmitted_source_with, EnvironmentMethod, Poll, SourceOptions,
+};
 pub(crate) use source::{bounding_diagonal, check_inputs};
-pub use source::{irradiance, spot_falloff, transmitted_source, transmitted_source_with, EnvironmentMethod, Poll, SourceOptions};
 
 /// A light source, in scene units. Radiometric quantities are linear RGB.
 #[derive(Debug, Clone, PartialEq)]
@@ -139,6 +141,17 @@ pub fn validate_lights(lights: &[Light]) -> Result<(), LightError> {
 }
 
 impl Light {
+    /// Whether the light reaches a point from a single direction (a point, a spot, a sun of no
+    /// size): its shadows are hard, all or nothing at each point.
+    #[must_use]
+    pub fn is_delta(&self) -> bool {
+        match self {
+            Light::Directional { angular_diameter_deg, .. } => *angular_diameter_deg == 0.0,
+            Light::Point { .. } | Light::Spot { .. } => true,
+            Light::RectArea { .. } | Light::DiscArea { .. } | Light::Environment(_) => false,
+        }
+    }
+
     /// The light as its strength per channel times the same light at unit strength (intensity,
     /// irradiance or radiance 1 in every channel; an equirectangular map at multiplier 1, its
     /// strength the multiplier in each channel): `(unit, strength)`. Light transport is linear

@@ -232,6 +232,19 @@ pub fn irradiance(
     evaluate(lights, points, normals, Response::Irradiance, occluder, options, &|_| Ok(()))
 }
 
+/// Adds the irradiance of more lights, `more`, to `q` (both per point and channel).
+///
+/// # Panics
+/// If the two have other lengths.
+pub fn add_irradiance(q: &mut [[f64; 3]], more: &[[f64; 3]]) {
+    assert_eq!(q.len(), more.len(), "one irradiance per point");
+    for (a, b) in q.iter_mut().zip(more) {
+        for (ac, bc) in a.iter_mut().zip(b) {
+            *ac += bc;
+        }
+    }
+}
+
 /// What is integrated against the incident radiance.
 #[derive(Debug, Clone, Copy)]
 enum Response {

@@ -11,7 +11,7 @@
 //! and its value is replaced by the mean over the centres of its piece's four midpoint
 //! sub-triangles (the midpoint rule on each quarter). Lights without hard shadows (area lights,
 //! a sun of finite size, environments) are smooth at the pieces' scale and are left to the
-//! centre value.
+//! centre value. [`Light::is_delta`] says which lights have hard shadows.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -24,16 +24,6 @@ use crate::mesh::TriangleBvh;
 /// (a delta light's share is 0 or 1; a smooth mix of several lights changes by much less than
 /// this over one sample spacing).
 pub const EDGE: f64 = 0.02;
-
-/// Whether `light` casts hard shadows (a delta light: points, spots, a sun of no size).
-#[must_use]
-pub fn has_hard_shadows(light: &Light) -> bool {
-    match light {
-        Light::Directional { angular_diameter_deg, .. } => *angular_diameter_deg == 0.0,
-        Light::Point { .. } | Light::Spot { .. } => true,
-        _ => false,
-    }
-}
 
 /// q at the samples under `lights` (the transmitted irradiance of
 /// [`light::transmitted_source`]), each sample's value the mean over its piece where a shadow's

@@ -484,11 +484,7 @@ impl EnvShCache {
         if !others.is_empty() {
             let rest =
                 light::transmitted_source_with(&others, points, normals, eta, occluder, options, &|f| poll(0.8 + 0.2 * f))?;
-            for (a, b) in q.iter_mut().zip(rest) {
-                for (ac, bc) in a.iter_mut().zip(b) {
-                    *ac += bc;
-                }
-            }
+            light::add_irradiance(&mut q, &rest);
         }
         Ok(q)
     }

@@ -140,7 +140,7 @@ impl PrtState {
     }
 
     /// q at the samples under `lighting` (scene units: the samples' millimetres over the
-    /// transfer's scale): lights with hard shadows as their samples' pieces' means where a
+    /// transfer's scale): delta lights (hard shadows) as their samples' pieces' means where a
     /// shadow's edge crosses them ([`cells`]), environments through the samples' SH transfer
     /// ([`crate::prt::env`]), every other light by [`crate::light::transmitted_source`].
     pub(crate) fn irradiance(
@@ -151,7 +151,7 @@ impl PrtState {
     ) -> Result<Vec<[f64; 3]>, LightError> {
         let points: Vec<DVec3> = self.samples.positions.iter().map(|p| *p / self.transfer_mm_per_unit).collect();
         let (lights, normals, occluder) = (lighting.lights, &self.samples.normals, lighting.occluder);
-        let (hard, smooth): (Vec<Light>, Vec<Light>) = lights.iter().cloned().partition(cells::has_hard_shadows);
+        let (hard, smooth): (Vec<Light>, Vec<Light>) = lights.iter().cloned().partition(Light::is_delta);
         if occluder.is_none() || hard.is_empty() {
             return self.env_sh.transmitted_source(lights, &points, normals, eta, occluder, lighting.source, poll);
         }
@@ -165,16 +165,12 @@ impl PrtState {
             eta,
             occluder,
             source,
-            &|f| poll(0.5 * f),
+            &|f| poll(if smooth.is_empty() { f } else { 0.5 * f }),
         )?;
         if !smooth.is_empty() {
             let rest =
                 self.env_sh.transmitted_source(&smooth, &points, normals, eta, occluder, source, &|f| poll(0.5 + 0.5 * f))?;
-            for (a, b) in q.iter_mut().zip(rest) {
-                for (ac, bc) in a.iter_mut().zip(b) {
-                    *ac += bc;
-                }
-            }
+            crate::light::add_irradiance(&mut q, &rest);
         }
         Ok(q)
     }
