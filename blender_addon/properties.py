@@ -277,10 +277,10 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
     prt_terms: IntProperty(
         name="Terms per Vertex",
         description=(
-            "PRT: Haar coefficients kept per vertex (4 bytes each). Fewer relight faster and are less accurate "
-            "under sharp light"
+            "PRT: Haar coefficients kept per vertex (about 3 bytes each). Fewer relight faster and are less "
+            "accurate under sharp light"
         ),
-        default=3072,
+        default=1024,
         min=16,
         max=65536,
     )

@@ -266,7 +266,7 @@ class TcPrtOptions(Structure):
         ("size", c_uint32),
         ("samples_log2", c_uint32),  # log2 of the irradiance samples, 4 to 18 (default 16)
         ("basis_terms", c_uint32),  # TC_PRT_BASIS_16 or TC_PRT_BASIS_12
-        ("terms_per_vertex", c_uint32),  # Haar coefficients kept per vertex (default 3072)
+        ("terms_per_vertex", c_uint32),  # Haar coefficients kept per vertex (default 1024)
         ("near_field", c_uint32),  # 1: the near-field correction of the rows (default)
         ("near_radius", c_double),  # in sample spacings (default 8)
         ("seed", c_uint64),

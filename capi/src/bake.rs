@@ -129,7 +129,7 @@ pub unsafe extern "C" fn tc_dipole_options_init(options: *mut TcDipoleOptions, s
 }
 
 /// Fills the first `size` bytes of `*options` with the PRT method's defaults (2¹⁶ samples, the
-/// 16-function basis, 3072 terms per vertex, the near-field correction over 8 sample spacings,
+/// 16-function basis, 1024 terms per vertex, the near-field correction over 8 sample spacings,
 /// seed 0), as `tc_bake_options_init` fills its struct; pass `sizeof(TcPrtOptions)`.
 /// `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size below `sizeof(TcPrtOptions)`;
 /// nothing is written on failure.

@@ -243,7 +243,7 @@ pub struct TcPrtOptions {
     /// `TC_PRT_BASIS_16` (default) or `TC_PRT_BASIS_12` (the paper's).
     pub basis_terms: u32,
     /// Haar coefficients kept per vertex over all its basis rows, from `basis_terms` to 2²⁰
-    /// (default 3072; the transfer takes about 4 bytes each).
+    /// (default 1024; the transfer takes about 3 bytes each).
     pub terms_per_vertex: u32,
     /// 1 (default): the near-field correction of the transfer rows; 0: none.
     pub near_field: u32,

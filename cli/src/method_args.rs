@@ -270,8 +270,8 @@ pub struct MethodArgs {
     /// with them [default: 16]
     #[arg(long, value_name = "LOG2", value_parser = clap::value_parser!(u32).range(4..=18), help_heading = "PRT options")]
     pub prt_samples: Option<u32>,
-    /// prt: Haar coefficients kept per vertex over all its basis rows (4 bytes each); fewer are
-    /// faster to relight and less accurate under sharp light [default: 3072]
+    /// prt: Haar coefficients kept per vertex over all its basis rows (about 3 bytes each);
+    /// fewer are faster to relight and less accurate under sharp light [default: 1024]
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(12..=1_048_576), help_heading = "PRT options")]
     pub prt_terms: Option<u64>,
     /// prt: the PCA basis of the dipole profile: 16 functions, or the paper's 12 [default: 16]

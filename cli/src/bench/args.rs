@@ -91,6 +91,9 @@ pub struct BenchArgs {
     /// The `prt` suite's irradiance samples, log₂.
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(4..=18))]
     pub prt_samples: u32,
+    /// The `prt` suite's Haar coefficients kept per vertex (default: the library's).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1_048_576))]
+    pub prt_terms: Option<u64>,
     /// The `prt` suite's precompute cache folder: a transfer found there is read instead of
     /// computed (`precompute_loaded` in the report), one computed is written there, so that
     /// repeated runs measure the relight and the edits without the minutes of precompute.

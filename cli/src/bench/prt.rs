@@ -1,6 +1,6 @@
 //! `transcut bench prt`: the PRT method (R. Wang et al. 2008) on `--input` (60 mm across,
-//! marble, one shadowed sun), at `--prt-samples` (log₂, default 2¹⁶) with the default 3072
-//! terms per vertex, through the bake and its session:
+//! marble, one shadowed sun), at `--prt-samples` (log₂, default 2¹⁶) with `--prt-terms` per
+//! vertex (default the library's), through the bake and its session:
 //!
 //! - the precompute (samples and compressed transfer) and the first light, with the transfer's
 //!   bytes, terms, dropped coefficient energy and the process's peak memory;
@@ -203,6 +203,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let scene = Scene { objects: vec![Object::new("bench", input, marble, mm_per_unit)], lights: vec![sun(0.0)] };
     let prt = PrtOptions {
         samples_log2: args.prt_samples,
+        terms_per_vertex: args.prt_terms.map_or(PrtOptions::default().terms_per_vertex, |t| t as usize),
         cache: args.prt_cache.clone().map(PrtCache::Folder),
         ..PrtOptions::default()
     };

@@ -61,7 +61,8 @@ use crate::input::{fmt_num, fmt_vec};
 pub use environment::{direction_to_equirect, equirect_to_direction, luminance, EnvSample, Environment, EquirectMap, LUMINANCE};
 pub use error::LightError;
 pub use source::{
-    add_irradiance, irradiance, spot_falloff, transmitted_source, transmitted_source_with, EnvironmentMethod, Poll, SourceOptions,
+    add_irradiance, irradiance, spot_falloff, transmitted_source, transmitted_source_and_unshadowed, transmitted_source_with,
+    EnvironmentMethod, Poll, ShadowedAndUnshadowed, SourceOptions,
 };
 pub(crate) use source::{bounding_diagonal, check_inputs};
 

@@ -216,6 +216,36 @@ pub fn transmitted_source_with(
     evaluate(lights, points, normals, Response::Transmitted(eta), occluder, options, poll)
 }
 
+/// Per point and channel, a light's value with the occluder's shadows and without them.
+pub type ShadowedAndUnshadowed = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+
+/// [`transmitted_source_with`] with the occluder's shadows and without them, (shadowed,
+/// unshadowed), in one pass where every light is a delta light ([`Light::is_delta`]: each
+/// light's value is computed once and its one shadow ray decides whether the shadowed sum takes
+/// it; both equal the two calls' values bit for bit), in two calls otherwise.
+///
+/// # Errors
+/// As [`transmitted_source_with`].
+pub fn transmitted_source_and_unshadowed(
+    lights: &[Light],
+    points: &[DVec3],
+    normals: &[DVec3],
+    eta: f64,
+    occluder: Option<&TriangleBvh>,
+    options: &SourceOptions,
+    poll: Poll<'_>,
+) -> Result<ShadowedAndUnshadowed, LightError> {
+    if !lights.iter().all(Light::is_delta) {
+        let shadowed = transmitted_source_with(lights, points, normals, eta, occluder, options, &|f| poll(0.5 * f))?;
+        let unshadowed = transmitted_source_with(lights, points, normals, eta, None, options, &|f| poll(0.5 + 0.5 * f))?;
+        return Ok((shadowed, unshadowed));
+    }
+    if !(ETA_MIN..ETA_MAX).contains(&eta) {
+        return Err(LightError::InvalidEta { value: eta, min: ETA_MIN, max: ETA_MAX });
+    }
+    evaluate_with(lights, points, normals, Response::Transmitted(eta), occluder, options, poll, true)
+}
+
 /// The irradiance E(x) = ∫ Li(x, ω) (n·ω)⁺ dω (per RGB channel) at every point: exactly
 /// [`transmitted_source`] without the Fresnel factor (a constant environment gives π L; the SH9
 /// path uses the clamped-cosine lobe (π, 2π/3, π/4)).
@@ -436,10 +466,10 @@ impl Context<'_> {
     fn evaluate(&self, light: &Prepared<'_>, p: DVec3, n: DVec3, origin: DVec3, key: u64) -> [f64; 3] {
         let r = self.response;
         match *light {
-            Prepared::Delta { to_light, e } => {
-                let w = r.weight(n.dot(to_light));
-                if w > 0.0 && self.visible(origin, to_light, f64::INFINITY) {
-                    scale(e, w)
+            Prepared::Delta { .. } | Prepared::Point { .. } | Prepared::Spot { .. } => {
+                let (c, visible) = self.delta(light, p, n, origin);
+                if visible {
+                    c
                 } else {
                     [0.0; 3]
                 }
@@ -463,10 +493,6 @@ impl Context<'_> {
                     }
                 }
                 scale(e, sum / count as f64)
-            }
-            Prepared::Point { position, i } => self.point_like(p, n, origin, position, i, |_| 1.0),
-            Prepared::Spot { position, axis, i, cos_half, blend } => {
-                self.point_like(p, n, origin, position, i, |omega| spot_falloff(-omega.dot(axis), cos_half, blend))
             }
             Prepared::Rect { center, half_u, half_v, normal, area, l, two_sided } => {
                 let facing = normal.dot(p - center);
@@ -532,28 +558,32 @@ impl Context<'_> {
         }
     }
 
-    /// A point-like emitter of intensity `i` at `position`, times `falloff(ω)` (ω from the point
-    /// towards the light): I s (n·ω)⁺ T / d².
-    fn point_like(
-        &self,
-        p: DVec3,
-        n: DVec3,
-        origin: DVec3,
-        position: DVec3,
-        i: [f64; 3],
-        falloff: impl Fn(DVec3) -> f64,
-    ) -> [f64; 3] {
+    /// A delta light's ([`Light::is_delta`]) value at `p` (unit normal `n`) were nothing in the
+    /// way, and whether its one shadow ray from `origin` is clear (not traced where the value
+    /// is 0). A sun of no size: E (n·ω)⁺ T. A point-like emitter of intensity I at a position,
+    /// times a spot's falloff s(ω) (ω from the point towards the light): I s (n·ω)⁺ T / d².
+    fn delta(&self, light: &Prepared<'_>, p: DVec3, n: DVec3, origin: DVec3) -> ([f64; 3], bool) {
+        let (position, i, falloff) = match *light {
+            Prepared::Delta { to_light, e } => {
+                let w = self.response.weight(n.dot(to_light));
+                return if w > 0.0 { (scale(e, w), self.visible(origin, to_light, f64::INFINITY)) } else { ([0.0; 3], false) };
+            }
+            Prepared::Point { position, i } => (position, i, None),
+            Prepared::Spot { position, axis, i, cos_half, blend } => (position, i, Some((axis, cos_half, blend))),
+            _ => unreachable!("delta is called for delta lights only"),
+        };
         let d = position - p;
         let d2 = d.length_squared();
         if d2 == 0.0 {
-            return [0.0; 3];
+            return ([0.0; 3], false);
         }
         let omega = d / d2.sqrt();
-        let w = r_weight(self.response, n, omega) * falloff(omega);
-        if w > 0.0 && self.visible(origin, position - origin, SHADOW_END) {
-            scale(i, w / d2)
+        let s = falloff.map_or(1.0, |(axis, cos_half, blend)| spot_falloff(-omega.dot(axis), cos_half, blend));
+        let w = r_weight(self.response, n, omega) * s;
+        if w > 0.0 {
+            (scale(i, w / d2), self.visible(origin, position - origin, SHADOW_END))
         } else {
-            [0.0; 3]
+            ([0.0; 3], false)
         }
     }
 
@@ -664,16 +694,7 @@ fn scale(c: [f64; 3], s: f64) -> [f64; 3] {
 
 /// Diagonal of the axis-aligned box around the occluder's triangles (0 when empty).
 pub(crate) fn bounding_diagonal(bvh: &TriangleBvh) -> f64 {
-    let (lo, hi) = bvh
-        .corners
-        .iter()
-        .flatten()
-        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &c| (lo.min(c), hi.max(c)));
-    if lo.x <= hi.x {
-        (hi - lo).length()
-    } else {
-        0.0
-    }
+    bvh.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length())
 }
 
 /// The points' checks of [`transmitted_source`] ([`LightError::LengthMismatch`],
@@ -682,7 +703,7 @@ pub(crate) fn check_inputs(points: &[DVec3], normals: &[DVec3]) -> Result<Vec<DV
     if points.len() != normals.len() {
         return Err(LightError::LengthMismatch { points: points.len(), normals: normals.len() });
     }
-    if let Some(index) = points.iter().position(|p| !p.is_finite()) {
+    if let Some(index) = points.par_iter().position_first(|p| !p.is_finite()) {
         return Err(LightError::InvalidPoint {
             index,
             field: "position",
@@ -690,23 +711,28 @@ pub(crate) fn check_inputs(points: &[DVec3], normals: &[DVec3]) -> Result<Vec<DV
             requirement: "must be finite",
         });
     }
-    normals
-        .iter()
-        .enumerate()
-        .map(|(index, n)| {
+    // One pass over the normals (NaN marks one that cannot be made a unit vector), then the
+    // first such.
+    let unit: Vec<DVec3> = normals
+        .par_iter()
+        .map(|n| {
             let len = n.length();
             if n.is_finite() && len > 0.0 && len.is_finite() {
-                Ok(*n / len)
+                *n / len
             } else {
-                Err(LightError::InvalidPoint {
-                    index,
-                    field: "normal",
-                    value: fmt_vec(&n.to_array()),
-                    requirement: "must be finite and non-zero",
-                })
+                DVec3::NAN
             }
         })
-        .collect()
+        .collect();
+    if let Some(index) = unit.par_iter().position_first(|n| n.x.is_nan()) {
+        return Err(LightError::InvalidPoint {
+            index,
+            field: "normal",
+            value: fmt_vec(&normals[index].to_array()),
+            requirement: "must be finite and non-zero",
+        });
+    }
+    Ok(unit)
 }
 
 fn check_options(prepared: &[Prepared<'_>], options: &SourceOptions, shadowed: bool) -> Result<(), LightError> {
@@ -741,6 +767,24 @@ fn evaluate(
     options: &SourceOptions,
     poll: Poll<'_>,
 ) -> Result<Vec<[f64; 3]>, LightError> {
+    evaluate_with(lights, points, normals, response, occluder, options, poll, false).map(|(q, _)| q)
+}
+
+/// [`evaluate`], and with `unshadowed` (every light a delta light) also each point's value
+/// without the occluder: each light's value is computed once and its shadow ray decides
+/// whether the shadowed sum takes it.
+#[allow(clippy::too_many_arguments)]
+fn evaluate_with(
+    lights: &[Light],
+    points: &[DVec3],
+    normals: &[DVec3],
+    response: Response,
+    occluder: Option<&TriangleBvh>,
+    options: &SourceOptions,
+    poll: Poll<'_>,
+    unshadowed: bool,
+) -> Result<ShadowedAndUnshadowed, LightError> {
+    debug_assert!(!unshadowed || lights.iter().all(Light::is_delta));
     validate_lights(lights)?;
     let normals = check_inputs(points, normals)?;
     let lobe = response.lobe();
@@ -756,18 +800,32 @@ fn evaluate(
     };
     let light_keys: Vec<u64> = (0..prepared.len()).map(|li| hash_combine(options.seed, li as u64)).collect();
     let mut q = vec![[0.0; 3]; points.len()];
-    q.par_chunks_mut(POINTS_PER_TICK).enumerate().for_each(|(chunk, out)| {
+    let mut free = vec![[0.0; 3]; if unshadowed { points.len() } else { 0 }];
+    let mut free_chunks: Vec<Option<&mut [[f64; 3]]>> = if unshadowed {
+        free.chunks_mut(POINTS_PER_TICK).map(Some).collect()
+    } else {
+        (0..points.len().div_ceil(POINTS_PER_TICK)).map(|_| None).collect()
+    };
+    let add = |q: &mut [f64; 3], c: [f64; 3]| {
+        for (qc, cc) in q.iter_mut().zip(c) {
+            *qc += cc;
+        }
+    };
+    q.par_chunks_mut(POINTS_PER_TICK).zip(free_chunks.par_iter_mut()).enumerate().for_each(|(chunk, (out, free_out))| {
         let first = chunk * POINTS_PER_TICK;
-        for (i, q) in (first..).zip(out.iter_mut()) {
+        for (k, (i, q)) in (first..).zip(out.iter_mut()).enumerate() {
             if ctx.ticker.stopped() {
                 return;
             }
             let (p, n) = (points[i], normals[i]);
             let origin = p + ctx.bias * n;
             for (light, &lk) in prepared.iter().zip(&light_keys) {
-                let c = ctx.evaluate(light, p, n, origin, hash_combine(lk, i as u64));
-                for (qc, cc) in q.iter_mut().zip(c) {
-                    *qc += cc;
+                if let Some(free_out) = free_out.as_deref_mut() {
+                    let (c, visible) = ctx.delta(light, p, n, origin);
+                    add(&mut free_out[k], c);
+                    add(q, if visible { c } else { [0.0; 3] });
+                } else {
+                    add(q, ctx.evaluate(light, p, n, origin, hash_combine(lk, i as u64)));
                 }
             }
         }
@@ -777,7 +835,8 @@ fn evaluate(
     if ctx.ticker.stopped() {
         return Err(LightError::Cancelled(Cancelled));
     }
-    Ok(q)
+    drop(free_chunks);
+    Ok((q, free))
 }
 
 #[cfg(test)]
@@ -1009,6 +1068,43 @@ mod tests {
             let e = irradiance(&point, &p, &n, None, &over).unwrap_err();
             assert_eq!(e, over.validate().unwrap_err());
             assert_eq!(e.to_string(), format!("source option {field} = {value}: must be at most 1048576 (2^20)"));
+        }
+    }
+
+    /// The one-pass shadowed and unshadowed values equal the two calls' bit for bit: delta
+    /// lights (a sun, a point, a spot) over a grid of points partly under a blocker, and a list
+    /// with a light of another kind (two calls inside).
+    #[test]
+    fn shadowed_and_unshadowed_in_one_pass_equal_two_calls() {
+        let points: Vec<DVec3> = (0..400).map(|i| DVec3::new((i % 20) as f64 - 9.5, (i / 20) as f64 - 9.5, 0.0)).collect();
+        let normals: Vec<DVec3> = (0..400).map(|i| DVec3::new(0.01 * (i % 7) as f64, 0.0, 1.0)).collect();
+        let blocker =
+            TriangleBvh::new(vec![[DVec3::new(-1.0, -5.0, 4.0), DVec3::new(5.0, -5.0, 4.0), DVec3::new(-1.0, 4.0, 4.0)]]);
+        let mut lights = vec![
+            Light::Directional { direction: DVec3::new(0.3, 0.1, -1.0), irradiance: [1.0, 2.0, 3.0], angular_diameter_deg: 0.0 },
+            Light::Point { position: DVec3::new(-2.0, 3.0, 9.0), intensity: [50.0; 3] },
+            Light::Spot {
+                position: DVec3::new(4.0, -2.0, 10.0),
+                direction: DVec3::new(-0.2, 0.1, -1.0),
+                intensity: [80.0, 60.0, 40.0],
+                cone_half_angle_deg: 30.0,
+                blend: 0.3,
+            },
+        ];
+        let options = SourceOptions::default();
+        let none: Poll<'_> = &|_| Ok(());
+        for _ in 0..2 {
+            let (shadowed, unshadowed) =
+                transmitted_source_and_unshadowed(&lights, &points, &normals, 1.4, Some(&blocker), &options, none).unwrap();
+            let with = transmitted_source_with(&lights, &points, &normals, 1.4, Some(&blocker), &options, none).unwrap();
+            let without = transmitted_source_with(&lights, &points, &normals, 1.4, None, &options, none).unwrap();
+            assert_eq!(shadowed, with);
+            assert_eq!(unshadowed, without);
+            let dimmed = shadowed.iter().zip(&unshadowed).filter(|(s, u)| s[0] < u[0]).count();
+            if lights.len() == 3 {
+                assert!(dimmed > 40 && dimmed < 360, "{dimmed} of 400 points are shadowed by some light");
+            }
+            lights.push(Light::Environment(Environment::Constant([0.1; 3])));
         }
     }
 

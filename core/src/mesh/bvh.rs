@@ -93,6 +93,13 @@ impl TriangleBvh {
         self.corners.is_empty()
     }
 
+    /// The axis-aligned box (lo, hi) around every triangle (the root's), `None` for an empty
+    /// tree.
+    #[must_use]
+    pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
+        self.nodes.first().map(|root| (root.lo, root.hi))
+    }
+
     /// The closest point on any triangle to `p`, or `None` for an empty tree.
     #[must_use]
     pub fn closest_point(&self, p: DVec3) -> Option<SurfacePoint> {

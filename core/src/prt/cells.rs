@@ -5,12 +5,13 @@
 //! 2¹⁶ samples those pieces alone put the uncompressed transfer 2.5e-3 off the exact dipole
 //! where every piece's mean gives 1.2e-3 (`core/tests/prt.rs`).
 //!
-//! So q is first taken at every sample's centre and, with the occluder removed, without
-//! shadows (no rays). A sample whose shadowed share of that differs from a neighbour's
-//! ([`super::SurfaceSamples::neighbours_of`]) by more than [`EDGE`] has a shadow's edge nearby,
-//! and its value is replaced by the mean over the centres of its piece's four midpoint
-//! sub-triangles (the midpoint rule on each quarter). Lights without hard shadows (area lights,
-//! a sun of finite size, environments) are smooth at the pieces' scale and are left to the
+//! So q is first taken at every sample's centre, with shadows and, in the same pass, without
+//! (the shadow ray decides between them). A sample whose shadowed share differs from a
+//! neighbour's ([`super::SurfaceSamples::neighbours_of`]) by more than [`EDGE`] has a shadow's
+//! edge nearby, and its value is replaced by the mean over the centres of its piece's four
+//! midpoint sub-triangles (the midpoint rule on each quarter; the middle one's centre is the
+//! sample's, so three more rays per sample). Lights without hard shadows (area lights, a sun
+//! of finite size, environments) are smooth at the pieces' scale and are left to the
 //! centre value. [`Light::is_delta`] says which lights have hard shadows.
 
 use glam::DVec3;
@@ -45,11 +46,11 @@ pub fn cell_irradiance(
     poll: Poll<'_>,
 ) -> Result<Vec<[f64; 3]>, LightError> {
     let normals = &samples.normals;
-    let mut q = light::transmitted_source_with(lights, points, normals, eta, occluder, options, &|f| poll(0.7 * f))?;
     if occluder.is_none() {
-        return Ok(q);
+        return light::transmitted_source_with(lights, points, normals, eta, None, options, poll);
     }
-    let free = light::transmitted_source_with(lights, points, normals, eta, None, options, &|_| Ok(()))?;
+    let (mut q, free) =
+        light::transmitted_source_and_unshadowed(lights, points, normals, eta, occluder, options, &|f| poll(0.7 * f))?;
     let share: Vec<Option<f64>> = q
         .par_iter()
         .zip(&free)
@@ -69,12 +70,13 @@ pub fn cell_irradiance(
     if edges.is_empty() {
         return Ok(q);
     }
-    let (mut sub_points, mut sub_normals) = (Vec::with_capacity(4 * edges.len()), Vec::with_capacity(4 * edges.len()));
+    let (mut sub_points, mut sub_normals) = (Vec::with_capacity(3 * edges.len()), Vec::with_capacity(3 * edges.len()));
     for &j in &edges {
         let tri = triangles[samples.triangles[j] as usize];
         let corners = tri.map(|v| positions[v as usize]);
         let corner_normals = tri.map(|v| samples.vertex_normals[v as usize]);
-        for l in quarter_centroids(samples.pieces[j]) {
+        // The middle quarter's centroid is the piece's, the sample itself: its value is q[j].
+        for l in &quarter_centroids(samples.pieces[j])[..3] {
             sub_points.push(corners[0] * l[0] + corners[1] * l[1] + corners[2] * l[2]);
             let n = corner_normals[0] * l[0] + corner_normals[1] * l[1] + corner_normals[2] * l[2];
             sub_normals.push(n.try_normalize().unwrap_or(samples.normals[j]));
@@ -82,14 +84,15 @@ pub fn cell_irradiance(
     }
     let sub =
         light::transmitted_source_with(lights, &sub_points, &sub_normals, eta, occluder, options, &|f| poll(0.7 + 0.3 * f))?;
-    for (&j, quarter) in edges.iter().zip(sub.chunks_exact(4)) {
-        q[j] = [0, 1, 2].map(|c| quarter.iter().map(|v| v[c]).sum::<f64>() / 4.0);
+    for (&j, outer) in edges.iter().zip(sub.chunks_exact(3)) {
+        q[j] = [0, 1, 2].map(|c| (outer[0][c] + outer[1][c] + outer[2][c] + q[j][c]) / 4.0);
     }
     Ok(q)
 }
 
 /// The barycentric centroids of the four midpoint sub-triangles of the triangle `piece`
 /// (barycentric corners): equal areas, so their mean value is the midpoint rule on each quarter.
+/// The last, the middle quarter's, is the piece's own centroid.
 #[must_use]
 pub fn quarter_centroids(piece: [[f64; 3]; 3]) -> [[f64; 3]; 4] {
     let mid = |a: [f64; 3], b: [f64; 3]| [0, 1, 2].map(|i| 0.5 * (a[i] + b[i]));
@@ -103,7 +106,8 @@ pub fn quarter_centroids(piece: [[f64; 3]; 3]) -> [[f64; 3]; 4] {
 mod tests {
     use super::*;
 
-    /// The four quarters' centroids average to the piece's centroid and lie inside it.
+    /// The four quarters' centroids average to the piece's centroid and lie inside it; the last
+    /// is the centroid.
     #[test]
     fn quarters_cover_the_piece() {
         let piece = [[0.7, 0.2, 0.1], [0.1, 0.8, 0.1], [0.2, 0.2, 0.6]];
@@ -115,6 +119,10 @@ mod tests {
         }
         for q in quarters {
             assert!((q.iter().sum::<f64>() - 1.0).abs() < 1e-15 && q.iter().all(|x| *x > 0.0));
+        }
+        // The middle quarter's centroid is the piece's (its value is the sample's own).
+        for i in 0..3 {
+            assert!((quarters[3][i] - (piece[0][i] + piece[1][i] + piece[2][i]) / 3.0).abs() < 1e-15);
         }
     }
 

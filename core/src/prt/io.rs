@@ -38,8 +38,10 @@ use super::{BasisSize, PrtOptions, RdBasis};
 /// The file's first bytes.
 pub const MAGIC: [u8; 8] = *b"TCPRT\r\n\x1a";
 
-/// The format version this library writes and reads.
-pub const VERSION: u32 = 2;
+/// The format version this library writes and reads: 3 since the compression weighs each
+/// coefficient by its Haar level (the same layout as 2, other coefficients for the same key;
+/// the key hashes the version, so a cache holding version 2 precomputes again).
+pub const VERSION: u32 = 3;
 
 /// What went wrong reading or writing a `.tcprt` file.
 #[derive(Debug, thiserror::Error)]
