@@ -516,7 +516,7 @@ typedef struct TcPrtOptions {
   uint32_t basis_terms;
   /**
    * Haar coefficients kept per vertex over all its basis rows, from `basis_terms` to 2²⁰
-   * (default 3072; the transfer takes about 4 bytes each).
+   * (default 1024; the transfer takes about 3 bytes each).
    */
   uint32_t terms_per_vertex;
   /**
@@ -1218,7 +1218,7 @@ TcStatus tc_dipole_options_init(struct TcDipoleOptions *options, size_t size);
 
 /**
  * Fills the first `size` bytes of `*options` with the PRT method's defaults (2¹⁶ samples, the
- * 16-function basis, 3072 terms per vertex, the near-field correction over 8 sample spacings,
+ * 16-function basis, 1024 terms per vertex, the near-field correction over 8 sample spacings,
  * seed 0), as `tc_bake_options_init` fills its struct; pass `sizeof(TcPrtOptions)`.
  * `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size below `sizeof(TcPrtOptions)`;
  * nothing is written on failure.

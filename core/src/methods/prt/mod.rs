@@ -27,6 +27,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::{BakedState, Lighting, ObjectStats, Stage, SubsurfaceMethod, Target};
 use crate::light::{Light, LightError};
@@ -261,20 +262,17 @@ fn cached_transfer(
 fn radiance(gathered: &[f64], weights: &[Vec<f64>; 3], eta: f64, output: &[Option<u32>]) -> (Vec<[f64; 3]>, usize) {
     let k = weights[0].len();
     let per_exitance = radiance_per_exitance(eta);
-    let mut clamped = 0;
-    let lo = output
-        .iter()
+    let per_vertex: Vec<([f64; 3], bool)> = output
+        .par_iter()
         .map(|v| {
-            let Some(v) = v else { return [0.0; 3] };
+            let Some(v) = v else { return ([0.0; 3], false) };
             let g = &gathered[*v as usize * k * 3..(*v as usize + 1) * k * 3];
             let lo: [f64; 3] = [0, 1, 2].map(|c| per_exitance * (0..k).map(|j| weights[c][j] * g[j * 3 + c]).sum::<f64>());
-            if lo.iter().any(|x| *x < 0.0) {
-                clamped += 1;
-            }
-            lo.map(|x| x.max(0.0))
+            (lo.map(|x| x.max(0.0)), lo.iter().any(|x| *x < 0.0))
         })
         .collect();
-    (lo, clamped)
+    let clamped = per_vertex.iter().filter(|(_, negative)| *negative).count();
+    (per_vertex.into_iter().map(|(lo, _)| lo).collect(), clamped)
 }
 
 /// Lo(x, n) per unit exitance B at index `eta`: C(η) = T(η, 0)/(π η² (1 − Fdr)), the
