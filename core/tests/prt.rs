@@ -259,6 +259,45 @@ fn sun(direction: DVec3) -> Light {
     Light::Directional { direction, irradiance: [3.0; 3], angular_diameter_deg: 0.0 }
 }
 
+/// A relight of two PRT objects cancelled while the second is lit leaves the first as it was:
+/// its radiance, and the sums its next material edit reweighs (an undo computes the old
+/// product again, since a relight writes over its buffer), so the edit equals a fresh bake
+/// under the old lights, bit for bit, at every report where the cancel can land.
+#[test]
+fn a_cancelled_relight_restores_the_first_object() {
+    let marble = Medium { eta: 1.3, ..Medium::preset("marble").unwrap() };
+    let skin = Medium { eta: 1.3, ..Medium::preset("skin1").unwrap() };
+    let lights = vec![sun(DVec3::new(0.2, -0.3, -1.0))];
+    let moved = vec![sun(DVec3::new(-0.5, 0.4, -1.0))];
+    let options = prt_options();
+    let scene = |m: Medium| Scene { objects: vec![ball(m), ball(marble)], lights: lights.clone() };
+    let fresh_skin = bake(&scene(skin), &options).unwrap().objects.remove(0).radiance;
+    let mut session = Session::bake(&scene(marble), &options, Progress::none()).unwrap();
+    let before = session.radiance(0).unwrap();
+    let reports = std::sync::atomic::AtomicUsize::new(0);
+    let count = |_: &str, _: f64| {
+        reports.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        true
+    };
+    Session::bake(&scene(marble), &options, Progress::none()).unwrap().relight(&moved, Progress::new(&count)).unwrap();
+    let total = reports.load(std::sync::atomic::Ordering::SeqCst);
+    let mut cancelled_in_second = 0;
+    for k in total / 2..total {
+        let calls = std::sync::atomic::AtomicUsize::new(0);
+        let cancel = |_: &str, _: f64| calls.fetch_add(1, std::sync::atomic::Ordering::SeqCst) < k;
+        if session.relight(&moved, Progress::new(&cancel)).is_ok() {
+            continue;
+        }
+        cancelled_in_second += 1;
+        assert!(session.radiance(0).unwrap() == before, "cancel at report {k} of {total}: the radiance changed");
+        session.edit_medium(0, &MediumEdit { region: Region::All, op: MediumOp::Assign(skin) }, Progress::none()).unwrap();
+        let edited = session.radiance(0).unwrap().unwrap();
+        assert!(edited == fresh_skin, "cancel at report {k}: the edit after the undo is not a fresh bake");
+        session.edit_medium(0, &MediumEdit { region: Region::All, op: MediumOp::Assign(marble) }, Progress::none()).unwrap();
+    }
+    assert!(cancelled_in_second > 0, "no cancel landed in the second object's relight ({total} reports)");
+}
+
 /// A material edit, a relight and a new scale in a session equal fresh bakes of the same state:
 /// bit for bit for the edit and the relight (the transfer does not depend on the medium and
 /// every sum runs in a fixed order), within 1e-12 for the scale (the scale identity).

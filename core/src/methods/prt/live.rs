@@ -33,12 +33,12 @@ pub struct PrtLive {
     clamped: usize,
 }
 
-/// What a relight replaced.
+/// What a relight replaced. The transfer's product under the old irradiance is not kept (the
+/// relight writes the new one over its buffer): an undo computes it again, the same bit for bit.
 #[derive(Debug)]
 pub struct PrtUndo {
     lights: Vec<Light>,
     irradiance: Vec<[f64; 3]>,
-    gathered: Vec<f64>,
     radiance: Vec<[f64; 3]>,
     clamped: usize,
 }
@@ -142,14 +142,14 @@ impl Relight for PrtLive {
         let source_ms = ms(start);
         progress.report("product", 0.8)?;
         let t = Instant::now();
-        let gathered = self.state.product(&q);
+        let mut gathered = std::mem::take(&mut self.state.gathered);
+        self.state.product_into(&q, &mut gathered);
+        self.state.gathered = gathered;
         let irradiance = std::mem::replace(&mut self.state.irradiance, q);
-        let old_gathered = std::mem::replace(&mut self.state.gathered, gathered);
         let (radiance, clamped) = self.state.radiance();
         let undo = PrtUndo {
             lights: std::mem::replace(&mut self.lights, lights.to_vec()),
             irradiance,
-            gathered: old_gathered,
             radiance: std::mem::replace(&mut self.radiance, radiance),
             clamped: std::mem::replace(&mut self.clamped, clamped),
         };
@@ -157,12 +157,14 @@ impl Relight for PrtLive {
     }
 
     fn undo_relight(&mut self, undo: PrtUndo) -> Result<(), EditError> {
-        if undo.gathered.len() != self.state.gathered.len() {
+        if undo.irradiance.len() != self.state.irradiance.len() || undo.radiance.len() != self.radiance.len() {
             return Err(EditError::InvalidOptions("the undo is of another object's relight".into()));
         }
+        let mut gathered = std::mem::take(&mut self.state.gathered);
+        self.state.product_into(&undo.irradiance, &mut gathered);
+        self.state.gathered = gathered;
         self.lights = undo.lights;
         self.state.irradiance = undo.irradiance;
-        self.state.gathered = undo.gathered;
         self.radiance = undo.radiance;
         self.clamped = undo.clamped;
         Ok(())
