@@ -64,7 +64,7 @@ pub use source::{
     add_irradiance, irradiance, spot_falloff, transmitted_source, transmitted_source_and_unshadowed, transmitted_source_with,
     EnvironmentMethod, Poll, ShadowedAndUnshadowed, SourceOptions,
 };
-pub(crate) use source::{bounding_diagonal, check_inputs};
+pub(crate) use source::{bounding_diagonal, check_eta, check_inputs};
 
 /// A light source, in scene units. Radiometric quantities are linear RGB.
 #[derive(Debug, Clone, PartialEq)]

@@ -210,10 +210,17 @@ pub fn transmitted_source_with(
     options: &SourceOptions,
     poll: Poll<'_>,
 ) -> Result<Vec<[f64; 3]>, LightError> {
-    if !(ETA_MIN..ETA_MAX).contains(&eta) {
-        return Err(LightError::InvalidEta { value: eta, min: ETA_MIN, max: ETA_MAX });
-    }
+    check_eta(eta)?;
     evaluate(lights, points, normals, Response::Transmitted(eta), occluder, options, poll)
+}
+
+/// [`LightError::InvalidEta`] unless η ∈ [ETA_MIN, ETA_MAX).
+pub(crate) fn check_eta(eta: f64) -> Result<(), LightError> {
+    if (ETA_MIN..ETA_MAX).contains(&eta) {
+        Ok(())
+    } else {
+        Err(LightError::InvalidEta { value: eta, min: ETA_MIN, max: ETA_MAX })
+    }
 }
 
 /// Per point and channel, a light's value with the occluder's shadows and without them.
@@ -240,9 +247,7 @@ pub fn transmitted_source_and_unshadowed(
         let unshadowed = transmitted_source_with(lights, points, normals, eta, None, options, &|f| poll(0.5 + 0.5 * f))?;
         return Ok((shadowed, unshadowed));
     }
-    if !(ETA_MIN..ETA_MAX).contains(&eta) {
-        return Err(LightError::InvalidEta { value: eta, min: ETA_MIN, max: ETA_MAX });
-    }
+    check_eta(eta)?;
     evaluate_with(lights, points, normals, Response::Transmitted(eta), occluder, options, poll, true)
 }
 

@@ -54,7 +54,7 @@ use crate::light::sampling::{cosine_hemisphere, hash_combine, mix64, orthonormal
 use crate::light::sh::{fresnel_cosine_lobe_bands, sh_basis, MAX_ORDER};
 use crate::light::{self, bounding_diagonal, check_inputs, Environment, Light, LightError, Poll, SourceOptions};
 use crate::mesh::TriangleBvh;
-use crate::optics::{fresnel_transmittance, ETA_MAX, ETA_MIN};
+use crate::optics::fresnel_transmittance;
 use crate::progress::Cancelled;
 
 /// The default order: bands l ≤ 4, 25 coefficients per sample (the design's "SH5").
@@ -200,9 +200,7 @@ impl EnvTransfer {
     ) -> Result<Self, LightError> {
         let order = key.order;
         check_order(order)?;
-        if !(ETA_MIN..ETA_MAX).contains(&eta) {
-            return Err(LightError::InvalidEta { value: eta, min: ETA_MIN, max: ETA_MAX });
-        }
+        light::check_eta(eta)?;
         options.validate()?;
         let normals = check_inputs(points, normals)?;
         if occluder.is_some() && options.environment_samples == 0 {
