@@ -142,9 +142,7 @@ impl Relight for PrtLive {
         let source_ms = ms(start);
         progress.report("product", 0.8)?;
         let t = Instant::now();
-        let mut gathered = std::mem::take(&mut self.state.gathered);
-        self.state.product_into(&q, &mut gathered);
-        self.state.gathered = gathered;
+        self.state.set_product(&q);
         let irradiance = std::mem::replace(&mut self.state.irradiance, q);
         let (radiance, clamped) = self.state.radiance();
         let undo = PrtUndo {
@@ -160,9 +158,7 @@ impl Relight for PrtLive {
         if undo.irradiance.len() != self.state.irradiance.len() || undo.radiance.len() != self.radiance.len() {
             return Err(EditError::InvalidOptions("the undo is of another object's relight".into()));
         }
-        let mut gathered = std::mem::take(&mut self.state.gathered);
-        self.state.product_into(&undo.irradiance, &mut gathered);
-        self.state.gathered = gathered;
+        self.state.set_product(&undo.irradiance);
         self.lights = undo.lights;
         self.state.irradiance = undo.irradiance;
         self.radiance = undo.radiance;

@@ -176,21 +176,12 @@ impl PrtState {
         Ok(q)
     }
 
-    /// The transfer's product with the irradiance `q` at the samples: (Tₖ q)[v] per receiver,
-    /// basis function and channel.
-    pub(crate) fn product(&self, q: &[[f64; 3]]) -> Vec<f64> {
-        let mut gathered = vec![0.0; self.transfer.vertices() * self.transfer.basis_terms() * 3];
-        self.product_into(q, &mut gathered);
-        gathered
-    }
-
-    /// [`PrtState::product`] into `out` (every value overwritten), so that a relight reuses the
-    /// state's buffer instead of touching a fresh one (on the bunny, 14 MB of page faults).
-    ///
-    /// # Panics
-    /// If `out` is not 3 K values per receiver.
-    pub(crate) fn product_into(&self, q: &[[f64; 3]], out: &mut [f64]) {
-        self.device.apply(&self.transfer, &haar_irradiance(q), out);
+    /// Sets `gathered` to the transfer's product with the irradiance `q` at the samples: (Tₖ q)[v]
+    /// per receiver, basis function and channel, written over the buffer already there (a
+    /// relight touches no fresh memory: on the bunny, 14 MB of page faults).
+    pub(crate) fn set_product(&mut self, q: &[[f64; 3]]) {
+        self.gathered.resize(self.transfer.vertices() * self.transfer.basis_terms() * 3, 0.0);
+        self.device.apply(&self.transfer, &haar_irradiance(q), &mut self.gathered);
     }
 }
 
@@ -407,7 +398,7 @@ impl SubsurfaceMethod for Prt {
         let q = state.irradiance(lighting, state.medium.eta, &|f| stage("light", 0.9 + 0.09 * f))?;
         stats.source_ms = ms(t);
         let t = Instant::now();
-        state.gathered = state.product(&q);
+        state.set_product(&q);
         state.irradiance = q;
         if let Some(why) = state.device.failure() {
             (stats.backend, stats.device, stats.backend_fallback) = (crate::gpu::Backend::Cpu, None, Some(why));
