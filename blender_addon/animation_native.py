@@ -130,7 +130,7 @@ class AnimationBaker:
                 self.scene.set_progress(None)
         else:
             self._bake(positions, triangles, progress, lights)
-        rgb = self.scene.radiance(self.index)
+        rgb = self.job.meshes[0].medium.seen(self.scene.radiance(self.index))
         self.last_ms = (time.perf_counter() - start) * 1e3
         return rgb
 

@@ -223,6 +223,8 @@ def run_job(
         results = []
         for mesh, idx in zip([*job.meshes, *job.diffuse], indices, strict=True):
             rgb = scene.radiance(idx)
+            if hasattr(mesh, "medium"):
+                rgb = mesh.medium.seen(rgb)
             if rgb.shape[0] != mesh.vertex_count:
                 raise BakeError(
                     f"'{mesh.object_name}': the library returned {rgb.shape[0]} values for {mesh.vertex_count} vertices"

@@ -27,7 +27,7 @@ from __future__ import annotations
 import itertools
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -261,7 +261,7 @@ def run_edit(
             if report(label, base):
                 raise _cancelled()
             scene.set_progress(lambda s, f, label=label, base=base: report(f"{label}: {s}", base + share * f))
-            baked = scene.radiance(idx)
+            baked = mesh.medium.seen(scene.radiance(idx))
             start = time.perf_counter()
             try:
                 stats = edit.apply(scene, idx, media[k].eta, media[k].g) if is_paint else edit.apply(scene, idx)
@@ -270,9 +270,9 @@ def run_edit(
                 raise
             result = EditResult(name, baked=baked, stats=stats, edit_ms=(time.perf_counter() - start) * 1e3)
             if is_paint:
-                result.radiance = scene.radiance(idx)
+                result.radiance = mesh.medium.seen(scene.radiance(idx))
             else:
-                result.pieces = read_pieces(scene, idx)
+                result.pieces = [replace(p, radiance=mesh.medium.seen(p.radiance)) for p in read_pieces(scene, idx)]
             results.append(result)
         report("done", 1.0)
         return EditRun(results, bake_ms)

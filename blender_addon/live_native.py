@@ -46,7 +46,7 @@ def lights_key(lights: list) -> tuple:
 
 def medium_key(medium) -> tuple:
     """A comparable form of a ``mesh_export.MediumSpec``."""
-    return medium.method, canonical(medium.kwargs)
+    return medium.method, canonical(medium.kwargs), medium.surface
 
 
 @dataclass(frozen=True)
@@ -73,20 +73,20 @@ class LiveSession:
         self.job = job
         self.names = [m.object_name for m in job.meshes]
         self.scene, self.indices = build_scene(lib, job)
+        self.state = LiveState(list(job.lights), [m.medium for m in job.meshes], job.meshes[0].mm_per_unit)
         try:
             self.scene.bake(progress=progress, **job.options)
             self.radiance = [self._radiance(i) for i in range(len(self.names))]
         except BaseException:
             self.scene.close()
             raise
-        self.state = LiveState(list(job.lights), [m.medium for m in job.meshes], job.meshes[0].mm_per_unit)
         self.updates = 0
 
     def _radiance(self, i: int) -> np.ndarray:
         rgb = self.scene.radiance(self.indices[i])
         if rgb.shape[0] != self.job.meshes[i].vertex_count or not np.all(np.isfinite(rgb)):
             raise BakeError(f"'{self.names[i]}': the library returned {rgb.shape[0]} values or non-finite radiance")
-        return rgb
+        return self.state.media[i].seen(rgb)
 
     def _set_medium(self, i: int, medium) -> None:
         idx = self.indices[i]

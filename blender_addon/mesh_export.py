@@ -11,6 +11,17 @@ converted by the library with that mm_per_unit (``tc_object_set_medium_artist``)
 of a bake gets that one mm_per_unit, so the radiosity method's rule that all its objects share a
 scale always holds.
 
+Principled inputs are read the way Cycles reads them (``Object.transcut.principled_mapping``
+CYCLES, the default): Random Walk and Christensen–Burley through the library's ``random-walk``
+mapping (the radius over 4π is the reduced mean free path, the medium index-matched, a thick slab
+reflects Base Color), Random Walk (Skin) through ``random-walk-skin`` (its radius a diffusion
+length at the Subsurface IOR). Cycles puts the Principled BSDF's specular layer over the
+subsurface part, so along the normal it lets 1 − F0 of it out, F0 = ((IOR − 1)/(IOR + 1))² ×
+2 × Specular IOR Level × Specular Tint (the layer's albedo at normal incidence, within 0.4% of
+Cycles' rough one); :attr:`MediumSpec.surface` carries it and :meth:`MediumSpec.seen` applies it
+to everything written. DIPOLE reads them as the classical dipole's inversion at the IOR, whose
+medium carries its own Fresnel boundary (surface 1).
+
 Translucent radiosity (:func:`surroundings`): the visible meshes around the selected ones become
 opaque diffuse objects, in world space as the translucent ones are (their evaluated mesh, n-gons
 triangulated as Blender's loop triangles). Their material is read from the active material's
@@ -48,11 +59,21 @@ class BakeError(Exception):
 
 @dataclass
 class MediumSpec:
-    """How to set an object's medium: ``getattr(transcut.Scene, method)(obj, **kwargs)``."""
+    """How to set an object's medium: ``getattr(transcut.Scene, method)(obj, **kwargs)``;
+    ``surface``: the share per channel of the medium's radiance that the material's surface
+    layer lets out along the normal (module documentation), applied by :meth:`seen`."""
 
     method: str
     kwargs: dict
     source: str  # e.g. "material 'Marble'" or "preset marble"
+    surface: tuple = (1.0, 1.0, 1.0)
+
+    def seen(self, rgb: np.ndarray) -> np.ndarray:
+        """The radiance a viewer sees along the normal: the library's (the medium's) through
+        the surface layer."""
+        if self.surface == (1.0, 1.0, 1.0):
+            return rgb
+        return rgb * np.asarray(self.surface, dtype=rgb.dtype)
 
 
 @dataclass
@@ -119,9 +140,24 @@ def _input(node, name: str, warnings: list, owner: str):
     return socket.default_value
 
 
+#: The library's artist mapping of each Principled BSDF subsurface method, as Cycles reads it.
+CYCLES_MAPPINGS = {"BURLEY": "random-walk", "RANDOM_WALK": "random-walk", "RANDOM_WALK_SKIN": "random-walk-skin"}
+
+
+def specular_layer_transmission(node, warnings: list, owner: str) -> tuple:
+    """1 − F0 per channel of the Principled BSDF's specular layer at normal incidence (module
+    documentation), each in [0, 1]."""
+    ior = float(_input(node, "IOR", warnings, owner))
+    level = float(_input(node, "Specular IOR Level", warnings, owner))
+    tint = np.array(_input(node, "Specular Tint", warnings, owner)[:3], dtype=np.float64)
+    f0 = ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0 * max(level, 0.0) * np.clip(tint, 0.0, None)
+    return tuple(float(x) for x in np.clip(1.0 - f0, 0.0, 1.0))
+
+
 def material_medium(obj, warnings: list) -> MediumSpec:
     """Artist parameters of the object's first material with a Principled BSDF whose
-    Subsurface Weight is above 0."""
+    Subsurface Weight is above 0, read as ``obj.transcut.principled_mapping`` says (module
+    documentation)."""
     candidates = []
     for slot in obj.material_slots:
         node = principled_node(slot.material)
@@ -158,10 +194,15 @@ def material_medium(obj, warnings: list) -> MediumSpec:
     if not 1.0 <= ior < 4.0:
         raise BakeError(f"{owner}: {ior_name} must be in [1, 4), got {ior}")
     anisotropy = float(_input(node, "Subsurface Anisotropy", warnings, owner))
+    if obj.transcut.principled_mapping == "DIPOLE":
+        mapping, surface = "dipole", (1.0, 1.0, 1.0)
+    else:
+        mapping, surface = CYCLES_MAPPINGS[node.subsurface_method], specular_layer_transmission(node, warnings, owner)
     return MediumSpec(
         "set_medium_artist",
-        dict(albedo=albedo.tolist(), radius=radius, scale=scale, ior=ior, anisotropy=anisotropy),
+        dict(albedo=albedo.tolist(), radius=radius, scale=scale, ior=ior, anisotropy=anisotropy, mapping=mapping),
         f"material '{material.name}'",
+        surface,
     )
 
 

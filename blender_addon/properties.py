@@ -379,6 +379,8 @@ def draw_medium(layout, settings, coefficients: tuple = ("sigma_a", "sigma_s_pri
             layout.prop(settings, name)
     else:
         layout.label(text="Principled BSDF subsurface inputs")
+        if hasattr(settings, "principled_mapping"):
+            layout.prop(settings, "principled_mapping")
 
 
 class TranscutObjectSettings(bpy.types.PropertyGroup):
@@ -389,6 +391,26 @@ class TranscutObjectSettings(bpy.types.PropertyGroup):
             preset="marble",
             sigma_a=(0.0021, 0.0041, 0.0071),
             sigma_s_prime=(2.19, 2.62, 3.00),
+        ),
+        "principled_mapping": EnumProperty(
+            name="Read As",
+            description="How the Principled BSDF's Base Color and Subsurface Radius become a medium",
+            items=(
+                (
+                    "CYCLES",
+                    "Cycles",
+                    "As Cycles renders them (Random Walk, Christensen-Burley: radius/4π is the mean free path; "
+                    "Random Walk (Skin): the radius is a diffusion length), under the specular layer: "
+                    "the bake looks like Cycles' own",
+                ),
+                (
+                    "DIPOLE",
+                    "Dipole Inversion",
+                    "The radius is the reduced mean free path and a thick slab reflects Base Color in the classical "
+                    "dipole at the IOR (Jensen et al. 2001), as libtranscut before Cycles' mapping",
+                ),
+            ),
+            default="CYCLES",
         ),
         "eta": FloatProperty(name="IOR", description="Refractive index", default=1.3, min=1.0, max=3.99),
         "g": FloatProperty(name="Anisotropy", description="Scattering anisotropy g", default=0.0, min=-0.99, max=0.99),

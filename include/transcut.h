@@ -44,6 +44,27 @@
 
 
 /**
+ * `TcArtistMedium.mapping`: Cycles' Random Walk (and Christensen–Burley), the default (0, so a
+ * zero-initialised struct gets it): the radius over 4π is the reduced mean free path, the
+ * medium is index-matched (η = 1), and a thick slab of it reflects `albedo` of the diffuse
+ * light entering it in this library's diffusion model.
+ */
+#define TC_ARTIST_RANDOM_WALK 0
+
+/**
+ * `TcArtistMedium.mapping`: Cycles' Random Walk (Skin): the radius is a diffusion length
+ * (times √(3(1 − α′)) of the classical dipole at `ior`, the subsurface IOR), index-matched.
+ */
+#define TC_ARTIST_RANDOM_WALK_SKIN 1
+
+/**
+ * `TcArtistMedium.mapping`: the classical dipole's inversion: a thick slab reflects `albedo`
+ * of the diffuse light entering it (Jensen et al. 2001's Rd at η = `ior`), `radius × scale`
+ * is the reduced mean free path 1/σ′t, and the medium keeps η = `ior`.
+ */
+#define TC_ARTIST_DIPOLE 2
+
+/**
  * The TransCut method (Li et al. 2012): the diffusion equation on a tetrahedral mesh.
  * `tc_method_count`, `tc_method_name` and `tc_method_from_name` list and name the methods;
  * new ones are appended.
@@ -972,9 +993,8 @@ typedef struct TcMedium {
 
 /**
  * A medium as an artist sets it (Blender's Principled BSDF subsurface inputs), converted to
- * σa and σ′s by inverting the dipole's total diffuse reflectance: a thick slab reflects
- * `albedo` of the diffuse light entering it, and `radius × scale` is the reduced mean free
- * path 1/σ′t.
+ * σa and σ′s by one of the `TC_ARTIST_*` mappings (each reads the colour as what a thick slab
+ * reflects of the diffuse light entering it, and the radius as a length).
  */
 typedef struct TcArtistMedium {
   /**
@@ -990,13 +1010,19 @@ typedef struct TcArtistMedium {
    */
   double scale;
   /**
-   * Refractive index, in [1, 4).
+   * Refractive index, in [1, 4): the medium's η with `TC_ARTIST_DIPOLE`, the subsurface IOR
+   * with `TC_ARTIST_RANDOM_WALK_SKIN`; unused by `TC_ARTIST_RANDOM_WALK` (index-matched).
    */
   double ior;
   /**
-   * Scattering anisotropy g, in (−1, 1).
+   * Scattering anisotropy g, in (−1, 1) (the random walks clamp it to [0, 0.9], as Cycles).
    */
   double anisotropy;
+  /**
+   * How colour and radius are read: `TC_ARTIST_RANDOM_WALK` (0, the default),
+   * `TC_ARTIST_RANDOM_WALK_SKIN` or `TC_ARTIST_DIPOLE`.
+   */
+  uint32_t mapping;
 } TcArtistMedium;
 
 /**
@@ -2090,12 +2116,13 @@ TC_LAYOUT_CHECK(TcMedium_sigma_a, offsetof(TcMedium, sigma_a) == 0);
 TC_LAYOUT_CHECK(TcMedium_sigma_s_prime, offsetof(TcMedium, sigma_s_prime) == 24);
 TC_LAYOUT_CHECK(TcMedium_eta, offsetof(TcMedium, eta) == 48);
 TC_LAYOUT_CHECK(TcMedium_g, offsetof(TcMedium, g) == 56);
-TC_LAYOUT_CHECK(TcArtistMedium__sizeof, sizeof(TcArtistMedium) == 72);
+TC_LAYOUT_CHECK(TcArtistMedium__sizeof, sizeof(TcArtistMedium) == 80);
 TC_LAYOUT_CHECK(TcArtistMedium_albedo, offsetof(TcArtistMedium, albedo) == 0);
 TC_LAYOUT_CHECK(TcArtistMedium_radius, offsetof(TcArtistMedium, radius) == 24);
 TC_LAYOUT_CHECK(TcArtistMedium_scale, offsetof(TcArtistMedium, scale) == 48);
 TC_LAYOUT_CHECK(TcArtistMedium_ior, offsetof(TcArtistMedium, ior) == 56);
 TC_LAYOUT_CHECK(TcArtistMedium_anisotropy, offsetof(TcArtistMedium, anisotropy) == 64);
+TC_LAYOUT_CHECK(TcArtistMedium_mapping, offsetof(TcArtistMedium, mapping) == 72);
 TC_LAYOUT_CHECK(TcBakeOptions__sizeof, sizeof(TcBakeOptions) == 56);
 TC_LAYOUT_CHECK(TcBakeOptions_size, offsetof(TcBakeOptions, size) == 0);
 TC_LAYOUT_CHECK(TcBakeOptions_method, offsetof(TcBakeOptions, method) == 4);

@@ -31,6 +31,7 @@ Translucent radiosity (the marble cube on a grey floor, which lights it back)::
 
 from ._abi import (
     ABI_MAJOR,
+    ARTIST_MAPPINGS,
     BACKENDS,
     DIPOLE_CHOICES,
     MATERIAL_NAMES,
@@ -38,6 +39,9 @@ from ._abi import (
     SIDES,
     SOLVERS,
     STATUS_NAMES,
+    TC_ARTIST_DIPOLE,
+    TC_ARTIST_RANDOM_WALK,
+    TC_ARTIST_RANDOM_WALK_SKIN,
     TC_BACKEND_AUTO,
     TC_BACKEND_CPU,
     TC_BACKEND_DEFAULT,
@@ -126,6 +130,7 @@ from .scene import Library, Scene, TranscutError, medium
 
 __all__ = [
     "ABI_MAJOR",
+    "ARTIST_MAPPINGS",
     "BACKENDS",
     "DIPOLE_CHOICES",
     "MATERIAL_NAMES",
@@ -133,6 +138,9 @@ __all__ = [
     "SIDES",
     "SOLVERS",
     "STATUS_NAMES",
+    "TC_ARTIST_DIPOLE",
+    "TC_ARTIST_RANDOM_WALK",
+    "TC_ARTIST_RANDOM_WALK_SKIN",
     "TC_BACKEND_AUTO",
     "TC_BACKEND_CPU",
     "TC_BACKEND_DEFAULT",

@@ -118,6 +118,9 @@ TC_MAX_RAYS_PER_PATCH = 1 << 24  # TcRadiosityOptions.rays_per_patch at most
 TC_MAX_RADIOSITY_ITERATIONS = 10_000  # TcRadiosityOptions.max_iterations and bounces at most
 
 # tc_object_set_sides: which sides of a diffuse object reflect and emit.
+TC_ARTIST_RANDOM_WALK = 0  # Cycles' Random Walk: radius/4π, index-matched (the default)
+TC_ARTIST_RANDOM_WALK_SKIN = 1  # Cycles' Random Walk (Skin): the radius as a diffusion length
+TC_ARTIST_DIPOLE = 2  # the classical dipole's inversion at the IOR
 TC_SIDES_BOTH = 0  # each side with its own radiosity (the default)
 TC_SIDES_FRONT = 1  # the outside of a closed surface
 TC_SIDES_BACK = 2  # the inside of a closed surface (a room seen from within)
@@ -156,6 +159,12 @@ RADIOSITY_ITERATIONS = {
 #: The names :meth:`Scene.add_diffuse_mesh` and :meth:`Scene.set_sides` accept (besides the
 #: ``TC_SIDES_*`` values; the scene file's ``sides`` names, any case).
 SIDES = {"both": TC_SIDES_BOTH, "front": TC_SIDES_FRONT, "back": TC_SIDES_BACK}
+#: ``TcArtistMedium.mapping`` by name (the command line's and scene files' names).
+ARTIST_MAPPINGS = {
+    "random-walk": TC_ARTIST_RANDOM_WALK,
+    "random-walk-skin": TC_ARTIST_RANDOM_WALK_SKIN,
+    "dipole": TC_ARTIST_DIPOLE,
+}
 
 #: What :meth:`Scene.material` returns for each ``TC_MATERIAL_*`` value.
 MATERIAL_NAMES = {TC_MATERIAL_TRANSLUCENT: "translucent", TC_MATERIAL_DIFFUSE: "diffuse"}
@@ -206,6 +215,7 @@ class TcArtistMedium(Structure):
         ("scale", c_double),
         ("ior", c_double),
         ("anisotropy", c_double),
+        ("mapping", c_uint32),
     ]
 
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from ._abi import (
     ABI_MAJOR,
+    ARTIST_MAPPINGS,
     BACKENDS,
     DIPOLE_CHOICES,
     MATERIAL_NAMES,
@@ -184,8 +185,29 @@ def _emission(values):
     return arr
 
 
-def _artist(albedo, radius, scale: float, ior: float, anisotropy: float) -> TcArtistMedium:
-    return TcArtistMedium(_vec3(albedo, "albedo"), _vec3(radius, "radius"), float(scale), float(ior), float(anisotropy))
+def _mapping(value) -> int:
+    """A ``TC_ARTIST_*`` value from a name of :data:`ARTIST_MAPPINGS` (any case) or the value
+    itself; ValueError for anything else."""
+    if isinstance(value, str):
+        name = value.strip().lower()
+        if name not in ARTIST_MAPPINGS:
+            raise ValueError(f"unknown mapping {value!r} (known: {', '.join(ARTIST_MAPPINGS)})")
+        return ARTIST_MAPPINGS[name]
+    number = int(value)
+    if number not in ARTIST_MAPPINGS.values():
+        raise ValueError(f"unknown mapping {value!r} (known: {', '.join(ARTIST_MAPPINGS)})")
+    return number
+
+
+def _artist(albedo, radius, scale: float, ior: float, anisotropy: float, mapping="random-walk") -> TcArtistMedium:
+    return TcArtistMedium(
+        _vec3(albedo, "albedo"),
+        _vec3(radius, "radius"),
+        float(scale),
+        float(ior),
+        float(anisotropy),
+        _mapping(mapping),
+    )
 
 
 class Library:
@@ -284,11 +306,18 @@ class Library:
         return out
 
     def medium_from_artist(
-        self, mm_per_unit: float, albedo, radius, scale: float, ior: float, anisotropy: float = 0.0
+        self,
+        mm_per_unit: float,
+        albedo,
+        radius,
+        scale: float,
+        ior: float,
+        anisotropy: float = 0.0,
+        mapping="random-walk",
     ) -> TcMedium:
         """The coefficients of artist parameters (as :meth:`Scene.set_medium_artist` takes them)
         for an object of ``mm_per_unit`` millimetres per scene unit (``tc_medium_from_artist``)."""
-        artist = _artist(albedo, radius, scale, ior, anisotropy)
+        artist = _artist(albedo, radius, scale, ior, anisotropy, mapping)
         out = TcMedium()
         self.call("tc_medium_from_artist", ctypes.byref(artist), float(mm_per_unit), ctypes.byref(out))
         return out
@@ -542,10 +571,15 @@ class Scene:
         """A measured preset by name (``tc_object_set_medium_preset``)."""
         self._call("tc_object_set_medium_preset", obj, name.encode("utf-8"))
 
-    def set_medium_artist(self, obj: int, albedo, radius, scale: float, ior: float, anisotropy: float = 0.0) -> None:
+    def set_medium_artist(
+        self, obj: int, albedo, radius, scale: float, ior: float, anisotropy: float = 0.0, mapping="random-walk"
+    ) -> None:
         """Artist parameters (``tc_object_set_medium_artist``; radius in scene units, converted
-        with the object's mm_per_unit at the time of the call: call :meth:`set_scale` first)."""
-        m = _artist(albedo, radius, scale, ior, anisotropy)
+        with the object's mm_per_unit at the time of the call: call :meth:`set_scale` first).
+        ``mapping``: how colour and radius are read, a name of :data:`ARTIST_MAPPINGS`
+        (``random-walk``, Cycles' Random Walk, the default; ``random-walk-skin``; ``dipole``)
+        or its ``TC_ARTIST_*`` value."""
+        m = _artist(albedo, radius, scale, ior, anisotropy, mapping)
         self._call("tc_object_set_medium_artist", obj, ctypes.byref(m))
 
     def set_media_table(self, obj: int, media) -> None:
@@ -887,11 +921,11 @@ class Scene:
         self._call("tc_object_prt_set_medium", obj, ctypes.byref(medium(sigma_a, sigma_s_prime, eta, g)))
 
     def prt_set_medium_artist(
-        self, obj: int, albedo, radius, scale: float, ior: float, anisotropy: float = 0.0
+        self, obj: int, albedo, radius, scale: float, ior: float, anisotropy: float = 0.0, mapping="random-walk"
     ) -> None:
         """As :meth:`prt_set_medium`, from artist parameters (``tc_object_prt_set_medium_artist``;
-        the radius in scene units at the object's scale)."""
-        artist = _artist(albedo, radius, scale, ior, anisotropy)
+        the radius in scene units at the object's scale; ``mapping`` as :meth:`set_medium_artist`)."""
+        artist = _artist(albedo, radius, scale, ior, anisotropy, mapping)
         self._call("tc_object_prt_set_medium_artist", obj, ctypes.byref(artist))
 
     def prt_set_scale(self, obj: int, mm_per_unit: float) -> None:

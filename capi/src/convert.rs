@@ -3,7 +3,7 @@
 
 use transcut_core::edit::EditError;
 use transcut_core::mesh::MeshError;
-use transcut_core::optics::{ArtistParams, Medium};
+use transcut_core::optics::{ArtistMapping, ArtistParams, Medium};
 use transcut_core::prt::PrtError;
 use transcut_core::{SceneError, SessionError};
 
@@ -112,10 +112,22 @@ pub(crate) fn mesh_failure(e: &MeshError) -> Failure {
     }
 }
 
+/// `TcArtistMedium.mapping`: Cycles' Random Walk (and Christensen–Burley), the default (0, so a
+/// zero-initialised struct gets it): the radius over 4π is the reduced mean free path, the
+/// medium is index-matched (η = 1), and a thick slab of it reflects `albedo` of the diffuse
+/// light entering it in this library's diffusion model.
+pub const TC_ARTIST_RANDOM_WALK: u32 = 0;
+/// `TcArtistMedium.mapping`: Cycles' Random Walk (Skin): the radius is a diffusion length
+/// (times √(3(1 − α′)) of the classical dipole at `ior`, the subsurface IOR), index-matched.
+pub const TC_ARTIST_RANDOM_WALK_SKIN: u32 = 1;
+/// `TcArtistMedium.mapping`: the classical dipole's inversion: a thick slab reflects `albedo`
+/// of the diffuse light entering it (Jensen et al. 2001's Rd at η = `ior`), `radius × scale`
+/// is the reduced mean free path 1/σ′t, and the medium keeps η = `ior`.
+pub const TC_ARTIST_DIPOLE: u32 = 2;
+
 /// A medium as an artist sets it (Blender's Principled BSDF subsurface inputs), converted to
-/// σa and σ′s by inverting the dipole's total diffuse reflectance: a thick slab reflects
-/// `albedo` of the diffuse light entering it, and `radius × scale` is the reduced mean free
-/// path 1/σ′t.
+/// σa and σ′s by one of the `TC_ARTIST_*` mappings (each reads the colour as what a thick slab
+/// reflects of the diffuse light entering it, and the radius as a length).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TcArtistMedium {
@@ -125,14 +137,29 @@ pub struct TcArtistMedium {
     pub radius: [f64; 3],
     /// Multiplier of `radius`, > 0.
     pub scale: f64,
-    /// Refractive index, in [1, 4).
+    /// Refractive index, in [1, 4): the medium's η with `TC_ARTIST_DIPOLE`, the subsurface IOR
+    /// with `TC_ARTIST_RANDOM_WALK_SKIN`; unused by `TC_ARTIST_RANDOM_WALK` (index-matched).
     pub ior: f64,
-    /// Scattering anisotropy g, in (−1, 1).
+    /// Scattering anisotropy g, in (−1, 1) (the random walks clamp it to [0, 0.9], as Cycles).
     pub anisotropy: f64,
+    /// How colour and radius are read: `TC_ARTIST_RANDOM_WALK` (0, the default),
+    /// `TC_ARTIST_RANDOM_WALK_SKIN` or `TC_ARTIST_DIPOLE`.
+    pub mapping: u32,
 }
 
 /// Artist parameters to a medium, at `mm_per_unit` millimetres per scene unit.
 pub(crate) fn artist_medium(a: &TcArtistMedium, mm_per_unit: f64) -> Result<Medium, Failure> {
-    let params = ArtistParams { albedo: a.albedo, radius: a.radius, scale: a.scale, mm_per_unit, eta: a.ior, g: a.anisotropy };
+    let mapping = match a.mapping {
+        TC_ARTIST_RANDOM_WALK => ArtistMapping::RandomWalk,
+        TC_ARTIST_RANDOM_WALK_SKIN => ArtistMapping::RandomWalkSkin,
+        TC_ARTIST_DIPOLE => ArtistMapping::Dipole,
+        other => {
+            return Err(Failure::invalid(format!(
+                "artist medium: mapping {other} is not one of TC_ARTIST_RANDOM_WALK (0), TC_ARTIST_RANDOM_WALK_SKIN (1), TC_ARTIST_DIPOLE (2)"
+            )))
+        }
+    };
+    let params =
+        ArtistParams { albedo: a.albedo, radius: a.radius, scale: a.scale, mm_per_unit, eta: a.ior, g: a.anisotropy, mapping };
     params.to_medium().map_err(|e| Failure::invalid(format!("artist medium: {e}")))
 }

@@ -52,7 +52,7 @@ mod version;
 mod volume;
 
 pub use bake::*;
-pub use convert::{TcArtistMedium, TcMedium};
+pub use convert::{TcArtistMedium, TcMedium, TC_ARTIST_DIPOLE, TC_ARTIST_RANDOM_WALK, TC_ARTIST_RANDOM_WALK_SKIN};
 pub use cut::*;
 pub use deform::*;
 pub use edit_stats::*;

@@ -54,7 +54,7 @@ fn layouts() -> Vec<Layout> {
     }
     vec![
         layout!(TcMedium { sigma_a, sigma_s_prime, eta, g }),
-        layout!(TcArtistMedium { albedo, radius, scale, ior, anisotropy }),
+        layout!(TcArtistMedium { albedo, radius, scale, ior, anisotropy, mapping }),
         layout!(TcBakeOptions {
             size,
             method,

@@ -4,7 +4,7 @@
 use proptest::prelude::*;
 use transcut::optics::{
     f_ext, fdr, fresnel_reflectance, reduced_albedo_from_rd, total_diffuse_reflectance, transmittance_out,
-    uniform_sphere_fluence, ArtistParams, BoundaryTerms, Medium, OpticsError, UniformSphere, PRESET_NAMES,
+    uniform_sphere_fluence, ArtistMapping, ArtistParams, BoundaryTerms, Medium, OpticsError, UniformSphere, PRESET_NAMES,
 };
 
 /// A published value and the number of decimals it was printed with.
@@ -185,6 +185,7 @@ proptest! {
             mm_per_unit: 10f64.powf(log_mm),
             eta,
             g,
+            mapping: ArtistMapping::Dipole,
         };
         let medium = params.to_medium().unwrap();
         let back = medium.to_artist(params.mm_per_unit, params.scale).unwrap();
@@ -220,7 +221,15 @@ proptest! {
 
 #[test]
 fn artist_parameters_reject_invalid_input() {
-    let ok = ArtistParams { albedo: [0.5; 3], radius: [1.0; 3], scale: 1.0, mm_per_unit: 1.0, eta: 1.3, g: 0.0 };
+    let ok = ArtistParams {
+        albedo: [0.5; 3],
+        radius: [1.0; 3],
+        scale: 1.0,
+        mm_per_unit: 1.0,
+        eta: 1.3,
+        g: 0.0,
+        mapping: ArtistMapping::default(),
+    };
     assert!(ok.to_medium().is_ok());
     let e = ArtistParams { albedo: [0.5, 1.0, 0.5], ..ok }.to_medium().unwrap_err();
     assert!(e.to_string().contains("albedo[1] (green)"), "{e}");

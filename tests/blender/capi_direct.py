@@ -17,8 +17,19 @@ D3 = c_double * 3
 PD = POINTER(c_double)
 
 
+#: TC_ARTIST_* by name, written out here (not imported from the binding under test).
+ARTIST_MAPPINGS = {"random-walk": 0, "random-walk-skin": 1, "dipole": 2}
+
+
 class Artist(Structure):
-    _fields_ = [("albedo", D3), ("radius", D3), ("scale", c_double), ("ior", c_double), ("anisotropy", c_double)]
+    _fields_ = [
+        ("albedo", D3),
+        ("radius", D3),
+        ("scale", c_double),
+        ("ior", c_double),
+        ("anisotropy", c_double),
+        ("mapping", c_uint32),
+    ]
 
 
 class Options(Structure):
@@ -136,7 +147,14 @@ class Direct:
                     "transform",
                 )
                 self.ok(self.c.tc_object_set_scale(scene, out.value, mm), "scale")
-                a = Artist(d3(art["albedo"]), d3(art["radius"]), art["scale"], art["ior"], art["anisotropy"])
+                a = Artist(
+                    d3(art["albedo"]),
+                    d3(art["radius"]),
+                    art["scale"],
+                    art["ior"],
+                    art["anisotropy"],
+                    ARTIST_MAPPINGS[art.get("mapping", "random-walk")],
+                )
                 self.ok(self.c.tc_object_set_medium_artist(scene, out.value, ctypes.byref(a)), "artist")
                 ids.append((out.value, pos.shape[0]))
             for kind, args in lights:

@@ -188,8 +188,11 @@ fn invalid_values_name_the_field() {
         let bad = TcMedium { sigma_a: [0.01; 3], sigma_s_prime: [1.0; 3], eta: f64::NAN, g: 0.0 };
         fails(tc_object_set_medium(s, ball, &bad), TC_INVALID_ARGUMENT, &["eta"]);
         fails(tc_object_set_medium_preset(s, ball, cstr(c"unobtainium")), TC_NOT_FOUND, &["unobtainium", "marble", "skin1"]);
-        let artist = TcArtistMedium { albedo: [0.8, 1.5, 0.5], radius: [1.0; 3], scale: 1.0, ior: 1.4, anisotropy: 0.0 };
+        let artist =
+            TcArtistMedium { albedo: [0.8, 1.5, 0.5], radius: [1.0; 3], scale: 1.0, ior: 1.4, anisotropy: 0.0, mapping: 0 };
         fails(tc_object_set_medium_artist(s, ball, &artist), TC_INVALID_ARGUMENT, &["albedo[1]"]);
+        let artist = TcArtistMedium { albedo: [0.8; 3], mapping: 3, ..artist };
+        fails(tc_object_set_medium_artist(s, ball, &artist), TC_INVALID_ARGUMENT, &["mapping 3", "TC_ARTIST_DIPOLE"]);
         fails(tc_object_set_scale(s, ball, -1.0), TC_INVALID_ARGUMENT, &["mm_per_unit"]);
         fails(tc_object_set_scale(s, ball, f64::INFINITY), TC_INVALID_ARGUMENT, &["mm_per_unit"]);
         let mut singular = [0.0f32; 16];

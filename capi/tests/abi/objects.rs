@@ -2,7 +2,7 @@
 
 use std::ptr;
 
-use transcut_core::optics::{ArtistParams, Medium};
+use transcut_core::optics::{ArtistMapping, ArtistParams, Medium};
 
 use super::abi::*;
 use super::common::*;
@@ -19,16 +19,40 @@ fn presets_and_artist_media() {
     let skin = Medium::preset("skin1").unwrap();
     assert_eq!((m.sigma_a, m.sigma_s_prime, m.eta, m.g), (skin.sigma_a, skin.sigma_s_prime, skin.eta, skin.g));
 
-    let artist = TcArtistMedium { albedo: [0.8, 0.6, 0.4], radius: [0.004, 0.002, 0.001], scale: 1.0, ior: 1.4, anisotropy: 0.0 };
-    let expected =
-        ArtistParams { albedo: artist.albedo, radius: artist.radius, scale: 1.0, mm_per_unit: 1000.0, eta: 1.4, g: 0.0 }
-            .to_medium()
-            .unwrap();
+    // The dipole mapping: the radius is the reduced mean free path, η the IOR.
+    let dipole = TcArtistMedium {
+        albedo: [0.8, 0.6, 0.4],
+        radius: [0.004, 0.002, 0.001],
+        scale: 1.0,
+        ior: 1.4,
+        anisotropy: 0.0,
+        mapping: TC_ARTIST_DIPOLE,
+    };
+    let params = ArtistParams {
+        albedo: dipole.albedo,
+        radius: dipole.radius,
+        scale: 1.0,
+        mm_per_unit: 1000.0,
+        eta: 1.4,
+        g: 0.0,
+        mapping: ArtistMapping::Dipole,
+    };
     let mut converted: TcMedium = unsafe { std::mem::zeroed() };
     // SAFETY: valid pointers.
-    unsafe { ok(tc_medium_from_artist(&artist, 1000.0, &mut converted), "from artist") };
-    assert_eq!(converted.sigma_s_prime, expected.sigma_s_prime);
+    unsafe { ok(tc_medium_from_artist(&dipole, 1000.0, &mut converted), "from artist") };
+    assert_eq!(converted.sigma_s_prime, params.to_medium().unwrap().sigma_s_prime);
     assert!((converted.sigma_s_prime[0] + converted.sigma_a[0] - 0.25).abs() < 1e-12, "1/(4 mm)");
+    assert_eq!(converted.eta, 1.4);
+    // Cycles' random walk, the default (mapping 0): the radius over 4π, index-matched.
+    let walk = TcArtistMedium { mapping: TC_ARTIST_RANDOM_WALK, ..dipole };
+    let mut walked: TcMedium = unsafe { std::mem::zeroed() };
+    // SAFETY: valid pointers.
+    unsafe { ok(tc_medium_from_artist(&walk, 1000.0, &mut walked), "from artist") };
+    let expected = ArtistParams { mapping: ArtistMapping::RandomWalk, ..params }.to_medium().unwrap();
+    assert_eq!(walked.sigma_s_prime, expected.sigma_s_prime);
+    assert!((walked.sigma_s_prime[0] + walked.sigma_a[0] - std::f64::consts::PI).abs() < 1e-12, "4π/(4 mm)");
+    assert_eq!(walked.eta, 1.0);
+    let artist = dipole;
 
     // Through an object in metres: the same medium, so the same bake as with the coefficients.
     let mesh = Mesh::uv_sphere(0.01, 24, 12); // 10 mm in metres

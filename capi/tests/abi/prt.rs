@@ -107,8 +107,15 @@ fn edits_equal_fresh_bakes_and_the_cache_skips_the_precompute() {
     assert_ne!(scaled, edited);
 
     // Artist parameters are the medium tc_medium_from_artist gives at the object's scale.
-    let artist =
-        TcArtistMedium { albedo: [0.8, 0.7, 0.6], radius: [1.0, 0.6, 0.4], scale: 1.0, ior: marble().eta, anisotropy: 0.0 };
+    let artist = TcArtistMedium {
+        albedo: [0.8, 0.7, 0.6],
+        radius: [1.0, 0.6, 0.4],
+        scale: 1.0,
+        ior: marble().eta,
+        anisotropy: 0.0,
+        // The object's η stays: the dipole mapping keeps the IOR (a random walk's is 1).
+        mapping: TC_ARTIST_DIPOLE,
+    };
     let mut converted = marble();
     // SAFETY: valid pointers.
     unsafe {
@@ -138,7 +145,14 @@ fn misuse_is_named_and_changes_nothing() {
     other_eta.eta = 1.3;
     let mut dense = marble();
     dense.sigma_s_prime = [400.0; 3];
-    let bad_artist = TcArtistMedium { albedo: [1.5, 0.5, 0.5], radius: [1.0; 3], scale: 1.0, ior: marble().eta, anisotropy: 0.0 };
+    let bad_artist = TcArtistMedium {
+        albedo: [1.5, 0.5, 0.5],
+        radius: [1.0; 3],
+        scale: 1.0,
+        ior: marble().eta,
+        anisotropy: 0.0,
+        mapping: TC_ARTIST_RANDOM_WALK,
+    };
     // SAFETY: valid or deliberately NULL pointers.
     unsafe {
         fails(tc_object_prt_set_medium(s, ball, &other_eta), TC_INVALID_ARGUMENT, &["eta = 1.3"]);

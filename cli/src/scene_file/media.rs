@@ -6,7 +6,7 @@ use transcut::input::quote;
 
 use anyhow::{anyhow, bail, Context};
 use serde::Deserialize;
-use transcut::optics::{ArtistParams, Medium};
+use transcut::optics::{ArtistMapping, ArtistParams, Medium};
 use transcut::volume::{Layers, VeinParams, Veins, VoxelGrid};
 use transcut::{DVec3, MediumSource};
 
@@ -115,7 +115,8 @@ pub fn medium(value: &toml::Value, mm_per_unit: f64) -> anyhow::Result<Medium> {
         }
     };
     let artist = table.contains_key("albedo") || table.contains_key("radius");
-    let known: &[&str] = if artist { &["albedo", "radius", "scale", "ior", "g"] } else { &["sigma_a", "sigma_s", "eta", "g"] };
+    let known: &[&str] =
+        if artist { &["albedo", "radius", "scale", "ior", "g", "mapping"] } else { &["sigma_a", "sigma_s", "eta", "g"] };
     if let Some(k) = table.keys().find(|k| !known.contains(&k.as_str())) {
         bail!(
             "unknown key '{k}' in the medium table ({} medium keys: {})",
@@ -131,12 +132,21 @@ pub fn medium(value: &toml::Value, mm_per_unit: f64) -> anyhow::Result<Medium> {
             mm_per_unit,
             eta: number("ior", Some(1.4))?,
             g: number("g", Some(0.0))?,
+            mapping: artist_mapping(table)?,
         };
         params.to_medium().map_err(|e| anyhow!("{e}"))
     } else {
         Medium::new(rgb("sigma_a")?, rgb("sigma_s")?, number("eta", Some(1.3))?, number("g", Some(0.0))?)
             .map_err(|e| anyhow!("{e}"))
     }
+}
+
+/// The artist table's `mapping` (default the random walk, as Cycles reads a Principled BSDF).
+fn artist_mapping(table: &toml::Table) -> anyhow::Result<ArtistMapping> {
+    let Some(value) = table.get("mapping") else { return Ok(ArtistMapping::default()) };
+    let names = ArtistMapping::ALL.map(ArtistMapping::name).join(", ");
+    let name = value.as_str().ok_or_else(|| anyhow!("'mapping' must be a string, one of {names}"))?;
+    ArtistMapping::from_name(name).ok_or_else(|| anyhow!("unknown artist mapping '{name}' (one of {names})"))
 }
 
 #[cfg(test)]
@@ -150,6 +160,14 @@ mod tests {
         assert_eq!(m.sigma_a, [0.01, 0.02, 0.03]);
         let v: toml::Value = toml::from_str("m = { albedo = [0.8, 0.6, 0.5], radius = [1, 0.5, 0.3] }").unwrap();
         assert!(medium(&v["m"], 1.0).is_ok());
+        let v: toml::Value = toml::from_str("m = { albedo = [0.8, 0.6, 0.5], radius = 4, mapping = \"dipole\" }").unwrap();
+        let dipole = medium(&v["m"], 1.0).unwrap();
+        assert!((dipole.sigma_t_prime()[0] - 0.25).abs() < 1e-12 && dipole.eta == 1.4);
+        let v: toml::Value = toml::from_str("m = { albedo = [0.8, 0.6, 0.5], radius = 4 }").unwrap();
+        let walk = medium(&v["m"], 1.0).unwrap();
+        assert!((walk.sigma_t_prime()[0] - std::f64::consts::PI).abs() < 1e-12 && walk.eta == 1.0);
+        let v: toml::Value = toml::from_str("m = { albedo = 0.5, radius = 1, mapping = \"jensen\" }").unwrap();
+        assert!(medium(&v["m"], 1.0).unwrap_err().to_string().contains("random-walk-skin"));
         let v: toml::Value = toml::from_str("m = { albedo = 0.5, radius = 1, colour = 2 }").unwrap();
         assert!(medium(&v["m"], 1.0).unwrap_err().to_string().contains("'colour'"));
         let v: toml::Value = toml::from_str("m = \"plutonium\"").unwrap();

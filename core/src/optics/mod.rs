@@ -35,7 +35,7 @@
 //! constant white environment returns Lo ≈ 0.939 in red along the normal (ARCHITECTURE.md):
 //!
 //! ```
-//! use transcut::optics::{f_ext, ArtistParams, Medium, UniformSphere};
+//! use transcut::optics::{f_ext, ArtistMapping, ArtistParams, Medium, UniformSphere};
 //!
 //! let marble = Medium::preset("marble")?;
 //! assert!((marble.diffuse_mean_free_path()[0] - 8.51).abs() < 0.01);
@@ -49,6 +49,7 @@
 //!     mm_per_unit: 1000.0,
 //!     eta: 1.4,
 //!     g: 0.0,
+//!     mapping: ArtistMapping::Dipole,
 //! };
 //! let medium = artist.to_medium()?;
 //! assert!((medium.sigma_t_prime()[0] - 0.25).abs() < 1e-12); // 1/(4 mm)
@@ -76,7 +77,7 @@ mod presets;
 pub(crate) mod quadrature;
 
 pub use analytic::{uniform_sphere_fluence, UniformSphere};
-pub use artist::ArtistParams;
+pub use artist::{half_space_albedo, ArtistMapping, ArtistParams};
 pub use boundary::{radiance_from_fluence, BoundaryTerms};
 pub use dipole::{rd_profile, reduced_albedo_from_rd, sigma_tr, total_diffuse_reflectance, Dipole};
 pub use dipole_patch::{triangle_integral_rgb, DipoleGeometry, EdgeRule};
