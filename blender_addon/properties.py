@@ -383,6 +383,12 @@ def draw_medium(layout, settings, coefficients: tuple = ("sigma_a", "sigma_s_pri
             layout.prop(settings, "principled_mapping")
 
 
+def _tag_owner(settings, _context) -> None:
+    """Tags the object owning ``settings`` for the depsgraph, so its update handlers (Live
+    Translucency) see a change made in the panel or by a script."""
+    settings.id_data.update_tag()
+
+
 class TranscutObjectSettings(bpy.types.PropertyGroup):
     __annotations__ = {
         **medium_properties(
@@ -411,6 +417,7 @@ class TranscutObjectSettings(bpy.types.PropertyGroup):
                 ),
             ),
             default="CYCLES",
+            update=_tag_owner,
         ),
         "eta": FloatProperty(name="IOR", description="Refractive index", default=1.3, min=1.0, max=3.99),
         "g": FloatProperty(name="Anisotropy", description="Scattering anisotropy g", default=0.0, min=-0.99, max=0.99),

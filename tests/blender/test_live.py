@@ -53,7 +53,7 @@ def test_live_follows_the_material_and_the_lights(prt_scene, addon):
     np.testing.assert_array_equal(start, fresh_bake(obj))
 
     node = obj.active_material.node_tree.nodes["Principled BSDF"]
-    node.inputs["Subsurface Radius"].default_value = (0.07, 0.05, 0.04)
+    node.inputs["Subsurface Radius"].default_value = (1.2, 0.9, 0.7)
     bpy.context.view_layer.update()
     edited = attribute_rgb(obj).copy()
     assert not np.array_equal(edited, start), "the radius change reached the attribute"
@@ -65,18 +65,26 @@ def test_live_follows_the_material_and_the_lights(prt_scene, addon):
     assert not np.array_equal(relit, edited), "the light move reached the attribute"
     np.testing.assert_array_equal(relit, fresh_bake(obj))
 
-    # A medium the precompute cannot take (another η) is reported; the attribute stays.
+    # Read as Cycles does, the IOR is the specular layer's: the attribute scales by its 1 − F0.
     node.inputs["IOR"].default_value = 1.6
     bpy.context.view_layer.update()
+    layer = [1.0 - ((n - 1.0) / (n + 1.0)) ** 2 for n in (1.3, 1.6)]
+    np.testing.assert_allclose(attribute_rgb(obj), relit * (layer[1] / layer[0]), rtol=1e-6)
+    seen = attribute_rgb(obj).copy()
+
+    # A medium the precompute cannot take (another η: the dipole reading keeps the IOR) is
+    # reported; the attribute stays.
+    obj.transcut.principled_mapping = "DIPOLE"
+    bpy.context.view_layer.update()
     assert addon.live.active() and "eta" in addon.live.status()
-    np.testing.assert_array_equal(attribute_rgb(obj), relit)
+    np.testing.assert_array_equal(attribute_rgb(obj), seen)
 
     assert bpy.ops.transcut.live_stop() == {"FINISHED"}
     assert not addon.live.active()
-    node.inputs["IOR"].default_value = 1.3
+    obj.transcut.principled_mapping = "CYCLES"
     sun.rotation_euler = (0.1, 0.1, 0.0)
     bpy.context.view_layer.update()
-    np.testing.assert_array_equal(attribute_rgb(obj), relit, "nothing changes once stopped")
+    np.testing.assert_array_equal(attribute_rgb(obj), seen, "nothing changes once stopped")
 
 
 def test_moving_the_object_stops_live_with_the_reason(prt_scene, addon):

