@@ -3,7 +3,7 @@
 dipole's Oracle with its Opening Angle or Epsilon 1 and 2, Edge Rule, Receivers, and Mode with
 the incremental mode's Budget while it is, radiosity's Patch Size, Rays per Patch, Iteration,
 Bounces (Jacobi only), Radiosity Tolerance and Write Surroundings after TransCut's three), the
-active object's medium, the bake, Bake Animation and editing buttons, and the library status when
+active object's medium, the bake, its preview, Bake Animation and editing buttons, and the library status when
 it is not loaded; the same operators in the Object menu."""
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from .edit_ops import TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium
 from .live import TRANSCUT_OT_live_start, TRANSCUT_OT_live_stop
 from .operators import OBJECT_OT_transcut_bake
 from .preferences import draw_library_status
+from .preview import TRANSCUT_OT_preview_bake, TRANSCUT_OT_restore_materials
 from .properties import draw_medium
 
 
@@ -74,6 +75,9 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
             draw_medium(box, obj.transcut, ("sigma_a", "sigma_s_prime", "eta", "g"))
 
         layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
+        row = layout.row(align=True)
+        row.operator(TRANSCUT_OT_preview_bake.bl_idname, icon="MATERIAL")
+        row.operator(TRANSCUT_OT_restore_materials.bl_idname, icon="LOOP_BACK")
         if live.active():
             layout.operator(TRANSCUT_OT_live_stop.bl_idname, icon="PAUSE")
         else:
@@ -92,6 +96,7 @@ def menu_func(self, _context):
     """The operators at the end of the 3D view's Object menu."""
     self.layout.separator()
     self.layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
+    self.layout.operator(TRANSCUT_OT_preview_bake.bl_idname, icon="MATERIAL")
     self.layout.operator(TRANSCUT_OT_bake_animation.bl_idname, icon="RENDER_ANIMATION")
     self.layout.operator(TRANSCUT_OT_cut_with_object.bl_idname, icon="MOD_BOOLEAN")
     self.layout.operator(TRANSCUT_OT_paint_medium.bl_idname, icon="BRUSH_DATA")
