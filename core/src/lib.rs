@@ -39,6 +39,7 @@
 //! | [`diffusion`] | TransCut's diffusion system (eqs. 9–14), solvers, eq. 3 |
 //! | [`gpu`] | the wgpu backend and the CPU/GPU choice |
 //! | [`render`] | a CPU rasteriser of baked radiance |
+//! | [`texture`] | texture bakes: UV rasterisation, seam padding, the image of a surface's radiance |
 //! | [`scene`] | what a bake is asked for: scene, objects, [`Method`], [`BakeOptions`] |
 //! | [`edit`] | TransCut's interactive editing (§5): relight, medium edits, paint, cuts |
 //! | [`methods`] | the subsurface methods behind one contract, and what a bake returns |
@@ -66,6 +67,7 @@ pub mod render;
 pub mod scene;
 pub mod session;
 pub mod sparse;
+pub mod texture;
 pub mod volume;
 pub mod workers;
 

@@ -30,6 +30,7 @@ const CORE: Table = &[
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
     ("gpu", &["diffusion", "hierarchy", "optics", "progress", "prt", "radiosity", "sparse"]),
     ("render", &["input", "light", "mesh", "optics", "output"]),
+    ("texture", &["render"]),
     (
         "scene",
         &[
@@ -71,7 +72,7 @@ const CORE: Table = &[
         ],
     ),
     ("bake", &["mesh", "methods", "progress", "scene", "workers"]),
-    ("session", &["bake", "edit", "light", "methods", "progress", "scene"]),
+    ("session", &["bake", "edit", "light", "methods", "progress", "render", "scene", "texture"]),
 ];
 
 /// The C ABI: the boundary, the leaves, the scene handle, then the entry points, which use

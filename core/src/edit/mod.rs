@@ -401,6 +401,17 @@ impl Editor {
         Some(if self.user_surface { self.original.sample_at_user_vertices(&p.radiance) } else { p.radiance.clone() })
     }
 
+    /// The radiance field the user's surface is sampled from while the object is uncut and
+    /// unmoved and was given as a surface: the original tet mesh (with its surface map) and Lo
+    /// per vertex of it; else `None`.
+    #[must_use]
+    pub fn surface_field(&self) -> Option<(&TetMesh, &[[f64; 3]])> {
+        match self.pieces.as_slice() {
+            [p] if self.uncut && self.user_surface && p.transform == DMat4::IDENTITY => Some((&self.original, &p.radiance)),
+            _ => None,
+        }
+    }
+
     /// New lights: q recomputed on every piece (matrices unchanged), every piece re-solved from
     /// its last φ. ([`Editor::relight_with_undo`] without the undo.)
     ///

@@ -291,6 +291,32 @@ impl TetMesh {
             .collect()
     }
 
+    /// `values` (per tet-mesh vertex) at points of the user's surface, each given as three user
+    /// vertices and barycentric weights: the point Σ wₖ sₖ of the vertices' boundary points
+    /// sₖ ([`Self::surface_map`]), then its closest point on the boundary, interpolated there
+    /// (at a user vertex, exactly [`Self::sample_at_user_vertices`]). Panics on a user vertex
+    /// beyond the map (callers check).
+    #[must_use]
+    pub fn sample_at_user_points<const N: usize>(&self, points: &[([u32; 3], [f64; 3])], values: &[[f64; N]]) -> Vec<[f64; N]> {
+        use rayon::prelude::*;
+        let faces: Vec<[u32; 3]> = self.boundary_faces.iter().map(|f| f.vertices).collect();
+        let bvh = super::TriangleBvh::from_indexed(&self.positions, &faces);
+        points
+            .par_iter()
+            .map(|(vertices, w)| {
+                let p: DVec3 = (0..3).map(|k| w[k] * self.surface_map[vertices[k] as usize].point).sum();
+                let sp = bvh.closest_point(p).expect("a mapped tet mesh has boundary faces");
+                let mut out = [0.0; N];
+                for (k, &v) in faces[sp.triangle as usize].iter().enumerate() {
+                    for (o, x) in out.iter_mut().zip(values[v as usize]) {
+                        *o += sp.bary[k] * x;
+                    }
+                }
+                out
+            })
+            .collect()
+    }
+
     /// Boundary edges `[a, b]` (`a < b`, sorted) that do not lie in exactly two boundary
     /// triangles, each with the indices of the boundary faces around it: open edges (one face)
     /// and non-manifold edges (more than two).

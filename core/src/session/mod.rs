@@ -28,7 +28,9 @@ use crate::methods::hierarchical_dipole::{DipoleLive, DipoleUndo};
 use crate::methods::prt::{PrtLive, PrtState, PrtUndo};
 use crate::methods::{BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 use crate::progress::{Cancelled, Progress};
+use crate::render::Image;
 use crate::scene::{BakeOptions, MediumSource, Method, Scene, SceneError};
+use crate::texture::{self, TexelSample, TextureError, TextureOptions};
 
 /// Why a session call failed. Nothing changed.
 #[derive(Debug, thiserror::Error)]
@@ -57,6 +59,14 @@ pub enum SessionError {
     /// Cancelled through the progress callback.
     #[error("{0}; nothing changed")]
     Cancelled(#[from] Cancelled),
+    /// A texture bake's input is invalid.
+    #[error("object {index} ({name}): texture bake: {source}")]
+    Texture {
+        index: usize,
+        name: String,
+        #[source]
+        source: TextureError,
+    },
 }
 
 /// A method's live state, made from its bake at the object's first update.
@@ -393,6 +403,75 @@ impl Session {
             State::Live(live) => live.user_radiance(),
             State::Baked(b) => Some(b.radiance.clone()),
         })
+    }
+
+    /// Object `index`'s radiance at points of its user surface (each a triangle of its user
+    /// vertices and barycentric weights, e.g. a texture's [`TexelSample`]s), while it still has
+    /// that surface (`None` once it was cut or a piece moved). TransCut samples its tet mesh's
+    /// boundary solution at the points ([`crate::mesh::TetMesh::sample_at_user_points`]), so a
+    /// texel between vertices gets the solution there, not a blend of the vertices' values;
+    /// the other methods, whose radiance lives at the vertices, interpolate it.
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`]; [`SessionError::Texture`] for a vertex index beyond the
+    /// object's vertices.
+    pub fn radiance_on_surface(&self, index: usize, samples: &[TexelSample]) -> Result<Option<Vec<[f64; 3]>>, SessionError> {
+        let Some(vertex_radiance) = self.radiance(index)? else { return Ok(None) };
+        let slot = self.slot(index)?;
+        if let Some(t) = samples.iter().position(|s| s.vertices.iter().any(|&v| v as usize >= vertex_radiance.len())) {
+            let vertex = samples[t].vertices.into_iter().max().unwrap_or(0);
+            let source =
+                TextureError::VertexOutOfRange { triangle: samples[t].triangle as usize, vertex, count: vertex_radiance.len() };
+            return Err(SessionError::Texture { index, name: slot.name.clone(), source });
+        }
+        let field = match &slot.state {
+            _ if self.coupled.is_some() => None,
+            State::Baked(b) => match &b.state {
+                BakedState::TransCut(s) if !s.tet_mesh.surface_map().is_empty() => Some((&s.tet_mesh, s.radiance.as_slice())),
+                _ => None,
+            },
+            State::Live(Live::TransCut(e)) => e.surface_field(),
+            State::Live(_) => None,
+        };
+        let points: Vec<([u32; 3], [f64; 3])> = samples.iter().map(|s| (s.vertices, s.bary)).collect();
+        Ok(Some(match field {
+            Some((mesh, values)) => mesh.sample_at_user_points(&points, values),
+            None => points
+                .iter()
+                .map(|(v, w)| std::array::from_fn(|c| (0..3).map(|k| w[k] * vertex_radiance[v[k] as usize][c]).sum()))
+                .collect(),
+        }))
+    }
+
+    /// Object `index`'s radiance as a texture through a UV map ([`crate::texture`]):
+    /// `triangles` in its user vertex numbering (the bake's triangles or any others over its
+    /// vertices, e.g. split at UV seams) with one UV per corner in `uvs` (3 per triangle).
+    ///
+    /// # Errors
+    /// [`SessionError::NoSuchObject`]; [`SessionError::Texture`] naming a bad size, UV or
+    /// vertex; [`SessionError::Unsupported`] once the object was cut or a piece moved (its
+    /// surface is no longer the one the UV map covers).
+    pub fn bake_texture(
+        &self,
+        index: usize,
+        triangles: &[[u32; 3]],
+        uvs: &[[f64; 2]],
+        options: &TextureOptions,
+    ) -> Result<Image, SessionError> {
+        let slot = self.slot(index)?;
+        let unsupported = || SessionError::Unsupported {
+            index,
+            name: slot.name.clone(),
+            method: slot.method,
+            capability: "bake a texture of a cut object or one whose pieces moved (its surface is not the UV map's)",
+        };
+        let vertex_count = self.radiance(index)?.ok_or_else(unsupported)?.len();
+        texture::check(triangles, uvs, vertex_count, options).map_err(|source| SessionError::Texture {
+            index,
+            name: slot.name.clone(),
+            source,
+        })?;
+        texture::bake_image(triangles, uvs, options, |texels| self.radiance_on_surface(index, texels)?.ok_or_else(unsupported))
     }
 
     /// Makes object `index`'s live state from its bake now (a solve under the session's

@@ -51,6 +51,9 @@ pub struct TransCutState {
     pub eta: f64,
     /// The fluence φ at every tet-mesh vertex (a warm start for later solves).
     pub fluence: Vec<[f64; 3]>,
+    /// Lo(x, n) of eq. 3, clamped at 0, at every tet-mesh vertex (0 inside): the field the
+    /// user's vertices, and a texture's texels, are sampled from.
+    pub radiance: Vec<[f64; 3]>,
 }
 
 /// TransCut between `prepare` and the end of the bake: the state and the assembled system.
@@ -185,8 +188,15 @@ impl Prepared {
 
     /// The state a bake keeps ([`TransCutState`]).
     pub(crate) fn into_state(self) -> TransCutState {
+        // A fluence that is not finite failed the bake before its state was kept.
+        let lo = diffusion::surface_radiance(&self.system, &self.fluence).unwrap_or_default();
+        let radiance = if lo.is_empty() {
+            vec![[0.0; 3]; self.tet_mesh.vertex_count()]
+        } else {
+            per_vertex_radiance(&self.tet_mesh, &self.system, &lo)
+        };
         let Self { tet_mesh, media, system, fluence } = self;
-        TransCutState { tet_mesh, media, mm_per_unit: system.mm_per_unit(), eta: system.boundary_terms().eta, fluence }
+        TransCutState { tet_mesh, media, mm_per_unit: system.mm_per_unit(), eta: system.boundary_terms().eta, fluence, radiance }
     }
 
     /// The exitance B = (φ − 2q)/(2A) at every boundary vertex (the integral of eq. 3 over the
@@ -208,13 +218,12 @@ impl Prepared {
         let lo = self.boundary_radiance(target)?;
         let Self { tet_mesh, system, .. } = self;
         // Per tet-mesh vertex (boundary entries only), clamped, then at the user's vertices.
-        let mut per_vertex = vec![[0.0; 3]; tet_mesh.vertex_count()];
+        let per_vertex = per_vertex_radiance(tet_mesh, system, &lo);
         let mut clamped = vec![[0.0]; tet_mesh.vertex_count()];
         for (&v, l) in system.boundary().ids.iter().zip(&lo) {
             if l.iter().any(|&x| x < 0.0) {
                 clamped[v as usize] = [1.0];
             }
-            per_vertex[v as usize] = l.map(|x| x.max(0.0));
         }
         stats.clamped_vertices = match target.object.shape {
             Shape::Surface(_) => clamped_user_vertices(tet_mesh, &clamped),
@@ -321,6 +330,16 @@ impl SubsurfaceMethod for TransCut {
     fn into_baked(state: Prepared) -> BakedState {
         BakedState::TransCut(state.into_state())
     }
+}
+
+/// Eq. 3's radiance `lo` per boundary entry of `system`, clamped at 0, per tet-mesh vertex
+/// (0 inside).
+fn per_vertex_radiance(tet_mesh: &TetMesh, system: &DiffusionSystem, lo: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let mut per_vertex = vec![[0.0; 3]; tet_mesh.vertex_count()];
+    for (&v, l) in system.boundary().ids.iter().zip(lo) {
+        per_vertex[v as usize] = l.map(|x| x.max(0.0));
+    }
+    per_vertex
 }
 
 /// The user's vertices interpolated (with a non-zero weight) from a tet-mesh vertex that
