@@ -362,6 +362,11 @@
 #define TC_MATERIAL_DIFFUSE 1
 
 /**
+ * The largest width or height of `tc_object_bake_texture`.
+ */
+#define TC_MAX_TEXTURE_SIZE 16384
+
+/**
  * A scene: objects (each a mesh, a medium, a transform), lights, and the results of the last
  * bake. Created by `tc_scene_create`, freed by `tc_scene_destroy`. Opaque: only pointers to it
  * are used. A scene may move between threads but serves one call at a time (`TC_BUSY`).
@@ -2028,6 +2033,41 @@ TcStatus tc_object_set_sides(struct TcScene *scene, uint32_t object, uint32_t si
  * `_sides` a translucent one.
  */
 TcStatus tc_object_material(const struct TcScene *scene, uint32_t object, uint32_t *out);
+
+/**
+ * Bakes object `object`'s radiance into a `width × height` texture through a UV map, as
+ * game and film pipelines use it: every texel whose centre lies in a triangle's UV image gets
+ * the radiance at that surface point (TransCut samples its tet mesh's boundary solution
+ * there, not a blend of the vertex colours; the other methods interpolate their vertices),
+ * then each UV island is padded by `margin` texels (each ring the mean of its filled
+ * neighbours), as bakers do at seams.
+ *
+ * `triangles`: `triangle_count` × 3 vertex indices in the object's vertex order (the
+ * triangles it was added with, or any others over its vertices, e.g. split at UV seams);
+ * `uvs`: 6 floats per triangle, (u, v) of each corner in the triangles' order, UV (0, 0) at
+ * the image's bottom-left; `uv_len` is their count in floats. `out_rgba`: the caller's
+ * `width × height × 4` floats (`out_len` of them), written row by row from the TOP row, each
+ * texel linear R, G, B and alpha (1 where the surface or its padding is, else 0 with RGB 0).
+ * Width and height are in 1..=`TC_MAX_TEXTURE_SIZE`.
+ *
+ * Errors: `TC_NOT_BAKED` (before a bake, after the lights changed without
+ * `tc_scene_relight`, or once the object was cut or a piece moved: its surface is no longer
+ * the UV map's), `TC_NULL_POINTER`, `TC_INVALID_HANDLE`, `TC_INVALID_ARGUMENT` (a size out of
+ * range, `uv_len` ≠ 6 × `triangle_count`, a UV that is not finite, a vertex index beyond the
+ * object's, naming it), `TC_BUFFER_TOO_SHORT` (naming both lengths). Nothing is written on
+ * failure.
+ */
+TcStatus tc_object_bake_texture(const struct TcScene *scene,
+                                uint32_t object,
+                                const uint32_t *triangles,
+                                size_t triangle_count,
+                                const float *uvs,
+                                size_t uv_len,
+                                uint32_t width,
+                                uint32_t height,
+                                uint32_t margin,
+                                float *out_rgba,
+                                size_t out_len);
 
 /**
  * The library's version as `major << 16 | minor << 8 | patch` (compare with

@@ -131,6 +131,20 @@ impl SceneState {
         })
     }
 
+    /// Object `object`'s radiance as a texture ([`Session::bake_texture`]); `TC_NOT_BAKED` as
+    /// [`SceneState::radiance`] once its surface is not the one it was baked with.
+    pub(crate) fn texture(
+        &self,
+        object: u32,
+        triangles: &[[u32; 3]],
+        uvs: &[[f64; 2]],
+        options: &transcut_core::texture::TextureOptions,
+    ) -> Result<transcut_core::render::Image, Failure> {
+        self.radiance(object)?;
+        let i = self.object_index(object)?;
+        self.results()?.bake_texture(i, triangles, uvs, options).map_err(|e| session_failure(&e))
+    }
+
     /// The editor of object `object`, which must have been edited.
     pub(crate) fn editor(&self, object: u32) -> Result<&Editor, Failure> {
         let i = self.object_index(object)?;

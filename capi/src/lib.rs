@@ -48,6 +48,7 @@ mod prt;
 mod relight;
 mod scene;
 mod test_hooks;
+mod texture;
 mod version;
 mod volume;
 
@@ -69,5 +70,6 @@ pub use relight::*;
 pub use scene::*;
 pub use status::*;
 pub use test_hooks::*;
+pub use texture::*;
 pub use version::*;
 pub use volume::*;

@@ -97,6 +97,7 @@ const CAPI: Table = &[
     ("relight", &["convert", "handle", "progress", "status"]),
     ("scene", &["convert", "handle", "ptr", "status"]),
     ("test_hooks", &["status"]),
+    ("texture", &["handle", "ptr", "status"]),
     ("version", &["status"]),
     ("volume", &["convert", "handle", "ptr", "status"]),
 ];

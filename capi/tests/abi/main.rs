@@ -19,3 +19,4 @@ mod objects;
 mod prt;
 mod radiosity;
 mod tets;
+mod texture;
