@@ -313,3 +313,110 @@ fn prt_precompute_then_eval_equals_a_bake() {
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("none.tcprt"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A UV sphere of radius 10 as OBJ text with an equirectangular UV map (u = k/segments,
+/// v = 1 − j/rings; the seam's texture coordinates duplicated at u = 1, the poles' per segment).
+fn uv_sphere_obj(segments: usize, rings: usize) -> String {
+    let mut text = String::from("v 0 0 10\n");
+    for j in 1..rings {
+        let theta = std::f64::consts::PI * j as f64 / rings as f64;
+        for k in 0..segments {
+            let phi = std::f64::consts::TAU * k as f64 / segments as f64;
+            text += &format!("v {} {} {}\n", 10.0 * theta.sin() * phi.cos(), 10.0 * theta.sin() * phi.sin(), 10.0 * theta.cos());
+        }
+    }
+    text += "v 0 0 -10\n";
+    // vt index (1-based) of ring j (0..=rings), column k (0..=segments; the poles use k + ½).
+    let stride = segments + 1;
+    for j in 0..=rings {
+        for k in 0..=segments {
+            let u = if j == 0 || j == rings { (k as f64 + 0.5) / segments as f64 } else { k as f64 / segments as f64 };
+            text += &format!("vt {u} {}\n", 1.0 - j as f64 / rings as f64);
+        }
+    }
+    let t = |j: usize, k: usize| 1 + j * stride + k;
+    let v = |j: usize, k: usize| 2 + (j - 1) * segments + k % segments;
+    let south = 2 + (rings - 1) * segments;
+    for k in 0..segments {
+        text += &format!("f 1/{} {}/{} {}/{}\n", t(0, k), v(1, k), t(1, k), v(1, k + 1), t(1, k + 1));
+        for j in 1..rings - 1 {
+            let (a, b, c, d) = (v(j, k), v(j + 1, k), v(j + 1, k + 1), v(j, k + 1));
+            text += &format!("f {a}/{} {b}/{} {c}/{} {d}/{}\n", t(j, k), t(j + 1, k), t(j + 1, k + 1), t(j, k + 1));
+        }
+        text += &format!(
+            "f {}/{} {south}/{} {}/{}\n",
+            v(rings - 1, k),
+            t(rings - 1, k),
+            t(rings, k),
+            v(rings - 1, k + 1),
+            t(rings - 1, k + 1)
+        );
+    }
+    text
+}
+
+/// `transcut bake --uv-texture`: a uniformly lit marble sphere's texture is the closed form at
+/// every texel, as EXR (linear) and PNG (sRGB); misuse is refused before the bake.
+#[test]
+fn bake_writes_a_uv_texture_of_the_solution() {
+    use transcut::optics::{f_ext, Medium, UniformSphere};
+    let dir = std::env::temp_dir().join(format!("transcut-cli-texture-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = dir.join("ball.obj");
+    std::fs::write(&obj, uv_sphere_obj(32, 16)).unwrap();
+    let bake = |out: &std::path::Path, extra: &[&str]| {
+        transcut()
+            .arg("bake")
+            .arg(&obj)
+            .args(["--medium", "marble", "--scale", "1", "--light", "env:radiance=1", "--tets", "30000", "--json"])
+            .args(extra)
+            .arg("-o")
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    let marble = Medium::preset("marble").unwrap();
+    let q = std::f64::consts::PI * (1.0 - f_ext(marble.eta));
+    let expect = UniformSphere::new(marble, 10.0, [q; 3]).unwrap().surface_radiance(1.0);
+
+    let exr = dir.join("ball.exr");
+    let out = bake(&exr, &["--uv-texture", "64"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["texture"]["width"], 64);
+    assert_eq!(json["texture"]["margin"], 1);
+    // All but the gaps between the poles' triangles (the equirectangular map's top and bottom
+    // rows), which the margin of 1 texel pads.
+    let covered = json["texture"]["covered_texels"].as_u64().unwrap();
+    assert!((3_800..4_096).contains(&covered), "{covered}");
+    let image = image::open(&exr).unwrap().into_rgba32f();
+    assert_eq!(image.dimensions(), (64, 64));
+    let filled: Vec<_> = image.pixels().filter(|p| p[3] == 1.0).collect();
+    assert!(filled.len() as u64 > covered, "the margin pads the islands");
+    for p in filled {
+        for c in 0..3 {
+            assert!((f64::from(p[c]) / expect[c] - 1.0).abs() < 0.02, "{p:?} vs {expect:?}");
+        }
+    }
+
+    let png = dir.join("ball.png");
+    let out = bake(&png, &["--uv-texture", "16", "--texture-margin", "0"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let image = image::open(&png).unwrap().into_rgba8();
+    let srgb = |x: f64| if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    for p in image.pixels().filter(|p| p[3] == 255) {
+        for c in 0..3 {
+            let level = 255.0 * srgb(expect[c]);
+            assert!((f64::from(p[c]) - level).abs() <= 3.0, "{p:?} vs {level}");
+        }
+    }
+
+    // Refused before the bake, naming what is wrong.
+    let out = bake(&dir.join("ball.ply"), &["--uv-texture", "16"]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains(".exr"));
+    std::fs::write(dir.join("bare.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n").unwrap();
+    let out = transcut().arg("bake").arg(dir.join("bare.obj")).args(["--uv-texture", "16", "-o"]).arg(&exr).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("no texture coordinate"), "{stderr}");
+    std::fs::remove_dir_all(&dir).ok();
+}

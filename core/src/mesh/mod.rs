@@ -22,7 +22,7 @@ mod weld;
 pub(crate) use bvh::closest_point_on_triangle;
 pub use bvh::{RayHit, SurfacePoint, TriangleBvh};
 pub use error::MeshError;
-pub use obj::{load_obj, load_obj_with, parse_obj, parse_obj_with};
+pub use obj::{load_obj, load_obj_uv_map, load_obj_with, parse_obj, parse_obj_uv_map, parse_obj_with, UvMap};
 pub use ply::{load_ply, load_ply_with, parse_ply, parse_ply_with};
 pub use quality::{dihedral_angles, dihedral_cotangents, tet_volume, QualityReport};
 pub use shapes::icosphere;

@@ -113,6 +113,69 @@ pub fn parse_obj(text: &str, path_for_messages: &str) -> Result<TriMesh, MeshErr
 /// # Errors
 /// As [`parse_obj`], and [`MeshError::InvalidTolerance`] for a bad tolerance.
 pub fn parse_obj_with(text: &str, path_for_messages: &str, weld: &WeldOptions) -> Result<TriMesh, MeshError> {
+    read_statements(text, path_for_messages)?.finish(weld)
+}
+
+/// The texture coordinates of an OBJ file's faces ([`parse_obj_uv_map`]) read from `path`.
+///
+/// # Errors
+/// As [`load_obj`], and those of [`parse_obj_uv_map`].
+pub fn load_obj_uv_map(path: &Path) -> Result<UvMap, MeshError> {
+    let name = path.display().to_string();
+    let file = open_mesh(path, &name, Some(MAX_OBJ_LINE_BYTES))?;
+    let bytes = file.read_all().map_err(|e| MeshError::input(&name, e))?;
+    parse_obj_uv_map(&String::from_utf8_lossy(&bytes), &name)
+}
+
+/// A UV map: triangles over a mesh's vertices (as the file numbers them, from 0) with one UV
+/// per corner.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UvMap {
+    /// Vertex indices of each triangle (n-gons fanned from their first corner).
+    pub triangles: Vec<[u32; 3]>,
+    /// (u, v) of each triangle's corners in turn, 3 per triangle.
+    pub uvs: Vec<[f64; 2]>,
+}
+
+/// The faces of OBJ text with their texture coordinates (`vt`, referenced as `f v/t ...`):
+/// each face fanned into triangles from its first corner, the vertices as the file numbers
+/// them (the user vertex order of [`parse_obj`]'s mesh), a UV per corner.
+///
+/// # Errors
+/// Those of [`parse_obj`] for the statements; [`MeshError::Parse`] naming the line of a face
+/// corner without a texture coordinate, a texture index out of range, or a `vt` that is not
+/// numbers.
+pub fn parse_obj_uv_map(text: &str, path_for_messages: &str) -> Result<UvMap, MeshError> {
+    let reader = read_statements(text, path_for_messages)?;
+    let mut map = UvMap { triangles: Vec::new(), uvs: Vec::new() };
+    for face in 0..reader.offsets.len() - 1 {
+        let (start, end) = (reader.offsets[face], reader.offsets[face + 1]);
+        let line = reader.face_lines[face];
+        let mut corners = Vec::with_capacity(end - start);
+        for k in start..end {
+            let t = reader.corner_uvs[k];
+            if t == NO_UV {
+                return Err(reader
+                    .parse_error(line, "a face corner has no texture coordinate ('f v/t ...' is needed for a UV map)".into()));
+            }
+            if t as usize >= reader.uv_coords.len() {
+                return Err(reader.parse_error(
+                    line,
+                    format!("a texture index beyond the file's {} texture coordinates ('vt')", reader.uv_coords.len()),
+                ));
+            }
+            corners.push((reader.indices[k], reader.uv_coords[t as usize]));
+        }
+        for k in 1..corners.len() - 1 {
+            map.triangles.push([corners[0].0, corners[k].0, corners[k + 1].0]);
+            map.uvs.extend([corners[0].1, corners[k].1, corners[k + 1].1]);
+        }
+    }
+    Ok(map)
+}
+
+/// Reads every statement of OBJ text.
+fn read_statements<'a>(text: &str, path_for_messages: &'a str) -> Result<ObjReader<'a>, MeshError> {
     let text = text.strip_prefix('\u{FEFF}').unwrap_or(text);
     let mut reader = ObjReader::new(path_for_messages, text.len());
     let mut lines = lines(text);
@@ -148,7 +211,7 @@ pub fn parse_obj_with(text: &str, path_for_messages: &str, weld: &WeldOptions) -
             reader.statement(line, line_no)?;
         }
     }
-    reader.finish(weld)
+    Ok(reader)
 }
 
 /// The line without its comment.
@@ -161,7 +224,6 @@ fn strip_comment(line: &str) -> &str {
 
 /// Statements that are part of OBJ but carry nothing a surface mesh needs.
 const IGNORED: &[&str] = &[
-    "vt",
     "vn",
     "vp",
     "l",
@@ -200,12 +262,20 @@ const IGNORED: &[&str] = &[
     "csh",
 ];
 
+/// A face corner without a texture coordinate.
+const NO_UV: u32 = u32::MAX;
+
 struct ObjReader<'a> {
     path: &'a str,
     positions: Vec<DVec3>,
     offsets: Vec<usize>,
     indices: Vec<u32>,
     face_lines: Vec<usize>,
+    /// `vt` coordinates (u, v).
+    uv_coords: Vec<[f64; 2]>,
+    /// Per corner (parallel to `indices`): its texture coordinate's index from 0, or [`NO_UV`];
+    /// resolved when read, checked by [`parse_obj_uv_map`] only.
+    corner_uvs: Vec<u32>,
 }
 
 impl<'a> ObjReader<'a> {
@@ -220,6 +290,8 @@ impl<'a> ObjReader<'a> {
             offsets,
             indices: Vec::with_capacity(guess * 3),
             face_lines: Vec::with_capacity(guess),
+            uv_coords: Vec::new(),
+            corner_uvs: Vec::with_capacity(guess * 3),
         }
     }
 
@@ -234,6 +306,7 @@ impl<'a> ObjReader<'a> {
         };
         match keyword {
             "v" => self.vertex(tokens, line_no),
+            "vt" => self.texture_coordinate(tokens, line_no),
             "f" | "fo" => self.face(tokens, line_no),
             k if IGNORED.contains(&k) => Ok(()),
             k if k.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_') => {
@@ -278,6 +351,20 @@ impl<'a> ObjReader<'a> {
         Ok(())
     }
 
+    fn texture_coordinate<'t>(&mut self, tokens: impl Iterator<Item = &'t str>, line_no: usize) -> Result<(), MeshError> {
+        let mut uv = [0.0; 2];
+        for (k, tok) in tokens.enumerate() {
+            let x = tok
+                .parse::<f64>()
+                .map_err(|_| self.parse_error(line_no, format!("cannot read {} as a texture coordinate", quote(tok))))?;
+            if k < 2 {
+                uv[k] = x;
+            }
+        }
+        self.uv_coords.push(uv);
+        Ok(())
+    }
+
     fn face<'t>(&mut self, tokens: impl Iterator<Item = &'t str>, line_no: usize) -> Result<(), MeshError> {
         let face = self.offsets.len() - 1;
         let defined = self.positions.len();
@@ -285,14 +372,21 @@ impl<'a> ObjReader<'a> {
         for tok in tokens {
             let mut parts = tok.split('/');
             let first = parts.next().unwrap_or("");
-            // Texture and normal references must be well-formed, even though they are ignored.
+            // Texture and normal references must be well-formed; the texture index is kept for
+            // a UV map (a negative one counts back from the last `vt` so far).
             let mut extra = 0;
+            let mut uv = NO_UV;
             for part in parts {
                 extra += 1;
                 if extra > 2 || (!part.is_empty() && parse_int(part).is_none()) {
                     return Err(
                         self.parse_error(line_no, format!("bad face corner {}: expected i, i/t, i//n or i/t/n", quote(tok)))
                     );
+                }
+                if extra == 1 && !part.is_empty() {
+                    let t = parse_int(part).unwrap_or(0);
+                    let resolved = if t > 0 { t - 1 } else { self.uv_coords.len() as i64 + t };
+                    uv = u32::try_from(resolved).ok().filter(|&r| r != NO_UV && t != 0).unwrap_or(NO_UV - 1);
                 }
             }
             let Some(index) = parse_int(first) else {
@@ -331,6 +425,7 @@ impl<'a> ObjReader<'a> {
                 });
             };
             self.indices.push(resolved);
+            self.corner_uvs.push(uv);
         }
         let count = self.indices.len() - start;
         if count < 3 {
@@ -386,6 +481,24 @@ fn parse_int(s: &str) -> Option<i64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn uv_maps_fan_faces_and_name_what_is_missing() {
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+                    f 1/1 2/2 3/3 4/4\nf 2/2/1 5/-3 3/-2\n";
+        let map = parse_obj_uv_map(text, "t.obj").unwrap();
+        assert_eq!(map.triangles, vec![[0, 1, 2], [0, 2, 3], [1, 4, 2]]);
+        assert_eq!(map.uvs[..6], [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+        assert_eq!(map.uvs[6..], [[1.0, 0.0], [1.0, 0.0], [1.0, 1.0]]);
+        // The mesh of the same text is unchanged by the texture coordinates.
+        assert_eq!(parse_obj(text, "t.obj").unwrap().positions().len(), 5);
+        let e = parse_obj_uv_map("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2 3/1\n", "t.obj").unwrap_err();
+        assert!(e.to_string().contains("no texture coordinate") && e.to_string().contains(":5:"), "{e}");
+        let e = parse_obj_uv_map("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n", "t.obj").unwrap_err();
+        assert!(e.to_string().contains("beyond the file's 1 texture coordinates"), "{e}");
+        let e = parse_obj_uv_map("v 0 0 0\nvt 0 x\n", "t.obj").unwrap_err();
+        assert!(e.to_string().contains("'x'"), "{e}");
+    }
 
     #[test]
     fn parse_int_forms() {

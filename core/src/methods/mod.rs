@@ -40,7 +40,7 @@ pub use hierarchical_dipole::{DipoleState, HierarchicalDipole};
 pub use lighting::Lighting;
 pub use prt::{Prt, PrtLive, PrtState};
 pub use radiosity::{RadiosityObject, RadiositySession, RadiosityStats, RadiosityUpdate};
-pub use result::{BakedState, ObjectBake, ObjectStats};
+pub use result::{interpolate_vertices, BakedState, ObjectBake, ObjectStats};
 pub use transcut::{TransCut, TransCutState};
 
 use std::sync::Mutex;

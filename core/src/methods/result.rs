@@ -8,6 +8,12 @@ use super::prt::PrtState;
 use super::radiosity::RadiosityObject;
 use super::transcut::TransCutState;
 
+/// Per-vertex `values` at points given as three vertices (in range) and barycentric weights.
+#[must_use]
+pub fn interpolate_vertices(values: &[[f64; 3]], points: &[([u32; 3], [f64; 3])]) -> Vec<[f64; 3]> {
+    points.iter().map(|(v, w)| std::array::from_fn(|c| (0..3).map(|k| w[k] * values[v[k] as usize][c]).sum())).collect()
+}
+
 /// One object's bake: the radiance, what was measured, and what the method prepared.
 #[derive(Debug, Clone)]
 pub struct ObjectBake {
@@ -20,6 +26,20 @@ pub struct ObjectBake {
 }
 
 impl ObjectBake {
+    /// The bake's radiance at points of the user's surface, each three user vertices (in
+    /// range: callers check) and barycentric weights: TransCut samples its tet mesh's boundary
+    /// solution there ([`crate::mesh::TetMesh::sample_at_user_points`]); the other methods,
+    /// whose radiance lives at the vertices, interpolate it ([`interpolate_vertices`]).
+    #[must_use]
+    pub fn radiance_on_surface(&self, points: &[([u32; 3], [f64; 3])]) -> Vec<[f64; 3]> {
+        match &self.state {
+            BakedState::TransCut(s) if !s.tet_mesh.surface_map().is_empty() => {
+                s.tet_mesh.sample_at_user_points(points, &s.radiance)
+            }
+            _ => interpolate_vertices(&self.radiance, points),
+        }
+    }
+
     /// The refractive index at the object's surface, for renderers' Fresnel and specular terms.
     #[must_use]
     pub fn eta(&self) -> f64 {

@@ -26,7 +26,7 @@ use crate::light::Light;
 use crate::methods::capability::{Cut, Deform, EditMedium, Relight};
 use crate::methods::hierarchical_dipole::{DipoleLive, DipoleUndo};
 use crate::methods::prt::{PrtLive, PrtState, PrtUndo};
-use crate::methods::{BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
+use crate::methods::{interpolate_vertices, BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 use crate::progress::{Cancelled, Progress};
 use crate::render::Image;
 use crate::scene::{BakeOptions, MediumSource, Method, Scene, SceneError};
@@ -424,22 +424,15 @@ impl Session {
                 TextureError::VertexOutOfRange { triangle: samples[t].triangle as usize, vertex, count: vertex_radiance.len() };
             return Err(SessionError::Texture { index, name: slot.name.clone(), source });
         }
-        let field = match &slot.state {
-            _ if self.coupled.is_some() => None,
-            State::Baked(b) => match &b.state {
-                BakedState::TransCut(s) if !s.tet_mesh.surface_map().is_empty() => Some((&s.tet_mesh, s.radiance.as_slice())),
-                _ => None,
-            },
-            State::Live(Live::TransCut(e)) => e.surface_field(),
-            State::Live(_) => None,
-        };
         let points: Vec<([u32; 3], [f64; 3])> = samples.iter().map(|s| (s.vertices, s.bary)).collect();
-        Ok(Some(match field {
-            Some((mesh, values)) => mesh.sample_at_user_points(&points, values),
-            None => points
-                .iter()
-                .map(|(v, w)| std::array::from_fn(|c| (0..3).map(|k| w[k] * vertex_radiance[v[k] as usize][c]).sum()))
-                .collect(),
+        Ok(Some(match &slot.state {
+            _ if self.coupled.is_some() => interpolate_vertices(&vertex_radiance, &points),
+            State::Baked(b) => b.radiance_on_surface(&points),
+            State::Live(Live::TransCut(e)) => match e.surface_field() {
+                Some((mesh, values)) => mesh.sample_at_user_points(&points, values),
+                None => interpolate_vertices(&vertex_radiance, &points),
+            },
+            State::Live(_) => interpolate_vertices(&vertex_radiance, &points),
         }))
     }
 
