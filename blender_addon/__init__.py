@@ -17,6 +17,8 @@ and the modules:
 - ``animation_ops``: ``transcut.bake_animation`` (every frame of the range through
   ``animation_native``, into a cache file) and the ``frame_change_post`` handler that writes the
   current frame's radiance into the attribute;
+- ``texture_ops``: ``object.transcut_bake_texture`` (the bake into image textures through each
+  object's UV map);
 - ``preview``: ``transcut.preview_bake`` and ``transcut.restore_materials`` (preview materials
   that show the bake as rendered, and the originals back);
 - ``live``: Live Translucency (``transcut.live_start`` / ``live_stop``): one PRT precompute, then
@@ -29,10 +31,10 @@ and the modules:
   ``transcut`` wheel.
 """
 
-from . import animation_ops, edit_ops, library, live, operators, preferences, preview, properties, ui
+from . import animation_ops, edit_ops, library, live, operators, preferences, preview, properties, texture_ops, ui
 
 # Preferences first, so the add-on can always show why the library did not load.
-_modules = (preferences, properties, operators, edit_ops, animation_ops, live, preview, ui)
+_modules = (preferences, properties, operators, texture_ops, edit_ops, animation_ops, live, preview, ui)
 
 
 def register():

@@ -197,12 +197,29 @@ def build_scene(lib: transcut.Library, job: BakeJob) -> tuple:
         raise
 
 
+@dataclass
+class TextureRequest:
+    """A texture bake of ``job.meshes[mesh]``: the loop triangles over its baked vertices, the
+    active UV map's UV per corner (float32 (m, 3, 2)), the image's size and margin; ``image``
+    is the result, float32 (height, width, 4) with rows from the top, through the material's
+    surface layer (:meth:`mesh_export.MediumSpec.seen`)."""
+
+    mesh: int
+    triangles: np.ndarray
+    uvs: np.ndarray
+    width: int
+    height: int
+    margin: int
+    image: np.ndarray | None = None
+
+
 def run_job(
     lib: transcut.Library,
     job: BakeJob,
     progress: Callable[[str, float], bool] | None = None,
     backends: list | None = None,
     radiosity: dict | None = None,
+    textures: list | None = None,
 ) -> list:
     """Bakes the job; returns one float32 (vertex_count, 3) radiance array per mesh
     (``job.meshes``, then ``job.diffuse``).
@@ -230,6 +247,16 @@ def run_job(
                     f"'{mesh.object_name}': the library returned {rgb.shape[0]} values for {mesh.vertex_count} vertices"
                 )
             results.append(rgb)
+        for request in textures or []:
+            if progress is not None and progress(f"texture '{job.meshes[request.mesh].object_name}'", 1.0):
+                raise transcut.TranscutError(
+                    transcut.TC_CANCELLED, "tc_object_bake_texture", "cancelled before the texture"
+                )
+            rgba = scene.bake_texture(
+                indices[request.mesh], request.triangles, request.uvs, request.width, request.height, request.margin
+            )
+            rgba[..., :3] = job.meshes[request.mesh].medium.seen(rgba[..., :3])
+            request.image = rgba
         return results
     finally:
         scene.close()

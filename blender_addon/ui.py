@@ -19,6 +19,7 @@ from .operators import OBJECT_OT_transcut_bake
 from .preferences import draw_library_status
 from .preview import TRANSCUT_OT_preview_bake, TRANSCUT_OT_restore_materials
 from .properties import draw_medium
+from .texture_ops import OBJECT_OT_transcut_bake_texture
 
 
 class VIEW3D_PT_transcut(bpy.types.Panel):
@@ -75,6 +76,7 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
             draw_medium(box, obj.transcut, ("sigma_a", "sigma_s_prime", "eta", "g"))
 
         layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
+        layout.operator(OBJECT_OT_transcut_bake_texture.bl_idname, icon="TEXTURE")
         row = layout.row(align=True)
         row.operator(TRANSCUT_OT_preview_bake.bl_idname, icon="MATERIAL")
         row.operator(TRANSCUT_OT_restore_materials.bl_idname, icon="LOOP_BACK")
@@ -96,6 +98,7 @@ def menu_func(self, _context):
     """The operators at the end of the 3D view's Object menu."""
     self.layout.separator()
     self.layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
+    self.layout.operator(OBJECT_OT_transcut_bake_texture.bl_idname, icon="TEXTURE")
     self.layout.operator(TRANSCUT_OT_preview_bake.bl_idname, icon="MATERIAL")
     self.layout.operator(TRANSCUT_OT_bake_animation.bl_idname, icon="RENDER_ANIMATION")
     self.layout.operator(TRANSCUT_OT_cut_with_object.bl_idname, icon="MOD_BOOLEAN")

@@ -173,6 +173,7 @@ MATERIAL_NAMES = {TC_MATERIAL_TRANSLUCENT: "translucent", TC_MATERIAL_DIFFUSE: "
 TC_MAX_THREADS = 256
 TC_MAX_SAMPLES = 1 << 20  # area_samples and environment_samples
 TC_MAX_TETS = 20_000_000
+TC_MAX_TEXTURE_SIZE = 16_384  # the largest width or height of tc_object_bake_texture
 TC_MAX_ITERATIONS = 1_000_000
 
 #: ``solver`` / ``edit_solver`` names accepted by :meth:`Scene.bake` (the CLI's ``--solver`` names).
@@ -533,6 +534,23 @@ OPTIONAL = {
         [ScenePtr, c_uint32, c_uint32, c_float_p, c_size_t, c_uint32_p, c_size_t, c_float_p, c_size_t],
     ),
     "tc_object_edit_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcEditStats)]),
+    # Texture bakes.
+    "tc_object_bake_texture": (
+        c_int32,
+        [
+            ScenePtr,
+            c_uint32,
+            c_uint32_p,
+            c_size_t,
+            c_float_p,
+            c_size_t,
+            c_uint32,
+            c_uint32,
+            c_uint32,
+            c_float_p,
+            c_size_t,
+        ],
+    ),
     # Deforming (the hierarchical dipole).
     "tc_object_set_positions": (c_int32, [ScenePtr, c_uint32, c_float_p, c_size_t]),
     "tc_object_dipole_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcDipoleStats)]),

@@ -939,6 +939,29 @@ class Scene:
         self._call("tc_object_radiance", obj, out.ctypes.data_as(c_float_p), out.size)
         return out
 
+    def bake_texture(self, obj: int, triangles, uvs, width: int, height: int, margin: int = 0) -> np.ndarray:
+        """The object's radiance as a texture (``tc_object_bake_texture``): ``triangles`` (m, 3)
+        vertex indices of the object, ``uvs`` (m, 3, 2) or (3m, 2) the UV of each corner (UV
+        (0, 0) bottom-left); returns float32 (height, width, 4), linear RGB and alpha (1 on the
+        surface and its ``margin`` of padding), rows from the TOP of the image."""
+        tris = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1, 3)
+        uv = np.ascontiguousarray(uvs, dtype=np.float32).reshape(-1, 2)
+        out = np.empty((int(height), int(width), 4), dtype=np.float32)
+        self._call(
+            "tc_object_bake_texture",
+            obj,
+            tris.ctypes.data_as(c_uint32_p),
+            tris.shape[0],
+            uv.ctypes.data_as(c_float_p),
+            uv.size,
+            int(width),
+            int(height),
+            int(margin),
+            out.ctypes.data_as(c_float_p),
+            out.size,
+        )
+        return out
+
     def stats(self, obj: int) -> dict:
         """``tc_object_stats`` as a dict."""
         st = TcBakeStats()
