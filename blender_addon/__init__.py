@@ -10,6 +10,8 @@ and the modules:
   looked for;
 - ``properties``: ``Scene.transcut`` (the method, from the loaded library, and the bake settings)
   and ``Object.transcut`` (medium);
+- ``kept`` / ``kept_native``: the library scenes of the last bakes, kept so that a rebake after a
+  light or world change only relights (freed with their objects, the file, the add-on);
 - ``operators``: ``object.transcut_bake`` and the run every operator shares (modal with progress
   and ESC, or synchronous);
 - ``edit_ops``: ``transcut.cut_with_object`` and ``transcut.paint_medium`` (bake, then cut or
@@ -31,10 +33,10 @@ and the modules:
   ``transcut`` wheel.
 """
 
-from . import animation_ops, edit_ops, library, live, operators, preferences, preview, properties, texture_ops, ui
+from . import animation_ops, edit_ops, kept, library, live, operators, preferences, preview, properties, texture_ops, ui
 
 # Preferences first, so the add-on can always show why the library did not load.
-_modules = (preferences, properties, operators, texture_ops, edit_ops, animation_ops, live, preview, ui)
+_modules = (preferences, properties, kept, operators, texture_ops, edit_ops, animation_ops, live, preview, ui)
 
 
 def register():

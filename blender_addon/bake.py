@@ -237,16 +237,7 @@ def run_job(
             backends.extend(backend_info(scene, idx) for idx in indices[: len(job.meshes)])
         if radiosity is not None and job.options.get("method") == RADIOSITY:
             radiosity.update(scene.radiosity_stats())
-        results = []
-        for mesh, idx in zip([*job.meshes, *job.diffuse], indices, strict=True):
-            rgb = scene.radiance(idx)
-            if hasattr(mesh, "medium"):
-                rgb = mesh.medium.seen(rgb)
-            if rgb.shape[0] != mesh.vertex_count:
-                raise BakeError(
-                    f"'{mesh.object_name}': the library returned {rgb.shape[0]} values for {mesh.vertex_count} vertices"
-                )
-            results.append(rgb)
+        results = read_results(scene, indices, job)
         for request in textures or []:
             if progress is not None and progress(f"texture '{job.meshes[request.mesh].object_name}'", 1.0):
                 raise transcut.TranscutError(
@@ -260,6 +251,22 @@ def run_job(
         return results
     finally:
         scene.close()
+
+
+def read_results(scene: transcut.Scene, indices: list, job: BakeJob) -> list:
+    """The radiance of every mesh of ``job`` after a bake or relight of ``scene`` (the
+    translucent ones through their surface layer), checked against the vertex counts."""
+    results = []
+    for mesh, idx in zip([*job.meshes, *job.diffuse], indices, strict=True):
+        rgb = scene.radiance(idx)
+        if hasattr(mesh, "medium"):
+            rgb = mesh.medium.seen(rgb)
+        if rgb.shape[0] != mesh.vertex_count:
+            raise BakeError(
+                f"'{mesh.object_name}': the library returned {rgb.shape[0]} values for {mesh.vertex_count} vertices"
+            )
+        results.append(rgb)
+    return results
 
 
 @dataclass
@@ -296,9 +303,11 @@ def backend_summary(backends: list) -> str:
 class BakeRunner:
     """Runs :func:`run_job` on a worker thread; progress and cancel cross threads under a lock."""
 
-    def __init__(self, lib: transcut.Library, job: BakeJob):
+    def __init__(self, lib: transcut.Library, job: BakeJob, kept=None):
         self.lib = lib
         self.job = job
+        self.kept = kept  # a kept_native.KeptBakes to reuse and keep library scenes, or None
+        self.outcome = "baked"  # or, with ``kept``: "relit", "kept"
         self._lock = threading.Lock()
         self._cancel = False
         self.stage = ""
@@ -337,7 +346,12 @@ class BakeRunner:
 
     def _run(self) -> None:
         try:
-            self.results = run_job(self.lib, self.job, self.progress, self.backends, self.radiosity)
+            if self.kept is not None:
+                self.results, self.outcome = self.kept.run(
+                    self.lib, self.job, self.progress, self.backends, self.radiosity
+                )
+            else:
+                self.results = run_job(self.lib, self.job, self.progress, self.backends, self.radiosity)
         except BaseException as exc:  # reported by the main thread
             self.error = exc
 

@@ -15,7 +15,7 @@ import threading
 
 import bpy
 
-from . import bake, library, preferences
+from . import bake, kept_native, library, preferences
 
 
 class RunnerOperator:
@@ -145,14 +145,24 @@ class OBJECT_OT_transcut_bake(RunnerOperator, bpy.types.Operator):
     def _runner_for(self, context):
         lib = library.get(preferences.library_path(context))  # first: the Method menu lists its methods
         job = bake.prepare_job(context)
-        return bake.BakeRunner(lib, job)
+        settings = context.scene.transcut
+        kept = None
+        if settings.keep_bakes:
+            kept = kept_native.STORE
+            kept.budget_tets = settings.kept_tets
+        return bake.BakeRunner(lib, job, kept)
 
     def _write(self, context, runner) -> str:
         job = runner.job
         bake.write_results(context, job, runner.results)
         total = sum(m.vertex_count for m in job.meshes)
+        how = {
+            "baked": "baked",
+            "relit": "relit the kept bake of",
+            "kept": "nothing changed since the kept bake of",
+        }[runner.outcome]
         return (
-            f"baked {len(job.meshes)} object(s), {total} vertices, into '{job.attribute_name}'"
+            f"{how} {len(job.meshes)} object(s), {total} vertices, into '{job.attribute_name}'"
             f" ({bake.backend_summary(runner.backends)}){bake.radiosity_summary(job, runner.radiosity)}"
         )
 

@@ -302,6 +302,20 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         ),
         default=True,
     )
+    keep_bakes: BoolProperty(
+        name="Keep Bakes",
+        description=(
+            "Keep each bake's tetrahedra and solution, so that baking the same objects again after a light "
+            "or world change only relights them (no re-meshing); any other change bakes afresh"
+        ),
+        default=True,
+    )
+    kept_tets: IntProperty(
+        name="Kept Tetrahedra",
+        description="Most tetrahedra kept over all kept bakes (about 1 KB each); the least recently used go first",
+        default=2_000_000,
+        min=0,
+    )
     shadows: BoolProperty(
         name="Shadows",
         description="Objects shadow the lights (each other and themselves)",

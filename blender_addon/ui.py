@@ -67,6 +67,7 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
             col.prop(settings, "radiosity_tolerance")
             col.prop(settings, "radiosity_write_surroundings")
         col.prop(settings, "shadows")
+        col.prop(settings, "keep_bakes")
         col.prop(settings, "apply_modifiers")
 
         obj = context.object

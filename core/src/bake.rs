@@ -18,6 +18,7 @@
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+use crate::mesh::TriangleBvh;
 use crate::methods::{
     bake_object, object_stage, radiosity, targets, world_surfaces, HierarchicalDipole, Lighting, ObjectBake, Prt,
     RadiositySession, RadiosityStats, SubsurfaceMethod, TransCut,
@@ -37,6 +38,10 @@ pub struct Bake {
     /// object's system), which [`crate::Session::new`] edits without computing them again;
     /// `None` for the other methods.
     pub coupled: Option<Arc<RadiositySession>>,
+    /// The occluder the objects were shadowed with (every object's world surface; `None`
+    /// without shadows or for radiosity), which a [`crate::Session`]'s relights shadow with
+    /// too, so that they equal a fresh bake under the new lights.
+    pub occluder: Option<Arc<TriangleBvh>>,
     /// Wall time of the whole bake.
     pub total_ms: f64,
 }
@@ -66,6 +71,7 @@ pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Re
         Method::Radiosity(o) => {
             let start = Instant::now();
             radiosity::bake_scene(scene, options, o, progress).map(|(objects, stats, session)| Bake {
+                occluder: None,
                 objects,
                 radiosity: Some(stats),
                 coupled: Some(Arc::new(session)),
@@ -100,8 +106,8 @@ fn bake_all<M: SubsurfaceMethod>(
     for target in &targets {
         M::check(target, method)?;
     }
-    let occluder = options.shadows.then(|| Lighting::occluder_of(&world));
-    let lighting = Lighting { lights: &scene.lights, occluder: occluder.as_ref(), source: &options.source };
+    let occluder = options.shadows.then(|| Arc::new(Lighting::occluder_of(&world)));
+    let lighting = Lighting { lights: &scene.lights, occluder: occluder.as_deref(), source: &options.source };
     let name = options.method.name();
     let furthest = Mutex::new(0.0f64);
     let mut objects = Vec::with_capacity(targets.len());
@@ -110,5 +116,5 @@ fn bake_all<M: SubsurfaceMethod>(
         objects.push(bake_object::<M>(target, method, name, &lighting, &stage)?);
         stage("done", 1.0)?;
     }
-    Ok(Bake { objects, radiosity: None, coupled: None, total_ms: ms(start) })
+    Ok(Bake { objects, radiosity: None, coupled: None, occluder, total_ms: ms(start) })
 }

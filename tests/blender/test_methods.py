@@ -236,7 +236,9 @@ def bake_methods(addon, monkeypatch):
 
 def test_bake_operator_passes_the_method(scene, lib, bake_methods):
     """A bake with the method chosen equals the default bake, which matches the C ABI called
-    directly with the library's default method."""
+    directly with the library's default method. Keep Bakes off: every press bakes (with it on
+    the second would read the kept bake, test_kept.py)."""
+    scene.transcut.keep_bakes = False
     obj = add_sphere()
     sun = add_light("SUN", rotation=(math.radians(30), 0.0, 0.0), energy=3.0)
     select_only(obj)

@@ -67,9 +67,10 @@
 //! The shadow occluder (the pieces' world-space boundary in a BVH) is built once per placement
 //! of the pieces (bake, cut, split, fracture, move, recombine) and reused by every relight.
 //!
-//! Shadows come from the pieces' tet-mesh boundaries; a bake of a surface object shadows with the
-//! user's surface instead, so with shadows on the first update may differ from the bake by the
-//! difference of the two occluders (with shadows off it does not).
+//! Shadows come from the occluder the bake shadowed with (every object's world surface, handed
+//! over by the session), so relights equal a fresh bake under the new lights; once the pieces'
+//! placement changes (a cut, split, fracture, move or recombine) they come from the pieces'
+//! own tet-mesh boundaries.
 
 pub mod cut;
 pub mod cutter;
@@ -281,7 +282,10 @@ impl Editor {
     /// The editor of a tet mesh baked by TransCut: `original` (world space) with the media
     /// table its material ids index, the bake's fluence (one per vertex) and whether the bake
     /// returned radiance at the user's surface vertices. The solve starts from `fluence`: when
-    /// the editor's source equals the bake's (e.g. shadows off), it takes no iteration.
+    /// the editor's source equals the bake's (shadows off, or shadows from `shared`, the
+    /// bake's own occluder), it takes no iteration. `shared` shadows the relights until the
+    /// pieces' placement changes (a cut, split, fracture, move or recombine), which shadows with
+    /// the pieces' own boundaries.
     ///
     /// # Errors
     /// [`EditError::InvalidOptions`] for bad options or a fluence that does not match the mesh;
@@ -296,6 +300,7 @@ impl Editor {
         mm_per_unit: f64,
         lights: &[Light],
         options: &EditOptions,
+        shared: Option<Arc<TriangleBvh>>,
         progress: Progress,
     ) -> Result<Self, EditError> {
         options.validate()?;
@@ -338,7 +343,7 @@ impl Editor {
             &mut pieces,
             lights,
             &options.source,
-            options.shadows,
+            piece::Shadowing::new(options.shadows, shared),
             &setup,
             &mut timings,
             whole.part(0.3, 1.0),

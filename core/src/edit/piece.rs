@@ -333,8 +333,29 @@ impl Replaced {
     }
 }
 
-/// Recomputes every piece's q with the occluder of their current placement ([`occluder`]) and
-/// solves them ([`relight_all`]); returns that occluder. On error every piece is as before.
+/// What shadows the lights of [`light_and_solve`].
+pub(crate) enum Shadowing {
+    /// No shadows.
+    Off,
+    /// The pieces' own world-space boundaries ([`occluder`]).
+    Pieces,
+    /// A given occluder (e.g. every object's surface of the baked scene).
+    Shared(Arc<TriangleBvh>),
+}
+
+impl Shadowing {
+    /// `shared` when shadows are on and it is given, else the pieces' own (or none).
+    pub(crate) fn new(shadows: bool, shared: Option<Arc<TriangleBvh>>) -> Self {
+        match (shadows, shared) {
+            (false, _) => Shadowing::Off,
+            (true, Some(shared)) => Shadowing::Shared(shared),
+            (true, None) => Shadowing::Pieces,
+        }
+    }
+}
+
+/// Recomputes every piece's q shadowed as `shadowing` says and solves them ([`relight_all`]);
+/// returns the occluder used. On error every piece is as before.
 ///
 /// The light stage reports over the first half of `span`, the solves over the second.
 ///
@@ -344,14 +365,18 @@ pub(crate) fn light_and_solve(
     pieces: &mut [Piece],
     lights: &[Light],
     source: &SourceOptions,
-    shadows: bool,
+    shadowing: Shadowing,
     setup: &SolveSetup,
     timings: &mut Timings,
     span: Span<'_, '_>,
 ) -> Result<Option<Arc<TriangleBvh>>, EditError> {
     span.report("occluder", 0.0)?;
     let t = Instant::now();
-    let occluder = occluder(pieces, shadows);
+    let occluder = match shadowing {
+        Shadowing::Off => None,
+        Shadowing::Pieces => occluder(pieces, true),
+        Shadowing::Shared(shared) => Some(shared),
+    };
     timings.source_ms += ms(t);
     let q = sources(pieces, lights, source, occluder.as_deref(), timings, span.part(0.0, 0.5))?;
     relight_all(pieces, q, setup, timings, span.part(0.5, 1.0))?;

@@ -220,8 +220,15 @@ impl Editor {
         let previous = std::mem::replace(&mut self.pieces[piece].transform, transform);
         let (lights, options) = (&self.lights, &self.options);
         let span = Span::whole(&progress);
-        match piece::light_and_solve(&mut self.pieces, lights, &options.source, options.shadows, &self.setup, &mut timings, span)
-        {
+        match piece::light_and_solve(
+            &mut self.pieces,
+            lights,
+            &options.source,
+            piece::Shadowing::new(options.shadows, None),
+            &self.setup,
+            &mut timings,
+            span,
+        ) {
             Ok(occluder) => {
                 self.occluder = occluder;
                 Ok(UpdateStats::new(&timings, 0, 0, start))
@@ -296,7 +303,15 @@ impl Editor {
         span: Span,
     ) -> Result<UpdateStats, EditError> {
         let (lights, options) = (&self.lights, &self.options);
-        let occluder = piece::light_and_solve(&mut next, lights, &options.source, options.shadows, &self.setup, timings, span)?;
+        let occluder = piece::light_and_solve(
+            &mut next,
+            lights,
+            &options.source,
+            piece::Shadowing::new(options.shadows, None),
+            &self.setup,
+            timings,
+            span,
+        )?;
         let rebuilt = changed > 0;
         self.located = super::locate(self.original.tet_count(), &next);
         self.pieces = next;

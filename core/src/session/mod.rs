@@ -18,11 +18,14 @@
 //! relights, and changes albedos, emissions and media, as a whole, with every object's
 //! shadows; it offers no per-object edits (regions, paint, cuts, deformation).
 
+use std::sync::Arc;
+
 use glam::DMat4;
 
 use crate::bake::{bake_with, with_threads, Bake};
 use crate::edit::{Cutter, EditError, EditOptions, Editor, MediumEdit, PaintStroke, RelightUndo, UpdateStats};
 use crate::light::Light;
+use crate::mesh::TriangleBvh;
 use crate::methods::capability::{Cut, Deform, EditMedium, Relight};
 use crate::methods::hierarchical_dipole::{DipoleLive, DipoleUndo};
 use crate::methods::prt::{PrtLive, PrtState, PrtUndo};
@@ -85,12 +88,19 @@ enum LiveUndo {
 }
 
 impl Live {
-    /// The live state of `bake`, solved under `lights` (the lights the bake was solved under).
-    fn start(bake: &ObjectBake, lights: &[Light], options: &BakeOptions, progress: Progress) -> Result<Self, EditError> {
+    /// The live state of `bake`, solved under `lights` (the lights the bake was solved under);
+    /// TransCut shadows with `occluder`, the bake's (every object's world surface).
+    fn start(
+        bake: &ObjectBake,
+        lights: &[Light],
+        options: &BakeOptions,
+        occluder: Option<&Arc<TriangleBvh>>,
+        progress: Progress,
+    ) -> Result<Self, EditError> {
         match (&bake.state, &options.method) {
             (BakedState::TransCut(_), Method::TransCut(transcut)) => {
                 let edit = EditOptions::from_bake_options(options, transcut);
-                Ok(Self::TransCut(Box::new(Editor::from_bake_with_progress(bake, lights, &edit, progress)?)))
+                Ok(Self::TransCut(Box::new(Editor::from_bake_shadowed_by(bake, lights, &edit, occluder.cloned(), progress)?)))
             }
             // The bake is the solution under `lights`: nothing to solve again.
             (BakedState::HierarchicalDipole(state), Method::HierarchicalDipole(_)) => Ok(Self::HierarchicalDipole(Box::new(
@@ -195,6 +205,9 @@ pub struct Session {
     objects: Vec<Slot>,
     /// The whole scene's live state of a radiosity bake.
     coupled: Option<Box<RadiositySession>>,
+    /// The occluder the bake shadowed with ([`Bake::occluder`]), which TransCut's live states
+    /// shadow with too (until their pieces move), so relights equal fresh bakes.
+    occluder: Option<Arc<TriangleBvh>>,
 }
 
 impl Session {
@@ -222,8 +235,8 @@ impl Session {
                 last: None,
             })
             .collect();
-        let coupled = bake.coupled.map(|c| Box::new(std::sync::Arc::try_unwrap(c).unwrap_or_else(|c| (*c).clone())));
-        Self { lights: scene.lights.clone(), options: options.clone(), objects, coupled }
+        let coupled = bake.coupled.map(|c| Box::new(Arc::try_unwrap(c).unwrap_or_else(|c| (*c).clone())));
+        Self { lights: scene.lights.clone(), options: options.clone(), objects, coupled, occluder: bake.occluder }
     }
 
     /// The number of objects.
@@ -496,7 +509,7 @@ impl Session {
             return Ok(stats);
         }
         let threads = self.options.threads;
-        let Self { lights: baked, options, objects, .. } = self;
+        let Self { lights: baked, options, objects, occluder, .. } = self;
         let n = objects.len();
         let stats = with_threads(threads, || -> Result<Vec<UpdateStats>, SessionError> {
             let mut done: Vec<(UpdateStats, Relit)> = Vec::with_capacity(n);
@@ -509,7 +522,7 @@ impl Session {
                 let name = slot.name.clone();
                 let within =
                     |stage: &str, f: f64| progress.report(&format!("{name}: {stage}"), (index as f64 + f) / n as f64).is_ok();
-                match relight_slot(slot, baked, lights, options, Progress::new(&within)) {
+                match relight_slot(slot, baked, lights, options, occluder.as_ref(), Progress::new(&within)) {
                     Ok(r) => done.push(r),
                     Err(EditError::Cancelled(c)) => {
                         failure = Some(SessionError::Cancelled(c));
@@ -718,7 +731,7 @@ impl Session {
     ) -> Result<(), SessionError> {
         let count = self.objects.len();
         let threads = self.options.threads;
-        let Self { lights, options, objects, .. } = self;
+        let Self { lights, options, objects, occluder, .. } = self;
         let slot = objects.get_mut(index).ok_or(SessionError::NoSuchObject { index, count })?;
         let name = slot.name.clone();
         let outcome = with_threads(threads, || -> Result<Option<UpdateStats>, Failed> {
@@ -733,7 +746,8 @@ impl Session {
                 }
                 State::Baked(bake) => {
                     let (first, rest) = (named(0.0, 0.5), named(0.5, 1.0));
-                    let mut live = Live::start(bake, lights, options, Progress::new(&first)).map_err(Failed::Edit)?;
+                    let mut live =
+                        Live::start(bake, lights, options, occluder.as_ref(), Progress::new(&first)).map_err(Failed::Edit)?;
                     let stats = op(&mut live, Progress::new(&rest))?;
                     slot.state = State::Live(live);
                     Ok(stats)
@@ -771,6 +785,7 @@ fn relight_slot(
     baked: &[Light],
     lights: &[Light],
     options: &BakeOptions,
+    occluder: Option<&Arc<TriangleBvh>>,
     progress: Progress,
 ) -> Result<(UpdateStats, Relit), EditError> {
     match &mut slot.state {
@@ -781,7 +796,7 @@ fn relight_slot(
         State::Baked(bake) => {
             let half = |lo: f64| move |stage: &str, f: f64| progress.report(stage, lo + 0.5 * f).is_ok();
             let (first, rest) = (half(0.0), half(0.5));
-            let mut live = Live::start(bake, baked, options, Progress::new(&first))?;
+            let mut live = Live::start(bake, baked, options, occluder, Progress::new(&first))?;
             let (stats, _) = live.relight(lights, Progress::new(&rest))?;
             let before = std::mem::replace(&mut slot.state, State::Live(live));
             Ok((stats, Relit::Created(before)))

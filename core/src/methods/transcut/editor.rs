@@ -1,7 +1,10 @@
 //! The TransCut editor ([`Editor`], TransCut §5) started from a TransCut bake.
 
+use std::sync::Arc;
+
 use crate::edit::{EditError, EditOptions, Editor};
 use crate::light::Light;
+use crate::mesh::TriangleBvh;
 use crate::methods::{bake_object, object_stage, Lighting, ObjectBake, SubsurfaceMethod, Target, TransCut};
 use crate::progress::Progress;
 use crate::scene::{Object, Scene, SceneError};
@@ -42,14 +45,14 @@ impl Editor {
         })?;
         let target = Target { index: 0, object, world: &world };
         TransCut::check(&target, transcut).map_err(scene_error)?;
-        let occluder = bake_options.shadows.then(|| Lighting::occluder_of(std::slice::from_ref(&world)));
-        let lighting = Lighting { lights, occluder: occluder.as_ref(), source: &bake_options.source };
+        let occluder = bake_options.shadows.then(|| Arc::new(Lighting::occluder_of(std::slice::from_ref(&world))));
+        let lighting = Lighting { lights, occluder: occluder.as_deref(), source: &bake_options.source };
         let furthest = std::sync::Mutex::new(0.0);
         let stage = object_stage(&progress, &furthest, &target, 1);
         let bake = bake_object::<TransCut>(&target, transcut, bake_options.method.name(), &lighting, &stage)
             .and_then(|b| stage("done", 1.0).map(|()| b).map_err(SceneError::from))
             .map_err(scene_error)?;
-        Self::from_bake_with_progress(&bake, lights, options, progress)
+        Self::from_bake_shadowed_by(&bake, lights, options, occluder, progress)
     }
 
     /// From a finished TransCut bake of a scene object: the original mesh is the bake's
@@ -77,6 +80,23 @@ impl Editor {
         options: &EditOptions,
         progress: Progress,
     ) -> Result<Self, EditError> {
+        Self::from_bake_shadowed_by(bake, lights, options, None, progress)
+    }
+
+    /// [`Editor::from_bake_with_progress`] shadowing with `occluder` (the bake's,
+    /// [`crate::Bake::occluder`]: every object's world surface) instead of its own boundary,
+    /// until its pieces' placement changes: its first update and relights then equal a fresh
+    /// bake of the scene, other objects' shadows included.
+    ///
+    /// # Errors
+    /// As [`Editor::from_bake_with_progress`].
+    pub fn from_bake_shadowed_by(
+        bake: &ObjectBake,
+        lights: &[Light],
+        options: &EditOptions,
+        occluder: Option<Arc<TriangleBvh>>,
+        progress: Progress,
+    ) -> Result<Self, EditError> {
         let state = bake.transcut().ok_or_else(|| {
             EditError::InvalidOptions(format!("the editor edits TransCut bakes, not one of the {} method", bake.method()))
         })?;
@@ -90,6 +110,7 @@ impl Editor {
             state.mm_per_unit,
             lights,
             options,
+            occluder,
             progress,
         )
     }
