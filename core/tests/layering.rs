@@ -72,7 +72,7 @@ const CORE: Table = &[
         ],
     ),
     ("bake", &["mesh", "methods", "progress", "scene", "workers"]),
-    ("session", &["bake", "edit", "light", "methods", "progress", "render", "scene", "texture"]),
+    ("session", &["bake", "edit", "light", "mesh", "methods", "progress", "render", "scene", "texture"]),
 ];
 
 /// The C ABI: the boundary, the leaves, the scene handle, then the entry points, which use
