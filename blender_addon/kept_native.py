@@ -27,8 +27,9 @@ from .live_native import canonical, lights_key, medium_key
 #: The default bound of the kept scenes' total tetrahedra (about 1 KB each, so ~2 GB).
 DEFAULT_BUDGET_TETS = 2_000_000
 #: The solver of a kept TransCut scene's relights: SSOR-PCG warm-started from the last solution
-#: (the bunny at 200k tets: 49 ms, against 191 ms for the aggregation V-cycle the editor uses by
-#: default, which pays off for cuts and paint, not for a relight; `transcut bench edit --solver`).
+#: (the bunny at 200k tets, runs alternated on one machine: 54-60 ms a relight against 67 ms for
+#: the aggregation V-cycle the editor uses by default, and a cheaper setup at the first; the
+#: V-cycle pays off for cuts and paint). Measured in docs/benchmarks.md, "Kept bakes".
 RELIGHT_SOLVER = "ssor-pcg"
 
 
