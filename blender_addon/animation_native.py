@@ -142,11 +142,7 @@ class AnimationBaker:
         scene = self.scene
         self._stale = True
         scene.clear_lights()
-        for light in lights:
-            try:
-                getattr(scene, light.method)(**light.kwargs)
-            except transcut.TranscutError as exc:
-                raise bake.BakeError(f"light '{light.source}': {exc.message or exc.status_name}") from exc
+        bake.add_lights(scene, lights)
         scene.relight(progress)
         self.lights, self._stale = lights, False
         self.relights += 1

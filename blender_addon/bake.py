@@ -186,15 +186,21 @@ def build_scene(lib: transcut.Library, job: BakeJob) -> tuple:
                 text = exc.message or exc.status_name if isinstance(exc, transcut.TranscutError) else str(exc)
                 raise BakeError(f"'{d.object_name}' ({d.source}, diffuse surroundings): {text}") from exc
             indices.append(idx)
-        for light in job.lights:
-            try:
-                getattr(scene, light.method)(**light.kwargs)
-            except transcut.TranscutError as exc:
-                raise BakeError(f"light '{light.source}': {exc.message or exc.status_name}") from exc
+        add_lights(scene, job.lights)
         return scene, indices
     except BaseException:
         scene.close()
         raise
+
+
+def add_lights(scene: transcut.Scene, lights: list) -> None:
+    """Adds ``lights`` (:class:`lights.LightSpec`) to ``scene``; BakeError naming the light the
+    library refuses."""
+    for light in lights:
+        try:
+            getattr(scene, light.method)(**light.kwargs)
+        except transcut.TranscutError as exc:
+            raise BakeError(f"light '{light.source}': {exc.message or exc.status_name}") from exc
 
 
 @dataclass
@@ -230,14 +236,8 @@ def run_job(
     :class:`transcut.TranscutError` (``TC_CANCELLED`` after a cancel, or ``TC_GPU_UNAVAILABLE``
     when the GPU backend was asked for and there is none) or :class:`BakeError`.
     """
-    scene, indices = build_scene(lib, job)
+    scene, indices, results = bake_open(lib, job, progress, backends, radiosity)
     try:
-        scene.bake(progress=progress, **job.options)
-        if backends is not None:
-            backends.extend(backend_info(scene, idx) for idx in indices[: len(job.meshes)])
-        if radiosity is not None and job.options.get("method") == RADIOSITY:
-            radiosity.update(scene.radiosity_stats())
-        results = read_results(scene, indices, job)
         for request in textures or []:
             if progress is not None and progress(f"texture '{job.meshes[request.mesh].object_name}'", 1.0):
                 raise transcut.TranscutError(
@@ -251,6 +251,30 @@ def run_job(
         return results
     finally:
         scene.close()
+
+
+def bake_open(
+    lib: transcut.Library,
+    job: BakeJob,
+    progress: Callable[[str, float], bool] | None = None,
+    backends: list | None = None,
+    radiosity: dict | None = None,
+    options: dict | None = None,
+) -> tuple:
+    """Bakes the job as :func:`run_job` describes (``options``: the bake's keywords, default
+    ``job.options``) and returns the scene still open, its object indices and the radiance per
+    mesh; the caller closes the scene. On failure the scene is closed."""
+    scene, indices = build_scene(lib, job)
+    try:
+        scene.bake(progress=progress, **(job.options if options is None else options))
+        if backends is not None:
+            backends.extend(backend_info(scene, idx) for idx in indices[: len(job.meshes)])
+        if radiosity is not None and job.options.get("method") == RADIOSITY:
+            radiosity.update(scene.radiosity_stats())
+        return scene, indices, read_results(scene, indices, job)
+    except BaseException:
+        scene.close()
+        raise
 
 
 def read_results(scene: transcut.Scene, indices: list, job: BakeJob) -> list:

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from . import transcut
-from .bake import BakeJob, backend_info, build_scene, read_results
+from .bake import BakeJob, add_lights, backend_info, bake_open, read_results
 from .live_native import canonical, lights_key, medium_key
 
 #: The default bound of the kept scenes' total tetrahedra (about 1 KB each, so ~2 GB).
@@ -130,8 +130,7 @@ class KeptBakes:
                 what = "kept"
                 if kept.lights != lights:
                     kept.scene.clear_lights()
-                    for light in job.lights:
-                        getattr(kept.scene, light.method)(**light.kwargs)
+                    add_lights(kept.scene, job.lights)
                     kept.scene.relight(progress)
                     what = "relit"
                 if backends is not None:
@@ -145,17 +144,11 @@ class KeptBakes:
             kept.lights = lights
             self._put(names, kept)
             return results, what
-        scene, indices = build_scene(lib, job)
         options = dict(job.options)
         if options.get("method", "transcut") == "transcut":
             options.setdefault("edit_solver", RELIGHT_SOLVER)
+        scene, indices, results = bake_open(lib, job, progress, backends, radiosity, options)
         try:
-            scene.bake(progress=progress, **options)
-            if backends is not None:
-                backends.extend(backend_info(scene, idx) for idx in indices[: len(job.meshes)])
-            if radiosity is not None and job.options.get("method") == "radiosity":
-                radiosity.update(scene.radiosity_stats())
-            results = read_results(scene, indices, job)
             tets = (
                 sum(int(scene.stats(idx).get("tets", 0)) for idx in indices[: len(job.meshes)])
                 if lib.has("tc_object_stats")

@@ -164,23 +164,20 @@ class OBJECT_OT_transcut_bake_texture(RunnerOperator, bpy.types.Operator):
         return TextureRunner(lib, job, textures)
 
     def _write(self, context, runner) -> str:
-        images, saved = [], []
+        saved = unsaved = 0
         for request in runner.textures:
             name = runner.job.meshes[request.mesh].object_name
-            images.append((name, request.image))
-        unsaved = 0
-        for name, rgba in images:
-            image = write_image(f"{name} SSS", rgba)
+            image = write_image(f"{name} SSS", request.image)
             path = texture_path(self.filepath, name, self.file_format)
             if path is None:
                 unsaved += 1
-                continue
-            save_image(context.scene, image, path, self.file_format)
-            saved.append(path)
-        note = f"; saved {len(saved)} file(s)" if saved else ""
+            else:
+                save_image(context.scene, image, path, self.file_format)
+                saved += 1
+        note = f"; saved {saved} file(s)" if saved else ""
         if unsaved:
             note += f"; {unsaved} not saved (save the .blend first, or give an absolute Filepath)"
-        return f"baked {len(images)} texture(s) of {self.resolution}×{self.resolution}{note}"
+        return f"baked {len(runner.textures)} texture(s) of {self.resolution}×{self.resolution}{note}"
 
 
 register, unregister = bpy.utils.register_classes_factory((OBJECT_OT_transcut_bake_texture,))
