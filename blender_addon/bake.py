@@ -159,38 +159,64 @@ def build_scene(lib: transcut.Library, job: BakeJob) -> tuple:
     try:
         indices = []
         for mesh in job.meshes:
-            where = f"'{mesh.object_name}'"
-            try:
-                idx = scene.add_mesh(mesh.positions, mesh.triangles)
-                if lib.has("tc_object_set_name"):
-                    scene.set_name(idx, mesh.object_name)
-                scene.set_transform(idx, mesh.matrix_world)
-                scene.set_scale(idx, mesh.mm_per_unit)
-                getattr(scene, mesh.medium.method)(idx, **mesh.medium.kwargs)
-            except transcut.TranscutError as exc:
-                raise BakeError(f"{where} ({mesh.medium.source}): {exc.message or exc.status_name}") from exc
+            idx = add_object(scene, mesh, lambda mesh=mesh: scene.add_mesh(mesh.positions, mesh.triangles))
             indices.append(idx)
         for d in job.diffuse:
-            try:
-                idx = scene.add_diffuse_mesh(
-                    d.positions,
-                    d.triangles,
-                    d.albedo,
-                    emission=d.emission if any(d.emission) else None,
-                    sides=transcut.TC_SIDES_BOTH,
-                )
-                scene.set_name(idx, d.object_name)
-                scene.set_transform(idx, d.matrix_world)
-                scene.set_scale(idx, d.mm_per_unit)
-            except (transcut.TranscutError, ValueError) as exc:
-                text = exc.message or exc.status_name if isinstance(exc, transcut.TranscutError) else str(exc)
-                raise BakeError(f"'{d.object_name}' ({d.source}, diffuse surroundings): {text}") from exc
+            emission = d.emission if any(d.emission) else None
+            idx = add_object(
+                scene,
+                d,
+                lambda d=d, emission=emission: scene.add_diffuse_mesh(
+                    d.positions, d.triangles, d.albedo, emission=emission, sides=transcut.TC_SIDES_BOTH
+                ),
+            )
             indices.append(idx)
         add_lights(scene, job.lights)
         return scene, indices
     except BaseException:
         scene.close()
         raise
+
+
+def add_object(scene: transcut.Scene, item, add: Callable[[], int]) -> int:
+    """Adds one object of a job (``add()`` adds its mesh and returns the index), then
+    :func:`place_object`; BakeError naming the object on failure."""
+    try:
+        idx = add()
+    except (transcut.TranscutError, ValueError) as exc:
+        raise BakeError(f"'{item.object_name}' ({_source(item)}): {_text(exc)}") from exc
+    place_object(scene, idx, item)
+    return idx
+
+
+def place_object(scene: transcut.Scene, idx: int, item) -> None:
+    """Gives library object ``idx`` the name, placement, scale and material of ``item`` (a
+    ``mesh_export.MeshJob``, or a ``DiffuseJob``'s albedo and emission); BakeError naming it."""
+    lib = scene.lib
+    try:
+        if lib.has("tc_object_set_name"):
+            scene.set_name(idx, item.object_name)
+        scene.set_transform(idx, item.matrix_world)
+        # A medium in artist terms converts its radius at the scale of this moment: scale first.
+        scene.set_scale(idx, item.mm_per_unit)
+        if hasattr(item, "medium"):
+            getattr(scene, item.medium.method)(idx, **item.medium.kwargs)
+        else:
+            scene.set_albedo(idx, item.albedo)
+            scene.set_emission(idx, item.emission)
+    except (transcut.TranscutError, ValueError) as exc:
+        raise BakeError(f"'{item.object_name}' ({_source(item)}): {_text(exc)}") from exc
+
+
+def _source(item) -> str:
+    """Where a job item's material comes from, for messages."""
+    return item.medium.source if hasattr(item, "medium") else f"{item.source}, diffuse surroundings"
+
+
+def _text(exc: BaseException) -> str:
+    if isinstance(exc, transcut.TranscutError):
+        return exc.message or exc.status_name
+    return str(exc)
 
 
 def add_lights(scene: transcut.Scene, lights: list) -> None:
@@ -266,15 +292,29 @@ def bake_open(
     mesh; the caller closes the scene. On failure the scene is closed."""
     scene, indices = build_scene(lib, job)
     try:
-        scene.bake(progress=progress, **(job.options if options is None else options))
-        if backends is not None:
-            backends.extend(backend_info(scene, idx) for idx in indices[: len(job.meshes)])
-        if radiosity is not None and job.options.get("method") == RADIOSITY:
-            radiosity.update(scene.radiosity_stats())
-        return scene, indices, read_results(scene, indices, job)
+        return scene, indices, bake_scene(scene, indices, job, progress, backends, radiosity, options)
     except BaseException:
         scene.close()
         raise
+
+
+def bake_scene(
+    scene: transcut.Scene,
+    indices: list,
+    job: BakeJob,
+    progress: Callable[[str, float], bool] | None = None,
+    backends: list | None = None,
+    radiosity: dict | None = None,
+    options: dict | None = None,
+) -> list:
+    """Bakes ``scene`` (the job's objects at ``indices``, as :func:`build_scene` made it) and
+    returns the radiance per mesh; ``backends`` and ``radiosity`` as :func:`run_job`."""
+    scene.bake(progress=progress, **(job.options if options is None else options))
+    if backends is not None:
+        backends.extend(backend_info(scene, idx) for idx in indices[: len(job.meshes)])
+    if radiosity is not None and job.options.get("method") == RADIOSITY:
+        radiosity.update(scene.radiosity_stats())
+    return read_results(scene, indices, job)
 
 
 def read_results(scene: transcut.Scene, indices: list, job: BakeJob) -> list:
@@ -331,7 +371,7 @@ class BakeRunner:
         self.lib = lib
         self.job = job
         self.kept = kept  # a kept_native.KeptBakes to reuse and keep library scenes, or None
-        self.outcome = "baked"  # or, with ``kept``: "relit", "kept"
+        self.outcome = "baked"  # or, with ``kept``: "rebaked", "relit", "kept" (KeptBakes.run)
         self._lock = threading.Lock()
         self._cancel = False
         self.stage = ""

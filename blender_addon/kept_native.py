@@ -3,14 +3,18 @@
 Pressing Bake again after moving a light or changing the world should not re-mesh anything: the
 library relights a baked scene in a fraction of the time (``tc_scene_relight``, warm started
 from the last solution). :class:`KeptBakes` keeps, per set of baked objects, the library scene
-of their last bake together with the key of everything its tet meshes and systems depend on
-(each object's evaluated geometry and world matrix, the unit scale, the media, the method and
-its options, the surroundings of a radiosity bake). A bake whose key matches only relights when
-the lights differ (or reads the kept radiance when nothing changed); any other change bakes
-afresh and replaces the kept scene. A bake that fails or is cancelled drops its kept scene (the
-next bake starts afresh). Memory is bounded by a total of tetrahedra (least recently used scenes
-closed first); :meth:`KeptBakes.drop_missing` closes the scenes of objects that are gone and
-:meth:`KeptBakes.clear` all of them (new file, unregister). No ``bpy``: ``kept.py`` wires it in.
+of their last bake together with the key of everything it depends on: the bake's options, and
+per object its evaluated geometry, world matrix, unit scale and medium (or a radiosity
+surrounding's albedo and emission). When only the lights differ, the kept scene is relit (or
+its radiance read when nothing changed). When objects changed, only they are updated in the kept
+scene (``tc_object_set_mesh`` for new geometry, then placement, scale and medium) and the scene
+is baked again: the library keeps the tetrahedra of every object whose surface, placement and
+scale are unchanged, so a medium change re-assembles without meshing and a modifier toggled on
+one object meshes that object only. Other options bake a new scene. A bake that fails or is
+cancelled drops its kept scene (the next bake starts afresh). Memory is bounded by a total of
+tetrahedra (least recently used scenes closed first); :meth:`KeptBakes.drop_missing` closes
+the scenes of objects that are gone and :meth:`KeptBakes.clear` all of them (new file,
+unregister). No ``bpy``: ``kept.py`` wires it in.
 """
 
 from __future__ import annotations
@@ -21,8 +25,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from . import transcut
-from .bake import BakeJob, add_lights, backend_info, bake_open, read_results
+from .bake import BakeJob, add_lights, backend_info, bake_open, bake_scene, place_object, read_results
 from .live_native import canonical, lights_key, medium_key
+from .mesh_export import BakeError
 
 #: The default bound of the kept scenes' total tetrahedra (about 1 KB each, so ~2 GB).
 DEFAULT_BUDGET_TETS = 2_000_000
@@ -37,40 +42,28 @@ def _digest(array) -> str:
     return hashlib.blake2b(memoryview(array).cast("B"), digest_size=16).hexdigest()
 
 
-def bake_key(job: BakeJob) -> tuple:
-    """Everything a kept scene's tet meshes and systems depend on: each object's geometry,
-    placement and scale, its medium, the surroundings, the method and options."""
-    meshes = tuple(
-        (
-            m.object_name,
-            _digest(m.positions),
-            _digest(m.triangles),
-            m.matrix_world.tobytes(),
-            m.mm_per_unit,
-            medium_key(m.medium),
-        )
-        for m in job.meshes
+def object_key(item) -> tuple:
+    """What a kept object depends on: its geometry, placement and scale, and its medium (a
+    ``mesh_export.MeshJob``) or albedo and emission (a ``DiffuseJob``)."""
+    material = (
+        medium_key(item.medium) if hasattr(item, "medium") else (canonical(item.albedo), canonical(item.emission))
     )
-    diffuse = tuple(
-        (
-            d.object_name,
-            _digest(d.positions),
-            _digest(d.triangles),
-            d.matrix_world.tobytes(),
-            canonical(d.albedo),
-            canonical(d.emission),
-        )
-        for d in job.diffuse
-    )
-    return meshes, diffuse, canonical(job.options)
+    return geometry_key(item), item.matrix_world.tobytes(), item.mm_per_unit, material
+
+
+def geometry_key(item) -> tuple:
+    """A job item's mesh, as digests of its arrays."""
+    return _digest(item.positions), _digest(item.triangles)
 
 
 @dataclass
 class KeptBake:
-    """One kept library scene: its key, the lights it was last solved for, its object indices,
-    its size in tetrahedra and when it was last used."""
+    """One kept library scene: the bake options and each object's key it was last baked with,
+    the lights it was last solved for, its object indices, its size in tetrahedra and when it
+    was last used."""
 
-    key: tuple
+    options: tuple
+    objects: list
     lights: tuple
     scene: transcut.Scene
     indices: list
@@ -79,8 +72,10 @@ class KeptBake:
 
 
 class KeptBakes:
-    """The kept scenes, by the names of their objects (module documentation). ``bakes`` and
-    ``relights`` count what :meth:`run` did (a relight re-meshes nothing)."""
+    """The kept scenes, by the names of their objects (module documentation). What :meth:`run`
+    did is counted: ``bakes`` (a new library scene), ``rebakes`` (a kept scene baked again
+    after its objects changed), ``relights``; ``meshed`` names the objects the last run
+    tetrahedralised (the library keeps the tets of the others)."""
 
     def __init__(self, budget_tets: int = DEFAULT_BUDGET_TETS):
         self.budget_tets = budget_tets
@@ -88,7 +83,9 @@ class KeptBakes:
         self._lock = threading.Lock()
         self._tick = 0
         self.bakes = 0
+        self.rebakes = 0
         self.relights = 0
+        self.meshed: tuple = ()
 
     def __len__(self) -> int:
         with self._lock:
@@ -116,50 +113,83 @@ class KeptBakes:
         backends: list | None = None,
         radiosity: dict | None = None,
     ) -> tuple:
-        """Bakes ``job`` as :func:`bake.run_job` does, reusing the kept scene of its objects
-        when only the lights changed; returns (radiance per mesh, ``"relit"``, ``"kept"`` or
-        ``"baked"``). Raises as :func:`bake.run_job`; a failure drops the kept scene."""
-        names = tuple(m.object_name for m in [*job.meshes, *job.diffuse])
-        key, lights = bake_key(job), lights_key(job.lights)
-        kept = self._take(names)
-        if kept is not None and (kept.key != key or kept.scene.lib is not lib):
-            kept.scene.close()
-            kept = None
-        if kept is not None:
-            try:
-                what = "kept"
-                if kept.lights != lights:
-                    kept.scene.clear_lights()
-                    add_lights(kept.scene, job.lights)
-                    kept.scene.relight(progress)
-                    what = "relit"
-                if backends is not None:
-                    backends.extend(backend_info(kept.scene, idx) for idx in kept.indices[: len(job.meshes)])
-                results = read_results(kept.scene, kept.indices, job)
-            except BaseException:
-                kept.scene.close()
-                raise
-            if what == "relit":
-                self.relights += 1
-            kept.lights = lights
-            self._put(names, kept)
-            return results, what
+        """Bakes ``job`` as :func:`bake.run_job` does, reusing the kept scene of its objects:
+        returns (radiance per mesh, what was done: ``"relit"`` when only the lights changed,
+        ``"kept"`` when nothing did, ``"rebaked"`` when objects changed (the changed ones are
+        updated in the kept scene, and the library meshes only those whose geometry, placement
+        or scale changed), ``"baked"`` for a new scene). Raises as :func:`bake.run_job`; a
+        failure drops the kept scene."""
+        items = [*job.meshes, *job.diffuse]
+        names = tuple(m.object_name for m in items)
         options = dict(job.options)
         if options.get("method", "transcut") == "transcut":
             options.setdefault("edit_solver", RELIGHT_SOLVER)
-        scene, indices, results = bake_open(lib, job, progress, backends, radiosity, options)
+        options_key, objects, lights = canonical(options), [object_key(m) for m in items], lights_key(job.lights)
+        kept = self._take(names)
+        if kept is not None and (
+            kept.options != options_key or kept.scene.lib is not lib or not lib.has("tc_object_set_mesh")
+        ):
+            kept.scene.close()
+            kept = None
+        if kept is None:
+            scene, indices, results = bake_open(lib, job, progress, backends, radiosity, options)
+            try:
+                tets = self._tets(scene, indices[: len(job.meshes)])
+            except BaseException:
+                scene.close()
+                raise
+            self.bakes += 1
+            self.meshed = tuple(m.object_name for m in job.meshes)
+            self._put(names, KeptBake(options_key, objects, lights, scene, indices, tets))
+            return results, "baked"
         try:
-            tets = (
-                sum(int(scene.stats(idx).get("tets", 0)) for idx in indices[: len(job.meshes)])
-                if lib.has("tc_object_stats")
-                else 0
-            )
+            results, what = self._update(kept, job, items, objects, lights, options, progress, backends, radiosity)
         except BaseException:
-            scene.close()
+            kept.scene.close()
             raise
-        self.bakes += 1
-        self._put(names, KeptBake(key, lights, scene, indices, tets))
-        return results, "baked"
+        kept.objects, kept.lights = objects, lights
+        self._put(names, kept)
+        return results, what
+
+    def _update(self, kept, job, items, objects, lights, options, progress, backends, radiosity) -> tuple:
+        """Brings ``kept`` to the job's state and solves it (see :meth:`run`)."""
+        scene = kept.scene
+        changed = [i for i, (old, new) in enumerate(zip(kept.objects, objects, strict=True)) if old != new]
+        for i in changed:
+            item, idx = items[i], kept.indices[i]
+            if kept.objects[i][0] != objects[i][0]:
+                try:
+                    scene.set_mesh(idx, item.positions, item.triangles)
+                except transcut.TranscutError as exc:
+                    raise BakeError(f"'{item.object_name}': {exc.message or exc.status_name}") from exc
+            place_object(scene, idx, item)
+        if kept.lights != lights:
+            scene.clear_lights()
+            add_lights(scene, job.lights)
+        if changed:
+            results = bake_scene(scene, kept.indices, job, progress, backends, radiosity, options)
+            meshes = kept.indices[: len(job.meshes)]
+            self.meshed = tuple(
+                m.object_name for m, idx in zip(job.meshes, meshes, strict=True) if not scene.stats(idx)["mesh_reused"]
+            )
+            kept.tets = self._tets(scene, meshes)
+            self.rebakes += 1
+            return results, "rebaked"
+        what = "kept"
+        if kept.lights != lights:
+            scene.relight(progress)
+            self.relights += 1
+            what = "relit"
+        if backends is not None:
+            backends.extend(backend_info(scene, idx) for idx in kept.indices[: len(job.meshes)])
+        self.meshed = ()
+        return read_results(scene, kept.indices, job), what
+
+    @staticmethod
+    def _tets(scene: transcut.Scene, indices: list) -> int:
+        if not scene.lib.has("tc_object_stats"):
+            return 0
+        return sum(int(scene.stats(idx).get("tets", 0)) for idx in indices)
 
     def drop_missing(self, exists: Callable[[str], bool]) -> int:
         """Closes the kept scenes with an object for which ``exists(name)`` is false; returns

@@ -158,12 +158,16 @@ class OBJECT_OT_transcut_bake(RunnerOperator, bpy.types.Operator):
         total = sum(m.vertex_count for m in job.meshes)
         how = {
             "baked": "baked",
+            "rebaked": "baked the kept scene of",
             "relit": "relit the kept bake of",
             "kept": "nothing changed since the kept bake of",
         }[runner.outcome]
+        meshed = ""
+        if runner.outcome == "rebaked":
+            meshed = f"; tetrahedralised again: {', '.join(runner.kept.meshed) or 'none (the tets were kept)'}"
         return (
             f"{how} {len(job.meshes)} object(s), {total} vertices, into '{job.attribute_name}'"
-            f" ({bake.backend_summary(runner.backends)}){bake.radiosity_summary(job, runner.radiosity)}"
+            f" ({bake.backend_summary(runner.backends)}){bake.radiosity_summary(job, runner.radiosity)}{meshed}"
         )
 
 

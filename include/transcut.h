@@ -784,6 +784,13 @@ typedef struct TcBakeStats {
    * method's bound fails with `TC_UNRESOLVED` instead. 0 where a method has no such measure.
    */
   double resolution[3];
+  /**
+   * 1 when the object's tetrahedra were kept from the scene's previous bake instead of meshed
+   * again (TransCut: its surface, transform, scale and tet budget unchanged; see
+   * `tc_scene_bake`), else 0. (Appended: a caller passing the older size, 128, gets the
+   * fields before this one and `size` = 136.)
+   */
+  uint32_t mesh_reused;
 } TcBakeStats;
 
 /**
@@ -1295,6 +1302,13 @@ TcStatus tc_scene_radiosity_stats(const struct TcScene *scene, struct TcRadiosit
  * solution. Changing an object (mesh, medium, transform, scale) ends the session; changing the
  * lights does not (see `tc_scene_relight`).
  *
+ * The scene keeps the tetrahedra of its last bake, so a host that changes part of a scene and
+ * bakes it again pays only for what changed: a TransCut object whose mesh, transform, scale
+ * and `tets` budget are as they were is not meshed again (a new medium is assembled on its
+ * tets; `TcBakeStats.mesh_reused` says so), while a changed one is (`tc_object_set_mesh`,
+ * `tc_object_set_transform`, …). The result equals a bake of a new scene bit for bit. The
+ * kept tetrahedra cost about the memory of the tets once more until the scene is destroyed.
+ *
  * `TC_METHOD_RADIOSITY` bakes the whole scene at once: translucent and diffuse objects
  * (`tc_scene_add_diffuse_mesh`) light each other, and `tc_scene_radiosity_stats` says what it
  * measured. Its objects are coupled, so its session refuses per-object updates with
@@ -1327,12 +1341,14 @@ TcStatus tc_object_radiance(const struct TcScene *scene,
 /**
  * Writes an object's statistics of the last bake into `*out`. Set `out->size =
  * sizeof(TcBakeStats)` first; on return it holds the number of bytes written: all of the
- * struct, or for a caller built against an older struct its bytes: 96 (the fields before
- * `flipped_faces`) or 88 (those before `backend_used`). A smaller size is
+ * struct, or for a caller built against an older struct its bytes: 128 (the fields before
+ * `mesh_reused`), 96 (those before `flipped_faces`) or 88 (those before `backend_used`). A smaller size is
  * `TC_INVALID_ARGUMENT`.
  * `TC_NOT_BAKED` before a successful bake or after the scene changed.
  */
-TcStatus tc_object_stats(const struct TcScene *scene, uint32_t object, struct TcBakeStats *out);
+TcStatus tc_object_stats(const struct TcScene *scene,
+                         uint32_t object,
+                         struct TcBakeStats *out);
 
 /**
  * Copies the name of the GPU adapter that solved `object` in the last bake into `out` as a
@@ -1909,6 +1925,32 @@ TcStatus tc_scene_add_mesh(struct TcScene *scene,
                            uint32_t *out_object);
 
 /**
+ * Replaces the triangle mesh of object `object` (added by `tc_scene_add_mesh`,
+ * `tc_scene_add_mesh_file` or `tc_scene_add_diffuse_mesh`) with a new one, as
+ * `tc_scene_add_mesh` takes it: the object keeps its name, medium or diffuse material,
+ * transform and scale, and its radiance is returned for the new vertices. The host's way to
+ * follow an edited model (a modifier, a sculpt): the next `tc_scene_bake` meshes this object
+ * again and keeps the tetrahedra of the others.
+ *
+ * The library copies the arrays. `TC_INVALID_MESH` as `tc_scene_add_mesh`,
+ * `TC_INVALID_HANDLE` for no such object, `TC_UNSUPPORTED` for an object given as a
+ * tetrahedral mesh (add a new object instead); the scene is then unchanged. Like any change
+ * to an object, it discards the results of the last bake.
+ */
+TcStatus tc_object_set_mesh(struct TcScene *scene,
+                            uint32_t object,
+                            const float *positions,
+                            size_t vertex_count,
+                            const uint32_t *indices,
+                            size_t index_count);
+
+/**
+ * The number of scenes created by `tc_scene_create` and not yet destroyed in this process,
+ * for a host that keeps scenes between bakes to check that it frees them.
+ */
+size_t tc_live_scene_count(void);
+
+/**
  * Adds an object from a ready tetrahedral mesh and stores its index in `*out_object`. The
  * bake solves on these tets as given (no meshing; `TcBakeOptions.tets` does not apply) and
  * returns radiance for every one of the `vertex_count` vertices, in this order (interior
@@ -2256,7 +2298,7 @@ TC_LAYOUT_CHECK(TcDipoleStats_refit_ms, offsetof(TcDipoleStats, refit_ms) == 64)
 TC_LAYOUT_CHECK(TcDipoleStats_link_ms, offsetof(TcDipoleStats, link_ms) == 72);
 TC_LAYOUT_CHECK(TcDipoleStats_gather_ms, offsetof(TcDipoleStats, gather_ms) == 80);
 TC_LAYOUT_CHECK(TcDipoleStats_push_ms, offsetof(TcDipoleStats, push_ms) == 88);
-TC_LAYOUT_CHECK(TcBakeStats__sizeof, sizeof(TcBakeStats) == 128);
+TC_LAYOUT_CHECK(TcBakeStats__sizeof, sizeof(TcBakeStats) == 136);
 TC_LAYOUT_CHECK(TcBakeStats_size, offsetof(TcBakeStats, size) == 0);
 TC_LAYOUT_CHECK(TcBakeStats_tets, offsetof(TcBakeStats, tets) == 8);
 TC_LAYOUT_CHECK(TcBakeStats_vertices, offsetof(TcBakeStats, vertices) == 16);
@@ -2270,6 +2312,7 @@ TC_LAYOUT_CHECK(TcBakeStats_clamped_vertices, offsetof(TcBakeStats, clamped_vert
 TC_LAYOUT_CHECK(TcBakeStats_backend_used, offsetof(TcBakeStats, backend_used) == 88);
 TC_LAYOUT_CHECK(TcBakeStats_flipped_faces, offsetof(TcBakeStats, flipped_faces) == 96);
 TC_LAYOUT_CHECK(TcBakeStats_resolution, offsetof(TcBakeStats, resolution) == 104);
+TC_LAYOUT_CHECK(TcBakeStats_mesh_reused, offsetof(TcBakeStats, mesh_reused) == 128);
 TC_LAYOUT_CHECK(TcMediumEdit__sizeof, sizeof(TcMediumEdit) == 128);
 TC_LAYOUT_CHECK(TcMediumEdit_size, offsetof(TcMediumEdit, size) == 0);
 TC_LAYOUT_CHECK(TcMediumEdit_region, offsetof(TcMediumEdit, region) == 4);

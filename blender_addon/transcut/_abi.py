@@ -341,6 +341,7 @@ class TcBakeStats(Structure):
         ("backend_used", c_uint32),
         ("flipped_faces", c_uint64),
         ("resolution", c_double * 3),
+        ("mesh_reused", c_uint32),  # 1: the tets were kept from the scene's previous bake
     ]
 
 
@@ -474,6 +475,8 @@ REQUIRED = {
 #: The rest of the header: bound when the library has them; calling a missing one raises.
 OPTIONAL = {
     "tc_status_name": (c_char_p, [c_int32]),
+    "tc_live_scene_count": (c_size_t, []),
+    "tc_object_set_mesh": (c_int32, [ScenePtr, c_uint32, c_float_p, c_size_t, c_uint32_p, c_size_t]),
     "tc_scene_object_count": (c_int32, [ScenePtr, POINTER(c_uint32)]),
     "tc_scene_light_count": (c_int32, [ScenePtr, POINTER(c_uint32)]),
     "tc_object_set_name": (c_int32, [ScenePtr, c_uint32, c_char_p]),

@@ -241,6 +241,10 @@ class Library:
         """Whether the library exports the C function ``name``."""
         return hasattr(self.cdll, name) and name not in self.optional_missing
 
+    def live_scene_count(self) -> int:
+        """``tc_live_scene_count()``: the scenes of this process not yet closed."""
+        return int(self.function("tc_live_scene_count")())
+
     def function(self, name: str):
         """The C function ``name`` (prototype declared); AttributeError naming it if absent."""
         if name in self.optional_missing:
@@ -460,6 +464,14 @@ class Scene:
             ctypes.byref(out),
         )
         return int(out.value)
+
+    def set_mesh(self, obj: int, positions, triangles) -> None:
+        """Replaces object ``obj``'s triangle mesh (``tc_object_set_mesh``; arrays as
+        :meth:`add_mesh`); the next bake meshes this object again and keeps the others' tets."""
+        pos = np.ascontiguousarray(positions, dtype=np.float32).reshape(-1)
+        tri = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1)
+        pos_p, tri_p = pos.ctypes.data_as(c_float_p), tri.ctypes.data_as(c_uint32_p)
+        self._call("tc_object_set_mesh", obj, pos_p, pos.size // 3, tri_p, tri.size)
 
     def add_tet_mesh(self, positions, tets, tet_medium=None) -> int:
         """Adds a ready tetrahedral mesh (``tets`` (k, 4); optional per-tet medium ids)."""

@@ -2,7 +2,7 @@
 
 use std::ffi::{c_char, c_void};
 
-use transcut_core::{bake_with, ObjectStats, Session};
+use transcut_core::{bake_reusing, ObjectStats, Session};
 
 use super::convert::scene_failure;
 use super::handle::{with_scene, TcScene};
@@ -55,6 +55,11 @@ pub struct TcBakeStats {
     /// surface (transport coefficient × mean boundary edge length in mm); a bake above the
     /// method's bound fails with `TC_UNRESOLVED` instead. 0 where a method has no such measure.
     pub resolution: [f64; 3],
+    /// 1 when the object's tetrahedra were kept from the scene's previous bake instead of meshed
+    /// again (TransCut: its surface, transform, scale and tet budget unchanged; see
+    /// `tc_scene_bake`), else 0. (Appended: a caller passing the older size, 128, gets the
+    /// fields before this one and `size` = 136.)
+    pub mesh_reused: u32,
 }
 
 /// The size of `TcBakeStats` before `backend_used` was appended: callers built against it
@@ -64,10 +69,13 @@ const BAKE_STATS_SIZE_V1: usize = std::mem::offset_of!(TcBakeStats, backend_used
 /// The size of `TcBakeStats` before `flipped_faces` and `resolution` were appended.
 const BAKE_STATS_SIZE_V2: usize = std::mem::offset_of!(TcBakeStats, flipped_faces);
 
+/// The size of `TcBakeStats` before `mesh_reused` was appended.
+const BAKE_STATS_SIZE_V3: usize = std::mem::offset_of!(TcBakeStats, mesh_reused);
+
 /// How many bytes of `TcBakeStats` to write for a caller whose struct has `size` bytes: the
 /// largest version that fits (`None` below the first).
 fn stats_bytes(size: usize) -> Option<usize> {
-    [size_of::<TcBakeStats>(), BAKE_STATS_SIZE_V2, BAKE_STATS_SIZE_V1].into_iter().find(|&v| v <= size)
+    [size_of::<TcBakeStats>(), BAKE_STATS_SIZE_V3, BAKE_STATS_SIZE_V2, BAKE_STATS_SIZE_V1].into_iter().find(|&v| v <= size)
 }
 
 /// Fills `*options` with the defaults of the first version of `TcBakeOptions`: its first 48
@@ -286,6 +294,13 @@ unsafe fn init<T>(out: *mut T, size: usize, min: usize, mut defaults: T) -> Resu
 /// solution. Changing an object (mesh, medium, transform, scale) ends the session; changing the
 /// lights does not (see `tc_scene_relight`).
 ///
+/// The scene keeps the tetrahedra of its last bake, so a host that changes part of a scene and
+/// bakes it again pays only for what changed: a TransCut object whose mesh, transform, scale
+/// and `tets` budget are as they were is not meshed again (a new medium is assembled on its
+/// tets; `TcBakeStats.mesh_reused` says so), while a changed one is (`tc_object_set_mesh`,
+/// `tc_object_set_transform`, …). The result equals a bake of a new scene bit for bit. The
+/// kept tetrahedra cost about the memory of the tets once more until the scene is destroyed.
+///
 /// `TC_METHOD_RADIOSITY` bakes the whole scene at once: translucent and diffuse objects
 /// (`tc_scene_add_diffuse_mesh`) light each other, and `tc_scene_radiosity_stats` says what it
 /// measured. Its objects are coupled, so its session refuses per-object updates with
@@ -313,8 +328,9 @@ pub unsafe extern "C" fn tc_scene_bake(
                 with_scene(scene, |s| {
                     // The bake, then its session: the session keeps each object's bake, the scene
                     // keeps the radiosity method's statistics of the whole scene beside it.
-                    let bake = bake_with(&s.scene, &options, progress).map_err(|e| scene_failure(&e))?;
+                    let bake = bake_reusing(&s.scene, &options, &s.meshes, progress).map_err(|e| scene_failure(&e))?;
                     let radiosity = bake.radiosity.clone();
+                    s.meshes = bake.meshes();
                     s.session = Some(Session::new(&s.scene, bake, &options));
                     s.radiosity = radiosity;
                     s.current = true;
@@ -360,8 +376,8 @@ pub unsafe extern "C" fn tc_object_radiance(scene: *const TcScene, object: u32, 
 
 /// Writes an object's statistics of the last bake into `*out`. Set `out->size =
 /// sizeof(TcBakeStats)` first; on return it holds the number of bytes written: all of the
-/// struct, or for a caller built against an older struct its bytes: 96 (the fields before
-/// `flipped_faces`) or 88 (those before `backend_used`). A smaller size is
+/// struct, or for a caller built against an older struct its bytes: 128 (the fields before
+/// `mesh_reused`), 96 (those before `flipped_faces`) or 88 (those before `backend_used`). A smaller size is
 /// `TC_INVALID_ARGUMENT`.
 /// `TC_NOT_BAKED` before a successful bake or after the scene changed.
 #[no_mangle]
@@ -394,6 +410,7 @@ pub unsafe extern "C" fn tc_object_stats(scene: *const TcScene, object: u32, out
                     backend_used: backend_used(st.backend),
                     flipped_faces: count(st.flipped_faces),
                     resolution: st.resolution,
+                    mesh_reused: u32::from(st.mesh_reused),
                 })
             })?
         };

@@ -10,10 +10,11 @@
 //! borrowed mutably while the flag is held.
 
 use std::cell::UnsafeCell;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
 
 use transcut_core::edit::Editor;
-use transcut_core::methods::RadiosityStats;
+use transcut_core::methods::{Meshed, RadiosityStats};
 use transcut_core::{Diffuse, Material, MediumSource, ObjectStats, Scene, Session, SessionError};
 
 use super::convert::session_failure;
@@ -49,10 +50,16 @@ pub(crate) struct SceneState {
     /// when another method baked it, or with no session): the core's session keeps only the
     /// objects' bakes, so the scene keeps this beside it.
     pub radiosity: Option<RadiosityStats>,
+    /// The tet meshes of the last bake, by object index, kept across changes: the next bake
+    /// takes an object's when its surface, placement and tet budget are unchanged
+    /// ([`transcut_core::bake_reusing`]), so a change of medium, lights or one object meshes
+    /// only what changed.
+    pub meshes: Vec<Option<Arc<Meshed>>>,
 }
 
 impl SceneState {
-    /// Discards the session: it no longer describes the scene.
+    /// Discards the session: it no longer describes the scene (the kept tet meshes stay: the
+    /// next bake takes those that still fit).
     pub(crate) fn changed(&mut self) {
         self.session = None;
         self.radiosity = None;
@@ -218,9 +225,19 @@ fn not_baked() -> Failure {
     )
 }
 
+/// The scenes created and not yet destroyed in this process (`tc_live_scene_count`).
+pub(crate) static LIVE_SCENES: AtomicUsize = AtomicUsize::new(0);
+
 impl TcScene {
     pub(crate) fn new() -> Self {
+        LIVE_SCENES.fetch_add(1, Ordering::Relaxed);
         Self { magic: MAGIC, busy: AtomicBool::new(false), state: UnsafeCell::new(SceneState::default()) }
+    }
+}
+
+impl Drop for TcScene {
+    fn drop(&mut self) {
+        LIVE_SCENES.fetch_sub(1, Ordering::Relaxed);
     }
 }
 

@@ -5,12 +5,12 @@
 use glam::{DMat4, DVec3};
 use transcut_core::mesh::{TetMesh, TriMesh};
 use transcut_core::optics::Medium;
-use transcut_core::{Diffuse, Material, MediumSource, Object, Sides};
+use transcut_core::{Diffuse, Material, MediumSource, Object, Shape, Sides};
 
 use super::convert::mesh_failure;
-use super::handle::{self, with_scene, SceneState, TcScene};
+use super::handle::{self, with_scene, SceneState, TcScene, LIVE_SCENES};
 use super::ptr;
-use super::status::{run, run_on_workers, Failure, TcStatus, TC_INTERNAL_ERROR, TC_INVALID_MESH};
+use super::status::{run, run_on_workers, Failure, TcStatus, TC_INTERNAL_ERROR, TC_INVALID_MESH, TC_UNSUPPORTED};
 
 /// `tc_object_set_sides`: both sides of the surface reflect, each with its own radiosity (a
 /// wall seen from either side; the default).
@@ -167,6 +167,58 @@ pub unsafe extern "C" fn tc_scene_add_mesh(
         unsafe { ptr::write(out_object, index) };
         Ok(())
     })
+}
+
+/// Replaces the triangle mesh of object `object` (added by `tc_scene_add_mesh`,
+/// `tc_scene_add_mesh_file` or `tc_scene_add_diffuse_mesh`) with a new one, as
+/// `tc_scene_add_mesh` takes it: the object keeps its name, medium or diffuse material,
+/// transform and scale, and its radiance is returned for the new vertices. The host's way to
+/// follow an edited model (a modifier, a sculpt): the next `tc_scene_bake` meshes this object
+/// again and keeps the tetrahedra of the others.
+///
+/// The library copies the arrays. `TC_INVALID_MESH` as `tc_scene_add_mesh`,
+/// `TC_INVALID_HANDLE` for no such object, `TC_UNSUPPORTED` for an object given as a
+/// tetrahedral mesh (add a new object instead); the scene is then unchanged. Like any change
+/// to an object, it discards the results of the last bake.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_set_mesh(
+    scene: *mut TcScene,
+    object: u32,
+    positions: *const f32,
+    vertex_count: usize,
+    indices: *const u32,
+    index_count: usize,
+) -> TcStatus {
+    run("tc_object_set_mesh", || {
+        // SAFETY: the caller's contract (arrays of the given lengths).
+        let mesh = unsafe { tri_mesh(positions, vertex_count, indices, index_count)? };
+        // SAFETY: the caller's contract.
+        unsafe {
+            with_scene(scene, |s| {
+                let i = s.object_index(object)?;
+                let o = &mut s.scene.objects[i];
+                if matches!(o.shape, Shape::Tetrahedra(_)) {
+                    return Err(Failure::new(
+                        TC_UNSUPPORTED,
+                        format!(
+                            "object {object} ('{}') was given as a tetrahedral mesh: add the new mesh as a new object",
+                            o.name
+                        ),
+                    ));
+                }
+                o.shape = Shape::Surface(mesh);
+                s.changed();
+                Ok(())
+            })
+        }
+    })
+}
+
+/// The number of scenes created by `tc_scene_create` and not yet destroyed in this process,
+/// for a host that keeps scenes between bakes to check that it frees them.
+#[no_mangle]
+pub extern "C" fn tc_live_scene_count() -> usize {
+    LIVE_SCENES.load(std::sync::atomic::Ordering::Relaxed)
 }
 
 /// Adds an object from a ready tetrahedral mesh and stores its index in `*out_object`. The

@@ -144,7 +144,8 @@ fn layouts() -> Vec<Layout> {
             clamped_vertices,
             backend_used,
             flipped_faces,
-            resolution
+            resolution,
+            mesh_reused
         }),
         layout!(TcMediumEdit { size, region, center, radius, min_mm, max_mm, mask, mask_len, op, sigma_a, sigma_s_prime }),
         layout!(TcEditStats {

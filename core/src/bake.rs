@@ -20,8 +20,8 @@ use std::time::Instant;
 
 use crate::mesh::TriangleBvh;
 use crate::methods::{
-    bake_object, object_stage, radiosity, targets, world_surfaces, HierarchicalDipole, Lighting, ObjectBake, Prt,
-    RadiositySession, RadiosityStats, SubsurfaceMethod, TransCut,
+    bake_object, object_stage, radiosity, targets, world_surfaces, BakedState, HierarchicalDipole, Lighting, Meshed, ObjectBake,
+    Prt, RadiositySession, RadiosityStats, SubsurfaceMethod, TransCut,
 };
 use crate::progress::{ms, Progress};
 use crate::scene::{BakeOptions, Method, Scene, SceneError};
@@ -46,6 +46,22 @@ pub struct Bake {
     pub total_ms: f64,
 }
 
+impl Bake {
+    /// The tet mesh each object's bake kept, by object index ([`bake_reusing`]: pass them to
+    /// the next bake of the scene); `None` for an object with none (another method, a ready tet
+    /// mesh, a bake by [`bake_with`]).
+    #[must_use]
+    pub fn meshes(&self) -> Vec<Option<Arc<Meshed>>> {
+        self.objects
+            .iter()
+            .map(|o| match &o.state {
+                BakedState::TransCut(state) => state.meshed.clone(),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
 /// Bakes per-vertex radiance for every object of `scene` with `options.method`.
 ///
 /// # Errors
@@ -63,11 +79,39 @@ pub fn bake(scene: &Scene, options: &BakeOptions) -> Result<Bake, SceneError> {
 /// # Errors
 /// As [`bake`], plus [`SceneError::Cancelled`].
 pub fn bake_with(scene: &Scene, options: &BakeOptions, progress: Progress) -> Result<Bake, SceneError> {
+    bake_kept(scene, options, None, progress)
+}
+
+/// [`bake_with`] for a host that bakes the same scene again after changing part of it: the
+/// bake keeps each TransCut object's tet mesh ([`Bake::meshes`]), and takes object `i`'s from
+/// `kept[i]` (the meshes of an earlier bake of this scene) instead of meshing again when it
+/// was made from the same world-space surface at the same tet budget. Meshing is deterministic,
+/// so the result equals [`bake_with`]'s bit for bit; [`crate::ObjectStats::mesh_reused`] says which
+/// objects were not meshed. The kept meshes cost memory (about the tets' own once more), which
+/// is why [`bake_with`] keeps none. The radiosity method meshes its objects afresh.
+///
+/// # Errors
+/// As [`bake_with`].
+pub fn bake_reusing(
+    scene: &Scene,
+    options: &BakeOptions,
+    kept: &[Option<Arc<Meshed>>],
+    progress: Progress,
+) -> Result<Bake, SceneError> {
+    bake_kept(scene, options, Some(kept), progress)
+}
+
+fn bake_kept(
+    scene: &Scene,
+    options: &BakeOptions,
+    kept: Option<&[Option<Arc<Meshed>>]>,
+    progress: Progress,
+) -> Result<Bake, SceneError> {
     scene.validate(options)?;
     with_threads(options.threads, || match &options.method {
-        Method::TransCut(o) => bake_all::<TransCut>(scene, options, o, progress),
-        Method::HierarchicalDipole(o) => bake_all::<HierarchicalDipole>(scene, options, o, progress),
-        Method::Prt(o) => bake_all::<Prt>(scene, options, o, progress),
+        Method::TransCut(o) => bake_all::<TransCut>(scene, options, o, kept, progress),
+        Method::HierarchicalDipole(o) => bake_all::<HierarchicalDipole>(scene, options, o, kept, progress),
+        Method::Prt(o) => bake_all::<Prt>(scene, options, o, kept, progress),
         Method::Radiosity(o) => {
             let start = Instant::now();
             radiosity::bake_scene(scene, options, o, progress).map(|(objects, stats, session)| Bake {
@@ -98,11 +142,12 @@ fn bake_all<M: SubsurfaceMethod>(
     scene: &Scene,
     options: &BakeOptions,
     method: &M::Options,
+    kept: Option<&[Option<Arc<Meshed>>]>,
     progress: Progress,
 ) -> Result<Bake, SceneError> {
     let start = Instant::now();
     let world = world_surfaces(scene)?;
-    let targets = targets(scene, &world);
+    let targets = targets(scene, &world, kept);
     for target in &targets {
         M::check(target, method)?;
     }

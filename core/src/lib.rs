@@ -71,7 +71,7 @@ pub mod texture;
 pub mod volume;
 pub mod workers;
 
-pub use bake::{bake, bake_with, Bake};
+pub use bake::{bake, bake_reusing, bake_with, Bake};
 pub use glam::DVec3;
 pub use methods::{BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 pub use progress::{Cancelled, Progress};

@@ -1,9 +1,14 @@
-"""Kept bakes: a rebake after a light or world change only relights the kept library scene.
+"""Kept bakes: a rebake after a light or world change only relights the kept library scene;
+after a medium change it re-assembles without meshing; after a geometry change it meshes the
+changed object only.
 
 A sphere under a sun: the second bake after the sun moved relights (the store counts no new
 bake) and equals a fresh bake of the new scene (Keep Bakes off) to the solver's tolerance; a
-third with nothing changed reads the kept radiance; a medium change or a modifier toggled bakes
-afresh; the kept scene is closed when its object is deleted and when the add-on is disabled.
+third with nothing changed reads the kept radiance. Two spheres: a medium change on one bakes
+the kept scene again with every tet mesh kept (the library's statistics say so) and equals a
+fresh bake exactly; a modifier toggled on one meshes that one only, also exactly. The kept
+scene is closed (the library's count of live scenes says so) when its object is deleted and
+when the add-on is disabled.
 """
 
 from __future__ import annotations
@@ -54,28 +59,66 @@ def test_a_light_or_world_change_only_relights(scene, addon):
     assert bake() == {"FINISHED"}  # nothing changed: the kept radiance
     assert (store.bakes, store.relights) == (1, 2)
 
-    node = sphere.active_material.node_tree.nodes["Principled BSDF"]
+
+def add_lib(addon):
+    return addon.library.get(addon.preferences.library_path(bpy.context))
+
+
+def test_a_medium_or_geometry_change_meshes_only_what_changed(scene, addon):
+    store = addon.kept_native.STORE
+    store.bakes = store.rebakes = store.relights = 0
+    live = add_lib(addon).live_scene_count()
+    left, right = add_sphere(), add_sphere(location=(3.0, 0.0, 0.0))
+    right.data.materials[0] = left.data.materials[0].copy()  # a material of its own
+    add_light("SUN", rotation=(0.3, 0.2, 0.0), energy=3.0)
+    select_only(left, right)
+
+    def both():
+        return [attribute_rgb(o).astype(np.float64) for o in (left, right)]
+
+    def fresh_both():
+        fresh(scene)
+        return both()
+
+    assert bake() == {"FINISHED"}
+    assert (store.bakes, store.rebakes, set(store.meshed)) == (1, 0, {left.name, right.name})
+    assert add_lib(addon).live_scene_count() == live + 1
+
+    node = right.active_material.node_tree.nodes["Principled BSDF"]
     node.inputs["Subsurface Radius"].default_value = (1.2, 0.9, 0.7)
     assert bake() == {"FINISHED"}
-    assert store.bakes == 2, "a medium change bakes afresh"
-    sphere.modifiers.new("Smooth", "SMOOTH")
+    assert (store.bakes, store.rebakes, store.meshed) == (1, 1, ()), "a medium change meshed"
+    kept = both()
+    expect = fresh_both()
+    np.testing.assert_array_equal(kept[0], expect[0])
+    np.testing.assert_array_equal(kept[1], expect[1])
+
+    left.modifiers.new("Smooth", "SMOOTH")
     bpy.context.view_layer.update()
     assert bake() == {"FINISHED"}
-    assert store.bakes == 3, "a geometry change bakes afresh"
-    assert len(store) == 1
+    assert (store.bakes, store.rebakes, store.meshed) == (1, 2, (left.name,)), "only the changed object meshed"
+    kept = both()
+    expect = fresh_both()
+    np.testing.assert_array_equal(kept[0], expect[0])
+    np.testing.assert_array_equal(kept[1], expect[1])
+    assert (len(store), add_lib(addon).live_scene_count()) == (1, live + 1)
 
-    bpy.data.objects.remove(sphere)
+    bpy.data.objects.remove(left)
     bpy.context.view_layer.update()
     assert len(store) == 0, "the deleted object's scene is closed"
+    assert add_lib(addon).live_scene_count() == live, "closed in the library too"
 
 
 def test_disabling_the_add_on_closes_the_kept_scenes(scene, addon):
     store = addon.kept_native.STORE
+    live = add_lib(addon).live_scene_count()
     sphere = add_sphere()
     add_light("SUN", energy=3.0)
     select_only(sphere)
     assert bake() == {"FINISHED"}
-    assert len(store) == 1
+    assert (len(store), add_lib(addon).live_scene_count()) == (1, live + 1)
+    lib = add_lib(addon)
     disable()
     assert len(store) == 0
+    assert lib.live_scene_count() == live
     enable()

@@ -10,7 +10,8 @@
  *    every value finite and >= 0; a cancelled bake returns TC_CANCELLED and the scene bakes
  *    again afterwards.
  * 3. Misuse: NULL pointers, a short buffer (left untouched), an unknown preset, results before
- *    a bake, an internal panic (TC_INTERNAL_ERROR, not an abort), destroying twice.
+ *    a bake, an internal panic (TC_INTERNAL_ERROR, not an abort), destroying twice (the live
+ *    scene count goes up by one and back down by one).
  * 4. Editing (check_editing): a small marble ball is baked, relit by a new sun (equal to a fresh
  *    bake under that sun), cut by a plane (the piece's surface lies below the plane, its
  *    radiance is read into caller buffers, a short buffer is refused untouched) and relit again.
@@ -113,9 +114,12 @@ static int32_t on_progress(void *user, const char *stage, double fraction) {
 
 static void check_misuse(void) {
     TcScene *scene = NULL;
+    size_t live = tc_live_scene_count();
     CHECK(tc_scene_create(NULL) == TC_NULL_POINTER, "create(NULL)");
     CHECK(strstr(tc_last_error_message(), "out") != NULL, "message names the argument: %s", tc_last_error_message());
+    CHECK(tc_live_scene_count() == live, "a failed create counts no scene");
     OK(tc_scene_create(&scene));
+    CHECK(tc_live_scene_count() == live + 1, "a scene counted: %zu after %zu", tc_live_scene_count(), live);
     CHECK(tc_last_error_message()[0] == '\0', "a success clears the message");
 
     TcMedium m;
@@ -144,6 +148,7 @@ static void check_misuse(void) {
     CHECK(scene == NULL, "destroy sets the handle to NULL");
     tc_scene_destroy(&scene); /* the documented pattern makes a second destroy harmless */
     tc_scene_destroy(NULL);
+    CHECK(tc_live_scene_count() == live, "the destroyed scene uncounted, once");
 }
 
 /* Bakes a radius-10 mm marble icosphere (level 2) under a sun travelling along `sun`, without

@@ -172,18 +172,31 @@ fn an_unknown_backend_is_refused_naming_it() {
 
 /// Defaults: backend TC_BACKEND_DEFAULT; sizes: the options struct grew to 56 (the
 /// `method_options` pointer; a caller of the 48-byte struct bakes with the method's defaults:
-/// see `bake::an_older_options_struct_bakes_as_before`), the stats grew to 96 and then to 128,
-/// and a caller built against an older stats struct (size 88 or 96) gets exactly those bytes
-/// and that size, the bytes after untouched.
+/// see `bake::an_older_options_struct_bakes_as_before`), the stats grew to 96, 128 and then
+/// 136, and a caller built against an older stats struct (size 88, 96 or 128) gets exactly
+/// those bytes and that size, the bytes after untouched.
 #[test]
 fn defaults_and_the_older_stats_size() {
     assert_eq!(size_of::<TcBakeOptions>(), 56);
-    assert_eq!(size_of::<TcBakeStats>(), 128);
+    assert_eq!(size_of::<TcBakeStats>(), 136);
     assert_eq!(options(1).backend, TC_BACKEND_DEFAULT);
     let (s, status) = bake_with_backend(TC_BACKEND_CPU);
     ok(status, "bake");
     let full = stats(s);
-    assert_eq!(full.size, 128);
+    assert_eq!(full.size, 136);
+    // The 128-byte struct (before mesh_reused): resolution, nothing after.
+    #[repr(C)]
+    struct Before128 {
+        stats: [u64; 16],
+        guard: [u64; 4],
+    }
+    let mut before = Before128 { stats: [0; 16], guard: [0xA5A5_A5A5_A5A5_A5A5; 4] };
+    before.stats[0] = 128;
+    // SAFETY: 128 writable bytes at the start, as the size says (aligned as TcBakeStats).
+    ok(unsafe { tc_object_stats(s, 0, (&raw mut before).cast()) }, "stats, size 128");
+    assert_eq!(before.stats[0] & 0xFFFF_FFFF, 128, "size written back");
+    assert_eq!(f64::from_bits(before.stats[15]), full.resolution[2], "resolution ends at byte 128");
+    assert_eq!(before.guard, [0xA5A5_A5A5_A5A5_A5A5; 4], "bytes beyond the older size were written");
     // The 96-byte struct (before flipped_faces and resolution): backend_used, nothing after.
     #[repr(C)]
     struct Before {

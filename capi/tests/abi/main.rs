@@ -13,6 +13,7 @@ mod backend;
 mod bake;
 mod concurrency;
 mod edit;
+mod kept_meshes;
 mod method;
 mod misuse;
 mod objects;

@@ -35,7 +35,7 @@ impl Default for WeldOptions {
 /// Internal vertices are the welded ones; `user_to_internal[i]` is the internal vertex that stands
 /// for the user's vertex `i` (in the order of the file or array the mesh came from), so results
 /// can always be returned in the user's own vertex order.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct TriMesh {
     pub(crate) positions: Vec<DVec3>,
     pub(crate) triangles: Vec<[u32; 3]>,

@@ -41,9 +41,10 @@ pub use lighting::Lighting;
 pub use prt::{Prt, PrtLive, PrtState};
 pub use radiosity::{RadiosityObject, RadiositySession, RadiosityStats, RadiosityUpdate};
 pub use result::{interpolate_vertices, BakedState, ObjectBake, ObjectStats};
-pub use transcut::{TransCut, TransCutState};
+pub(crate) use transcut::Reuse;
+pub use transcut::{Meshed, TransCut, TransCutState};
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use crate::mesh::TriMesh;
@@ -60,6 +61,9 @@ pub(crate) struct Target<'a> {
     pub object: &'a Object,
     /// The object's surface in world space ([`Object::world_surface`]).
     pub world: &'a TriMesh,
+    /// Whether a tet mesh made before may be taken instead of meshing, and whether to keep the
+    /// mesh used (TransCut; the other methods mesh nothing).
+    pub reuse: Reuse<'a>,
 }
 
 impl<'a> Target<'a> {
@@ -103,9 +107,20 @@ pub(crate) fn world_surfaces(scene: &Scene) -> Result<Vec<TriMesh>, SceneError> 
         .collect()
 }
 
-/// The scene's objects as targets, with their world surfaces.
-pub(crate) fn targets<'a>(scene: &'a Scene, world: &'a [TriMesh]) -> Vec<Target<'a>> {
-    scene.objects.iter().zip(world).enumerate().map(|(index, (object, world))| Target { index, object, world }).collect()
+/// The scene's objects as targets, with their world surfaces; `kept`: `None` for a bake that
+/// keeps no meshes, else the meshes an earlier bake kept, by object index (taken where they
+/// were made from the object's surface).
+pub(crate) fn targets<'a>(scene: &'a Scene, world: &'a [TriMesh], kept: Option<&'a [Option<Arc<Meshed>>]>) -> Vec<Target<'a>> {
+    scene
+        .objects
+        .iter()
+        .zip(world)
+        .enumerate()
+        .map(|(index, (object, world))| {
+            let reuse = kept.map_or(Reuse::Nothing, |k| Reuse::Keep(k.get(index).and_then(Option::as_ref)));
+            Target { index, object, world, reuse }
+        })
+        .collect()
 }
 
 /// The object's medium when it is one medium everywhere (a surface's table has every tet at

@@ -160,6 +160,10 @@ pub struct ObjectStats {
     /// Whether the light-independent part was read from a saved precompute instead of computed
     /// (PRT with a cache, [`crate::prt::PrtCache`]).
     pub precompute_loaded: bool,
+    /// Whether the tets were kept from an earlier bake of the same surface instead of meshed
+    /// (TransCut, [`crate::bake::bake_reusing`]); `meshing` then describes the meshing that
+    /// made them and `meshing_ms` the copy.
+    pub mesh_reused: bool,
 }
 
 impl ObjectStats {
@@ -186,6 +190,7 @@ impl ObjectStats {
             backend_fallback: None,
             meshing: None,
             precompute_loaded: false,
+            mesh_reused: false,
         }
     }
 }

@@ -35,7 +35,7 @@ use super::{common_scale, fill_covered, object_stats, scene_diagonal, surface_pa
 use crate::gpu::{self, Backend, DeviceChoice};
 use crate::light::{self, Light};
 use crate::mesh::{TriMesh, TriangleBvh};
-use crate::methods::transcut::TransCut;
+use crate::methods::transcut::{Reuse, TransCut};
 use crate::methods::{
     check_radiance, targets, world_surfaces, BakedState, Lighting, ObjectBake, ObjectStats, SubsurfaceMethod, Target,
 };
@@ -263,7 +263,7 @@ impl RadiositySession {
         progress: Progress,
     ) -> Result<Self, SceneError> {
         let world = world_surfaces(scene)?;
-        let targets = targets(scene, &world);
+        let targets = targets(scene, &world, None);
         let mm_per_unit = common_scale(&targets)?;
         let profile = match radiosity.scattering {
             TranslucentScattering::Profile(p) => Some(p),
@@ -782,7 +782,7 @@ impl RadiositySession {
     fn target(&self, index: usize) -> Result<Target<'_>, SceneError> {
         let count = self.len();
         match (self.fixed.objects.get(index), self.fixed.world.get(index)) {
-            (Some(object), Some(world)) => Ok(Target { index, object, world }),
+            (Some(object), Some(world)) => Ok(Target { index, object, world, reuse: Reuse::Nothing }),
             _ => Err(SceneError::InvalidOptions(format!("object {index} does not exist (the scene has {count} objects)"))),
         }
     }
@@ -862,7 +862,7 @@ impl Fixed {
         let b = fill_covered(&fixed.patches, &fixed.surfaces, fixed.factors.covered(), &response.radiosity);
         let mut out = Vec::with_capacity(fixed.objects.len());
         for (s, (p, stats)) in scatterers.iter_mut().zip(stats.iter_mut()).enumerate() {
-            let target = Target { index: s, object: &fixed.objects[s], world: &fixed.world[s] };
+            let target = Target { index: s, object: &fixed.objects[s], world: &fixed.world[s], reuse: Reuse::Nothing };
             let surface = &fixed.surfaces[s];
             let side = |back: bool| -> Option<Vec<[f64; 3]>> {
                 (0..surface.vertex_count()).map(|v| fixed.patches.patch_of(s, v, back).map(|i| b[i])).collect()
@@ -956,8 +956,9 @@ impl Fixed {
         initial: Option<&Response>,
         poll: &(dyn Fn(f64) -> Result<(), Cancelled> + Sync),
     ) -> Result<(Response, Solution, Placed), SceneError> {
-        let targets: Vec<Target<'_>> =
-            (0..self.objects.len()).map(|s| Target { index: s, object: &self.objects[s], world: &self.world[s] }).collect();
+        let targets: Vec<Target<'_>> = (0..self.objects.len())
+            .map(|s| Target { index: s, object: &self.objects[s], world: &self.world[s], reuse: Reuse::Nothing })
+            .collect();
         if let Some(initial) = initial {
             for (s, (p, field)) in scatterers.iter_mut().zip(&initial.fields).enumerate() {
                 if let (Some(p), Some(field)) = (p.as_mut().and_then(Scatterer::prepared_mut), field) {

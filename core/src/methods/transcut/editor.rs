@@ -5,7 +5,7 @@ use std::sync::Arc;
 use crate::edit::{EditError, EditOptions, Editor};
 use crate::light::Light;
 use crate::mesh::TriangleBvh;
-use crate::methods::{bake_object, object_stage, Lighting, ObjectBake, SubsurfaceMethod, Target, TransCut};
+use crate::methods::{bake_object, object_stage, Lighting, ObjectBake, Reuse, SubsurfaceMethod, Target, TransCut};
 use crate::progress::Progress;
 use crate::scene::{Object, Scene, SceneError};
 
@@ -43,7 +43,7 @@ impl Editor {
         let world = object.world_surface().map_err(|e| {
             scene_error(SceneError::InvalidObject { index: 0, name: object.name.clone(), message: e.to_string() })
         })?;
-        let target = Target { index: 0, object, world: &world };
+        let target = Target { index: 0, object, world: &world, reuse: Reuse::Nothing };
         TransCut::check(&target, transcut).map_err(scene_error)?;
         let occluder = bake_options.shadows.then(|| Arc::new(Lighting::occluder_of(std::slice::from_ref(&world))));
         let lighting = Lighting { lights, occluder: occluder.as_deref(), source: &bake_options.source };

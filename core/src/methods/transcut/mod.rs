@@ -18,19 +18,24 @@
 
 mod capabilities;
 mod editor;
+mod meshed;
+
+pub use meshed::Meshed;
+pub(crate) use meshed::Reuse;
 
 pub use crate::diffusion::MAX_RESOLUTION;
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use super::{BakedState, Lighting, ObjectStats, Stage, SubsurfaceMethod, Target};
 use crate::diffusion::{self, resolution, DiffusionError, DiffusionSystem};
 use crate::gpu::{self, Backend, GpuError, SolveWith};
-use crate::mesh::{TetMesh, TetMeshError, TriMesh};
-use crate::mesher::{self, MesherError, MesherOptions, MesherStats};
+use crate::mesh::{TetMesh, TetMeshError};
+use crate::mesher::{self, MesherError, MesherOptions};
 use crate::optics::Medium;
 use crate::progress::{ms, solve_fraction, Cancelled, Progress};
-use crate::scene::{Object, SceneError, Shape, TransCutOptions};
+use crate::scene::{SceneError, Shape, TransCutOptions};
 use crate::sparse::{SolveOptions, SparseError};
 
 /// The TransCut method ([`SubsurfaceMethod`]).
@@ -54,6 +59,10 @@ pub struct TransCutState {
     /// Lo(x, n) of eq. 3, clamped at 0, at every tet-mesh vertex (0 inside): the field the
     /// user's vertices, and a texture's texels, are sampled from.
     pub radiance: Vec<[f64; 3]>,
+    /// The tet mesh as the mesher made it, kept for later bakes of the same surface when the
+    /// bake was asked to keep its meshes ([`crate::bake::bake_reusing`]); `None` otherwise and
+    /// for a ready tet mesh.
+    pub meshed: Option<Arc<Meshed>>,
 }
 
 /// TransCut between `prepare` and the end of the bake: the state and the assembled system.
@@ -63,6 +72,7 @@ pub(crate) struct Prepared {
     media: Vec<Medium>,
     system: DiffusionSystem,
     fluence: Vec<[f64; 3]>,
+    meshed: Option<Arc<Meshed>>,
 }
 
 impl Prepared {
@@ -183,7 +193,7 @@ impl Prepared {
         system.set_signed_source(self.system.source()).map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
         stats.resolution = checked;
         stats.assembly_ms = ms(t);
-        Ok(Self { tet_mesh, media, system, fluence: self.fluence.clone() })
+        Ok(Self { tet_mesh, media, system, fluence: self.fluence.clone(), meshed: self.meshed.clone() })
     }
 
     /// The state a bake keeps ([`TransCutState`]).
@@ -195,8 +205,16 @@ impl Prepared {
         } else {
             per_vertex_radiance(&self.tet_mesh, &self.system, &lo)
         };
-        let Self { tet_mesh, media, system, fluence } = self;
-        TransCutState { tet_mesh, media, mm_per_unit: system.mm_per_unit(), eta: system.boundary_terms().eta, fluence, radiance }
+        let Self { tet_mesh, media, system, fluence, meshed } = self;
+        TransCutState {
+            tet_mesh,
+            media,
+            mm_per_unit: system.mm_per_unit(),
+            eta: system.boundary_terms().eta,
+            fluence,
+            radiance,
+            meshed,
+        }
     }
 
     /// The exitance B = (φ − 2q)/(2A) at every boundary vertex (the integral of eq. 3 over the
@@ -276,9 +294,8 @@ impl SubsurfaceMethod for TransCut {
         let (index, object) = (target.index, target.object);
         let name = || object.name.clone();
         let t = Instant::now();
-        let (mut tet_mesh, meshing) = world_tets(object, target.world, options, stage).map_err(|e| e.at(index, name()))?;
+        let (mut tet_mesh, meshed) = world_tets(target, options, stats, stage).map_err(|e| e.at(index, name()))?;
         stats.meshing_ms = ms(t);
-        stats.meshing = meshing;
         stage("assembly", 0.6)?;
 
         let t = Instant::now();
@@ -301,7 +318,7 @@ impl SubsurfaceMethod for TransCut {
         stats.vertices = tet_mesh.vertex_count();
         stats.boundary_vertices = system.boundary().len();
         let fluence = vec![[0.0; 3]; tet_mesh.vertex_count()];
-        Ok(Prepared { tet_mesh, media, system, fluence })
+        Ok(Prepared { tet_mesh, media, system, fluence, meshed })
     }
 
     fn solve(
@@ -388,22 +405,36 @@ fn mesher_fraction(stage: &str, f: f64) -> f64 {
     start + (end - start) * f.clamp(0.0, 1.0)
 }
 
-/// The object's tets in world space: its surface meshed (progress 0 → 0.6 of the object), or its
-/// ready tet mesh transformed.
+/// The object's tets in world space, and the record to keep of them ([`Reuse::Keep`]; `None`
+/// for [`Reuse::Nothing`] and a ready tet mesh): the mesh an earlier bake kept when it was made
+/// from this surface at this budget ([`Target::reuse`]), else the surface meshed (progress
+/// 0 → 0.6 of the object); a ready tet mesh transformed.
 fn world_tets(
-    object: &Object,
-    surface: &TriMesh,
+    target: &Target<'_>,
     options: &TransCutOptions,
+    stats: &mut ObjectStats,
     stage: Stage<'_>,
-) -> Result<(TetMesh, Option<MesherStats>), TetsError> {
+) -> Result<(TetMesh, Option<Arc<Meshed>>), TetsError> {
+    let (object, surface) = (target.object, target.world);
     match &object.shape {
         Shape::Surface(_) => {
+            if let Reuse::Keep(Some(kept)) = target.reuse {
+                if kept.made_from(surface, options.tets) {
+                    stage("tetrahedra kept", 0.6).map_err(|c| TetsError::Mesher(MesherError::Cancelled(c)))?;
+                    stats.meshing = Some(kept.stats().clone());
+                    stats.mesh_reused = true;
+                    return Ok((kept.mesh().clone(), Some(Arc::clone(kept))));
+                }
+            }
             // The mesher reports each of its stages from 0 to 1: one fraction of the meshing.
             let mesh_progress = |s: &str, f: f64| stage(s, 0.6 * mesher_fraction(s, f)).is_ok();
             let meshed =
                 mesher::tetrahedralize_with(surface, &MesherOptions::with_tets(options.tets), Progress::new(&mesh_progress))
                     .map_err(TetsError::Mesher)?;
-            Ok((meshed.mesh, Some(meshed.stats)))
+            stats.meshing = Some(meshed.stats.clone());
+            let record = matches!(target.reuse, Reuse::Keep(_))
+                .then(|| Arc::new(Meshed::new(surface, options.tets, meshed.mesh.clone(), meshed.stats)));
+            Ok((meshed.mesh, record))
         }
         Shape::Tetrahedra(mesh) => {
             let m = object.transform;
