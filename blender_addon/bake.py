@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -335,21 +336,65 @@ def read_results(scene: transcut.Scene, indices: list, job: BakeJob) -> list:
 
 @dataclass
 class BackendInfo:
-    """Where one object's solve ran: ``"cpu"`` or ``"gpu"``, the GPU's name, why auto chose the CPU."""
+    """Where and how one object's solve ran: ``"cpu"`` or ``"gpu"``, the GPU's name, why auto
+    chose the CPU; the tetrahedra, the last solve's iterations per channel (the relight's after
+    a relight), the vertices whose radiance was clamped at 0, whether the tets were kept from
+    the previous bake (0 where the method has none of these)."""
 
     backend: str
     device: str = ""
     fallback: str = ""
+    tets: int = 0
+    iterations: tuple = (0, 0, 0)
+    clamped_vertices: int = 0
+    mesh_reused: bool = False
 
 
-def backend_info(scene: transcut.Scene, idx: int) -> BackendInfo:
-    """The backend of object ``idx`` after a bake (``"cpu"`` when the library cannot say)."""
+def backend_info(scene: transcut.Scene, idx: int, relit: bool = False) -> BackendInfo:
+    """Object ``idx``'s :class:`BackendInfo` after a bake, or after a relight (``relit``: the
+    iterations of the relight's solve); ``"cpu"`` and zeros where the library cannot say."""
     lib = scene.lib
-    if not (lib.has("tc_object_device") and lib.has("tc_object_backend_fallback")):
+    if not lib.has("tc_object_stats"):
         return BackendInfo("cpu")
-    used = scene.stats(idx).get("backend_used", transcut.TC_BACKEND_CPU)
-    backend = "gpu" if used == transcut.TC_BACKEND_GPU else "cpu"
-    return BackendInfo(backend, scene.device(idx), scene.backend_fallback(idx))
+    stats = scene.stats(idx)
+    iterations = tuple(stats["iterations"])
+    if relit and lib.has("tc_object_edit_stats"):
+        try:
+            iterations = tuple(scene.edit_stats(idx)["iterations"])
+        except transcut.TranscutError:
+            pass  # a method without an editor (its bake's statistics stand)
+    counts = {
+        "tets": int(stats["tets"]),
+        "iterations": iterations,
+        "clamped_vertices": int(stats["clamped_vertices"]),
+        "mesh_reused": bool(stats.get("mesh_reused", 0)),
+    }
+    if not (lib.has("tc_object_device") and lib.has("tc_object_backend_fallback")):
+        return BackendInfo("cpu", **counts)
+    backend = "gpu" if stats.get("backend_used", transcut.TC_BACKEND_CPU) == transcut.TC_BACKEND_GPU else "cpu"
+    return BackendInfo(backend, scene.device(idx), scene.backend_fallback(idx), **counts)
+
+
+def record_bake(job: BakeJob, runner) -> None:
+    """Keeps what the last bake did in each translucent object's ``transcut.last_bake`` (the
+    panel shows it): the bake's wall time, what was done, the method, tets, iterations and
+    clamped vertices."""
+    import bpy
+
+    method = job.options.get("method", "transcut")
+    for mesh, info in zip(job.meshes, runner.backends, strict=False):
+        obj = bpy.data.objects.get(mesh.object_name)
+        if obj is None:
+            continue
+        report = obj.transcut.last_bake
+        report.valid = True
+        report.seconds = runner.seconds
+        report.outcome = runner.outcome
+        report.method = method
+        report.tets = min(info.tets, 2**31 - 1)
+        report.iterations = [min(i, 2**31 - 1) for i in info.iterations]
+        report.clamped_vertices = min(info.clamped_vertices, 2**31 - 1)
+        report.mesh_reused = info.mesh_reused
 
 
 def backend_summary(backends: list) -> str:
@@ -379,6 +424,7 @@ class BakeRunner:
         self.results: list | None = None
         self.backends: list = []
         self.radiosity: dict = {}  # radiosity bakes: the scene's Scene.radiosity_stats
+        self.seconds = 0.0  # the wall time of the library's work
         self.error: BaseException | None = None
         self._thread: threading.Thread | None = None
 
@@ -409,6 +455,7 @@ class BakeRunner:
         here)."""
 
     def _run(self) -> None:
+        start = time.perf_counter()
         try:
             if self.kept is not None:
                 self.results, self.outcome = self.kept.run(
@@ -418,6 +465,7 @@ class BakeRunner:
                 self.results = run_job(self.lib, self.job, self.progress, self.backends, self.radiosity)
         except BaseException as exc:  # reported by the main thread
             self.error = exc
+        self.seconds = time.perf_counter() - start
 
     def start(self) -> None:
         self._thread = threading.Thread(target=self._run, name="transcut-bake", daemon=True)

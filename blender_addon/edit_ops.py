@@ -135,7 +135,8 @@ def write_pieces(context, job: bake.BakeJob, run: edit_native.EditRun) -> list:
             for coll in obj.users_collection:
                 coll.objects.link(new)
             for key in TranscutObjectSettings.__annotations__:
-                setattr(new.transcut, key, getattr(obj.transcut, key))
+                if key != "last_bake":  # the medium carries over; the bake report is the source's
+                    setattr(new.transcut, key, getattr(obj.transcut, key))
             # What the cut guaranteed (custom property "transcut_cut"; distances in scene units).
             st = res.stats
             new["transcut_cut"] = {

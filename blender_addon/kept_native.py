@@ -181,7 +181,7 @@ class KeptBakes:
             self.relights += 1
             what = "relit"
         if backends is not None:
-            backends.extend(backend_info(scene, idx) for idx in kept.indices[: len(job.meshes)])
+            backends.extend(backend_info(scene, idx, what == "relit") for idx in kept.indices[: len(job.meshes)])
         self.meshed = ()
         return read_results(scene, kept.indices, job), what
 

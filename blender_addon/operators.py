@@ -155,6 +155,7 @@ class OBJECT_OT_transcut_bake(RunnerOperator, bpy.types.Operator):
     def _write(self, context, runner) -> str:
         job = runner.job
         bake.write_results(context, job, runner.results)
+        bake.record_bake(job, runner)
         total = sum(m.vertex_count for m in job.meshes)
         how = {
             "baked": "baked",

@@ -13,6 +13,7 @@ from bpy.props import (
     FloatProperty,
     FloatVectorProperty,
     IntProperty,
+    IntVectorProperty,
     PointerProperty,
     StringProperty,
 )
@@ -403,6 +404,27 @@ def _tag_owner(settings, _context) -> None:
     settings.id_data.update_tag()
 
 
+class TranscutBakeReport(bpy.types.PropertyGroup):
+    """What the last bake of the object did (``bake.record_bake``; the panel shows it)."""
+
+    __annotations__ = {
+        "valid": BoolProperty(name="Baked", description="Whether the object has been baked", default=False),
+        "seconds": FloatProperty(
+            name="Time", description="Wall time of the last bake's library work", unit="TIME_ABSOLUTE"
+        ),
+        "outcome": StringProperty(name="Outcome", description="baked, rebaked (a kept scene), relit or kept"),
+        "method": StringProperty(name="Method", description="The method that baked it"),
+        "tets": IntProperty(name="Tetrahedra", description="Tetrahedra solved on (0 for a method without)"),
+        "iterations": IntVectorProperty(name="Iterations", description="Solver iterations per channel", size=3),
+        "clamped_vertices": IntProperty(
+            name="Clamped Vertices",
+            description="Vertices whose diffusion radiance came out negative and was clamped to 0 (very absorbing "
+            "media on coarse meshes: raise Resolution)",
+        ),
+        "mesh_reused": BoolProperty(name="Tets Kept", description="The tetrahedra were kept from the previous bake"),
+    }
+
+
 class TranscutObjectSettings(bpy.types.PropertyGroup):
     __annotations__ = {
         **medium_properties(
@@ -435,11 +457,12 @@ class TranscutObjectSettings(bpy.types.PropertyGroup):
         ),
         "eta": FloatProperty(name="IOR", description="Refractive index", default=1.3, min=1.0, max=3.99),
         "g": FloatProperty(name="Anisotropy", description="Scattering anisotropy g", default=0.0, min=-0.99, max=0.99),
+        "last_bake": PointerProperty(type=TranscutBakeReport),
     }
 
 
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(
-    (TranscutSceneSettings, TranscutObjectSettings)
+    (TranscutSceneSettings, TranscutBakeReport, TranscutObjectSettings)
 )
 
 

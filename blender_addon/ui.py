@@ -3,8 +3,9 @@
 dipole's Oracle with its Opening Angle or Epsilon 1 and 2, Edge Rule, Receivers, and Mode with
 the incremental mode's Budget while it is, radiosity's Patch Size, Rays per Patch, Iteration,
 Bounces (Jacobi only), Radiosity Tolerance and Write Surroundings after TransCut's three), the
-active object's medium, the bake, its preview, Bake Animation and editing buttons, and the library status when
-it is not loaded; the same operators in the Object menu."""
+active object's medium and its last bake (time, what was done, tets, iterations, clamped
+vertices), the bake, its preview, Bake Animation and editing buttons, and the library status
+when it is not loaded; the same operators in the Object menu."""
 
 from __future__ import annotations
 
@@ -75,6 +76,7 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
             box = layout.box()
             box.label(text=f"Medium of '{obj.name}'", icon="MATERIAL")
             draw_medium(box, obj.transcut, ("sigma_a", "sigma_s_prime", "eta", "g"))
+            draw_last_bake(box, obj.transcut.last_bake)
 
         layout.operator(OBJECT_OT_transcut_bake.bl_idname, icon="SHADING_RENDERED")
         layout.operator(OBJECT_OT_transcut_bake_texture.bl_idname, icon="TEXTURE")
@@ -93,6 +95,19 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
         row.operator(TRANSCUT_OT_paint_medium.bl_idname, icon="BRUSH_DATA")
         if library.state.lib is None:
             draw_library_status(layout)
+
+
+def draw_last_bake(layout, report) -> None:
+    """The object's last bake: time, what was done, tets, iterations, clamped vertices."""
+    if not report.valid:
+        return
+    col = layout.column(align=True)
+    kept = ", tets kept" if report.mesh_reused and report.outcome == "rebaked" else ""
+    col.label(text=f"Last bake: {report.seconds:.2f} s, {report.outcome} ({report.method}{kept})", icon="TIME")
+    if report.tets:
+        col.label(text=f"{report.tets:,} tets, iterations {'/'.join(str(i) for i in report.iterations)}")
+    if report.clamped_vertices:
+        col.label(text=f"{report.clamped_vertices:,} vertices clamped at 0: raise Resolution", icon="ERROR")
 
 
 def menu_func(self, _context):

@@ -122,3 +122,40 @@ def test_disabling_the_add_on_closes_the_kept_scenes(scene, addon):
     assert len(store) == 0
     assert lib.live_scene_count() == live
     enable()
+
+
+def panel_labels(addon) -> list:
+    from test_addon import RecordingLayout
+
+    log = []
+    addon.ui.VIEW3D_PT_transcut.draw(type("P", (), {"layout": RecordingLayout(log)})(), bpy.context)
+    return [text for kind, text in log if kind == "label"]
+
+
+def test_the_panel_shows_the_last_bake(scene, addon):
+    sphere = add_sphere()
+    sun = add_light("SUN", rotation=(0.3, 0.2, 0.0), energy=3.0)
+    select_only(sphere)
+    assert not any(t.startswith("Last bake") for t in panel_labels(addon)), "nothing before a bake"
+    assert bake() == {"FINISHED"}
+    report = sphere.transcut.last_bake
+    assert report.valid and report.outcome == "baked" and report.method == "transcut"
+    assert report.seconds > 0.0 and 0.5 * scene.transcut.tets < report.tets < 2 * scene.transcut.tets
+    assert min(report.iterations) > 0 and report.clamped_vertices == 0 and not report.mesh_reused
+    labels = panel_labels(addon)
+    assert any(t.startswith("Last bake:") and "baked (transcut)" in t for t in labels), labels
+    assert f"{report.tets:,} tets, iterations {'/'.join(str(i) for i in report.iterations)}" in labels
+    baked_iterations = tuple(report.iterations)
+
+    sun.rotation_euler = (0.7, -0.4, 0.0)
+    bpy.context.view_layer.update()
+    assert bake() == {"FINISHED"}
+    assert report.outcome == "relit" and min(report.iterations) > 0
+    (kept,) = addon.kept_native.STORE._bakes.values()
+    relight = kept.scene.edit_stats(kept.indices[0])["iterations"]
+    assert list(report.iterations) == relight, "the relight's iterations, not the bake's"
+    assert list(baked_iterations) == kept.scene.stats(kept.indices[0])["iterations"]
+
+    # A strongly absorbing medium on a coarse mesh clamps vertices: the panel warns.
+    report.clamped_vertices = 7
+    assert "7 vertices clamped at 0: raise Resolution" in panel_labels(addon)
