@@ -210,3 +210,41 @@ class KeptBakes:
 
 #: The add-on's kept bakes.
 STORE = KeptBakes()
+
+
+class KeptLive:
+    """Live Translucency for the methods other than PRT: the job baked once into a kept library
+    scene, then each new state (a :class:`bake.BakeJob` of the same objects) brought in as Keep
+    Bakes brings a rebake (:meth:`KeptBakes.run`): a light or world change relights, a medium
+    change re-assembles without meshing, a moved or reshaped object is meshed again alone. The
+    interface of ``live_native.LiveSession``: ``names``, ``job``, ``state``, ``radiance``,
+    ``updates``, :meth:`apply`, :meth:`close`."""
+
+    def __init__(self, lib: transcut.Library, job: BakeJob, progress: Callable[[str, float], bool] | None = None):
+        self.lib = lib
+        self.job = job
+        self.names = [m.object_name for m in job.meshes]
+        self.store = KeptBakes(budget_tets=2**62)
+        self.radiance, self.outcome = self.store.run(lib, job, progress)
+        try:
+            # The editors' setup (piece systems, the source's occluder) paid now, by a relight under
+            # the same lights (warm-started from the bake: a few iterations), not by the first change.
+            (kept,) = self.store._bakes.values()
+            if lib.has("tc_scene_relight"):
+                kept.scene.relight(progress)
+        except BaseException:
+            self.close()
+            raise
+        self.state = job
+        self.updates = 0
+
+    def apply(self, job: BakeJob) -> list:
+        """Brings the kept scene to ``job``; returns the radiance per object. Raises as
+        :meth:`KeptBakes.run` (the kept scene is then dropped, and the next update bakes anew)."""
+        self.radiance, self.outcome = self.store.run(self.lib, job)
+        self.state = job
+        self.updates += 1
+        return self.radiance
+
+    def close(self) -> None:
+        self.store.clear()

@@ -1,32 +1,39 @@
-"""Live Translucency: after one PRT precompute of the selected meshes (``transcut.live_start``:
-progress, ESC cancels, undo), changing a Principled BSDF's subsurface inputs (or the object's
-preset or coefficients), moving or editing a light, the world, or the unit scale updates the
-colour attribute in the viewport with no button pressed, until ``transcut.live_stop``, ESC or
-another file is loaded.
+"""Live Translucency: after one bake of the selected meshes with the panel's method
+(``transcut.live_start``: progress, ESC cancels, undo), changing a Principled BSDF's subsurface
+inputs (or the object's preset or coefficients), moving or editing a light, the world, or the
+unit scale updates the colour attribute in the viewport with no button pressed, until
+``transcut.live_stop``, ESC or another file is loaded.
 
-A ``depsgraph_update_post`` handler reads the scene's state (lights, world, media, scale) after
-every change and, when it differs from the last one asked for, hands it to the worker
-(:class:`live_native.LiveWorker`), which applies only what changed (a material edit re-weights
-the precomputed basis, microseconds per thousand vertices; a light change is one relight) and
-keeps one update in flight, the newest request next. A timer writes each result into the
-attribute on the main thread; the status bar shows what happened. In background mode (scripts,
-tests) the handler applies the change at once, before it returns.
+A ``depsgraph_update_post`` handler reads the scene's state after every change and, when it
+differs from the last one asked for, hands it to the worker (:class:`live_native.LiveWorker`),
+which applies only what changed and keeps one update in flight, the newest request next. A
+timer writes each result into the attribute on the main thread; the status bar shows what
+happened. In background mode (scripts, tests) the handler applies the change at once, before it
+returns.
 
-The precompute belongs to the meshes as they were: when one of them moves or changes shape, Live
-Translucency stops and says so (start it again for a new precompute; with Keep Precomputes an
-unchanged mesh's is read back at once).
+With PRT (:class:`live_native.LiveSession`) the state is the lights, media and scale: a
+material edit re-weights the precomputed basis (microseconds per thousand vertices), a light
+change is one relight; the precompute belongs to the meshes as they were, so when one moves or
+changes shape Live Translucency stops and says so. With the other methods
+(:class:`kept_native.KeptLive`) the state is a whole bake job: a light change relights the kept
+scene, a medium change re-assembles without meshing, and a moved or reshaped object is meshed
+again alone. Geometry is read again only in Object Mode, for objects the depsgraph updated, so
+strokes in Edit or Sculpt Mode cost nothing until the mode is left.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
 from . import bake, library, preferences
+from .kept_native import KeptLive, object_key
 from .lights import scene_lights, world_lights
-from .live_native import LiveSession, LiveState, LiveWorker
-from .mesh_export import BakeError, mm_per_unit, object_medium, world_matrix
+from .live_native import LiveSession, LiveState, LiveWorker, lights_key
+from .mesh_export import BakeError, gather_mesh, mm_per_unit, object_medium, world_matrix
 from .operators import RunnerOperator
 
 #: Seconds between the timer's looks at the worker.
@@ -48,13 +55,23 @@ class Live:
         self.names = session.names
         self.vertex_counts = [m.original_vertex_count for m in session.job.meshes]
         self.matrices = [m.matrix_world for m in session.job.meshes]
-        self.last_key = session.state.key()
+        self.last_key = self.key(session.state)
         self.message = f"live: {len(self.names)} object(s)"
         self.writing = False
+        self.object_mode = True
 
-    def state(self, scene, depsgraph) -> LiveState:
-        """The scene's state now; raises :class:`PrecomputeInvalid` when a live object is gone,
-        moved or reshaped, BakeError for what the user can fix in place."""
+    def key(self, state) -> tuple:
+        """A comparable form of a state (:meth:`state`)."""
+        if isinstance(state, LiveState):
+            return state.key()
+        return lights_key(state.lights), tuple(object_key(m) for m in state.meshes)
+
+    def state(self, scene, depsgraph):
+        """The scene's state now: a :class:`LiveState` for PRT, a bake job for the other
+        methods. Raises :class:`PrecomputeInvalid` when a live object is gone (or, for PRT,
+        moved or reshaped), BakeError for what the user can fix in place."""
+        if isinstance(self.worker.session, KeptLive):
+            return self._job(scene, depsgraph)
         warnings: list = []
         media = []
         for name, count, matrix in zip(self.names, self.vertex_counts, self.matrices, strict=True):
@@ -70,6 +87,40 @@ class Live:
         if not lights:
             raise BakeError("the scene has no lights and the world is black; add a light")
         return LiveState(lights, media, mm_per_unit(scene))
+
+    def _job(self, scene, depsgraph):
+        """The bake job of the live objects now: the last one with each object's placement,
+        scale and medium read again, and the geometry of those the depsgraph updated (in Object
+        Mode only: an edit counts when its mode is left)."""
+        job = self.worker.session.state
+        updated = {u.id.original.name for u in depsgraph.updates if isinstance(u.id, bpy.types.Object)}
+        object_mode = bpy.context.mode == "OBJECT"
+        warnings: list = []
+        meshes = []
+        for mesh in job.meshes:
+            obj = bpy.data.objects.get(mesh.object_name)
+            if obj is None or obj.type != "MESH":
+                raise PrecomputeInvalid(f"'{mesh.object_name}' was removed")
+            if object_mode and (obj.name in updated or not self.object_mode):
+                fresh = gather_mesh(obj, depsgraph, scene, scene.transcut, warnings)
+                if fresh.replace_mesh:
+                    raise BakeError(f"'{obj.name}': its modifiers change the vertex count; live needs its own mesh")
+                meshes.append(fresh)
+            else:
+                meshes.append(
+                    dataclasses.replace(
+                        mesh,
+                        matrix_world=world_matrix(obj),
+                        mm_per_unit=mm_per_unit(scene),
+                        medium=object_medium(obj, warnings),
+                    )
+                )
+        self.object_mode = object_mode
+        lights = scene_lights(depsgraph, warnings) + world_lights(scene.world, warnings)
+        if not lights:
+            raise BakeError("the scene has no lights and the world is black; add a light")
+        options = bake.bake_options(scene.transcut, job.options.get("method", "transcut"), mm_per_unit(scene))
+        return dataclasses.replace(job, meshes=meshes, lights=lights, options=options, warnings=warnings)
 
     def write(self, results: list) -> None:
         """Each object's radiance into its attribute (objects gone since are skipped)."""
@@ -89,7 +140,9 @@ class Live:
                 mesh.update()
         finally:
             self.writing = False
-        self.message = f"live: {self.worker.session.updates} update(s)"
+        session = self.worker.session
+        last = f", last {session.outcome}" if isinstance(session, KeptLive) else ""
+        self.message = f"live: {session.updates} update(s){last}"
 
 
 #: The running Live Translucency, or None.
@@ -153,7 +206,7 @@ def _on_depsgraph(scene, depsgraph) -> None:
     except BakeError as exc:
         live.message = str(exc)
         return
-    key = state.key()
+    key = live.key(state)
     if key == live.last_key:
         return
     live.last_key = key
@@ -174,21 +227,24 @@ def _on_load(*_args) -> None:
 
 
 class LiveRunner(bake.BakeRunner):
-    """The precompute of Live Translucency: a PRT bake whose library scene is kept."""
+    """The first bake of Live Translucency, whose library scene is kept: PRT's precompute
+    (:class:`live_native.LiveSession`) or a kept bake (:class:`kept_native.KeptLive`)."""
 
-    session: LiveSession | None = None
+    session: LiveSession | KeptLive | None = None
 
     def _run(self) -> None:
         try:
-            self.session = LiveSession(self.lib, self.job, self.progress)
+            kind = LiveSession if self.job.options.get("method") == bake.PRT else KeptLive
+            self.session = kind(self.lib, self.job, self.progress)
             self.results = self.session.radiance
         except BaseException as exc:  # reported by the main thread
             self.error = exc
 
 
 class TRANSCUT_OT_live_start(RunnerOperator, bpy.types.Operator):
-    """Precompute the selected meshes with the PRT method, then update their colour attribute
-    whenever a light, the world or their subsurface material changes (until stopped or ESC)"""
+    """Bake the selected meshes with the panel's method, then update their colour attribute
+    whenever a light, the world, their subsurface material or (except with PRT) their placement
+    or shape changes (until stopped or ESC)"""
 
     bl_idname = "transcut.live_start"
     bl_label = "Live Translucency"
@@ -200,8 +256,15 @@ class TRANSCUT_OT_live_start(RunnerOperator, bpy.types.Operator):
 
     def _runner_for(self, context):
         stop()
-        lib = library.get(preferences.library_path(context))
-        return LiveRunner(lib, bake.prepare_job(context, method=bake.PRT))
+        lib = library.get(preferences.library_path(context))  # first: the Method menu lists its methods
+        job = bake.prepare_job(context)
+        changed = [m.object_name for m in job.meshes if m.replace_mesh]
+        if changed:
+            raise BakeError(
+                f"'{changed[0]}': its modifiers change the vertex count, and Live Translucency writes on the "
+                "object's own mesh; apply or disable them"
+            )
+        return LiveRunner(lib, job)
 
     def _write(self, context, runner) -> str:
         session = runner.session

@@ -16,6 +16,7 @@ slider never queues work behind the pointer.
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -181,6 +182,20 @@ class LiveWorker:
     def busy(self) -> bool:
         with self._lock:
             return self._pending is not None or (self._thread is not None and self._thread.is_alive())
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Waits until no update runs or is asked for (at most ``timeout`` seconds); returns
+        whether the worker is idle."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while self.busy():
+            with self._lock:
+                thread = self._thread
+            if thread is not None:
+                left = None if deadline is None else max(deadline - time.monotonic(), 0.0)
+                thread.join(left)
+            if deadline is not None and time.monotonic() >= deadline:
+                return not self.busy()
+        return True
 
     def take(self) -> tuple:
         """(the newest radiance not yet taken or None, the last error or None)."""

@@ -116,3 +116,91 @@ def test_live_refuses_what_prt_cannot_bake(prt_scene, addon):
         assert "too dense" in str(exc)
     assert not addon.live.active()
     assert "SSS" not in obj.data.attributes
+
+
+# -- the other methods: a kept bake follows lights, media, placement and shape ---------------
+
+
+def fresh_transcut(scene, obj) -> np.ndarray:
+    """A bake of ``obj`` as the scene is now in a new library scene, into attribute "Fresh"."""
+    scene.transcut.keep_bakes = False
+    try:
+        return fresh_bake(obj)
+    finally:
+        scene.transcut.keep_bakes = True
+
+
+def close_to(rgb, expect) -> None:
+    np.testing.assert_allclose(rgb, expect, rtol=1e-5, atol=1e-6 * float(expect.max()))
+
+
+def test_live_transcut_follows_lights_media_placement_and_shape(scene, addon):
+    require_library()
+    scene.transcut.tolerance = 1e-10
+    obj = add_sphere()
+    sun = add_light("SUN", rotation=(0.3, 0.2, 0.0), energy=3.0)
+    select_only(obj)
+    assert bpy.ops.transcut.live_start() == {"FINISHED"}
+    session = addon.live._live.worker.session
+    assert isinstance(session, addon.kept_native.KeptLive)
+    store = session.store
+    close_to(attribute_rgb(obj), fresh_transcut(scene, obj))
+
+    sun.rotation_euler = (0.7, -0.4, 0.0)
+    bpy.context.view_layer.update()
+    assert (session.outcome, store.relights, store.bakes) == ("relit", 1, 1), "a light move only relights"
+    close_to(attribute_rgb(obj), fresh_transcut(scene, obj))
+
+    node = obj.active_material.node_tree.nodes["Principled BSDF"]
+    node.inputs["Subsurface Radius"].default_value = (1.2, 0.9, 0.7)
+    bpy.context.view_layer.update()
+    assert (session.outcome, store.meshed, store.bakes) == ("rebaked", (), 1), "a medium change meshes nothing"
+    close_to(attribute_rgb(obj), fresh_transcut(scene, obj))
+
+    obj.location.x += 0.5
+    bpy.context.view_layer.update()
+    assert addon.live.active(), "a moved object stays live"
+    assert (session.outcome, store.meshed) == ("rebaked", (obj.name,))
+    close_to(attribute_rgb(obj), fresh_transcut(scene, obj))
+
+    # Edit Mode: strokes cost nothing; leaving it meshes the new shape once.
+    updates = session.updates
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.transform.resize(value=(1.1, 1.1, 1.1))
+    bpy.context.view_layer.update()
+    bpy.ops.transform.resize(value=(1.1, 1.0, 1.0))
+    bpy.context.view_layer.update()
+    assert session.updates == updates, "no update while editing"
+    bpy.ops.object.mode_set(mode="OBJECT")
+    bpy.context.view_layer.update()
+    assert session.updates == updates + 1 and store.meshed == (obj.name,), "one update on leaving Edit Mode"
+    close_to(attribute_rgb(obj), fresh_transcut(scene, obj))
+
+    assert bpy.ops.transcut.live_stop() == {"FINISHED"}
+
+
+def test_live_coalesces_quick_changes(scene, addon):
+    """Three light moves asked for while an update runs make at most two solves, the last of
+    them the newest state's."""
+    require_library()
+    scene.transcut.tolerance = 1e-10
+    obj = add_sphere()
+    sun = add_light("SUN", rotation=(0.3, 0.2, 0.0), energy=3.0)
+    select_only(obj)
+    assert bpy.ops.transcut.live_start() == {"FINISHED"}
+    live = addon.live._live
+    states = []
+    for angle in (0.5, 0.6, 0.7):
+        sun.rotation_euler = (angle, -0.4, 0.0)
+        states.append(live.state(scene, bpy.context.evaluated_depsgraph_get()))
+    worker = live.worker
+    for state in states:
+        worker.submit(state)
+    worker.wait(60.0)
+    results, error = worker.take()
+    assert error is None
+    assert worker.requested == 3 and worker.applied <= 2, (worker.requested, worker.applied)
+    live.write(results)
+    close_to(attribute_rgb(obj), fresh_transcut(scene, obj))
+    assert bpy.ops.transcut.live_stop() == {"FINISHED"}
