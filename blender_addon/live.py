@@ -37,7 +37,7 @@ from .mesh_export import BakeError, gather_mesh, mm_per_unit, object_medium, wor
 from .operators import RunnerOperator
 
 #: Seconds between the timer's looks at the worker.
-POLL_SECONDS = 0.05
+POLL_SECONDS = 0.02
 
 
 class PrecomputeInvalid(BakeError):

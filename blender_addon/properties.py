@@ -351,19 +351,22 @@ MEDIUM_SOURCES = {
 }
 
 
-def medium_properties(description: str, sources: tuple, preset: str, sigma_a: tuple, sigma_s_prime: tuple) -> dict:
+def medium_properties(
+    description: str, sources: tuple, preset: str, sigma_a: tuple, sigma_s_prime: tuple, update=None
+) -> dict:
     """The properties that choose a medium, as class annotations: ``medium_source`` (one of
     ``sources``, the first the default), ``preset`` and the coefficients ``sigma_a`` and
-    ``sigma_s_prime``, with the given defaults. Shared by ``Object.transcut`` and the paint
-    operator."""
+    ``sigma_s_prime``, with the given defaults, each calling ``update`` when it changes. Shared
+    by ``Object.transcut`` and the paint operator."""
     return {
         "medium_source": EnumProperty(
             name="Medium",
             description=description,
             items=tuple(MEDIUM_SOURCES[s] for s in sources),
             default=sources[0],
+            update=update,
         ),
-        "preset": EnumProperty(name="Preset", items=PRESET_ITEMS, default=preset),
+        "preset": EnumProperty(name="Preset", items=PRESET_ITEMS, default=preset, update=update),
         "sigma_a": FloatVectorProperty(
             name="Absorption",
             description="Absorption coefficient σa per RGB channel, 1/mm",
@@ -371,6 +374,7 @@ def medium_properties(description: str, sources: tuple, preset: str, sigma_a: tu
             min=0.0,
             default=sigma_a,
             precision=5,
+            update=update,
         ),
         "sigma_s_prime": FloatVectorProperty(
             name="Reduced Scattering",
@@ -379,6 +383,7 @@ def medium_properties(description: str, sources: tuple, preset: str, sigma_a: tu
             min=0.0,
             default=sigma_s_prime,
             precision=4,
+            update=update,
         ),
     }
 
@@ -433,6 +438,7 @@ class TranscutObjectSettings(bpy.types.PropertyGroup):
             preset="marble",
             sigma_a=(0.0021, 0.0041, 0.0071),
             sigma_s_prime=(2.19, 2.62, 3.00),
+            update=_tag_owner,
         ),
         "principled_mapping": EnumProperty(
             name="Read As",
@@ -455,8 +461,17 @@ class TranscutObjectSettings(bpy.types.PropertyGroup):
             default="CYCLES",
             update=_tag_owner,
         ),
-        "eta": FloatProperty(name="IOR", description="Refractive index", default=1.3, min=1.0, max=3.99),
-        "g": FloatProperty(name="Anisotropy", description="Scattering anisotropy g", default=0.0, min=-0.99, max=0.99),
+        "eta": FloatProperty(
+            name="IOR", description="Refractive index", default=1.3, min=1.0, max=3.99, update=_tag_owner
+        ),
+        "g": FloatProperty(
+            name="Anisotropy",
+            description="Scattering anisotropy g",
+            default=0.0,
+            min=-0.99,
+            max=0.99,
+            update=_tag_owner,
+        ),
         "last_bake": PointerProperty(type=TranscutBakeReport),
     }
 
