@@ -465,6 +465,13 @@ class Scene:
         )
         return int(out.value)
 
+    def add_mesh_file(self, path: str) -> int:
+        """Adds an object from an OBJ or PLY file (``tc_scene_add_mesh_file``: read by the
+        library as the CLI reads it; radiance per vertex of the file, in file order)."""
+        out = c_uint32()
+        self._call("tc_scene_add_mesh_file", os.fsencode(path), ctypes.byref(out))
+        return int(out.value)
+
     def set_mesh(self, obj: int, positions, triangles) -> None:
         """Replaces object ``obj``'s triangle mesh (``tc_object_set_mesh``; arrays as
         :meth:`add_mesh`); the next bake meshes this object again and keeps the others' tets."""

@@ -9,12 +9,14 @@ OpenEXR file reads back linear; an object without a UV map is refused with nothi
 from __future__ import annotations
 
 import os
+import subprocess
 import tempfile
 
 import bpy
 import numpy as np
 import pytest
 
+from conftest import library_path, require_library
 from test_addon import add_light, add_sphere, attribute_rgb, bake, select_only
 
 SIZE = 512
@@ -128,3 +130,75 @@ def test_an_object_without_a_uv_map_is_refused(sunlit_sphere):
     with pytest.raises(RuntimeError, match="has no UV map"):
         bpy.ops.object.transcut_bake_texture(resolution=64)
     assert len(bpy.data.images) == images
+
+
+def read_obj_uv_map(path) -> tuple:
+    """The triangles (vertex indices) and the UV of each corner of a triangulated OBJ file."""
+    uvs, triangles, corner_uvs = [], [], []
+    with open(path) as f:
+        for line in f:
+            parts = line.split()
+            if parts and parts[0] == "vt":
+                uvs.append((float(parts[1]), float(parts[2])))
+            elif parts and parts[0] == "f":
+                corners = [tuple(int(i) - 1 for i in c.split("/")[:2]) for c in parts[1:]]
+                assert len(corners) == 3, "exported triangulated"
+                triangles.append([v for v, _ in corners])
+                corner_uvs.append([uvs[t] for _, t in corners])
+    return np.array(triangles, dtype=np.uint32), np.array(corner_uvs, dtype=np.float32)
+
+
+def test_the_cli_and_the_c_abi_bake_the_same_texture(scene, addon):
+    """`transcut bake --uv-texture` and `tc_object_bake_texture` (through the add-on's binding)
+    on the same OBJ, medium, scale, sun and tets write the same image."""
+    require_library()
+    cli = os.path.join(os.path.dirname(library_path()), "transcut")
+    if not os.path.isfile(cli):
+        if os.environ.get("TRANSCUT_REQUIRE_LIB") == "1":
+            pytest.fail(f"the CLI {cli} is not built (cargo build -p transcut-cli)")
+        pytest.skip(f"the CLI {cli} is not built")
+    select_only(add_sphere())
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "ball.obj")
+        exr = os.path.join(folder, "ball.exr")
+        bpy.ops.wm.obj_export(
+            filepath=path,
+            export_selected_objects=True,
+            export_triangulated_mesh=True,
+            export_uv=True,
+            export_normals=False,
+            export_materials=False,
+        )
+        sun, size, margin = (0.3, -1.0, -0.5), 64, 2
+        subprocess.run(
+            [cli, "bake", path, "--medium", "marble", "--scale", "10", "--tets", "15000", "--backend", "cpu"]
+            + ["--light", "sun:dir=0.3,-1,-0.5,irradiance=3", "--uv-texture", str(size)]
+            + ["--texture-margin", str(margin), "-o", exr],
+            check=True,
+            capture_output=True,
+        )
+        loaded = bpy.data.images.load(exr)
+        try:
+            px = np.empty(size * size * 4, dtype=np.float32)
+            loaded.pixels.foreach_get(px)
+            from_cli = px.reshape(size, size, 4)[::-1]
+        finally:
+            bpy.data.images.remove(loaded)
+
+        lib = addon.library.get(library_path())
+        s = lib.scene()
+        try:
+            ball = s.add_mesh_file(path)
+            s.set_medium_preset(ball, "marble")
+            s.set_scale(ball, 10.0)
+            s.add_sun(sun, (3.0, 3.0, 3.0))
+            s.bake(tets=15_000, backend="cpu")
+            triangles, uvs = read_obj_uv_map(path)
+            from_abi = s.bake_texture(ball, triangles, uvs, size, size, margin)
+        finally:
+            s.close()
+    assert from_abi.shape == from_cli.shape == (size, size, 4)
+    # The sphere's UV map covers the square: every texel filled, the sunlit side brighter.
+    assert np.all(from_abi[..., 3] == 1.0)
+    assert from_abi[..., 0].max() > 4.0 * np.median(from_abi[..., 0]) > 0.0
+    np.testing.assert_array_equal(from_cli, from_abi)
