@@ -159,3 +159,56 @@ def test_the_panel_shows_the_last_bake(scene, addon):
     # A strongly absorbing medium on a coarse mesh clamps vertices: the panel warns.
     report.clamped_vertices = 7
     assert "7 vertices clamped at 0: raise Resolution" in panel_labels(addon)
+
+
+def test_undo_redo_and_a_second_scene(scene, addon):
+    """Undo takes a bake back and redo brings it again, and the kept scene still serves the
+    next press; the same object baked from a second scene with its own sun is relit, not
+    meshed again, and equals a fresh bake there."""
+    store = addon.kept_native.STORE
+    store.bakes = store.rebakes = store.relights = 0
+    scene.transcut.tolerance = 1e-10
+    sphere = add_sphere()
+    add_light("SUN", rotation=(0.3, 0.2, 0.0), energy=3.0)
+    select_only(sphere)
+    bpy.ops.ed.undo_push(message="before the bake")
+    assert bpy.ops.object.transcut_bake("EXEC_DEFAULT", True) == {"FINISHED"}
+    baked = attribute_rgb(bpy.data.objects["Sphere"]).copy()
+    bpy.ops.ed.undo()
+    assert "SSS" not in bpy.data.objects["Sphere"].data.color_attributes, "undo takes the bake back"
+    bpy.ops.ed.redo()
+    np.testing.assert_array_equal(attribute_rgb(bpy.data.objects["Sphere"]), baked)
+    bpy.ops.ed.undo()
+    select_only(bpy.data.objects["Sphere"])
+    assert bake() == {"FINISHED"}
+    assert (store.bakes, store.relights) == (1, 0), "the kept scene served the press after undo"
+    np.testing.assert_array_equal(attribute_rgb(bpy.data.objects["Sphere"]), baked)
+
+    sphere, first = bpy.data.objects["Sphere"], bpy.context.scene  # undo made new RNA
+    second = bpy.data.scenes.new("Second")
+    try:
+        second.unit_settings.scale_length = first.unit_settings.scale_length
+        for key in ("tets", "tolerance"):
+            setattr(second.transcut, key, getattr(first.transcut, key))
+        second.collection.objects.link(sphere)
+        data = bpy.data.lights.new("second_sun", "SUN")
+        data.energy = 5.0
+        light = bpy.data.objects.new("second_sun", data)
+        light.rotation_euler = (-0.6, 0.4, 0.0)
+        second.collection.objects.link(light)
+        layer = second.view_layers[0]
+        with bpy.context.temp_override(scene=second, view_layer=layer):
+            layer.update()
+            for o in layer.objects:
+                o.select_set(o == sphere, view_layer=layer)
+            layer.objects.active = sphere
+            assert bake() == {"FINISHED"}
+            assert (store.bakes, store.relights) == (1, 1), "the second scene's sun relights the kept bake"
+            relit = attribute_rgb(sphere).astype(np.float64)
+            assert not np.allclose(relit, baked), "the second scene's light"
+            second.transcut.keep_bakes = False
+            assert bake() == {"FINISHED"}
+            expect = attribute_rgb(sphere).astype(np.float64)
+        np.testing.assert_allclose(relit, expect, rtol=1e-5, atol=1e-6 * expect.max())
+    finally:
+        bpy.data.scenes.remove(second)
