@@ -169,32 +169,46 @@ unsafe extern "C" fn on_progress(user: *mut c_void, stage: *const c_char, fracti
 
 /// Progress is reported in order up to 1 with the object's name; a non-zero return cancels
 /// with TC_CANCELLED, no report follows the cancel, and the scene bakes again afterwards to
-/// the same result as an uncancelled bake. A cancelled bake keeps the previous results.
+/// the same result as an uncancelled bake. A cancelled bake keeps the previous results. A
+/// bake again of the unchanged scene keeps the tets (fewer reports: no meshing stages) and is
+/// cancelled the same way; so is a first bake while it meshes.
 #[test]
 fn cancelling_mid_bake_then_baking_again() {
     let mesh = Mesh::uv_sphere(15.0, 32, 16);
-    let s = scene();
-    let ball = add(s, &mesh);
-    // SAFETY: valid pointers.
-    unsafe {
-        ok(tc_object_set_name(s, ball, cstr(c"pebble")), "name");
-        ok(tc_scene_add_point(s, [0.0, 0.0, 60.0].as_ptr(), [5000.0; 3].as_ptr()), "point");
-    }
+    let new_scene = || {
+        let s = scene();
+        let ball = add(s, &mesh);
+        // SAFETY: valid pointers.
+        unsafe {
+            ok(tc_object_set_name(s, ball, cstr(c"pebble")), "name");
+            ok(tc_scene_add_point(s, [0.0, 0.0, 60.0].as_ptr(), [5000.0; 3].as_ptr()), "point");
+        }
+        (s, ball)
+    };
+    let (s, ball) = new_scene();
     let o = options(6_000);
+    let bake = |s, seen: &mut Seen| {
+        // SAFETY: valid pointers; `seen` outlives the call.
+        unsafe { tc_scene_bake(s, &o, Some(on_progress), ptr::from_mut(seen).cast()) }
+    };
     let mut seen = Seen::default();
-    // SAFETY: valid pointers; `seen` outlives the call.
-    ok(unsafe { tc_scene_bake(s, &o, Some(on_progress), (&raw mut seen).cast()) }, "bake");
+    ok(bake(s, &mut seen), "bake");
     assert!(seen.calls >= 4, "{} reports", seen.calls);
     assert!(seen.fractions.windows(2).all(|w| w[0] <= w[1]), "{:?}", seen.fractions);
     assert_eq!(*seen.fractions.last().unwrap(), 1.0);
     assert!(seen.stages.iter().all(|s| s.contains("pebble")), "{:?}", seen.stages);
     let first = radiance(s, ball);
 
-    for cancel_at in [1, 3, seen.calls] {
+    let mut again = Seen::default();
+    ok(bake(s, &mut again), "bake again");
+    assert!(again.stages.iter().any(|s| s.contains("tetrahedra kept")), "{:?}", again.stages);
+    assert!(again.calls < seen.calls && again.calls >= 3, "{} of {} reports", again.calls, seen.calls);
+    assert_eq!(*again.fractions.last().unwrap(), 1.0);
+    assert_eq!(radiance(s, ball), first);
+
+    for cancel_at in [1, 3, again.calls] {
         let mut cancel = Seen { cancel_at, ..Seen::default() };
-        // SAFETY: as above.
-        let status = unsafe { tc_scene_bake(s, &o, Some(on_progress), (&raw mut cancel).cast()) };
-        fails(status, TC_CANCELLED, &["cancel"]);
+        fails(bake(s, &mut cancel), TC_CANCELLED, &["cancel"]);
         assert_eq!(cancel.calls, cancel_at, "reports after the cancel");
         // The previous results are still there (the scene did not change).
         assert_eq!(radiance(s, ball), first);
@@ -202,6 +216,15 @@ fn cancelling_mid_bake_then_baking_again() {
     // SAFETY: valid pointers.
     ok(unsafe { tc_scene_bake(s, &o, None, ptr::null_mut()) }, "bake after cancelling");
     assert_eq!(radiance(s, ball), first, "a bake after a cancel gives the same result");
+    destroy(s);
+
+    // A first bake cancelled while it meshes, then baked.
+    let (s, ball) = new_scene();
+    let mut cancel = Seen { cancel_at: 3, ..Seen::default() };
+    fails(bake(s, &mut cancel), TC_CANCELLED, &["cancel"]);
+    assert!(!cancel.stages.iter().any(|s| s.contains("tetrahedra kept")), "{:?}", cancel.stages);
+    ok(bake(s, &mut Seen::default()), "bake after cancelling the first");
+    assert_eq!(radiance(s, ball), first);
     destroy(s);
 }
 
