@@ -3,6 +3,9 @@
 //! Where no triangle of the scene meets it, no shadow ray from the point to the light can be
 //! blocked, so the light is seen whole and needs no rays; where one does, the rays decide.
 //!
+//! A sun of finite angular size is a cone of directions reaching to infinity; the square
+//! pyramid around it ([`Shaft::around_cone`]), out past every occluder, plays the same part.
+//!
 //! The test is conservative in one direction only: [`Shaft::meets_box`] may say a box meets the
 //! shaft when it does not (the traversal then looks inside), [`Shaft::meets_triangle`] is the
 //! separating-axis theorem for two convex polytopes (exact, ties counted as meeting), so a shaft
@@ -58,6 +61,23 @@ impl Shaft {
         Some(Self { vertices, planes, edges, lo, hi, slack: 1e-9 * scale })
     }
 
+    /// The square pyramid from `apex` around the cone of directions within the half-angle
+    /// α (`sin_alpha`) of the unit `axis` (`t`, `b`: unit vectors completing it to an
+    /// orthonormal frame), out to the axial distance `reach`: it holds every point of the cone
+    /// whose distance along the axis is at most `reach` (its cross-section there, a disc of
+    /// radius `reach · tan α`, is inscribed in the square base). `None` for a cone of half-angle
+    /// 90° or more, or no reach.
+    pub(super) fn around_cone(apex: DVec3, axis: DVec3, t: DVec3, b: DVec3, sin_alpha: f64, reach: f64) -> Option<Self> {
+        let cos_alpha = (1.0 - sin_alpha * sin_alpha).max(0.0).sqrt();
+        if !(cos_alpha > 0.0 && reach > 0.0) {
+            return None;
+        }
+        // The disc's radius, widened by a relative 1e-9 so that rounding keeps it inside.
+        let half = reach * sin_alpha / cos_alpha * (1.0 + 1e-9);
+        let c = apex + reach * axis;
+        Self::new(apex, [c - half * t - half * b, c + half * t - half * b, c + half * t + half * b, c - half * t + half * b])
+    }
+
     /// Whether the box [lo, hi] may meet the shaft: false only when it is outside the shaft's
     /// bounding box or wholly outside one of its face planes.
     pub(super) fn meets_box(&self, lo: DVec3, hi: DVec3) -> bool {
@@ -109,6 +129,35 @@ impl Shaft {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every point of the cone up to the reach is inside the pyramid's planes; a point just
+    /// beyond the cone's rim near the base is outside one of them.
+    #[test]
+    fn the_pyramid_around_a_cone_holds_the_cone() {
+        let axis = DVec3::new(0.3, -0.2, 0.9).normalize();
+        let t = axis.any_orthonormal_vector();
+        let b = axis.cross(t);
+        let (apex, sin_alpha, reach) = (DVec3::new(1.0, 2.0, 3.0), (2.5f64).to_radians().sin(), 40.0);
+        let shaft = Shaft::around_cone(apex, axis, t, b, sin_alpha, reach).unwrap();
+        let inside = |x: DVec3| shaft.planes.iter().all(|&(n, d)| n.dot(x) <= d + 1e-9);
+        let cos_alpha = (1.0 - sin_alpha * sin_alpha).sqrt();
+        for i in 0..=16 {
+            let phi = std::f64::consts::TAU * f64::from(i) / 16.0;
+            for &(s, along) in &[(1.0, 1.0), (1.0, 0.5), (0.5, 0.999), (0.0, 0.3)] {
+                // A direction at s·α from the axis, followed to `along` of the reach axially.
+                let (sa, ca) = (s * sin_alpha, (1.0 - s * s * sin_alpha * sin_alpha).sqrt());
+                let dir = ca * axis + sa * (phi.cos() * t + phi.sin() * b);
+                assert!(inside(apex + dir * (along * reach / ca)), "φ = {phi}, s = {s}");
+            }
+            // Beyond the rim, at the base: outside (the square's corners aside, at 45°).
+            let rim = axis + 1.5 * sin_alpha / cos_alpha * (phi.cos() * t + phi.sin() * b);
+            if i % 4 == 0 {
+                assert!(!inside(apex + rim * (0.99 * reach)), "φ = {phi}");
+            }
+        }
+        assert!(Shaft::around_cone(apex, axis, t, b, 1.0, reach).is_none());
+        assert!(Shaft::around_cone(apex, axis, t, b, sin_alpha, 0.0).is_none());
+    }
 
     fn unit_light() -> [DVec3; 4] {
         [DVec3::new(-0.5, -0.5, 2.0), DVec3::new(0.5, -0.5, 2.0), DVec3::new(0.5, 0.5, 2.0), DVec3::new(-0.5, 0.5, 2.0)]

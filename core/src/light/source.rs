@@ -481,6 +481,8 @@ impl Context<'_> {
             }
             Prepared::Sun { axis, t, b, sin_alpha, e } => {
                 // Directions with density cos θ_a / (π sin²α) over the cone: f/pdf = E w / cos θ_a.
+                // Where nothing meets the cone, no ray is cast (the same sum, without the rays).
+                let clear = self.cone_clear(origin, axis, t, b, sin_alpha);
                 let pattern = Pattern::new(key);
                 let count = self.options.area_samples;
                 let mut sum = 0.0;
@@ -490,7 +492,7 @@ impl Context<'_> {
                     let cos_a = (1.0 - x * x - y * y).max(0.0).sqrt();
                     let omega = x * t + y * b + cos_a * axis;
                     let w = r.weight(n.dot(omega));
-                    if w > 0.0 && cos_a > 0.0 && self.visible(origin, omega, f64::INFINITY) {
+                    if w > 0.0 && cos_a > 0.0 && (clear || self.visible(origin, omega, f64::INFINITY)) {
                         sum += w / cos_a;
                     }
                     if !self.ticker.keep_sampling(k) {
@@ -594,6 +596,17 @@ impl Context<'_> {
 
     /// Whether nothing can block a shadow ray from `origin` to the planar convex light inside
     /// `corners` ([`Shaft`]); without shadows, always.
+    /// Whether no shadow ray from `origin` in the sun's cone (half-angle α about `axis`) can
+    /// be blocked: the pyramid around the cone, out past the occluder's bounds, meets no
+    /// triangle ([`Shaft::around_cone`]).
+    fn cone_clear(&self, origin: DVec3, axis: DVec3, t: DVec3, b: DVec3, sin_alpha: f64) -> bool {
+        let Some(bvh) = self.occluder else { return true };
+        let Some((lo, hi)) = bvh.bounds() else { return true };
+        // No point of the bounds is further along the axis than its furthest corner.
+        let reach = (origin - lo).abs().max((origin - hi).abs()).length() * (1.0 + 1e-9);
+        Shaft::around_cone(origin, axis, t, b, sin_alpha, reach).is_some_and(|shaft| !shaft.blocked_in(bvh))
+    }
+
     fn clear(&self, origin: DVec3, corners: [DVec3; 4]) -> bool {
         match self.occluder {
             None => true,
@@ -902,6 +915,28 @@ mod tests {
         let a = transmitted_source(&[delta], &p, &n, 1.3, None, &SourceOptions::default()).unwrap();
         let b = transmitted_source(&[tiny], &p, &n, 1.3, None, &SourceOptions::default()).unwrap();
         assert!((a[0][0] - b[0][0]).abs() < 1e-5 * a[0][0], "{a:?} {b:?}");
+    }
+
+    /// A 10° sun straight down over the edge of a half-plane occluder at height 1: fully lit
+    /// points get E exactly (the cone clear, no rays), fully shadowed ones nothing, the point
+    /// under the edge half of E, and the penumbra (±tan 5° ≈ ±0.087 about the edge) falls
+    /// monotonically.
+    #[test]
+    fn a_soft_sun_over_a_half_plane_has_its_penumbra_under_the_edge() {
+        let lights = [Light::Directional { direction: -DVec3::Z, irradiance: [3.0; 3], angular_diameter_deg: 10.0 }];
+        let c = [DVec3::new(-100.0, -100.0, 1.0), DVec3::new(0.0, -100.0, 1.0), DVec3::new(0.0, 100.0, 1.0)];
+        let d = [DVec3::new(-100.0, -100.0, 1.0), DVec3::new(0.0, 100.0, 1.0), DVec3::new(-100.0, 100.0, 1.0)];
+        let bvh = TriangleBvh::new(vec![c, d]);
+        let xs = [-1.0, -0.1, -0.04, 0.0, 0.04, 0.1, 1.0];
+        let points: Vec<DVec3> = xs.iter().map(|&x| DVec3::new(x, 0.0, 0.0)).collect();
+        let normals = vec![DVec3::Z; xs.len()];
+        let e = irradiance(&lights, &points, &normals, Some(&bvh), &SourceOptions::default()).unwrap();
+        let e: Vec<f64> = e.iter().map(|v| v[0]).collect();
+        assert_eq!(e[0], 0.0, "under the occluder");
+        assert_eq!(e[1], 0.0, "in the umbra");
+        assert!((e[6] - 3.0).abs() < 1e-12 && (e[5] - 3.0).abs() < 1e-12, "lit: {e:?}");
+        assert!((e[3] - 1.5).abs() < 0.1, "under the edge, half the sun: {e:?}");
+        assert!(e.windows(2).all(|w| w[0] <= w[1]) && e[2] < e[3] && e[3] < e[4], "{e:?}");
     }
 
     #[test]
