@@ -225,6 +225,13 @@ class KeptBakes:
             return 0
         return sum(int(scene.stats(idx).get("tets", 0)) for idx in indices)
 
+    def settle(self) -> None:
+        """Waits for every kept scene's warm-up (:meth:`KeptBake.warm_up`)."""
+        with self._lock:
+            kept = list(self._bakes.values())
+        for k in kept:
+            k.settle()
+
     def drop_missing(self, exists: Callable[[str], bool]) -> int:
         """Closes the kept scenes with an object for which ``exists(name)`` is false; returns
         how many."""
@@ -260,6 +267,8 @@ class KeptLive:
         self.names = [m.object_name for m in job.meshes]
         self.store = KeptBakes(budget_tets=2**62)
         self.radiance, self.outcome = self.store.run(lib, job, progress)
+        # Live starts once its first change will be fast: the editors' setup done now.
+        self.store.settle()
         self.state = job
         self.updates = 0
 
