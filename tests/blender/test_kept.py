@@ -188,8 +188,9 @@ def test_undo_redo_and_a_second_scene(scene, addon):
     second = bpy.data.scenes.new("Second")
     try:
         second.unit_settings.scale_length = first.unit_settings.scale_length
-        for key in ("tets", "tolerance"):
-            setattr(second.transcut, key, getattr(first.transcut, key))
+        for prop in first.transcut.bl_rna.properties:  # the same bake options
+            if prop.identifier != "rna_type" and not prop.is_readonly:
+                setattr(second.transcut, prop.identifier, getattr(first.transcut, prop.identifier))
         second.collection.objects.link(sphere)
         data = bpy.data.lights.new("second_sun", "SUN")
         data.energy = 5.0
