@@ -101,6 +101,13 @@ pub(crate) fn make_manifold(
         }
         repair.removed_tets += remove.len();
         touched.extend(remove.iter().flat_map(|&t| tets[t as usize]));
+        // A removal exposes the vertices of the removed tets: they join the surface (where a
+        // pinch can be), the others keep what they were.
+        for &t in &remove {
+            for v in tets[t as usize] {
+                on_surface[v as usize] = true;
+            }
+        }
         let mut keep = vec![true; tets.len()];
         for t in remove {
             keep[t as usize] = false;
@@ -122,8 +129,7 @@ pub(crate) fn make_manifold(
                 if id[*v as usize] == u32::MAX {
                     id[*v as usize] = kept.len() as u32;
                     kept.push(positions[*v as usize]);
-                    // A removal exposes interior vertices: from now on any vertex may be pinched.
-                    kept_surface.push(true);
+                    kept_surface.push(on_surface[*v as usize]);
                 }
                 *v = id[*v as usize];
             }
