@@ -11,7 +11,7 @@ use glam::DVec3;
 
 use crate::mesh::{TetMesh, TetMeshError};
 
-/// What [`make_manifold`] changed.
+/// What the manifold repair ([`without_removal`], [`finish`]) changed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(crate) struct Repair {
     /// Vertex copies added by splitting pinched vertices.
@@ -65,20 +65,49 @@ fn project_exposed(
     moved
 }
 
-/// Builds the tet mesh with a closed 2-manifold boundary.
+/// A stuffing whose repair needs tets removed ([`without_removal`]): the mesh as split and
+/// filled so far, to [`finish`], and how many tets the first removal takes.
+pub(crate) struct Pinched {
+    positions: Vec<DVec3>,
+    tets: Vec<[u32; 4]>,
+    on_surface: Vec<bool>,
+    repair: Repair,
+    /// The tets the first removal takes.
+    pub removals: usize,
+}
+
+/// Builds the tet mesh with a closed 2-manifold boundary, as far as that goes without removing
+/// a tet.
 ///
 /// First every pinched vertex is split (no geometric change). Where the boundary is still not
-/// manifold — two lobes meeting along an edge or at a vertex whose tets also connect elsewhere —
-/// the tets of the smaller side are removed (the smaller wedge around the edge, the smaller fans
-/// at the vertex) and the split repeated. This happens at a handful of places on thin features
-/// and removes a few tets; [`Repair`] reports how many.
-pub(crate) fn make_manifold(
-    mut positions: Vec<DVec3>,
-    mut tets: Vec<[u32; 4]>,
-    mut on_surface: Vec<bool>,
+/// manifold — two lobes meeting along an edge — a tet that closes the gap is added where it can
+/// be. What is left needs tets removed: the tets of the smaller side (the smaller wedge around
+/// the edge, the smaller fans at a vertex), and the split repeated. That happens at a handful of
+/// places on thin features and removes a few tets; this function stops before it and hands
+/// back what [`finish`] continues from (the mesher first tries another lattice offset: one
+/// often needs no removal at all). [`Repair`] reports what was changed.
+pub(crate) fn without_removal(
+    positions: Vec<DVec3>,
+    tets: Vec<[u32; 4]>,
+    on_surface: Vec<bool>,
     surface: &crate::mesh::TriangleBvh,
-) -> Result<(TetMesh, Repair), TetMeshError> {
-    let mut repair = Repair::default();
+) -> Result<Result<(TetMesh, Repair), Pinched>, TetMeshError> {
+    repair_loop(Pinched { positions, tets, on_surface, repair: Repair::default(), removals: 0 }, surface, true)
+}
+
+/// The rest of the repair of [`without_removal`] for a stuffing that needs removals.
+pub(crate) fn finish(pinched: Pinched, surface: &crate::mesh::TriangleBvh) -> Result<(TetMesh, Repair), TetMeshError> {
+    Ok(repair_loop(pinched, surface, false)?.unwrap_or_else(|_| unreachable!("a repair allowed to remove returns a mesh")))
+}
+
+/// The repair rounds from `state`; with `stop_at_removal`, the state is
+/// handed back at the first round that would remove tets.
+fn repair_loop(
+    state: Pinched,
+    surface: &crate::mesh::TriangleBvh,
+    stop_at_removal: bool,
+) -> Result<Result<(TetMesh, Repair), Pinched>, TetMeshError> {
+    let Pinched { mut positions, mut tets, mut on_surface, mut repair, .. } = state;
     // Vertices of removed tets (current numbering): candidates for projection at the end.
     let mut touched: Vec<u32> = Vec::new();
     for _ in 0..16 {
@@ -93,11 +122,14 @@ pub(crate) fn make_manifold(
         let remove = tets_to_remove(&mesh);
         if remove.is_empty() {
             if touched.is_empty() {
-                return Ok((mesh, repair));
+                return Ok(Ok((mesh, repair)));
             }
             repair.projected_vertices = project_exposed(&mut positions, &tets, &mesh, &touched, surface);
             let mesh = TetMesh::new(positions, tets, Vec::new())?;
-            return Ok((mesh, repair));
+            return Ok(Ok((mesh, repair)));
+        }
+        if stop_at_removal {
+            return Ok(Err(Pinched { positions, tets, on_surface, repair, removals: remove.len() }));
         }
         repair.removed_tets += remove.len();
         touched.extend(remove.iter().flat_map(|&t| tets[t as usize]));
@@ -144,7 +176,7 @@ pub(crate) fn make_manifold(
         touched.dedup();
     }
     let mesh = TetMesh::new(positions, tets, Vec::new())?;
-    Ok((mesh, repair))
+    Ok(Ok((mesh, repair)))
 }
 
 /// Tets that close the gap between two wedges meeting along a non-manifold boundary edge

@@ -225,26 +225,45 @@ pub fn tetrahedralize_with(
         });
     }
 
+    // The manifold repair. A stuffing whose boundary splits and fills make manifold is taken as
+    // it is; one that needs tets removed (lobes meeting on features thinner than the lattice) is
+    // set aside while up to three other lattice offsets at the same spacing are tried, since one
+    // of them often needs no removal; when none does, the one whose first removal is smallest
+    // is repaired to the end. (Repairing each to the end first cost 2-9 rebuilds of the whole
+    // topology per offset: docs/benchmarks.md, "Mesher".)
     let t = Instant::now();
-    let bisected_cuts = stuffed.bisected_cuts;
-    let (mut lattice_vertices, mut final_pass) = (stuffed.lattice_vertices, stuffed.timings);
-    let (mut mesh, mut repair) = manifold::make_manifold(stuffed.positions, stuffed.tets, stuffed.on_surface, winding.bvh())?;
-    let mut bisected_cuts = bisected_cuts;
-    // A pinch that could only be repaired by removing tets exposes interior vertices; another
-    // lattice offset at the same spacing usually has none.
-    for variant in 1..=3 {
-        if repair.removed_tets == 0 {
-            break;
-        }
-        passes += 1;
-        let again = run_pass(&winding, lo, hi, spacing, variant, options, &progress)?;
-        let (bisected, vertices, phases) = (again.bisected_cuts, again.lattice_vertices, again.timings);
-        let (m, r) = manifold::make_manifold(again.positions, again.tets, again.on_surface, winding.bvh())?;
-        if r.removed_tets < repair.removed_tets {
-            (mesh, repair, bisected_cuts) = (m, r, bisected);
-            (lattice_vertices, final_pass) = (vertices, phases);
+    let mut pinched: Option<(manifold::Pinched, usize, usize, PhaseTimings)> = None;
+    let mut done = None;
+    let mut next = Some(stuffed);
+    for variant in 0..=3u32 {
+        let pass = match next.take() {
+            Some(first) => first,
+            None => {
+                passes += 1;
+                run_pass(&winding, lo, hi, spacing, variant, options, &progress)?
+            }
+        };
+        let (bisected, vertices, phases) = (pass.bisected_cuts, pass.lattice_vertices, pass.timings);
+        match manifold::without_removal(pass.positions, pass.tets, pass.on_surface, winding.bvh())? {
+            Ok((mesh, repair)) => {
+                done = Some((mesh, repair, bisected, vertices, phases));
+                break;
+            }
+            Err(p) => {
+                if pinched.as_ref().is_none_or(|(best, ..)| p.removals < best.removals) {
+                    pinched = Some((p, bisected, vertices, phases));
+                }
+            }
         }
     }
+    let (mut mesh, repair, bisected_cuts, lattice_vertices, final_pass) = match done {
+        Some(d) => d,
+        None => {
+            let (p, bisected, vertices, phases) = pinched.expect("every offset needing removals kept the best");
+            let (mesh, repair) = manifold::finish(p, winding.bvh())?;
+            (mesh, repair, bisected, vertices, phases)
+        }
+    };
     timings.topology_ms = ms(t);
     progress.report("topology", 1.0)?;
 
