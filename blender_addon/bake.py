@@ -227,7 +227,7 @@ def add_lights(scene: transcut.Scene, lights: list) -> None:
         try:
             getattr(scene, light.method)(**light.kwargs)
         except transcut.TranscutError as exc:
-            raise BakeError(f"light '{light.source}': {exc.message or exc.status_name}") from exc
+            raise BakeError(f"light '{light.source}': {_text(exc)}") from exc
 
 
 @dataclass

@@ -14,10 +14,9 @@ one object meshes that object only. Other options bake a new scene. After a Tran
 thread relights the kept scene under the same lights (:meth:`KeptBake.warm_up`), paying the
 editors' setup while the user looks at the result, so the first light change costs what the
 later ones do. A bake that fails or is cancelled drops its kept scene (the next bake starts
-afresh). Memory is bounded by a total of
-tetrahedra (least recently used scenes closed first); :meth:`KeptBakes.drop_missing` closes
-the scenes of objects that are gone and :meth:`KeptBakes.clear` all of them (new file,
-unregister). No ``bpy``: ``kept.py`` wires it in.
+afresh). Memory is bounded by a total of tetrahedra (least recently used scenes closed first);
+:meth:`KeptBakes.drop_missing` closes the scenes of objects that are gone and
+:meth:`KeptBakes.clear` all of them (new file, unregister). No ``bpy``: ``kept.py`` wires it in.
 """
 
 from __future__ import annotations

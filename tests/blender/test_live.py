@@ -134,13 +134,20 @@ def close_to(rgb, expect) -> None:
     np.testing.assert_allclose(rgb, expect, rtol=1e-5, atol=1e-6 * float(expect.max()))
 
 
-def test_live_transcut_follows_lights_media_placement_and_shape(scene, addon):
+def live_sphere(scene) -> tuple:
+    """A sphere under a sun, live with the panel's method (TransCut) at a tight tolerance:
+    (sphere, sun)."""
     require_library()
     scene.transcut.tolerance = 1e-10
     obj = add_sphere()
     sun = add_light("SUN", rotation=(0.3, 0.2, 0.0), energy=3.0)
     select_only(obj)
     assert bpy.ops.transcut.live_start() == {"FINISHED"}
+    return obj, sun
+
+
+def test_live_transcut_follows_lights_media_placement_and_shape(scene, addon):
+    obj, sun = live_sphere(scene)
     session = addon.live._live.worker.session
     assert isinstance(session, addon.kept_native.KeptLive)
     store = session.store
@@ -183,12 +190,7 @@ def test_live_transcut_follows_lights_media_placement_and_shape(scene, addon):
 def test_live_coalesces_quick_changes(scene, addon):
     """Three light moves asked for while an update runs make at most two solves, the last of
     them the newest state's."""
-    require_library()
-    scene.transcut.tolerance = 1e-10
-    obj = add_sphere()
-    sun = add_light("SUN", rotation=(0.3, 0.2, 0.0), energy=3.0)
-    select_only(obj)
-    assert bpy.ops.transcut.live_start() == {"FINISHED"}
+    obj, sun = live_sphere(scene)
     live = addon.live._live
     states = []
     for angle in (0.5, 0.6, 0.7):
