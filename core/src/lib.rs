@@ -59,6 +59,7 @@ pub mod mesh;
 pub mod mesher;
 pub mod methods;
 pub mod optics;
+pub mod polygrid;
 pub mod output;
 pub mod progress;
 pub mod prt;

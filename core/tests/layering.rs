@@ -28,6 +28,7 @@ const CORE: Table = &[
     ("sparse", &["input", "progress"]),
     ("radiosity", &["light", "mesh", "optics", "progress", "sparse"]),
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
+    ("polygrid", &["diffusion", "mesh", "mesher", "optics", "progress", "sparse", "volume"]),
     ("gpu", &["diffusion", "hierarchy", "optics", "progress", "prt", "radiosity", "sparse"]),
     ("render", &["input", "light", "mesh", "optics", "output"]),
     ("texture", &["render"]),

@@ -1,0 +1,265 @@
+//! The polygrid moved onto the object (Wang et al. 2008 §5.1, steps 4–6): the boundary nodes
+//! onto the surface, evenly spread; the interior nodes relaxed after them; then every cell
+//! checked for folds (a non-positive scaled Jacobian is [`PolygridError::Fold`], never a wrong
+//! picture).
+//!
+//! The paper maps the polycube's surface by PolyCube-Map or cross-parameterisation, then spreads
+//! the boundary nodes (Turk 1992) and minimises the variance of the interior edge lengths. Here a
+//! voxel polycube lies within a cube of the surface, so the closest point is a good start:
+//! boundary nodes are projected, then relaxed tangentially (each moved towards the mean of its
+//! quad neighbours and projected back), and the interior takes the boundary's displacement by
+//! harmonic relaxation of the displacement field (the deep interior keeps its lattice places).
+//! The cubed sphere ([`map_to_sphere`]) has a closed form.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::error::PolygridError;
+use super::grid::{Polygrid, NONE};
+use crate::mesh::TriangleBvh;
+
+/// How boundary and interior nodes are relaxed by [`map_to_surface`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapOptions {
+    /// Rounds of tangential relaxation of the boundary nodes (each: towards the mean of the
+    /// quad neighbours by `smoothing`, then back onto the surface).
+    pub boundary_rounds: usize,
+    /// How far a round moves a node towards its neighbours' mean, in (0, 1].
+    pub smoothing: f64,
+    /// Jacobi sweeps of the interior displacement field.
+    pub interior_sweeps: usize,
+}
+
+impl Default for MapOptions {
+    fn default() -> Self {
+        Self { boundary_rounds: 16, smoothing: 0.5, interior_sweeps: 64 }
+    }
+}
+
+/// What [`check_cells`] measured: the smallest and the mean scaled Jacobian over every cell
+/// corner (1 for a cube, → 0 for a flat cell).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CellQuality {
+    pub min_scaled_jacobian: f64,
+    pub mean_scaled_jacobian: f64,
+}
+
+/// A one-cube polygrid mapped onto the ball of `radius` around `centre`: the cube's surface by
+/// the equal-angle cubed-sphere map (each face's coordinates u, v to the direction
+/// (1, tan(πu/4), tan(πv/4)) normalised), and each inner shell of Chebyshev radius r blended
+/// from the cube towards the sphere, x = c + R((1 − r) p + r² d(p)) for the cube point p ∈
+/// [−1, 1]³ (|p|∞ = r) with direction d(p): cube-like cells inside, the sphere at r = 1, and the
+/// 60°/120° skew of the cubed sphere's corners only near the surface.
+///
+/// # Errors
+/// [`PolygridError::InvalidCube`] for a grid of more than one cube or a radius that is not
+/// finite and > 0; [`PolygridError::Fold`] from the check.
+pub fn map_to_sphere(grid: &mut Polygrid, centre: DVec3, radius: f64) -> Result<CellQuality, PolygridError> {
+    if grid.polycube().cells().len() != 1 || !(radius.is_finite() && radius > 0.0) || !centre.is_finite() {
+        return Err(PolygridError::InvalidCube { cube: radius });
+    }
+    let r = grid.resolution() as f64;
+    let base = grid.polycube().cells()[0].map(|c| c as f64 * r);
+    let positions = grid
+        .lattice()
+        .par_iter()
+        .map(|l| {
+            let p = DVec3::new(l[0] as f64 - base[0], l[1] as f64 - base[1], l[2] as f64 - base[2]) * (2.0 / r) - 1.0;
+            centre + radius * cube_to_ball(p)
+        })
+        .collect();
+    grid.set_positions(positions);
+    check_cells(grid, "the cubed-sphere map is fold-free by construction; report this as a bug")
+}
+
+/// The blended equal-angle cubed-sphere map of a point of [−1, 1]³ into the unit ball
+/// ([`map_to_sphere`]).
+fn cube_to_ball(p: DVec3) -> DVec3 {
+    let a = p.abs();
+    let r = a.max_element();
+    if r == 0.0 {
+        return DVec3::ZERO;
+    }
+    let s = p / r;
+    let t = |x: f64| (std::f64::consts::FRAC_PI_4 * x).tan();
+    let d = if a.x >= a.y && a.x >= a.z {
+        DVec3::new(s.x.signum(), t(s.y), t(s.z))
+    } else if a.y >= a.z {
+        DVec3::new(t(s.x), s.y.signum(), t(s.z))
+    } else {
+        DVec3::new(t(s.x), t(s.y), s.z.signum())
+    };
+    (1.0 - r) * p + r * r * d.normalize()
+}
+
+/// The polygrid moved onto the surface held by `bvh` (see the module documentation).
+///
+/// # Errors
+/// [`PolygridError::Fold`] naming the first folded cell.
+pub fn map_to_surface(grid: &mut Polygrid, bvh: &TriangleBvh, options: &MapOptions) -> Result<CellQuality, PolygridError> {
+    let n = grid.node_count();
+    let on_boundary = grid.on_boundary().to_vec();
+    let boundary: Vec<u32> = (0..n as u32).filter(|&i| on_boundary[i as usize]).collect();
+    // The quad-edge neighbours of every boundary node.
+    let mut ring: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for q in grid.quads() {
+        for k in 0..4 {
+            let (a, b) = (q[k], q[(k + 1) % 4]);
+            ring[a as usize].push(b);
+            ring[b as usize].push(a);
+        }
+    }
+    for r in &mut ring {
+        r.sort_unstable();
+        r.dedup();
+    }
+    let closest = |p: DVec3| bvh.closest_point(p).map_or(p, |s| s.point);
+    let mut x = grid.positions().to_vec();
+    let lattice = x.clone();
+    let projected: Vec<DVec3> = boundary.par_iter().map(|&i| closest(x[i as usize])).collect();
+    for (&i, p) in boundary.iter().zip(projected) {
+        x[i as usize] = p;
+    }
+    for _ in 0..options.boundary_rounds {
+        let moved: Vec<DVec3> = boundary
+            .par_iter()
+            .map(|&i| {
+                let r = &ring[i as usize];
+                let mean = r.iter().map(|&j| x[j as usize]).sum::<DVec3>() / r.len() as f64;
+                let p = x[i as usize];
+                closest(p + options.smoothing * (mean - p))
+            })
+            .collect();
+        for (&i, p) in boundary.iter().zip(moved) {
+            x[i as usize] = p;
+        }
+    }
+    // The interior follows: harmonic relaxation of the displacement from the lattice.
+    let neighbours = grid.neighbours();
+    let mut d: Vec<DVec3> = x.iter().zip(&lattice).map(|(a, b)| *a - *b).collect();
+    let interior: Vec<u32> = (0..n as u32).filter(|&i| !on_boundary[i as usize]).collect();
+    for _ in 0..options.interior_sweeps {
+        let next: Vec<DVec3> = interior
+            .par_iter()
+            .map(|&i| {
+                let (sum, count) = neighbours[i as usize]
+                    .iter()
+                    .filter(|&&j| j != NONE)
+                    .fold((DVec3::ZERO, 0.0), |(s, c), &j| (s + d[j as usize], c + 1.0));
+                sum / count
+            })
+            .collect();
+        for (&i, v) in interior.iter().zip(next) {
+            d[i as usize] = v;
+        }
+    }
+    let positions = lattice.iter().zip(&d).map(|(a, b)| *a + *b).collect();
+    grid.set_positions(positions);
+    check_cells(grid, "the surface's features are finer than the cubes: choose a smaller cube or a higher resolution")
+}
+
+/// The scaled Jacobian of every cell corner (the determinant of the three unit edge vectors
+/// leaving the corner along +x, +y, +z of the lattice: 1 for a cube, ≤ 0 folded).
+///
+/// # Errors
+/// [`PolygridError::Fold`] naming the first cell with a corner ≤ 0 (folded or flat), with
+/// `hint` saying what to change.
+pub fn check_cells(grid: &Polygrid, hint: &'static str) -> Result<CellQuality, PolygridError> {
+    let p = grid.positions();
+    let per_cell: Vec<(f64, f64)> = grid
+        .cells()
+        .par_iter()
+        .map(|c| {
+            let x = c.map(|i| p[i as usize]);
+            let mut min = f64::INFINITY;
+            let mut sum = 0.0;
+            for k in 0..8 {
+                // Edges towards the corners differing in one bit, signed along +axis.
+                let e: [DVec3; 3] = std::array::from_fn(|axis| {
+                    let bit = 1 << axis;
+                    let edge = x[k ^ bit] - x[k];
+                    if k & bit == 0 { edge } else { -edge }
+                });
+                let lengths = e[0].length() * e[1].length() * e[2].length();
+                let j = if lengths > 0.0 { e[0].dot(e[1].cross(e[2])) / lengths } else { 0.0 };
+                min = min.min(j);
+                sum += j;
+            }
+            (min, sum / 8.0)
+        })
+        .collect();
+    if let Some(cell) = per_cell.iter().position(|&(m, _)| !(m > 0.0)) {
+        return Err(PolygridError::Fold { cell, scaled_jacobian: per_cell[cell].0, hint });
+    }
+    let min = per_cell.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
+    let mean = per_cell.iter().map(|c| c.1).sum::<f64>() / per_cell.len().max(1) as f64;
+    Ok(CellQuality { min_scaled_jacobian: min, mean_scaled_jacobian: mean })
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::polygrid::domain::Polycube;
+
+    #[test]
+    fn the_cubed_sphere_puts_the_surface_on_the_sphere_and_folds_nothing() {
+        let cube = Arc::new(Polycube::block(DVec3::ZERO, 1.0, [1, 1, 1]).unwrap());
+        let mut g = Polygrid::new(cube, 8).unwrap();
+        let centre = DVec3::new(1.0, -2.0, 0.5);
+        let q = map_to_sphere(&mut g, centre, 10.0).unwrap();
+        // The cube's corners meet the sphere at 120°: the corner cells are the flattest.
+        assert!(q.min_scaled_jacobian > 0.0 && q.mean_scaled_jacobian > 0.8, "{q:?}");
+        for (x, &b) in g.positions().iter().zip(g.on_boundary()) {
+            let r = (*x - centre).length();
+            if b {
+                assert!((r - 10.0).abs() < 1e-12);
+            } else {
+                assert!(r < 10.0 - 1e-9);
+            }
+        }
+        // The quads' enclosed volume approaches the ball's (inscribed polyhedron: below it).
+        let p = g.positions();
+        let volume: f64 = g
+            .quads()
+            .iter()
+            .map(|q| {
+                let [a, b, c, d] = q.map(|i| p[i as usize] - centre);
+                (a.dot((b - a).cross(c - a)) + a.dot((c - a).cross(d - a))) / 6.0
+            })
+            .sum();
+        let ball = 4.0 / 3.0 * std::f64::consts::PI * 1000.0;
+        assert!(volume < ball && volume > 0.97 * ball, "{volume} vs {ball}");
+    }
+
+    #[test]
+    fn a_flat_cell_is_a_named_fold() {
+        let cube = Arc::new(Polycube::block(DVec3::ZERO, 1.0, [2, 1, 1]).unwrap());
+        let mut g = Polygrid::new(cube, 1).unwrap();
+        let mut p = g.positions().to_vec();
+        // Push the middle face's nodes past the far face: the first cube turns inside out.
+        for (i, l) in g.lattice().to_vec().iter().enumerate() {
+            if l[0] == 1 {
+                p[i].x = -0.5;
+            }
+        }
+        g.set_positions(p);
+        assert!(matches!(check_cells(&g, "test"), Err(PolygridError::Fold { cell: 0, .. })));
+    }
+
+    #[test]
+    fn a_voxelized_sphere_maps_onto_its_surface() {
+        let sphere = crate::mesh::icosphere(10.0, 4);
+        let cube = Arc::new(Polycube::voxelize(&sphere, 4.0).unwrap());
+        let mut g = Polygrid::new(cube, 4).unwrap();
+        let bvh = TriangleBvh::from_indexed(sphere.positions(), sphere.triangles());
+        let q = map_to_surface(&mut g, &bvh, &MapOptions::default()).unwrap();
+        assert!(q.min_scaled_jacobian > 0.0, "{q:?}");
+        for (x, &b) in g.positions().iter().zip(g.on_boundary()) {
+            if b {
+                assert!(bvh.closest_point(*x).unwrap().distance < 1e-9);
+            }
+        }
+    }
+}

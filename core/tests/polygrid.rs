@@ -1,0 +1,155 @@
+//! The polygrid's finite-volume stencil against closed forms (design note
+//! polygrid-and-inverse.md §3): slabs made exactly 1D by mirror side faces, a two-layer slab,
+//! second-order convergence, the energy balance, and the cubed-sphere polygrid against the
+//! uniform sphere of docs/ARCHITECTURE.md.
+
+use std::sync::Arc;
+
+use glam::DVec3;
+use transcut::optics::Medium;
+use transcut::polygrid::{map_to_sphere, Polycube, Polygrid, PolygridSystem};
+use transcut::sparse::{pcg, Preconditioner, PreconditionerKind, SolveOptions};
+
+/// Marble at η = 1.3 (ARCHITECTURE.md's sphere).
+fn marble() -> Medium {
+    Medium::new([0.0021, 0.0041, 0.0071], [2.19, 2.62, 3.00], 1.3, 0.0).unwrap()
+}
+
+/// The transmitted source of a normal sun of irradiance 1 at η = 1.3 (design note §3).
+const Q_SUN: f64 = 0.98299;
+
+/// Solves the system to 1e-12.
+fn solve(system: &PolygridSystem) -> Vec<[f64; 3]> {
+    let pre = Preconditioner::new(system.matrix(), PreconditionerKind::Jacobi).unwrap();
+    let mut phi = vec![[0.0; 3]; system.rhs().len()];
+    let options = SolveOptions::default().with_tolerance(1e-12).with_max_iterations(100_000);
+    let stats = pcg(system.matrix(), system.rhs(), &mut phi, &pre, &options).unwrap();
+    assert!(stats.converged, "{stats:?}");
+    phi
+}
+
+/// A slab of `thickness` mm lit by the sun from +z, cubes of 1 mm with `resolution` cells per cube edge, 2 × 2 cubes wide with mirror sides; `media` per
+/// depth (mm from the lit face): the mean reflected and transmitted Lo(n), and the energy
+/// balance's relative defect.
+fn slab(thickness: f64, resolution: u32, media: &dyn Fn(f64) -> Medium) -> ([f64; 3], [f64; 3], f64) {
+    let cube = 1.0;
+    let layers = (thickness / cube).round() as u32;
+    let polycube = Polycube::block(DVec3::ZERO, cube, [2, 2, layers]).unwrap();
+    let grid = Polygrid::new(Arc::new(polycube), resolution).unwrap();
+    let p = grid.positions();
+    let cell_media: Vec<Medium> = grid
+        .cells()
+        .iter()
+        .map(|c| {
+            let z = c.iter().map(|&i| p[i as usize].z).sum::<f64>() / 8.0;
+            media(thickness - z)
+        })
+        .collect();
+    // Robin on the top and bottom faces only.
+    let top_or_bottom: Vec<bool> = grid
+        .quads()
+        .iter()
+        .map(|q| {
+            let z = q.map(|i| p[i as usize].z);
+            z.iter().all(|&v| (v - z[0]).abs() < 1e-12) && (z[0].abs() < 1e-12 || (z[0] - thickness).abs() < 1e-12)
+        })
+        .collect();
+    let mut system = PolygridSystem::finite_volume(&grid, &cell_media, 1.0, Some(&top_or_bottom)).unwrap();
+    let boundary = system.boundary().clone();
+    let q: Vec<[f64; 3]> = boundary.ids.iter().map(|&i| if p[i as usize].z > thickness - 1e-9 { [Q_SUN; 3] } else { [0.0; 3] }).collect();
+    system.set_source(&q).unwrap();
+    let phi = solve(&system);
+    let lo = system.radiance(&phi).unwrap();
+    let (mut top, mut bottom, mut nt, mut nb) = ([0.0; 3], [0.0; 3], 0.0, 0.0);
+    for (k, &i) in boundary.ids.iter().enumerate() {
+        let (sum, count) = if p[i as usize].z > thickness - 1e-9 { (&mut top, &mut nt) } else { (&mut bottom, &mut nb) };
+        *count += 1.0;
+        for c in 0..3 {
+            sum[c] += lo[k][c];
+        }
+        // Exactly 1D: every node of a face has the same radiance.
+        let first = boundary.ids.iter().position(|&j| (p[j as usize].z - p[i as usize].z).abs() < 1e-9).unwrap();
+        assert!((lo[k][0] - lo[first][0]).abs() < 1e-9 * lo[first][0].abs().max(1e-3));
+    }
+    let [absorbed, exitant, incident] = system.energy_balance(&phi).unwrap();
+    let defect = (0..3).map(|c| ((absorbed[c] + exitant[c]) / incident[c] - 1.0).abs()).fold(0.0, f64::max);
+    (top.map(|x| x / nt), bottom.map(|x| x / nb), defect)
+}
+
+fn relative(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+#[test]
+fn a_ten_millimetre_slab_converges_at_second_order_to_its_closed_form() {
+    // Design note §3.1, computed from the 1D solution with ARCHITECTURE.md's boundary condition.
+    let reflected = [0.28319, 0.27771, 0.26949];
+    let transmitted = [0.02335, 0.01453, 0.00806];
+    let mut errors = Vec::new();
+    for resolution in [1, 2, 4] {
+        let (top, bottom, defect) = slab(10.0, resolution, &|_| marble());
+        assert!(defect < 1e-9, "energy balance defect {defect}");
+        let e = (0..3).map(|c| relative(top[c], reflected[c]).max(relative(bottom[c], transmitted[c]))).fold(0.0, f64::max);
+        errors.push(e);
+    }
+    eprintln!("finite volume on the 10 mm slab, h = 1, 0.5, 0.25 mm: errors {errors:?}");
+    // h = 0.25 mm: within 0.3%.
+    assert!(errors[2] < 3e-3, "errors {errors:?}");
+    let order = (errors[1] / errors[2]).log2();
+    assert!(order >= 1.8, "order {order} (errors {errors:?})");
+}
+
+#[test]
+fn a_two_millimetre_slab_matches_its_closed_form() {
+    let (top, bottom, _) = slab(2.0, 4, &|_| marble());
+    let reflected = [0.22486, 0.23222, 0.23575];
+    let transmitted = [0.09804, 0.08618, 0.07619];
+    for c in 0..3 {
+        assert!(relative(top[c], reflected[c]) < 3e-3, "{top:?}");
+        assert!(relative(bottom[c], transmitted[c]) < 3e-3, "{bottom:?}");
+    }
+}
+
+#[test]
+fn a_two_layer_slab_is_exact_at_its_interface() {
+    // The top 2 mm at σ′s = 2.19 over 8 mm at 0.73 (κ 3× larger), σa = 0.0021 (design note
+    // §3.2: exact 0.26095 reflected, 0.04838 transmitted; the paper's Δ(κφ) form is +11% / −51%).
+    let layered = |depth: f64| {
+        let s = if depth < 2.0 { 2.19 } else { 0.73 };
+        Medium::new([0.0021; 3], [s; 3], 1.3, 0.0).unwrap()
+    };
+    let (top, bottom, defect) = slab(10.0, 4, &layered);
+    assert!(defect < 1e-9);
+    assert!(relative(top[0], 0.26095) < 5e-3, "reflected {}", top[0]);
+    assert!(relative(bottom[0], 0.04838) < 5e-3, "transmitted {}", bottom[0]);
+}
+
+#[test]
+fn the_cubed_sphere_converges_to_the_uniform_sphere() {
+    // R = 10 mm, constant environment radiance 1: q = 2.9495, Lo = (0.9394, 0.9072, 0.8709).
+    let expected = [0.9394, 0.9072, 0.8709];
+    let mut errors = Vec::new();
+    for k in [8, 16, 32] {
+        let cube = Arc::new(Polycube::block(DVec3::ZERO, 1.0, [1, 1, 1]).unwrap());
+        let mut grid = Polygrid::new(cube, k).unwrap();
+        map_to_sphere(&mut grid, DVec3::ZERO, 10.0).unwrap();
+        let media = vec![marble(); grid.cells().len()];
+        let mut system = PolygridSystem::finite_volume(&grid, &media, 1.0, None).unwrap();
+        let nb = system.boundary().ids.len();
+        system.set_source(&vec![[2.9495; 3]; nb]).unwrap();
+        let phi = solve(&system);
+        let lo = system.radiance(&phi).unwrap();
+        // Area-weighted mean and worst node.
+        let area = &system.boundary().area_mm2;
+        let total: f64 = area.iter().sum();
+        let e = (0..3)
+            .map(|c| {
+                let mean = lo.iter().zip(area).map(|(l, a)| l[c] * a).sum::<f64>() / total;
+                relative(mean, expected[c])
+            })
+            .fold(0.0, f64::max);
+        errors.push(e);
+    }
+    eprintln!("finite volume on the cubed sphere: errors {errors:?}");
+    assert!(errors[2] < 0.02, "{errors:?}");
+}
