@@ -25,6 +25,9 @@
 //! - [`GpuPrt`]: a PRT transfer on the device, its product with the Haar-transformed
 //!   irradiance (`prt_relight.wgsl`) and the combine into radiance (`prt_combine.wgsl`), the
 //!   twins of [`crate::prt::Transfer::apply`] and the PRT method's combine.
+//! - [`GpuRelaxation`]: weighted Jacobi and coloured Gauss–Seidel sweeps with frozen rows on
+//!   the device (`relax_jacobi.wgsl`, `relax_gs.wgsl`) and [`GpuTransfer`]s between the levels
+//!   of a hierarchy, the twins of [`crate::sparse::relax`] (polygrid diffusion's relaxation).
 //! - [`assemble`], [`spmv_dot`], [`dot`], [`surface_radiance`] (eq. 3), [`restrict`],
 //!   [`prolong_add`], [`vcycle`]: single kernels (or one V-cycle) with CPU twins, compared in
 //!   `core/tests/gpu*.rs`.
@@ -75,6 +78,8 @@ mod radiance;
 #[cfg(feature = "gpu")]
 mod radiosity;
 #[cfg(feature = "gpu")]
+mod relax;
+#[cfg(feature = "gpu")]
 pub mod shaders;
 
 #[cfg(feature = "gpu")]
@@ -95,5 +100,7 @@ pub use prt::{GpuPrt, LANES_PER_VERTEX};
 pub use radiance::surface_radiance;
 #[cfg(feature = "gpu")]
 pub use radiosity::{GpuRadiosity, Sweep};
+#[cfg(feature = "gpu")]
+pub use relax::{GpuRelaxation, GpuTransfer};
 #[cfg(feature = "gpu")]
 pub use shaders::Kernel;

@@ -90,17 +90,18 @@ fn level_params<'c>(ctx: &'c GpuContext, n: usize) -> Result<(Lease<'c>, (u32, u
 }
 
 /// P (rows: fine vertices) and Pᵀ (rows: coarse vertices) of one level as CSR, f32 weights.
-struct DeviceTransfer<'c> {
-    p_ptr: Lease<'c>,
-    p_cols: Lease<'c>,
-    p_weights: Lease<'c>,
-    t_ptr: Lease<'c>,
-    t_rows: Lease<'c>,
-    t_weights: Lease<'c>,
+/// (Also the transfers of [`super::GpuTransfer`].)
+pub(crate) struct DeviceTransfer<'c> {
+    pub(crate) p_ptr: Lease<'c>,
+    pub(crate) p_cols: Lease<'c>,
+    pub(crate) p_weights: Lease<'c>,
+    pub(crate) t_ptr: Lease<'c>,
+    pub(crate) t_rows: Lease<'c>,
+    pub(crate) t_weights: Lease<'c>,
 }
 
 impl<'c> DeviceTransfer<'c> {
-    fn upload(ctx: &'c GpuContext, p: &Prolongation) -> Result<Self, GpuError> {
+    pub(crate) fn upload(ctx: &'c GpuContext, p: &Prolongation) -> Result<Self, GpuError> {
         let (mut p_ptr, mut p_cols, mut p_weights) = (vec![0u32], Vec::new(), Vec::new());
         for i in 0..p.n_fine() {
             let (cols, w) = p.row(i);

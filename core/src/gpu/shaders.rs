@@ -75,11 +75,16 @@ pub enum Kernel {
     PrtRelight,
     /// PRT: Lo = C(η) Σₖ sₖ (Tₖ q) per output vertex, clamped at 0 with the clamp flagged.
     PrtCombine,
+    /// Polygrid relaxation: one weighted Jacobi sweep, x' = x + ω D⁻¹(b − A x), frozen rows
+    /// copied.
+    RelaxJacobi,
+    /// Polygrid relaxation: one colour of a coloured Gauss–Seidel sweep, in place.
+    RelaxGaussSeidel,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 30] = [
+    pub const ALL: [Kernel; 32] = [
         Kernel::TetGeometry,
         Kernel::Assemble,
         Kernel::JacobiDiag,
@@ -110,6 +115,8 @@ impl Kernel {
         Kernel::RadSweep,
         Kernel::PrtRelight,
         Kernel::PrtCombine,
+        Kernel::RelaxJacobi,
+        Kernel::RelaxGaussSeidel,
     ];
 
     /// The file name in `shaders/`.
@@ -146,6 +153,8 @@ impl Kernel {
             Kernel::RadSweep => "rad_sweep.wgsl",
             Kernel::PrtRelight => "prt_relight.wgsl",
             Kernel::PrtCombine => "prt_combine.wgsl",
+            Kernel::RelaxJacobi => "relax_jacobi.wgsl",
+            Kernel::RelaxGaussSeidel => "relax_gs.wgsl",
         }
     }
 
@@ -183,6 +192,8 @@ impl Kernel {
             Kernel::RadSweep => include_str!("../../../shaders/rad_sweep.wgsl"),
             Kernel::PrtRelight => include_str!("../../../shaders/prt_relight.wgsl"),
             Kernel::PrtCombine => include_str!("../../../shaders/prt_combine.wgsl"),
+            Kernel::RelaxJacobi => include_str!("../../../shaders/relax_jacobi.wgsl"),
+            Kernel::RelaxGaussSeidel => include_str!("../../../shaders/relax_gs.wgsl"),
         }
     }
 

@@ -68,6 +68,27 @@ pub enum SparseError {
         /// The diagonal value.
         value: f64,
     },
+    /// A relaxation sweep divides by a diagonal entry that is zero or not finite.
+    #[error("diagonal entry at row {row} is {value_g} on channel {channel} ({}); a relaxation sweep divides by it, so it must be finite and nonzero (or the row frozen)", channel_label(.channel), value_g = fmt_num(*.value))]
+    UnusableDiagonal {
+        /// The row.
+        row: usize,
+        /// The colour channel.
+        channel: usize,
+        /// The diagonal value.
+        value: f64,
+    },
+    /// Two rows of one colour of a [`Colouring`](super::relax::Colouring) are coupled by a stored
+    /// off-diagonal entry, so they cannot be updated at the same time.
+    #[error("rows {row} and {col} both have colour {colour} but entry ({row}, {col}) couples them; rows of one colour must not be coupled")]
+    ColouringConflict {
+        /// The row of the coupling entry.
+        row: usize,
+        /// Its column.
+        col: usize,
+        /// The colour both rows have.
+        colour: u32,
+    },
     /// The iteration broke down: for CG, `pᵀAp ≤ 0` (the matrix is not positive definite) or
     /// `rᵀz ≤ 0` (the preconditioner is not); for BiCGSTAB, a vanishing inner product.
     #[error("{method} broke down on channel {channel} ({}) at iteration {iteration}: {reason}", channel_label(.channel))]

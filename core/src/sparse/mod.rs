@@ -62,6 +62,7 @@ mod ops;
 mod ordering;
 mod pcg;
 mod precond;
+pub mod relax;
 mod scaled;
 mod ssor;
 

@@ -90,16 +90,63 @@ impl Prolongation {
         Ok(Self { coarse_of, retained: retained.to_vec(), ..Self::from_csr(retained.len(), row_ptr, cols, weights)? })
     }
 
-    /// `P` in compressed rows (`row_ptr`, then each row's coarse `cols`, increasing, and
-    /// `weights`) with `n_coarse` columns, for a hierarchy that retains no fine vertex (smoothed
-    /// aggregation): [`Self::retained`] is empty, [`Self::coarse_of`] always `None`.
+    /// A general `n_fine × n_coarse` operator `P` in compressed rows — `row_ptr` (`n_fine + 1`
+    /// offsets from 0), then each row's coarse columns `cols` and their `weights`, one weight
+    /// per entry shared by the three channels — with its transpose built here, so that the
+    /// restriction `Pᵀ r` is a gather like the prolongation (on the device too:
+    /// `gpu::restrict`, `gpu::prolong_add`, `gpu::GpuTransfer`). For hierarchies that retain no
+    /// fine vertex (smoothed aggregation, the polygrid's lattices): [`Self::retained`] is empty
+    /// and [`Self::coarse_of`] always `None`. Repeated columns in a row are summed where `P` is
+    /// applied.
     ///
     /// # Errors
-    /// [`SparseError::IndexOutOfRange`] for a column at or above `n_coarse`.
-    pub(crate) fn from_csr(n_coarse: usize, row_ptr: Vec<usize>, cols: Vec<u32>, weights: Vec<f64>) -> Result<Self, SparseError> {
+    /// [`SparseError::DimensionMismatch`] if `row_ptr` is empty, does not start at 0 or end at
+    /// `cols.len()`, or `weights` is not one per column; [`SparseError::InvalidOption`] if
+    /// `row_ptr` decreases or a weight is not finite; [`SparseError::IndexOutOfRange`] for a
+    /// column at or above `n_coarse`; [`SparseError::TooLarge`] if `n_fine` does not fit 32-bit
+    /// indices.
+    pub fn from_csr(n_coarse: usize, row_ptr: Vec<usize>, cols: Vec<u32>, weights: Vec<f64>) -> Result<Self, SparseError> {
+        let Some(&end) = row_ptr.last() else {
+            return Err(SparseError::DimensionMismatch {
+                what: "prolongation row pointer length (n_fine + 1)",
+                expected: 1,
+                found: 0,
+            });
+        };
         let n = row_ptr.len() - 1;
+        if u32::try_from(n).is_err() {
+            return Err(SparseError::TooLarge(format!("{n} fine rows; indices are 32-bit")));
+        }
+        if row_ptr[0] != 0 {
+            return Err(SparseError::DimensionMismatch {
+                what: "prolongation row pointer start",
+                expected: 0,
+                found: row_ptr[0],
+            });
+        }
+        if end != cols.len() {
+            return Err(SparseError::DimensionMismatch {
+                what: "prolongation row pointer end (number of columns)",
+                expected: cols.len(),
+                found: end,
+            });
+        }
+        if weights.len() != cols.len() {
+            return Err(SparseError::DimensionMismatch {
+                what: "prolongation weights (one per column)",
+                expected: cols.len(),
+                found: weights.len(),
+            });
+        }
+        if let Some(i) = row_ptr.windows(2).position(|w| w[1] < w[0]) {
+            return Err(SparseError::InvalidOption(format!("prolongation row pointer decreases at row {i}")));
+        }
         if let Some(&c) = cols.iter().find(|&&c| c as usize >= n_coarse) {
             return Err(SparseError::IndexOutOfRange { what: "prolongation column".into(), index: u64::from(c), n: n_coarse });
+        }
+        if let Some(k) = weights.iter().position(|w| !w.is_finite()) {
+            let row = row_ptr.partition_point(|&p| p <= k) - 1;
+            return Err(SparseError::InvalidOption(format!("prolongation weight {} of row {row} is not finite", weights[k])));
         }
         let m = n_coarse;
         let mut counts = vec![0usize; m + 1];
@@ -216,5 +263,35 @@ impl Prolongation {
     pub(crate) fn column(&self, c: usize) -> (&[u32], &[f64]) {
         let (s, e) = (self.t_ptr[c], self.t_ptr[c + 1]);
         (&self.t_rows[s..e], &self.t_weights[s..e])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_general_operator_from_csr_is_checked_and_restricts_with_its_transpose() {
+        // P (4 × 3): rows [0: ½ c0 + ½ c2], [1: empty], [2: c1 − 2 c1 (summed)], [3: 3 c0].
+        let p = Prolongation::from_csr(3, vec![0, 2, 2, 4, 5], vec![0, 2, 1, 1, 0], vec![0.5, 0.5, 1.0, -2.0, 3.0]).unwrap();
+        assert_eq!((p.n_fine(), p.n_coarse()), (4, 3));
+        assert!(p.retained().is_empty() && p.coarse_of(0).is_none());
+        let coarse = [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0]];
+        let mut fine = vec![[1.0; 3]; 4];
+        p.prolong_add(&coarse, &mut fine);
+        assert_eq!(fine, vec![[5.0, 6.0, 7.0], [1.0; 3], [-3.0, -4.0, -5.0], [4.0, 7.0, 10.0]]);
+        let r = [[1.0, 0.0, 2.0], [5.0, 5.0, 5.0], [1.0, 1.0, 1.0], [0.0, 1.0, 0.0]];
+        let mut rc = vec![[0.0; 3]; 3];
+        p.restrict(&r, &mut rc);
+        assert_eq!(rc, vec![[0.5, 3.0, 1.0], [-1.0, -1.0, -1.0], [0.5, 0.0, 1.0]]);
+        let bad = |rp: Vec<usize>, c: Vec<u32>, w: Vec<f64>| Prolongation::from_csr(3, rp, c, w).unwrap_err();
+        assert!(matches!(bad(vec![], vec![], vec![]), SparseError::DimensionMismatch { .. }));
+        assert!(matches!(bad(vec![1, 1], vec![0], vec![1.0]), SparseError::DimensionMismatch { found: 1, .. }));
+        assert!(matches!(bad(vec![0, 2], vec![0], vec![1.0]), SparseError::DimensionMismatch { found: 2, .. }));
+        assert!(matches!(bad(vec![0, 1], vec![0], vec![]), SparseError::DimensionMismatch { found: 0, .. }));
+        assert!(matches!(bad(vec![0, 2, 1, 2], vec![0, 1], vec![1.0; 2]), SparseError::InvalidOption(m) if m.contains("row 1")));
+        assert!(matches!(bad(vec![0, 1], vec![3], vec![1.0]), SparseError::IndexOutOfRange { index: 3, n: 3, .. }));
+        let e = bad(vec![0, 1, 1, 2], vec![0, 1], vec![1.0, f64::NAN]);
+        assert!(matches!(&e, SparseError::InvalidOption(m) if m.contains("row 2")), "{e}");
     }
 }
