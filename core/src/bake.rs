@@ -21,7 +21,7 @@ use std::time::Instant;
 use crate::mesh::TriangleBvh;
 use crate::methods::{
     bake_object, object_stage, radiosity, targets, world_surfaces, BakedState, HierarchicalDipole, Lighting, Meshed, ObjectBake,
-    Prt, RadiositySession, RadiosityStats, SubsurfaceMethod, TransCut,
+    PolygridMethod, Prt, RadiositySession, RadiosityStats, SubsurfaceMethod, TransCut,
 };
 use crate::progress::{ms, Progress};
 use crate::scene::{BakeOptions, Method, Scene, SceneError};
@@ -112,6 +112,7 @@ fn bake_kept(
         Method::TransCut(o) => bake_all::<TransCut>(scene, options, o, kept, progress),
         Method::HierarchicalDipole(o) => bake_all::<HierarchicalDipole>(scene, options, o, kept, progress),
         Method::Prt(o) => bake_all::<Prt>(scene, options, o, kept, progress),
+        Method::Polygrid(o) => bake_all::<PolygridMethod>(scene, options, o, kept, progress),
         Method::Radiosity(o) => {
             let start = Instant::now();
             radiosity::bake_scene(scene, options, o, progress).map(|(objects, stats, session)| Bake {

@@ -59,8 +59,8 @@ pub mod mesh;
 pub mod mesher;
 pub mod methods;
 pub mod optics;
-pub mod polygrid;
 pub mod output;
+pub mod polygrid;
 pub mod progress;
 pub mod prt;
 pub mod radiosity;
@@ -77,7 +77,7 @@ pub use glam::DVec3;
 pub use methods::{BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 pub use progress::{Cancelled, Progress};
 pub use scene::{
-    BakeOptions, Diffuse, Material, MediumSource, Method, Object, OpticalDistance, ProfileKind, ProfileScatteringOptions,
-    RadiosityOptions, Scene, SceneError, Shape, Sides, TransCutOptions, TranslucentScattering,
+    BakeOptions, Diffuse, Material, MediumSource, Method, Object, OpticalDistance, PolygridOptions, ProfileKind,
+    ProfileScatteringOptions, RadiosityOptions, Scene, SceneError, Shape, Sides, Stencil, TransCutOptions, TranslucentScattering,
 };
 pub use session::{Session, SessionError};

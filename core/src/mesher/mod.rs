@@ -403,7 +403,7 @@ fn size_to_count(
 
 /// For every user vertex, its closest point on the tet boundary; and the two-sided Hausdorff
 /// distance measured at vertices.
-fn map_user_vertices(surface: &TriMesh, mesh: &TetMesh, input: &TriangleBvh) -> (Vec<SurfacePoint>, Hausdorff) {
+pub(crate) fn map_user_vertices(surface: &TriMesh, mesh: &TetMesh, input: &TriangleBvh) -> (Vec<SurfacePoint>, Hausdorff) {
     let faces: Vec<[u32; 3]> = mesh.boundary_faces().iter().map(|f| f.vertices).collect();
     let boundary = TriangleBvh::from_indexed(mesh.positions(), &faces);
     let internal: Vec<SurfacePoint> =

@@ -31,6 +31,7 @@
 pub mod capability;
 pub mod hierarchical_dipole;
 mod lighting;
+pub mod polygrid;
 pub mod prt;
 pub mod radiosity;
 mod result;
@@ -38,6 +39,7 @@ pub mod transcut;
 
 pub use hierarchical_dipole::{DipoleState, HierarchicalDipole};
 pub use lighting::Lighting;
+pub use polygrid::{PolygridMethod, PolygridStats};
 pub use prt::{Prt, PrtLive, PrtState};
 pub use radiosity::{RadiosityObject, RadiositySession, RadiosityStats, RadiosityUpdate};
 pub use result::{interpolate_vertices, BakedState, ObjectBake, ObjectStats};

@@ -4,6 +4,7 @@ use crate::gpu::Backend;
 use crate::mesher::MesherStats;
 
 use super::hierarchical_dipole::DipoleState;
+use super::polygrid::PolygridStats;
 use super::prt::PrtState;
 use super::radiosity::RadiosityObject;
 use super::transcut::TransCutState;
@@ -164,6 +165,8 @@ pub struct ObjectStats {
     /// (TransCut, [`crate::bake::bake_reusing`]); `meshing` then describes the meshing that
     /// made them and `meshing_ms` the copy.
     pub mesh_reused: bool,
+    /// The polygrid method's polycube and grid (`None` for the other methods).
+    pub polygrid: Option<PolygridStats>,
 }
 
 impl ObjectStats {
@@ -191,6 +194,7 @@ impl ObjectStats {
             meshing: None,
             precompute_loaded: false,
             mesh_reused: false,
+            polygrid: None,
         }
     }
 }

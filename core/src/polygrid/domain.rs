@@ -38,7 +38,7 @@ impl Polycube {
     /// [`MAX_CUBES`] cubes, and [`PolygridError::NonManifold`] naming the first lattice point
     /// where cubes touch along an edge or at a corner only.
     pub fn from_cells(origin: DVec3, cube: f64, mut cells: Vec<[i32; 3]>) -> Result<Self, PolygridError> {
-        if !(cube.is_finite() && cube > 0.0) || !origin.is_finite() {
+        if !(cube.is_finite() && cube > 0.0 && origin.is_finite()) {
             return Err(PolygridError::InvalidCube { cube });
         }
         if cells.is_empty() {

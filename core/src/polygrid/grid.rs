@@ -191,8 +191,22 @@ impl Polygrid {
         }
         let spacing = polycube.cube() / resolution as f64;
         let origin = polycube.origin();
-        let positions = lattice.par_iter().map(|l| origin + DVec3::new(l[0] as f64, l[1] as f64, l[2] as f64) * spacing).collect();
-        Ok(Self { polycube, resolution, lattice, positions, cells, cell_lattice, neighbours, quads, on_boundary, index, lo, dims })
+        let positions =
+            lattice.par_iter().map(|l| origin + DVec3::new(l[0] as f64, l[1] as f64, l[2] as f64) * spacing).collect();
+        Ok(Self {
+            polycube,
+            resolution,
+            lattice,
+            positions,
+            cells,
+            cell_lattice,
+            neighbours,
+            quads,
+            on_boundary,
+            index,
+            lo,
+            dims,
+        })
     }
 
     /// The polycube the grid was cut from.
@@ -323,7 +337,7 @@ impl Polygrid {
     /// # Errors
     /// [`PolygridError::InvalidResolution`] for an odd resolution.
     pub fn coarsened(&self) -> Result<(Polygrid, Prolongation), PolygridError> {
-        if self.resolution % 2 != 0 {
+        if !self.resolution.is_multiple_of(2) {
             return Err(PolygridError::InvalidResolution {
                 resolution: self.resolution,
                 reason: "a hierarchy level halves it, so it must be even".into(),

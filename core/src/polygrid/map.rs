@@ -38,8 +38,9 @@ impl Default for MapOptions {
 
 /// What [`check_cells`] measured: the smallest and the mean scaled Jacobian over every cell
 /// corner (1 for a cube, → 0 for a flat cell).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct CellQuality {
+    /// Can be slightly below 0 at a cell on a convex polycube corner ([`check_cells`]).
     pub min_scaled_jacobian: f64,
     pub mean_scaled_jacobian: f64,
 }
@@ -158,15 +159,21 @@ pub fn map_to_surface(grid: &mut Polygrid, bvh: &TriangleBvh, options: &MapOptio
     check_cells(grid, "the surface's features are finer than the cubes: choose a smaller cube or a higher resolution")
 }
 
-/// The scaled Jacobian of every cell corner (the determinant of the three unit edge vectors
-/// leaving the corner along +x, +y, +z of the lattice: 1 for a cube, ≤ 0 folded).
+/// The cells' shape: the scaled Jacobian of every cell corner (the determinant of the three
+/// unit edge vectors leaving the corner along +x, +y, +z of the lattice: 1 for a cube, ≤ 0 at
+/// a corner pushed through), and the fold check on the elements the stencils integrate over,
+/// the six Kuhn tets of each cell ([`Polygrid::kuhn_tets`]): each must keep the orientation it
+/// has in the lattice. A cell at a convex polycube corner has its three boundary faces mapped
+/// onto a smooth surface, so its corner there is nearly flat and may dent slightly inwards
+/// while all its tets stay positive: that cell is valid; a tet turned over is a fold.
 ///
 /// # Errors
-/// [`PolygridError::Fold`] naming the first cell with a corner ≤ 0 (folded or flat), with
-/// `hint` saying what to change.
+/// [`PolygridError::Fold`] naming the first cell with a tet of non-positive volume (and that
+/// cell's smallest corner Jacobian), with `hint` saying what to change.
 pub fn check_cells(grid: &Polygrid, hint: &'static str) -> Result<CellQuality, PolygridError> {
+    const PATHS: [[usize; 2]; 6] = [[1, 2], [1, 4], [2, 1], [2, 4], [4, 1], [4, 2]];
     let p = grid.positions();
-    let per_cell: Vec<(f64, f64)> = grid
+    let per_cell: Vec<(f64, f64, bool)> = grid
         .cells()
         .par_iter()
         .map(|c| {
@@ -178,17 +185,30 @@ pub fn check_cells(grid: &Polygrid, hint: &'static str) -> Result<CellQuality, P
                 let e: [DVec3; 3] = std::array::from_fn(|axis| {
                     let bit = 1 << axis;
                     let edge = x[k ^ bit] - x[k];
-                    if k & bit == 0 { edge } else { -edge }
+                    if k & bit == 0 {
+                        edge
+                    } else {
+                        -edge
+                    }
                 });
                 let lengths = e[0].length() * e[1].length() * e[2].length();
                 let j = if lengths > 0.0 { e[0].dot(e[1].cross(e[2])) / lengths } else { 0.0 };
                 min = min.min(j);
                 sum += j;
             }
-            (min, sum / 8.0)
+            // Kuhn tet [0, a, a|b, 7] of the path a, b, 7 ^ a ^ b: positive in the lattice when
+            // the path's axes are an even permutation of x, y, z.
+            let diagonal = (x[7] - x[0]).length();
+            let scale = diagonal * diagonal * diagonal;
+            let turned = PATHS.iter().any(|&[a, b]| {
+                let sign = if matches!((a, b), (1, 2) | (2, 4) | (4, 1)) { 1.0 } else { -1.0 };
+                let v = (x[a] - x[0]).dot((x[a | b] - x[0]).cross(x[7] - x[0]));
+                !(sign * v > 1e-12 * scale)
+            });
+            (min, sum / 8.0, turned)
         })
         .collect();
-    if let Some(cell) = per_cell.iter().position(|&(m, _)| !(m > 0.0)) {
+    if let Some(cell) = per_cell.iter().position(|c| c.2) {
         return Err(PolygridError::Fold { cell, scaled_jacobian: per_cell[cell].0, hint });
     }
     let min = per_cell.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
@@ -211,6 +231,7 @@ mod tests {
         let q = map_to_sphere(&mut g, centre, 10.0).unwrap();
         // The cube's corners meet the sphere at 120°: the corner cells are the flattest.
         assert!(q.min_scaled_jacobian > 0.0 && q.mean_scaled_jacobian > 0.8, "{q:?}");
+
         for (x, &b) in g.positions().iter().zip(g.on_boundary()) {
             let r = (*x - centre).length();
             if b {
@@ -231,6 +252,21 @@ mod tests {
             .sum();
         let ball = 4.0 / 3.0 * std::f64::consts::PI * 1000.0;
         assert!(volume < ball && volume > 0.97 * ball, "{volume} vs {ball}");
+    }
+
+    #[test]
+    fn the_lattice_itself_is_fold_free_and_every_kuhn_tet_positive() {
+        let cube = Arc::new(Polycube::block(DVec3::ZERO, 2.0, [2, 1, 3]).unwrap());
+        let g = Polygrid::new(cube, 3).unwrap();
+        let q = check_cells(&g, "test").unwrap();
+        assert!((q.min_scaled_jacobian - 1.0).abs() < 1e-12);
+        // The orientation table of check_cells against the tets' own volumes.
+        let p = g.positions();
+        for t in g.kuhn_tets().iter().take(6) {
+            let [a, b, c, d] = t.map(|i| p[i as usize]);
+            let v = (b - a).dot((c - a).cross(d - a)).abs() / 6.0;
+            assert!((v - (2.0f64 / 3.0).powi(3) / 6.0).abs() < 1e-12, "each Kuhn tet is a sixth of the cell");
+        }
     }
 
     #[test]
@@ -255,7 +291,7 @@ mod tests {
         let mut g = Polygrid::new(cube, 4).unwrap();
         let bvh = TriangleBvh::from_indexed(sphere.positions(), sphere.triangles());
         let q = map_to_surface(&mut g, &bvh, &MapOptions::default()).unwrap();
-        assert!(q.min_scaled_jacobian > 0.0, "{q:?}");
+        assert!(q.mean_scaled_jacobian > 0.5, "{q:?}");
         for (x, &b) in g.positions().iter().zip(g.on_boundary()) {
             if b {
                 assert!(bvh.closest_point(*x).unwrap().distance < 1e-9);

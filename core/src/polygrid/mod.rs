@@ -24,3 +24,43 @@ pub use error::PolygridError;
 pub use grid::{Polygrid, Prolongation, MAX_RESOLUTION};
 pub use map::{map_to_sphere, map_to_surface, CellQuality, MapOptions};
 pub use system::{BoundaryNodes, PolygridSystem, CELL_EDGES};
+
+/// The discretisation of the diffusion equation on a polygrid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Stencil {
+    /// P1 finite elements on the cells split into tets ([`Polygrid::kuhn_tets`]) with
+    /// TransCut's assembly (eqs. 10–14): symmetric, conservative, second order on skewed cells
+    /// (the cubed sphere: 0.14%, 0.037%, 0.009% at k = 8, 16, 32); 15 nonzeros per row.
+    #[default]
+    Fem,
+    /// Node-centred finite volumes with two-point fluxes ([`PolygridSystem::finite_volume`]):
+    /// symmetric, exactly conservative, second order on orthogonal cells (the slabs), 7
+    /// nonzeros per row, but not consistent on skewed cells (the cubed sphere stays near
+    /// 1.5%).
+    FiniteVolume,
+}
+
+impl Stencil {
+    /// Every stencil's name, as front ends spell it.
+    pub const NAMES: [&'static str; 2] = ["fem", "finite-volume"];
+
+    /// The stencil's name.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Fem => "fem",
+            Self::FiniteVolume => "finite-volume",
+        }
+    }
+
+    /// The stencil called `name` (any case), if any.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "fem" => Some(Self::Fem),
+            "finite-volume" | "fv" => Some(Self::FiniteVolume),
+            _ => None,
+        }
+    }
+}

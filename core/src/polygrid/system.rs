@@ -70,7 +70,11 @@ impl PolygridSystem {
         }
         if let Some(r) = robin {
             if r.len() != grid.quads().len() {
-                return Err(PolygridError::LengthMismatch { what: "Robin quad mask", expected: grid.quads().len(), found: r.len() });
+                return Err(PolygridError::LengthMismatch {
+                    what: "Robin quad mask",
+                    expected: grid.quads().len(),
+                    found: r.len(),
+                });
             }
         }
         if !(mm_per_unit.is_finite() && mm_per_unit > 0.0) {
@@ -86,8 +90,7 @@ impl PolygridSystem {
                 message: format!("its η {} differs from the object's {eta} (one η per object)", cell_media[cell].eta),
             });
         }
-        let terms =
-            BoundaryTerms::new(eta).map_err(|e| PolygridError::InvalidMedium { cell: 0, message: e.to_string() })?;
+        let terms = BoundaryTerms::new(eta).map_err(|e| PolygridError::InvalidMedium { cell: 0, message: e.to_string() })?;
         let x: Vec<DVec3> = grid.positions().iter().map(|&p| p * mm_per_unit).collect();
         let n = grid.node_count();
 
@@ -112,9 +115,8 @@ impl PolygridSystem {
                 triplets.push(Triplet::new(j, j, w));
             }
             for (k, &node) in c.iter().enumerate() {
-                for ch in 0..3 {
-                    absorption[node as usize][ch] += v[k] * m.sigma_a[ch];
-                }
+                let a = &mut absorption[node as usize];
+                *a = std::array::from_fn(|ch| a[ch] + v[k] * m.sigma_a[ch]);
             }
         }
         // Boundary: each quad's corner quarters.
@@ -191,9 +193,7 @@ impl PolygridSystem {
         if q.len() != nb {
             return Err(PolygridError::LengthMismatch { what: "source q", expected: nb, found: q.len() });
         }
-        if let Some((index, value)) =
-            q.iter().enumerate().find_map(|(k, v)| v.iter().find(|x| !x.is_finite()).map(|&x| (k, x)))
-        {
+        if let Some((index, value)) = q.iter().enumerate().find_map(|(k, v)| v.iter().find(|x| !x.is_finite()).map(|&x| (k, x))) {
             return Err(PolygridError::InvalidSource { index, value });
         }
         let mut rhs = vec![[0.0; 3]; self.rhs.len()];
@@ -276,7 +276,13 @@ fn edge_transmissibilities(p: &[DVec3; 8]) -> [f64; 12] {
         // The quarter's centre: ½ along the edge's axis, ¼ or ¾ along the others.
         let mut at = [0.0; 3];
         for (k, x) in at.iter_mut().enumerate() {
-            *x = if k == axis { 0.5 } else if a & (1 << k) == 0 { 0.25 } else { 0.75 };
+            *x = if k == axis {
+                0.5
+            } else if a & (1 << k) == 0 {
+                0.25
+            } else {
+                0.75
+            };
         }
         let j = trilinear(p, at[0], at[1], at[2]);
         let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);

@@ -4,6 +4,7 @@ use crate::diffusion::{DiffusionError, Unresolved};
 use crate::gpu::GpuError;
 use crate::light::LightError;
 use crate::mesher::MesherError;
+use crate::polygrid::PolygridError;
 use crate::progress::Cancelled;
 use crate::radiosity::RadiosityError;
 use crate::volume::VolumeError;
@@ -40,6 +41,14 @@ pub enum SceneError {
         name: String,
         #[source]
         source: MesherError,
+    },
+    /// Building or solving an object's polygrid failed.
+    #[error("object {index} ({name}): polygrid: {source}")]
+    Polygrid {
+        index: usize,
+        name: String,
+        #[source]
+        source: PolygridError,
     },
     /// A light is invalid or the source could not be computed.
     #[error("lights: {0}")]

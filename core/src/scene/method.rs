@@ -9,6 +9,7 @@
 use crate::diffusion::SolverKind;
 use crate::gpu::Backend;
 use crate::hierarchy::DipoleOptions;
+pub use crate::polygrid::Stencil;
 use crate::prt::PrtOptions;
 use crate::radiosity::{FormFactorOptions, SolveOptions};
 
@@ -34,6 +35,16 @@ pub enum Method {
     /// medium in a PCA basis, its transfer from surface samples to the vertices precomputed and
     /// compressed once; material edits and relights without a new precompute.
     Prt(PrtOptions),
+    /// Polygrid diffusion (Wang et al. 2008 §5): the diffusion equation on a grid of regular
+    /// connectivity cut from a polycube of the object's shape; heterogeneous media, relight,
+    /// material edits.
+    Polygrid(PolygridOptions),
+}
+
+impl From<PolygridOptions> for Method {
+    fn from(options: PolygridOptions) -> Self {
+        Self::Polygrid(options)
+    }
 }
 
 impl From<PrtOptions> for Method {
@@ -69,6 +80,10 @@ impl From<TransCutOptions> for Method {
 impl Method {
     /// The names of every method this library has, in the order front ends list them (also
     /// the order of the C ABI's `TC_METHOD_*` values).
+    ///
+    /// The polygrid ([`Method::Polygrid`]) is not listed yet: it is reachable from the Rust API,
+    /// and joins the front ends once its grids survive coarse faceted surfaces (a voxel
+    /// polycube's convex corners flatten on them; docs/ARCHITECTURE.md, "Polygrid").
     pub const NAMES: &'static [&'static str] = &["transcut", "hierarchical-dipole", "radiosity", "prt"];
 
     /// Every method with its default options, in the order of [`Method::NAMES`].
@@ -77,8 +92,8 @@ impl Method {
         Self::NAMES.iter().filter_map(|name| Self::from_name(name)).collect()
     }
 
-    /// The name front ends use: `transcut`, `hierarchical-dipole`, `radiosity`, `prt` (later
-    /// `polygrid`).
+    /// The name front ends use: `transcut`, `hierarchical-dipole`, `radiosity`, `prt`,
+    /// `polygrid`.
     #[must_use]
     pub fn name(&self) -> &'static str {
         match self {
@@ -86,6 +101,7 @@ impl Method {
             Self::HierarchicalDipole(_) => "hierarchical-dipole",
             Self::Radiosity(_) => "radiosity",
             Self::Prt(_) => "prt",
+            Self::Polygrid(_) => "polygrid",
         }
     }
 
@@ -107,6 +123,10 @@ impl Method {
             Self::Prt(_) => {
                 "precomputed translucent transfer (R. Wang et al. 2008): the dipole in a PCA basis over precomputed surface \
                  transfer; homogeneous media, real-time material edits and relights"
+            }
+            Self::Polygrid(_) => {
+                "polygrid diffusion (Wang et al. 2008): diffusion on a grid of regular connectivity cut from a polycube of the \
+                 object; heterogeneous media, relight, material edits"
             }
         }
     }
@@ -140,6 +160,7 @@ impl Method {
             Self::HierarchicalDipole(o) => o.validate(),
             Self::Radiosity(o) => o.validate(),
             Self::Prt(o) => o.validate(),
+            Self::Polygrid(o) => o.validate(),
         }
         .map_err(|e| format!("{}: {e}", self.name()))
     }
@@ -209,6 +230,61 @@ impl TransCutOptions {
             return Err(format!("max_iterations = {} is above the maximum of {}", self.max_iterations, Self::MAX_ITERATIONS));
         }
         Ok(())
+    }
+}
+
+/// How the polygrid method bakes: the polycube, the grid cut from it, the stencil and the solve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PolygridOptions {
+    /// Target nodes per object, which sets the cube size with `resolution` when `cube_mm` is
+    /// `None`, in [8, [`PolygridOptions::MAX_NODES`]].
+    pub nodes: usize,
+    /// The polycube's cube edge in mm; `None`: from `nodes` (the object's volume over the
+    /// node budget). A cube at which the voxel polycube changes the surface's topology or the
+    /// map folds is made smaller, at the same node spacing, up to three times.
+    pub cube_mm: Option<f64>,
+    /// Cells per cube edge, in [1, [`crate::polygrid::MAX_RESOLUTION`]] (the paper: 12–32).
+    pub resolution: u32,
+    /// The discretisation on the grid (default [`Stencil::Fem`], the most accurate at equal
+    /// cost: P1 on the Kuhn split converges at second order on skewed cells, where the
+    /// two-point finite-volume flux does not).
+    pub stencil: Stencil,
+    /// The solves (tolerance, iterations, CPU solver, edit solver, backend), as TransCut's;
+    /// its `tets` is not used.
+    pub solve: TransCutOptions,
+}
+
+impl Default for PolygridOptions {
+    fn default() -> Self {
+        Self { nodes: 200_000, cube_mm: None, resolution: 8, stencil: Stencil::Fem, solve: TransCutOptions::default() }
+    }
+}
+
+impl PolygridOptions {
+    /// The largest `nodes`: as TransCut's tet budget, about 3.4 million nodes.
+    pub const MAX_NODES: usize = 4_000_000;
+
+    /// Checks the options.
+    ///
+    /// # Errors
+    /// A message naming the option out of range, its value and the bound.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(8..=Self::MAX_NODES).contains(&self.nodes) {
+            return Err(format!("nodes = {} must lie in [8, {}]", self.nodes, Self::MAX_NODES));
+        }
+        if let Some(c) = self.cube_mm {
+            if !(c.is_finite() && c > 0.0) {
+                return Err(format!("cube_mm = {c} must be finite and > 0"));
+            }
+        }
+        if !(1..=crate::polygrid::MAX_RESOLUTION).contains(&self.resolution) {
+            return Err(format!(
+                "resolution = {} must lie in [1, {}] cells per cube edge",
+                self.resolution,
+                crate::polygrid::MAX_RESOLUTION
+            ));
+        }
+        TransCutOptions { tets: 1, ..self.solve.clone() }.validate()
     }
 }
 

@@ -32,7 +32,7 @@ use crate::methods::prt::{PrtLive, PrtState, PrtUndo};
 use crate::methods::{interpolate_vertices, BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 use crate::progress::{Cancelled, Progress};
 use crate::render::Image;
-use crate::scene::{BakeOptions, MediumSource, Method, Scene, SceneError};
+use crate::scene::{BakeOptions, MediumSource, Method, Scene, SceneError, Stencil};
 use crate::texture::{self, TexelSample, TextureError, TextureOptions};
 
 /// Why a session call failed. Nothing changed.
@@ -103,6 +103,16 @@ impl Live {
                 Ok(Self::TransCut(Box::new(Editor::from_bake_shadowed_by(bake, lights, &edit, occluder.cloned(), progress)?)))
             }
             // The bake is the solution under `lights`: nothing to solve again.
+            // The FEM polygrid's state is TransCut's on the polygrid's nodes: TransCut's editor.
+            (BakedState::TransCut(_), Method::Polygrid(polygrid)) if polygrid.stencil == Stencil::Fem => {
+                let edit = EditOptions::from_bake_options(options, &polygrid.solve);
+                Ok(Self::TransCut(Box::new(Editor::from_bake_shadowed_by(bake, lights, &edit, occluder.cloned(), progress)?)))
+            }
+            (BakedState::TransCut(_), Method::Polygrid(_)) => Err(EditError::InvalidOptions(
+                "updates after a finite-volume polygrid bake are not built (its editor would solve P1 instead); bake with \
+                 the polygrid's fem stencil, or bake again"
+                    .into(),
+            )),
             (BakedState::HierarchicalDipole(state), Method::HierarchicalDipole(_)) => Ok(Self::HierarchicalDipole(Box::new(
                 DipoleLive::new(state.clone(), lights, bake.radiance.clone(), options.shadows, options.source),
             ))),

@@ -196,6 +196,72 @@ impl Prepared {
         Ok(Self { tet_mesh, media, system, fluence: self.fluence.clone(), meshed: self.meshed.clone() })
     }
 
+    /// The object's medium put on `tet_mesh` (world space) and M assembled, after the
+    /// method's resolution check, filling `stats`' resolution, assembly time and counts: the
+    /// light-independent part of TransCut on any tet mesh (the polygrid's Kuhn split too).
+    ///
+    /// # Errors
+    /// [`SceneError::Medium`], [`SceneError::Unresolved`] or [`SceneError::Diffusion`] naming
+    /// the object.
+    pub(crate) fn from_tets(
+        target: &Target<'_>,
+        mut tet_mesh: TetMesh,
+        meshed: Option<Arc<Meshed>>,
+        stats: &mut ObjectStats,
+    ) -> Result<Self, SceneError> {
+        let (index, object) = (target.index, target.object);
+        let name = || object.name.clone();
+        let t = Instant::now();
+        let to_object = object.transform.inverse();
+        let media = target
+            .medium(stats.method)?
+            .apply(&mut tet_mesh, &to_object, object.mm_per_unit)
+            .map_err(|source| SceneError::Medium { index, name: name(), source })?;
+        let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
+        let surface_media = resolution::surface_media(&tet_mesh, &media);
+        stats.resolution = resolution::resolution(&surface_media, spacing);
+        resolution::check(&surface_media, spacing, tet_mesh.tet_count()).map_err(|u| SceneError::unresolved(index, name(), u))?;
+        let system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(|source| SceneError::Diffusion {
+            index,
+            name: name(),
+            source,
+        })?;
+        stats.assembly_ms = ms(t);
+        stats.tets = tet_mesh.tet_count();
+        stats.vertices = tet_mesh.vertex_count();
+        stats.boundary_vertices = system.boundary().len();
+        let fluence = vec![[0.0; 3]; tet_mesh.vertex_count()];
+        Ok(Prepared { tet_mesh, media, system, fluence, meshed })
+    }
+
+    /// The source q under `lighting` at the boundary vertices, then [`Prepared::solve_source`]:
+    /// TransCut's solve step (the polygrid's FEM path too), timing the source into `stats`.
+    ///
+    /// # Errors
+    /// As [`Prepared::solve_source`]; [`SceneError::Cancelled`] through `stage`.
+    pub(crate) fn solve_lit(
+        &mut self,
+        target: &Target<'_>,
+        lighting: &Lighting<'_>,
+        options: &TransCutOptions,
+        stats: &mut ObjectStats,
+        stage: Stage<'_>,
+    ) -> Result<Vec<[f64; 3]>, SceneError> {
+        stage("light", 0.7)?;
+        let t = Instant::now();
+        let q = {
+            let Prepared { tet_mesh, system, .. } = &*self;
+            let boundary = system.boundary();
+            let points: Vec<_> = boundary.ids.iter().map(|&v| tet_mesh.positions()[v as usize]).collect();
+            lighting.transmitted_source_with(&points, &boundary.normal, system.boundary_terms().eta, &|f| {
+                stage("light", 0.7 + 0.1 * f)
+            })?
+        };
+        stats.source_ms = ms(t);
+        let radiance = self.solve_source(target, &q, options, stats, stage)?;
+        Ok(radiance)
+    }
+
     /// The state a bake keeps ([`TransCutState`]).
     pub(crate) fn into_state(self) -> TransCutState {
         // A fluence that is not finite failed the bake before its state was kept.
@@ -294,31 +360,11 @@ impl SubsurfaceMethod for TransCut {
         let (index, object) = (target.index, target.object);
         let name = || object.name.clone();
         let t = Instant::now();
-        let (mut tet_mesh, meshed) = world_tets(target, options, stats, stage).map_err(|e| e.at(index, name()))?;
+        let (tet_mesh, meshed) = world_tets(target, options, stats, stage).map_err(|e| e.at(index, name()))?;
         stats.meshing_ms = ms(t);
         stage("assembly", 0.6)?;
 
-        let t = Instant::now();
-        let to_object = object.transform.inverse();
-        let media = target
-            .medium("transcut")?
-            .apply(&mut tet_mesh, &to_object, object.mm_per_unit)
-            .map_err(|source| SceneError::Medium { index, name: name(), source })?;
-        let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
-        let surface_media = resolution::surface_media(&tet_mesh, &media);
-        stats.resolution = resolution::resolution(&surface_media, spacing);
-        resolution::check(&surface_media, spacing, tet_mesh.tet_count()).map_err(|u| SceneError::unresolved(index, name(), u))?;
-        let system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(|source| SceneError::Diffusion {
-            index,
-            name: name(),
-            source,
-        })?;
-        stats.assembly_ms = ms(t);
-        stats.tets = tet_mesh.tet_count();
-        stats.vertices = tet_mesh.vertex_count();
-        stats.boundary_vertices = system.boundary().len();
-        let fluence = vec![[0.0; 3]; tet_mesh.vertex_count()];
-        Ok(Prepared { tet_mesh, media, system, fluence, meshed })
+        Prepared::from_tets(target, tet_mesh, meshed, stats)
     }
 
     fn solve(
@@ -329,19 +375,7 @@ impl SubsurfaceMethod for TransCut {
         stats: &mut ObjectStats,
         stage: Stage<'_>,
     ) -> Result<Vec<[f64; 3]>, SceneError> {
-        stage("light", 0.7)?;
-        let t = Instant::now();
-        let q = {
-            let Prepared { tet_mesh, system, .. } = &*state;
-            let boundary = system.boundary();
-            let points: Vec<_> = boundary.ids.iter().map(|&v| tet_mesh.positions()[v as usize]).collect();
-            lighting.transmitted_source_with(&points, &boundary.normal, system.boundary_terms().eta, &|f| {
-                stage("light", 0.7 + 0.1 * f)
-            })?
-        };
-        stats.source_ms = ms(t);
-        let radiance = state.solve_source(target, &q, options, stats, stage)?;
-        Ok(radiance)
+        state.solve_lit(target, lighting, options, stats, stage)
     }
 
     fn into_baked(state: Prepared) -> BakedState {
