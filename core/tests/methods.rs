@@ -18,8 +18,8 @@ use transcut::light::{self, Environment, Light, SourceOptions};
 use transcut::optics::{f_ext, fdr, ft_out, Medium, UniformSphere};
 use transcut::prt::PrtOptions;
 use transcut::{
-    bake, BakeOptions, MediumSource, Method, Object, ObjectBake, Progress, RadiosityOptions, Scene, SceneError, Session,
-    SessionError, TransCutOptions,
+    bake, BakeOptions, MediumSource, Method, Object, ObjectBake, PolygridOptions, Progress, RadiosityOptions, Scene, SceneError,
+    Session, SessionError, TransCutOptions,
 };
 
 mod common;
@@ -132,13 +132,24 @@ fn radiosity() -> Conformance {
     }
 }
 
+/// The polygrid: the diffusion model of TransCut on the nodes of a voxel polycube mapped onto
+/// the sphere (P1 on their Kuhn split), so TransCut's closed form and energy balance.
+fn polygrid() -> Conformance {
+    let solve = TransCutOptions { tolerance: 1e-8, ..TransCutOptions::default() };
+    Conformance {
+        method: PolygridOptions { nodes: 40_000, solve, ..PolygridOptions::default() }.into(),
+        invalid: PolygridOptions { resolution: 0, ..PolygridOptions::default() }.into(),
+        ..transcut()
+    }
+}
+
 /// TransCut's conformance with `options`.
 fn transcut_conformance(options: TransCutOptions) -> Conformance {
     Conformance { method: options.into(), ..transcut() }
 }
 
 /// Every method; a new one joins with one line.
-const METHODS: &[fn() -> Conformance] = &[transcut, hierarchical_dipole, radiosity, prt];
+const METHODS: &[fn() -> Conformance] = &[transcut, hierarchical_dipole, radiosity, prt, polygrid];
 
 fn options(c: &Conformance, shadows: bool) -> BakeOptions {
     BakeOptions { method: c.method.clone(), shadows, ..BakeOptions::default() }
@@ -177,7 +188,7 @@ fn uniform_sphere_matches_its_models_closed_form() {
         // The spheres' worked numbers (ARCHITECTURE.md; design/hierarchical-dipole.md §0.6),
         // computed independently.
         let worked = match c.method.name() {
-            "transcut" | "radiosity" => [0.9394, 0.9072, 0.8709],
+            "transcut" | "radiosity" | "polygrid" => [0.9394, 0.9072, 0.8709],
             "hierarchical-dipole" | "prt" => [0.8465, 0.8187, 0.7875],
             other => panic!("{other}: no worked numbers"),
         };

@@ -173,7 +173,7 @@ mod common;
 
 /// The uniform sphere baked by the polygrid method (a voxel polycube mapped onto a fine UV
 /// sphere, P1 on the Kuhn split) within 1% of ARCHITECTURE.md's closed form at every vertex,
-/// and the finite-volume stencil within 5% on average (its two-point flux is not consistent on
+/// and the finite-volume stencil within 3% on average (its two-point flux is not consistent on
 /// the mapped cells: the reason P1 is the default); a relight through the session equals a fresh bake.
 #[test]
 fn the_polygrid_method_bakes_the_uniform_sphere_and_relights_exactly() {
@@ -185,11 +185,11 @@ fn the_polygrid_method_bakes_the_uniform_sphere_and_relights_exactly() {
     };
     let expected = [0.9394, 0.9072, 0.8709];
     let solve = TransCutOptions { tolerance: 1e-8, ..TransCutOptions::default() };
-    // P1: every vertex within 1%. Finite volumes: the vertices' mean error grows from red to
-    // blue (2.5% in green, 3.9% in blue; the worst vertex 8%, next to the cells on the
-    // polycube's corners): the two-point flux is not consistent on mapped cells, which is why
-    // P1 is the default; bounded here at 5% so it cannot grow unnoticed.
-    for (stencil, tolerance) in [(Stencil::Fem, 0.01), (Stencil::FiniteVolume, 0.05)] {
+    // P1: every vertex within 1% (measured: 0.11%, 0.17%, 0.30% worst per channel). Finite
+    // volumes: the vertices' mean error 0.7%, 1.3%, 2.0% (the two-point flux is not consistent
+    // on mapped cells, which is why P1 is the default), bounded at 3% so it cannot grow
+    // unnoticed.
+    for (stencil, tolerance) in [(Stencil::Fem, 0.01), (Stencil::FiniteVolume, 0.03)] {
         let options = PolygridOptions { nodes: 40_000, stencil, solve: solve.clone(), ..PolygridOptions::default() };
         let bake_options = BakeOptions { method: Method::Polygrid(options), ..BakeOptions::default() };
         let baked = bake(&scene, &bake_options).unwrap();

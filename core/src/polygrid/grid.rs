@@ -45,6 +45,17 @@ pub struct Polygrid {
     /// Boundary quads, corners counter-clockwise seen from outside.
     quads: Vec<[u32; 4]>,
     on_boundary: Vec<bool>,
+    /// Nodes below this id are lattice nodes; those from it on are the pillow's surface
+    /// nodes (none without a pillow).
+    lattice_nodes: usize,
+    /// Per pillow surface node (id − `lattice_nodes`), the lattice node below it.
+    base: Vec<u32>,
+    /// Per lattice boundary node, its pillow surface node ([`NONE`] without a pillow).
+    surface_of: Vec<u32>,
+    /// Cells below this index are lattice cells; those from it on are pillow cells.
+    lattice_cells: usize,
+    /// Per pillow cell, the lattice direction (index into [`DIRECTIONS`]) its quad faces.
+    pillow_dir: Vec<u8>,
     /// Node id per lattice point of the box `[lo, hi]` (x fastest), [`NONE`] where none.
     index: Vec<u32>,
     lo: [i32; 3],
@@ -59,6 +70,27 @@ impl Polygrid {
     /// [`PolygridError::InvalidResolution`] outside 1..=[`MAX_RESOLUTION`];
     /// [`PolygridError::TooLarge`] beyond [`MAX_NODES`] nodes.
     pub fn new(polycube: Arc<Polycube>, resolution: u32) -> Result<Self, PolygridError> {
+        Self::build(polycube, resolution, false)
+    }
+
+    /// [`Polygrid::new`] with a pillow: one layer of cells over the whole surface, between
+    /// every boundary quad of the lattice and a copy of it (new surface nodes, one per lattice
+    /// boundary node), so that every cell touching the surface does so by one face. The
+    /// lattice's own boundary nodes then lie inside and can round the polycube's convex
+    /// corners and edges, whose cells would otherwise have two or three faces mapped onto a
+    /// smooth surface and flatten there (the paper's "edge and corner fix", §5.1, and its
+    /// boundary layer, each boundary node linked to one interior node). A pillow cell's
+    /// corners are in lattice order with the face's two lattice axes and the outward direction
+    /// as axes (swapped for faces towards −axis, so every cell is right-handed): its Kuhn split
+    /// conforms to the lattice cells' and to its neighbours'.
+    ///
+    /// # Errors
+    /// As [`Polygrid::new`].
+    pub fn with_pillow(polycube: Arc<Polycube>, resolution: u32) -> Result<Self, PolygridError> {
+        Self::build(polycube, resolution, true)
+    }
+
+    fn build(polycube: Arc<Polycube>, resolution: u32, pillow: bool) -> Result<Self, PolygridError> {
         if resolution == 0 || resolution > MAX_RESOLUTION {
             return Err(PolygridError::InvalidResolution {
                 resolution,
@@ -157,8 +189,10 @@ impl Polygrid {
             })
             .collect();
 
-        // Boundary quads: the fine faces of every cube face with no cube beyond it.
+        // Boundary quads: the fine faces of every cube face with no cube beyond it, with their
+        // corners in the lattice order of a pillow cell's bottom (see `with_pillow`).
         let mut quads = Vec::new();
+        let mut quad_cells: Vec<([u32; 4], u8)> = Vec::new();
         for c in cubes {
             for (dir, d) in DIRECTIONS.iter().enumerate() {
                 if has_cube([c[0] + d[0], c[1] + d[1], c[2] + d[2]]) {
@@ -179,15 +213,52 @@ impl Polygrid {
                         // (u, v, axis) is right-handed: counter-clockwise in (u, v) faces +axis.
                         let quad = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)];
                         quads.push(if d[axis] > 0 { quad } else { [quad[0], quad[3], quad[2], quad[1]] });
+                        // Lattice order (bit 0 along the first in-face axis, bit 1 the second):
+                        // (u, v, out) right-handed towards +axis, (v, u, out) towards −axis.
+                        let bottom = if d[axis] > 0 {
+                            [at(0, 0), at(1, 0), at(0, 1), at(1, 1)]
+                        } else {
+                            [at(0, 0), at(0, 1), at(1, 0), at(1, 1)]
+                        };
+                        quad_cells.push((bottom, dir as u8));
                     }
                 }
             }
         }
-        let mut on_boundary = vec![false; lattice.len()];
+        let lattice_nodes = lattice.len();
+        let lattice_cells = cells.len();
+        let mut on_boundary = vec![false; lattice_nodes];
         for q in &quads {
             for &v in q {
                 on_boundary[v as usize] = true;
             }
+        }
+        let mut surface_of = vec![NONE; lattice_nodes];
+        let mut base = Vec::new();
+        let mut pillow_dir = Vec::new();
+        let mut neighbours = neighbours;
+        if pillow {
+            for (i, b) in on_boundary.iter_mut().enumerate() {
+                if *b {
+                    surface_of[i] = (lattice_nodes + base.len()) as u32;
+                    base.push(i as u32);
+                    *b = false;
+                }
+            }
+            for (bottom, dir) in &quad_cells {
+                let top = bottom.map(|b| surface_of[b as usize]);
+                cells.push([bottom[0], bottom[1], bottom[2], bottom[3], top[0], top[1], top[2], top[3]]);
+                cell_lattice.push(lattice[bottom[0] as usize]);
+                pillow_dir.push(*dir);
+            }
+            for q in &mut quads {
+                *q = q.map(|b| surface_of[b as usize]);
+            }
+            on_boundary.resize(lattice_nodes + base.len(), true);
+            for &b in &base {
+                lattice.push(lattice[b as usize]);
+            }
+            neighbours.resize(lattice.len(), [NONE; 6]);
         }
         let spacing = polycube.cube() / resolution as f64;
         let origin = polycube.origin();
@@ -203,6 +274,11 @@ impl Polygrid {
             neighbours,
             quads,
             on_boundary,
+            lattice_nodes,
+            base,
+            surface_of,
+            lattice_cells,
+            pillow_dir,
             index,
             lo,
             dims,
@@ -233,13 +309,41 @@ impl Polygrid {
         self.lattice.len()
     }
 
-    /// Lattice coordinates of every node.
+    /// Lattice coordinates of every node (a pillow's surface node has those of the lattice node
+    /// below it).
     #[must_use]
     pub fn lattice(&self) -> &[[i32; 3]] {
         &self.lattice
     }
 
-    /// The node at lattice point `l`, if any.
+    /// Whether the grid has a pillow ([`Polygrid::with_pillow`]).
+    #[must_use]
+    pub fn has_pillow(&self) -> bool {
+        self.lattice_nodes < self.lattice.len()
+    }
+
+    /// Number of lattice nodes: node ids below it are lattice nodes, those from it on the
+    /// pillow's surface nodes.
+    #[must_use]
+    pub fn lattice_node_count(&self) -> usize {
+        self.lattice_nodes
+    }
+
+    /// Number of lattice cells: cells below it are lattice cells, those from it on the
+    /// pillow's cells.
+    #[must_use]
+    pub fn lattice_cell_count(&self) -> usize {
+        self.lattice_cells
+    }
+
+    /// Per pillow surface node (node id − [`Polygrid::lattice_node_count`]), the lattice node
+    /// below it.
+    #[must_use]
+    pub fn pillow_base(&self) -> &[u32] {
+        &self.base
+    }
+
+    /// The node at lattice point `l`, if any (a lattice node).
     #[must_use]
     pub fn node_at(&self, l: [i32; 3]) -> Option<u32> {
         flat(&l, &self.lo, &self.dims).map(|i| self.index[i]).filter(|&n| n != NONE)
@@ -272,7 +376,8 @@ impl Polygrid {
         &self.cell_lattice
     }
 
-    /// Per node its neighbour along each of [`DIRECTIONS`], [`NONE`] where the node has none.
+    /// Per node its neighbour along each of [`DIRECTIONS`], [`NONE`] where the node has none
+    /// (lattice links only: a pillow's links are its cells' edges, [`Polygrid::edge_pattern`]).
     #[must_use]
     pub fn neighbours(&self) -> &[[u32; 6]] {
         &self.neighbours
@@ -301,17 +406,15 @@ impl Polygrid {
         self.cells.iter().flat_map(|c| PATHS.map(|[a, b]| [c[0], c[a], c[a | b], c[7]])).collect()
     }
 
-    /// The graph of the cells' edges (6-connected nodes) as a CSR pattern with diagonal.
+    /// The graph of the cells' edges (lattice nodes 6-connected, pillow links too) as a CSR
+    /// pattern with diagonal.
     ///
     /// # Errors
     /// Only for a grid beyond the pattern's index range.
     pub fn edge_pattern(&self) -> Result<CsrPattern, PolygridError> {
-        let edges: Vec<[u32; 2]> = self
-            .neighbours
-            .iter()
-            .enumerate()
-            .flat_map(|(i, n)| n.iter().filter(move |&&j| j != NONE && (j as usize) > i).map(move |&j| [i as u32, j]))
-            .collect();
+        const EDGES: [[usize; 2]; 12] =
+            [[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7], [0, 4], [1, 5], [2, 6], [3, 7]];
+        let edges: Vec<[u32; 2]> = self.cells.iter().flat_map(|c| EDGES.map(|[a, b]| [c[a], c[b]])).collect();
         Ok(CsrPattern::from_edges(self.node_count(), &edges)?)
     }
 
@@ -319,14 +422,26 @@ impl Polygrid {
     /// (x&1 + 2(y&1) + 4(z&1)): no two nodes of a cell share a colour, so any stencil on the
     /// cells (the 7-point stencils, the Kuhn-split FEM's 15) is Gauss–Seidel-parallel per colour.
     #[must_use]
+    /// With a pillow, its surface nodes take their base's colour + 8 (16 colours).
     pub fn parity_colours(&self) -> Vec<u8> {
-        self.lattice.iter().map(|l| ((l[0] & 1) + 2 * (l[1] & 1) + 4 * (l[2] & 1)) as u8).collect()
+        let pillow = self.lattice_nodes;
+        self.lattice
+            .iter()
+            .enumerate()
+            .map(|(i, l)| ((l[0] & 1) + 2 * (l[1] & 1) + 4 * (l[2] & 1)) as u8 + if i >= pillow { 8 } else { 0 })
+            .collect()
     }
 
-    /// The red-black colouring (x + y + z) & 1: valid for the 7-point stencils only.
+    /// The red-black colouring (x + y + z) & 1, flipped on a pillow's surface nodes: valid for
+    /// the stencils on the cells' edges (finite volumes), not for the Kuhn split.
     #[must_use]
     pub fn red_black(&self) -> Vec<u8> {
-        self.lattice.iter().map(|l| ((l[0] + l[1] + l[2]) & 1) as u8).collect()
+        let pillow = self.lattice_nodes;
+        self.lattice
+            .iter()
+            .enumerate()
+            .map(|(i, l)| (((l[0] + l[1] + l[2]) & 1) as usize ^ usize::from(i >= pillow)) as u8)
+            .collect()
     }
 
     /// The next coarser level of the paper's hierarchy (§5.3): the same polycube at half the
@@ -343,17 +458,24 @@ impl Polygrid {
                 reason: "a hierarchy level halves it, so it must be even".into(),
             });
         }
-        let mut coarse = Polygrid::new(Arc::clone(&self.polycube), self.resolution / 2)?;
-        let fine_of: Vec<u32> = coarse
-            .lattice
-            .iter()
-            .map(|l| self.node_at(l.map(|x| 2 * x)).expect("an even lattice point of a cell corner is a node"))
+        let mut coarse = Polygrid::build(Arc::clone(&self.polycube), self.resolution / 2, self.has_pillow())?;
+        let fine_lattice_node =
+            |l: [i32; 3]| self.node_at(l.map(|x| 2 * x)).expect("an even lattice point of a cell corner is a node");
+        let fine_of: Vec<u32> = (0..coarse.node_count())
+            .map(|c| {
+                let f = fine_lattice_node(coarse.lattice[c]);
+                if c >= coarse.lattice_nodes {
+                    self.surface_of[f as usize]
+                } else {
+                    f
+                }
+            })
             .collect();
         coarse.positions = fine_of.iter().map(|&f| self.positions[f as usize]).collect();
-        let rows: Vec<Vec<(u32, f64)>> = self
-            .lattice
-            .par_iter()
-            .map(|l| {
+        let rows: Vec<Vec<(u32, f64)>> = (0..self.node_count())
+            .into_par_iter()
+            .map(|i| {
+                let l = self.lattice[i];
                 let mut parents = vec![([0i32; 3], 1.0)];
                 for k in 0..3 {
                     if l[k] % 2 == 0 {
@@ -372,9 +494,15 @@ impl Polygrid {
                             .collect();
                     }
                 }
+                // A pillow node's parents are the pillow nodes over its base's parents (on the
+                // same cube faces, so on the surface too).
+                let pillow = i >= self.lattice_nodes;
                 parents
                     .into_iter()
-                    .map(|(p, w)| (coarse.node_at(p).expect("the corners of a coarse cell are nodes"), w))
+                    .map(|(p, w)| {
+                        let c = coarse.node_at(p).expect("the corners of a coarse cell are nodes");
+                        (if pillow { coarse.surface_of[c as usize] } else { c }, w)
+                    })
                     .collect()
             })
             .collect();
@@ -388,7 +516,33 @@ impl Polygrid {
             }
             row_ptr.push(cols.len());
         }
-        Ok((coarse, Prolongation { coarse_count: fine_of.len(), row_ptr, cols, weights, fine_of }))
+        // Per fine cell, the coarse cell holding it.
+        let cubes = self.polycube.cells();
+        let rc = coarse.resolution as i32;
+        let coarse_lattice_cell = |l: [i32; 3]| {
+            let l = l.map(|x| x.div_euclid(2));
+            let cube = l.map(|x| x.div_euclid(rc));
+            let k =
+                cubes.binary_search_by_key(&(cube[2], cube[1], cube[0]), |c| (c[2], c[1], c[0])).expect("a cube of the polycube");
+            let local = [0, 1, 2].map(|a| (l[a] - cube[a] * rc) as usize);
+            let rc = rc as usize;
+            (k * rc * rc * rc + (local[2] * rc + local[1]) * rc + local[0]) as u32
+        };
+        let pillow_index: std::collections::HashMap<([i32; 3], u8), u32> = (coarse.lattice_cells..coarse.cells.len())
+            .map(|c| ((coarse.cell_lattice[c], coarse.pillow_dir[c - coarse.lattice_cells]), c as u32))
+            .collect();
+        let cell_parent = (0..self.cells.len())
+            .map(|c| {
+                let l = self.cell_lattice[c];
+                if c < self.lattice_cells {
+                    coarse_lattice_cell(l)
+                } else {
+                    let dir = self.pillow_dir[c - self.lattice_cells];
+                    pillow_index[&(l.map(|x| x.div_euclid(2)), dir)]
+                }
+            })
+            .collect();
+        Ok((coarse, Prolongation { coarse_count: fine_of.len(), row_ptr, cols, weights, fine_of, cell_parent }))
     }
 }
 
@@ -402,6 +556,8 @@ pub struct Prolongation {
     weights: Vec<f64>,
     /// Per coarse node, the fine node at the same lattice point.
     fine_of: Vec<u32>,
+    /// Per fine cell, the coarse cell holding it.
+    cell_parent: Vec<u32>,
 }
 
 impl Prolongation {
@@ -428,6 +584,13 @@ impl Prolongation {
     #[must_use]
     pub fn fine_of(&self) -> &[u32] {
         &self.fine_of
+    }
+
+    /// Per fine cell, the coarse cell holding it (8 lattice cells, or 4 pillow cells, per
+    /// coarse cell): for averaging cell media, σa and σ′s, never κ.
+    #[must_use]
+    pub fn cell_parent(&self) -> &[u32] {
+        &self.cell_parent
     }
 
     /// `fine = P coarse` (trilinear interpolation).
@@ -539,22 +702,74 @@ mod tests {
         }
     }
 
+    fn pillowed_l(resolution: u32) -> Polygrid {
+        let cubes = Polycube::from_cells(DVec3::ZERO, 2.0, vec![[0, 0, 0], [1, 0, 0], [0, 1, 0]]).unwrap();
+        Polygrid::with_pillow(Arc::new(cubes), resolution).unwrap()
+    }
+
     #[test]
     fn parity_colours_separate_every_pair_of_cell_corners() {
-        let g = l_shape(3);
-        let colour = g.parity_colours();
-        for cell in g.cells() {
-            for a in 0..8 {
-                for b in a + 1..8 {
-                    assert_ne!(colour[cell[a] as usize], colour[cell[b] as usize]);
+        for g in [l_shape(3), pillowed_l(3)] {
+            let colour = g.parity_colours();
+            let rb = g.red_black();
+            for cell in g.cells() {
+                for a in 0..8 {
+                    for b in a + 1..8 {
+                        assert_ne!(colour[cell[a] as usize], colour[cell[b] as usize]);
+                    }
+                }
+                for [a, b] in crate::polygrid::CELL_EDGES {
+                    assert_ne!(rb[cell[a] as usize], rb[cell[b] as usize]);
                 }
             }
         }
     }
 
     #[test]
+    fn a_pillow_covers_the_surface_with_one_layer_of_right_handed_cells() {
+        let r = 2u32;
+        let plain = l_shape(r);
+        let g = pillowed_l(r);
+        let boundary_lattice = plain.on_boundary().iter().filter(|&&b| b).count();
+        assert_eq!(g.node_count(), plain.node_count() + boundary_lattice);
+        assert_eq!(g.cells().len(), plain.cells().len() + plain.quads().len());
+        // Surface nodes only on the surface; every lattice node inside.
+        assert!(g.on_boundary()[..g.lattice_node_count()].iter().all(|&b| !b));
+        assert!(g.on_boundary()[g.lattice_node_count()..].iter().all(|&b| b));
+        // Push every surface node one unit out along its face normals: every pillow cell is
+        // then a right-handed box (positive corner Jacobians), and the Kuhn split conforms (a
+        // tet mesh with a closed manifold boundary).
+        let mut normals = vec![Vec::new(); g.node_count()];
+        for (q, lattice_quad) in g.quads().iter().zip(plain.quads().iter()) {
+            let [a, b, c, _] = lattice_quad.map(|i| plain.positions()[i as usize]);
+            let n = (b - a).cross(c - a).normalize();
+            for &i in q {
+                if !normals[i as usize].contains(&n) {
+                    normals[i as usize].push(n);
+                }
+            }
+        }
+        let mut p = g.positions().to_vec();
+        for (x, n) in p.iter_mut().zip(&normals) {
+            *x += 0.25 * n.iter().sum::<DVec3>();
+        }
+        let mut moved = g.clone();
+        moved.set_positions(p);
+        crate::polygrid::map::check_cells(&moved, "test").unwrap();
+        let tets = crate::mesh::TetMesh::new(moved.positions().to_vec(), moved.kuhn_tets(), vec![]).unwrap();
+        assert!(tets.boundary_topology().is_closed_manifold());
+        assert_eq!(tets.boundary_faces().len(), 2 * g.quads().len());
+    }
+
+    #[test]
     fn prolongation_is_exact_for_linear_functions() {
-        let g = l_shape(4);
+        for g in [l_shape(4), pillowed_l(4)] {
+            check_prolongation(&g);
+        }
+        assert!(l_shape(3).coarsened().is_err());
+    }
+
+    fn check_prolongation(g: &Polygrid) {
         let (coarse, p) = g.coarsened().unwrap();
         assert_eq!(coarse.resolution(), 2);
         assert_eq!(p.coarse_count(), coarse.node_count());
@@ -568,10 +783,22 @@ mod tests {
                 assert!((v[k] - e[k]).abs() < 1e-12);
             }
         }
-        assert!(l_shape(3).coarsened().is_err());
         // The average of a constant is the constant.
         let avg = p.average(&vec![[2.5]; g.node_count()]);
         assert!(avg.iter().all(|a| (a[0] - 2.5).abs() < 1e-12));
+        // Each coarse cell holds 8 lattice or 4 pillow fine cells, inside it.
+        let mut count = vec![0; coarse.cells().len()];
+        for (c, &parent) in p.cell_parent().iter().enumerate() {
+            count[parent as usize] += 1;
+            let pillow_fine = c >= g.lattice_cell_count();
+            assert_eq!(pillow_fine, parent as usize >= coarse.lattice_cell_count());
+            let l = g.cell_lattice()[c];
+            let lc = coarse.cell_lattice()[parent as usize];
+            assert!((0..3).all(|k| l[k].div_euclid(2) == lc[k]), "{l:?} in {lc:?}");
+        }
+        for (c, n) in count.iter().enumerate() {
+            assert_eq!(*n, if c < coarse.lattice_cell_count() { 8 } else { 4 });
+        }
     }
 
     #[test]

@@ -9,6 +9,9 @@
 //! boundary nodes are projected, then relaxed tangentially (each moved towards the mean of its
 //! quad neighbours and projected back), and the interior takes the boundary's displacement by
 //! harmonic relaxation of the displacement field (the deep interior keeps its lattice places).
+//! With a pillow ([`Polygrid::with_pillow`]) the lattice's surface starts one spacing under
+//! the surface nodes and every lattice node is then smoothed among the cells' edges, which
+//! rounds the polycube's convex corners inwards instead of flattening their cells.
 //! The cubed sphere ([`map_to_sphere`]) has a closed form.
 
 use glam::DVec3;
@@ -28,11 +31,14 @@ pub struct MapOptions {
     pub smoothing: f64,
     /// Jacobi sweeps of the interior displacement field.
     pub interior_sweeps: usize,
+    /// With a pillow ([`Polygrid::with_pillow`]): Jacobi sweeps of Laplacian smoothing of
+    /// every lattice node's position among the cells' edges, the surface fixed.
+    pub pillow_sweeps: usize,
 }
 
 impl Default for MapOptions {
     fn default() -> Self {
-        Self { boundary_rounds: 16, smoothing: 0.5, interior_sweeps: 64 }
+        Self { boundary_rounds: 16, smoothing: 0.5, interior_sweeps: 64, pillow_sweeps: 24 }
     }
 }
 
@@ -135,10 +141,29 @@ pub fn map_to_surface(grid: &mut Polygrid, bvh: &TriangleBvh, options: &MapOptio
             x[i as usize] = p;
         }
     }
+    // A pillow's lattice boundary nodes start one lattice spacing under their surface node.
+    let pillow = grid.lattice_node_count();
+    let mut fixed = on_boundary.clone();
+    if grid.has_pillow() {
+        let mut normal = vec![DVec3::ZERO; n];
+        for q in grid.quads() {
+            let [a, b, c, e] = q.map(|i| x[i as usize]);
+            let area = (c - a).cross(e - b);
+            for &i in q {
+                normal[i as usize] += area;
+            }
+        }
+        let h = grid.lattice_spacing();
+        for (k, &b) in grid.pillow_base().iter().enumerate() {
+            let s = pillow + k;
+            x[b as usize] = x[s] - h * normal[s].normalize_or_zero();
+            fixed[b as usize] = true;
+        }
+    }
     // The interior follows: harmonic relaxation of the displacement from the lattice.
     let neighbours = grid.neighbours();
     let mut d: Vec<DVec3> = x.iter().zip(&lattice).map(|(a, b)| *a - *b).collect();
-    let interior: Vec<u32> = (0..n as u32).filter(|&i| !on_boundary[i as usize]).collect();
+    let interior: Vec<u32> = (0..n as u32).filter(|&i| !fixed[i as usize]).collect();
     for _ in 0..options.interior_sweeps {
         let next: Vec<DVec3> = interior
             .par_iter()
@@ -154,7 +179,26 @@ pub fn map_to_surface(grid: &mut Polygrid, bvh: &TriangleBvh, options: &MapOptio
             d[i as usize] = v;
         }
     }
-    let positions = lattice.iter().zip(&d).map(|(a, b)| *a + *b).collect();
+    let mut positions: Vec<DVec3> = lattice.iter().zip(&d).map(|(a, b)| *a + *b).collect();
+    if grid.has_pillow() {
+        // Laplacian smoothing of every lattice node (the pillow's base nodes too) among the
+        // cells' edges, the surface fixed: rounds the polycube's convex corners and edges
+        // inwards, so that no cell is flattened against the surface.
+        let pattern = grid.edge_pattern()?;
+        let lattice_ids: Vec<u32> = (0..pillow as u32).collect();
+        for _ in 0..options.pillow_sweeps {
+            let next: Vec<DVec3> = lattice_ids
+                .par_iter()
+                .map(|&i| {
+                    let row = pattern.row(i as usize);
+                    let others = row.iter().filter(|&&j| j != i);
+                    let (sum, count) = others.fold((DVec3::ZERO, 0.0), |(s, c), &j| (s + positions[j as usize], c + 1.0));
+                    sum / count
+                })
+                .collect();
+            positions[..pillow].copy_from_slice(&next);
+        }
+    }
     grid.set_positions(positions);
     check_cells(grid, "the surface's features are finer than the cubes: choose a smaller cube or a higher resolution")
 }
@@ -282,6 +326,50 @@ mod tests {
         }
         g.set_positions(p);
         assert!(matches!(check_cells(&g, "test"), Err(PolygridError::Fold { cell: 0, .. })));
+    }
+
+    #[test]
+    fn a_pillowed_voxel_polycube_maps_a_coarse_faceted_sphere_without_folds() {
+        // A 48 × 24 UV sphere of radius 12 at 4 mm cubes: without the pillow, the cells on the
+        // polycube's corners have three faces on flat facets.
+        let sphere = uv_sphere(12.0, 48, 24);
+        let bvh = TriangleBvh::from_indexed(sphere.positions(), sphere.triangles());
+        let cube = Arc::new(Polycube::voxelize(&sphere, 4.0).unwrap());
+        let mut plain = Polygrid::new(Arc::clone(&cube), 4).unwrap();
+        let plain = map_to_surface(&mut plain, &bvh, &MapOptions::default());
+        let mut g = Polygrid::with_pillow(cube, 4).unwrap();
+        let q = map_to_surface(&mut g, &bvh, &MapOptions::default()).unwrap();
+        assert!(q.min_scaled_jacobian > 0.05, "pillowed {q:?}; without the pillow {plain:?}");
+        let tets = crate::mesh::TetMesh::new(g.positions().to_vec(), g.kuhn_tets(), vec![]).unwrap();
+        assert!(tets.boundary_topology().is_closed_manifold());
+        assert_eq!(tets.boundary_faces().len(), 2 * g.quads().len());
+    }
+
+    /// A closed UV sphere.
+    fn uv_sphere(radius: f64, nu: usize, nv: usize) -> crate::mesh::TriMesh {
+        let mut positions = vec![[0.0, 0.0, radius]];
+        for j in 1..nv {
+            let th = std::f64::consts::PI * j as f64 / nv as f64;
+            for i in 0..nu {
+                let ph = 2.0 * std::f64::consts::PI * i as f64 / nu as f64;
+                positions.push([radius * th.sin() * ph.cos(), radius * th.sin() * ph.sin(), radius * th.cos()]);
+            }
+        }
+        positions.push([0.0, 0.0, -radius]);
+        let ring = |j: usize, i: usize| (1 + (j - 1) * nu + i % nu) as u32;
+        let south = (positions.len() - 1) as u32;
+        let mut indices = Vec::new();
+        for i in 0..nu {
+            indices.extend([0, ring(1, i), ring(1, i + 1)]);
+            indices.extend([south, ring(nv - 1, i + 1), ring(nv - 1, i)]);
+        }
+        for j in 1..nv - 1 {
+            for i in 0..nu {
+                indices.extend([ring(j, i), ring(j + 1, i), ring(j + 1, i + 1)]);
+                indices.extend([ring(j, i), ring(j + 1, i + 1), ring(j, i + 1)]);
+            }
+        }
+        crate::mesh::TriMesh::from_triangles(&positions, &indices).unwrap()
     }
 
     #[test]

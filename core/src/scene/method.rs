@@ -80,11 +80,7 @@ impl From<TransCutOptions> for Method {
 impl Method {
     /// The names of every method this library has, in the order front ends list them (also
     /// the order of the C ABI's `TC_METHOD_*` values).
-    ///
-    /// The polygrid ([`Method::Polygrid`]) is not listed yet: it is reachable from the Rust API,
-    /// and joins the front ends once its grids survive coarse faceted surfaces (a voxel
-    /// polycube's convex corners flatten on them; docs/ARCHITECTURE.md, "Polygrid").
-    pub const NAMES: &'static [&'static str] = &["transcut", "hierarchical-dipole", "radiosity", "prt"];
+    pub const NAMES: &'static [&'static str] = &["transcut", "hierarchical-dipole", "radiosity", "prt", "polygrid"];
 
     /// Every method with its default options, in the order of [`Method::NAMES`].
     #[must_use]
@@ -140,6 +136,7 @@ impl Method {
             "hierarchical-dipole" => Some(Self::HierarchicalDipole(DipoleOptions::default())),
             "radiosity" => Some(Self::Radiosity(RadiosityOptions::default())),
             "prt" => Some(Self::Prt(PrtOptions::default())),
+            "polygrid" => Some(Self::Polygrid(PolygridOptions::default())),
             _ => None,
         }
     }

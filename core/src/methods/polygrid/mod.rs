@@ -301,7 +301,7 @@ fn build_grid(target: &Target<'_>, options: &PolygridOptions) -> Result<(Polygri
     let mut attempt = 0;
     loop {
         let result = Polycube::voxelize(target.world, cube).and_then(|polycube| {
-            let mut grid = Polygrid::new(Arc::new(polycube), resolution)?;
+            let mut grid = Polygrid::with_pillow(Arc::new(polycube), resolution)?;
             let quality = map_to_surface(&mut grid, &bvh, &MapOptions::default())?;
             Ok((grid, quality))
         });
