@@ -20,6 +20,7 @@ use crate::progress::StageBar;
 Example:
   transcut bake bunny.obj --medium marble --scale 40 --light sun:dir=0,-1,-1,irradiance=3 -o bunny.ply
   transcut bake bunny.obj --scale 40 --method hierarchical-dipole --theta 0.3 -o bunny.npy
+  transcut bake bunny.obj --scale 40 --method polygrid --polygrid-resolution 12 -o bunny.ply
   transcut bake head.obj --scale 1 --medium skin1 --uv-texture 2048 -o head_sss.exr"))]
 pub struct BakeArgs {
     /// Input surface mesh (.obj or .ply).
@@ -119,6 +120,12 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
             baked.total_ms, s.meshing_ms, s.source_ms, d.link_ms, d.gather_ms, d.push_ms
         );
     } else {
+        if let Some(p) = &s.polygrid {
+            println!(
+                "polygrid {} cubes of {:.3} mm, {} cells per edge: {} nodes, {} cells (scaled Jacobian min {:.3}, mean {:.3})",
+                p.cubes, p.cube_mm, p.resolution, p.nodes, p.cells, p.quality.min_scaled_jacobian, p.quality.mean_scaled_jacobian
+            );
+        }
         println!("tets {} ({} vertices, {} on the surface)", s.tets, s.vertices, s.boundary_vertices);
         let residual = s.relative_residual.iter().copied().fold(0.0, f64::max);
         println!("solver iterations {:?}, relative residual {residual:.1e}", s.iterations);

@@ -13,7 +13,8 @@ use transcut::optics::EdgeRule;
 use transcut::prt::{BasisSize, PrtCache, PrtOptions};
 use transcut::radiosity::{FormFactorOptions, HetRule, Iteration, SolveOptions};
 use transcut::{
-    Method, OpticalDistance, ProfileKind, ProfileScatteringOptions, RadiosityOptions, TransCutOptions, TranslucentScattering,
+    Method, OpticalDistance, PolygridOptions, ProfileKind, ProfileScatteringOptions, RadiosityOptions, Stencil, TransCutOptions,
+    TranslucentScattering,
 };
 
 /// The names of the methods whose options are here ([`Method::NAMES`]).
@@ -21,9 +22,15 @@ const TRANSCUT: &str = "transcut";
 const DIPOLE: &str = transcut::methods::hierarchical_dipole::NAME;
 const RADIOSITY: &str = "radiosity";
 const PRT: &str = transcut::methods::prt::NAME;
+const POLYGRID: &str = "polygrid";
 
-/// The methods that solve TransCut's diffusion (radiosity through its translucent objects).
+/// The methods that solve TransCut's diffusion on tets they mesh (radiosity through its
+/// translucent objects): those that take `--tets`.
 const DIFFUSION: &[&str] = &[TRANSCUT, RADIOSITY];
+
+/// The methods whose diffusion solves take `--tolerance`, `--solver` and `--backend` (the
+/// polygrid's on its grid, [`PolygridOptions::solve`]).
+const SOLVES: &[&str] = &[TRANSCUT, RADIOSITY, POLYGRID];
 
 /// θ of `--oracle opening-angle` without `--theta`: the core's default ([`Oracle::default`]).
 const DEFAULT_THETA: f64 = 0.4;
@@ -174,7 +181,7 @@ impl HetName {
 /// The subsurface method and its options.
 #[derive(Args, Debug, Clone, Default)]
 pub struct MethodArgs {
-    /// The subsurface method: transcut, hierarchical-dipole, radiosity or prt (the default is the
+    /// The subsurface method: transcut, hierarchical-dipole, radiosity, prt or polygrid (the default is the
     /// command's: transcut for bake and render, hierarchical-dipole for animate). `--method
     /// help` lists every method with one line each.
     #[arg(long, value_name = "NAME")]
@@ -183,15 +190,16 @@ pub struct MethodArgs {
     /// [default: 200000; a scene file's [bake] tets]
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=50_000_000), help_heading = "TransCut options")]
     pub tets: Option<u64>,
-    /// transcut, radiosity: relative residual ‖b − Mφ‖/‖b‖ at which the diffusion solver
-    /// stops, in (0, 1) [default: 1e-6]
+    /// transcut, radiosity, polygrid: relative residual ‖b − Mφ‖/‖b‖ at which the diffusion
+    /// solver stops, in (0, 1) [default: 1e-6]
     #[arg(long, help_heading = "TransCut options")]
     pub tolerance: Option<f64>,
-    /// transcut, radiosity: the bake's diffusion solver on the CPU: pcg, ssor-pcg (default), cascade, mg-pcg or
-    /// sa-pcg (on the GPU the single-level solvers run Jacobi PCG)
+    /// transcut, radiosity, polygrid: the bake's diffusion solver on the CPU: pcg, ssor-pcg (default), cascade,
+    /// mg-pcg or sa-pcg (on the GPU the single-level solvers run Jacobi PCG; the polygrid's
+    /// finite-volume stencil always runs SSOR-PCG on the CPU)
     #[arg(long, value_parser = solver_kind, help_heading = "TransCut options")]
     pub solver: Option<SolverKind>,
-    /// transcut, radiosity: where the diffusion solve runs: cpu, gpu (an error without a GPU) or auto (a hardware
+    /// transcut, radiosity, polygrid: where the diffusion solve runs: cpu, gpu (an error without a GPU) or auto (a hardware
     /// GPU when there is one, else the CPU); for radiosity also its iteration's gathers F·B
     /// (Jacobi, BiCGSTAB; Gauss–Seidel stays on the CPU). Default: the TRANSCUT_BACKEND
     /// environment variable, else auto.
@@ -282,6 +290,23 @@ pub struct MethodArgs {
     /// writes it there, so the next bake of the same object is fast [default: none]
     #[arg(long, value_name = "DIR", help_heading = "PRT options")]
     pub prt_cache: Option<std::path::PathBuf>,
+    /// polygrid: target grid nodes per object, 8 to 4000000; with --polygrid-resolution it sets
+    /// the polycube's cube size (unless --polygrid-cube) [default: 200000]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(8..=4_000_000), help_heading = "Polygrid options")]
+    pub polygrid_nodes: Option<u64>,
+    /// polygrid: the polycube's cube edge in mm, finite and > 0; a cube at which the polycube
+    /// changes the surface's topology or the grid folds is made smaller at the same node
+    /// spacing [default: from --polygrid-nodes]
+    #[arg(long, value_name = "MM", help_heading = "Polygrid options")]
+    pub polygrid_cube: Option<f64>,
+    /// polygrid: grid cells per cube edge, 1 to 256 [default: 8]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256), help_heading = "Polygrid options")]
+    pub polygrid_resolution: Option<u32>,
+    /// polygrid: the discretisation on the grid: fem (P1 on the cells' tets, TransCut's
+    /// assembly; second order on skewed cells, relight and edits) or finite-volume (two-point
+    /// fluxes, exactly conservative; no edits after the bake) [default: fem]
+    #[arg(long, value_name = "STENCIL", value_parser = stencil, help_heading = "Polygrid options")]
+    pub polygrid_stencil: Option<Stencil>,
 }
 
 /// The defaults under the command line: what a scene file's `[bake]` table says, or a
@@ -325,6 +350,11 @@ pub struct MethodDefaults {
     pub prt_terms: Option<u64>,
     pub prt_basis: Option<u32>,
     pub prt_cache: Option<std::path::PathBuf>,
+    /// The polygrid's options when their flags are not given (a scene file's).
+    pub polygrid_nodes: Option<u64>,
+    pub polygrid_cube: Option<f64>,
+    pub polygrid_resolution: Option<u32>,
+    pub polygrid_stencil: Option<Stencil>,
 }
 
 /// A scene file's `[bake]` table as written (names not yet parsed): the keys that choose the
@@ -352,6 +382,10 @@ pub struct BakeTable {
     pub prt_terms: Option<u64>,
     pub prt_basis: Option<u32>,
     pub prt_cache: Option<std::path::PathBuf>,
+    pub polygrid_nodes: Option<u64>,
+    pub polygrid_cube: Option<f64>,
+    pub polygrid_resolution: Option<u32>,
+    pub polygrid_stencil: Option<String>,
 }
 
 /// The value of `[bake] key` among the names of `T` (any case).
@@ -378,17 +412,23 @@ fn value_name<T: ValueEnum>(value: T) -> String {
 impl MethodDefaults {
     /// The defaults of a scene file's `[bake]` table: its method, TransCut's `tets`,
     /// `tolerance` and `solver`, the dipole's `theta`, `oracle`, `eps1`, `eps2`, `rule`,
-    /// `receivers`, `mode` and `budget` (the names and values of the command line's flags).
+    /// `receivers`, `mode` and `budget`, radiosity's, PRT's and the polygrid's (the names and
+    /// values of the command line's flags).
     ///
     /// # Errors
-    /// An unknown oracle, rule, receivers or mode name, listing the valid ones; a budget of 0
-    /// (as `--budget`, at least 1).
+    /// An unknown oracle, rule, receivers, mode, iteration or stencil name, listing the valid
+    /// ones; a budget of 0 (as `--budget`, at least 1).
     pub fn from_bake_table(table: BakeTable) -> anyhow::Result<Self> {
         let oracle = bake_name::<OracleName>("oracle", table.oracle.as_deref(), "oracle", "oracles")?;
         let rule = bake_name::<RuleName>("rule", table.rule.as_deref(), "rule", "rules")?;
         let receivers = bake_name::<ReceiverName>("receivers", table.receivers.as_deref(), "receivers", "receivers")?;
         let mode = bake_name::<ModeName>("mode", table.mode.as_deref(), "mode", "modes")?;
         let iteration = bake_name::<IterationName>("iteration", table.iteration.as_deref(), "iteration", "iterations")?;
+        let polygrid_stencil = table
+            .polygrid_stencil
+            .as_deref()
+            .map(|name| stencil(name).map_err(|e| anyhow!("[bake] polygrid_stencil: {e}")))
+            .transpose()?;
         if table.bounces == Some(0) {
             bail!(
                 "[bake] bounces = 0: the bounces are at least 1 (the direct light's; leave bounces out to stop at the tolerance)"
@@ -426,6 +466,10 @@ impl MethodDefaults {
             prt_terms: table.prt_terms,
             prt_basis: table.prt_basis,
             prt_cache: table.prt_cache,
+            polygrid_nodes: table.polygrid_nodes,
+            polygrid_cube: table.polygrid_cube,
+            polygrid_resolution: table.polygrid_resolution,
+            polygrid_stencil,
         })
     }
 
@@ -462,6 +506,15 @@ pub fn solver_kind(name: &str) -> Result<SolverKind, String> {
     })
 }
 
+/// Parses a polygrid stencil name ([`Stencil::from_name`]).
+///
+/// # Errors
+/// The valid names.
+pub fn stencil(name: &str) -> Result<Stencil, String> {
+    Stencil::from_name(name)
+        .ok_or_else(|| format!("unknown stencil {} (the stencils are: {})", quote(name), Stencil::NAMES.join(", ")))
+}
+
 /// The text of `--method help`: every method, one line each.
 #[must_use]
 pub fn method_help() -> String {
@@ -478,12 +531,16 @@ pub fn method_help() -> String {
 type OptionOwner = (bool, &'static str, &'static [&'static str]);
 
 /// The first of `options` that was given and is not of `method`, with its methods' names.
-/// ("the transcut method", "the transcut and radiosity methods").
+/// ("the transcut method", "the transcut and radiosity methods", "the transcut, radiosity and
+/// polygrid methods").
 fn foreign(options: &[OptionOwner], method: &str) -> Option<(&'static str, String)> {
-    options
-        .iter()
-        .find(|(given, _, owners)| *given && !owners.contains(&method))
-        .map(|&(_, name, owners)| (name, format!("{} method{}", owners.join(" and "), if owners.len() > 1 { "s" } else { "" })))
+    options.iter().find(|(given, _, owners)| *given && !owners.contains(&method)).map(|&(_, name, owners)| {
+        let names = match owners {
+            [.., last] if owners.len() > 1 => format!("{} and {last} methods", owners[..owners.len() - 1].join(", ")),
+            _ => format!("{} method", owners.join("")),
+        };
+        (name, names)
+    })
 }
 
 impl MethodArgs {
@@ -494,12 +551,12 @@ impl MethodArgs {
     }
 
     /// Every method option: whether it was given, its flag and its method.
-    fn options(&self) -> [OptionOwner; 24] {
+    fn options(&self) -> [OptionOwner; 28] {
         [
             (self.tets.is_some(), "--tets", DIFFUSION),
-            (self.tolerance.is_some(), "--tolerance", DIFFUSION),
-            (self.solver.is_some(), "--solver", DIFFUSION),
-            (self.backend.is_some(), "--backend", DIFFUSION),
+            (self.tolerance.is_some(), "--tolerance", SOLVES),
+            (self.solver.is_some(), "--solver", SOLVES),
+            (self.backend.is_some(), "--backend", SOLVES),
             (self.theta.is_some(), "--theta", &[DIPOLE]),
             (self.oracle.is_some(), "--oracle", &[DIPOLE]),
             (self.eps1.is_some(), "--eps1", &[DIPOLE]),
@@ -520,6 +577,10 @@ impl MethodArgs {
             (self.prt_terms.is_some(), "--prt-terms", &[PRT]),
             (self.prt_basis.is_some(), "--prt-basis", &[PRT]),
             (self.prt_cache.is_some(), "--prt-cache", &[PRT]),
+            (self.polygrid_nodes.is_some(), "--polygrid-nodes", &[POLYGRID]),
+            (self.polygrid_cube.is_some(), "--polygrid-cube", &[POLYGRID]),
+            (self.polygrid_resolution.is_some(), "--polygrid-resolution", &[POLYGRID]),
+            (self.polygrid_stencil.is_some(), "--polygrid-stencil", &[POLYGRID]),
         ]
     }
 
@@ -539,10 +600,10 @@ impl MethodArgs {
         // A scene file's TransCut options, when the file itself chose another method: written
         // for nothing. (When the command line chose the method, they were for the file's.)
         if self.method.is_none() && defaults.from_file {
-            let file: [OptionOwner; 23] = [
+            let file: [OptionOwner; 27] = [
                 (defaults.tets.is_some(), "tets", DIFFUSION),
-                (defaults.tolerance.is_some(), "tolerance", DIFFUSION),
-                (defaults.solver.is_some(), "solver", DIFFUSION),
+                (defaults.tolerance.is_some(), "tolerance", SOLVES),
+                (defaults.solver.is_some(), "solver", SOLVES),
                 (defaults.theta.is_some(), "theta", &[DIPOLE]),
                 (defaults.oracle.is_some(), "oracle", &[DIPOLE]),
                 (defaults.eps1.is_some(), "eps1", &[DIPOLE]),
@@ -563,6 +624,10 @@ impl MethodArgs {
                 (defaults.prt_terms.is_some(), "prt_terms", &[PRT]),
                 (defaults.prt_basis.is_some(), "prt_basis", &[PRT]),
                 (defaults.prt_cache.is_some(), "prt_cache", &[PRT]),
+                (defaults.polygrid_nodes.is_some(), "polygrid_nodes", &[POLYGRID]),
+                (defaults.polygrid_cube.is_some(), "polygrid_cube", &[POLYGRID]),
+                (defaults.polygrid_resolution.is_some(), "polygrid_resolution", &[POLYGRID]),
+                (defaults.polygrid_stencil.is_some(), "polygrid_stencil", &[POLYGRID]),
             ];
             if let Some((option, owner)) = foreign(&file, method.name()) {
                 bail!("[bake] {option} is an option of the {owner}, not of {} (the file's method)", method.name());
@@ -599,6 +664,14 @@ impl MethodArgs {
                 },
                 cache: self.prt_cache.clone().or_else(|| defaults.prt_cache.clone()).map(PrtCache::Folder).or(d.cache),
                 ..d
+            }),
+            Method::Polygrid(d) => Method::Polygrid(PolygridOptions {
+                nodes: self.polygrid_nodes.or(defaults.polygrid_nodes).map_or(Ok(d.nodes), usize::try_from)?,
+                cube_mm: self.polygrid_cube.or(defaults.polygrid_cube).or(d.cube_mm),
+                resolution: self.polygrid_resolution.or(defaults.polygrid_resolution).unwrap_or(d.resolution),
+                stencil: self.polygrid_stencil.or(defaults.polygrid_stencil).unwrap_or(d.stencil),
+                // The solves as TransCut's, on the grid's nodes (no tets to ask for).
+                solve: TransCutOptions { tets: d.solve.tets, ..self.transcut(d.solve.clone(), defaults)? },
             }),
             _ => bail!("{}", Method::unknown(name)),
         };
@@ -990,6 +1063,141 @@ mod tests {
         let transcut = MethodDefaults::from_bake_table(BakeTable { prt_terms: Some(2048), ..BakeTable::default() }).unwrap();
         let e = MethodArgs::default().method(&transcut).unwrap_err().to_string();
         assert!(e.contains("[bake] prt_terms is an option of the prt method"), "{e}");
+    }
+
+    fn polygrid(args: MethodArgs, file: &MethodDefaults) -> anyhow::Result<PolygridOptions> {
+        match (MethodArgs { method: args.method.clone().or(Some(POLYGRID.into())), ..args }).method(file)? {
+            Method::Polygrid(o) => Ok(o),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    /// The polygrid's flags map onto its options, the shared solve options onto its solves, and
+    /// nothing else changes.
+    #[test]
+    fn polygrid_takes_its_own_options_and_the_shared_solves() {
+        let none = MethodDefaults::default();
+        assert_eq!(polygrid(MethodArgs::default(), &none).unwrap(), PolygridOptions::default());
+        let o = polygrid(
+            MethodArgs {
+                polygrid_nodes: Some(50_000),
+                polygrid_cube: Some(2.5),
+                polygrid_resolution: Some(12),
+                polygrid_stencil: Some(Stencil::FiniteVolume),
+                tolerance: Some(1e-8),
+                solver: Some(SolverKind::MultigridPcg),
+                backend: Some(Backend::Cpu),
+                ..MethodArgs::default()
+            },
+            &none,
+        )
+        .unwrap();
+        let solve = TransCutOptions {
+            tolerance: 1e-8,
+            solver: SolverKind::MultigridPcg,
+            backend: Some(Backend::Cpu),
+            ..TransCutOptions::default()
+        };
+        let want = PolygridOptions { nodes: 50_000, cube_mm: Some(2.5), resolution: 12, stencil: Stencil::FiniteVolume, solve };
+        assert_eq!(o, want);
+        // The method by name in any case; the stencils by name, and an unknown one listed.
+        let named = MethodArgs { method: Some("PolyGrid".into()), ..MethodArgs::default() };
+        assert_eq!(named.method(&none).unwrap(), Method::Polygrid(PolygridOptions::default()));
+        assert_eq!(stencil("fem"), Ok(Stencil::Fem));
+        assert_eq!(stencil("Finite-Volume"), Ok(Stencil::FiniteVolume));
+        let e = stencil("lsq").unwrap_err();
+        assert!(e.contains("'lsq'") && e.contains("fem, finite-volume"), "{e}");
+        assert!(method_help().lines().any(|l| l.trim_start().starts_with("polygrid ")), "{}", method_help());
+        // Out of range through the core's check, naming the method and the option.
+        for (args, words) in [
+            (MethodArgs { polygrid_cube: Some(0.0), ..MethodArgs::default() }, ["polygrid: cube_mm = 0", "> 0"]),
+            (MethodArgs { polygrid_cube: Some(f64::NAN), ..MethodArgs::default() }, ["polygrid: cube_mm = NaN", "finite"]),
+            (MethodArgs { tolerance: Some(1.0), ..MethodArgs::default() }, ["polygrid: tolerance", "(0, 1)"]),
+        ] {
+            let e = format!("{:#}", polygrid(args, &none).unwrap_err());
+            assert!(words.iter().all(|w| e.contains(w)), "{e}");
+        }
+    }
+
+    #[test]
+    fn polygrid_options_are_refused_with_another_method_and_others_with_polygrid() {
+        let none = MethodDefaults::default();
+        let flags: [(&str, MethodArgs); 4] = [
+            ("--polygrid-nodes", MethodArgs { polygrid_nodes: Some(1000), ..MethodArgs::default() }),
+            ("--polygrid-cube", MethodArgs { polygrid_cube: Some(2.0), ..MethodArgs::default() }),
+            ("--polygrid-resolution", MethodArgs { polygrid_resolution: Some(4), ..MethodArgs::default() }),
+            ("--polygrid-stencil", MethodArgs { polygrid_stencil: Some(Stencil::Fem), ..MethodArgs::default() }),
+        ];
+        for (flag, args) in flags {
+            for method in [TRANSCUT, DIPOLE, RADIOSITY, PRT] {
+                let e = error(MethodArgs { method: Some(method.into()), ..args.clone() }, &none);
+                assert_eq!(e, format!("{flag} is an option of the polygrid method, not of {method} (the method chosen)"));
+            }
+        }
+        let polygrid_with = |args: MethodArgs| error(MethodArgs { method: Some(POLYGRID.into()), ..args }, &none);
+        let e = polygrid_with(MethodArgs { tets: Some(1000), ..MethodArgs::default() });
+        assert_eq!(e, "--tets is an option of the transcut and radiosity methods, not of polygrid (the method chosen)");
+        let e = polygrid_with(MethodArgs { theta: Some(0.3), ..MethodArgs::default() });
+        assert!(e.contains("--theta is an option of the hierarchical-dipole method, not of polygrid"), "{e}");
+        let e = polygrid_with(MethodArgs { prt_terms: Some(100), ..MethodArgs::default() });
+        assert!(e.contains("--prt-terms is an option of the prt method, not of polygrid"), "{e}");
+        // The shared solve options name their three methods.
+        let e = error(MethodArgs { method: Some(DIPOLE.into()), solver: Some(SolverKind::Pcg), ..MethodArgs::default() }, &none);
+        assert!(
+            e.contains("--solver is an option of the transcut, radiosity and polygrid methods, not of hierarchical-dipole"),
+            "{e}"
+        );
+    }
+
+    /// A scene file's polygrid keys set the options under the command line's flags; in a file
+    /// of another method they are refused by name, and an unknown stencil lists the valid ones.
+    #[test]
+    fn a_scene_files_polygrid_keys() {
+        let table = |method: &str| BakeTable {
+            method: Some(method.into()),
+            polygrid_nodes: Some(30_000),
+            polygrid_cube: Some(3.0),
+            polygrid_resolution: Some(6),
+            polygrid_stencil: Some("finite-volume".into()),
+            tolerance: Some(1e-7),
+            solver: Some("pcg".into()),
+            ..BakeTable::default()
+        };
+        let file = MethodDefaults::from_bake_table(table(POLYGRID)).unwrap();
+        let o = polygrid(MethodArgs::default(), &file).unwrap();
+        assert_eq!((o.nodes, o.cube_mm, o.resolution, o.stencil), (30_000, Some(3.0), 6, Stencil::FiniteVolume));
+        assert_eq!((o.solve.tolerance, o.solve.solver), (1e-7, SolverKind::Pcg));
+        let args = MethodArgs { polygrid_resolution: Some(10), polygrid_stencil: Some(Stencil::Fem), ..MethodArgs::default() };
+        let o = polygrid(args, &file).unwrap();
+        assert_eq!((o.nodes, o.resolution, o.stencil), (30_000, 10, Stencil::Fem), "the flag wins over the file");
+        for (key, set) in [
+            ("polygrid_nodes", (|t| t.polygrid_nodes = Some(10)) as SetKey),
+            ("polygrid_cube", |t| t.polygrid_cube = Some(1.0)),
+            ("polygrid_resolution", |t| t.polygrid_resolution = Some(4)),
+            ("polygrid_stencil", |t| t.polygrid_stencil = Some("fem".into())),
+        ] {
+            for method in [TRANSCUT, PRT] {
+                let mut t = BakeTable { method: Some(method.into()), ..BakeTable::default() };
+                set(&mut t);
+                let e = error(MethodArgs::default(), &MethodDefaults::from_bake_table(t).unwrap());
+                assert_eq!(e, format!("[bake] {key} is an option of the polygrid method, not of {method} (the file's method)"));
+            }
+        }
+        let tets = BakeTable { method: Some(POLYGRID.into()), tets: Some(1000), ..BakeTable::default() };
+        let e = error(MethodArgs::default(), &MethodDefaults::from_bake_table(tets).unwrap());
+        assert!(e.contains("[bake] tets is an option of the transcut and radiosity methods, not of polygrid"), "{e}");
+        let bad = BakeTable { polygrid_stencil: Some("lsq".into()), ..table(POLYGRID) };
+        let e = MethodDefaults::from_bake_table(bad).unwrap_err().to_string();
+        assert!(e.contains("[bake] polygrid_stencil") && e.contains("'lsq'") && e.contains("fem, finite-volume"), "{e}");
+        let e = format!(
+            "{:#}",
+            polygrid(
+                MethodArgs::default(),
+                &MethodDefaults::from_bake_table(BakeTable { polygrid_resolution: Some(0), ..table(POLYGRID) }).unwrap()
+            )
+            .unwrap_err()
+        );
+        assert!(e.contains("polygrid: resolution = 0"), "{e}");
     }
 
     /// Sets keys of a `[bake]` table.

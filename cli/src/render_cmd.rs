@@ -260,7 +260,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         crate::output::print_json(&report)?;
     } else {
         for (o, s) in scene.objects.iter().zip(&bake_stats) {
-            if s.tets > 0 {
+            if let Some(p) = &s.polygrid {
+                println!(
+                    "{}: {} ({} nodes on {} cubes of {:.3} mm), solve iterations {:?}, {:.0} ms",
+                    o.name, s.method, p.nodes, p.cubes, p.cube_mm, s.iterations, s.total_ms
+                );
+            } else if s.tets > 0 {
                 println!("{}: {} ({} tets), solve iterations {:?}, {:.0} ms", o.name, s.method, s.tets, s.iterations, s.total_ms);
             } else {
                 println!("{}: {} ({} surface vertices), {:.0} ms", o.name, s.method, s.vertices, s.total_ms);

@@ -420,3 +420,57 @@ fn bake_writes_a_uv_texture_of_the_solution() {
     assert!(!out.status.success() && stderr.contains("no texture coordinate"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `transcut bake --method polygrid`: a uniformly lit marble sphere (a fine UV sphere) within a
+/// few percent of the closed form at every vertex, the polygrid's statistics in the JSON and
+/// the human output, and its options refused with another method.
+#[test]
+fn bake_by_polygrid_reports_its_grid() {
+    use transcut::optics::{f_ext, Medium, UniformSphere};
+    let dir = std::env::temp_dir().join(format!("transcut-cli-polygrid-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = dir.join("ball.obj");
+    std::fs::write(&obj, uv_sphere_obj(96, 48)).unwrap();
+    let raw = dir.join("ball.raw");
+    let bake = |extra: &[&str]| {
+        transcut()
+            .arg("bake")
+            .arg(&obj)
+            .args(["--medium", "marble", "--scale", "1", "--light", "env:radiance=1", "--method", "polygrid"])
+            .args(["--polygrid-nodes", "20000", "--backend", "cpu", "--tolerance", "1e-9", "-o"])
+            .arg(&raw)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = bake(&["--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let stats = &json["stats"];
+    assert_eq!(stats["method"], "polygrid");
+    let p = &stats["polygrid"];
+    assert_eq!(p["resolution"], 8);
+    let count = |key: &str| p[key].as_u64().unwrap_or_else(|| panic!("{key}: {p}"));
+    assert!(count("cubes") >= 8 && count("cells") >= count("cubes"), "{p}");
+    assert!((5_000..60_000).contains(&count("nodes")), "{p}");
+    assert!(p["cube_mm"].as_f64().unwrap() > 0.0);
+    let (min, mean) =
+        (p["quality"]["min_scaled_jacobian"].as_f64().unwrap(), p["quality"]["mean_scaled_jacobian"].as_f64().unwrap());
+    assert!(min > 0.0 && min <= mean && mean <= 1.0, "{p}");
+    let marble = Medium::preset("marble").unwrap();
+    let q = std::f64::consts::PI * (1.0 - f_ext(marble.eta));
+    let expect = UniformSphere::new(marble, 10.0, [q; 3]).unwrap().surface_radiance(1.0);
+    let bytes = std::fs::read(&raw).unwrap();
+    assert_eq!(bytes.len(), 4 * 3 * (2 + 96 * 47));
+    for (k, c) in bytes.chunks_exact(4).map(|b| f64::from(f32::from_le_bytes(b.try_into().unwrap()))).enumerate() {
+        let want = expect[k % 3];
+        assert!((c / want - 1.0).abs() < 0.03, "vertex {} channel {}: {c} vs {want}", k / 3, k % 3);
+    }
+    let out = bake(&[]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && text.contains("baked by polygrid") && text.contains("cubes of"), "{text}");
+    let out = transcut().arg("bake").arg(&obj).args(["--polygrid-resolution", "4"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--polygrid-resolution is an option of the polygrid method"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

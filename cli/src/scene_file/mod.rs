@@ -20,8 +20,8 @@
 //! [bake]                    # optional
 //! method = "transcut"       # the subsurface method (`transcut bake --method help`)
 //! tets = 50000              # transcut: target tetrahedra per object
-//! tolerance = 1e-6          # solver relative residual
-//! solver = "ssor-pcg"       # transcut: the bake's solver (pcg, ssor-pcg, cascade, mg-pcg, sa-pcg)
+//! tolerance = 1e-6          # solver relative residual (transcut, radiosity, polygrid)
+//! solver = "ssor-pcg"       # transcut, radiosity, polygrid: the bake's solver (pcg, ssor-pcg, cascade, mg-pcg, sa-pcg)
 //! # theta = 0.4             # hierarchical-dipole: the opening angle, in (0, 1]
 //! # oracle = "opening-angle"  # hierarchical-dipole: opening-angle (theta) or paper (eps1, eps2)
 //! # eps1 = 0.05             # hierarchical-dipole, oracle "paper": its thresholds (default 0.05)
@@ -38,6 +38,10 @@
 //! # scattering = "diffusion"  # radiosity: translucent objects' S: diffusion (their TransCut solve), half-space or dipole (a profile)
 //! # profile_distance = "chord"  # radiosity, with a profile: chord or interior (the shortest path inside)
 //! # profile_het = "consistent"  # radiosity, with a profile, heterogeneous media: consistent or sheng2014 (eq. 16)
+//! # polygrid_nodes = 200000  # polygrid: target grid nodes per object
+//! # polygrid_cube = 2.5     # polygrid: the polycube's cube edge, mm (default: from polygrid_nodes)
+//! # polygrid_resolution = 8  # polygrid: grid cells per cube edge, 1 to 256
+//! # polygrid_stencil = "fem"  # polygrid: fem or finite-volume
 //!
 //! [[object]]                # one or more
 //! mesh = "bunny.obj"        # OBJ or PLY, relative to the scene file

@@ -114,6 +114,14 @@ pub struct BakeSpec {
     pub prt_basis: Option<u32>,
     /// prt: a folder of saved precomputes, relative to the scene file (`--prt-cache`).
     pub prt_cache: Option<PathBuf>,
+    /// polygrid: target grid nodes per object (`--polygrid-nodes`).
+    pub polygrid_nodes: Option<u64>,
+    /// polygrid: the polycube's cube edge, mm (`--polygrid-cube`).
+    pub polygrid_cube: Option<f64>,
+    /// polygrid: grid cells per cube edge (`--polygrid-resolution`).
+    pub polygrid_resolution: Option<u32>,
+    /// polygrid: `fem` or `finite-volume` (`--polygrid-stencil`).
+    pub polygrid_stencil: Option<String>,
 }
 
 /// One `[[object]]`.
@@ -361,6 +369,10 @@ impl BakeSpec {
             prt_terms: b.prt_terms,
             prt_basis: b.prt_basis,
             prt_cache: b.prt_cache.clone(),
+            polygrid_nodes: b.polygrid_nodes,
+            polygrid_cube: b.polygrid_cube,
+            polygrid_resolution: b.polygrid_resolution,
+            polygrid_stencil: b.polygrid_stencil.clone(),
         }
     }
 }
@@ -380,6 +392,24 @@ mod tests {
         assert!(matches!(f.lights[0].irradiance, Some(Rgb::Grey(v)) if v == 3.0));
         let l = f.lights[0].to_light(Path::new(".")).unwrap();
         assert!(matches!(l, Light::Directional { irradiance: [3.0, 3.0, 3.0], .. }));
+    }
+
+    /// The polygrid's `[bake]` keys reach its options, as its flags do.
+    #[test]
+    fn polygrid_keys_reach_the_method() {
+        let bake = "[bake]\nmethod = \"polygrid\"\npolygrid_nodes = 20000\npolygrid_cube = 2.5\npolygrid_resolution = 6\n\
+                    polygrid_stencil = \"Finite-Volume\"\ntolerance = 1e-7\n";
+        let f = SceneFile::parse(&format!("{MINIMAL}{bake}[[object]]\nmesh = \"a.obj\"\nmedium = \"marble\"\n")).unwrap();
+        let method = crate::method_args::MethodArgs::default().method(&f.bake.method_defaults().unwrap()).unwrap();
+        let transcut::Method::Polygrid(o) = method else { panic!("{method:?}") };
+        assert_eq!((o.nodes, o.cube_mm, o.resolution), (20_000, Some(2.5), 6));
+        assert_eq!((o.stencil, o.solve.tolerance), (transcut::Stencil::FiniteVolume, 1e-7));
+        let f = SceneFile::parse(&format!(
+            "{MINIMAL}[bake]\npolygrid_stencil = \"lsq\"\n[[object]]\nmesh = \"a.obj\"\nmedium = \"marble\"\n"
+        ))
+        .unwrap();
+        let e = f.bake.method_defaults().unwrap_err().to_string();
+        assert!(e.contains("[bake] polygrid_stencil") && e.contains("fem, finite-volume"), "{e}");
     }
 
     #[test]
