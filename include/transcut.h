@@ -104,6 +104,42 @@
 #define TC_METHOD_PRT 3
 
 /**
+ * Polygrid diffusion (Wang et al. 2008 §5): the diffusion equation on a grid of regular
+ * connectivity cut from a voxel polycube of each object's surface and mapped onto it
+ * (`TcPolygridOptions` in `TcBakeOptions.method_options`; `tc_object_polygrid_stats` after the
+ * bake). `TcBakeOptions.tolerance`, `max_iterations` and `backend` apply to its solves as to
+ * `TC_METHOD_TRANSCUT`'s; `tets` does not. Heterogeneous media; with the default stencil
+ * (`TC_POLYGRID_STENCIL_FEM`) the bake's session relights and edits as TransCut's does, on the
+ * grid's tets. An object whose grid folds at every cube size tried fails the bake with
+ * `TC_MESHING_FAILED` naming it; a ready tet mesh (`tc_scene_add_tet_mesh`) is
+ * `TC_UNSUPPORTED`.
+ */
+#define TC_METHOD_POLYGRID 4
+
+/**
+ * `TcPolygridOptions.stencil`: P1 finite elements on the cells' Kuhn split with TransCut's
+ * assembly (default): second order on skewed cells; the session relights and edits.
+ */
+#define TC_POLYGRID_STENCIL_FEM 0
+
+/**
+ * `TcPolygridOptions.stencil`: node-centred finite volumes with two-point fluxes: exactly
+ * conservative, second order on orthogonal cells only; SSOR-PCG on the CPU whatever the
+ * solver and backend; the session takes no updates (`TC_UNSUPPORTED`).
+ */
+#define TC_POLYGRID_STENCIL_FINITE_VOLUME 1
+
+/**
+ * The largest `TcPolygridOptions.nodes` (above it: `TC_INVALID_ARGUMENT`).
+ */
+#define TC_MAX_POLYGRID_NODES 4000000
+
+/**
+ * The largest `TcPolygridOptions.resolution` (above it: `TC_INVALID_ARGUMENT`).
+ */
+#define TC_MAX_POLYGRID_RESOLUTION 256
+
+/**
  * `TcPrtOptions.basis_terms`: the 16-function basis (default).
  */
 #define TC_PRT_BASIS_16 16
@@ -394,7 +430,7 @@ typedef struct TcBakeOptions {
   uint32_t size;
   /**
    * The subsurface method: `TC_METHOD_TRANSCUT` (default), `TC_METHOD_HIERARCHICAL_DIPOLE`,
-   * `TC_METHOD_RADIOSITY` or `TC_METHOD_PRT`.
+   * `TC_METHOD_RADIOSITY`, `TC_METHOD_PRT` or `TC_METHOD_POLYGRID`.
    */
   uint32_t method;
   /**
@@ -440,7 +476,9 @@ typedef struct TcBakeOptions {
    * `tc_transcut_options_init`), for `TC_METHOD_HIERARCHICAL_DIPOLE` a
    * `const TcDipoleOptions *` (filled by `tc_dipole_options_init`), for
    * `TC_METHOD_RADIOSITY` a `const TcRadiosityOptions *` (filled by
-   * `tc_radiosity_options_init`). Read during `tc_scene_bake` only, and only when `size`
+   * `tc_radiosity_options_init`), for `TC_METHOD_PRT` a `const TcPrtOptions *` (filled by
+   * `tc_prt_options_init`), for `TC_METHOD_POLYGRID` a `const TcPolygridOptions *` (filled
+   * by `tc_polygrid_options_init`). Read during `tc_scene_bake` only, and only when `size`
    * covers it (a struct of the first version, 48 bytes, has no such field).
    */
   const void *method_options;
@@ -629,6 +667,94 @@ typedef struct TcRadiosityOptions {
    */
   uint32_t solver;
 } TcRadiosityOptions;
+
+/**
+ * The polygrid method's own options (`TcBakeOptions.method_options` with
+ * `TC_METHOD_POLYGRID`). Fill it with `tc_polygrid_options_init(&options, sizeof options)`,
+ * which sets `size`, then change fields. Its solves take `TcBakeOptions.tolerance`,
+ * `max_iterations` and `backend` (as TransCut's); `TcBakeOptions.tets` does not apply. A value
+ * out of range fails the bake with `TC_INVALID_ARGUMENT` naming the field
+ * (`options->method_options->…`).
+ */
+typedef struct TcPolygridOptions {
+  /**
+   * The bytes of the struct the caller has, set by `tc_polygrid_options_init`.
+   */
+  uint32_t size;
+  /**
+   * Grid cells per cube edge of the polycube, 1 to `TC_MAX_POLYGRID_RESOLUTION` (default 8;
+   * the paper uses 12 to 32).
+   */
+  uint32_t resolution;
+  /**
+   * Target grid nodes per object, 8 to `TC_MAX_POLYGRID_NODES` (default 200 000): with
+   * `resolution` it sets the cube size when `cube_mm` is 0.
+   */
+  uint64_t nodes;
+  /**
+   * The polycube's cube edge in mm: finite and > 0, or 0 (the default) for the size from
+   * `nodes` (the object's volume over the node budget). A cube at which the polycube changes
+   * the surface's topology or the grid folds is made smaller, at the same node spacing.
+   */
+  double cube_mm;
+  /**
+   * `TC_POLYGRID_STENCIL_FEM` (default) or `TC_POLYGRID_STENCIL_FINITE_VOLUME`.
+   */
+  uint32_t stencil;
+  /**
+   * The bake's solver on the CPU with the FEM stencil: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a
+   * `TC_SOLVER_*`, as `TcTransCutOptions.solver`.
+   */
+  uint32_t solver;
+  /**
+   * The solver of the session's updates (relight, material edits, cuts):
+   * `TC_SOLVER_DEFAULT` (the smoothed-aggregation V-cycle) or a `TC_SOLVER_*`.
+   */
+  uint32_t edit_solver;
+} TcPolygridOptions;
+
+/**
+ * What the polygrid method built for an object in the last bake (`tc_object_polygrid_stats`):
+ * its polycube and grid. The solve's own statistics (iterations, times, backend) are in
+ * `tc_object_stats`, whose `tets` and `vertices` are the grid's Kuhn tets and nodes. Set `size`
+ * to `sizeof(TcPolygridStats)` first.
+ */
+typedef struct TcPolygridStats {
+  /**
+   * Set by the caller to `sizeof(TcPolygridStats)`; the library sets it to the number of
+   * bytes it wrote.
+   */
+  uint32_t size;
+  /**
+   * Grid cells per cube edge.
+   */
+  uint32_t resolution;
+  /**
+   * Cubes of the polycube.
+   */
+  uint64_t cubes;
+  /**
+   * The cube edge in mm (after any reduction where the grid would have folded).
+   */
+  double cube_mm;
+  /**
+   * Nodes of the grid (the unknowns of the solve).
+   */
+  uint64_t nodes;
+  /**
+   * Cells of the grid.
+   */
+  uint64_t cells;
+  /**
+   * The cells' smallest scaled Jacobian after the map onto the surface (1: a cube, ≤ 0:
+   * folded, never baked).
+   */
+  double min_scaled_jacobian;
+  /**
+   * The cells' mean scaled Jacobian.
+   */
+  double mean_scaled_jacobian;
+} TcPolygridStats;
 
 /**
  * What translucent radiosity measured of the whole scene in the last bake
@@ -1131,7 +1257,8 @@ typedef struct TcPrtStats {
 #define TC_INVALID_MESH 5
 
 /**
- * The surface could not be turned into tetrahedra.
+ * The surface could not be turned into tetrahedra (`TC_METHOD_POLYGRID`: into a polycube grid
+ * that keeps its topology and does not fold).
  */
 #define TC_MESHING_FAILED 6
 
@@ -1272,6 +1399,27 @@ TcStatus tc_prt_options_init(struct TcPrtOptions *options, size_t size);
  * `sizeof(TcRadiosityOptions)`; nothing is written on failure.
  */
 TcStatus tc_radiosity_options_init(struct TcRadiosityOptions *options, size_t size);
+
+/**
+ * Fills the first `size` bytes of `*options` with the polygrid method's defaults (8 cells per
+ * cube edge, 200 000 target nodes, the cube size from them (`cube_mm` = 0), the FEM stencil,
+ * the default solvers), as `tc_bake_options_init` fills its struct; pass
+ * `sizeof(TcPolygridOptions)`. `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size
+ * below `sizeof(TcPolygridOptions)`; nothing is written on failure.
+ */
+TcStatus tc_polygrid_options_init(struct TcPolygridOptions *options, size_t size);
+
+/**
+ * Writes what the polygrid method built for `object` in the last bake into `*out`; set
+ * `out->size = sizeof(TcPolygridStats)` first (another size is `TC_INVALID_ARGUMENT`).
+ *
+ * Errors: `TC_NULL_POINTER`, `TC_INVALID_HANDLE`, `TC_NOT_BAKED` (before a successful bake or
+ * after the scene changed), and `TC_UNSUPPORTED` for an object another method baked. Nothing is
+ * written on failure.
+ */
+TcStatus tc_object_polygrid_stats(const struct TcScene *scene,
+                                  uint32_t object,
+                                  struct TcPolygridStats *out);
 
 /**
  * Writes what translucent radiosity measured of the whole scene in the last bake into
@@ -2257,6 +2405,23 @@ TC_LAYOUT_CHECK(TcPrtStats_transfer_mm_per_unit, offsetof(TcPrtStats, transfer_m
 TC_LAYOUT_CHECK(TcPrtStats_mm_per_unit, offsetof(TcPrtStats, mm_per_unit) == 88);
 TC_LAYOUT_CHECK(TcPrtStats_medium, offsetof(TcPrtStats, medium) == 96);
 TC_LAYOUT_CHECK(TcPrtStats_key, offsetof(TcPrtStats, key) == 160);
+TC_LAYOUT_CHECK(TcPolygridOptions__sizeof, sizeof(TcPolygridOptions) == 40);
+TC_LAYOUT_CHECK(TcPolygridOptions_size, offsetof(TcPolygridOptions, size) == 0);
+TC_LAYOUT_CHECK(TcPolygridOptions_resolution, offsetof(TcPolygridOptions, resolution) == 4);
+TC_LAYOUT_CHECK(TcPolygridOptions_nodes, offsetof(TcPolygridOptions, nodes) == 8);
+TC_LAYOUT_CHECK(TcPolygridOptions_cube_mm, offsetof(TcPolygridOptions, cube_mm) == 16);
+TC_LAYOUT_CHECK(TcPolygridOptions_stencil, offsetof(TcPolygridOptions, stencil) == 24);
+TC_LAYOUT_CHECK(TcPolygridOptions_solver, offsetof(TcPolygridOptions, solver) == 28);
+TC_LAYOUT_CHECK(TcPolygridOptions_edit_solver, offsetof(TcPolygridOptions, edit_solver) == 32);
+TC_LAYOUT_CHECK(TcPolygridStats__sizeof, sizeof(TcPolygridStats) == 56);
+TC_LAYOUT_CHECK(TcPolygridStats_size, offsetof(TcPolygridStats, size) == 0);
+TC_LAYOUT_CHECK(TcPolygridStats_resolution, offsetof(TcPolygridStats, resolution) == 4);
+TC_LAYOUT_CHECK(TcPolygridStats_cubes, offsetof(TcPolygridStats, cubes) == 8);
+TC_LAYOUT_CHECK(TcPolygridStats_cube_mm, offsetof(TcPolygridStats, cube_mm) == 16);
+TC_LAYOUT_CHECK(TcPolygridStats_nodes, offsetof(TcPolygridStats, nodes) == 24);
+TC_LAYOUT_CHECK(TcPolygridStats_cells, offsetof(TcPolygridStats, cells) == 32);
+TC_LAYOUT_CHECK(TcPolygridStats_min_scaled_jacobian, offsetof(TcPolygridStats, min_scaled_jacobian) == 40);
+TC_LAYOUT_CHECK(TcPolygridStats_mean_scaled_jacobian, offsetof(TcPolygridStats, mean_scaled_jacobian) == 48);
 TC_LAYOUT_CHECK(TcRadiosityOptions__sizeof, sizeof(TcRadiosityOptions) == 56);
 TC_LAYOUT_CHECK(TcRadiosityOptions_size, offsetof(TcRadiosityOptions, size) == 0);
 TC_LAYOUT_CHECK(TcRadiosityOptions_iteration, offsetof(TcRadiosityOptions, iteration) == 4);

@@ -7,13 +7,13 @@ use transcut_core::{bake_reusing, ObjectStats, Session};
 use super::convert::scene_failure;
 use super::handle::{with_scene, TcScene};
 use super::options::{
-    backend_used, default_bake_options, default_dipole_options, default_prt_options, default_radiosity_options,
-    default_transcut_options, read_bake_options, TcBakeOptions, TcDipoleOptions, TcPrtOptions, TcRadiosityOptions,
-    TcTransCutOptions, BAKE_OPTIONS_SIZE_V1,
+    backend_used, default_bake_options, default_dipole_options, default_polygrid_options, default_prt_options,
+    default_radiosity_options, default_transcut_options, read_bake_options, TcBakeOptions, TcDipoleOptions, TcPolygridOptions,
+    TcPrtOptions, TcRadiosityOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1,
 };
 use super::progress::{Callback, TcProgressFn};
 use super::ptr;
-use super::status::{run, Failure, TcStatus, TC_BUFFER_TOO_SHORT};
+use super::status::{run, Failure, TcStatus, TC_BUFFER_TOO_SHORT, TC_UNSUPPORTED};
 
 /// Statistics of one object's last bake (`tc_object_stats`). The caller sets `size` to
 /// `sizeof(TcBakeStats)` before the call.
@@ -162,6 +162,94 @@ pub unsafe extern "C" fn tc_radiosity_options_init(options: *mut TcRadiosityOpti
         let first = size_of::<TcRadiosityOptions>();
         // SAFETY: the caller's contract: `size` writable bytes.
         unsafe { init(options, size, first, default_radiosity_options()) }
+    })
+}
+
+/// Fills the first `size` bytes of `*options` with the polygrid method's defaults (8 cells per
+/// cube edge, 200 000 target nodes, the cube size from them (`cube_mm` = 0), the FEM stencil,
+/// the default solvers), as `tc_bake_options_init` fills its struct; pass
+/// `sizeof(TcPolygridOptions)`. `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size
+/// below `sizeof(TcPolygridOptions)`; nothing is written on failure.
+#[no_mangle]
+pub unsafe extern "C" fn tc_polygrid_options_init(options: *mut TcPolygridOptions, size: usize) -> TcStatus {
+    run("tc_polygrid_options_init", || {
+        let first = size_of::<TcPolygridOptions>();
+        // SAFETY: the caller's contract: `size` writable bytes.
+        unsafe { init(options, size, first, default_polygrid_options()) }
+    })
+}
+
+/// What the polygrid method built for an object in the last bake (`tc_object_polygrid_stats`):
+/// its polycube and grid. The solve's own statistics (iterations, times, backend) are in
+/// `tc_object_stats`, whose `tets` and `vertices` are the grid's Kuhn tets and nodes. Set `size`
+/// to `sizeof(TcPolygridStats)` first.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcPolygridStats {
+    /// Set by the caller to `sizeof(TcPolygridStats)`; the library sets it to the number of
+    /// bytes it wrote.
+    pub size: u32,
+    /// Grid cells per cube edge.
+    pub resolution: u32,
+    /// Cubes of the polycube.
+    pub cubes: u64,
+    /// The cube edge in mm (after any reduction where the grid would have folded).
+    pub cube_mm: f64,
+    /// Nodes of the grid (the unknowns of the solve).
+    pub nodes: u64,
+    /// Cells of the grid.
+    pub cells: u64,
+    /// The cells' smallest scaled Jacobian after the map onto the surface (1: a cube, ≤ 0:
+    /// folded, never baked).
+    pub min_scaled_jacobian: f64,
+    /// The cells' mean scaled Jacobian.
+    pub mean_scaled_jacobian: f64,
+}
+
+/// Writes what the polygrid method built for `object` in the last bake into `*out`; set
+/// `out->size = sizeof(TcPolygridStats)` first (another size is `TC_INVALID_ARGUMENT`).
+///
+/// Errors: `TC_NULL_POINTER`, `TC_INVALID_HANDLE`, `TC_NOT_BAKED` (before a successful bake or
+/// after the scene changed), and `TC_UNSUPPORTED` for an object another method baked. Nothing is
+/// written on failure.
+#[no_mangle]
+pub unsafe extern "C" fn tc_object_polygrid_stats(scene: *const TcScene, object: u32, out: *mut TcPolygridStats) -> TcStatus {
+    run("tc_object_polygrid_stats", || {
+        check_not_null!(out);
+        if !out.is_aligned() {
+            return Err(Failure::invalid("`out` is not aligned for TcPolygridStats"));
+        }
+        // SAFETY: checked; `size` is the first field.
+        let size = unsafe { out.cast::<u32>().read() } as usize;
+        let ours = size_of::<TcPolygridStats>();
+        if size != ours {
+            return Err(Failure::invalid(format!("out->size = {size}, expected sizeof(TcPolygridStats) = {ours}")));
+        }
+        // SAFETY: the caller's contract.
+        let stats = unsafe {
+            with_scene(scene, |s| {
+                let st = s.bake_stats(object)?;
+                let Some(p) = st.polygrid else {
+                    return Err(Failure::new(
+                        TC_UNSUPPORTED,
+                        format!("object {object} was baked by the {} method, not polygrid", st.method),
+                    ));
+                };
+                Ok(TcPolygridStats {
+                    size: ours as u32,
+                    resolution: p.resolution,
+                    cubes: p.cubes as u64,
+                    cube_mm: p.cube_mm,
+                    nodes: p.nodes as u64,
+                    cells: p.cells as u64,
+                    min_scaled_jacobian: p.quality.min_scaled_jacobian,
+                    mean_scaled_jacobian: p.quality.mean_scaled_jacobian,
+                })
+            })?
+        };
+        // SAFETY: checked non-NULL and aligned; the caller's struct has `size` = ours bytes.
+        unsafe { ptr::write(out, stats) };
+        Ok(())
     })
 }
 

@@ -42,7 +42,9 @@ pub(crate) fn medium_from(m: &TcMedium, what: &str) -> Result<Medium, Failure> {
 pub(crate) fn scene_failure(e: &SceneError) -> Failure {
     let status = match e {
         SceneError::Cancelled(_) => TC_CANCELLED,
-        SceneError::Mesher { .. } => TC_MESHING_FAILED,
+        // The polygrid's grid (polycube, map) is its mesh: a fold or a changed topology at every
+        // cube size tried fails as a tet mesher's would.
+        SceneError::Mesher { .. } | SceneError::Polygrid { .. } => TC_MESHING_FAILED,
         SceneError::Diffusion { .. } => TC_SOLVE_FAILED,
         SceneError::Gpu { .. } => TC_GPU_UNAVAILABLE,
         SceneError::Unsupported { .. } => TC_UNSUPPORTED,

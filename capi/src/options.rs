@@ -4,7 +4,8 @@
 //! `TcBakeOptions` holds what every method shares (and the options of TransCut that predate
 //! the method choice); `method_options` points to the chosen method's own size-prefixed
 //! struct, `TcTransCutOptions` for `TC_METHOD_TRANSCUT`, `TcDipoleOptions` for
-//! `TC_METHOD_HIERARCHICAL_DIPOLE`, `TcRadiosityOptions` for `TC_METHOD_RADIOSITY` (NULL: its
+//! `TC_METHOD_HIERARCHICAL_DIPOLE`, `TcRadiosityOptions` for `TC_METHOD_RADIOSITY`,
+//! `TcPrtOptions` for `TC_METHOD_PRT`, `TcPolygridOptions` for `TC_METHOD_POLYGRID` (NULL: its
 //! defaults).
 
 use std::ffi::{c_char, c_void};
@@ -16,7 +17,7 @@ use transcut_core::light::SourceOptions;
 use transcut_core::optics::{DipoleGeometry, EdgeRule};
 use transcut_core::prt::{BasisSize, PrtCache, PrtOptions};
 use transcut_core::radiosity::{FormFactorOptions, Iteration, SolveOptions};
-use transcut_core::{BakeOptions, Method, RadiosityOptions, TransCutOptions};
+use transcut_core::{BakeOptions, Method, PolygridOptions, RadiosityOptions, Stencil, TransCutOptions};
 
 use super::ptr;
 use super::status::Failure;
@@ -48,6 +49,28 @@ pub const TC_METHOD_RADIOSITY: u32 = 2;
 /// media too dense for the samples are refused with `TC_UNSUPPORTED`; other regions, paint and
 /// cuts with `TC_UNSUPPORTED` or `TC_INVALID_ARGUMENT`, naming the method.
 pub const TC_METHOD_PRT: u32 = 3;
+/// Polygrid diffusion (Wang et al. 2008 §5): the diffusion equation on a grid of regular
+/// connectivity cut from a voxel polycube of each object's surface and mapped onto it
+/// (`TcPolygridOptions` in `TcBakeOptions.method_options`; `tc_object_polygrid_stats` after the
+/// bake). `TcBakeOptions.tolerance`, `max_iterations` and `backend` apply to its solves as to
+/// `TC_METHOD_TRANSCUT`'s; `tets` does not. Heterogeneous media; with the default stencil
+/// (`TC_POLYGRID_STENCIL_FEM`) the bake's session relights and edits as TransCut's does, on the
+/// grid's tets. An object whose grid folds at every cube size tried fails the bake with
+/// `TC_MESHING_FAILED` naming it; a ready tet mesh (`tc_scene_add_tet_mesh`) is
+/// `TC_UNSUPPORTED`.
+pub const TC_METHOD_POLYGRID: u32 = 4;
+
+/// `TcPolygridOptions.stencil`: P1 finite elements on the cells' Kuhn split with TransCut's
+/// assembly (default): second order on skewed cells; the session relights and edits.
+pub const TC_POLYGRID_STENCIL_FEM: u32 = 0;
+/// `TcPolygridOptions.stencil`: node-centred finite volumes with two-point fluxes: exactly
+/// conservative, second order on orthogonal cells only; SSOR-PCG on the CPU whatever the
+/// solver and backend; the session takes no updates (`TC_UNSUPPORTED`).
+pub const TC_POLYGRID_STENCIL_FINITE_VOLUME: u32 = 1;
+/// The largest `TcPolygridOptions.nodes` (above it: `TC_INVALID_ARGUMENT`).
+pub const TC_MAX_POLYGRID_NODES: u64 = 4_000_000;
+/// The largest `TcPolygridOptions.resolution` (above it: `TC_INVALID_ARGUMENT`).
+pub const TC_MAX_POLYGRID_RESOLUTION: u32 = 256;
 
 /// `TcPrtOptions.basis_terms`: the 16-function basis (default).
 pub const TC_PRT_BASIS_16: u32 = 16;
@@ -149,7 +172,7 @@ pub struct TcBakeOptions {
     /// The bytes of the struct the caller has, set by `tc_bake_options_init`.
     pub size: u32,
     /// The subsurface method: `TC_METHOD_TRANSCUT` (default), `TC_METHOD_HIERARCHICAL_DIPOLE`,
-    /// `TC_METHOD_RADIOSITY` or `TC_METHOD_PRT`.
+    /// `TC_METHOD_RADIOSITY`, `TC_METHOD_PRT` or `TC_METHOD_POLYGRID`.
     pub method: u32,
     /// TransCut (and radiosity's translucent objects): target number of tetrahedra per surface
     /// object, 1 to `TC_MAX_TETS` (default 200 000).
@@ -177,7 +200,9 @@ pub struct TcBakeOptions {
     /// `tc_transcut_options_init`), for `TC_METHOD_HIERARCHICAL_DIPOLE` a
     /// `const TcDipoleOptions *` (filled by `tc_dipole_options_init`), for
     /// `TC_METHOD_RADIOSITY` a `const TcRadiosityOptions *` (filled by
-    /// `tc_radiosity_options_init`). Read during `tc_scene_bake` only, and only when `size`
+    /// `tc_radiosity_options_init`), for `TC_METHOD_PRT` a `const TcPrtOptions *` (filled by
+    /// `tc_prt_options_init`), for `TC_METHOD_POLYGRID` a `const TcPolygridOptions *` (filled
+    /// by `tc_polygrid_options_init`). Read during `tc_scene_bake` only, and only when `size`
     /// covers it (a struct of the first version, 48 bytes, has no such field).
     pub method_options: *const c_void,
 }
@@ -257,6 +282,37 @@ pub struct TcPrtOptions {
     /// (creating the folder), replacing a damaged or outdated one. The library reads the string
     /// during `tc_scene_bake` only.
     pub cache_dir: *const c_char,
+}
+
+/// The polygrid method's own options (`TcBakeOptions.method_options` with
+/// `TC_METHOD_POLYGRID`). Fill it with `tc_polygrid_options_init(&options, sizeof options)`,
+/// which sets `size`, then change fields. Its solves take `TcBakeOptions.tolerance`,
+/// `max_iterations` and `backend` (as TransCut's); `TcBakeOptions.tets` does not apply. A value
+/// out of range fails the bake with `TC_INVALID_ARGUMENT` naming the field
+/// (`options->method_options->…`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcPolygridOptions {
+    /// The bytes of the struct the caller has, set by `tc_polygrid_options_init`.
+    pub size: u32,
+    /// Grid cells per cube edge of the polycube, 1 to `TC_MAX_POLYGRID_RESOLUTION` (default 8;
+    /// the paper uses 12 to 32).
+    pub resolution: u32,
+    /// Target grid nodes per object, 8 to `TC_MAX_POLYGRID_NODES` (default 200 000): with
+    /// `resolution` it sets the cube size when `cube_mm` is 0.
+    pub nodes: u64,
+    /// The polycube's cube edge in mm: finite and > 0, or 0 (the default) for the size from
+    /// `nodes` (the object's volume over the node budget). A cube at which the polycube changes
+    /// the surface's topology or the grid folds is made smaller, at the same node spacing.
+    pub cube_mm: f64,
+    /// `TC_POLYGRID_STENCIL_FEM` (default) or `TC_POLYGRID_STENCIL_FINITE_VOLUME`.
+    pub stencil: u32,
+    /// The bake's solver on the CPU with the FEM stencil: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a
+    /// `TC_SOLVER_*`, as `TcTransCutOptions.solver`.
+    pub solver: u32,
+    /// The solver of the session's updates (relight, material edits, cuts):
+    /// `TC_SOLVER_DEFAULT` (the smoothed-aggregation V-cycle) or a `TC_SOLVER_*`.
+    pub edit_solver: u32,
 }
 
 /// Translucent radiosity's own options (`TcBakeOptions.method_options` with
@@ -392,6 +448,71 @@ fn radiosity_options(o: &TcRadiosityOptions, transcut: TransCutOptions) -> Resul
     // What the checks above do not cover (the core's own bounds, should they tighten).
     let own = RadiosityOptions { transcut: TransCutOptions::default(), ..options.clone() };
     own.validate().map_err(|e| Failure::invalid(format!("options->method_options: {e}")))?;
+    Ok(options)
+}
+
+/// The defaults, as `tc_polygrid_options_init` writes them.
+pub(crate) fn default_polygrid_options() -> TcPolygridOptions {
+    let d = PolygridOptions::default();
+    TcPolygridOptions {
+        size: size_of::<TcPolygridOptions>() as u32,
+        resolution: d.resolution,
+        nodes: d.nodes as u64,
+        cube_mm: d.cube_mm.unwrap_or(0.0),
+        stencil: match d.stencil {
+            Stencil::FiniteVolume => TC_POLYGRID_STENCIL_FINITE_VOLUME,
+            _ => TC_POLYGRID_STENCIL_FEM,
+        },
+        solver: TC_SOLVER_DEFAULT,
+        edit_solver: TC_SOLVER_DEFAULT,
+    }
+}
+
+/// The core's options from the caller's struct, with `transcut` the solves' tolerance,
+/// iterations and backend (from `TcBakeOptions`; its solvers replaced by `o.solver` and
+/// `o.edit_solver` unless those are the default).
+fn polygrid_options(o: &TcPolygridOptions, transcut: TransCutOptions) -> Result<PolygridOptions, Failure> {
+    let field = |name: &str, message: String| Failure::invalid(format!("options->method_options->{name} = {message}"));
+    let stencil = match o.stencil {
+        TC_POLYGRID_STENCIL_FEM => Stencil::Fem,
+        TC_POLYGRID_STENCIL_FINITE_VOLUME => Stencil::FiniteVolume,
+        other => {
+            return Err(field(
+                "stencil",
+                format!("{other}: unknown stencil (TC_POLYGRID_STENCIL_FEM = 0, TC_POLYGRID_STENCIL_FINITE_VOLUME = 1)"),
+            ))
+        }
+    };
+    if o.resolution == 0 || o.resolution > TC_MAX_POLYGRID_RESOLUTION {
+        return Err(field(
+            "resolution",
+            format!("{}: must be in 1..={TC_MAX_POLYGRID_RESOLUTION} cells per cube edge", o.resolution),
+        ));
+    }
+    if !(8..=TC_MAX_POLYGRID_NODES).contains(&o.nodes) {
+        return Err(field("nodes", format!("{}: must be in 8..={TC_MAX_POLYGRID_NODES}", o.nodes)));
+    }
+    let h = o.cube_mm;
+    let cube_mm = if h == 0.0 {
+        None
+    } else if h.is_finite() && h > 0.0 {
+        Some(h)
+    } else {
+        return Err(field("cube_mm", format!("{h}: must be 0 (the default: from nodes) or finite and > 0 (mm)")));
+    };
+    let solver = solver_from(o.solver, "options->method_options->solver")?.unwrap_or(transcut.solver);
+    let edit_solver = solver_from(o.edit_solver, "options->method_options->edit_solver")?.unwrap_or(transcut.edit_solver);
+    let options = PolygridOptions {
+        nodes: usize::try_from(o.nodes).unwrap_or(usize::MAX),
+        cube_mm,
+        resolution: o.resolution,
+        stencil,
+        // `TcBakeOptions.tets` is not the polygrid's (a caller may leave it 0): the core's
+        // default, which the session's editor is given.
+        solve: TransCutOptions { solver, edit_solver, tets: PolygridOptions::default().solve.tets, ..transcut },
+    };
+    // What the checks above do not cover (the core's own bounds, should they tighten).
+    options.validate().map_err(|e| Failure::invalid(format!("options->method_options: {e}")))?;
     Ok(options)
 }
 
@@ -699,6 +820,21 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
             };
             Method::Prt(prt_options(&p)?)
         }
+        TC_METHOD_POLYGRID => {
+            let p = if o.method_options.is_null() {
+                default_polygrid_options()
+            } else {
+                let p = o.method_options.cast::<TcPolygridOptions>();
+                if !p.is_aligned() {
+                    return Err(Failure::invalid("`options->method_options` is not aligned for TcPolygridOptions"));
+                }
+                let sized =
+                    Sized { what: "options->method_options", type_name: "TcPolygridOptions", filler: "tc_polygrid_options_init" };
+                // SAFETY: the caller's contract, checked for NULL and alignment.
+                unsafe { read_sized(p, size_of::<TcPolygridOptions>(), default_polygrid_options(), &sized)? }
+            };
+            Method::Polygrid(polygrid_options(&p, transcut()?)?)
+        }
         other => {
             return Err(Failure::invalid(format!(
                 "options->method = {other}: unknown method (the methods are {})",
@@ -790,6 +926,45 @@ mod tests {
         assert!(bad(TcRadiosityOptions { covered_fraction: 1.5, ..d() }).contains("covered_fraction = 1.5"));
     }
 
+    /// The polygrid's defaults are the core's (with the solves as given), every field maps to
+    /// its core value, and a value out of range is named.
+    #[test]
+    fn polygrid_options_map_onto_the_cores() {
+        let transcut =
+            TransCutOptions { tolerance: 1e-8, max_iterations: 500, backend: Some(Backend::Cpu), ..TransCutOptions::default() };
+        let core = polygrid_options(&default_polygrid_options(), transcut.clone()).unwrap();
+        assert_eq!(core, PolygridOptions { solve: transcut.clone(), ..PolygridOptions::default() });
+        let no_tets = TransCutOptions { tets: 0, ..transcut.clone() };
+        assert_eq!(polygrid_options(&default_polygrid_options(), no_tets).unwrap(), core, "TcBakeOptions.tets is not read");
+        let o = TcPolygridOptions {
+            resolution: 12,
+            nodes: 30_000,
+            cube_mm: 2.5,
+            stencil: TC_POLYGRID_STENCIL_FINITE_VOLUME,
+            solver: TC_SOLVER_PCG,
+            edit_solver: TC_SOLVER_MG_PCG,
+            ..default_polygrid_options()
+        };
+        let core = polygrid_options(&o, transcut.clone()).unwrap();
+        let solve = TransCutOptions { solver: SolverKind::Pcg, edit_solver: SolverKind::MultigridPcg, ..transcut.clone() };
+        assert_eq!(
+            core,
+            PolygridOptions { nodes: 30_000, cube_mm: Some(2.5), resolution: 12, stencil: Stencil::FiniteVolume, solve }
+        );
+        let bad = |o: TcPolygridOptions| polygrid_options(&o, TransCutOptions::default()).unwrap_err().message;
+        let d = default_polygrid_options;
+        assert!(bad(TcPolygridOptions { resolution: 0, ..d() }).contains("method_options->resolution = 0"));
+        assert!(bad(TcPolygridOptions { resolution: 257, ..d() }).contains("resolution = 257: must be in 1..=256"));
+        assert!(bad(TcPolygridOptions { nodes: 7, ..d() }).contains("nodes = 7"));
+        assert!(bad(TcPolygridOptions { nodes: 4_000_001, ..d() }).contains("nodes = 4000001"));
+        assert!(bad(TcPolygridOptions { cube_mm: f64::NAN, ..d() }).contains("cube_mm = NaN"));
+        assert!(bad(TcPolygridOptions { cube_mm: -1.0, ..d() }).contains("cube_mm = -1"));
+        assert!(bad(TcPolygridOptions { stencil: 2, ..d() }).contains("stencil = 2: unknown stencil"));
+        assert!(bad(TcPolygridOptions { solver: 9, ..d() }).contains("solver = 9"));
+        let tolerance = TransCutOptions { tolerance: 2.0, ..TransCutOptions::default() };
+        assert!(polygrid_options(&d(), tolerance).unwrap_err().message.contains("tolerance"));
+    }
+
     /// The header's bounds are the core's.
     #[test]
     fn bounds_are_the_cores() {
@@ -803,5 +978,9 @@ mod tests {
         let at = FormFactorOptions { rays_per_patch: TC_MAX_RAYS_PER_PATCH as usize, ..FormFactorOptions::default() };
         assert_eq!(at.validate(), Ok(()));
         assert_eq!(Method::NAMES[TC_METHOD_RADIOSITY as usize], "radiosity");
+        assert_eq!(Method::NAMES[TC_METHOD_PRT as usize], "prt");
+        assert_eq!(Method::NAMES[TC_METHOD_POLYGRID as usize], "polygrid");
+        assert_eq!(TC_MAX_POLYGRID_NODES as usize, PolygridOptions::MAX_NODES);
+        assert_eq!(TC_MAX_POLYGRID_RESOLUTION, transcut_core::polygrid::MAX_RESOLUTION);
     }
 }

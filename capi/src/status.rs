@@ -44,7 +44,8 @@ pub const TC_BUFFER_TOO_SHORT: TcStatus = TcStatus(4);
 /// A triangle or tetrahedral mesh is invalid: empty, a NaN or infinite coordinate, an index out
 /// of range, degenerate or non-manifold elements.
 pub const TC_INVALID_MESH: TcStatus = TcStatus(5);
-/// The surface could not be turned into tetrahedra.
+/// The surface could not be turned into tetrahedra (`TC_METHOD_POLYGRID`: into a polycube grid
+/// that keeps its topology and does not fold).
 pub const TC_MESHING_FAILED: TcStatus = TcStatus(6);
 /// Assembling or solving the diffusion system failed (e.g. no convergence).
 pub const TC_SOLVE_FAILED: TcStatus = TcStatus(7);

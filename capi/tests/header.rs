@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use abi::{
     TcArtistMedium, TcBakeOptions, TcBakeStats, TcDipoleOptions, TcDipoleStats, TcEditStats, TcMedium, TcMediumEdit,
-    TcPrtOptions, TcPrtStats, TcRadiosityOptions, TcRadiosityStats, TcTransCutOptions,
+    TcPolygridOptions, TcPolygridStats, TcPrtOptions, TcPrtStats, TcRadiosityOptions, TcRadiosityStats, TcTransCutOptions,
 };
 
 fn crate_dir() -> PathBuf {
@@ -87,6 +87,8 @@ fn layouts() -> Vec<Layout> {
             medium,
             key
         }),
+        layout!(TcPolygridOptions { size, resolution, nodes, cube_mm, stencil, solver, edit_solver }),
+        layout!(TcPolygridStats { size, resolution, cubes, cube_mm, nodes, cells, min_scaled_jacobian, mean_scaled_jacobian }),
         layout!(TcRadiosityOptions {
             size,
             iteration,

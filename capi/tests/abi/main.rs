@@ -17,6 +17,7 @@ mod kept_meshes;
 mod method;
 mod misuse;
 mod objects;
+mod polygrid;
 mod prt;
 mod radiosity;
 mod tets;
