@@ -4,8 +4,8 @@
 #  2. installs it with scripts/install.sh into a scratch prefix (lib, include, transcut.pc),
 #  3. compiles include/transcut.h as C99 and C++17 with -Wall -Wextra -Werror (its layout
 #     checks compare every struct with the library's),
-#  4. compiles each C test program (tests/c/marble_sphere.c: TransCut and the hierarchical
-#     dipole against closed forms, edits, misuse; tests/c/radiosity_room.c: translucent
+#  4. compiles each C test program (tests/c/marble_sphere.c: TransCut, the hierarchical
+#     dipole and the polygrid against closed forms, edits, misuse; tests/c/radiosity_room.c: translucent
 #     radiosity, a marble ball in an emissive diffuse room) against the shared and against the
 #     static library (through pkg-config) and runs each under valgrind memcheck with no
 #     suppression file:
