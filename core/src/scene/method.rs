@@ -238,7 +238,7 @@ pub struct PolygridOptions {
     pub nodes: usize,
     /// The polycube's cube edge in mm; `None`: from `nodes` (the object's volume over the
     /// node budget). A cube at which the voxel polycube changes the surface's topology or the
-    /// map folds is made smaller, at the same node spacing, up to three times.
+    /// map folds is made smaller, at the same node spacing, down to one cell per cube.
     pub cube_mm: Option<f64>,
     /// Cells per cube edge, in [1, [`crate::polygrid::MAX_RESOLUTION`]] (the paper: 12–32).
     pub resolution: u32,

@@ -6,7 +6,8 @@
 //!
 //! - `prepare`: the polycube at a cube size from [`PolygridOptions::cube_mm`] or the node
 //!   budget; where the voxel polycube changes the surface's topology or the map folds a cell,
-//!   the cube is made smaller at the same node spacing (up to three times), so a bake never
+//!   the cube is made smaller at the same node spacing (the resolution × 0.7 each time, down to
+//!   one cell per cube), so a bake never
 //!   returns a picture from a folded grid. Then the stencil: [`Stencil::Fem`] puts the medium
 //!   on the cells' Kuhn split and assembles TransCut's system on it (the state and every
 //!   capability are then TransCut's, on the polygrid's nodes); [`Stencil::FiniteVolume`] takes
@@ -298,7 +299,6 @@ fn build_grid(target: &Target<'_>, options: &PolygridOptions) -> Result<(Polygri
     let (h, mut cube) = spacing_and_cube(target, options);
     let mut resolution = options.resolution;
     let bvh = TriangleBvh::from_indexed(target.world.positions(), target.world.triangles());
-    let mut attempt = 0;
     loop {
         let result = Polycube::voxelize(target.world, cube).and_then(|polycube| {
             let mut grid = Polygrid::with_pillow(Arc::new(polycube), resolution)?;
@@ -307,9 +307,8 @@ fn build_grid(target: &Target<'_>, options: &PolygridOptions) -> Result<(Polygri
         });
         match result {
             Err(PolygridError::TopologyChanged { .. } | PolygridError::Fold { .. } | PolygridError::Empty(_))
-                if attempt < 3 && resolution > 1 =>
+                if resolution > 1 =>
             {
-                attempt += 1;
                 resolution = ((f64::from(resolution) * 0.7).round() as u32).max(1);
                 cube = h * f64::from(resolution);
             }
