@@ -222,3 +222,28 @@ fn the_polygrid_method_bakes_the_uniform_sphere_and_relights_exactly() {
         }
     }
 }
+
+/// The FEM path is TransCut on the polygrid's nodes: TransCut given the polygrid's Kuhn split as
+/// a ready tet mesh returns the same radiance at every boundary node (to the solves' tolerance).
+#[test]
+fn the_fem_polygrid_equals_transcut_on_its_own_tets() {
+    use transcut::light::Light;
+    use transcut::{bake, BakeOptions, MediumSource, Method, Object, PolygridOptions, Scene, TransCutOptions};
+    let sun = Light::Directional { direction: DVec3::new(0.2, -0.5, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 };
+    let solve = TransCutOptions { tolerance: 1e-10, ..TransCutOptions::default() };
+    let scene = Scene {
+        objects: vec![Object::new("sphere", common::uv_sphere(8.0, 96, 48), marble(), 1.0)],
+        lights: vec![sun.clone()],
+    };
+    let polygrid = Method::Polygrid(PolygridOptions { nodes: 20_000, solve: solve.clone(), ..PolygridOptions::default() });
+    let baked = bake(&scene, &BakeOptions { method: polygrid, ..BakeOptions::default() }).unwrap();
+    let state = baked.objects[0].transcut().expect("the FEM polygrid keeps TransCut's state");
+    let tets = Object::from_tets("tets", state.tet_mesh.clone(), MediumSource::Homogeneous(marble()), 1.0);
+    let scene = Scene { objects: vec![tets], lights: vec![sun] };
+    let transcut = bake(&scene, &BakeOptions { method: Method::TransCut(solve), ..BakeOptions::default() }).unwrap();
+    let (a, b) = (&state.radiance, &transcut.objects[0].radiance);
+    assert_eq!(a.len(), b.len());
+    let scale = b.iter().flatten().fold(0.0f64, |m, x| m.max(*x));
+    let worst = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).abs())).fold(0.0, f64::max);
+    assert!(worst < 1e-6 * scale, "{worst} of {scale}");
+}
