@@ -231,10 +231,8 @@ fn the_fem_polygrid_equals_transcut_on_its_own_tets() {
     use transcut::{bake, BakeOptions, MediumSource, Method, Object, PolygridOptions, Scene, TransCutOptions};
     let sun = Light::Directional { direction: DVec3::new(0.2, -0.5, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 };
     let solve = TransCutOptions { tolerance: 1e-10, ..TransCutOptions::default() };
-    let scene = Scene {
-        objects: vec![Object::new("sphere", common::uv_sphere(8.0, 96, 48), marble(), 1.0)],
-        lights: vec![sun.clone()],
-    };
+    let scene =
+        Scene { objects: vec![Object::new("sphere", common::uv_sphere(8.0, 96, 48), marble(), 1.0)], lights: vec![sun.clone()] };
     let polygrid = Method::Polygrid(PolygridOptions { nodes: 20_000, solve: solve.clone(), ..PolygridOptions::default() });
     let baked = bake(&scene, &BakeOptions { method: polygrid, ..BakeOptions::default() }).unwrap();
     let state = baked.objects[0].transcut().expect("the FEM polygrid keeps TransCut's state");
