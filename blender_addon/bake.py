@@ -38,6 +38,9 @@ RADIOSITY = "radiosity"
 #: The PRT method's name: homogeneous media, a precompute per mesh, then material edits and
 #: relights without a new bake (Live Translucency).
 PRT = "prt"
+#: The polygrid method's name: the diffusion equation on a grid cut from a polycube of each object
+#: (heterogeneous media; relight and edits with the FEM stencil).
+POLYGRID = "polygrid"
 
 
 def prt_cache_folder() -> str:
@@ -77,7 +80,10 @@ def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
     patch size (the setting is a length in scene units, sent in mm: × ``mm_per_unit``; 0 = the
     library's default), rays, iteration, bounces and tolerance (the options of the other
     methods, and of the oracle or mode not chosen, are left out: the binding refuses the
-    first); for PRT its samples, terms, basis and the cache folder (``Keep Precomputes``)."""
+    first); for PRT its samples, terms, basis and the cache folder (``Keep Precomputes``); for
+    the polygrid TransCut's tolerance and backend (not its tets) and its own nodes, cube size (a
+    length in scene units, sent in mm: × ``mm_per_unit``; 0 = from the nodes), resolution and
+    stencil."""
     options = dict(method=method, shadows=1 if settings.shadows else 0)
     if method == DIPOLE:
         options.update(oracle=_name(settings.dipole_oracle))
@@ -98,6 +104,15 @@ def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
         )
         if settings.prt_keep:
             options.update(prt_cache=prt_cache_folder())
+    elif method == POLYGRID:
+        options.update(
+            tolerance=settings.tolerance,
+            backend=settings.backend.lower(),
+            polygrid_nodes=settings.polygrid_nodes,
+            polygrid_cube=float(settings.polygrid_cube) * mm_per_unit,
+            polygrid_resolution=settings.polygrid_resolution,
+            polygrid_stencil=_name(settings.polygrid_stencil),
+        )
     else:
         options.update(tets=settings.tets, tolerance=settings.tolerance, backend=settings.backend.lower())
     if method == RADIOSITY:
@@ -113,12 +128,25 @@ def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
 
 def check_editable(context, what: str) -> None:
     """BakeError when the Method chosen cannot be edited after its bake (radiosity: its objects
-    light each other, so the library offers no per-object edit), before any work."""
-    if context.scene.transcut.method == RADIOSITY:
+    light each other, so the library offers no per-object edit; the polygrid's finite-volume
+    stencil: its bake takes no updates), before any work."""
+    settings = context.scene.transcut
+    if settings.method == RADIOSITY:
         raise BakeError(
             f"{what} cannot edit a radiosity bake (its objects light each other, so the library has no "
             "per-object edits for it yet); choose TransCut in the Method menu"
         )
+    if settings.method == POLYGRID and settings.polygrid_stencil == "FINITE_VOLUME":
+        raise BakeError(
+            f"{what} cannot edit a finite-volume polygrid bake (the library has no updates for it); "
+            "choose the FEM stencil or TransCut"
+        )
+
+
+def relights(options: dict) -> bool:
+    """Whether a bake with these :meth:`transcut.Scene.bake` keywords takes a relight
+    (``tc_scene_relight``): every method's does but the polygrid's finite-volume stencil's."""
+    return not (options.get("method") == POLYGRID and options.get("polygrid_stencil") == "finite-volume")
 
 
 def prepare_job(context, objects: list | None = None, method: str | None = None, animated: bool = False) -> BakeJob:

@@ -258,6 +258,11 @@ class TRANSCUT_OT_live_start(RunnerOperator, bpy.types.Operator):
         stop()
         lib = library.get(preferences.library_path(context))  # first: the Method menu lists its methods
         job = bake.prepare_job(context)
+        if not bake.relights(job.options):
+            raise BakeError(
+                "Live Translucency relights its bake, and a finite-volume polygrid bake takes no relight; "
+                "choose the FEM stencil"
+            )
         changed = [m.object_name for m in job.meshes if m.replace_mesh]
         if changed:
             raise BakeError(

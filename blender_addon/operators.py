@@ -147,7 +147,8 @@ class OBJECT_OT_transcut_bake(RunnerOperator, bpy.types.Operator):
         job = bake.prepare_job(context)
         settings = context.scene.transcut
         kept = None
-        if settings.keep_bakes:
+        # A bake that takes no relight is not kept (a light change would fail instead of baking).
+        if settings.keep_bakes and bake.relights(job.options):
             kept = kept_native.STORE
             kept.budget_tets = settings.kept_tets
         return bake.BakeRunner(lib, job, kept)

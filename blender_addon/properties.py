@@ -45,7 +45,24 @@ METHOD_LABELS = {
     "hierarchical-dipole": "Hierarchical Dipole",
     "radiosity": "Radiosity",
     "prt": "PRT",
+    "polygrid": "Polygrid",
 }
+
+#: The polygrid's stencils (``Scene.bake(polygrid_stencil=...)`` names, upper case with ``_``).
+POLYGRID_STENCIL_ITEMS = (
+    (
+        "FEM",
+        "FEM",
+        "P1 finite elements on the grid cells' tetrahedra (TransCut's assembly): second order on skewed cells; "
+        "the bake can be relit and edited",
+    ),
+    (
+        "FINITE_VOLUME",
+        "Finite Volume",
+        "Two-point fluxes between the grid nodes: exactly conservative, accurate on nearly cubic cells only; "
+        "no edits after the bake",
+    ),
+)
 
 #: Translucent radiosity's iterations (``Scene.bake(iteration=...)`` names, upper case with ``_``).
 RADIOSITY_ITERATION_ITEMS = (
@@ -302,6 +319,44 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
             "so a rebake or Live Translucency starts at once"
         ),
         default=True,
+    )
+    polygrid_nodes: IntProperty(
+        name="Grid Nodes",
+        description=(
+            "Polygrid: target number of grid nodes per object (more: finer detail, slower bake); with the Cells per "
+            "Cube it sets the polycube's cube size unless Cube Size is set"
+        ),
+        default=200_000,
+        min=8,
+        max=transcut.TC_MAX_POLYGRID_NODES,
+        soft_min=1_000,
+        soft_max=2_000_000,
+    )
+    polygrid_cube: FloatProperty(
+        name="Cube Size",
+        description=(
+            "Polygrid: the edge of the polycube's cubes (made smaller where the polycube would change the object's "
+            "topology or the grid fold). 0: from the Grid Nodes"
+        ),
+        default=0.0,
+        min=0.0,
+        soft_max=10.0,
+        subtype="DISTANCE",
+        unit="LENGTH",
+    )
+    polygrid_resolution: IntProperty(
+        name="Cells per Cube",
+        description="Polygrid: grid cells along each cube edge (the paper uses 12 to 32)",
+        default=8,
+        min=1,
+        max=transcut.TC_MAX_POLYGRID_RESOLUTION,
+        soft_max=32,
+    )
+    polygrid_stencil: EnumProperty(
+        name="Stencil",
+        description="Polygrid: the discretisation of the diffusion equation on the grid",
+        items=POLYGRID_STENCIL_ITEMS,
+        default="FEM",
     )
     keep_bakes: BoolProperty(
         name="Keep Bakes",

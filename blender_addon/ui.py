@@ -2,9 +2,10 @@
 (TransCut's Resolution, Tolerance and Backend while TransCut is the method, the hierarchical
 dipole's Oracle with its Opening Angle or Epsilon 1 and 2, Edge Rule, Receivers, and Mode with
 the incremental mode's Budget while it is, radiosity's Patch Size, Rays per Patch, Iteration,
-Bounces (Jacobi only), Radiosity Tolerance and Write Surroundings after TransCut's three), the
-active object's medium and its last bake (time, what was done, tets, iterations, clamped
-vertices), the bake, its preview, Bake Animation and editing buttons, and the library status
+Bounces (Jacobi only), Radiosity Tolerance and Write Surroundings after TransCut's three, the
+polygrid's Grid Nodes, Cube Size, Cells per Cube and Stencil after TransCut's Tolerance and
+Backend), the active object's medium and its last bake (time, what was done, tets, iterations,
+clamped vertices), the bake, its preview, Bake Animation and editing buttons, and the library status
 when it is not loaded; the same operators in the Object menu."""
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import bpy
 
 from . import library, live
 from .animation_ops import TRANSCUT_OT_bake_animation
-from .bake import DIPOLE, PRT, RADIOSITY
+from .bake import DIPOLE, POLYGRID, PRT, RADIOSITY
 from .edit_ops import TRANSCUT_OT_cut_with_object, TRANSCUT_OT_paint_medium
 from .live import TRANSCUT_OT_live_start, TRANSCUT_OT_live_stop
 from .operators import OBJECT_OT_transcut_bake
@@ -59,6 +60,11 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
                 col.prop(settings, "tets")
             col.prop(settings, "tolerance")
             col.prop(settings, "backend")
+        if settings.method == POLYGRID:
+            col.prop(settings, "polygrid_nodes")
+            col.prop(settings, "polygrid_cube")
+            col.prop(settings, "polygrid_resolution")
+            col.prop(settings, "polygrid_stencil")
         if settings.method == RADIOSITY:
             col.prop(settings, "radiosity_patch_size")
             col.prop(settings, "radiosity_rays")

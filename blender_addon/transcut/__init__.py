@@ -27,6 +27,11 @@ Translucent radiosity (the marble cube on a grey floor, which lights it back)::
         scene.set_scale(floor, 10.0)                    # every object of the bake: the same scale
         scene.bake(method="radiosity", tets=20000, patch_size=5.0, iteration="gauss-seidel")
         scene.radiosity_stats()["estimated_error"]      # and scene.radiance(floor): Lo = B/π
+
+Polygrid diffusion (the diffusion equation on a grid cut from a polycube of the object)::
+
+        scene.bake(method="polygrid", polygrid_nodes=50000, polygrid_resolution=8, polygrid_stencil="fem")
+        scene.polygrid_stats(obj)["cubes"]              # the polycube and grid the bake built
 """
 
 from ._abi import (
@@ -35,6 +40,7 @@ from ._abi import (
     BACKENDS,
     DIPOLE_CHOICES,
     MATERIAL_NAMES,
+    POLYGRID_STENCILS,
     RADIOSITY_ITERATIONS,
     SIDES,
     SOLVERS,
@@ -71,6 +77,8 @@ from ._abi import (
     TC_MATERIAL_DIFFUSE,
     TC_MATERIAL_TRANSLUCENT,
     TC_MAX_ITERATIONS,
+    TC_MAX_POLYGRID_NODES,
+    TC_MAX_POLYGRID_RESOLUTION,
     TC_MAX_RADIOSITY_ITERATIONS,
     TC_MAX_RAYS_PER_PATCH,
     TC_MAX_SAMPLES,
@@ -82,6 +90,7 @@ from ._abi import (
     TC_MEDIUM_SCALE,
     TC_MESHING_FAILED,
     TC_METHOD_HIERARCHICAL_DIPOLE,
+    TC_METHOD_POLYGRID,
     TC_METHOD_PRT,
     TC_METHOD_RADIOSITY,
     TC_METHOD_TRANSCUT,
@@ -90,6 +99,8 @@ from ._abi import (
     TC_NOTHING_LEFT,
     TC_NULL_POINTER,
     TC_OK,
+    TC_POLYGRID_STENCIL_FEM,
+    TC_POLYGRID_STENCIL_FINITE_VOLUME,
     TC_PRT_BASIS_12,
     TC_PRT_BASIS_16,
     TC_RADIOSITY_BICGSTAB,
@@ -119,6 +130,8 @@ from ._abi import (
     TcEditStats,
     TcMedium,
     TcMediumEdit,
+    TcPolygridOptions,
+    TcPolygridStats,
     TcProgressFn,
     TcPrtOptions,
     TcPrtStats,
@@ -135,6 +148,7 @@ __all__ = [
     "BACKENDS",
     "DIPOLE_CHOICES",
     "MATERIAL_NAMES",
+    "POLYGRID_STENCILS",
     "RADIOSITY_ITERATIONS",
     "SIDES",
     "SOLVERS",
@@ -204,6 +218,8 @@ __all__ = [
     "TcBakeOptions",
     "TcBakeStats",
     "TcDipoleOptions",
+    "TcPolygridOptions",
+    "TcPolygridStats",
     "TcPrtOptions",
     "TcPrtStats",
     "TcDipoleStats",
@@ -215,8 +231,13 @@ __all__ = [
     "TC_MAX_RAYS_PER_PATCH",
     "TC_MATERIAL_DIFFUSE",
     "TC_MATERIAL_TRANSLUCENT",
+    "TC_MAX_POLYGRID_NODES",
+    "TC_MAX_POLYGRID_RESOLUTION",
+    "TC_METHOD_POLYGRID",
     "TC_METHOD_PRT",
     "TC_METHOD_RADIOSITY",
+    "TC_POLYGRID_STENCIL_FEM",
+    "TC_POLYGRID_STENCIL_FINITE_VOLUME",
     "TC_RADIOSITY_BICGSTAB",
     "TC_RADIOSITY_GAUSS_SEIDEL",
     "TC_PRT_BASIS_12",

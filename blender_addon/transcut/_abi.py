@@ -72,6 +72,17 @@ TC_METHOD_TRANSCUT = 0
 TC_METHOD_HIERARCHICAL_DIPOLE = 1  # homogeneous media only; relight and tc_object_set_positions
 TC_METHOD_RADIOSITY = 2  # translucent radiosity: translucent and diffuse objects lighting each other
 TC_METHOD_PRT = 3  # precomputed translucent transfer: homogeneous media, edits and relights without a new precompute
+TC_METHOD_POLYGRID = 4  # polygrid diffusion: the diffusion equation on a polycube grid; relight and edits (FEM)
+
+# TcPolygridOptions.stencil: the discretisation on the grid.
+TC_POLYGRID_STENCIL_FEM = 0  # P1 on the cells' tets, TransCut's assembly (default; the session edits)
+TC_POLYGRID_STENCIL_FINITE_VOLUME = 1  # two-point fluxes, exactly conservative; no edits after the bake
+TC_MAX_POLYGRID_NODES = 4_000_000  # TcPolygridOptions.nodes at most
+TC_MAX_POLYGRID_RESOLUTION = 256  # TcPolygridOptions.resolution (cells per cube edge) at most
+
+#: ``polygrid_stencil`` names accepted by :meth:`Scene.bake` (besides the integer values; the
+#: CLI's names, any case).
+POLYGRID_STENCILS = {"fem": TC_POLYGRID_STENCIL_FEM, "finite-volume": TC_POLYGRID_STENCIL_FINITE_VOLUME}
 
 # TcPrtOptions.basis_terms: the PCA basis of the dipole profile.
 TC_PRT_BASIS_16 = 16  # default
@@ -234,7 +245,7 @@ class TcBakeOptions(Structure):
         ("area_samples", c_uint32),
         ("environment_samples", c_uint32),
         ("backend", c_uint32),
-        # NULL, or the chosen method's options (TcTransCutOptions * or TcDipoleOptions *)
+        # NULL, or the chosen method's options (TcTransCutOptions *, TcDipoleOptions *, ...)
         ("method_options", c_void_p),
     ]
 
@@ -282,6 +293,36 @@ class TcPrtOptions(Structure):
         ("near_radius", c_double),  # in sample spacings (default 8)
         ("seed", c_uint64),
         ("cache_dir", c_char_p),  # a folder of saved precomputes (None: none)
+    ]
+
+
+class TcPolygridOptions(Structure):
+    """``TcPolygridOptions``: the polygrid method's own options, pointed to by
+    ``TcBakeOptions.method_options`` (filled by ``tc_polygrid_options_init``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("resolution", c_uint32),  # grid cells per cube edge, 1 to 256 (default 8)
+        ("nodes", c_uint64),  # target grid nodes per object (default 200 000)
+        ("cube_mm", c_double),  # the polycube's cube edge in mm; 0: from nodes (default)
+        ("stencil", c_uint32),  # TC_POLYGRID_STENCIL_*
+        ("solver", c_uint32),  # TC_SOLVER_* of the bake (FEM stencil)
+        ("edit_solver", c_uint32),  # TC_SOLVER_* of the session's updates
+    ]
+
+
+class TcPolygridStats(Structure):
+    """``TcPolygridStats`` (``tc_object_polygrid_stats``; the caller sets ``size``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("resolution", c_uint32),
+        ("cubes", c_uint64),
+        ("cube_mm", c_double),
+        ("nodes", c_uint64),
+        ("cells", c_uint64),
+        ("min_scaled_jacobian", c_double),
+        ("mean_scaled_jacobian", c_double),
     ]
 
 
@@ -505,6 +546,7 @@ OPTIONAL = {
     "tc_dipole_options_init": (c_int32, [POINTER(TcDipoleOptions), c_size_t]),
     "tc_radiosity_options_init": (c_int32, [POINTER(TcRadiosityOptions), c_size_t]),
     "tc_prt_options_init": (c_int32, [POINTER(TcPrtOptions), c_size_t]),
+    "tc_polygrid_options_init": (c_int32, [POINTER(TcPolygridOptions), c_size_t]),
     "tc_scene_radiosity_stats": (c_int32, [ScenePtr, POINTER(TcRadiosityStats)]),
     # Diffuse objects (translucent radiosity).
     "tc_scene_add_diffuse_mesh": (
@@ -563,4 +605,6 @@ OPTIONAL = {
     "tc_object_prt_set_medium": (c_int32, [ScenePtr, c_uint32, POINTER(TcMedium)]),
     "tc_object_prt_set_medium_artist": (c_int32, [ScenePtr, c_uint32, POINTER(TcArtistMedium)]),
     "tc_object_prt_set_scale": (c_int32, [ScenePtr, c_uint32, c_double]),
+    # The polygrid method's statistics.
+    "tc_object_polygrid_stats": (c_int32, [ScenePtr, c_uint32, POINTER(TcPolygridStats)]),
 }

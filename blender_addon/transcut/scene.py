@@ -24,12 +24,14 @@ from ._abi import (
     DIPOLE_CHOICES,
     MATERIAL_NAMES,
     OPTIONAL,
+    POLYGRID_STENCILS,
     RADIOSITY_ITERATIONS,
     REQUIRED,
     SIDES,
     SOLVERS,
     STATUS_NAMES,
     TC_METHOD_HIERARCHICAL_DIPOLE,
+    TC_METHOD_POLYGRID,
     TC_METHOD_PRT,
     TC_METHOD_RADIOSITY,
     TC_METHOD_TRANSCUT,
@@ -43,6 +45,8 @@ from ._abi import (
     TcDipoleStats,
     TcEditStats,
     TcMedium,
+    TcPolygridOptions,
+    TcPolygridStats,
     TcProgressFn,
     TcPrtOptions,
     TcPrtStats,
@@ -140,6 +144,28 @@ PRT_OPTIONS = {
     "prt_basis": "basis_terms",
     "prt_cache": "cache_dir",
 }
+
+
+#: The keyword arguments of :meth:`Scene.bake` that are ``TcPolygridOptions`` fields (the CLI's
+#: flags), and the field each sets (``solver`` and ``edit_solver``, shared with TransCut, set
+#: its ``solver`` and ``edit_solver`` too).
+POLYGRID_OPTIONS = {
+    "polygrid_nodes": "nodes",
+    "polygrid_cube": "cube_mm",
+    "polygrid_resolution": "resolution",
+    "polygrid_stencil": "stencil",
+}
+
+
+def _stencil(value) -> int:
+    """A ``TC_POLYGRID_STENCIL_*`` value from a name of :data:`POLYGRID_STENCILS` (any case, ``_``
+    for ``-`` too) or the value itself."""
+    if isinstance(value, str):
+        name = value.strip().lower().replace("_", "-")
+        if name not in POLYGRID_STENCILS:
+            raise ValueError(f"unknown polygrid_stencil {value!r} (known: {', '.join(POLYGRID_STENCILS)})")
+        return POLYGRID_STENCILS[name]
+    return _unsigned(value, "polygrid_stencil")
 
 
 def _unsigned(value, what: str, bits: int = 32) -> int:
@@ -358,6 +384,12 @@ class Library:
         """``tc_prt_options_init``: the PRT method's defaults."""
         options = TcPrtOptions()
         self.call("tc_prt_options_init", ctypes.byref(options), ctypes.sizeof(options))
+        return options
+
+    def default_polygrid_options(self) -> TcPolygridOptions:
+        """``tc_polygrid_options_init``: the polygrid method's defaults."""
+        options = TcPolygridOptions()
+        self.call("tc_polygrid_options_init", ctypes.byref(options), ctypes.sizeof(options))
         return options
 
     def scene(self) -> Scene:
@@ -748,6 +780,10 @@ class Scene:
         prt_terms: int | None = None,
         prt_basis: int | None = None,
         prt_cache: str | None = None,
+        polygrid_nodes: int | None = None,
+        polygrid_cube: float | None = None,
+        polygrid_resolution: int | None = None,
+        polygrid_stencil: str | int | None = None,
         **options,
     ) -> None:
         """Bakes every object (``tc_scene_bake``) with the subsurface ``method``.
@@ -785,6 +821,13 @@ class Scene:
         vertex), ``prt_basis`` (12 or 16 functions) and ``prt_cache`` (a folder of saved
         precomputes: a bake of the same surface, scale and options reads its transfer from
         there, and writes it there otherwise); unset: ``tc_prt_options_init``'s defaults.
+        The polygrid's options (``method="polygrid"``), the :class:`TcPolygridOptions` fields:
+        ``polygrid_nodes`` (target grid nodes per object), ``polygrid_cube`` (the polycube's cube
+        edge in mm; 0: from the nodes), ``polygrid_resolution`` (grid cells per cube edge) and
+        ``polygrid_stencil`` (``"fem"`` or ``"finite-volume"``, any case, or a
+        ``TC_POLYGRID_STENCIL_*`` value), and ``solver`` and ``edit_solver`` as TransCut's (its
+        ``tolerance``, ``max_iterations`` and ``backend`` are the :class:`TcBakeOptions` fields;
+        ``tets`` does not apply); unset: ``tc_polygrid_options_init``'s defaults.
         A method's options given with another method raise ValueError.
         ``options`` are the other :class:`TcBakeOptions` field names (``tets``, ``tolerance``,
         ``max_iterations``, ``threads``, ``shadows``, ``area_samples``,
@@ -799,7 +842,11 @@ class Scene:
         names = {f[0] for f in TcBakeOptions._fields_} - {"size", "method", "method_options"}
         for key, value in options.items():
             if key not in names:
-                known = sorted(names | {"method", "solver", "edit_solver", *DIPOLE_OPTIONS, *RADIOSITY_OPTIONS})
+                known = sorted(
+                    names
+                    | {"method", "solver", "edit_solver", *DIPOLE_OPTIONS, *RADIOSITY_OPTIONS, *PRT_OPTIONS}
+                    | set(POLYGRID_OPTIONS)
+                )
                 raise TypeError(f"unknown bake option {key!r} (known: {', '.join(known)})")
             if key == "backend" and isinstance(value, str):
                 if value.lower() not in BACKENDS:
@@ -834,13 +881,28 @@ class Scene:
                 f"{', '.join(radiosity)} {'is an option' if len(radiosity) == 1 else 'are options'} of "
                 f"radiosity, not of method {method if method is not None else 'transcut'!r}"
             )
+        polygrid = {
+            k: v
+            for k, v in zip(
+                POLYGRID_OPTIONS, (polygrid_nodes, polygrid_cube, polygrid_resolution, polygrid_stencil), strict=True
+            )
+            if v is not None
+        }
+        if polygrid and opts.method != TC_METHOD_POLYGRID:
+            raise ValueError(
+                f"{', '.join(polygrid)} {'is an option' if len(polygrid) == 1 else 'are options'} of "
+                f"polygrid, not of method {method if method is not None else 'transcut'!r}"
+            )
         if opts.method == TC_METHOD_RADIOSITY and edit_solver is None:
             if radiosity or solver is not None:
                 method_options = self._radiosity_options(solver, radiosity)
+        elif opts.method == TC_METHOD_POLYGRID:
+            if polygrid or solver is not None or edit_solver is not None:
+                method_options = self._polygrid_options(solver, edit_solver, polygrid)
         elif solver is not None or edit_solver is not None:
             if opts.method != TC_METHOD_TRANSCUT:
                 raise ValueError(
-                    "solver and edit_solver are options of transcut (solver also of radiosity), "
+                    "solver and edit_solver are options of transcut and polygrid (solver also of radiosity), "
                     f"not of method {method!r}"
                 )
             method_options = self.lib.default_transcut_options()
@@ -896,6 +958,26 @@ class Scene:
             opts.method_options = ctypes.addressof(method_options)
         self._call_with_progress("tc_scene_bake", progress, ctypes.byref(opts))
         del cache_dir
+
+    def _polygrid_options(self, solver, edit_solver, given: dict) -> TcPolygridOptions:
+        """``tc_polygrid_options_init``'s defaults with the :meth:`bake` keywords ``given``
+        (:data:`POLYGRID_OPTIONS`), ``solver`` and ``edit_solver`` set, counts and names checked."""
+        options = self.lib.default_polygrid_options()
+        if solver is not None:
+            options.solver = _solver(solver, "solver")
+        if edit_solver is not None:
+            options.edit_solver = _solver(edit_solver, "edit_solver")
+        for key, value in given.items():
+            if key == "polygrid_stencil":
+                value = _stencil(value)
+            elif key == "polygrid_nodes":
+                value = _unsigned(value, key, 64)
+            elif key == "polygrid_resolution":
+                value = _unsigned(value, key)
+            else:
+                value = float(value)
+            setattr(options, POLYGRID_OPTIONS[key], value)
+        return options
 
     def _radiosity_options(self, solver, given: dict) -> TcRadiosityOptions:
         """``tc_radiosity_options_init``'s defaults with the :meth:`bake` keywords ``given``
@@ -998,6 +1080,16 @@ class Scene:
         st = TcRadiosityStats()
         st.size = ctypes.sizeof(TcRadiosityStats)
         self._call("tc_scene_radiosity_stats", ctypes.byref(st))
+        return {name: getattr(st, name) for name, _ in st._fields_ if name != "size"}
+
+    def polygrid_stats(self, obj: int) -> dict:
+        """``tc_object_polygrid_stats`` as a dict (``size`` left out): the polycube and grid the
+        polygrid method built for the object in the last bake (``resolution``, ``cubes``,
+        ``cube_mm``, ``nodes``, ``cells``, ``min_scaled_jacobian``, ``mean_scaled_jacobian``).
+        ``TC_UNSUPPORTED`` for an object another method baked."""
+        st = TcPolygridStats()
+        st.size = ctypes.sizeof(TcPolygridStats)
+        self._call("tc_object_polygrid_stats", obj, ctypes.byref(st))
         return {name: getattr(st, name) for name, _ in st._fields_ if name != "size"}
 
     def dipole_stats(self, obj: int) -> dict:

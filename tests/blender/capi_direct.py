@@ -48,6 +48,25 @@ class Options(Structure):
     ]
 
 
+class Polygrid(Structure):
+    """``TcPolygridOptions``, written out here from the header (not the binding's)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("resolution", c_uint32),
+        ("nodes", c_uint64),
+        ("cube_mm", c_double),
+        ("stencil", c_uint32),
+        ("solver", c_uint32),
+        ("edit_solver", c_uint32),
+    ]
+
+
+#: TC_METHOD_POLYGRID and TC_POLYGRID_STENCIL_* by name, written out here.
+METHOD_POLYGRID = 4
+POLYGRID_STENCILS = {"fem": 0, "finite-volume": 1}
+
+
 Progress = ctypes.CFUNCTYPE(c_int32, c_void_p, c_char_p, c_double)
 
 
@@ -80,6 +99,7 @@ class Direct:
         c.tc_scene_add_rect.argtypes = [c_void_p, PD, PD, PD, PD, c_int32]
         c.tc_scene_add_environment.argtypes = [c_void_p, PD]
         c.tc_bake_options_init.argtypes = [POINTER(Options), c_size_t]
+        c.tc_polygrid_options_init.argtypes = [POINTER(Polygrid), c_size_t]
         c.tc_scene_bake.argtypes = [c_void_p, POINTER(Options), Progress, c_void_p]
         c.tc_object_vertex_count.argtypes = [c_void_p, c_uint32, POINTER(c_size_t)]
         c.tc_object_radiance.argtypes = [c_void_p, c_uint32, POINTER(c_float), c_size_t]
@@ -100,6 +120,7 @@ class Direct:
             "tc_object_vertex_count",
             "tc_object_radiance",
             "tc_method_name",
+            "tc_polygrid_options_init",
         ):
             getattr(c, name).restype = c_int32
 
@@ -119,9 +140,12 @@ class Direct:
         if status != 0:
             raise RuntimeError(f"{what}: status {status}: {self.c.tc_last_error_message().decode()}")
 
-    def bake(self, objects, lights, tets, tolerance, shadows=True):
+    def bake(self, objects, lights, tets, tolerance, shadows=True, polygrid=None, backend=None):
         """objects: [(positions (n,3) f32 object space, triangles (m,3) u32, matrix (4,4) row-major,
-        mm_per_unit, artist dict)]; lights: [(kind, args tuple)]. Returns [radiance (n,3)]."""
+        mm_per_unit, artist dict)]; lights: [(kind, args tuple)]. ``polygrid``: None (the
+        library's default method), or a dict of ``TcPolygridOptions`` fields (``stencil`` by
+        name) to bake with the polygrid method; ``backend``: a ``TC_BACKEND_*`` value or None
+        (the default). Returns [radiance (n,3)]."""
         scene = c_void_p()
         self.ok(self.c.tc_scene_create(ctypes.byref(scene)), "create")
         try:
@@ -175,6 +199,15 @@ class Direct:
             opts.tets = tets
             opts.tolerance = tolerance
             opts.shadows = 1 if shadows else 0
+            if backend is not None:
+                opts.backend = backend
+            grid = Polygrid()  # kept alive until tc_scene_bake has returned
+            if polygrid is not None:
+                self.ok(self.c.tc_polygrid_options_init(ctypes.byref(grid), ctypes.sizeof(grid)), "polygrid options")
+                for key, value in polygrid.items():
+                    setattr(grid, key, POLYGRID_STENCILS[value] if key == "stencil" else value)
+                opts.method = METHOD_POLYGRID
+                opts.method_options = ctypes.addressof(grid)
             self.ok(self.c.tc_scene_bake(scene, ctypes.byref(opts), Progress(), None), "bake")
             results = []
             for idx, n in ids:

@@ -151,6 +151,8 @@ STRUCTS = [
     binding.TcRadiosityOptions,
     binding.TcPrtOptions,
     binding.TcPrtStats,
+    binding.TcPolygridOptions,
+    binding.TcPolygridStats,
     binding.TcRadiosityStats,
     binding.TcMediumEdit,
     binding.TcEditStats,
