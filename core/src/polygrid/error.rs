@@ -38,9 +38,10 @@ pub enum PolygridError {
          {cube}: choose a smaller cube"
     )]
     TopologyChanged { surface: i64, polycube: i64, cube: f64 },
-    /// A hex of the mapped polygrid is folded or flat: its smallest scaled Jacobian is ≤ 0
+    /// A cell of the mapped polygrid is folded: one of its Kuhn tets is turned over or flat
     /// (the map turned it inside out); a wrong picture is never returned from it.
-    #[error("polygrid cell {cell} is folded (scaled Jacobian {scaled_jacobian:.3} ≤ 0): {hint}")]
+    /// `scaled_jacobian` is the cell's smallest corner Jacobian, for diagnosis.
+    #[error("polygrid cell {cell} is folded (a tet of its split is turned over; its smallest corner Jacobian is {scaled_jacobian:.3}): {hint}")]
     Fold { cell: usize, scaled_jacobian: f64, hint: &'static str },
     /// The medium put on the cells is invalid (NaN, negative coefficients).
     #[error("invalid medium on cell {cell}: {message}")]

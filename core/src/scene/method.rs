@@ -247,7 +247,7 @@ pub struct PolygridOptions {
     /// two-point finite-volume flux does not).
     pub stencil: Stencil,
     /// The solves (tolerance, iterations, CPU solver, edit solver, backend), as TransCut's;
-    /// its `tets` is not used.
+    /// its `tets` is not used (a session meshes cut pieces at `nodes` tets).
     pub solve: TransCutOptions,
 }
 

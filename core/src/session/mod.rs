@@ -32,7 +32,7 @@ use crate::methods::prt::{PrtLive, PrtState, PrtUndo};
 use crate::methods::{interpolate_vertices, BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 use crate::progress::{Cancelled, Progress};
 use crate::render::Image;
-use crate::scene::{BakeOptions, MediumSource, Method, Scene, SceneError, Stencil};
+use crate::scene::{BakeOptions, MediumSource, Method, Scene, SceneError, Stencil, TransCutOptions};
 use crate::texture::{self, TexelSample, TextureError, TextureOptions};
 
 /// Why a session call failed. Nothing changed.
@@ -105,7 +105,9 @@ impl Live {
             // The bake is the solution under `lights`: nothing to solve again.
             // The FEM polygrid's state is TransCut's on the polygrid's nodes: TransCut's editor.
             (BakedState::TransCut(_), Method::Polygrid(polygrid)) if polygrid.stencil == Stencil::Fem => {
-                let edit = EditOptions::from_bake_options(options, &polygrid.solve);
+                // Cut pieces are meshed by TransCut at the polygrid's node budget.
+                let solve = TransCutOptions { tets: polygrid.nodes, ..polygrid.solve.clone() };
+                let edit = EditOptions::from_bake_options(options, &solve);
                 Ok(Self::TransCut(Box::new(Editor::from_bake_shadowed_by(bake, lights, &edit, occluder.cloned(), progress)?)))
             }
             (BakedState::TransCut(_), Method::Polygrid(_)) => Err(EditError::InvalidOptions(

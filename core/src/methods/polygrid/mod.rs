@@ -164,7 +164,9 @@ pub struct PolygridStats {
     pub cube_mm: f64,
     /// Cells per cube edge.
     pub resolution: u32,
+    /// Nodes, the pillow's surface nodes included.
     pub nodes: usize,
+    /// Cells: the cubes' `resolution³` each, and the pillow's one per boundary quad.
     pub cells: usize,
     /// The cells' scaled Jacobians after the map.
     pub quality: CellQuality,
