@@ -17,12 +17,14 @@ pub mod domain;
 mod error;
 pub mod grid;
 pub mod map;
+pub mod relax;
 mod system;
 
 pub use domain::Polycube;
 pub use error::PolygridError;
 pub use grid::{Polygrid, Prolongation, MAX_RESOLUTION};
 pub use map::{map_to_sphere, map_to_surface, CellQuality, MapOptions};
+pub use relax::{FreezeDepth, RadianceReference, RelaxHierarchy, RelaxOptions, RelaxState, Schedule, Smoother, Start};
 pub use system::{BoundaryNodes, PolygridSystem, CELL_EDGES};
 
 /// The discretisation of the diffusion equation on a polygrid.
