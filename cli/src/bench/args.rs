@@ -42,6 +42,11 @@ pub enum Suite {
     /// memory, Jacobi against Gauss–Seidel, a relight after turning the light 5°, a change of
     /// its colour, of the translucency and of an albedo.
     Radiosity,
+    /// The polygrid's relaxation (J. Wang et al. 2008 §5.2–5.3): Fig. 15 (error against node
+    /// updates and time for single-level Gauss–Seidel, the hierarchical cascade and the adaptive
+    /// scheme) on a marble ball at --polygrid-resolution and on a block, then the diffusion pass
+    /// (cold and warm) of PCG and the relaxation at --polygrid-nodes, each to 1% RMS.
+    Polygrid,
 }
 
 /// Arguments of `transcut bench`.
@@ -99,4 +104,11 @@ pub struct BenchArgs {
     /// repeated runs measure the relight and the edits without the minutes of precompute.
     #[arg(long, value_name = "DIR")]
     pub prt_cache: Option<PathBuf>,
+    /// The `polygrid` suite's Fig. 15: cells per edge of the cubed-sphere ball (a multiple of
+    /// 16; the block gets a quarter of it per 40 mm cube, the same spacing).
+    #[arg(long, default_value_t = 48, value_parser = clap::value_parser!(u32).range(16..=256))]
+    pub polygrid_resolution: u32,
+    /// The `polygrid` suite's diffusion pass: about this many nodes on the ball.
+    #[arg(long, default_value_t = 250_000, value_parser = clap::value_parser!(u64).range(125..=20_000_000))]
+    pub polygrid_nodes: u64,
 }

@@ -10,6 +10,7 @@ mod edit;
 mod fig7;
 mod mesh;
 mod multires;
+mod polygrid;
 mod prt;
 mod radiosity;
 mod radiosity_coupled;
@@ -28,5 +29,6 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Suite::Dipole => dipole::run(args),
         Suite::Radiosity => radiosity::run(args),
         Suite::Prt => prt::run(args),
+        Suite::Polygrid => polygrid::run(args),
     }
 }
