@@ -229,7 +229,7 @@ fn fig15_the_cascade_and_the_adaptive_scheme_cut_the_updates_to_one_percent() {
     // (117,649 nodes, h ≈ 3.3 mm), P1 on the Kuhn split, 3 levels, the sun on one side.
     // Measured: Gauss–Seidel 6.82M updates, hierarchical 0.627M (0.092 of it), adaptive with
     // the default shell 0.519M (0.83 of hierarchical: only 22% of the fine nodes lie deeper than
-    // 25.5 mm, and the coarse levels, a quarter of the cascade's work, are not frozen), adaptive
+    // 25.5 mm, and level 1, a fifth of the cascade's work, freezes 3%), adaptive
     // with the 12 mm shell 0.349M (0.56; converged 6.1e-4 from PCG).
     let grid = sphere(48, 80.0);
     let mut h = RelaxHierarchy::new(&grid, &vec![marble(); grid.cells().len()], 1.0, Stencil::Fem, 3).unwrap();
