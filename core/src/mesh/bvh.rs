@@ -81,6 +81,13 @@ impl TriangleBvh {
         Self::new(triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect())
     }
 
+    /// The unit normal of triangle `t` (counter-clockwise corners; zero for a degenerate one).
+    #[must_use]
+    pub fn triangle_normal(&self, t: u32) -> DVec3 {
+        let [a, b, c] = self.corners[t as usize];
+        (b - a).cross(c - a).normalize_or_zero()
+    }
+
     /// Number of triangles.
     #[must_use]
     pub fn len(&self) -> usize {

@@ -120,6 +120,7 @@ impl Polycube {
         }
         let index = |c: [i32; 3]| (c[0] as usize) + nx * (c[1] as usize + ny * c[2] as usize);
         let inside_box = |c: [i32; 3]| c.iter().zip([dims.x, dims.y, dims.z]).all(|(&x, d)| (0..d).contains(&x));
+        remove_bumps_and_pits(&mut set, &inside_box);
         // Repair: each round fills, for every critical configuration, its best empty cube.
         for _ in 0..4 * MAX_CUBES {
             let fills: HashSet<[i32; 3]> = critical_points(&set)
@@ -205,6 +206,37 @@ impl Polycube {
 }
 
 /// V − E + F of a closed surface (its welded vertices, edges and triangles).
+/// The six face neighbours of a cube.
+fn face_neighbours(c: [i32; 3]) -> [[i32; 3]; 6] {
+    let [x, y, z] = c;
+    [[x - 1, y, z], [x + 1, y, z], [x, y - 1, z], [x, y + 1, z], [x, y, z - 1], [x, y, z + 1]]
+}
+
+/// Removes every cube with five exposed faces (a bump on a face: it touches the rest by one
+/// face) and fills every empty cube with five full neighbours (a pit), until none is left;
+/// both keep the topology. Their winding numbers put them in or out by a hair (their centre
+/// is near the surface), but projected onto the surface a bump's side faces fall onto its
+/// footprint's rim and a pit's onto its mouth's: cells of no area that no later relaxation
+/// undoes.
+fn remove_bumps_and_pits(set: &mut HashSet<[i32; 3]>, inside_box: &dyn Fn([i32; 3]) -> bool) {
+    loop {
+        let full = |c: &[i32; 3]| set.contains(c);
+        let bumps: Vec<[i32; 3]> =
+            set.iter().copied().filter(|&c| face_neighbours(c).iter().filter(|n| full(n)).count() == 1).collect();
+        let candidates: HashSet<[i32; 3]> =
+            set.iter().flat_map(|&c| face_neighbours(c)).filter(|n| !full(n) && inside_box(*n)).collect();
+        let pits: Vec<[i32; 3]> =
+            candidates.into_iter().filter(|&c| face_neighbours(c).iter().filter(|n| full(n)).count() == 5).collect();
+        if bumps.is_empty() && pits.is_empty() {
+            return;
+        }
+        for c in bumps {
+            set.remove(&c);
+        }
+        set.extend(pits);
+    }
+}
+
 fn euler_characteristic_of(surface: &TriMesh) -> i64 {
     let mut edges = HashSet::new();
     for t in surface.triangles() {

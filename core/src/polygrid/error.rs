@@ -43,6 +43,13 @@ pub enum PolygridError {
     /// `scaled_jacobian` is the cell's smallest corner Jacobian, for diagnosis.
     #[error("polygrid cell {cell} is folded (a tet of its split is turned over; its smallest corner Jacobian is {scaled_jacobian:.3}): {hint}")]
     Fold { cell: usize, scaled_jacobian: f64, hint: &'static str },
+    /// The boundary nodes could not be spread over the surface without turning quads over
+    /// ([`super::map::SURFACE_FOLD_LIMIT`]): the surface bends or thins within a cube.
+    #[error(
+        "the polygrid's surface map turns {turned} of its {corners} quad corners over: the surface's features are finer \
+         than the cubes: choose a smaller cube or a higher resolution"
+    )]
+    SurfaceFold { turned: usize, corners: usize },
     /// The medium put on the cells is invalid (NaN, negative coefficients).
     #[error("invalid medium on cell {cell}: {message}")]
     InvalidMedium { cell: usize, message: String },

@@ -7,7 +7,9 @@
 //! - [`grid`]: its cells at a resolution per cube, nodes shared across cube faces, the
 //!   paper's coarse levels ([`Polygrid::coarsened`]);
 //! - [`map`]: the nodes moved onto the object (a cubed sphere, or a surface by projection and
-//!   relaxation), folds refused.
+//!   relaxation), folds refused;
+//! - [`untangle`]: node-wise untangling and smoothing of the mapped surface quads and Kuhn
+//!   tets (Escobar et al. 2003).
 //!
 //! The design and its departures from the paper (the boundary condition and radiance query of
 //! ARCHITECTURE.md instead of the paper's L = Ft(φ − q)/2π, conservative stencils by default)
@@ -19,6 +21,7 @@ pub mod grid;
 pub mod map;
 pub mod relax;
 mod system;
+pub mod untangle;
 
 pub use domain::Polycube;
 pub use error::PolygridError;

@@ -6,9 +6,9 @@
 //!
 //! - `prepare`: the polycube at a cube size from [`PolygridOptions::cube_mm`] or the node
 //!   budget; where the voxel polycube changes the surface's topology or the map folds a cell,
-//!   the cube is made smaller at the same node spacing (the resolution × 0.7 each time, down to
-//!   one cell per cube), so a bake never
-//!   returns a picture from a folded grid. Then the stencil: [`Stencil::Fem`] puts the medium
+//!   the cube is made smaller at the same node spacing (the resolution halved each time, so the
+//!   hierarchy's levels stay, down to one cell per cube), so a bake never returns a picture
+//!   from a folded grid. Then the stencil: [`Stencil::Fem`] puts the medium
 //!   on the cells' Kuhn split and assembles TransCut's system on it (the state and every
 //!   capability are then TransCut's, on the polygrid's nodes); [`Stencil::FiniteVolume`] takes
 //!   each cell's medium (the volume-weighted mean of σa and σ′s of its tets, never of κ) and
@@ -308,10 +308,13 @@ fn build_grid(target: &Target<'_>, options: &PolygridOptions) -> Result<(Polygri
             Ok((grid, quality))
         });
         match result {
-            Err(PolygridError::TopologyChanged { .. } | PolygridError::Fold { .. } | PolygridError::Empty(_))
-                if resolution > 1 =>
-            {
-                resolution = ((f64::from(resolution) * 0.7).round() as u32).max(1);
+            Err(
+                PolygridError::TopologyChanged { .. }
+                | PolygridError::Fold { .. }
+                | PolygridError::SurfaceFold { .. }
+                | PolygridError::Empty(_),
+            ) if resolution > 1 => {
+                resolution = (resolution / 2).max(1);
                 cube = h * f64::from(resolution);
             }
             other => return other,
