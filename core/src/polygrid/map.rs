@@ -39,7 +39,7 @@ pub struct MapOptions {
 
 impl Default for MapOptions {
     fn default() -> Self {
-        Self { taubin_rounds: 5, interior_sweeps: 64, pillow_sweeps: 24, untangle_sweeps: 40 }
+        Self { taubin_rounds: 5, interior_sweeps: 64, pillow_sweeps: 24, untangle_sweeps: 160 }
     }
 }
 

@@ -34,6 +34,9 @@ const DISTORTED: f64 = 4.0;
 /// Escobar's ε: the modified determinant's δ is √(ε(ε − σ_min)) where σ_min < ε.
 const EPSILON: f64 = 1e-3;
 
+/// Sweeps without fewer turned elements after which a pass gives up.
+const STALL: usize = 20;
+
 /// Newton iterations per node visit.
 const NEWTON: usize = 4;
 
@@ -421,6 +424,7 @@ fn run_sweeps<const N: usize>(
     let mut active = vec![false; positions.len()];
     let mut moved_node = vec![false; positions.len()];
     let mut poor_before = usize::MAX;
+    let (mut fewest, mut since_fewer) = (report.turned_before, 0);
     for _ in 0..sweeps {
         active.fill(false);
         let poor_now = q.iter().filter(|q| poor(q)).count();
@@ -466,7 +470,11 @@ fn run_sweeps<const N: usize>(
         for (&e, m) in touched.iter().zip(measure(positions, &touched)) {
             q[e as usize] = m;
         }
-        if moved == 0.0 {
+        // A tangle that has not shrunk in STALL sweeps is left to the caller (a smaller cube).
+        let now = turned(&q);
+        since_fewer = if now < fewest { 0 } else { since_fewer + 1 };
+        fewest = fewest.min(now);
+        if moved == 0.0 || since_fewer >= STALL {
             break;
         }
     }
