@@ -92,7 +92,7 @@ impl Default for AcquireOptions {
             homogeneous_iterations: 60,
             max_iterations: 200,
             target_misfit_rms: 0.0,
-            relative_decrease: 1e-9,
+            relative_decrease: 1e-7,
             gradient_tolerance: 1e-12,
             solve: SolveSettings::default(),
         }
@@ -120,12 +120,14 @@ pub enum StopReason {
 pub struct IterationRecord {
     /// "homogeneous" or "heterogeneous".
     pub stage: &'static str,
+    /// The colour channel fitted.
+    pub channel: usize,
     /// λ during it.
     pub lambda: f64,
     /// The iteration (0: the start).
     pub iteration: usize,
-    /// The objective after it.
-    pub evaluation: Evaluation,
+    /// The channel's objective and misfit after it.
+    pub sample: Sample,
     /// Objective evaluations in its line search.
     pub line_evaluations: usize,
     /// Forward solves so far (all stages).
@@ -145,59 +147,82 @@ pub struct Acquired {
     pub evaluation: Evaluation,
     /// Every iteration, in order.
     pub history: Vec<IterationRecord>,
-    /// Why the last fit stopped.
-    pub stop: StopReason,
+    /// Why each channel's last fit stopped.
+    pub stop: [StopReason; 3],
     /// The work done.
     pub counts: WorkCounts,
 }
 
+/// A point's objective as the optimisers see it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// The objective of the fitted channel: misfit + λR.
+    pub value: f64,
+    /// Its RMS relative misfit.
+    pub misfit_rms: f64,
+}
+
 /// What the optimisers minimise.
 trait Problem {
-    fn value(&mut self, x: &[f64]) -> Result<Evaluation, InverseError>;
-    fn gradient(&mut self, x: &[f64]) -> Result<(Evaluation, Vec<f64>), InverseError>;
+    fn value(&mut self, x: &[f64]) -> Result<Sample, InverseError>;
+    fn gradient(&mut self, x: &[f64]) -> Result<(Sample, Vec<f64>), InverseError>;
     fn forward_solves(&self) -> usize;
 }
 
-impl Problem for Acquisition {
-    fn value(&mut self, x: &[f64]) -> Result<Evaluation, InverseError> {
-        self.evaluate(x)
-    }
-    fn gradient(&mut self, x: &[f64]) -> Result<(Evaluation, Vec<f64>), InverseError> {
-        Acquisition::gradient(self, x)
-    }
-    fn forward_solves(&self) -> usize {
-        self.counts().forward_solves
-    }
-}
-
-/// The homogeneous problem: 6 parameters (ln σa, ln σ′s per channel) broadcast to every cell;
-/// its gradient is the sum of the cells' (chain rule through the broadcast).
-struct Homogeneous<'a> {
+/// One channel's fit with the other two held: the channels are independent problems (each
+/// channel's images depend on its own σa and σ′s only), and fitting them jointly ties them to
+/// one line search, where one channel can run off while the others descend (a channel whose
+/// start is far too bright lowers its misfit towards 1 by absorbing everything). The solves
+/// still carry all three channels; the held ones are warm-started at their solution and cost
+/// a residual check. `homogeneous`: 2 parameters (ln σa, ln σ′s) broadcast to every cell, the
+/// gradient summed over cells; otherwise 2 per cell.
+struct ChannelView<'a> {
     model: &'a mut Acquisition,
-    cells: usize,
+    channel: usize,
+    base: Vec<f64>,
+    homogeneous: bool,
 }
 
-impl Homogeneous<'_> {
+impl ChannelView<'_> {
     fn expand(&self, x: &[f64]) -> Vec<f64> {
-        (0..self.cells).flat_map(|_| x.iter().copied()).collect()
+        let mut full = self.base.clone();
+        for (k, cell) in full.chunks_exact_mut(6).enumerate() {
+            let (a, s) = if self.homogeneous { (x[0], x[1]) } else { (x[2 * k], x[2 * k + 1]) };
+            cell[self.channel] = a;
+            cell[3 + self.channel] = s;
+        }
+        full
+    }
+
+    fn reduce(&self, full: &[f64]) -> Vec<f64> {
+        if self.homogeneous {
+            let mut g = vec![0.0; 2];
+            for cell in full.chunks_exact(6) {
+                g[0] += cell[self.channel];
+                g[1] += cell[3 + self.channel];
+            }
+            g
+        } else {
+            full.chunks_exact(6).flat_map(|cell| [cell[self.channel], cell[3 + self.channel]]).collect()
+        }
+    }
+
+    fn sample(&self, e: &Evaluation) -> Sample {
+        let c = self.channel;
+        Sample { value: e.misfit[c] + self.model.lambda() * e.regulariser[c], misfit_rms: e.misfit[c].sqrt() }
     }
 }
 
-impl Problem for Homogeneous<'_> {
-    fn value(&mut self, x: &[f64]) -> Result<Evaluation, InverseError> {
+impl Problem for ChannelView<'_> {
+    fn value(&mut self, x: &[f64]) -> Result<Sample, InverseError> {
         let full = self.expand(x);
-        self.model.evaluate(&full)
+        let e = self.model.evaluate(&full)?;
+        Ok(self.sample(&e))
     }
-    fn gradient(&mut self, x: &[f64]) -> Result<(Evaluation, Vec<f64>), InverseError> {
+    fn gradient(&mut self, x: &[f64]) -> Result<(Sample, Vec<f64>), InverseError> {
         let full = self.expand(x);
         let (e, g) = self.model.gradient(&full)?;
-        let mut g6 = vec![0.0; 6];
-        for c in g.chunks_exact(6) {
-            for k in 0..6 {
-                g6[k] += c[k];
-            }
-        }
-        Ok((e, g6))
+        Ok((self.sample(&e), self.reduce(&g)))
     }
     fn forward_solves(&self) -> usize {
         self.model.counts().forward_solves
@@ -217,6 +242,10 @@ struct Stop {
 const ARMIJO: f64 = 1e-4;
 /// The first step's largest change of any log parameter (10%).
 const FIRST_STEP: f64 = 0.1;
+/// The longest step: no log parameter changes by more than this (a factor e² ≈ 7.4) in one
+/// iteration, so a line search cannot leap to where the images are black or saturated and
+/// the gradient vanishes.
+const MAX_STEP: f64 = 2.0;
 /// Objective evaluations at most per line search.
 const LINE_EVALUATIONS: usize = 16;
 
@@ -287,7 +316,7 @@ pub fn polak_ribiere(g: &[f64], g_prev: &[f64]) -> f64 {
 /// The outcome of a line search: the step, its evaluation and the evaluations spent.
 struct LineResult {
     alpha: f64,
-    eval: Evaluation,
+    eval: Sample,
     evaluations: usize,
 }
 
@@ -303,7 +332,7 @@ fn line_quadratic<P: Problem>(
     expand: bool,
 ) -> Result<Option<LineResult>, InverseError> {
     let mut alpha = alpha0;
-    let mut best: Option<(f64, Evaluation)> = None;
+    let mut best: Option<(f64, Sample)> = None;
     for k in 0..LINE_EVALUATIONS {
         let e = p.value(&axpy(x, alpha, d))?;
         let armijo = e.value <= f0 + ARMIJO * alpha * slope;
@@ -314,7 +343,8 @@ fn line_quadratic<P: Problem>(
             if expand && k == 0 {
                 let mut evaluations = 1;
                 let (mut a, mut fa) = (alpha, e);
-                while evaluations < LINE_EVALUATIONS {
+                let longest = MAX_STEP / max_abs(d).max(f64::MIN_POSITIVE);
+                while evaluations < LINE_EVALUATIONS && 2.0 * a <= longest {
                     let e2 = p.value(&axpy(x, 2.0 * a, d))?;
                     evaluations += 1;
                     if e2.value < fa.value {
@@ -344,12 +374,12 @@ const GOLDEN: f64 = 0.618_033_988_749_894_8;
 /// 2% of the best step or the evaluations run out. `None` if no step lowered f.
 fn line_golden<P: Problem>(p: &mut P, x: &[f64], d: &[f64], f0: f64, alpha0: f64) -> Result<Option<LineResult>, InverseError> {
     let mut evaluations = 0;
-    let mut f = |alpha: f64, evaluations: &mut usize| -> Result<Evaluation, InverseError> {
+    let mut f = |alpha: f64, evaluations: &mut usize| -> Result<Sample, InverseError> {
         *evaluations += 1;
         p.value(&axpy(x, alpha, d))
     };
-    let mut best: Option<(f64, Evaluation)> = None;
-    let note = |alpha: f64, e: Evaluation, best: &mut Option<(f64, Evaluation)>| {
+    let mut best: Option<(f64, Sample)> = None;
+    let note = |alpha: f64, e: Sample, best: &mut Option<(f64, Sample)>| {
         if e.value < f0 && best.is_none_or(|(_, b)| e.value < b.value) {
             *best = Some((alpha, e));
         }
@@ -404,24 +434,31 @@ fn line_golden<P: Problem>(p: &mut P, x: &[f64], d: &[f64], f0: f64, alpha0: f64
 }
 
 /// Whether every channel's misfit meets the target.
-fn misfit_met(e: &Evaluation, target: f64) -> bool {
-    target > 0.0 && e.misfit_rms().iter().all(|&m| m <= target)
+fn misfit_met(e: &Sample, target: f64) -> bool {
+    target > 0.0 && e.misfit_rms <= target
+}
+
+/// What a fit is, for its records.
+#[derive(Debug, Clone, Copy)]
+struct Label {
+    stage: &'static str,
+    channel: usize,
+    lambda: f64,
 }
 
 /// Minimises `p` from `x` (updated in place) by `method`; records every iteration.
-#[allow(clippy::too_many_arguments)]
 fn minimise<P: Problem>(
     p: &mut P,
     x: &mut Vec<f64>,
     method: Method,
     stop: Stop,
-    stage: &'static str,
-    lambda: f64,
+    label: Label,
     history: &mut Vec<IterationRecord>,
     progress: &Progress<'_>,
-) -> Result<(Evaluation, StopReason), InverseError> {
+) -> Result<(Sample, StopReason), InverseError> {
+    let Label { stage, channel, lambda } = label;
     let (mut e, mut g) = p.gradient(x)?;
-    history.push(IterationRecord { stage, lambda, iteration: 0, evaluation: e, line_evaluations: 0, forward_solves: p.forward_solves() });
+    history.push(IterationRecord { stage, channel, lambda, iteration: 0, sample: e, line_evaluations: 0, forward_solves: p.forward_solves() });
     let mut pairs: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
     let mut d_prev: Option<Vec<f64>> = None;
     let mut g_prev: Option<Vec<f64>> = None;
@@ -434,7 +471,7 @@ fn minimise<P: Problem>(
             return Ok((e, StopReason::Gradient));
         }
         progress.report(
-            &format!("{stage} fit: iteration {it}, misfit {:.3}% RMS", 100.0 * e.misfit_rms().iter().fold(0.0f64, |m, &v| m.max(v))),
+            &format!("{stage} fit, {} channel: iteration {it}, misfit {:.3}% RMS", ["red", "green", "blue"][channel], 100.0 * e.misfit_rms),
             (it - 1) as f64 / stop.max_iterations as f64,
         )?;
         let (mut d, fresh) = match method {
@@ -456,14 +493,15 @@ fn minimise<P: Problem>(
             fresh = true;
         }
         let first = FIRST_STEP / max_abs(&d).max(f64::MIN_POSITIVE);
+        let longest = MAX_STEP / max_abs(&d).max(f64::MIN_POSITIVE);
         let line = match method {
             Method::Lbfgs { .. } => {
-                let alpha0 = if fresh { first } else { 1.0 };
+                let alpha0 = if fresh { first } else { longest.min(1.0) };
                 line_quadratic(p, x, &d, e.value, slope, alpha0, fresh)?
             }
             Method::PaperCg => {
                 // The last step, rescaled to this direction (Toast's choice), or the first.
-                let alpha0 = alpha_prev.map_or(first, |a| a.min(first * 10.0));
+                let alpha0 = alpha_prev.map_or(first, |a| a.min(first * 10.0)).min(longest);
                 line_golden(p, x, &d, e.value, alpha0)?
             }
         };
@@ -472,7 +510,13 @@ fn minimise<P: Problem>(
         };
         let x_new = axpy(x, line.alpha, &d);
         let (e_new, g_new) = p.gradient(&x_new)?;
-        debug_assert!((e_new.value - line.eval.value).abs() <= 1e-6 * line.eval.value.abs().max(1e-300));
+        if e_new.value >= e.value {
+            // The gradient's solve at the accepted point (warm-started from another point)
+            // lands within the solve tolerance of the line search's value; where that is
+            // not below f, the decrease was at the solves' noise floor: keep x.
+            debug_assert!((e_new.value - line.eval.value).abs() <= 1e-6 * e.value.abs());
+            return Ok((e, StopReason::LineSearch));
+        }
         let decrease = (e.value - e_new.value) / e.value.abs().max(f64::MIN_POSITIVE);
         if let Method::Lbfgs { memory } = method {
             let s: Vec<f64> = x_new.iter().zip(x.iter()).map(|(a, b)| a - b).collect();
@@ -492,9 +536,10 @@ fn minimise<P: Problem>(
         e = e_new;
         history.push(IterationRecord {
             stage,
+            channel,
             lambda,
             iteration: it,
-            evaluation: e,
+            sample: e,
             line_evaluations: line.evaluations,
             forward_solves: p.forward_solves(),
         });
@@ -547,52 +592,55 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
     model.set_solve_settings(options.solve)?;
     let cells = model.grid().cell_count();
     let mut history = Vec::new();
-    let stop = |max_iterations| Stop {
+    let stop = |max_iterations, target_misfit_rms| Stop {
         max_iterations,
-        target_misfit_rms: options.target_misfit_rms,
+        target_misfit_rms,
         relative_decrease: options.relative_decrease,
         gradient_tolerance: options.gradient_tolerance,
     };
+    let mut x: Vec<f64> = (0..cells).flat_map(|_| a0.iter().chain(&s0).map(|v| v.ln())).collect();
+    let mut reasons = [StopReason::IterationCap; 3];
 
-    // 1. The homogeneous fit (κ constant: the regulariser is 0 whatever λ).
+    // 1. The homogeneous fit per channel (κ constant: the regulariser is 0 whatever λ).
     model.set_lambda(0.0)?;
-    let mut x6: Vec<f64> = a0.iter().chain(&s0).map(|v| v.ln()).collect();
-    let (mut eval, mut reason) = {
-        let mut hom = Homogeneous { model: &mut *model, cells };
-        minimise(&mut hom, &mut x6, options.method, stop(options.homogeneous_iterations), "homogeneous", 0.0, &mut history, progress)?
-    };
-    let homogeneous = ([x6[0].exp(), x6[1].exp(), x6[2].exp()], [x6[3].exp(), x6[4].exp(), x6[5].exp()]);
+    for channel in 0..3 {
+        let mut x2 = vec![x[channel], x[3 + channel]];
+        let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), homogeneous: true };
+        let label = Label { stage: "homogeneous", channel, lambda: 0.0 };
+        let rules = stop(options.homogeneous_iterations, options.target_misfit_rms);
+        (_, reasons[channel]) = minimise(&mut view, &mut x2, options.method, rules, label, &mut history, progress)?;
+        x = view.expand(&x2);
+    }
+    let homogeneous = (std::array::from_fn(|c| x[c].exp()), std::array::from_fn(|c| x[3 + c].exp()));
     model.set_kappa_reference(std::array::from_fn(|c| super::model::kappa(homogeneous.0[c], homogeneous.1[c])));
-    let mut x: Vec<f64> = (0..cells).flat_map(|_| x6.iter().copied()).collect();
 
-    // 2. The per-cell fit.
+    // 2. The per-cell fit per channel.
     let mut lambda = 0.0;
     if options.max_iterations > 0 {
-        match options.lambda {
-            Lambda::Given(l) => {
+        for channel in 0..3 {
+            let (lambdas, target): (Vec<f64>, f64) = match options.lambda {
+                Lambda::Given(l) => (vec![l], options.target_misfit_rms),
+                Lambda::Discrepancy { noise_rms, tau, start } => ((0..8).map(|k| start * 0.1f64.powi(k)).collect(), tau * noise_rms),
+            };
+            for &l in &lambdas {
                 lambda = l;
                 model.set_lambda(l)?;
-                (eval, reason) = minimise(model, &mut x, options.method, stop(options.max_iterations), "heterogeneous", l, &mut history, progress)?;
-            }
-            Lambda::Discrepancy { noise_rms, tau, start } => {
-                let target = tau * noise_rms;
-                let mut l = start;
-                let mut rules = stop(options.max_iterations);
-                rules.target_misfit_rms = target;
-                for _ in 0..8 {
-                    lambda = l;
-                    model.set_lambda(l)?;
-                    (eval, reason) = minimise(model, &mut x, options.method, rules, "heterogeneous", l, &mut history, progress)?;
-                    if misfit_met(&eval, target) {
-                        break;
-                    }
-                    l *= 0.1;
+                let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), homogeneous: false };
+                let mut xr = view.reduce(&x);
+                let label = Label { stage: "heterogeneous", channel, lambda: l };
+                let (sample, reason) =
+                    minimise(&mut view, &mut xr, options.method, stop(options.max_iterations, target), label, &mut history, progress)?;
+                x = view.expand(&xr);
+                reasons[channel] = reason;
+                if misfit_met(&sample, target) || matches!(options.lambda, Lambda::Given(_)) {
+                    break;
                 }
             }
         }
     }
+    let evaluation = model.evaluate(&x)?;
     let media = CellMedia::from_log_vector(&x)?;
-    Ok(Acquired { media, homogeneous, lambda, evaluation: eval, history, stop: reason, counts: model.counts() })
+    Ok(Acquired { media, homogeneous, lambda, evaluation, history, stop: reasons, counts: model.counts() })
 }
 
 #[cfg(test)]
@@ -606,12 +654,12 @@ mod tests {
     }
 
     impl Problem for Quad {
-        fn value(&mut self, x: &[f64]) -> Result<Evaluation, InverseError> {
+        fn value(&mut self, x: &[f64]) -> Result<Sample, InverseError> {
             self.evals += 1;
             let v: f64 = x.iter().zip(&self.scale).map(|(x, s)| s * (x - 1.0).powi(2)).sum();
-            Ok(Evaluation { value: v, misfit: [v / 3.0; 3], regulariser: [0.0; 3] })
+            Ok(Sample { value: v, misfit_rms: v.sqrt() })
         }
-        fn gradient(&mut self, x: &[f64]) -> Result<(Evaluation, Vec<f64>), InverseError> {
+        fn gradient(&mut self, x: &[f64]) -> Result<(Sample, Vec<f64>), InverseError> {
             let e = self.value(x)?;
             Ok((e, x.iter().zip(&self.scale).map(|(x, s)| 2.0 * s * (x - 1.0)).collect()))
         }
@@ -625,7 +673,8 @@ mod tests {
         let mut x = vec![0.0; 4];
         let mut h = Vec::new();
         let stop = Stop { max_iterations: 200, target_misfit_rms: 0.0, relative_decrease: 0.0, gradient_tolerance: 1e-9 };
-        minimise(&mut q, &mut x, method, stop, "test", 0.0, &mut h, &Progress::none()).unwrap();
+        let label = Label { stage: "test", channel: 0, lambda: 0.0 };
+        minimise(&mut q, &mut x, method, stop, label, &mut h, &Progress::none()).unwrap();
         (x, h)
     }
 
@@ -634,7 +683,7 @@ mod tests {
         for method in [Method::default(), Method::PaperCg] {
             let (x, h) = run(method);
             assert!(x.iter().all(|v| (v - 1.0).abs() < 1e-6), "{method:?}: {x:?}");
-            assert!(h.windows(2).all(|w| w[1].evaluation.value <= w[0].evaluation.value), "{method:?}");
+            assert!(h.windows(2).all(|w| w[1].sample.value <= w[0].sample.value), "{method:?}");
         }
     }
 
