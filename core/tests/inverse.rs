@@ -7,8 +7,8 @@
 
 use glam::DVec3;
 use transcut::inverse::{
-    acquire, check_gradient, synthesize, to_voxel_grid, AcquireOptions, Acquisition, CellMedia, InverseError, IterationRecord, Lambda, Method,
-    Observation, Pattern, Setup, SolveSettings, StopReason, SynthOptions,
+    acquire, check_gradient, synthesize, to_voxel_grid, AcquireOptions, Acquisition, CellMedia, InverseError, IterationRecord,
+    Lambda, Method, Observation, Pattern, Setup, SolveSettings, StopReason, SynthOptions,
 };
 use transcut::progress::Progress;
 
@@ -64,9 +64,7 @@ fn small_model(observation: Observation, dims: [usize; 3]) -> (Acquisition, Vec<
     model.set_kappa_reference([0.3; 3]);
     let cells = model.grid().cell_count();
     let mut r = rng(7);
-    let x: Vec<f64> = (0..6 * cells)
-        .map(|i| if i % 6 < 3 { (0.03 + 0.1 * r()).ln() } else { (0.8 + 1.5 * r()).ln() })
-        .collect();
+    let x: Vec<f64> = (0..6 * cells).map(|i| if i % 6 < 3 { (0.03 + 0.1 * r()).ln() } else { (0.8 + 1.5 * r()).ln() }).collect();
     (model, x)
 }
 
@@ -190,11 +188,17 @@ fn the_homogeneous_fit_is_exact_on_its_own_discretisation() {
     let patterns = Pattern::grid_all(4, setup.face_size_mm(), [1.0; 3]);
     let images = synthesize(&setup, &patterns, &|_| HOMOGENEOUS, SynthOptions { refine: 1, tolerance: 1e-12 }).unwrap();
     let mut model = Acquisition::new(setup, &patterns, images, None).unwrap();
-    let options = AcquireOptions { max_iterations: 0, homogeneous_iterations: 100, relative_decrease: 0.0, ..AcquireOptions::default() };
+    let options =
+        AcquireOptions { max_iterations: 0, homogeneous_iterations: 100, relative_decrease: 0.0, ..AcquireOptions::default() };
     let fit = acquire(&mut model, &options, &Progress::none()).unwrap();
     let (a, s) = fit.homogeneous;
-    let worst = (0..3).map(|c| (a[c] / HOMOGENEOUS.0[c] - 1.0).abs().max((s[c] / HOMOGENEOUS.1[c] - 1.0).abs())).fold(0.0, f64::max);
-    eprintln!("own discretisation: worst relative error {worst:.2e}, misfit {:.2e}, {:?}", fit.evaluation.misfit_rms()[0], fit.stop);
+    let worst =
+        (0..3).map(|c| (a[c] / HOMOGENEOUS.0[c] - 1.0).abs().max((s[c] / HOMOGENEOUS.1[c] - 1.0).abs())).fold(0.0, f64::max);
+    eprintln!(
+        "own discretisation: worst relative error {worst:.2e}, misfit {:.2e}, {:?}",
+        fit.evaluation.misfit_rms()[0],
+        fit.stop
+    );
     assert!(worst < 1e-5, "{worst}");
 }
 
@@ -251,7 +255,8 @@ fn a_veined_block_is_fitted_without_going_uphill_and_predicts_held_out_light() {
     let seconds = t.elapsed().as_secs_f64();
     assert!(never_increases(&fit.history), "the objective rose");
     // Training misfit: the homogeneous fit's against the per-cell fit's.
-    let last = |stage: &str, c: usize| fit.history.iter().rev().find(|r| r.stage == stage && r.channel == c).unwrap().sample.misfit_rms;
+    let last =
+        |stage: &str, c: usize| fit.history.iter().rev().find(|r| r.stage == stage && r.channel == c).unwrap().sample.misfit_rms;
     let hom: [f64; 3] = std::array::from_fn(|c| last("homogeneous", c));
     let het = fit.evaluation.misfit_rms();
     // Held-out appearance: the recovered and the homogeneous media, each through the coarse
@@ -283,7 +288,10 @@ fn bad_input_is_named() {
     // Wrong image size.
     let mut imgs = good.clone();
     imgs[2].pop();
-    assert!(matches!(err(Acquisition::new(setup.clone(), &patterns, imgs, None)), InverseError::WrongImageSize { index: 2, found: 24, .. }));
+    assert!(matches!(
+        err(Acquisition::new(setup.clone(), &patterns, imgs, None)),
+        InverseError::WrongImageSize { index: 2, found: 24, .. }
+    ));
     // NaN pixel.
     let mut imgs = good.clone();
     imgs[1][7][2] = f64::NAN;

@@ -184,7 +184,9 @@ mod tests {
         let mut model = Acquisition::new(setup, &patterns, images, None).unwrap();
         model.set_solve_settings(crate::inverse::SolveSettings { tolerance: 1e-13, max_iterations: 1000 }).unwrap();
         model.set_lambda(1e-3).unwrap();
-        let x: Vec<f64> = (0..6 * cells).map(|i| if i % 6 < 3 { (0.05f64 + 0.01 * (i % 7) as f64).ln() } else { (1.0f64 + 0.1 * (i % 5) as f64).ln() }).collect();
+        let x: Vec<f64> = (0..6 * cells)
+            .map(|i| if i % 6 < 3 { (0.05f64 + 0.01 * (i % 7) as f64).ln() } else { (1.0f64 + 0.1 * (i % 5) as f64).ln() })
+            .collect();
         let all: Vec<usize> = (0..x.len()).collect();
         for c in check_gradient(&mut model, &x, &all, 1e-3).unwrap() {
             assert!(c.relative_error(1e-12) < 1e-6, "{c:?}");

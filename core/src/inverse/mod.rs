@@ -30,7 +30,7 @@ pub use adjoint::{check_gradient, GradientComponent};
 pub use block::BlockGrid;
 pub use error::InverseError;
 pub use model::{Acquisition, CellMedia, Evaluation, Setup, SolveSettings, WorkCounts};
-pub use optimize::{acquire, Acquired, AcquireOptions, IterationRecord, Lambda, Method, Sample, StopReason};
+pub use optimize::{acquire, AcquireOptions, Acquired, IterationRecord, Lambda, Method, Sample, StopReason};
 pub use output::to_voxel_grid;
 pub use setup::{Observation, Pattern};
 pub use synth::{synthesize, SynthOptions};

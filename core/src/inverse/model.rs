@@ -214,7 +214,11 @@ impl Acquisition {
         let observed_nodes = match setup.observation {
             Observation::FrontLit { margin_mm } => {
                 if !(margin_mm.is_finite() && margin_mm >= 0.0) {
-                    return Err(InverseError::InvalidSetting { what: "front-lit margin (mm)", value: margin_mm, expected: "finite and ≥ 0" });
+                    return Err(InverseError::InvalidSetting {
+                        what: "front-lit margin (mm)",
+                        value: margin_mm,
+                        expected: "finite and ≥ 0",
+                    });
                 }
                 lit_nodes.clone()
             }
@@ -224,7 +228,14 @@ impl Acquisition {
         let face_q = patterns.iter().enumerate().map(|(m, p)| p.node_values(m, nx, ny, h)).collect::<Result<Vec<_>, _>>()?;
         for (m, img) in images.iter().enumerate() {
             if img.len() != nx * ny {
-                return Err(InverseError::WrongImageSize { what: "image", index: m, expected: nx * ny, found: img.len(), nx, ny });
+                return Err(InverseError::WrongImageSize {
+                    what: "image",
+                    index: m,
+                    expected: nx * ny,
+                    found: img.len(),
+                    nx,
+                    ny,
+                });
             }
             check_pixels("image", m, img, false)?;
         }
@@ -236,7 +247,14 @@ impl Acquisition {
                         return Err(InverseError::PatternCountMismatch { images: images.len(), patterns: ms.len() });
                     }
                     if ms[m].len() != nx * ny {
-                        return Err(InverseError::WrongImageSize { what: "mask", index: m, expected: nx * ny, found: ms[m].len(), nx, ny });
+                        return Err(InverseError::WrongImageSize {
+                            what: "mask",
+                            index: m,
+                            expected: nx * ny,
+                            found: ms[m].len(),
+                            nx,
+                            ny,
+                        });
                     }
                     ms[m].clone()
                 }
@@ -394,8 +412,10 @@ impl Acquisition {
     ) -> Result<(), InverseError> {
         let pre = Preconditioner::new(a, PreconditionerKind::Jacobi)?;
         let precision = if self.solve.tolerance < 1e-7 { Precision::Double } else { Precision::Mixed };
-        let options =
-            SolveOptions::default().with_tolerance(self.solve.tolerance).with_max_iterations(self.solve.max_iterations).with_precision(precision);
+        let options = SolveOptions::default()
+            .with_tolerance(self.solve.tolerance)
+            .with_max_iterations(self.solve.max_iterations)
+            .with_precision(precision);
         let results: Vec<Result<usize, InverseError>> = x
             .par_iter_mut()
             .zip(rhs.par_iter())
@@ -532,7 +552,10 @@ mod tests {
 
     #[test]
     fn log_vectors_round_trip() {
-        let m = CellMedia { sigma_a: vec![[0.1, 0.2, 0.3], [1.0, 2.0, 3.0]], sigma_s_prime: vec![[4.0, 5.0, 6.0], [0.5, 0.25, 0.125]] };
+        let m = CellMedia {
+            sigma_a: vec![[0.1, 0.2, 0.3], [1.0, 2.0, 3.0]],
+            sigma_s_prime: vec![[4.0, 5.0, 6.0], [0.5, 0.25, 0.125]],
+        };
         let back = CellMedia::from_log_vector(&m.to_log_vector()).unwrap();
         for (a, b) in back.sigma_a.iter().flatten().zip(m.sigma_a.iter().flatten()) {
             assert!((a - b).abs() < 1e-14);

@@ -458,7 +458,15 @@ fn minimise<P: Problem>(
 ) -> Result<(Sample, StopReason), InverseError> {
     let Label { stage, channel, lambda } = label;
     let (mut e, mut g) = p.gradient(x)?;
-    history.push(IterationRecord { stage, channel, lambda, iteration: 0, sample: e, line_evaluations: 0, forward_solves: p.forward_solves() });
+    history.push(IterationRecord {
+        stage,
+        channel,
+        lambda,
+        iteration: 0,
+        sample: e,
+        line_evaluations: 0,
+        forward_solves: p.forward_solves(),
+    });
     let mut pairs: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
     let mut d_prev: Option<Vec<f64>> = None;
     let mut g_prev: Option<Vec<f64>> = None;
@@ -471,7 +479,11 @@ fn minimise<P: Problem>(
             return Ok((e, StopReason::Gradient));
         }
         progress.report(
-            &format!("{stage} fit, {} channel: iteration {it}, misfit {:.3}% RMS", ["red", "green", "blue"][channel], 100.0 * e.misfit_rms),
+            &format!(
+                "{stage} fit, {} channel: iteration {it}, misfit {:.3}% RMS",
+                ["red", "green", "blue"][channel],
+                100.0 * e.misfit_rms
+            ),
             (it - 1) as f64 / stop.max_iterations as f64,
         )?;
         let (mut d, fresh) = match method {
@@ -581,7 +593,11 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
         }
         Lambda::Given(_) => {}
     }
-    for (what, v) in [("target misfit", options.target_misfit_rms), ("relative decrease", options.relative_decrease), ("gradient tolerance", options.gradient_tolerance)] {
+    for (what, v) in [
+        ("target misfit", options.target_misfit_rms),
+        ("relative decrease", options.relative_decrease),
+        ("gradient tolerance", options.gradient_tolerance),
+    ] {
         if !(v.is_finite() && v >= 0.0) {
             return Err(InverseError::InvalidSetting { what, value: v, expected: "finite and ≥ 0" });
         }
@@ -620,7 +636,9 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
         for channel in 0..3 {
             let (lambdas, target): (Vec<f64>, f64) = match options.lambda {
                 Lambda::Given(l) => (vec![l], options.target_misfit_rms),
-                Lambda::Discrepancy { noise_rms, tau, start } => ((0..8).map(|k| start * 0.1f64.powi(k)).collect(), tau * noise_rms),
+                Lambda::Discrepancy { noise_rms, tau, start } => {
+                    ((0..8).map(|k| start * 0.1f64.powi(k)).collect(), tau * noise_rms)
+                }
             };
             for &l in &lambdas {
                 lambda = l;
@@ -628,8 +646,15 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
                 let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), homogeneous: false };
                 let mut xr = view.reduce(&x);
                 let label = Label { stage: "heterogeneous", channel, lambda: l };
-                let (sample, reason) =
-                    minimise(&mut view, &mut xr, options.method, stop(options.max_iterations, target), label, &mut history, progress)?;
+                let (sample, reason) = minimise(
+                    &mut view,
+                    &mut xr,
+                    options.method,
+                    stop(options.max_iterations, target),
+                    label,
+                    &mut history,
+                    progress,
+                )?;
                 x = view.expand(&xr);
                 reasons[channel] = reason;
                 if misfit_met(&sample, target) || matches!(options.lambda, Lambda::Given(_)) {

@@ -109,13 +109,15 @@ pub fn synthesize(
     }
     let a = system.matrix();
     let pre = Preconditioner::new(a, PreconditionerKind::Jacobi)?;
-    let opts = SolveOptions::default().with_tolerance(options.tolerance).with_max_iterations(100_000).with_precision(Precision::Double);
+    let opts =
+        SolveOptions::default().with_tolerance(options.tolerance).with_max_iterations(100_000).with_precision(Precision::Double);
     let phis: Vec<Result<Vec<[f64; 3]>, InverseError>> = rhs
         .par_iter()
         .enumerate()
         .map(|(image, b)| {
             let mut x = vec![[0.0; 3]; a.n()];
-            let stats = pcg(a, b, &mut x, &pre, &opts).map_err(|source| InverseError::Solve { what: "synthetic", image, source })?;
+            let stats =
+                pcg(a, b, &mut x, &pre, &opts).map_err(|source| InverseError::Solve { what: "synthetic", image, source })?;
             if !stats.converged {
                 let residual = stats.relative_residual.iter().fold(0.0f64, |m, &r| m.max(r));
                 return Err(InverseError::NotConverged { what: "synthetic", image, residual });
