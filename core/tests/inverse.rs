@@ -363,6 +363,7 @@ fn lbfgs_needs_fewer_forward_solves_than_paper_mode() {
         let t = std::time::Instant::now();
         let fit = acquire(&mut model, &options, &Progress::none()).unwrap();
         assert!(never_increases(&fit.history), "{method:?}: the objective rose");
+
         let heterogeneous = fit.history.iter().filter(|r| r.stage == "heterogeneous" && r.iteration > 0).count();
         eprintln!(
             "{method:?}: misfit {:.4?}, {heterogeneous} per-cell iterations, {} forward + {} adjoint solves, {:.1} s, {:?}",

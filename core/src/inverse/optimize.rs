@@ -240,6 +240,8 @@ struct Stop {
 
 /// The Armijo constant c₁ of the sufficient-decrease test f(α) ≤ f(0) + c₁ α f′(0).
 const ARMIJO: f64 = 1e-4;
+/// The curvature constant c₂ of the Wolfe condition ∇f(x + αd)·d ≥ c₂ ∇f(x)·d.
+const CURVATURE: f64 = 0.9;
 /// The first step's largest change of any log parameter (10%).
 const FIRST_STEP: f64 = 0.1;
 /// The longest step: no log parameter changes by more than this (a factor e² ≈ 7.4) in one
@@ -471,6 +473,12 @@ fn minimise<P: Problem>(
     let mut d_prev: Option<Vec<f64>> = None;
     let mut g_prev: Option<Vec<f64>> = None;
     let mut alpha_prev: Option<f64> = None;
+    // Whether the last step failed the curvature condition ∇f(x + αd)·d ≥ c₂ ∇f(x)·d: the
+    // line was still falling nearly as steeply where the search stopped (Armijo alone accepts
+    // such short steps, and L-BFGS then crawls along a curved valley, as the homogeneous fit's
+    // σa–σ′s valley showed: 90 iterations against paper mode's 7). The next search then
+    // doubles a step that passes while f keeps falling.
+    let mut short = false;
     for it in 1..=stop.max_iterations {
         if misfit_met(&e, stop.target_misfit_rms) {
             return Ok((e, StopReason::Misfit));
@@ -509,7 +517,7 @@ fn minimise<P: Problem>(
         let line = match method {
             Method::Lbfgs { .. } => {
                 let alpha0 = if fresh { first } else { longest.min(1.0) };
-                line_quadratic(p, x, &d, e.value, slope, alpha0, fresh)?
+                line_quadratic(p, x, &d, e.value, slope, alpha0, fresh || short)?
             }
             Method::PaperCg => {
                 // The last step, rescaled to this direction (Toast's choice), or the first.
@@ -530,6 +538,7 @@ fn minimise<P: Problem>(
             return Ok((e, StopReason::LineSearch));
         }
         let decrease = (e.value - e_new.value) / e.value.abs().max(f64::MIN_POSITIVE);
+        short = dot(&g_new, &d) < CURVATURE * slope;
         if let Method::Lbfgs { memory } = method {
             let s: Vec<f64> = x_new.iter().zip(x.iter()).map(|(a, b)| a - b).collect();
             let y: Vec<f64> = g_new.iter().zip(&g).map(|(a, b)| a - b).collect();
