@@ -71,11 +71,12 @@ fn small_model(observation: Observation, dims: [usize; 3]) -> (Acquisition, Vec<
 #[test]
 fn every_gradient_component_matches_central_differences() {
     // 4 × 4 × 3 nodes (18 cells, 108 parameters), M = 2, solves to 1e-13, λ = 0.01; back-lit
-    // and front-lit (margin 0.5 mm).
+    // and front-lit (margin 0.5 mm). Fourth-order differences at ε = 3e-3: at 1e-3 and 3e-4
+    // the solves' rounding (≈ 1e-13/ε) already shows (front-lit 2e-6 and 1.3e-5).
     for (name, obs) in [("back-lit", Observation::BackLit), ("front-lit", Observation::FrontLit { margin_mm: 1.0 })] {
         let (mut model, x) = small_model(obs, [4, 4, 3]);
         let all: Vec<usize> = (0..x.len()).collect();
-        let check = check_gradient(&mut model, &x, &all, 1e-3).unwrap();
+        let check = check_gradient(&mut model, &x, &all, 3e-3).unwrap();
         let largest = check.iter().fold(0.0f64, |m, c| m.max(c.central.abs()));
         let worst = check.iter().map(|c| c.relative_error(0.0)).fold(0.0f64, f64::max);
         let worst_floored = check.iter().map(|c| c.relative_error(1e-6 * largest)).fold(0.0f64, f64::max);
@@ -238,8 +239,8 @@ fn long() -> bool {
 fn a_veined_block_is_fitted_without_going_uphill_and_predicts_held_out_light() {
     // 3 × 3 × 1.5 mm at h = 0.25 mm (13 × 13 × 7 nodes, 864 cells, 5,184 parameters),
     // back-lit, 16 images from the 2× finer independent grid; L-BFGS, λ = 1e-4, 25
-    // iterations per channel (100 and the 1% training misfit with
-    // TRANSCUT_INVERSE_LONG=1). Held out: 8 random patterns, rendered by the fine grid.
+    // iterations per channel. Held out: 8 random patterns, rendered by the fine grid. The
+    // issue's bounds: training misfit ≤ 1% RMS, held-out appearance ≤ 3% RMS.
     let setup = Setup { dims: [13, 13, 7], spacing_mm: 0.25, eta: 1.3, observation: Observation::BackLit };
     let size = setup.face_size_mm();
     let patterns = Pattern::grid_all(4, size, [1.0; 3]);
@@ -248,8 +249,7 @@ fn a_veined_block_is_fitted_without_going_uphill_and_predicts_held_out_light() {
     let held = random_patterns(8, size, 5);
     let held_images = synthesize(&setup, &held, &truth, SynthOptions::default()).unwrap();
     let mut model = Acquisition::new(setup.clone(), &patterns, images, None).unwrap();
-    let iterations = if long() { 100 } else { 25 };
-    let options = AcquireOptions { max_iterations: iterations, lambda: Lambda::Given(1e-4), ..AcquireOptions::default() };
+    let options = AcquireOptions { max_iterations: 25, lambda: Lambda::Given(1e-4), ..AcquireOptions::default() };
     let t = std::time::Instant::now();
     let fit = acquire(&mut model, &options, &Progress::none()).unwrap();
     let seconds = t.elapsed().as_secs_f64();
@@ -272,8 +272,7 @@ fn a_veined_block_is_fitted_without_going_uphill_and_predicts_held_out_light() {
         fit.counts.forward_solves, fit.counts.adjoint_solves, fit.stop
     );
     for c in 0..3 {
-        let bound = if long() { 0.01 } else { 0.2 * hom[c] };
-        assert!(het[c] <= bound, "channel {c}: training misfit {:.4} RMS against the homogeneous {:.4}", het[c], hom[c]);
+        assert!(het[c] <= 0.01, "channel {c}: training misfit {:.4} RMS against the homogeneous {:.4}", het[c], hom[c]);
     }
     assert!(e_het <= 0.03, "held-out appearance {e_het:.4} RMS");
     assert!(e_het < e_hom, "held-out: per-cell {e_het:.4} against homogeneous {e_hom:.4}");
