@@ -283,7 +283,7 @@ fn bad_input_is_named() {
     let setup = Setup { dims: [5, 5, 3], spacing_mm: 0.5, eta: 1.3, observation: Observation::BackLit };
     let patterns = Pattern::grid_all(2, setup.face_size_mm(), [1.0; 3]);
     let good = vec![vec![[0.1; 3]; 25]; 4];
-    let err = |r: Result<Acquisition, InverseError>| r.err().expect("an error");
+    let err = |r: Result<Acquisition, InverseError>| r.expect_err("an error");
     // Wrong image size.
     let mut imgs = good.clone();
     imgs[2].pop();

@@ -78,7 +78,7 @@ impl CellMedia {
     /// [`InverseError::InvalidParameters`] for a length not a multiple of 6 or an entry that
     /// is not finite.
     pub fn from_log_vector(x: &[f64]) -> Result<Self, InverseError> {
-        if x.len() % 6 != 0 {
+        if !x.len().is_multiple_of(6) {
             return Err(InverseError::InvalidParameters(format!("{} entries, not 6 per cell", x.len())));
         }
         if let Some(i) = x.iter().position(|v| !v.is_finite()) {

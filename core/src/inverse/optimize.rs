@@ -141,8 +141,8 @@ pub struct Acquired {
     pub media: CellMedia,
     /// The homogeneous fit (σa, σ′s).
     pub homogeneous: ([f64; 3], [f64; 3]),
-    /// The λ used last.
-    pub lambda: f64,
+    /// The λ of each channel's per-cell fit (the discrepancy principle's choice per channel).
+    pub lambda: [f64; 3],
     /// The objective at the result.
     pub evaluation: Evaluation,
     /// Every iteration, in order.
@@ -640,9 +640,9 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
     model.set_kappa_reference(std::array::from_fn(|c| super::model::kappa(homogeneous.0[c], homogeneous.1[c])));
 
     // 2. The per-cell fit per channel.
-    let mut lambda = 0.0;
+    let mut lambda = [0.0; 3];
     if options.max_iterations > 0 {
-        for channel in 0..3 {
+        for (channel, (used, reason_out)) in lambda.iter_mut().zip(reasons.iter_mut()).enumerate() {
             let (lambdas, target): (Vec<f64>, f64) = match options.lambda {
                 Lambda::Given(l) => (vec![l], options.target_misfit_rms),
                 Lambda::Discrepancy { noise_rms, tau, start } => {
@@ -650,7 +650,7 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
                 }
             };
             for &l in &lambdas {
-                lambda = l;
+                *used = l;
                 model.set_lambda(l)?;
                 let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), homogeneous: false };
                 let mut xr = view.reduce(&x);
@@ -665,7 +665,7 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
                     progress,
                 )?;
                 x = view.expand(&xr);
-                reasons[channel] = reason;
+                *reason_out = reason;
                 if misfit_met(&sample, target) || matches!(options.lambda, Lambda::Given(_)) {
                     break;
                 }

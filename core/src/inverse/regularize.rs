@@ -32,9 +32,9 @@ impl Smoothness {
 
     /// Sets κ_ref per channel (non-positive or non-finite entries are ignored).
     pub fn set_reference(&mut self, kappa: [f64; 3]) {
-        for c in 0..3 {
-            if kappa[c].is_finite() && kappa[c] > 0.0 {
-                self.kappa_ref[c] = kappa[c];
+        for (r, &k) in self.kappa_ref.iter_mut().zip(&kappa) {
+            if k.is_finite() && k > 0.0 {
+                *r = k;
             }
         }
     }
