@@ -378,3 +378,49 @@ fn lbfgs_needs_fewer_forward_solves_than_paper_mode() {
     eprintln!("forward solves: L-BFGS / paper = {:.3}", solves[0] as f64 / solves[1] as f64);
     assert!(3 * solves[0] <= solves[1], "{solves:?}");
 }
+
+/// `images` with Gaussian noise of `rms` relative to each pixel (Box–Muller on [`rng`]).
+fn with_noise(images: &[Vec<[f64; 3]>], rms: f64, seed: u64) -> Vec<Vec<[f64; 3]>> {
+    let mut r = rng(seed);
+    let mut gauss = move || {
+        let (u, v) = (r().max(1e-300), r());
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+    };
+    images.iter().map(|img| img.iter().map(|p| p.map(|v| v * (1.0 + rms * gauss()))).collect()).collect()
+}
+
+#[test]
+fn with_one_percent_noise_the_discrepancy_principle_picks_lambda_and_held_out_light_stays_within_five_percent() {
+    // The veined block of the test above with 1% Gaussian noise on every training pixel; λ
+    // from 1e-2 down by decades until each channel's misfit is ≤ 1.1 × 1%. The bound
+    // on held-out appearance with noise: 5% RMS (against the noise-free fine-grid images).
+    let setup = Setup { dims: [13, 13, 7], spacing_mm: 0.25, eta: 1.3, observation: Observation::BackLit };
+    let size = setup.face_size_mm();
+    let patterns = Pattern::grid_all(4, size, [1.0; 3]);
+    let truth = veined(1.5);
+    let clean = synthesize(&setup, &patterns, &truth, SynthOptions::default()).unwrap();
+    let noisy = with_noise(&clean, 0.01, 99);
+    let measured_noise = rms_relative(&noisy, &clean, None);
+    let held = random_patterns(8, size, 5);
+    let held_images = synthesize(&setup, &held, &truth, SynthOptions::default()).unwrap();
+    let mut model = Acquisition::new(setup.clone(), &patterns, noisy, None).unwrap();
+    let options = AcquireOptions {
+        max_iterations: 25,
+        lambda: Lambda::Discrepancy { noise_rms: 0.01, tau: 1.1, start: 1e-2 },
+        ..AcquireOptions::default()
+    };
+    let t = std::time::Instant::now();
+    let fit = acquire(&mut model, &options, &Progress::none()).unwrap();
+    assert!(never_increases(&fit.history), "the objective rose");
+    let mut held_model = Acquisition::new(setup, &held, held_images.clone(), None).unwrap();
+    let e = rms_relative(&held_model.predict(&fit.media).unwrap(), &held_images, None);
+    eprintln!(
+        "noisy ({measured_noise:.4} RMS): λ {:?}, training misfit {:.4?}, held-out {e:.4} RMS, {} forward solves, {:.1} s, {:?}",
+        fit.lambda,
+        fit.evaluation.misfit_rms(),
+        fit.counts.forward_solves,
+        t.elapsed().as_secs_f64(),
+        fit.stop
+    );
+    assert!(e <= 0.05, "held-out {e:.4}");
+}
