@@ -429,9 +429,10 @@ fn with_one_percent_noise_the_discrepancy_principle_picks_lambda_and_held_out_li
 fn the_issues_round_trip_at_full_size() {
     // The issue's synthetic round trip: 40 × 40 × 12 nodes at 0.5 mm, marble (η = 1.3) with a
     // vein of 5× σa and a 1 mm skin of 1.5× σ′s, 16 images back-lit from the 2× finer grid;
-    // L-BFGS, λ = 1e-4, 40 iterations per channel. Reports the training misfit, held-out
-    // appearance and timing; asserts only that the fit goes downhill and beats the
-    // homogeneous fit on held-out light. Long: TRANSCUT_INVERSE_LONG=1.
+    // L-BFGS, λ = 1e-4, 40 iterations per channel; the issue's bounds: training misfit ≤ 1%
+    // RMS, held-out appearance (8 random patterns) ≤ 3% RMS. Measured on the shared 2-core
+    // machine: training 0.09/0.13/0.19%, held-out 7.2% (homogeneous) → 1.1%, 227 s for 164
+    // iterations (1.4 s each), synthesis 30 s. Long: TRANSCUT_INVERSE_LONG=1.
     if !long() {
         eprintln!("skipped: set TRANSCUT_INVERSE_LONG=1");
         return;
@@ -486,5 +487,6 @@ fn the_issues_round_trip_at_full_size() {
         seconds / iterations as f64,
         fit.stop
     );
-    assert!(e_het < e_hom);
+    assert!(fit.evaluation.misfit_rms().iter().all(|&m| m <= 0.01), "training misfit");
+    assert!(e_het <= 0.03 && e_het < e_hom, "held-out {e_het:.4} against the homogeneous {e_hom:.4}");
 }
