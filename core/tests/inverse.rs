@@ -322,6 +322,17 @@ fn bad_input_is_named() {
     let stop = |_: &str, _: f64| false;
     let r = acquire(&mut model, &AcquireOptions::default(), &Progress::new(&stop));
     assert!(matches!(r, Err(InverseError::Cancelled(_))));
+    // Progress: one report per iteration, naming the fit and its misfit, fractions in order.
+    let seen = std::sync::Mutex::new(Vec::new());
+    let record = |stage: &str, f: f64| {
+        seen.lock().unwrap().push((stage.to_owned(), f));
+        true
+    };
+    let options = AcquireOptions { max_iterations: 2, homogeneous_iterations: 2, ..AcquireOptions::default() };
+    acquire(&mut model, &options, &Progress::new(&record)).unwrap();
+    let seen = seen.into_inner().unwrap();
+    assert!(seen.iter().any(|(s, _)| s.contains("heterogeneous fit, blue channel") && s.contains("% RMS")), "{seen:?}");
+    assert!(seen.windows(2).all(|w| w[1].1 >= w[0].1), "{seen:?}");
 }
 
 #[test]

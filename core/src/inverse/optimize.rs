@@ -443,6 +443,9 @@ fn misfit_met(e: &Sample, target: f64) -> bool {
 /// What a fit is, for its records.
 #[derive(Debug, Clone, Copy)]
 struct Label {
+    /// Which of the six fits (homogeneous R, G, B, then per-cell R, G, B) this is: the
+    /// reported fraction is (part + iteration/cap)/6, so it never goes back.
+    part: usize,
     stage: &'static str,
     channel: usize,
     lambda: f64,
@@ -458,7 +461,7 @@ fn minimise<P: Problem>(
     history: &mut Vec<IterationRecord>,
     progress: &Progress<'_>,
 ) -> Result<(Sample, StopReason), InverseError> {
-    let Label { stage, channel, lambda } = label;
+    let Label { part, stage, channel, lambda } = label;
     let (mut e, mut g) = p.gradient(x)?;
     history.push(IterationRecord {
         stage,
@@ -492,7 +495,7 @@ fn minimise<P: Problem>(
                 ["red", "green", "blue"][channel],
                 100.0 * e.misfit_rms
             ),
-            (it - 1) as f64 / stop.max_iterations as f64,
+            (part as f64 + (it - 1) as f64 / stop.max_iterations as f64) / 6.0,
         )?;
         let (mut d, fresh) = match method {
             Method::Lbfgs { .. } => (lbfgs_direction(&g, &pairs), pairs.is_empty()),
@@ -631,7 +634,7 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
     for channel in 0..3 {
         let mut x2 = vec![x[channel], x[3 + channel]];
         let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), homogeneous: true };
-        let label = Label { stage: "homogeneous", channel, lambda: 0.0 };
+        let label = Label { part: channel, stage: "homogeneous", channel, lambda: 0.0 };
         let rules = stop(options.homogeneous_iterations, options.target_misfit_rms);
         (_, reasons[channel]) = minimise(&mut view, &mut x2, options.method, rules, label, &mut history, progress)?;
         x = view.expand(&x2);
@@ -654,7 +657,7 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
                 model.set_lambda(l)?;
                 let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), homogeneous: false };
                 let mut xr = view.reduce(&x);
-                let label = Label { stage: "heterogeneous", channel, lambda: l };
+                let label = Label { part: 3 + channel, stage: "heterogeneous", channel, lambda: l };
                 let (sample, reason) = minimise(
                     &mut view,
                     &mut xr,
@@ -707,7 +710,7 @@ mod tests {
         let mut x = vec![0.0; 4];
         let mut h = Vec::new();
         let stop = Stop { max_iterations: 200, target_misfit_rms: 0.0, relative_decrease: 0.0, gradient_tolerance: 1e-9 };
-        let label = Label { stage: "test", channel: 0, lambda: 0.0 };
+        let label = Label { part: 0, stage: "test", channel: 0, lambda: 0.0 };
         minimise(&mut q, &mut x, method, stop, label, &mut h, &Progress::none()).unwrap();
         (x, h)
     }
