@@ -54,6 +54,7 @@ pub mod edit;
 pub mod gpu;
 pub mod hierarchy;
 pub mod input;
+pub mod inverse;
 pub mod light;
 pub mod mesh;
 pub mod mesher;
