@@ -419,10 +419,10 @@ pub(crate) fn map_user_vertices(surface: &TriMesh, mesh: &TetMesh, input: &Trian
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    /// A closed, outward-oriented UV sphere as a `TriMesh`.
+    /// A closed, outward-oriented UV sphere as a `TriMesh` (shared with the polygrid's tests).
     pub(crate) fn uv_sphere(radius: f64, nu: usize, nv: usize) -> TriMesh {
         let mut positions = vec![DVec3::new(0.0, 0.0, radius)];
         for j in 1..nv {

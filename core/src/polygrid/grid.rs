@@ -421,8 +421,8 @@ impl Polygrid {
     /// The 8-colouring of the nodes by the parity of their lattice coordinates
     /// (x&1 + 2(y&1) + 4(z&1)): no two nodes of a cell share a colour, so any stencil on the
     /// cells (the 7-point stencils, the Kuhn-split FEM's 15) is Gauss–Seidel-parallel per colour.
-    #[must_use]
     /// With a pillow, its surface nodes take their base's colour + 8 (16 colours).
+    #[must_use]
     pub fn parity_colours(&self) -> Vec<u8> {
         let pillow = self.lattice_nodes;
         self.lattice

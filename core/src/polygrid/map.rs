@@ -354,7 +354,7 @@ mod tests {
     fn a_pillowed_voxel_polycube_maps_a_coarse_faceted_sphere_without_folds() {
         // A 48 × 24 UV sphere of radius 12 at 4 mm cubes: without the pillow, the cells on the
         // polycube's corners have three faces on flat facets.
-        let sphere = uv_sphere(12.0, 48, 24);
+        let sphere = crate::mesher::tests::uv_sphere(12.0, 48, 24);
         let bvh = TriangleBvh::from_indexed(sphere.positions(), sphere.triangles());
         let cube = Arc::new(Polycube::voxelize(&sphere, 4.0).unwrap());
         let mut plain = Polygrid::new(Arc::clone(&cube), 4).unwrap();
@@ -367,33 +367,6 @@ mod tests {
         let tets = crate::mesh::TetMesh::new(g.positions().to_vec(), g.kuhn_tets(), vec![]).unwrap();
         assert!(tets.boundary_topology().is_closed_manifold());
         assert_eq!(tets.boundary_faces().len(), 2 * g.quads().len());
-    }
-
-    /// A closed UV sphere.
-    fn uv_sphere(radius: f64, nu: usize, nv: usize) -> crate::mesh::TriMesh {
-        let mut positions = vec![[0.0, 0.0, radius]];
-        for j in 1..nv {
-            let th = std::f64::consts::PI * j as f64 / nv as f64;
-            for i in 0..nu {
-                let ph = 2.0 * std::f64::consts::PI * i as f64 / nu as f64;
-                positions.push([radius * th.sin() * ph.cos(), radius * th.sin() * ph.sin(), radius * th.cos()]);
-            }
-        }
-        positions.push([0.0, 0.0, -radius]);
-        let ring = |j: usize, i: usize| (1 + (j - 1) * nu + i % nu) as u32;
-        let south = (positions.len() - 1) as u32;
-        let mut indices = Vec::new();
-        for i in 0..nu {
-            indices.extend([0, ring(1, i), ring(1, i + 1)]);
-            indices.extend([south, ring(nv - 1, i + 1), ring(nv - 1, i)]);
-        }
-        for j in 1..nv - 1 {
-            for i in 0..nu {
-                indices.extend([ring(j, i), ring(j + 1, i), ring(j + 1, i + 1)]);
-                indices.extend([ring(j, i), ring(j + 1, i + 1), ring(j, i + 1)]);
-            }
-        }
-        crate::mesh::TriMesh::from_triangles(&positions, &indices).unwrap()
     }
 
     #[test]
