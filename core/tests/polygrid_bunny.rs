@@ -7,7 +7,8 @@
 //! The default run compares 100k polygrid nodes with 600k tets (about as many unknowns) at
 //! two cells per cube (the bunny's ears fold the map at four and more: the method halves the
 //! cube itself, the test starts where it would end); `TRANSCUT_POLYGRID_AGREEMENT=N` compares
-//! at N nodes.
+//! at N nodes. The difference halves from 100k to 500k nodes (marble 1.7–2.0% → 0.94–0.97%,
+//! veins 2.2–2.9% → 1.2–1.4%): both discretisations converge to one answer.
 
 use transcut::light::Light;
 use transcut::mesh::{self, TriMesh};
