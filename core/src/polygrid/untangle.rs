@@ -8,8 +8,9 @@
 //! orientation. Here every element is measured against its lattice shape by the mean-ratio
 //! distortion with the *modified* determinant of Escobar et al., which stays finite and smooth
 //! for turned elements, so minimising the sum over a node's elements moves the node out of
-//! a fold instead of stopping at it; once a neighbourhood is untangled (δ = 0) the distortion
-//! is a barrier at zero volume and no move can fold it again.
+//! a fold instead of stopping at it. A size term keeps nodes that the projection gathered at
+//! one point from staying there (`size_penalty`), and a node whose elements are all valid
+//! never takes a move that turns one (`guarded`).
 //!
 //! - [`untangle_surface`]: the boundary nodes slide on the surface (a Newton step in the
 //!   tangent plane, projected back by closest point, kept only if the projected distortion
@@ -19,7 +20,8 @@
 //!   against the lattice's Kuhn tets.
 //!
 //! Both visit only the nodes of poor elements (turned, nearly flat or very distorted) and their
-//! neighbours, Gauss–Seidel order, a few Newton iterations per visit.
+//! neighbours, colour by colour (each colour's nodes in parallel: Gauss–Seidel in colour
+//! order), a few Newton iterations per visit.
 
 use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
