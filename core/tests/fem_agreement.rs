@@ -62,21 +62,15 @@ use std::time::Instant;
 
 use transcut::diffusion::{assemble, assemble_consistent, solve, surface_radiance, DiffusionSystem};
 use transcut::light::{transmitted_source, Light, SourceOptions};
-use transcut::mesh::{self, TetMesh, TriMesh, TriangleBvh};
+use transcut::mesh::{TetMesh, TriangleBvh};
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
 use transcut::sparse::{pcg, CsrMatrix3, Jacobi, Preconditioner, SolveOptions};
 use transcut::volume::{TableLayout, TetSampling, VeinParams, Veins};
 use transcut::DVec3;
 
-/// The shared bunny and its scale (millimetres per unit) for 60 mm across.
-fn bunny() -> (TriMesh, f64) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/stanford-bunny.obj");
-    let surface = mesh::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let (lo, hi) = surface.bounds();
-    let mm_per_unit = 60.0 / (hi - lo).max_element();
-    (surface, mm_per_unit)
-}
+mod common;
+use common::bunny;
 
 /// How far the two radiances are apart, per channel.
 #[derive(Debug, Clone, Copy, Default)]
@@ -214,17 +208,7 @@ fn transcut_and_consistent_fem_agree_on_the_bunny_with_marble_veins() {
     let marble = Medium::preset("marble").unwrap();
     let (homogeneous, homogeneous_lit, homogeneous_all) = compare("homogeneous marble", &mesh, &[marble], mm_per_unit, &occluder);
 
-    // Veins 12 mm apart, bent by turbulence at a 20 mm scale: 20–30× the absorption of the
-    // marble and less scattering.
-    let vein = Medium { sigma_a: [0.06, 0.09, 0.14], sigma_s_prime: [1.5, 1.8, 2.0], ..marble };
-    let params = VeinParams {
-        direction: DVec3::new(1.0, 0.4, 0.2),
-        period: 12.0 / mm_per_unit,
-        noise_scale: 20.0 / mm_per_unit,
-        sharpness: 2.0,
-        ..VeinParams::default()
-    };
-    let veins = Veins::new(marble, vein, 11, params).unwrap();
+    let veins = common::veined(marble, mm_per_unit);
     let media = veins.per_tet(&mesh, TetSampling::Centroid).unwrap().apply(&mut mesh, TableLayout::Compact).unwrap();
     // The medium really varies: many distinct media spanning most of the base-to-vein range.
     let blue_a: Vec<f64> = media.iter().map(|m| m.sigma_a[2]).collect();

@@ -11,19 +11,12 @@
 //! veins 2.2–2.9% → 1.2–1.4%): both discretisations converge to one answer.
 
 use transcut::light::Light;
-use transcut::mesh::{self, TriMesh};
 use transcut::optics::Medium;
-use transcut::volume::{VeinParams, Veins};
 use transcut::DVec3;
 use transcut::{bake, BakeOptions, MediumSource, Method, Object, PolygridOptions, Scene, TransCutOptions};
 
-/// The shared bunny and its scale (millimetres per unit) for 60 mm across.
-fn bunny() -> (TriMesh, f64) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/stanford-bunny.obj");
-    let surface = mesh::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let (lo, hi) = surface.bounds();
-    (surface, 60.0 / (hi - lo).max_element())
-}
+mod common;
+use common::bunny;
 
 /// √(Σ (a − b)² / Σ b²) over the vertices, per channel.
 fn relative_l2(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
@@ -38,15 +31,7 @@ fn polygrid_agrees_with_transcut_on_the_bunny() {
     let size: usize = std::env::var("TRANSCUT_POLYGRID_AGREEMENT").ok().and_then(|s| s.parse().ok()).unwrap_or(100_000);
     let (surface, mm_per_unit) = bunny();
     let marble = Medium::new([0.0021, 0.0041, 0.0071], [2.19, 2.62, 3.00], 1.3, 0.0).unwrap();
-    let vein = Medium { sigma_a: [0.06, 0.09, 0.14], sigma_s_prime: [1.5, 1.8, 2.0], ..marble };
-    let params = VeinParams {
-        direction: DVec3::new(1.0, 0.4, 0.2),
-        period: 12.0 / mm_per_unit,
-        noise_scale: 20.0 / mm_per_unit,
-        sharpness: 2.0,
-        ..VeinParams::default()
-    };
-    let veined = MediumSource::Veins(Veins::new(marble, vein, 11, params).unwrap());
+    let veined = MediumSource::Veins(common::veined(marble, mm_per_unit));
     let sun = Light::Directional { direction: DVec3::new(0.0, -1.0, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 };
     let solve = TransCutOptions { tets: size, tolerance: 1e-8, ..TransCutOptions::default() };
     // Equal unknowns: stuffed tets come about six to a vertex (at 100k tets TransCut has a
