@@ -59,22 +59,7 @@ impl BlockGrid {
         let [nx, ny, nz] = dims;
         let n = nx * ny * nz;
         let node = |i: usize, j: usize, k: usize| (i + nx * (j + ny * k)) as u32;
-        let mut edges = Vec::with_capacity(3 * n);
-        for k in 0..nz {
-            for j in 0..ny {
-                for i in 0..nx {
-                    if i + 1 < nx {
-                        edges.push([node(i, j, k), node(i + 1, j, k)]);
-                    }
-                    if j + 1 < ny {
-                        edges.push([node(i, j, k), node(i, j + 1, k)]);
-                    }
-                    if k + 1 < nz {
-                        edges.push([node(i, j, k), node(i, j, k + 1)]);
-                    }
-                }
-            }
-        }
+        let edges = axis_pairs(dims);
         let pattern = Arc::new(CsrPattern::from_edges(n, &edges)?);
         let mut corners = Vec::with_capacity((nx - 1) * (ny - 1) * (nz - 1));
         for k in 0..nz - 1 {
@@ -252,26 +237,31 @@ impl BlockGrid {
     /// smoothness regulariser penalises.
     #[must_use]
     pub fn cell_neighbours(&self) -> Vec<[u32; 2]> {
-        let [cx, cy, cz] = self.cell_dims();
-        let id = |i: usize, j: usize, k: usize| (i + cx * (j + cy * k)) as u32;
-        let mut pairs = Vec::with_capacity(3 * cx * cy * cz);
-        for k in 0..cz {
-            for j in 0..cy {
-                for i in 0..cx {
-                    if i + 1 < cx {
-                        pairs.push([id(i, j, k), id(i + 1, j, k)]);
-                    }
-                    if j + 1 < cy {
-                        pairs.push([id(i, j, k), id(i, j + 1, k)]);
-                    }
-                    if k + 1 < cz {
-                        pairs.push([id(i, j, k), id(i, j, k + 1)]);
-                    }
+        axis_pairs(self.cell_dims())
+    }
+}
+
+/// The pairs of points of a `dims` grid (x fastest) adjacent along an axis, each once, lower
+/// id first: the node graph's edges, or the cells' face neighbours.
+fn axis_pairs([nx, ny, nz]: [usize; 3]) -> Vec<[u32; 2]> {
+    let id = |i: usize, j: usize, k: usize| (i + nx * (j + ny * k)) as u32;
+    let mut pairs = Vec::with_capacity(3 * nx * ny * nz);
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                if i + 1 < nx {
+                    pairs.push([id(i, j, k), id(i + 1, j, k)]);
+                }
+                if j + 1 < ny {
+                    pairs.push([id(i, j, k), id(i, j + 1, k)]);
+                }
+                if k + 1 < nz {
+                    pairs.push([id(i, j, k), id(i, j, k + 1)]);
                 }
             }
         }
-        pairs
     }
+    pairs
 }
 
 /// The dual area of node `ijk` on each of the six faces of a block of `dims` nodes at spacing
