@@ -113,10 +113,10 @@ fn voxels_and_veins_bake() {
     .unwrap();
     let voxels = MediumSource::Voxels { grid, eta: 1.3, g: 0.0 };
     let veins = Veins::new(marble(), dense(), 7, VeinParams { period: 6.0, noise_scale: 6.0, ..VeinParams::default() }).unwrap();
+    let homogeneous = radiance(&ball(marble().into()), &dipole(HetRule::Consistent));
     for (medium, what) in [(voxels, "voxels"), (MediumSource::Veins(veins), "veins")] {
         let lo = radiance(&ball(medium), &dipole(HetRule::Consistent));
         assert_finite_positive(&lo, what);
-        let homogeneous = radiance(&ball(marble().into()), &dipole(HetRule::Consistent));
         assert!(worst(&lo, &homogeneous) > 0.01, "{what} is the homogeneous marble");
     }
 }
