@@ -179,7 +179,7 @@ fn uniform_sphere_matches_its_models_closed_form() {
     let q = std::f64::consts::PI * (1.0 - f_ext(1.3));
     assert!((q - 2.9495).abs() < 1e-4, "ARCHITECTURE.md's q: {q}");
     let scene = Scene {
-        objects: vec![Object::new("sphere", uv_sphere(10.0, 192, 96), medium, 1.0)],
+        objects: vec![Object::new("sphere", uv_sphere(10.0, 96, 48), medium, 1.0)],
         lights: vec![Light::Environment(Environment::Constant([1.0; 3]))],
     };
     for make in METHODS {
