@@ -392,7 +392,7 @@ mod tests {
             usize::from(p.z < SPLIT)
         }
         fn spacing(&self) -> f64 {
-            0.005
+            0.05
         }
     }
 
@@ -540,10 +540,11 @@ mod tests {
                         }
                     }
                 };
-                // Measured: the top cell (wholly in medium 0) 9·10⁻⁴ (red), 2.2·10⁻³ (blue), 3.3·10⁻³
-                // under eq. 16; the side cell on the boundary (7-point rule per piece) 4·10⁻³ at
-                // most; the one-medium entries (the homogeneous quadrature) 3.3·10⁻⁴.
-                for (i, tolerance) in lit(&patches).into_iter().zip([5e-3, 5e-3]) {
+                // Measured, the crossings bisected: the mixed entries 5.8·10⁻⁴ at most under the
+                // consistent rule, 3.1·10⁻³ under eq. 16 (the side cell on the boundary, 7-point
+                // rule per piece); the one-medium entries (the homogeneous quadrature) 3.3·10⁻⁴.
+                let tolerance = if rule == HetRule::Consistent { 1e-3 } else { 5e-3 };
+                for i in lit(&patches) {
                     let (mixed, single, count) = worst(&s, &patches, i, c, &value);
                     eprintln!(
                         "{rule:?} channel {c} source {i}: {count} mixed entries, worst {mixed:.2e}; one medium {single:.2e}"

@@ -353,8 +353,9 @@ impl MediumLattice {
 
     /// The medium of the node nearest `p`.
     fn at(&self, p: DVec3) -> u8 {
-        let q = ((p - self.origin) / self.step).round();
-        let ijk: [usize; 3] = std::array::from_fn(|a| (q[a].max(0.0) as usize).min(self.dims[a] - 1));
+        // + ½ and truncation: round to nearest for the non-negative, and a negative saturates to 0.
+        let q = (p - self.origin) / self.step + 0.5;
+        let ijk: [usize; 3] = std::array::from_fn(|a| (q[a] as usize).min(self.dims[a] - 1));
         self.media[ijk[0] + self.dims[0] * (ijk[1] + self.dims[1] * ijk[2])]
     }
 }
