@@ -59,7 +59,7 @@ use rayon::prelude::*;
 
 use super::cutter::{Cutter, Prepared};
 use super::EditError;
-use crate::mesh::{dihedral_angles, tet_volume, TetMesh};
+use crate::mesh::{dihedral_angles, tet_volume, Incidence, TetMesh};
 use crate::progress::Cancelled;
 
 /// Cut vertices: `d ≥ −SNAP_BAND · h` (with `h` the mean length of the vertex's edges).
@@ -229,7 +229,7 @@ pub fn cut_with(
     }
 
     // Snap.
-    let incident = incident_tets(pos.len(), &tets);
+    let incident = Incidence::new(&tets, pos.len());
     let movable: Vec<u32> = (0..pos.len() as u32).filter(|&v| is_cut[kept_vertex[v as usize] as usize]).collect();
     let mut done = vec![false; movable.len()];
     for _ in 0..options.relax_iterations {
@@ -246,7 +246,7 @@ pub fn cut_with(
                 done[i] = true;
                 continue;
             }
-            let ring = &incident.1[incident.0[v] as usize..incident.0[v + 1] as usize];
+            let ring = incident.around(v);
             let ok = |p: DVec3, pos: &[DVec3]| ring_is_valid(ring, &tets, pos, v, p, bound, min_volume);
             if ok(target, &pos) {
                 pos[v] = target;
@@ -289,7 +289,7 @@ pub fn cut_with(
             if target == pos[v] || (target - slide).length() > 0.5 * (slide - start).length() {
                 continue;
             }
-            let ring = &incident.1[incident.0[v] as usize..incident.0[v + 1] as usize];
+            let ring = incident.around(v);
             if ring_is_valid(ring, &tets, &pos, v, target, bound, min_volume) {
                 pos[v] = target;
             }
@@ -344,32 +344,10 @@ fn min_dihedral(p: [DVec3; 4]) -> f64 {
     dihedral_angles(p).into_iter().fold(f64::INFINITY, f64::min)
 }
 
-/// Vertex → incident tets in CSR form `(offsets, tets)`, tets in increasing order.
-fn incident_tets(vertices: usize, tets: &[[u32; 4]]) -> (Vec<u32>, Vec<u32>) {
-    let mut offsets = vec![0u32; vertices + 1];
-    for t in tets {
-        for &v in t {
-            offsets[v as usize + 1] += 1;
-        }
-    }
-    for v in 0..vertices {
-        offsets[v + 1] += offsets[v];
-    }
-    let mut fill = offsets.clone();
-    let mut list = vec![0u32; offsets[vertices] as usize];
-    for (ti, t) in tets.iter().enumerate() {
-        for &v in t {
-            list[fill[v as usize] as usize] = ti as u32;
-            fill[v as usize] += 1;
-        }
-    }
-    (offsets, list)
-}
-
 /// Whether moving vertex `v` to `p` keeps every tet of `ring` positively oriented (volume above
 /// `min_volume`) with a minimum dihedral angle of at least `bound` radians.
-fn ring_is_valid(ring: &[u32], tets: &[[u32; 4]], pos: &[DVec3], v: usize, p: DVec3, bound: f64, min_volume: f64) -> bool {
-    ring.iter().all(|&t| {
+fn ring_is_valid(ring: &[(u32, u8)], tets: &[[u32; 4]], pos: &[DVec3], v: usize, p: DVec3, bound: f64, min_volume: f64) -> bool {
+    ring.iter().all(|&(t, _)| {
         let corners = tets[t as usize].map(|w| if w as usize == v { p } else { pos[w as usize] });
         tet_volume(corners) > min_volume && min_dihedral(corners) >= bound
     })

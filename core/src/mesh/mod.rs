@@ -7,6 +7,7 @@
 
 mod bvh;
 mod error;
+mod incidence;
 mod obj;
 mod orient;
 mod ply;
@@ -22,6 +23,7 @@ mod weld;
 pub(crate) use bvh::closest_point_on_triangle;
 pub use bvh::{RayHit, SurfacePoint, TriangleBvh};
 pub use error::MeshError;
+pub use incidence::Incidence;
 pub use obj::{load_obj, load_obj_uv_map, load_obj_with, parse_obj, parse_obj_uv_map, parse_obj_with, UvMap};
 pub use ply::{load_ply, load_ply_with, parse_ply, parse_ply_with};
 pub use quality::{dihedral_angles, dihedral_cotangents, tet_volume, QualityReport};

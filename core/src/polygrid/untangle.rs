@@ -26,6 +26,8 @@
 use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
 
+use crate::mesh::Incidence;
+
 /// A turned or nearly flat element: normalised determinant below this.
 const FLAT: f64 = 0.02;
 
@@ -200,28 +202,6 @@ fn positive_definite(m: &DMat3) -> bool {
     a.x > 0.0 && a.x * b.y - a.y * b.x > 0.0 && m.determinant() > 0.0
 }
 
-/// Elements around each node as a CSR list of (element, corner) pairs.
-fn incidence<const N: usize>(elements: &[[u32; N]], nodes: usize) -> (Vec<usize>, Vec<(u32, u8)>) {
-    let mut start = vec![0usize; nodes + 1];
-    for e in elements {
-        for &v in e {
-            start[v as usize + 1] += 1;
-        }
-    }
-    for i in 0..nodes {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut list = vec![(0u32, 0u8); start[nodes]];
-    for (k, e) in elements.iter().enumerate() {
-        for (corner, &v) in e.iter().enumerate() {
-            list[fill[v as usize]] = (k as u32, corner as u8);
-            fill[v as usize] += 1;
-        }
-    }
-    (start, list)
-}
-
 /// The six Kuhn tets of the unit lattice cell ([`super::Polygrid::kuhn_tets`]'s order), each
 /// as the inverse of its edge matrix scaled by `spacing`.
 fn kuhn_targets(spacing: f64) -> [DMat3; 6] {
@@ -242,7 +222,7 @@ pub fn untangle_volume(
     sweeps: usize,
 ) -> UntangleReport {
     let targets = kuhn_targets(spacing);
-    let (start, list) = incidence(tets, positions.len());
+    let incidence = Incidence::new(tets, positions.len());
     let sigma = |x: &[DVec3], t: usize| -> f64 {
         let [a, b, c, d] = tets[t].map(|i| x[i as usize]);
         (DMat3::from_cols(b - a, c - a, d - a) * targets[t % 6]).determinant()
@@ -261,7 +241,7 @@ pub fn untangle_volume(
     // The node's distortion, gradient and turned tets at `p`.
     let local = |x: &[DVec3], node: usize, p: DVec3, delta: f64| -> Option<(f64, DVec3, usize)> {
         let mut total = (0.0, DVec3::ZERO, 0);
-        for &(t, corner) in &list[start[node]..start[node + 1]] {
+        for &(t, corner) in incidence.around(node) {
             let mut v = tets[t as usize].map(|i| x[i as usize]);
             v[corner as usize] = p;
             let e = DMat3::from_cols(v[1] - v[0], v[2] - v[0], v[3] - v[0]);
@@ -279,7 +259,7 @@ pub fn untangle_volume(
         Some(total)
     };
     let neighbour_sigma_min = |x: &[DVec3], node: usize| {
-        list[start[node]..start[node + 1]].iter().map(|&(t, _)| sigma(x, t as usize)).fold(f64::INFINITY, f64::min)
+        incidence.around(node).iter().map(|&(t, _)| sigma(x, t as usize)).fold(f64::INFINITY, f64::min)
     };
     run_sweeps(positions, tets, fixed, colours, sweeps, &measure, &|x, node| {
         let delta = delta_for(neighbour_sigma_min(x, node));
@@ -302,12 +282,12 @@ pub fn untangle_surface(
 ) -> UntangleReport {
     // The four corner triangles of each quad: (corner, next, previous).
     let corners: Vec<[u32; 3]> = quads.iter().flat_map(|q| (0..4).map(move |k| [q[k], q[(k + 1) % 4], q[(k + 3) % 4]])).collect();
-    let (start, list) = incidence(&corners, positions.len());
+    let incidence = Incidence::new(&corners, positions.len());
     // Each node's quad-edge neighbours.
     let edges: Vec<[u32; 2]> = quads.iter().flat_map(|q| (0..4).map(move |k| [q[k], q[(k + 1) % 4]])).collect();
-    let (neighbour_start, edge_list) = incidence(&edges, positions.len());
-    let neighbours: Vec<u32> = edge_list.iter().map(|&(e, corner)| edges[e as usize][1 - corner as usize]).collect();
-    let fixed: Vec<bool> = (0..positions.len()).map(|i| start[i] == start[i + 1]).collect();
+    let edge_incidence = Incidence::new(&edges, positions.len());
+    let neighbours = |node: usize| edge_incidence.around(node).iter().map(|&(e, corner)| edges[e as usize][1 - corner as usize]);
+    let fixed: Vec<bool> = (0..positions.len()).map(|i| incidence.around(i).is_empty()).collect();
     // A corner's signed measure in the plane ⟂ `normal`.
     let in_plane =
         |p: DVec3, origin: DVec3, frame: &(DVec3, DVec3)| DVec2::new((p - origin).dot(frame.0), (p - origin).dot(frame.1));
@@ -335,7 +315,7 @@ pub fn untangle_surface(
     };
     let local = |x: &[DVec3], node: usize, p: DVec3, frame: &(DVec3, DVec3), delta: f64| -> Option<(f64, DVec3, usize)> {
         let mut total = (0.0, DVec3::ZERO, 0);
-        for &(c, corner) in &list[start[node]..start[node + 1]] {
+        for &(c, corner) in incidence.around(node) {
             let mut v = corners[c as usize].map(|i| in_plane(x[i as usize], x[node], frame));
             v[corner as usize] = in_plane(p, x[node], frame);
             total.2 += usize::from(!((v[1] - v[0]).perp_dot(v[2] - v[0]) > 0.0));
@@ -352,8 +332,7 @@ pub fn untangle_surface(
     run_sweeps(positions, &corners, &fixed, colours, sweeps, &measure, &|x, node| {
         let (_, normal) = project(x[node]);
         let frame = frame_of(normal);
-        let sigma_min =
-            list[start[node]..start[node + 1]].iter().map(|&(c, _)| sigma(x, c as usize, &frame)).fold(f64::INFINITY, f64::min);
+        let sigma_min = incidence.around(node).iter().map(|&(c, _)| sigma(x, c as usize, &frame)).fold(f64::INFINITY, f64::min);
         let delta = delta_for(sigma_min);
         let Some((before, _, turned)) = local(x, node, x[node], &frame, delta) else { return x[node] };
         let eval = |p: DVec3| guarded(local(x, node, p, &frame, delta), turned);
@@ -377,8 +356,7 @@ pub fn untangle_surface(
         // Nodes gathered at one point (a pit of the surface that was the closest point of all
         // of them) sit on a saddle of the distortion: no gradient tells them apart. They part
         // along their lattice offsets from the gathering's lattice centre.
-        let ring = &neighbours[neighbour_start[node]..neighbour_start[node + 1]];
-        let gathered: Vec<u32> = ring.iter().copied().filter(|&j| (x[j as usize] - x[node]).length() < 1e-3 * spacing).collect();
+        let gathered: Vec<u32> = neighbours(node).filter(|&j| (x[j as usize] - x[node]).length() < 1e-3 * spacing).collect();
         if gathered.is_empty() {
             return x[node];
         }
@@ -421,7 +399,7 @@ fn run_sweeps<const N: usize>(
     let all: Vec<u32> = (0..elements.len() as u32).collect();
     let mut q = measure(positions, &all);
     let mut report = UntangleReport { turned_before: turned(&q), ..UntangleReport::default() };
-    let (start, list) = incidence(elements, positions.len());
+    let incidence = Incidence::new(elements, positions.len());
     let colour_count = colours.iter().copied().max().map_or(0, |c| c as usize + 1);
     let mut active = vec![false; positions.len()];
     let mut moved_node = vec![false; positions.len()];
@@ -439,7 +417,7 @@ fn run_sweeps<const N: usize>(
             if poor(&q[e]) {
                 for &v in nodes {
                     // The node and every node sharing an element with it.
-                    for &(f, _) in &list[start[v as usize]..start[v as usize + 1]] {
+                    for &(f, _) in incidence.around(v as usize) {
                         for &w in &elements[f as usize] {
                             active[w as usize] = true;
                         }
@@ -463,10 +441,8 @@ fn run_sweeps<const N: usize>(
         }
         report.sweeps += 1;
         // Measure again the elements around the nodes that moved.
-        let mut touched: Vec<u32> = (0..positions.len())
-            .filter(|&i| moved_node[i])
-            .flat_map(|i| list[start[i]..start[i + 1]].iter().map(|&(e, _)| e))
-            .collect();
+        let mut touched: Vec<u32> =
+            (0..positions.len()).filter(|&i| moved_node[i]).flat_map(|i| incidence.around(i).iter().map(|&(e, _)| e)).collect();
         touched.sort_unstable();
         touched.dedup();
         for (&e, m) in touched.iter().zip(measure(positions, &touched)) {
