@@ -29,7 +29,7 @@ const CORE: Table = &[
     ("radiosity", &["light", "mesh", "optics", "progress", "sparse"]),
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
     ("polygrid", &["diffusion", "mesh", "mesher", "optics", "progress", "sparse", "volume"]),
-    ("inverse", &["optics", "polygrid", "progress", "sparse", "volume"]),
+    ("inverse", &["input", "optics", "output", "polygrid", "progress", "sparse", "volume"]),
     ("gpu", &["diffusion", "hierarchy", "optics", "progress", "prt", "radiosity", "sparse"]),
     ("render", &["input", "light", "mesh", "optics", "output"]),
     ("texture", &["render"]),
