@@ -151,7 +151,8 @@ const CLI: Table = &[
     ("animate_cmd", &["method_args", "object_args", "output", "progress"]),
     ("render_cmd", &["method_args", "output", "progress", "scene_file", "scene_file/apply", "scene_file/schema"]),
     ("prt_cmd", &["method_args", "object_args", "output", "progress"]),
-    ("main", &["animate_cmd", "bake_cmd", "bench", "mesh_cmd", "prt_cmd", "render_cmd"]),
+    ("acquire_cmd", &["progress"]),
+    ("main", &["acquire_cmd", "animate_cmd", "bake_cmd", "bench", "mesh_cmd", "prt_cmd", "render_cmd"]),
 ];
 
 /// The source text without comments (`//` to the end of the line; the sources use no block
