@@ -128,6 +128,7 @@ const CLI: Table = &[
     ("bench/dipole", &["bench/args", "bench/stats"]),
     ("bench/polygrid", &["bench/args", "bench/stats"]),
     ("bench/prt", &["bench/args", "bench/stats"]),
+    ("bench/inverse", &["bench/args"]),
     ("bench/radiosity_coupled", &["bench/stats", "method_args", "scene_file"]),
     ("bench/radiosity", &["bench/args", "bench/radiosity_coupled", "bench/stats"]),
     (
@@ -137,6 +138,7 @@ const CLI: Table = &[
             "bench/bake",
             "bench/dipole",
             "bench/edit",
+            "bench/inverse",
             "bench/mesh",
             "bench/multires",
             "bench/polygrid",
