@@ -88,6 +88,7 @@ const CAPI: Table = &[
     ("options", &["ptr", "status"]),
     ("progress", &[]),
     ("handle", &["convert", "progress", "status"]),
+    ("acquire", &["options", "progress", "ptr", "status"]),
     ("bake", &["convert", "handle", "options", "progress", "ptr", "status"]),
     ("cut", &["convert", "handle", "ptr", "status"]),
     ("deform", &["handle", "ptr", "status"]),
