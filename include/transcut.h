@@ -349,6 +349,17 @@
 #define TC_ACQUIRE_PAPER_CG 1
 
 /**
+ * `TcAcquireOptions.channels`: R, G and B fitted each on its own (the default).
+ */
+#define TC_ACQUIRE_RGB 0
+
+/**
+ * `TcAcquireOptions.channels`: grey images (the same value in every channel): the first
+ * channel fitted and its media copied to the other two, a third of the iterations.
+ */
+#define TC_ACQUIRE_GREY 1
+
+/**
  * The largest grid `tc_acquire` takes, in nodes (the paper's marble is 1.3 million).
  */
 #define TC_MAX_ACQUIRE_NODES 4000000
@@ -526,6 +537,10 @@ typedef struct TcAcquireOptions {
    * Scene units per mm of the voxel grid (default 1).
    */
   double units_per_mm;
+  /**
+   * `TC_ACQUIRE_RGB` (default) or `TC_ACQUIRE_GREY`.
+   */
+  uint32_t channels;
 } TcAcquireOptions;
 
 /**
@@ -2716,7 +2731,7 @@ TC_LAYOUT_CHECK(TcEditStats_cut_surface_vertices, offsetof(TcEditStats, cut_surf
 TC_LAYOUT_CHECK(TcEditStats_cut_max_distance, offsetof(TcEditStats, cut_max_distance) == 112);
 TC_LAYOUT_CHECK(TcEditStats_cut_min_dihedral_degrees, offsetof(TcEditStats, cut_min_dihedral_degrees) == 120);
 TC_LAYOUT_CHECK(TcEditStats_cut_bound_degrees, offsetof(TcEditStats, cut_bound_degrees) == 128);
-TC_LAYOUT_CHECK(TcAcquireOptions__sizeof, sizeof(TcAcquireOptions) == 168);
+TC_LAYOUT_CHECK(TcAcquireOptions__sizeof, sizeof(TcAcquireOptions) == 176);
 TC_LAYOUT_CHECK(TcAcquireOptions_size, offsetof(TcAcquireOptions, size) == 0);
 TC_LAYOUT_CHECK(TcAcquireOptions_observe, offsetof(TcAcquireOptions, observe) == 4);
 TC_LAYOUT_CHECK(TcAcquireOptions_nodes, offsetof(TcAcquireOptions, nodes) == 8);
@@ -2734,6 +2749,7 @@ TC_LAYOUT_CHECK(TcAcquireOptions_initial_sigma_a, offsetof(TcAcquireOptions, ini
 TC_LAYOUT_CHECK(TcAcquireOptions_initial_sigma_s_prime, offsetof(TcAcquireOptions, initial_sigma_s_prime) == 112);
 TC_LAYOUT_CHECK(TcAcquireOptions_origin, offsetof(TcAcquireOptions, origin) == 136);
 TC_LAYOUT_CHECK(TcAcquireOptions_units_per_mm, offsetof(TcAcquireOptions, units_per_mm) == 160);
+TC_LAYOUT_CHECK(TcAcquireOptions_channels, offsetof(TcAcquireOptions, channels) == 168);
 TC_LAYOUT_CHECK(TcAcquireStats__sizeof, sizeof(TcAcquireStats) == 120);
 TC_LAYOUT_CHECK(TcAcquireStats_size, offsetof(TcAcquireStats, size) == 0);
 TC_LAYOUT_CHECK(TcAcquireStats_iterations, offsetof(TcAcquireStats, iterations) == 4);

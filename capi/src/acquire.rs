@@ -8,7 +8,8 @@ use std::ffi::{c_char, c_void};
 
 use glam::DVec3;
 use transcut_core::inverse::{
-    acquire, to_voxel_grid, AcquireOptions, Acquisition, InverseError, Lambda, Method, Observation, Pattern, Setup, SolveSettings,
+    acquire, to_voxel_grid, AcquireOptions, Acquisition, Channels, InverseError, Lambda, Method, Observation, Pattern, Setup,
+    SolveSettings,
 };
 use transcut_core::volume::VolumeError;
 
@@ -29,6 +30,11 @@ pub const TC_ACQUIRE_FRONT_LIT: u32 = 1;
 pub const TC_ACQUIRE_LBFGS: u32 = 0;
 /// `TcAcquireOptions.method`: the paper's Polak–Ribière CG with golden-section search.
 pub const TC_ACQUIRE_PAPER_CG: u32 = 1;
+/// `TcAcquireOptions.channels`: R, G and B fitted each on its own (the default).
+pub const TC_ACQUIRE_RGB: u32 = 0;
+/// `TcAcquireOptions.channels`: grey images (the same value in every channel): the first
+/// channel fitted and its media copied to the other two, a third of the iterations.
+pub const TC_ACQUIRE_GREY: u32 = 1;
 /// The largest grid `tc_acquire` takes, in nodes (the paper's marble is 1.3 million).
 pub const TC_MAX_ACQUIRE_NODES: u64 = 4_000_000;
 
@@ -79,6 +85,8 @@ pub struct TcAcquireOptions {
     pub origin: [f64; 3],
     /// Scene units per mm of the voxel grid (default 1).
     pub units_per_mm: f64,
+    /// `TC_ACQUIRE_RGB` (default) or `TC_ACQUIRE_GREY`.
+    pub channels: u32,
 }
 
 /// The first version's size of `TcAcquireOptions`.
@@ -108,6 +116,7 @@ fn default_acquire_options() -> TcAcquireOptions {
         initial_sigma_s_prime: core.initial.1,
         origin: [0.0; 3],
         units_per_mm: 1.0,
+        channels: TC_ACQUIRE_RGB,
     }
 }
 
@@ -236,6 +245,11 @@ pub unsafe extern "C" fn tc_acquire(
             TC_ACQUIRE_PAPER_CG => Method::PaperCg,
             v => return Err(Failure::invalid(format!("options->method = {v}: TC_ACQUIRE_LBFGS or TC_ACQUIRE_PAPER_CG"))),
         };
+        let channels = match o.channels {
+            TC_ACQUIRE_RGB => Channels::Rgb,
+            TC_ACQUIRE_GREY => Channels::Grey,
+            v => return Err(Failure::invalid(format!("options->channels = {v}: TC_ACQUIRE_RGB or TC_ACQUIRE_GREY"))),
+        };
         if !(o.spacing_mm.is_finite() && o.spacing_mm > 0.0) {
             return Err(Failure::invalid(format!("options->spacing_mm = {}: finite and > 0", o.spacing_mm)));
         }
@@ -311,6 +325,7 @@ pub unsafe extern "C" fn tc_acquire(
             max_iterations: o.max_iterations as usize,
             target_misfit_rms: o.target_misfit_rms,
             solve: SolveSettings { tolerance: o.solve_tolerance, ..SolveSettings::default() },
+            channels,
             ..AcquireOptions::default()
         };
         let mut model = Acquisition::new(setup, &pattern_list, image_data, None).map_err(|e| failure(&e))?;

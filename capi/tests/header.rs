@@ -188,7 +188,8 @@ fn layouts() -> Vec<Layout> {
             initial_sigma_a,
             initial_sigma_s_prime,
             origin,
-            units_per_mm
+            units_per_mm,
+            channels
         }),
         layout!(TcAcquireStats {
             size,

@@ -42,6 +42,7 @@ const MAX_DESCRIPTION_BYTES: u64 = 1 << 20;
   method = \"lbfgs\"         # or \"paper\" (Polak–Ribière CG with golden-section search)
   lambda = 1e-4            # or discrepancy = { noise_rms = 0.01 }
   max_iterations = 40
+  channels = \"rgb\"         # or \"grey\" (grey images: one channel fitted, copied to all three)
 
 The result is a TCVOX1 voxel grid (one voxel per cell: σa and σ′s per channel) that `bake`, `render`, the C ABI \
 and the add-on load as a medium; it is written only when the fit has finished (an interrupted run leaves no file).

@@ -167,6 +167,12 @@ fn bad_input_is_named_and_nothing_is_written() {
     untouched(&out, &stats);
 
     let mut o = options();
+    o.channels = 7;
+    let (status, out, stats) = run(&o, &data, c_path.as_ptr());
+    fails(status, TC_INVALID_ARGUMENT, &["options->channels = 7"]);
+    untouched(&out, &stats);
+
+    let mut o = options();
     o.nodes = [6, 6, 1];
     let (status, out, stats) = run(&o, &data, c_path.as_ptr());
     fails(status, TC_INVALID_ARGUMENT, &["options->nodes"]);

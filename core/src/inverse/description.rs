@@ -32,6 +32,7 @@
 //! method = "lbfgs"             # or "paper" (Polak–Ribière CG, golden-section search)
 //! lambda = 1e-4                # or discrepancy = { noise_rms = 0.01 }
 //! max_iterations = 40
+//! channels = "rgb"             # or "grey": grey images, one channel fitted and copied
 //! ```
 
 use std::io::Cursor;
@@ -43,7 +44,7 @@ use crate::input::{BoundedFile, InputError, Limits};
 
 use super::error::InverseError;
 use super::model::{Setup, SolveSettings};
-use super::optimize::{AcquireOptions, Lambda, Method};
+use super::optimize::{AcquireOptions, Channels, Lambda, Method};
 use super::setup::{Observation, Pattern};
 
 /// The largest image file read, in bytes (a 4096² RGBA float image is 256 MiB).
@@ -152,6 +153,19 @@ pub struct OptimiserSettings {
     pub initial_sigma_a: [f64; 3],
     /// The homogeneous fit's starting σ′s, mm⁻¹.
     pub initial_sigma_s_prime: [f64; 3],
+    /// "rgb" (default: each channel fitted) or "grey" (grey images: the first channel fitted
+    /// and copied, [`Channels::Grey`]).
+    pub channels: ChannelsName,
+}
+
+/// The fitted channels' name in a description.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ChannelsName {
+    /// [`Channels::Rgb`].
+    Rgb,
+    /// [`Channels::Grey`].
+    Grey,
 }
 
 /// The optimiser's name in a description.
@@ -205,6 +219,7 @@ impl Default for OptimiserSettings {
             solve_tolerance: o.solve.tolerance,
             initial_sigma_a: o.initial.0,
             initial_sigma_s_prime: o.initial.1,
+            channels: ChannelsName::Rgb,
         }
     }
 }
@@ -315,6 +330,10 @@ impl Description {
             relative_decrease: o.relative_decrease,
             gradient_tolerance: o.gradient_tolerance,
             solve: SolveSettings { tolerance: o.solve_tolerance, ..SolveSettings::default() },
+            channels: match o.channels {
+                ChannelsName::Rgb => Channels::Rgb,
+                ChannelsName::Grey => Channels::Grey,
+            },
         })
     }
 
@@ -580,6 +599,24 @@ mod tests {
         d.optimiser.lambda = Some(1e-3);
         d.optimiser.discrepancy = Some(Discrepancy { noise_rms: 0.01, tau: 1.1, start: 1e-2 });
         assert!(matches!(d.options(), Err(InverseError::InvalidDescription(_))));
+    }
+
+    #[test]
+    fn the_optimiser_keys_reach_the_options() {
+        let mut d = two_rects();
+        d.optimiser.method = MethodName::Paper;
+        d.optimiser.channels = ChannelsName::Grey;
+        d.optimiser.discrepancy = Some(Discrepancy { noise_rms: 0.02, tau: 1.5, start: 0.1 });
+        d.optimiser.max_iterations = 7;
+        d.optimiser.solve_tolerance = 1e-9;
+        let o = d.options().unwrap();
+        assert_eq!(o.method, Method::PaperCg);
+        assert_eq!(o.channels, Channels::Grey);
+        assert_eq!(o.lambda, Lambda::Discrepancy { noise_rms: 0.02, tau: 1.5, start: 0.1 });
+        assert_eq!((o.max_iterations, o.solve.tolerance), (7, 1e-9));
+        // What is left out keeps the library's defaults.
+        let defaults = AcquireOptions::default();
+        assert_eq!((o.homogeneous_iterations, o.initial), (defaults.homogeneous_iterations, defaults.initial));
     }
 
     #[test]

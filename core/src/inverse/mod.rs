@@ -61,7 +61,7 @@ pub use block::BlockGrid;
 pub use description::{read_image, write_image, Description, Loaded};
 pub use error::InverseError;
 pub use model::{Acquisition, CellMedia, Evaluation, Setup, SolveSettings, WorkCounts};
-pub use optimize::{acquire, AcquireOptions, Acquired, IterationRecord, Lambda, Method, Sample, StopReason};
+pub use optimize::{acquire, AcquireOptions, Acquired, Channels, IterationRecord, Lambda, Method, Sample, StopReason};
 pub use output::to_voxel_grid;
 pub use setup::{Observation, Pattern};
 pub use synth::{synthesize, SynthOptions, VeinedBlock};
