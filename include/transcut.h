@@ -327,6 +327,44 @@
 #define TC_MAX_ITERATIONS 1000000
 
 /**
+ * `TcAcquireOptions.observe`: the camera sees the face opposite the light (thin samples; the
+ * default).
+ */
+#define TC_ACQUIRE_BACK_LIT 0
+
+/**
+ * `TcAcquireOptions.observe`: the camera sees the lit face (thick samples); pixels within
+ * `margin_mm` of light are not fitted.
+ */
+#define TC_ACQUIRE_FRONT_LIT 1
+
+/**
+ * `TcAcquireOptions.method`: L-BFGS (the default).
+ */
+#define TC_ACQUIRE_LBFGS 0
+
+/**
+ * `TcAcquireOptions.method`: the paper's Polak–Ribière CG with golden-section search.
+ */
+#define TC_ACQUIRE_PAPER_CG 1
+
+/**
+ * `TcAcquireOptions.channels`: R, G and B fitted each on its own (the default).
+ */
+#define TC_ACQUIRE_RGB 0
+
+/**
+ * `TcAcquireOptions.channels`: grey images (the same value in every channel): the first
+ * channel fitted and its media copied to the other two, a third of the iterations.
+ */
+#define TC_ACQUIRE_GREY 1
+
+/**
+ * The largest grid `tc_acquire` takes, in nodes (the paper's marble is 1.3 million).
+ */
+#define TC_MAX_ACQUIRE_NODES 4000000
+
+/**
  * `TcMediumEdit.region`: every tet of the object.
  */
 #define TC_REGION_ALL 0
@@ -417,6 +455,147 @@ typedef struct TcScene TcScene;
  * failures.
  */
 typedef int32_t TcStatus;
+
+/**
+ * What `tc_acquire` measures and how. Fill it with `tc_acquire_options_init(&options,
+ * sizeof options)` (which also sets `size`), then set `nodes` and `spacing_mm` at least.
+ *
+ * The block: `nodes` grid nodes along x, y, z at `spacing_mm`; light patterns on its top face
+ * (z = max); images of the observed face, node-aligned: pixel (i, j) is face node (i, j), x
+ * fastest, `nodes[0]` × `nodes[1]` pixels of 3 floats (linear RGB radiance).
+ */
+typedef struct TcAcquireOptions {
+  /**
+   * The bytes of the struct the caller has, set by `tc_acquire_options_init`.
+   */
+  uint32_t size;
+  /**
+   * `TC_ACQUIRE_BACK_LIT` (default) or `TC_ACQUIRE_FRONT_LIT`.
+   */
+  uint32_t observe;
+  /**
+   * Grid nodes along x, y, z: at least 2 each, at most `TC_MAX_ACQUIRE_NODES` in all
+   * (default 0: must be set).
+   */
+  uint32_t nodes[3];
+  /**
+   * `TC_ACQUIRE_LBFGS` (default) or `TC_ACQUIRE_PAPER_CG`.
+   */
+  uint32_t method;
+  /**
+   * Node spacing in mm, > 0 (default 0: must be set).
+   */
+  double spacing_mm;
+  /**
+   * The sample's refractive index, in [1, 4) (default 1.3).
+   */
+  double eta;
+  /**
+   * Front-lit only: the margin around lit pixels, mm (default 1).
+   */
+  double margin_mm;
+  /**
+   * With `patterns` NULL: the patterns are the n × n regions of the lit face, row by row, lit
+   * with q = 1 (the paper's n = 4, the default); the image count must be n².
+   */
+  uint32_t pattern_grid;
+  /**
+   * Iterations at most per channel of the per-cell fit (default 200; 0: the homogeneous fit
+   * only).
+   */
+  uint32_t max_iterations;
+  /**
+   * Iterations at most per channel of the homogeneous fit (default 60).
+   */
+  uint32_t homogeneous_iterations;
+  /**
+   * The regularisation weight λ ≥ 0, unit-free (default 1e-4).
+   */
+  double lambda;
+  /**
+   * Stop when every channel's RMS relative misfit is at most this (default 0: never; the
+   * paper's rule is 0.01).
+   */
+  double target_misfit_rms;
+  /**
+   * The linear solves' relative residual, in (0, 1) (default 1e-10).
+   */
+  double solve_tolerance;
+  /**
+   * The homogeneous fit's starting σa, mm⁻¹ (default 0.01 each).
+   */
+  double initial_sigma_a[3];
+  /**
+   * The homogeneous fit's starting σ′s, mm⁻¹ (default 1 each).
+   */
+  double initial_sigma_s_prime[3];
+  /**
+   * The voxel grid's corner in object space (default 0, 0, 0).
+   */
+  double origin[3];
+  /**
+   * Scene units per mm of the voxel grid (default 1).
+   */
+  double units_per_mm;
+  /**
+   * `TC_ACQUIRE_RGB` (default) or `TC_ACQUIRE_GREY`.
+   */
+  uint32_t channels;
+} TcAcquireOptions;
+
+/**
+ * Progress callback: `stage` is a short UTF-8 description (valid during the call only),
+ * `fraction` in [0, 1] the part of the whole bake done (never decreasing from one call to the
+ * next). Return 0 to continue, non-zero to
+ * cancel the bake (`tc_scene_bake` then returns `TC_CANCELLED` soon after). It is called from
+ * the baking thread or a worker thread, never from two threads at once, and not again after
+ * it asked to cancel. It must not call functions on the scene being baked (they return
+ * `TC_BUSY`).
+ */
+typedef int32_t (*TcProgressFn)(void *user, const char *stage, double fraction);
+
+/**
+ * What `tc_acquire` found. Set `size` to `sizeof(TcAcquireStats)` first.
+ */
+typedef struct TcAcquireStats {
+  /**
+   * Set by the caller to `sizeof(TcAcquireStats)`; the library sets it to the number of
+   * bytes it wrote.
+   */
+  uint32_t size;
+  /**
+   * Iterations of all fits (homogeneous and per-cell, all channels).
+   */
+  uint32_t iterations;
+  /**
+   * Voxels along x, y, z (the grid's cells: `nodes` − 1 each).
+   */
+  uint32_t dims[3];
+  /**
+   * Forward solves (one per image per evaluation, three channels each).
+   */
+  uint64_t forward_solves;
+  /**
+   * Adjoint solves (one per image per gradient).
+   */
+  uint64_t adjoint_solves;
+  /**
+   * The RMS relative misfit per channel at the result.
+   */
+  double misfit_rms[3];
+  /**
+   * The homogeneous fit's σa, mm⁻¹.
+   */
+  double homogeneous_sigma_a[3];
+  /**
+   * The homogeneous fit's σ′s, mm⁻¹.
+   */
+  double homogeneous_sigma_s_prime[3];
+  /**
+   * The voxels' edge in object space (spacing × units per mm).
+   */
+  double voxel_size;
+} TcAcquireStats;
 
 /**
  * How to bake. Fill it with `tc_bake_options_init(&options, sizeof options)` (which also sets
@@ -832,17 +1011,6 @@ typedef struct TcRadiosityStats {
    */
   double energy_defect;
 } TcRadiosityStats;
-
-/**
- * Progress callback: `stage` is a short UTF-8 description (valid during the call only),
- * `fraction` in [0, 1] the part of the whole bake done (never decreasing from one call to the
- * next). Return 0 to continue, non-zero to
- * cancel the bake (`tc_scene_bake` then returns `TC_CANCELLED` soon after). It is called from
- * the baking thread or a worker thread, never from two threads at once, and not again after
- * it asked to cancel. It must not call functions on the scene being baked (they return
- * `TC_BUSY`).
- */
-typedef int32_t (*TcProgressFn)(void *user, const char *stage, double fraction);
 
 /**
  * Statistics of one object's last bake (`tc_object_stats`). The caller sets `size` to
@@ -1343,6 +1511,60 @@ const char *tc_status_name(TcStatus status);
  * next `tc_*` call on the same thread (copy it to keep it).
  */
 const char *tc_last_error_message(void);
+
+/**
+ * Fills the first `size` bytes of `*options` with the defaults (back-lit, L-BFGS, the paper's
+ * 4 × 4 patterns, η 1.3, λ 1e-4, 200 per-cell iterations; `nodes` and `spacing_mm` 0, to be
+ * set) and sets `options->size`; pass `sizeof(TcAcquireOptions)`. `TC_NULL_POINTER` for NULL,
+ * `TC_INVALID_ARGUMENT` for a size below `sizeof(TcAcquireOptions)`; nothing is written on
+ * failure.
+ */
+TcStatus tc_acquire_options_init(struct TcAcquireOptions *options, size_t size);
+
+/**
+ * Measures a heterogeneous medium from `image_count` images of a lit block (inverse
+ * diffusion: a homogeneous fit, then σa and σ′s per grid cell and channel), and returns it as
+ * voxels: one per cell, `(nodes[0] − 1) × (nodes[1] − 1) × (nodes[2] − 1)`, 6 floats each
+ * (σa R, G, B then σ′s R, G, B, mm⁻¹), x fastest, exactly the `data` of
+ * `tc_object_set_medium_voxels` with `dims` = `out_stats->dims`, `voxel_size` =
+ * `out_stats->voxel_size` on each axis and `origin` = `options->origin`.
+ *
+ * - `options`: NULL for the defaults is refused (`nodes` and `spacing_mm` must be set): fill
+ *   it with `tc_acquire_options_init`;
+ * - `images`: `image_count` images of `nodes[0]` × `nodes[1]` pixels of 3 floats, one after
+ *   the other (`images_len` floats in all, which must be exactly that); NaN or infinite
+ *   pixels are refused, naming the image and pixel;
+ * - `patterns`: NULL for `options->pattern_grid`'s n × n regions (then `image_count` must be
+ *   n²), or `image_count` arrays of q per lit-face node laid out as `images` (`patterns_len`
+ *   floats, ≥ 0);
+ * - `progress`, `user`: NULL, or a callback that gets the stage (naming the fit and its
+ *   misfit) and the fraction done, and may cancel (`TC_CANCELLED`);
+ * - `out_voxels`, `out_len`: the caller's buffer of at least 6 floats per voxel
+ *   (`TC_BUFFER_TOO_SHORT`, checked before any work, otherwise);
+ * - `output_path`: NULL, or a TCVOX1 file to write the same voxels to (replaced only once it
+ *   is written whole);
+ * - `out_stats`: NULL, or statistics with `size` set by the caller to
+ *   `sizeof(TcAcquireStats)`.
+ *
+ * The work runs on the library's worker threads (one per core, joined before the call
+ * returns); the callback may be called from one of them. The caller keeps ownership of every
+ * array; the library copies what it reads. On failure
+ * (`TC_INVALID_ARGUMENT` naming the input, `TC_SOLVE_FAILED`, `TC_CANCELLED`, `TC_IO_ERROR`
+ * when the file cannot be written) nothing is written to `out_voxels`, `out_stats` or
+ * `output_path`.
+ */
+TcStatus tc_acquire(const struct TcAcquireOptions *options,
+                    const float *images,
+                    size_t images_len,
+                    size_t image_count,
+                    const float *patterns,
+                    size_t patterns_len,
+                    TcProgressFn progress,
+                    void *user,
+                    float *out_voxels,
+                    size_t out_len,
+                    const char *output_path,
+                    struct TcAcquireStats *out_stats);
 
 /**
  * Fills `*options` with the defaults of the first version of `TcBakeOptions`: its first 48
@@ -2509,4 +2731,33 @@ TC_LAYOUT_CHECK(TcEditStats_cut_surface_vertices, offsetof(TcEditStats, cut_surf
 TC_LAYOUT_CHECK(TcEditStats_cut_max_distance, offsetof(TcEditStats, cut_max_distance) == 112);
 TC_LAYOUT_CHECK(TcEditStats_cut_min_dihedral_degrees, offsetof(TcEditStats, cut_min_dihedral_degrees) == 120);
 TC_LAYOUT_CHECK(TcEditStats_cut_bound_degrees, offsetof(TcEditStats, cut_bound_degrees) == 128);
+TC_LAYOUT_CHECK(TcAcquireOptions__sizeof, sizeof(TcAcquireOptions) == 176);
+TC_LAYOUT_CHECK(TcAcquireOptions_size, offsetof(TcAcquireOptions, size) == 0);
+TC_LAYOUT_CHECK(TcAcquireOptions_observe, offsetof(TcAcquireOptions, observe) == 4);
+TC_LAYOUT_CHECK(TcAcquireOptions_nodes, offsetof(TcAcquireOptions, nodes) == 8);
+TC_LAYOUT_CHECK(TcAcquireOptions_method, offsetof(TcAcquireOptions, method) == 20);
+TC_LAYOUT_CHECK(TcAcquireOptions_spacing_mm, offsetof(TcAcquireOptions, spacing_mm) == 24);
+TC_LAYOUT_CHECK(TcAcquireOptions_eta, offsetof(TcAcquireOptions, eta) == 32);
+TC_LAYOUT_CHECK(TcAcquireOptions_margin_mm, offsetof(TcAcquireOptions, margin_mm) == 40);
+TC_LAYOUT_CHECK(TcAcquireOptions_pattern_grid, offsetof(TcAcquireOptions, pattern_grid) == 48);
+TC_LAYOUT_CHECK(TcAcquireOptions_max_iterations, offsetof(TcAcquireOptions, max_iterations) == 52);
+TC_LAYOUT_CHECK(TcAcquireOptions_homogeneous_iterations, offsetof(TcAcquireOptions, homogeneous_iterations) == 56);
+TC_LAYOUT_CHECK(TcAcquireOptions_lambda, offsetof(TcAcquireOptions, lambda) == 64);
+TC_LAYOUT_CHECK(TcAcquireOptions_target_misfit_rms, offsetof(TcAcquireOptions, target_misfit_rms) == 72);
+TC_LAYOUT_CHECK(TcAcquireOptions_solve_tolerance, offsetof(TcAcquireOptions, solve_tolerance) == 80);
+TC_LAYOUT_CHECK(TcAcquireOptions_initial_sigma_a, offsetof(TcAcquireOptions, initial_sigma_a) == 88);
+TC_LAYOUT_CHECK(TcAcquireOptions_initial_sigma_s_prime, offsetof(TcAcquireOptions, initial_sigma_s_prime) == 112);
+TC_LAYOUT_CHECK(TcAcquireOptions_origin, offsetof(TcAcquireOptions, origin) == 136);
+TC_LAYOUT_CHECK(TcAcquireOptions_units_per_mm, offsetof(TcAcquireOptions, units_per_mm) == 160);
+TC_LAYOUT_CHECK(TcAcquireOptions_channels, offsetof(TcAcquireOptions, channels) == 168);
+TC_LAYOUT_CHECK(TcAcquireStats__sizeof, sizeof(TcAcquireStats) == 120);
+TC_LAYOUT_CHECK(TcAcquireStats_size, offsetof(TcAcquireStats, size) == 0);
+TC_LAYOUT_CHECK(TcAcquireStats_iterations, offsetof(TcAcquireStats, iterations) == 4);
+TC_LAYOUT_CHECK(TcAcquireStats_dims, offsetof(TcAcquireStats, dims) == 8);
+TC_LAYOUT_CHECK(TcAcquireStats_forward_solves, offsetof(TcAcquireStats, forward_solves) == 24);
+TC_LAYOUT_CHECK(TcAcquireStats_adjoint_solves, offsetof(TcAcquireStats, adjoint_solves) == 32);
+TC_LAYOUT_CHECK(TcAcquireStats_misfit_rms, offsetof(TcAcquireStats, misfit_rms) == 40);
+TC_LAYOUT_CHECK(TcAcquireStats_homogeneous_sigma_a, offsetof(TcAcquireStats, homogeneous_sigma_a) == 64);
+TC_LAYOUT_CHECK(TcAcquireStats_homogeneous_sigma_s_prime, offsetof(TcAcquireStats, homogeneous_sigma_s_prime) == 88);
+TC_LAYOUT_CHECK(TcAcquireStats_voxel_size, offsetof(TcAcquireStats, voxel_size) == 112);
 #undef TC_LAYOUT_CHECK

@@ -8,8 +8,8 @@ use super::convert::scene_failure;
 use super::handle::{with_scene, TcScene};
 use super::options::{
     backend_used, default_bake_options, default_dipole_options, default_polygrid_options, default_prt_options,
-    default_radiosity_options, default_transcut_options, read_bake_options, TcBakeOptions, TcDipoleOptions, TcPolygridOptions,
-    TcPrtOptions, TcRadiosityOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1,
+    default_radiosity_options, default_transcut_options, init, read_bake_options, TcBakeOptions, TcDipoleOptions,
+    TcPolygridOptions, TcPrtOptions, TcRadiosityOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1,
 };
 use super::progress::{Callback, TcProgressFn};
 use super::ptr;
@@ -345,24 +345,6 @@ pub unsafe extern "C" fn tc_scene_radiosity_stats(scene: *const TcScene, out: *m
         unsafe { ptr::write(out, stats) };
         Ok(())
     })
-}
-
-/// Writes the first `min(size, size_of::<T>())` bytes of `defaults` over `*out` with its leading
-/// `size` field set to that count; `size` must be at least `min`.
-///
-/// # Safety
-/// A non-NULL `out` must have `size` writable bytes; `T` starts with a `u32` size.
-unsafe fn init<T>(out: *mut T, size: usize, min: usize, mut defaults: T) -> Result<(), Failure> {
-    check_not_null!(out);
-    if size < min {
-        return Err(Failure::invalid(format!("size = {size}: the struct has at least {min} bytes (pass its sizeof)")));
-    }
-    let written = size.min(size_of::<T>());
-    // SAFETY: `T` starts with its `u32` size (every options struct does); `written` fits a u32.
-    unsafe { std::ptr::from_mut(&mut defaults).cast::<u32>().write(written as u32) };
-    // SAFETY: `written` ≤ size writable bytes (caller's contract) and ≤ size_of::<T>().
-    unsafe { ptr::write_prefix(out, &defaults, written) };
-    Ok(())
 }
 
 /// Bakes every object with the chosen method (`TcBakeOptions.method`; TransCut meshes surfaces

@@ -35,6 +35,7 @@ mod ptr;
 // The scene handle and its session.
 mod handle;
 // Entry points: each imports only from the modules above.
+mod acquire;
 mod bake;
 mod cut;
 mod deform;
@@ -52,6 +53,7 @@ mod texture;
 mod version;
 mod volume;
 
+pub use acquire::*;
 pub use bake::*;
 pub use convert::{TcArtistMedium, TcMedium, TC_ARTIST_DIPOLE, TC_ARTIST_RANDOM_WALK, TC_ARTIST_RANDOM_WALK_SKIN};
 pub use cut::*;

@@ -692,10 +692,10 @@ fn solver_from(value: u32, what: &str) -> Result<Option<SolverKind>, Failure> {
 }
 
 /// A size-prefixed options struct: its C name and the function that fills its defaults.
-struct Sized {
-    what: &'static str,
-    type_name: &'static str,
-    filler: &'static str,
+pub(crate) struct Sized {
+    pub(crate) what: &'static str,
+    pub(crate) type_name: &'static str,
+    pub(crate) filler: &'static str,
 }
 
 /// Reads a size-prefixed struct of which the library knows the first `size_of::<T>()` bytes:
@@ -704,7 +704,7 @@ struct Sized {
 ///
 /// # Safety
 /// `ptr` must be non-NULL, aligned, and point to at least `*ptr.size` readable bytes.
-unsafe fn read_sized<T: Copy>(ptr: *const T, min: usize, defaults: T, s: &Sized) -> Result<T, Failure> {
+pub(crate) unsafe fn read_sized<T: Copy>(ptr: *const T, min: usize, defaults: T, s: &Sized) -> Result<T, Failure> {
     // SAFETY: the caller's contract; `size` is the first field of every such struct.
     let size = unsafe { ptr.cast::<u32>().read() } as usize;
     let ours = size_of::<T>();
@@ -720,6 +720,24 @@ unsafe fn read_sized<T: Copy>(ptr: *const T, min: usize, defaults: T, s: &Sized)
     // byte copy of a prefix of a plain `repr(C)` struct whose later fields keep their defaults.
     unsafe { std::ptr::copy_nonoverlapping(ptr.cast::<u8>(), std::ptr::from_mut(&mut value).cast::<u8>(), known) };
     Ok(value)
+}
+
+/// Writes the first `min(size, size_of::<T>())` bytes of `defaults` over `*out` with its leading
+/// `size` field set to that count; `size` must be at least `min`.
+///
+/// # Safety
+/// A non-NULL `out` must have `size` writable bytes; `T` starts with a `u32` size.
+pub(crate) unsafe fn init<T>(out: *mut T, size: usize, min: usize, mut defaults: T) -> Result<(), Failure> {
+    check_not_null!(out);
+    if size < min {
+        return Err(Failure::invalid(format!("size = {size}: the struct has at least {min} bytes (pass its sizeof)")));
+    }
+    let written = size.min(size_of::<T>());
+    // SAFETY: `T` starts with its `u32` size (every options struct does); `written` fits a u32.
+    unsafe { std::ptr::from_mut(&mut defaults).cast::<u32>().write(written as u32) };
+    // SAFETY: `written` ≤ size writable bytes (caller's contract) and ≤ size_of::<T>().
+    unsafe { ptr::write_prefix(out, &defaults, written) };
+    Ok(())
 }
 
 /// The caller's options (NULL = defaults), checked and converted.

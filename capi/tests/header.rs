@@ -16,8 +16,9 @@ use std::mem::{offset_of, size_of};
 use std::path::{Path, PathBuf};
 
 use abi::{
-    TcArtistMedium, TcBakeOptions, TcBakeStats, TcDipoleOptions, TcDipoleStats, TcEditStats, TcMedium, TcMediumEdit,
-    TcPolygridOptions, TcPolygridStats, TcPrtOptions, TcPrtStats, TcRadiosityOptions, TcRadiosityStats, TcTransCutOptions,
+    TcAcquireOptions, TcAcquireStats, TcArtistMedium, TcBakeOptions, TcBakeStats, TcDipoleOptions, TcDipoleStats, TcEditStats,
+    TcMedium, TcMediumEdit, TcPolygridOptions, TcPolygridStats, TcPrtOptions, TcPrtStats, TcRadiosityOptions, TcRadiosityStats,
+    TcTransCutOptions,
 };
 
 fn crate_dir() -> PathBuf {
@@ -169,6 +170,37 @@ fn layouts() -> Vec<Layout> {
             cut_max_distance,
             cut_min_dihedral_degrees,
             cut_bound_degrees
+        }),
+        layout!(TcAcquireOptions {
+            size,
+            observe,
+            nodes,
+            method,
+            spacing_mm,
+            eta,
+            margin_mm,
+            pattern_grid,
+            max_iterations,
+            homogeneous_iterations,
+            lambda,
+            target_misfit_rms,
+            solve_tolerance,
+            initial_sigma_a,
+            initial_sigma_s_prime,
+            origin,
+            units_per_mm,
+            channels
+        }),
+        layout!(TcAcquireStats {
+            size,
+            iterations,
+            dims,
+            forward_solves,
+            adjoint_solves,
+            misfit_rms,
+            homogeneous_sigma_a,
+            homogeneous_sigma_s_prime,
+            voxel_size
         }),
     ]
 }

@@ -1,5 +1,6 @@
 //! `transcut`: mesh, bake, render and benchmark translucent objects from the shell.
 
+mod acquire_cmd;
 mod animate_cmd;
 mod bake_cmd;
 mod bench;
@@ -40,6 +41,10 @@ enum Command {
     /// The PRT method's precompute saved once (`prt precompute`), then any medium and lights
     /// evaluated from it (`prt eval`).
     Prt(prt_cmd::PrtArgs),
+    /// Measure a heterogeneous material volume from images of a lit block (inverse diffusion,
+    /// J. Wang et al. 2008 §4) and write it as a voxel grid; `acquire synth` writes a synthetic
+    /// data set to try it on.
+    Acquire(acquire_cmd::AcquireArgs),
     /// Run benchmarks and print JSON.
     Bench(bench::BenchArgs),
 }
@@ -52,6 +57,7 @@ fn main() -> ExitCode {
         Command::Animate(args) => animate_cmd::run(&args),
         Command::Render(args) => render_cmd::run(&args),
         Command::Prt(args) => prt_cmd::run(&args),
+        Command::Acquire(args) => acquire_cmd::run(&args),
         Command::Bench(args) => bench::run(&args),
     };
     match result {

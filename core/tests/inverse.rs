@@ -7,8 +7,8 @@
 
 use glam::DVec3;
 use transcut::inverse::{
-    acquire, check_gradient, synthesize, to_voxel_grid, AcquireOptions, Acquisition, CellMedia, InverseError, IterationRecord,
-    Lambda, Method, Observation, Pattern, Setup, SolveSettings, StopReason, SynthOptions,
+    acquire, check_gradient, synthesize, to_voxel_grid, AcquireOptions, Acquisition, CellMedia, Channels, InverseError,
+    IterationRecord, Lambda, Method, Observation, Pattern, Setup, SolveSettings, StopReason, SynthOptions,
 };
 use transcut::progress::Progress;
 
@@ -500,4 +500,39 @@ fn the_issues_round_trip_at_full_size() {
     );
     assert!(fit.evaluation.misfit_rms().iter().all(|&m| m <= 0.01), "training misfit");
     assert!(e_het <= 0.03 && e_het < e_hom, "held-out {e_het:.4} against the homogeneous {e_hom:.4}");
+}
+
+#[test]
+fn grey_images_fit_one_channel_and_copy_it() {
+    // Grey images (one medium in every channel, grey light): the grey fit's media are the same
+    // in every channel, equal the RGB fit's (the three channels are the same problem; the solves
+    // differ only in when PCG stops on the held channels, to 1e-10), and it iterates a third as
+    // often.
+    let setup = Setup { dims: [7, 7, 4], spacing_mm: 0.5, eta: 1.3, observation: Observation::BackLit };
+    let patterns = Pattern::grid_all(2, setup.face_size_mm(), [1.0; 3]);
+    let truth = |p: DVec3| ([0.05 + 0.03 * p.x; 3], [1.2 + 0.2 * p.z; 3]);
+    let images = synthesize(&setup, &patterns, &truth, SynthOptions::default()).unwrap();
+    let fit = |channels| {
+        let mut model = Acquisition::new(setup.clone(), &patterns, images.clone(), None).unwrap();
+        let options = AcquireOptions { max_iterations: 4, channels, ..AcquireOptions::default() };
+        acquire(&mut model, &options, &Progress::none()).unwrap()
+    };
+    let (rgb, grey) = (fit(Channels::Rgb), fit(Channels::Grey));
+    for (a, s) in grey.media.sigma_a.iter().zip(&grey.media.sigma_s_prime) {
+        assert!(a[1] == a[0] && a[2] == a[0] && s[1] == s[0] && s[2] == s[0], "{a:?} {s:?}");
+    }
+    for (g, r) in
+        grey.media.sigma_a.iter().chain(&grey.media.sigma_s_prime).zip(rgb.media.sigma_a.iter().chain(&rgb.media.sigma_s_prime))
+    {
+        for c in 0..3 {
+            assert!((g[c] / r[c] - 1.0).abs() < 1e-6, "channel {c}: grey {} against RGB {}", g[c], r[c]);
+        }
+    }
+    assert!(grey.history.iter().all(|h| h.channel == 0));
+    let iterations = |f: &transcut::inverse::Acquired| f.history.iter().filter(|h| h.iteration > 0).count();
+    assert_eq!(3 * iterations(&grey), iterations(&rgb));
+    // The same media give the same misfit, to the solves' accuracy (each channel's final
+    // solve is warm-started from where its own fit left it).
+    let m = grey.evaluation.misfit_rms();
+    assert!((m[1] / m[0] - 1.0).abs() < 1e-6 && (m[2] / m[0] - 1.0).abs() < 1e-6, "{m:?}");
 }

@@ -29,7 +29,7 @@ const CORE: Table = &[
     ("radiosity", &["light", "mesh", "optics", "progress", "sparse"]),
     ("diffusion", &["input", "mesh", "optics", "sparse", "volume"]),
     ("polygrid", &["diffusion", "mesh", "mesher", "optics", "progress", "sparse", "volume"]),
-    ("inverse", &["optics", "polygrid", "progress", "sparse", "volume"]),
+    ("inverse", &["input", "optics", "output", "polygrid", "progress", "sparse", "volume"]),
     ("gpu", &["diffusion", "hierarchy", "optics", "progress", "prt", "radiosity", "sparse"]),
     ("render", &["input", "light", "mesh", "optics", "output"]),
     ("texture", &["render"]),
@@ -88,6 +88,7 @@ const CAPI: Table = &[
     ("options", &["ptr", "status"]),
     ("progress", &[]),
     ("handle", &["convert", "progress", "status"]),
+    ("acquire", &["options", "progress", "ptr", "status"]),
     ("bake", &["convert", "handle", "options", "progress", "ptr", "status"]),
     ("cut", &["convert", "handle", "ptr", "status"]),
     ("deform", &["handle", "ptr", "status"]),
@@ -128,6 +129,7 @@ const CLI: Table = &[
     ("bench/dipole", &["bench/args", "bench/stats"]),
     ("bench/polygrid", &["bench/args", "bench/stats"]),
     ("bench/prt", &["bench/args", "bench/stats"]),
+    ("bench/inverse", &["bench/args"]),
     ("bench/radiosity_coupled", &["bench/stats", "method_args", "scene_file"]),
     ("bench/radiosity", &["bench/args", "bench/radiosity_coupled", "bench/stats"]),
     (
@@ -137,6 +139,7 @@ const CLI: Table = &[
             "bench/bake",
             "bench/dipole",
             "bench/edit",
+            "bench/inverse",
             "bench/mesh",
             "bench/multires",
             "bench/polygrid",
@@ -151,7 +154,8 @@ const CLI: Table = &[
     ("animate_cmd", &["method_args", "object_args", "output", "progress"]),
     ("render_cmd", &["method_args", "output", "progress", "scene_file", "scene_file/apply", "scene_file/schema"]),
     ("prt_cmd", &["method_args", "object_args", "output", "progress"]),
-    ("main", &["animate_cmd", "bake_cmd", "bench", "mesh_cmd", "prt_cmd", "render_cmd"]),
+    ("acquire_cmd", &["progress"]),
+    ("main", &["acquire_cmd", "animate_cmd", "bake_cmd", "bench", "mesh_cmd", "prt_cmd", "render_cmd"]),
 ];
 
 /// The source text without comments (`//` to the end of the line; the sources use no block

@@ -9,6 +9,7 @@ mod abi;
 
 mod common;
 
+mod acquire;
 mod backend;
 mod bake;
 mod concurrency;

@@ -47,6 +47,12 @@ pub enum Suite {
     /// scheme) on a marble ball at --polygrid-resolution and on a block, then the diffusion pass
     /// (cold and warm) of PCG and the relaxation at --polygrid-nodes, each to 1% RMS.
     Polygrid,
+    /// Inverse diffusion (J. Wang et al. 2008 §4): the synthetic acquisition of a veined marble
+    /// block (--inverse-nodes at 0.5 mm, 16 back-lit images, three channels) by the default
+    /// optimiser and by paper mode, each to the paper's 1% RMS misfit: time, iterations,
+    /// forward and adjoint solves and their ratio, the cost per iteration and the marble-scale
+    /// (256 × 256 × 20 nodes) time it implies against the paper's 11 hours. One run each.
+    Inverse,
 }
 
 /// Arguments of `transcut bench`.
@@ -111,4 +117,10 @@ pub struct BenchArgs {
     /// The `polygrid` suite's diffusion pass: about this many nodes on the ball.
     #[arg(long, default_value_t = 250_000, value_parser = clap::value_parser!(u64).range(125..=20_000_000))]
     pub polygrid_nodes: u64,
+    /// The `inverse` suite's grid nodes along x, y, z (8,8,4 is a seconds-long smoke run).
+    #[arg(long, value_delimiter = ',', default_values_t = [40usize, 40, 12])]
+    pub inverse_nodes: Vec<usize>,
+    /// The `inverse` suite's iteration cap per channel of the per-cell fit.
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    pub inverse_iterations: u64,
 }

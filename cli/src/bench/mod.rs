@@ -8,6 +8,7 @@ mod bake;
 mod dipole;
 mod edit;
 mod fig7;
+mod inverse;
 mod mesh;
 mod multires;
 mod polygrid;
@@ -30,5 +31,6 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Suite::Radiosity => radiosity::run(args),
         Suite::Prt => prt::run(args),
         Suite::Polygrid => polygrid::run(args),
+        Suite::Inverse => inverse::run(args),
     }
 }

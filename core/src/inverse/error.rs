@@ -80,6 +80,52 @@ pub enum InverseError {
         /// Why.
         reason: &'static str,
     },
+    /// An acquisition description that does not say what it must (no pattern kind, two kinds
+    /// at once, an unknown optimiser, …).
+    #[error("the acquisition description: {0}")]
+    InvalidDescription(String),
+    /// A file the description names does not exist.
+    #[error("{path}: no such file")]
+    MissingFile {
+        /// The path, as resolved against the description's folder.
+        path: String,
+    },
+    /// An image file that cannot be read or decoded (or written).
+    #[error("{path}: {reason}")]
+    ImageFile {
+        /// The path.
+        path: String,
+        /// What went wrong.
+        reason: String,
+    },
+    /// An image file with a different size than the face it shows.
+    #[error("{path} is {found_width} × {found_height} pixels, the face has {width} × {height} nodes")]
+    ImageFileSize {
+        /// The path.
+        path: String,
+        /// Pixels expected across and down (face nodes along x and y).
+        width: usize,
+        /// See `width`.
+        height: usize,
+        /// Pixels found across.
+        found_width: usize,
+        /// Pixels found down.
+        found_height: usize,
+    },
+    /// A NaN or infinite pixel in an image file (or a negative one in a pattern image).
+    #[error("{path}: pixel ({x}, {y}) channel {channel} is {value}")]
+    ImageFilePixel {
+        /// The path.
+        path: String,
+        /// Column (face node i).
+        x: usize,
+        /// Row from the top (face node j).
+        y: usize,
+        /// The colour channel.
+        channel: usize,
+        /// The value.
+        value: f64,
+    },
     /// Parameters of the wrong length, or not finite.
     #[error("parameters: {0}")]
     InvalidParameters(String),

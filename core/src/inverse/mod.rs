@@ -11,6 +11,8 @@
 //!   golden-section search, λ given or by the discrepancy principle;
 //! - [`synth`]: synthetic images from an independent discretisation (the polygrid
 //!   finite-volume system on a 2×-finer grid), so tests never fit the model to itself;
+//! - [`description`]: an acquisition on disk (a description of setup, patterns and optimiser,
+//!   one linear image file per pattern) read into the in-memory inputs above;
 //! - [`output`]: the recovered cells as a [`crate::volume::VoxelGrid`] (TCVOX1).
 //!
 //! The boundary condition and radiance query are docs/ARCHITECTURE.md's (not the paper's
@@ -45,6 +47,7 @@
 
 pub mod adjoint;
 pub mod block;
+pub mod description;
 mod error;
 pub mod model;
 pub mod optimize;
@@ -55,9 +58,10 @@ pub mod synth;
 
 pub use adjoint::{check_gradient, GradientComponent};
 pub use block::BlockGrid;
+pub use description::{read_image, write_image, Description, Loaded};
 pub use error::InverseError;
 pub use model::{Acquisition, CellMedia, Evaluation, Setup, SolveSettings, WorkCounts};
-pub use optimize::{acquire, AcquireOptions, Acquired, IterationRecord, Lambda, Method, Sample, StopReason};
+pub use optimize::{acquire, AcquireOptions, Acquired, Channels, IterationRecord, Lambda, Method, Sample, StopReason};
 pub use output::to_voxel_grid;
 pub use setup::{Observation, Pattern};
-pub use synth::{synthesize, SynthOptions};
+pub use synth::{synthesize, SynthOptions, VeinedBlock};

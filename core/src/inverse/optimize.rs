@@ -59,6 +59,18 @@ pub enum Lambda {
     },
 }
 
+/// Which colour channels are fitted.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Channels {
+    /// Each of R, G and B on its own (default).
+    #[default]
+    Rgb,
+    /// Grey images (the same value in every channel, as from a monochrome camera): the first
+    /// channel is fitted and its media are copied to the other two, a third of the optimiser's
+    /// iterations.
+    Grey,
+}
+
 /// What an acquisition does.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AcquireOptions {
@@ -81,6 +93,8 @@ pub struct AcquireOptions {
     pub gradient_tolerance: f64,
     /// The linear solves.
     pub solve: SolveSettings,
+    /// The channels fitted.
+    pub channels: Channels,
 }
 
 impl Default for AcquireOptions {
@@ -95,6 +109,7 @@ impl Default for AcquireOptions {
             relative_decrease: 1e-7,
             gradient_tolerance: 1e-12,
             solve: SolveSettings::default(),
+            channels: Channels::Rgb,
         }
     }
 }
@@ -629,9 +644,14 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
     let mut x: Vec<f64> = (0..cells).flat_map(|_| a0.iter().chain(&s0).map(|v| v.ln())).collect();
     let mut reasons = [StopReason::IterationCap; 3];
 
+    let fitted = match options.channels {
+        Channels::Rgb => 0..3,
+        Channels::Grey => 0..1,
+    };
+
     // 1. The homogeneous fit per channel (κ constant: the regulariser is 0 whatever λ).
     model.set_lambda(0.0)?;
-    for channel in 0..3 {
+    for channel in fitted.clone() {
         let mut x2 = vec![x[channel], x[3 + channel]];
         let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), homogeneous: true };
         let label = Label { part: channel, stage: "homogeneous", channel, lambda: 0.0 };
@@ -639,13 +659,17 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
         (_, reasons[channel]) = minimise(&mut view, &mut x2, options.method, rules, label, &mut history, progress)?;
         x = view.expand(&x2);
     }
+    if options.channels == Channels::Grey {
+        copy_first_channel(&mut x);
+        reasons = [reasons[0]; 3];
+    }
     let homogeneous = (std::array::from_fn(|c| x[c].exp()), std::array::from_fn(|c| x[3 + c].exp()));
     model.set_kappa_reference(std::array::from_fn(|c| super::model::kappa(homogeneous.0[c], homogeneous.1[c])));
 
     // 2. The per-cell fit per channel.
     let mut lambda = [0.0; 3];
     if options.max_iterations > 0 {
-        for (channel, (used, reason_out)) in lambda.iter_mut().zip(reasons.iter_mut()).enumerate() {
+        for (channel, (used, reason_out)) in lambda.iter_mut().zip(reasons.iter_mut()).enumerate().take(fitted.end) {
             let (lambdas, target): (Vec<f64>, f64) = match options.lambda {
                 Lambda::Given(l) => (vec![l], options.target_misfit_rms),
                 Lambda::Discrepancy { noise_rms, tau, start } => {
@@ -675,9 +699,21 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
             }
         }
     }
+    if options.channels == Channels::Grey {
+        copy_first_channel(&mut x);
+        reasons = [reasons[0]; 3];
+        lambda = [lambda[0]; 3];
+    }
     let evaluation = model.evaluate(&x)?;
     let media = CellMedia::from_log_vector(&x)?;
     Ok(Acquired { media, homogeneous, lambda, evaluation, history, stop: reasons, counts: model.counts() })
+}
+
+/// Sets every cell's second and third channel (ln σa and ln σ′s) to its first.
+fn copy_first_channel(x: &mut [f64]) {
+    for cell in x.chunks_exact_mut(6) {
+        (cell[1], cell[2], cell[4], cell[5]) = (cell[0], cell[0], cell[3], cell[3]);
+    }
 }
 
 #[cfg(test)]

@@ -139,3 +139,58 @@ pub fn synthesize(
     }
     Ok(images)
 }
+
+/// The issue's synthetic sample: a block of one medium with a diagonal vein of 5× σa (the
+/// slab |x − 0.6y − x₀| < 1 mm through the depth, x₀ = 0.3 × the face's width) and a 1 mm skin
+/// of 1.5× σ′s under the lit face (z > thickness − 1 mm), as the round trip of issue 19 uses.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VeinedBlock {
+    /// The block's medium outside the vein and skin: (σa, σ′s), mm⁻¹.
+    pub base: ([f64; 3], [f64; 3]),
+    /// The face's width along x, mm.
+    pub width_mm: f64,
+    /// The block's thickness along z, mm.
+    pub thickness_mm: f64,
+}
+
+impl VeinedBlock {
+    /// Marble (Jensen et al. 2001's σa, σ′s) with the vein and skin, on `setup`'s block.
+    #[must_use]
+    pub fn marble(setup: &Setup) -> Self {
+        let h = setup.spacing_mm;
+        Self {
+            base: ([0.0021, 0.0041, 0.0071], [2.19, 2.62, 3.0]),
+            width_mm: (setup.dims[0].max(1) - 1) as f64 * h,
+            thickness_mm: (setup.dims[2].max(1) - 1) as f64 * h,
+        }
+    }
+
+    /// (σa, σ′s) at `p` (mm from the block's corner).
+    #[must_use]
+    pub fn medium(&self, p: DVec3) -> ([f64; 3], [f64; 3]) {
+        let (mut a, mut s) = self.base;
+        if ((p.x - 0.6 * p.y) - 0.3 * self.width_mm).abs() < 1.0 {
+            a = a.map(|v| 5.0 * v);
+        }
+        if p.z > self.thickness_mm - 1.0 {
+            s = s.map(|v| 1.5 * v);
+        }
+        (a, s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_veined_block_has_its_vein_and_skin_where_stated() {
+        // 20.5 × 20.5 × 5.5 mm: the vein is |x − 0.6y − 6.15| < 1, the skin z > 4.5.
+        let setup = Setup { dims: [42, 42, 12], spacing_mm: 0.5, eta: 1.3, observation: Observation::BackLit };
+        let v = VeinedBlock::marble(&setup);
+        let (a, s) = v.medium(DVec3::new(6.15 + 0.6 * 10.0 + 0.9, 10.0, 1.0));
+        assert_eq!((a[1], s[1]), (5.0 * 0.0041, 2.62));
+        let (a, s) = v.medium(DVec3::new(6.15 + 0.6 * 10.0 + 1.1, 10.0, 4.6));
+        assert_eq!((a[1], s[1]), (0.0041, 1.5 * 2.62));
+    }
+}

@@ -1,0 +1,255 @@
+//! `tc_acquire` (inverse diffusion, J. Wang et al. 2008 §4) on a tiny block: the voxels equal
+//! the Rust API's fit of the same images, the file holds the same voxels and loads as a medium,
+//! and bad input is refused by name with nothing of the caller's written.
+
+use std::ffi::{c_char, c_void, CString};
+use std::ptr;
+
+use transcut_core::inverse::{
+    acquire, synthesize, AcquireOptions, Acquisition, Lambda, Observation, Pattern, Setup, SolveSettings, SynthOptions,
+    VeinedBlock,
+};
+use transcut_core::volume::VoxelGrid;
+use transcut_core::Progress;
+
+use super::abi::*;
+use super::common::*;
+
+const NODES: [u32; 3] = [6, 6, 4];
+const CELLS: usize = 5 * 5 * 3;
+
+fn setup() -> Setup {
+    Setup { dims: NODES.map(|n| n as usize), spacing_mm: 0.5, eta: 1.3, observation: Observation::BackLit }
+}
+
+/// The 16 images of the veined block under the 4 × 4 patterns, flattened as the ABI takes them.
+fn images() -> Vec<f32> {
+    let s = setup();
+    let truth = VeinedBlock::marble(&s);
+    let patterns = Pattern::grid_all(4, s.face_size_mm(), [1.0; 3]);
+    let images = synthesize(&s, &patterns, &|p| truth.medium(p), SynthOptions::default()).unwrap();
+    images.iter().flatten().flat_map(|p| p.map(|c| c as f32)).collect()
+}
+
+fn options() -> TcAcquireOptions {
+    // SAFETY: an all-zero struct is a valid value to overwrite.
+    let mut o: TcAcquireOptions = unsafe { std::mem::zeroed() };
+    // SAFETY: a valid pointer and its size.
+    ok(unsafe { tc_acquire_options_init(&mut o, size_of::<TcAcquireOptions>()) }, "acquire options");
+    o.nodes = NODES;
+    o.spacing_mm = 0.5;
+    o.max_iterations = 3;
+    o
+}
+
+/// Runs `tc_acquire` on `images` (16 of them, grid patterns) into a buffer of NaN.
+fn run(o: &TcAcquireOptions, images: &[f32], path: *const c_char) -> (TcStatus, Vec<f32>, TcAcquireStats) {
+    let mut out = vec![f32::NAN; 6 * CELLS];
+    // SAFETY: an all-zero struct is valid; its size set as the header asks.
+    let mut stats: TcAcquireStats = unsafe { std::mem::zeroed() };
+    stats.size = size_of::<TcAcquireStats>() as u32;
+    // SAFETY: valid pointers and lengths.
+    let status = unsafe {
+        tc_acquire(
+            o,
+            images.as_ptr(),
+            images.len(),
+            16,
+            ptr::null(),
+            0,
+            None,
+            ptr::null_mut(),
+            out.as_mut_ptr(),
+            out.len(),
+            path,
+            &mut stats,
+        )
+    };
+    (status, out, stats)
+}
+
+#[test]
+fn an_acquisition_equals_the_rust_apis_and_writes_a_loadable_grid() {
+    let data = images();
+    let dir = std::env::temp_dir().join(format!("transcut-abi-acquire-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("material.tcvox");
+    let c_path = CString::new(file.to_str().unwrap()).unwrap();
+    let o = options();
+    let (status, voxels, stats) = run(&o, &data, c_path.as_ptr());
+    ok(status, "tc_acquire");
+
+    // The Rust API on the same images and options.
+    let s = setup();
+    let patterns = Pattern::grid_all(4, s.face_size_mm(), [1.0; 3]);
+    let per_image = 36;
+    let imgs: Vec<Vec<[f64; 3]>> = data
+        .chunks_exact(3 * per_image)
+        .map(|im| im.chunks_exact(3).map(|p| [p[0], p[1], p[2]].map(f64::from)).collect())
+        .collect();
+    let mut model = Acquisition::new(s, &patterns, imgs, None).unwrap();
+    let options = AcquireOptions {
+        max_iterations: 3,
+        lambda: Lambda::Given(1e-4),
+        solve: SolveSettings::default(),
+        ..AcquireOptions::default()
+    };
+    let fit = acquire(&mut model, &options, &Progress::none()).unwrap();
+    let expected: Vec<f32> = fit
+        .media
+        .sigma_a
+        .iter()
+        .zip(&fit.media.sigma_s_prime)
+        .flat_map(|(a, s)| [a[0], a[1], a[2], s[0], s[1], s[2]].map(|v| v as f32))
+        .collect();
+    assert_eq!(voxels, expected);
+    assert_eq!(stats.dims, [5, 5, 3]);
+    assert_eq!(stats.forward_solves, fit.counts.forward_solves as u64);
+    assert_eq!(stats.adjoint_solves, fit.counts.adjoint_solves as u64);
+    assert_eq!(stats.misfit_rms, fit.evaluation.misfit_rms());
+    assert_eq!(stats.voxel_size, 0.5);
+    assert_eq!(stats.size as usize, size_of::<TcAcquireStats>());
+
+    // The file holds the same voxels, and an object takes it as its medium.
+    let grid = VoxelGrid::read(&file).unwrap();
+    assert_eq!(grid.dims(), [5, 5, 3]);
+    for (c, v) in voxels.chunks_exact(6).enumerate() {
+        let ijk = [c % 5, (c / 5) % 5, c / 25].map(|i| i as u32);
+        let got = grid.voxel(ijk).unwrap().to_array();
+        assert!(got.iter().zip(v).all(|(g, v)| *g == f64::from(*v)), "voxel {c}");
+    }
+    let sc = scene();
+    let object = add(sc, &Mesh::uv_sphere(1.0, 12, 6));
+    // SAFETY: a live scene and a valid path.
+    ok(unsafe { tc_object_set_medium_voxel_file(sc, object, c_path.as_ptr(), 1.3, 0.0) }, "load the acquired grid");
+    destroy(sc);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_is_named_and_nothing_is_written() {
+    let data = images();
+    let dir = std::env::temp_dir().join(format!("transcut-abi-acquire-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("never.tcvox");
+    let c_path = CString::new(file.to_str().unwrap()).unwrap();
+    let untouched = |out: &[f32], stats: &TcAcquireStats| {
+        assert!(out.iter().all(|v| v.is_nan()), "the voxels were written");
+        assert_eq!(stats.forward_solves, 0, "the statistics were written");
+        assert!(!file.exists(), "the file was written");
+    };
+
+    let mut o = options();
+    o.lambda = -0.5;
+    let (status, out, stats) = run(&o, &data, c_path.as_ptr());
+    fails(status, TC_INVALID_ARGUMENT, &["λ", "-0.5"]);
+    untouched(&out, &stats);
+
+    let mut nan = data.clone();
+    nan[3 * (2 * 36 + 7) + 1] = f32::NAN; // image 2, pixel 7, green
+    let (status, out, stats) = run(&options(), &nan, c_path.as_ptr());
+    fails(status, TC_INVALID_ARGUMENT, &["image 2: pixel 7 channel 1 is NaN"]);
+    untouched(&out, &stats);
+
+    let (status, out, stats) = run(&options(), &data[..data.len() - 3], c_path.as_ptr());
+    fails(status, TC_INVALID_ARGUMENT, &["images_len", "16 images of 6 × 6 pixels"]);
+    untouched(&out, &stats);
+
+    let mut o = options();
+    o.pattern_grid = 3;
+    let (status, out, stats) = run(&o, &data, c_path.as_ptr());
+    fails(status, TC_INVALID_ARGUMENT, &["16 images for 9 light patterns"]);
+    untouched(&out, &stats);
+
+    let black = vec![0.0f32; data.len()];
+    let (status, out, stats) = run(&options(), &black, c_path.as_ptr());
+    fails(status, TC_INVALID_ARGUMENT, &["nothing to fit"]);
+    untouched(&out, &stats);
+
+    let mut o = options();
+    o.channels = 7;
+    let (status, out, stats) = run(&o, &data, c_path.as_ptr());
+    fails(status, TC_INVALID_ARGUMENT, &["options->channels = 7"]);
+    untouched(&out, &stats);
+
+    let mut o = options();
+    o.nodes = [6, 6, 1];
+    let (status, out, stats) = run(&o, &data, c_path.as_ptr());
+    fails(status, TC_INVALID_ARGUMENT, &["options->nodes"]);
+    untouched(&out, &stats);
+
+    // A short output buffer is refused before any work.
+    let mut short = vec![f32::NAN; 6 * CELLS - 1];
+    // SAFETY: valid pointers and lengths.
+    let status = unsafe {
+        tc_acquire(
+            &options(),
+            data.as_ptr(),
+            data.len(),
+            16,
+            ptr::null(),
+            0,
+            None,
+            ptr::null_mut(),
+            short.as_mut_ptr(),
+            short.len(),
+            ptr::null(),
+            ptr::null_mut(),
+        )
+    };
+    fails(status, TC_BUFFER_TOO_SHORT, &["450 floats"]);
+    assert!(short.iter().all(|v| v.is_nan()));
+
+    // A NULL image pointer is named.
+    // SAFETY: NULL is what is being tested; the other pointers are valid.
+    let status = unsafe {
+        tc_acquire(
+            &options(),
+            ptr::null(),
+            data.len(),
+            16,
+            ptr::null(),
+            0,
+            None,
+            ptr::null_mut(),
+            short.as_mut_ptr(),
+            short.len(),
+            ptr::null(),
+            ptr::null_mut(),
+        )
+    };
+    fails(status, TC_NULL_POINTER, &["images"]);
+
+    // A cancel from the progress callback stops the fit; nothing is written.
+    let mut out = vec![f32::NAN; 6 * CELLS];
+    let mut calls = 0u32;
+    // SAFETY: valid pointers and lengths; `calls` outlives the call.
+    let status = unsafe {
+        tc_acquire(
+            &options(),
+            data.as_ptr(),
+            data.len(),
+            16,
+            ptr::null(),
+            0,
+            Some(cancel_at_third),
+            (&raw mut calls).cast(),
+            out.as_mut_ptr(),
+            out.len(),
+            c_path.as_ptr(),
+            ptr::null_mut(),
+        )
+    };
+    fails(status, TC_CANCELLED, &[]);
+    assert_eq!(calls, 3);
+    assert!(out.iter().all(|v| v.is_nan()) && !file.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Counts its calls in `*user` and cancels on the third.
+unsafe extern "C" fn cancel_at_third(user: *mut c_void, _stage: *const c_char, _fraction: f64) -> i32 {
+    // SAFETY: the test passes a live `u32`.
+    let calls = unsafe { &mut *user.cast::<u32>() };
+    *calls += 1;
+    i32::from(*calls >= 3)
+}
