@@ -45,7 +45,7 @@ fi
 
 # --- C ABI ---------------------------------------------------------------------------------------
 # libtranscut.so / .a built by cargo, include/transcut.h compiled as C99 and C++17, and the C
-# programs tests/c/marble_sphere.c and tests/c/radiosity_room.c run under valgrind against both (tests/c/run.sh installs gcc,
+# programs tests/c/marble_sphere.c and tests/c/radiosity_room.c run against both, the shared one under valgrind (tests/c/run.sh installs gcc,
 # g++, pkg-config and valgrind when missing). The Rust ABI tests (capi/tests) ran above.
 bash tests/c/run.sh
 

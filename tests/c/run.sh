@@ -7,8 +7,9 @@
 #  4. compiles each C test program (tests/c/marble_sphere.c: TransCut, the hierarchical
 #     dipole and the polygrid against closed forms, edits, misuse; tests/c/radiosity_room.c: translucent
 #     radiosity, a marble ball in an emissive diffuse room) against the shared and against the
-#     static library (through pkg-config) and runs each under valgrind memcheck with no
-#     suppression file:
+#     static library (through pkg-config), runs the static build and runs the shared one under
+#     valgrind memcheck with no suppression file (the static archive is the same code; step 5
+#     checks its memory):
 #     zero errors, no definitely or possibly lost bytes (the library joins its worker threads
 #     before each call returns, so nothing of it is left running when the program exits;
 #     "still reachable" is not counted: it is the C runtime's and the dynamic loader's own),
@@ -74,7 +75,19 @@ done
 # reachable", and slow under valgrind). Valgrind's own report goes to a log file, so that the
 # program's stderr holds only what the program (or the library) wrote: it must stay empty.
 for program in $programs; do
-    for exe in "${program}_shared" "${program}_static"; do
+    exe="${program}_static"
+    echo "tests/c/run.sh: $exe"
+    if ! env -u RUST_BACKTRACE TRANSCUT_BACKEND=cpu "$work/$exe" >"$work/$exe.stdout" 2>"$work/$exe.stderr"; then
+        cat "$work/$exe.stdout" "$work/$exe.stderr"
+        echo "tests/c/run.sh: $exe failed" >&2
+        exit 1
+    fi
+    if [ -s "$work/$exe.stderr" ]; then
+        cat "$work/$exe.stderr"
+        echo "tests/c/run.sh: $exe wrote to stderr (the library must print nothing)" >&2
+        exit 1
+    fi
+    for exe in "${program}_shared"; do
         echo "tests/c/run.sh: valgrind $exe"
         if ! env -u RUST_BACKTRACE TRANSCUT_BACKEND=cpu valgrind --tool=memcheck --error-exitcode=1 --leak-check=full \
             --errors-for-leak-kinds=definite,possible --show-leak-kinds=definite,possible --log-file="$work/$exe.valgrind" \
@@ -91,7 +104,7 @@ for program in $programs; do
         fi
     done
 done
-echo "tests/c/run.sh: C programs ($programs) passed under valgrind (shared and static), stderr empty"
+echo "tests/c/run.sh: C programs ($programs) passed (static) and under valgrind (shared), stderr empty"
 
 # Under AddressSanitizer's leak checker: the same programs, built with -fsanitize=address.
 for program in $programs; do
