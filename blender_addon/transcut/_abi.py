@@ -84,6 +84,15 @@ TC_MAX_POLYGRID_RESOLUTION = 256  # TcPolygridOptions.resolution (cells per cube
 #: CLI's names, any case).
 POLYGRID_STENCILS = {"fem": TC_POLYGRID_STENCIL_FEM, "finite-volume": TC_POLYGRID_STENCIL_FINITE_VOLUME}
 
+# TcAcquireOptions (tc_acquire: a heterogeneous medium measured from images of a lit block).
+TC_ACQUIRE_BACK_LIT = 0  # observe: the face opposite the lit one (default)
+TC_ACQUIRE_FRONT_LIT = 1  # observe: the lit face, lit pixels masked with a margin
+TC_ACQUIRE_LBFGS = 0  # method: L-BFGS on log-parameters (default)
+TC_ACQUIRE_PAPER_CG = 1  # method: the paper's Polak–Ribière CG with golden-section search
+TC_ACQUIRE_RGB = 0  # channels: each fitted (default)
+TC_ACQUIRE_GREY = 1  # channels: the first fitted, copied to the others
+TC_MAX_ACQUIRE_NODES = 4_000_000  # TcAcquireOptions.nodes' product at most
+
 # TcPrtOptions.basis_terms: the PCA basis of the dipole profile.
 TC_PRT_BASIS_16 = 16  # default
 TC_PRT_BASIS_12 = 12  # the paper's
@@ -471,6 +480,47 @@ class TcEditStats(Structure):
     ]
 
 
+class TcAcquireOptions(Structure):
+    """``TcAcquireOptions`` (``tc_acquire_options_init`` fills it and ``size``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("observe", c_uint32),
+        ("nodes", c_uint32 * 3),
+        ("method", c_uint32),
+        ("spacing_mm", c_double),
+        ("eta", c_double),
+        ("margin_mm", c_double),
+        ("pattern_grid", c_uint32),
+        ("max_iterations", c_uint32),
+        ("homogeneous_iterations", c_uint32),
+        ("lambda", c_double),  # a Python keyword: getattr(options, "lambda")
+        ("target_misfit_rms", c_double),
+        ("solve_tolerance", c_double),
+        ("initial_sigma_a", c_double * 3),
+        ("initial_sigma_s_prime", c_double * 3),
+        ("origin", c_double * 3),
+        ("units_per_mm", c_double),
+        ("channels", c_uint32),
+    ]
+
+
+class TcAcquireStats(Structure):
+    """``TcAcquireStats`` (``tc_acquire``; the caller sets ``size``)."""
+
+    _fields_ = [
+        ("size", c_uint32),
+        ("iterations", c_uint32),
+        ("dims", c_uint32 * 3),
+        ("forward_solves", c_uint64),
+        ("adjoint_solves", c_uint64),
+        ("misfit_rms", c_double * 3),
+        ("homogeneous_sigma_a", c_double * 3),
+        ("homogeneous_sigma_s_prime", c_double * 3),
+        ("voxel_size", c_double),
+    ]
+
+
 class TcScene(Structure):
     """Opaque ``TcScene``."""
 
@@ -548,6 +598,25 @@ OPTIONAL = {
     "tc_prt_options_init": (c_int32, [POINTER(TcPrtOptions), c_size_t]),
     "tc_polygrid_options_init": (c_int32, [POINTER(TcPolygridOptions), c_size_t]),
     "tc_scene_radiosity_stats": (c_int32, [ScenePtr, POINTER(TcRadiosityStats)]),
+    # Acquisition (inverse diffusion) from images in memory.
+    "tc_acquire_options_init": (c_int32, [POINTER(TcAcquireOptions), c_size_t]),
+    "tc_acquire": (
+        c_int32,
+        [
+            POINTER(TcAcquireOptions),
+            c_float_p,
+            c_size_t,
+            c_size_t,
+            c_float_p,
+            c_size_t,
+            TcProgressFn,
+            c_void_p,
+            c_float_p,
+            c_size_t,
+            c_char_p,
+            POINTER(TcAcquireStats),
+        ],
+    ),
     # Diffuse objects (translucent radiosity).
     "tc_scene_add_diffuse_mesh": (
         c_int32,

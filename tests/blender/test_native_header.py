@@ -156,6 +156,8 @@ STRUCTS = [
     binding.TcRadiosityStats,
     binding.TcMediumEdit,
     binding.TcEditStats,
+    binding.TcAcquireOptions,
+    binding.TcAcquireStats,
 ]
 
 
