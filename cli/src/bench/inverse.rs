@@ -1,4 +1,4 @@
-//! `transcut bench inverse`: the synthetic acquisition of issue 19 (J. Wang et al. 2008 §4) by
+//! `transcut bench inverse`: the synthetic acquisition (J. Wang et al. 2008 §4: a veined, skinned marble block) by
 //! the default optimiser (L-BFGS) and by paper mode (Polak–Ribière CG with golden-section
 //! search), both to the paper's stopping rule (every channel's RMS relative misfit ≤ 1%), and
 //! the marble-scale time that the measured cost per solve implies.

@@ -1,4 +1,4 @@
-//! An acquisition on disk (issue 19, "data in and out"): a description of the setup, the light
+//! An acquisition on disk: a description of the setup, the light
 //! patterns and the optimiser, and one linear image file per pattern (OpenEXR, or any format
 //! the `image` crate decodes to linear floats), read into the typed, in-memory inputs of
 //! [`super::Acquisition::new`] and [`super::acquire`].

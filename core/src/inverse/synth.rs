@@ -140,9 +140,9 @@ pub fn synthesize(
     Ok(images)
 }
 
-/// The issue's synthetic sample: a block of one medium with a diagonal vein of 5× σa (the
+/// The synthetic sample of the round-trip tests and `transcut bench inverse`: a block of one medium with a diagonal vein of 5× σa (the
 /// slab |x − 0.6y − x₀| < 1 mm through the depth, x₀ = 0.3 × the face's width) and a 1 mm skin
-/// of 1.5× σ′s under the lit face (z > thickness − 1 mm), as the round trip of issue 19 uses.
+/// of 1.5× σ′s under the lit face (z > thickness − 1 mm).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VeinedBlock {
     /// The block's medium outside the vein and skin: (σa, σ′s), mm⁻¹.
