@@ -66,7 +66,7 @@ use transcut::mesh::{TetMesh, TriangleBvh};
 use transcut::mesher::{tetrahedralize, MesherOptions};
 use transcut::optics::Medium;
 use transcut::sparse::{pcg, CsrMatrix3, Jacobi, Preconditioner, SolveOptions};
-use transcut::volume::{TableLayout, TetSampling, VeinParams, Veins};
+use transcut::volume::{TableLayout, TetSampling};
 use transcut::DVec3;
 
 mod common;
@@ -327,14 +327,7 @@ fn where_the_difference_comes_from() {
             ("veins σa (0.06, 0.09, 0.14)", Medium { sigma_a: [0.06, 0.09, 0.14], sigma_s_prime: [1.5, 1.8, 2.0], ..marble }),
             ("veins σa (0.02, 0.03, 0.04)", Medium { sigma_a: [0.02, 0.03, 0.04], sigma_s_prime: [1.5, 1.8, 2.0], ..marble }),
         ] {
-            let params = VeinParams {
-                direction: DVec3::new(1.0, 0.4, 0.2),
-                period: 12.0 / mm_per_unit,
-                noise_scale: 20.0 / mm_per_unit,
-                sharpness: 2.0,
-                ..VeinParams::default()
-            };
-            let veins = Veins::new(marble, vein, 11, params).unwrap();
+            let veins = common::veined_with(marble, vein, mm_per_unit);
             let media = veins.per_tet(&mesh, TetSampling::Centroid).unwrap().apply(&mut mesh, TableLayout::Compact).unwrap();
             let tr = vein.sigma_tr();
             eprintln!("{label}: σtr h of the vein medium {:.2?}", tr.map(|t| t * h));

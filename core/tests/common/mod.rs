@@ -17,7 +17,11 @@ pub fn bunny() -> (TriMesh, f64) {
 /// Veins 12 mm apart in `marble`, bent by turbulence at a 20 mm scale: 20–30× the absorption of
 /// the marble and less scattering (the veined bunny of the agreement tests).
 pub fn veined(marble: Medium, mm_per_unit: f64) -> Veins {
-    let vein = Medium { sigma_a: [0.06, 0.09, 0.14], sigma_s_prime: [1.5, 1.8, 2.0], ..marble };
+    veined_with(marble, Medium { sigma_a: [0.06, 0.09, 0.14], sigma_s_prime: [1.5, 1.8, 2.0], ..marble }, mm_per_unit)
+}
+
+/// [`veined`]'s pattern with `vein` as the vein medium.
+pub fn veined_with(marble: Medium, vein: Medium, mm_per_unit: f64) -> Veins {
     let params = VeinParams {
         direction: DVec3::new(1.0, 0.4, 0.2),
         period: 12.0 / mm_per_unit,
