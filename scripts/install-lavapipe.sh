@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs lavapipe (Mesa's software Vulkan driver, Debian `mesa-vulkan-drivers`) and the Vulkan
-# loader (`libvulkan1`) so that the GPU tests (core/tests/gpu*.rs) find a Vulkan adapter on a
-# machine without a GPU. Does nothing when a Vulkan loader and the lavapipe ICD are present.
-# Uses sudo only when not root. Called from scripts/test.sh.
+# loader (`libvulkan1`) so that the GPU tests (core/tests/integration/gpu*.rs,
+# core/tests/gpu_*.rs) find a Vulkan adapter on a machine without a GPU. Does nothing when a
+# Vulkan loader and the lavapipe ICD are present. Uses sudo only when not root. Called from
+# scripts/test.sh.
 set -euo pipefail
 
 have_loader() { ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1'; }

@@ -31,8 +31,9 @@ cargo clippy --workspace --all-targets --locked -- -D warnings
 # The core without its GPU backend (how fuzz/ builds it) must build clean too.
 cargo clippy -p transcut --lib --no-default-features --locked -- -D warnings
 
-# The GPU tests (core/tests/gpu*.rs) need a Vulkan adapter: install Mesa's lavapipe (software
-# Vulkan, Debian mesa-vulkan-drivers) when missing, so the GPU path is tested on every machine.
+# The GPU tests (core/tests/integration/gpu*.rs, core/tests/gpu_*.rs) need a Vulkan adapter:
+# install Mesa's lavapipe (software Vulkan, Debian mesa-vulkan-drivers) when missing, so the GPU
+# path is tested on every machine.
 bash scripts/install-lavapipe.sh
 
 # Tests run optimised (profile.test has opt-level 2): the mesher and solver tests work at

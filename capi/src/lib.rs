@@ -16,7 +16,7 @@
 //!
 //! The modules are layers: `status` (the boundary), the leaves (`ptr`, `convert`, `options`,
 //! `progress`), `handle` (the scene and its core [`transcut_core::Session`]), then the entry
-//! points, which import only from those and never from each other (`core/tests/layering.rs`
+//! points, which import only from those and never from each other (`core/tests/integration/layering.rs`
 //! checks it). Every module is a direct child of this one and names its siblings `super::…`: the Rust
 //! tests (`capi/tests/abi`) compile this file as a module of their own and call the
 //! `extern "C"` functions with raw pointers, the way a foreign program does. (The library is

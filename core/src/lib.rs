@@ -19,7 +19,7 @@
 //! # Ok(()) }
 //! ```
 //!
-//! The modules are layers; each uses only those listed before it (`core/tests/layering.rs`
+//! The modules are layers; each uses only those listed before it (`core/tests/integration/layering.rs`
 //! checks it):
 //!
 //! | layer | what it holds |

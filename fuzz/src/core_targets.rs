@@ -3,7 +3,7 @@
 //! panic anywhere (in the reader, or in a check here) is a finding.
 //!
 //! Shared by the `cargo fuzz` targets (`fuzz/fuzz_targets/`) and by the stable-Rust smoke test
-//! of the corpus (`core/tests/fuzz_corpus.rs`), which includes this file as a module.
+//! of the corpus (`core/tests/integration/fuzz_corpus.rs`), which includes this file as a module.
 
 use transcut::light::EquirectMap;
 use transcut::mesh::{parse_obj, parse_ply};

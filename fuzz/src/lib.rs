@@ -1,5 +1,5 @@
 //! The bodies of libtranscut's fuzz targets, one plain function per target, so that the
-//! stable-Rust smoke tests of the corpus (`core/tests/fuzz_corpus.rs`,
+//! stable-Rust smoke tests of the corpus (`core/tests/integration/fuzz_corpus.rs`,
 //! `capi/tests/fuzz_corpus.rs`, the CLI's `scene_file` tests) call exactly what the fuzzer
 //! calls: they include the same files as modules.
 

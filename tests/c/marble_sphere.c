@@ -548,7 +548,7 @@ int main(void) {
      * 0.08% of R inside the sphere), and the solution is piecewise linear on ~12k tets of edge
      * about 2.9 mm, which is 0.35 of the red diffusion length 1/sigma_tr = 8.5 mm but 0.75 of the
      * blue one (4.0 mm); the error of the linear elements falls as the square of that ratio
-     * (core/tests/diffusion.rs). Measured: mean within 0.5%, worst vertex 2.5% (blue). Checked:
+     * (core/tests/integration/diffusion.rs). Measured: mean within 0.5%, worst vertex 2.5% (blue). Checked:
      * mean within 2%, every vertex within 4%. */
     double mean_err[3] = {0, 0, 0}, worst[3] = {0, 0, 0};
     for (int c = 0; c < 3; c++) {

@@ -11,7 +11,7 @@ use super::common::*;
 
 /// A marble sphere of radius 10 mm (η = 1.3) under a constant sky of radiance 1 returns the
 /// closed form Lo = (0.9394, 0.9072, 0.8709) (ARCHITECTURE.md's worked numbers). At 20k tets
-/// on a 64 × 32 UV sphere the solver (second order in the tet size, core/tests/diffusion.rs)
+/// on a 64 × 32 UV sphere the solver (second order in the tet size, core/tests/integration/diffusion.rs)
 /// lands within 2% on average, 4% at every vertex.
 #[test]
 fn uniform_sphere_under_a_constant_sky_matches_the_closed_form() {

@@ -30,7 +30,7 @@
 //!   of a hierarchy, the twins of [`crate::sparse::relax`] (polygrid diffusion's relaxation).
 //! - [`assemble`], [`spmv_dot`], [`dot`], [`surface_radiance`] (eq. 3), [`restrict`],
 //!   [`prolong_add`], [`vcycle`]: single kernels (or one V-cycle) with CPU twins, compared in
-//!   `core/tests/gpu*.rs`.
+//!   `core/tests/integration/gpu*.rs` and `core/tests/gpu_*.rs`.
 //!
 //! Kernels ([`Kernel`]) are one WGSL file each with `shaders/common.wgsl` prepended, embedded
 //! with `include_str!` and validated by naga in the tests. Without the `gpu` cargo feature only

@@ -1,5 +1,5 @@
 //! The WGSL kernels of `shaders/` (one file per kernel, plus `common.wgsl` prepended to each),
-//! embedded with `include_str!`. Every kernel is validated by naga in `core/tests/gpu_shaders.rs`.
+//! embedded with `include_str!`. Every kernel is validated by naga in `core/tests/integration/gpu_shaders.rs`.
 
 /// The declarations shared by every kernel (`shaders/common.wgsl`): the `Params` uniform, the
 /// PCG `Scalars`, the 2D-grid index helpers and the workgroup tree reduction.

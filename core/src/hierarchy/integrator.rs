@@ -14,7 +14,7 @@
 //! the ξ terms pushed down the receiver tree. One plain sample (the paper's) is biased by the
 //! kernel's curvature: against the O(n²) sum on a sun-lit geodesic sphere of 5,120 triangles at
 //! θ = 0.4, one sample is 1.1% (peak-relative RMS) off, the first-order expansion 0.6%, the
-//! second-order one 0.04% (core/tests/hierarchical_dipole.rs). With [`DipoleGeometry::PaperSources`] the kernel depends on the receiver's normal
+//! second-order one 0.04% (core/tests/integration/hierarchical_dipole.rs). With [`DipoleGeometry::PaperSources`] the kernel depends on the receiver's normal
 //! and the sample is left uncorrected, as the paper has it.
 //!
 //! The receivers are cut into [`TASKS`] subtrees (or as many as [`DipoleHierarchy::set_tasks`]

@@ -26,7 +26,7 @@
 //! 2. a folder `methods/<name>/` whose `mod.rs` implements [`SubsurfaceMethod`] (and the
 //!    capability traits it offers), and a variant of [`BakedState`] for its state;
 //! 3. one arm in the driver's dispatch (`bake.rs`) and in the session's ([`crate::session`]);
-//! 4. one line in the conformance suite `core/tests/methods.rs`.
+//! 4. one line in the conformance suite `core/tests/integration/methods.rs`.
 
 pub mod capability;
 pub mod hierarchical_dipole;

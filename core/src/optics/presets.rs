@@ -6,7 +6,7 @@
 //! with them the total diffuse reflectance Rd and the diffuse mean free path ℓd = 1/σtr. The
 //! coefficients below are theirs; the derived Rd and ℓd are reproduced within 1% (or to the
 //! digits published) by [`Medium::total_diffuse_reflectance`] and
-//! [`Medium::diffuse_mean_free_path`] (tested in `core/tests/optics.rs`).
+//! [`Medium::diffuse_mean_free_path`] (tested in `core/tests/integration/optics.rs`).
 
 use super::error::OpticsError;
 use super::medium::Medium;

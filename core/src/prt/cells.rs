@@ -3,7 +3,7 @@
 //! irradiance; the value at its centre is that mean to second order where the light is smooth,
 //! but a shadow's edge across the piece makes it all or nothing. On the self-shadowed spot at
 //! 2¹⁶ samples those pieces alone put the uncompressed transfer 2.5e-3 off the exact dipole
-//! where every piece's mean gives 1.2e-3 (`core/tests/prt.rs`).
+//! where every piece's mean gives 1.2e-3 (`core/tests/integration/prt.rs`).
 //!
 //! So q is first taken at every sample's centre, with shadows and, in the same pass, without
 //! (the shadow ray decides between them). A sample whose shadowed share differs from a

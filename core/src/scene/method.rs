@@ -4,7 +4,7 @@
 //! vertex of each object out (ARCHITECTURE.md, "What a bake returns") — so the front ends
 //! (C ABI, CLI, scene files, Blender) choose one by name ([`Method::from_name`]) and share
 //! everything else. The set is closed: a method is a variant here, a folder under
-//! `core/src/methods/`, and one line in the conformance suite `core/tests/methods.rs`.
+//! `core/src/methods/`, and one line in the conformance suite `core/tests/integration/methods.rs`.
 
 use crate::diffusion::SolverKind;
 use crate::gpu::Backend;

@@ -20,7 +20,7 @@
 //!   ([`transcut::diffusion::BoundaryVertices::area_mm2`]), over all boundary vertices, and
 //!   separately for the cut face (`|z − 3| < 1e-6`) and the rest.
 //!
-//! # Measured (this machine, `cargo test -p transcut --test cut_vs_fresh -- --nocapture`)
+//! # Measured (this machine, `cargo test -p transcut --test integration -- cut_vs_fresh:: --nocapture`)
 //!
 //! The cut removes 13 458 of 50 405 tets; the piece has 36 947 tets, 2 252 boundary vertices, 609
 //! of them on the cut face, all snapped onto the plane (`max_cut_distance` 0), worst dihedral
@@ -51,7 +51,7 @@ use transcut::mesh::{TriMesh, TriangleBvh};
 use transcut::optics::Medium;
 use transcut::{bake, BakeOptions, Object, Scene, TransCutOptions};
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 const RADIUS: f64 = 10.0;

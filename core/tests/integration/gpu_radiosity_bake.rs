@@ -7,7 +7,7 @@
 //! These tests need a GPU adapter (lavapipe where no GPU is present; see `gpu_common`).
 #![cfg(feature = "gpu")]
 
-mod gpu_common;
+use crate::gpu_common;
 use gpu_common::{device, lock};
 
 use transcut::gpu::{Backend, GpuRadiosity};

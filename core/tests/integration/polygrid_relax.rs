@@ -15,7 +15,7 @@ use transcut::polygrid::{
 };
 use transcut::sparse::{pcg, Preconditioner, PreconditionerKind, SolveOptions, SparseError};
 
-mod common;
+use crate::common;
 
 /// Marble at η = 1.3 (ARCHITECTURE.md's sphere): ℓd = 1/σtr = 8.5, 6.0, 4.0 mm.
 fn marble() -> Medium {

@@ -135,7 +135,7 @@ fn vertex_areas(mesh: &TriMesh) -> Vec<f64> {
 /// re-emits the same total per unit of transmitted light (symmetry), for either S, so the ratio
 /// of the emitted powers under any light is that of the uniformly lit sphere: the half-space's
 /// C(2R) + δ over the analytic sphere's B/q (0.918 red, design §3.6). Gate 2%: the diffusion bake's
-/// discretisation at 20k tets (about 1%, core/tests/methods.rs) and the icosphere's.
+/// discretisation at 20k tets (about 1%, core/tests/integration/methods.rs) and the icosphere's.
 #[test]
 fn profile_and_diffusion_agree_on_a_convex_sphere() {
     let mesh = icosphere(10.0, 3);

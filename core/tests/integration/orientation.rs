@@ -8,7 +8,7 @@ use transcut::mesh::{MeshError, TriMesh};
 use transcut::optics::Medium;
 use transcut::{bake, BakeOptions, Object, Scene, TransCutOptions};
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 /// The indices `0..n` in an order fixed by a small xorshift generator (Fisher–Yates).

@@ -15,7 +15,7 @@ use transcut::optics::{f_ext, Medium, UniformSphere};
 use transcut::texture::{TexelSample, TextureError, TextureOptions};
 use transcut::{BakeOptions, Object, Progress, Scene, Session, SessionError, TransCutOptions};
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 const SEGMENTS: usize = 48;

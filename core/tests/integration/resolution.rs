@@ -17,7 +17,7 @@ use transcut::optics::{f_ext, Medium, UniformSphere};
 use transcut::sparse::SolveOptions;
 use transcut::{bake, BakeOptions, Object, Progress, Scene, SceneError, Session, SessionError, TransCutOptions};
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 /// Mean boundary edge length of `mesh` in its own units (each boundary triangle's three edges).

@@ -11,7 +11,7 @@
 
 use std::sync::{Arc, OnceLock};
 
-mod gpu_common;
+use crate::gpu_common;
 use gpu_common::{device, lock, rel_rms, scaled_tets, shared_mesh_dir, system_for};
 
 use rand::{Rng, SeedableRng};

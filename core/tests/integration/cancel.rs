@@ -17,7 +17,7 @@ use transcut::light::{Light, SourceOptions};
 use transcut::optics::Medium;
 use transcut::{bake_with, BakeOptions, Object, Progress, Scene, SceneError, Session, SessionError, TransCutOptions};
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 /// A marble ball under a disc light and a soft sun, with shadows: every stage has work, the

@@ -13,7 +13,7 @@
 
 use std::sync::Arc;
 
-mod gpu_common;
+use crate::gpu_common;
 use gpu_common::{device, lock};
 
 use rand::{Rng, SeedableRng};

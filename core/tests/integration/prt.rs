@@ -57,7 +57,7 @@ fn relative_l2(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
 /// near field and compression): B = q P(2R), P the dipole's disc integral in closed form, at
 /// every 37th vertex within 2e-3 for marble, skin1, apple and cream at η = 1.3 (design/prt.md
 /// §7). The constant C(η) and the worked Lo of the marble sphere are checked through the bake
-/// in `core/tests/methods.rs`.
+/// in `core/tests/integration/methods.rs`.
 #[test]
 fn uniform_sphere_matches_the_closed_form() {
     let mesh = icosphere(10.0, 5);

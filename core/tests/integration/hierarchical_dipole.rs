@@ -11,7 +11,7 @@ use transcut::mesh::{icosphere, TriMesh};
 use transcut::optics::{f_ext, Medium};
 use transcut::volume::noise::PerlinNoise;
 
-mod dipole_common;
+use crate::dipole_common;
 use dipole_common::{dipoles, displaced, errors, go, hierarchy, marble, moved_mesh, sun_lit_from};
 
 /// q at every vertex under a sun from +z (irradiance 3), no shadows.

@@ -13,7 +13,7 @@ use transcut::optics::Medium;
 use transcut::volume::{Coefficients, PerTetMedia};
 use transcut::{bake, BakeOptions, MediumSource, Object, Progress, Scene, TransCutOptions};
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 /// Tight enough that two solutions of the same system agree far below the asserted 1e-6.

@@ -7,10 +7,10 @@
 //! `TRANSCUT_FUZZ_SECONDS` per target (default 60), see `fuzz/src/mutate.rs`.
 
 #[allow(dead_code)]
-#[path = "../../fuzz/src/core_targets.rs"]
+#[path = "../../../fuzz/src/core_targets.rs"]
 mod core_targets;
 #[allow(dead_code)]
-#[path = "../../fuzz/src/mutate.rs"]
+#[path = "../../../fuzz/src/mutate.rs"]
 mod mutate;
 
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 //! mesh clipped by the plane, the dihedral bound, the cut surface lying on the cutter, original tet
 //! ids, complementary halves, strokes equal to planes, solids, components and welding.
 
-mod common;
+use crate::common;
 
 use std::collections::HashSet;
 use std::f64::consts::PI;

@@ -169,7 +169,7 @@ fn the_cubed_sphere_converges_to_the_uniform_sphere() {
     assert!(fv[2] < 0.02 && fv[2] > 0.5 * fv[0], "{fv:?}");
 }
 
-mod common;
+use crate::common;
 
 /// The uniform sphere baked by the polygrid method (a voxel polycube mapped onto a fine UV
 /// sphere, P1 on the Kuhn split) within 1% of ARCHITECTURE.md's closed form at every vertex,

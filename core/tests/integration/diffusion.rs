@@ -50,7 +50,7 @@ use transcut::DVec3;
 /// Sphere radius (scene units = mm).
 const RADIUS: f64 = 20.0;
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 /// The sphere meshed with about `tets` tets, built once per size for the whole test binary.

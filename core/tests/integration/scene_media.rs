@@ -3,7 +3,7 @@
 //! medium; a ready tet mesh equals the bake that meshed it), object-space fields move with
 //! the object, and misuse is named.
 
-mod common;
+use crate::common;
 
 use glam::{DMat4, DVec3};
 use transcut::light::Light;

@@ -69,7 +69,7 @@ use transcut::sparse::{pcg, CsrMatrix3, Jacobi, Preconditioner, SolveOptions};
 use transcut::volume::{TableLayout, TetSampling};
 use transcut::DVec3;
 
-mod common;
+use crate::common;
 use common::bunny;
 
 /// How far the two radiances are apart, per channel.

@@ -22,7 +22,7 @@ use transcut::{
     Session, SessionError, TransCutOptions,
 };
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 /// What the suite needs to know of a method.

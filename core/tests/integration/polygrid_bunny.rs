@@ -15,7 +15,7 @@ use transcut::optics::Medium;
 use transcut::DVec3;
 use transcut::{bake, BakeOptions, MediumSource, Method, Object, PolygridOptions, Scene, TransCutOptions};
 
-mod common;
+use crate::common;
 use common::bunny;
 
 /// √(Σ (a − b)² / Σ b²) over the vertices, per channel.

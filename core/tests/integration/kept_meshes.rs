@@ -8,7 +8,7 @@ use transcut::light::Light;
 use transcut::optics::Medium;
 use transcut::{bake_reusing, bake_with, Bake, BakeOptions, MediumSource, Object, Progress, Scene, TransCutOptions};
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 fn scene() -> Scene {

@@ -17,7 +17,7 @@ use transcut::DVec3;
 /// Sphere radius (scene units = mm).
 const RADIUS: f64 = 10.0;
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 /// The sphere of radius [`RADIUS`] meshed with about 20 000 tets, built once.

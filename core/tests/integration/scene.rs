@@ -6,7 +6,7 @@ use transcut::light::{Environment, Light};
 use transcut::optics::{f_ext, Medium, UniformSphere};
 use transcut::{bake, BakeOptions, Object, Scene, SceneError, TransCutOptions};
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 fn marble_eta_13() -> Medium {

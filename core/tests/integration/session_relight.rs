@@ -8,7 +8,7 @@ use transcut::light::Light;
 use transcut::optics::Medium;
 use transcut::{BakeOptions, Object, Progress, Scene, Session, TransCutOptions};
 
-mod common;
+use crate::common;
 use common::uv_sphere;
 
 fn sun(direction: DVec3) -> Light {

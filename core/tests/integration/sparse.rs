@@ -1,7 +1,7 @@
 //! Integration tests of `transcut::sparse`: solvers against dense references, channel
 //! independence, warm starts, errors, determinism across thread counts, Matrix Market I/O.
 //! The `bench_` tests are `#[ignore]`d measurements, run by hand in release mode:
-//! `cargo test --release -p transcut --test sparse -- --ignored --nocapture bench_`.
+//! `cargo test --release -p transcut --test integration -- --ignored --nocapture sparse::bench_`.
 
 use std::sync::Arc;
 use std::time::Instant;

@@ -10,7 +10,7 @@
 
 use std::sync::OnceLock;
 
-mod gpu_common;
+use crate::gpu_common;
 use gpu_common::{device, lit, lock, rel_rms, scaled_tets, shared_mesh_dir, system_for};
 
 use rand::{Rng, SeedableRng};
