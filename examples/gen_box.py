@@ -1,12 +1,31 @@
 #!/usr/bin/env python3
-"""Writes box.obj: a 2 x 1 x 1 box whose faces are grids of quads (20 x 10 x 10), so the
-per-vertex radiance of a bake is resolved across each face; used by layered_block.toml."""
+"""Writes a box whose faces are grids of quads, so the per-vertex radiance of a bake resolves
+each face. Two boxes of the examples, by name:
 
-N = {0: 20, 1: 10, 2: 10}
-SIZE = [2.0, 1.0, 1.0]
+    python3 gen_box.py box    box.obj: 2 x 1 x 1, centred, 20 x 10 x 10 quads along the axes;
+                              used by layered_block.toml
+    python3 gen_box.py slab   slab.obj: the block of `transcut acquire synth`'s default data set
+                              (40 x 40 x 12 nodes at 0.5 mm: 19.5 x 19.5 x 5.5 mm, its corner
+                              at the origin like the acquired voxel grid), 0.5 mm quads; used by
+                              acquire_veined_block.toml
+"""
+
+import sys
+
+# name: (size, quads along each axis, corner at the origin (else centred), the file's comment)
+BOXES = {
+    "box": ([2.0, 1.0, 1.0], [20, 10, 10], False, "a 2 x 1 x 1 box, subdivided (gen_box.py) for layered_block.toml"),
+    "slab": (
+        [19.5, 19.5, 5.5],
+        [39, 39, 11],
+        True,
+        "a 19.5 x 19.5 x 5.5 mm slab from the origin (gen_box.py slab), for acquire_veined_block.toml",
+    ),
+}
 
 
-def main():
+def box(size, n, at_origin):
+    """The box's vertices and outward-facing quads (1-based indices, shared corners welded)."""
     verts, vl, faces = {}, [], []
 
     def vid(p):
@@ -16,23 +35,33 @@ def main():
             vl.append(k)
         return verts[k]
 
+    lo = [0.0 if at_origin else -s / 2 for s in size]
     for axis in range(3):
-        for sign in (-1, 1):
+        for side in (0, 1):
             u, v = [a for a in range(3) if a != axis]
-            for i in range(N[u]):
-                for j in range(N[v]):
+            for i in range(n[u]):
+                for j in range(n[v]):
                     q = []
                     for di, dj in ((0, 0), (1, 0), (1, 1), (0, 1)):
                         p = [0.0, 0.0, 0.0]
-                        p[axis] = sign * SIZE[axis] / 2
-                        p[u] = -SIZE[u] / 2 + SIZE[u] * (i + di) / N[u]
-                        p[v] = -SIZE[v] / 2 + SIZE[v] * (j + dj) / N[v]
+                        p[axis] = lo[axis] + side * size[axis]
+                        p[u] = lo[u] + size[u] * (i + di) / n[u]
+                        p[v] = lo[v] + size[v] * (j + dj) / n[v]
                         q.append(vid(p))
-                    if (sign > 0) != ((u + 1) % 3 == v):
+                    if (side > 0) != ((u + 1) % 3 == v):
                         q = q[::-1]
                     faces.append(q)
-    with open("box.obj", "w") as f:
-        f.write("# a 2 x 1 x 1 box, subdivided (gen_box.py) for layered_block.toml\n")
+    return vl, faces
+
+
+def main():
+    if len(sys.argv) != 2 or sys.argv[1] not in BOXES:
+        sys.exit("usage: python3 gen_box.py box|slab")
+    name = sys.argv[1]
+    size, n, at_origin, comment = BOXES[name]
+    vl, faces = box(size, n, at_origin)
+    with open(f"{name}.obj", "w") as f:
+        f.write(f"# {comment}\n")
         for p in vl:
             f.write("v {:g} {:g} {:g}\n".format(*p))
         for q in faces:
