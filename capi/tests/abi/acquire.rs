@@ -42,29 +42,30 @@ fn options() -> TcAcquireOptions {
     o
 }
 
+/// `tc_acquire` on 16 grid-pattern images (no per-node patterns) at `images`, into `out`.
+#[allow(clippy::too_many_arguments)] // the C call's own arguments, less the fixed ones
+fn call(
+    o: &TcAcquireOptions,
+    images: *const f32,
+    images_len: usize,
+    progress: TcProgressFn,
+    user: *mut c_void,
+    out: &mut [f32],
+    path: *const c_char,
+    stats: *mut TcAcquireStats,
+) -> TcStatus {
+    // SAFETY: every pointer is valid for its length or NULL (which the call must refuse by name);
+    // `user` is what `progress` expects.
+    unsafe { tc_acquire(o, images, images_len, 16, ptr::null(), 0, progress, user, out.as_mut_ptr(), out.len(), path, stats) }
+}
+
 /// Runs `tc_acquire` on `images` (16 of them, grid patterns) into a buffer of NaN.
 fn run(o: &TcAcquireOptions, images: &[f32], path: *const c_char) -> (TcStatus, Vec<f32>, TcAcquireStats) {
     let mut out = vec![f32::NAN; 6 * CELLS];
     // SAFETY: an all-zero struct is valid; its size set as the header asks.
     let mut stats: TcAcquireStats = unsafe { std::mem::zeroed() };
     stats.size = size_of::<TcAcquireStats>() as u32;
-    // SAFETY: valid pointers and lengths.
-    let status = unsafe {
-        tc_acquire(
-            o,
-            images.as_ptr(),
-            images.len(),
-            16,
-            ptr::null(),
-            0,
-            None,
-            ptr::null_mut(),
-            out.as_mut_ptr(),
-            out.len(),
-            path,
-            &mut stats,
-        )
-    };
+    let status = call(o, images.as_ptr(), images.len(), None, ptr::null_mut(), &mut out, path, &mut stats);
     (status, out, stats)
 }
 
@@ -139,107 +140,53 @@ fn bad_input_is_named_and_nothing_is_written() {
         assert!(!file.exists(), "the file was written");
     };
 
-    let mut o = options();
-    o.lambda = -0.5;
-    let (status, out, stats) = run(&o, &data, c_path.as_ptr());
-    fails(status, TC_INVALID_ARGUMENT, &["λ", "-0.5"]);
-    untouched(&out, &stats);
+    // Options that cannot describe these images.
+    type Change = fn(&mut TcAcquireOptions);
+    let bad_options: [(Change, &[&str]); 4] = [
+        (|o| o.lambda = -0.5, &["λ", "-0.5"]),
+        (|o| o.pattern_grid = 3, &["16 images for 9 light patterns"]),
+        (|o| o.channels = 7, &["options->channels = 7"]),
+        (|o| o.nodes = [6, 6, 1], &["options->nodes"]),
+    ];
+    for (change, words) in bad_options {
+        let mut o = options();
+        change(&mut o);
+        let (status, out, stats) = run(&o, &data, c_path.as_ptr());
+        fails(status, TC_INVALID_ARGUMENT, words);
+        untouched(&out, &stats);
+    }
 
+    // Images that cannot be fitted.
     let mut nan = data.clone();
     nan[3 * (2 * 36 + 7) + 1] = f32::NAN; // image 2, pixel 7, green
-    let (status, out, stats) = run(&options(), &nan, c_path.as_ptr());
-    fails(status, TC_INVALID_ARGUMENT, &["image 2: pixel 7 channel 1 is NaN"]);
-    untouched(&out, &stats);
-
-    let (status, out, stats) = run(&options(), &data[..data.len() - 3], c_path.as_ptr());
-    fails(status, TC_INVALID_ARGUMENT, &["images_len", "16 images of 6 × 6 pixels"]);
-    untouched(&out, &stats);
-
-    let mut o = options();
-    o.pattern_grid = 3;
-    let (status, out, stats) = run(&o, &data, c_path.as_ptr());
-    fails(status, TC_INVALID_ARGUMENT, &["16 images for 9 light patterns"]);
-    untouched(&out, &stats);
-
     let black = vec![0.0f32; data.len()];
-    let (status, out, stats) = run(&options(), &black, c_path.as_ptr());
-    fails(status, TC_INVALID_ARGUMENT, &["nothing to fit"]);
-    untouched(&out, &stats);
-
-    let mut o = options();
-    o.channels = 7;
-    let (status, out, stats) = run(&o, &data, c_path.as_ptr());
-    fails(status, TC_INVALID_ARGUMENT, &["options->channels = 7"]);
-    untouched(&out, &stats);
-
-    let mut o = options();
-    o.nodes = [6, 6, 1];
-    let (status, out, stats) = run(&o, &data, c_path.as_ptr());
-    fails(status, TC_INVALID_ARGUMENT, &["options->nodes"]);
-    untouched(&out, &stats);
+    let bad_images: [(&[f32], &[&str]); 3] = [
+        (&nan, &["image 2: pixel 7 channel 1 is NaN"]),
+        (&data[..data.len() - 3], &["images_len", "16 images of 6 × 6 pixels"]),
+        (&black, &["nothing to fit"]),
+    ];
+    for (images, words) in bad_images {
+        let (status, out, stats) = run(&options(), images, c_path.as_ptr());
+        fails(status, TC_INVALID_ARGUMENT, words);
+        untouched(&out, &stats);
+    }
 
     // A short output buffer is refused before any work.
     let mut short = vec![f32::NAN; 6 * CELLS - 1];
-    // SAFETY: valid pointers and lengths.
-    let status = unsafe {
-        tc_acquire(
-            &options(),
-            data.as_ptr(),
-            data.len(),
-            16,
-            ptr::null(),
-            0,
-            None,
-            ptr::null_mut(),
-            short.as_mut_ptr(),
-            short.len(),
-            ptr::null(),
-            ptr::null_mut(),
-        )
-    };
+    let (none, no_stats) = (ptr::null_mut(), ptr::null_mut());
+    let status = call(&options(), data.as_ptr(), data.len(), None, none, &mut short, ptr::null(), no_stats);
     fails(status, TC_BUFFER_TOO_SHORT, &["450 floats"]);
     assert!(short.iter().all(|v| v.is_nan()));
 
     // A NULL image pointer is named.
-    // SAFETY: NULL is what is being tested; the other pointers are valid.
-    let status = unsafe {
-        tc_acquire(
-            &options(),
-            ptr::null(),
-            data.len(),
-            16,
-            ptr::null(),
-            0,
-            None,
-            ptr::null_mut(),
-            short.as_mut_ptr(),
-            short.len(),
-            ptr::null(),
-            ptr::null_mut(),
-        )
-    };
+    let status = call(&options(), ptr::null(), data.len(), None, none, &mut short, ptr::null(), no_stats);
     fails(status, TC_NULL_POINTER, &["images"]);
 
     // A cancel from the progress callback stops the fit; nothing is written.
     let mut out = vec![f32::NAN; 6 * CELLS];
     let mut calls = 0u32;
-    // SAFETY: valid pointers and lengths; `calls` outlives the call.
-    let status = unsafe {
-        tc_acquire(
-            &options(),
-            data.as_ptr(),
-            data.len(),
-            16,
-            ptr::null(),
-            0,
-            Some(cancel_at_third),
-            (&raw mut calls).cast(),
-            out.as_mut_ptr(),
-            out.len(),
-            c_path.as_ptr(),
-            ptr::null_mut(),
-        )
-    };
+    let user = (&raw mut calls).cast();
+    let status = call(&options(), data.as_ptr(), data.len(), Some(cancel_at_third), user, &mut out, c_path.as_ptr(), no_stats);
     fails(status, TC_CANCELLED, &[]);
     assert_eq!(calls, 3);
     assert!(out.iter().all(|v| v.is_nan()) && !file.exists());
