@@ -26,7 +26,7 @@ use serde::Serialize;
 use transcut::optics::Medium;
 use transcut::polygrid::relax::{RelaxSample, RelaxStats};
 use transcut::polygrid::{
-    map_to_sphere, FreezeDepth, Polycube, Polygrid, RadianceReference, RelaxHierarchy, RelaxOptions, RelaxState, Schedule, Start,
+    cubed_sphere, FreezeDepth, Polycube, Polygrid, RadianceReference, RelaxHierarchy, RelaxOptions, RelaxState, Schedule, Start,
     Stencil,
 };
 use transcut::sparse::{pcg, Preconditioner, PreconditionerKind, SolveOptions};
@@ -141,13 +141,6 @@ fn set_sun(h: &mut RelaxHierarchy, turned: bool) -> anyhow::Result<()> {
     let q: Vec<[f64; 3]> = h.boundary_normals().iter().map(|n| [Q_SUN * n.dot(l).max(0.0); 3]).collect();
     h.set_source(&q)?;
     Ok(())
-}
-
-fn ball(k: u32) -> anyhow::Result<Polygrid> {
-    let cube = Arc::new(Polycube::block(DVec3::ZERO, 1.0, [1, 1, 1])?);
-    let mut grid = Polygrid::new(cube, k)?;
-    map_to_sphere(&mut grid, DVec3::ZERO, RADIUS_MM)?;
-    Ok(grid)
 }
 
 fn block(resolution: u32) -> anyhow::Result<Polygrid> {
@@ -466,7 +459,7 @@ fn relax_setup(
 
 fn diffusion_pass(nodes: usize, stencil: Stencil, runs: usize) -> anyhow::Result<PassReport> {
     let k = ((((nodes as f64).cbrt() - 1.0) / 4.0).round() as u32).max(1) * 4;
-    let grid = ball(k)?;
+    let grid = cubed_sphere(k, DVec3::ZERO, RADIUS_MM)?;
     let (mut h, build_ms) = hierarchy(&grid, stencil)?;
     let lo0 = reference(&h)?;
     set_sun(&mut h, true)?;
@@ -520,7 +513,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut figure = Vec::new();
     for stencil in [Stencil::Fem, Stencil::FiniteVolume] {
         let spacing = 2.0 * RADIUS_MM / f64::from(k);
-        figure.push(fig15(format!("cubed-sphere ball, radius {RADIUS_MM} mm, k = {k}"), &ball(k)?, spacing, stencil, runs)?);
+        figure.push(fig15(
+            format!("cubed-sphere ball, radius {RADIUS_MM} mm, k = {k}"),
+            &cubed_sphere(k, DVec3::ZERO, RADIUS_MM)?,
+            spacing,
+            stencil,
+            runs,
+        )?);
         figure.push(fig15(
             format!("block 160 × 160 × 80 mm (4 × 4 × 2 cubes of {BLOCK_CUBE_MM} mm), {} cells per cube", k / 4),
             &block(k / 4)?,

@@ -14,9 +14,12 @@
 //! of flattening their cells; last, the Kuhn tets left turned or distorted are untangled.
 //! The cubed sphere ([`map_to_sphere`]) has a closed form.
 
+use std::sync::Arc;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::domain::Polycube;
 use super::error::PolygridError;
 use super::grid::{Polygrid, NONE};
 use super::untangle::{untangle_surface, untangle_volume};
@@ -84,6 +87,19 @@ pub fn map_to_sphere(grid: &mut Polygrid, centre: DVec3, radius: f64) -> Result<
         .collect();
     grid.set_positions(positions);
     check_cells(grid, "the cubed-sphere map is fold-free by construction; report this as a bug")
+}
+
+/// The cubed sphere: one cube of `resolution` cells per edge mapped by [`map_to_sphere`] onto
+/// the ball of `radius` mm around `centre`. The polygrid domain with a closed-form answer (the
+/// uniformly lit sphere), used by the tests and benchmarks.
+///
+/// # Errors
+/// As [`Polygrid::new`] and [`map_to_sphere`].
+pub fn cubed_sphere(resolution: u32, centre: DVec3, radius: f64) -> Result<Polygrid, PolygridError> {
+    let cube = Arc::new(Polycube::block(DVec3::ZERO, 1.0, [1, 1, 1])?);
+    let mut grid = Polygrid::new(cube, resolution)?;
+    map_to_sphere(&mut grid, centre, radius)?;
+    Ok(grid)
 }
 
 /// The blended equal-angle cubed-sphere map of a point of [−1, 1]³ into the unit ball
@@ -284,10 +300,7 @@ pub fn check_cells(grid: &Polygrid, hint: &'static str) -> Result<CellQuality, P
 
 #[cfg(test)]
 mod tests {
-    use std::sync::Arc;
-
     use super::*;
-    use crate::polygrid::domain::Polycube;
 
     #[test]
     fn the_cubed_sphere_puts_the_surface_on_the_sphere_and_folds_nothing() {

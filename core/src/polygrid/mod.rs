@@ -26,7 +26,7 @@ pub mod untangle;
 pub use domain::Polycube;
 pub use error::PolygridError;
 pub use grid::{Polygrid, Prolongation, MAX_RESOLUTION};
-pub use map::{map_to_sphere, map_to_surface, CellQuality, MapOptions};
+pub use map::{cubed_sphere, map_to_sphere, map_to_surface, CellQuality, MapOptions};
 pub use relax::{FreezeDepth, RadianceReference, RelaxHierarchy, RelaxOptions, RelaxState, Schedule, Smoother, Start};
 pub use system::{BoundaryNodes, PolygridSystem, CELL_EDGES};
 

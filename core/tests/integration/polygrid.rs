@@ -9,7 +9,7 @@ use glam::DVec3;
 use transcut::diffusion;
 use transcut::mesh::TetMesh;
 use transcut::optics::Medium;
-use transcut::polygrid::{map_to_sphere, Polycube, Polygrid, PolygridSystem};
+use transcut::polygrid::{cubed_sphere, Polycube, Polygrid, PolygridSystem};
 use transcut::sparse::{pcg, Preconditioner, PreconditionerKind, SolveOptions};
 
 /// Marble at η = 1.3 (ARCHITECTURE.md's sphere).
@@ -140,9 +140,7 @@ fn the_cubed_sphere_converges_to_the_uniform_sphere() {
     let expected = [0.9394, 0.9072, 0.8709];
     let (mut fv, mut fem) = (Vec::new(), Vec::new());
     for k in [8, 16, 32] {
-        let cube = Arc::new(Polycube::block(DVec3::ZERO, 1.0, [1, 1, 1]).unwrap());
-        let mut grid = Polygrid::new(cube, k).unwrap();
-        map_to_sphere(&mut grid, DVec3::ZERO, 10.0).unwrap();
+        let grid = cubed_sphere(k, DVec3::ZERO, 10.0).unwrap();
         let media = vec![marble(); grid.cells().len()];
         let mut system = PolygridSystem::finite_volume(&grid, &media, 1.0, None).unwrap();
         let nb = system.boundary().ids.len();

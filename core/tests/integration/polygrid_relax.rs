@@ -10,7 +10,7 @@ use glam::DVec3;
 use transcut::optics::Medium;
 use transcut::polygrid::relax::{LevelStats, RelaxStats};
 use transcut::polygrid::{
-    map_to_sphere, map_to_surface, FreezeDepth, MapOptions, Polycube, Polygrid, PolygridError, RadianceReference, RelaxHierarchy,
+    cubed_sphere, map_to_surface, FreezeDepth, MapOptions, Polycube, Polygrid, PolygridError, RadianceReference, RelaxHierarchy,
     RelaxOptions, RelaxState, Schedule, Smoother, Start, Stencil,
 };
 use transcut::sparse::{pcg, Preconditioner, PreconditionerKind, SolveOptions, SparseError};
@@ -41,14 +41,6 @@ fn sun_direction(turned: bool) -> DVec3 {
     } else {
         d
     }
-}
-
-/// The cubed sphere of `k` cells per edge and `radius` mm.
-fn sphere(k: u32, radius: f64) -> Polygrid {
-    let cube = Arc::new(Polycube::block(DVec3::ZERO, 1.0, [1, 1, 1]).unwrap());
-    let mut grid = Polygrid::new(cube, k).unwrap();
-    map_to_sphere(&mut grid, DVec3::ZERO, radius).unwrap();
-    grid
 }
 
 /// A block of `dims` cubes of `cube` mm at `resolution` cells per cube edge (unmapped).
@@ -176,7 +168,7 @@ fn every_scheme_reaches_the_pcg_answer_on_a_block() {
 #[test]
 fn every_scheme_reaches_the_pcg_answer_on_the_cubed_sphere() {
     // A marble ball of radius 60 mm, k = 24 (15,625 nodes), P1 on the Kuhn split, 3 levels.
-    let grid = sphere(24, 60.0);
+    let grid = cubed_sphere(24, DVec3::ZERO, 60.0).unwrap();
     let h = RelaxHierarchy::new(&grid, &vec![marble(); grid.cells().len()], 1.0, Stencil::Fem, 3).unwrap();
     // The Kuhn split's P1 matrix on skewed cells is far from diagonally dominant: plain Jacobi
     // diverges on it (`the_divergence_of_plain_jacobi_on_p1_is_an_error`); ω below 2 over
@@ -231,7 +223,7 @@ fn fig15_the_cascade_and_the_adaptive_scheme_cut_the_updates_to_one_percent() {
     // the default shell 0.519M (0.83 of hierarchical: only 22% of the fine nodes lie deeper than
     // 25.5 mm, and level 1, a fifth of the cascade's work, freezes 3%), adaptive
     // with the 12 mm shell 0.349M (0.56; converged 6.1e-4 from PCG).
-    let grid = sphere(48, 80.0);
+    let grid = cubed_sphere(48, DVec3::ZERO, 80.0).unwrap();
     let mut h = RelaxHierarchy::new(&grid, &vec![marble(); grid.cells().len()], 1.0, Stencil::Fem, 3).unwrap();
     sun(&mut h, sun_direction(false));
     let (_, lo) = pcg_reference(&h);
@@ -268,7 +260,7 @@ fn fig15_the_cascade_and_the_adaptive_scheme_cut_the_updates_to_one_percent() {
 
 #[test]
 fn the_history_follows_the_solve() {
-    let grid = sphere(16, 10.0);
+    let grid = cubed_sphere(16, DVec3::ZERO, 10.0).unwrap();
     let mut h = RelaxHierarchy::new(&grid, &vec![marble(); grid.cells().len()], 1.0, Stencil::FiniteVolume, 3).unwrap();
     sun(&mut h, sun_direction(false));
     let (_, lo) = pcg_reference(&h);
@@ -303,7 +295,7 @@ fn the_history_follows_the_solve() {
 
 #[test]
 fn bad_input_is_refused_by_name() {
-    let grid = sphere(12, 10.0);
+    let grid = cubed_sphere(12, DVec3::ZERO, 10.0).unwrap();
     let media = vec![marble(); grid.cells().len()];
     let invalid_resolution = |e: PolygridError| matches!(e, PolygridError::InvalidResolution { .. });
     assert!(invalid_resolution(RelaxHierarchy::new(&grid, &media, 1.0, Stencil::Fem, 0).unwrap_err()));
@@ -357,7 +349,7 @@ fn bad_input_is_refused_by_name() {
 #[test]
 fn a_warm_start_from_a_fluence_solved_elsewhere() {
     // RelaxState::from_solution: the PCG answer itself is a fixed point at once.
-    let grid = sphere(16, 30.0);
+    let grid = cubed_sphere(16, DVec3::ZERO, 30.0).unwrap();
     let mut h = RelaxHierarchy::new(&grid, &vec![marble(); grid.cells().len()], 1.0, Stencil::Fem, 2).unwrap();
     sun(&mut h, sun_direction(false));
     let (phi, _) = pcg_reference(&h);
@@ -372,7 +364,7 @@ fn a_warm_start_from_a_fluence_solved_elsewhere() {
 
 #[test]
 fn the_divergence_of_plain_jacobi_on_p1_is_an_error() {
-    let grid = sphere(24, 60.0);
+    let grid = cubed_sphere(24, DVec3::ZERO, 60.0).unwrap();
     let mut h = RelaxHierarchy::new(&grid, &vec![marble(); grid.cells().len()], 1.0, Stencil::Fem, 1).unwrap();
     sun(&mut h, sun_direction(false));
     let mut state = RelaxState::new(&h);
