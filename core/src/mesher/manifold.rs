@@ -273,6 +273,14 @@ fn gap_tets(boundary: &Boundary<'_>) -> Vec<[u32; 4]> {
         .collect();
     out.sort_unstable();
     out.dedup();
+    // The same tet can close the gaps of two edges (listed from each with its vertices in
+    // another order); adding it twice would make its faces shared by three tets.
+    let mut seen = std::collections::HashSet::new();
+    out.retain(|t| {
+        let mut key = *t;
+        key.sort_unstable();
+        seen.insert(key)
+    });
     out
 }
 
