@@ -86,36 +86,27 @@ impl TetMesh {
     /// [`TetMeshError`] for empty input, non-finite coordinates, out-of-range indices, degenerate
     /// tets (volume below `1e-14 ×` bounding-box diagonal³) and faces shared by more than two tets.
     pub fn new(positions: Vec<DVec3>, mut tets: Vec<[u32; 4]>, materials: Vec<u32>) -> Result<Self, TetMeshError> {
-        if positions.is_empty() || tets.is_empty() {
-            return Err(TetMeshError::Empty { vertices: positions.len(), tets: tets.len() });
-        }
-        if let Some(v) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(TetMeshError::NonFinite { vertex: v });
-        }
+        check_nonempty_finite(&positions, &tets)?;
         let materials = if materials.is_empty() { vec![0; tets.len()] } else { materials };
         if materials.len() != tets.len() {
             return Err(TetMeshError::MaterialCount { materials: materials.len(), tets: tets.len() });
         }
-        let n = positions.len();
-        let (lo, hi) = positions
-            .iter()
-            .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| (a.min(*p), b.max(*p)));
-        let min_volume = 1e-14 * (hi - lo).length().powi(3);
-        tets.par_iter_mut().enumerate().try_for_each(|(t, tet)| {
-            if let Some(&index) = tet.iter().find(|&&i| i as usize >= n) {
-                return Err(TetMeshError::IndexOutOfRange { tet: t, index, vertex_count: n });
-            }
-            let mut volume = tet_volume(tet.map(|i| positions[i as usize]));
-            if volume < 0.0 {
-                tet.swap(2, 3);
-                volume = -volume;
-            }
-            if volume <= min_volume {
-                return Err(TetMeshError::Degenerate { tet: t, volume });
-            }
-            Ok(())
-        })?;
+        orient_and_check(&positions, &mut tets)?;
         let boundary_faces = boundary_faces(&tets)?;
+        Ok(Self::with_boundary(positions, tets, materials, boundary_faces))
+    }
+
+    /// The mesh of `checked`, a [`CheckedBoundary`] of these `positions` (material 0
+    /// everywhere): what [`TetMesh::new`] gives for the same arrays, without orienting, checking
+    /// and finding the boundary again.
+    pub(crate) fn from_checked(positions: Vec<DVec3>, checked: CheckedBoundary) -> Self {
+        let materials = vec![0; checked.tets.len()];
+        Self::with_boundary(positions, checked.tets, materials, checked.faces)
+    }
+
+    /// The rest of the topology, from oriented, checked tets and their boundary faces.
+    fn with_boundary(positions: Vec<DVec3>, tets: Vec<[u32; 4]>, materials: Vec<u32>, boundary_faces: Vec<BoundaryFace>) -> Self {
+        let n = positions.len();
         let edges = unique_edges(&tets);
         let (ring_offsets, ring) = one_rings(n, &edges);
         let mut on_boundary = vec![false; n];
@@ -124,7 +115,7 @@ impl TetMesh {
                 on_boundary[v as usize] = true;
             }
         }
-        Ok(Self { positions, tets, materials, ring_offsets, ring, edges, boundary_faces, on_boundary, surface_map: Vec::new() })
+        Self { positions, tets, materials, ring_offsets, ring, edges, boundary_faces, on_boundary, surface_map: Vec::new() }
     }
 
     /// The same mesh with every position mapped by `f` (e.g. a rigid motion). The topology is
@@ -322,23 +313,7 @@ impl TetMesh {
     /// and non-manifold edges (more than two).
     #[must_use]
     pub fn irregular_boundary_edges(&self) -> Vec<([u32; 2], Vec<u32>)> {
-        let mut edges: Vec<(u64, u32)> = self
-            .boundary_faces
-            .iter()
-            .enumerate()
-            .flat_map(|(f, face)| {
-                (0..3).map(move |k| {
-                    let (a, b) = (face.vertices[k], face.vertices[(k + 1) % 3]);
-                    ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), f as u32)
-                })
-            })
-            .collect();
-        edges.par_sort_unstable();
-        edges
-            .chunk_by(|x, y| x.0 == y.0)
-            .filter(|group| group.len() != 2)
-            .map(|group| ([(group[0].0 >> 32) as u32, group[0].0 as u32], group.iter().map(|e| e.1).collect()))
-            .collect()
+        irregular_edges(&self.boundary_faces)
     }
 
     /// Checks that the boundary surface is closed and manifold: every boundary edge in exactly two
@@ -426,6 +401,86 @@ impl TetMesh {
         }
         report
     }
+}
+
+/// The first two checks of [`TetMesh::new`]: some vertices and tets, every coordinate finite.
+fn check_nonempty_finite(positions: &[DVec3], tets: &[[u32; 4]]) -> Result<(), TetMeshError> {
+    if positions.is_empty() || tets.is_empty() {
+        return Err(TetMeshError::Empty { vertices: positions.len(), tets: tets.len() });
+    }
+    if let Some(v) = positions.iter().position(|p| !p.is_finite()) {
+        return Err(TetMeshError::NonFinite { vertex: v });
+    }
+    Ok(())
+}
+
+/// Flips every negatively oriented tet (swapping its last two vertices) and rejects indices out
+/// of range and tets whose volume is below `1e-14 ×` the bounding-box diagonal³.
+fn orient_and_check(positions: &[DVec3], tets: &mut [[u32; 4]]) -> Result<(), TetMeshError> {
+    let n = positions.len();
+    let (lo, hi) =
+        positions.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| (a.min(*p), b.max(*p)));
+    let min_volume = 1e-14 * (hi - lo).length().powi(3);
+    tets.par_iter_mut().enumerate().try_for_each(|(t, tet)| {
+        if let Some(&index) = tet.iter().find(|&&i| i as usize >= n) {
+            return Err(TetMeshError::IndexOutOfRange { tet: t, index, vertex_count: n });
+        }
+        let mut volume = tet_volume(tet.map(|i| positions[i as usize]));
+        if volume < 0.0 {
+            tet.swap(2, 3);
+            volume = -volume;
+        }
+        if volume <= min_volume {
+            return Err(TetMeshError::Degenerate { tet: t, volume });
+        }
+        Ok(())
+    })
+}
+
+/// Tets oriented and checked as [`TetMesh::new`] does, with their boundary faces: for callers
+/// that change the tets round after round and only need the boundary in between, then make a
+/// mesh of the last round with [`TetMesh::from_checked`].
+pub(crate) struct CheckedBoundary {
+    /// The tets, each positively oriented.
+    pub tets: Vec<[u32; 4]>,
+    /// The boundary faces [`TetMesh::new`] gives the same arrays, in the same order.
+    pub faces: Vec<BoundaryFace>,
+}
+
+impl CheckedBoundary {
+    /// Orients a copy of `tets` and finds its boundary; `tets` itself is not modified.
+    ///
+    /// # Errors
+    /// As [`TetMesh::new`] on the same arrays.
+    pub(crate) fn new(positions: &[DVec3], tets: &[[u32; 4]]) -> Result<Self, TetMeshError> {
+        check_nonempty_finite(positions, tets)?;
+        let mut oriented = tets.to_vec();
+        orient_and_check(positions, &mut oriented)?;
+        let faces = boundary_faces(&oriented)?;
+        Ok(Self { tets: oriented, faces })
+    }
+}
+
+/// Boundary edges `[a, b]` (`a < b`, sorted) of `faces` that do not lie in exactly two of them,
+/// each with the indices of the faces around it (ascending); see
+/// [`TetMesh::irregular_boundary_edges`].
+pub(crate) fn irregular_edges(faces: &[BoundaryFace]) -> Vec<([u32; 2], Vec<u32>)> {
+    let mut edges: Vec<(u64, u32)> = faces
+        .iter()
+        .enumerate()
+        .flat_map(|(f, face)| {
+            (0..3).map(move |k| {
+                let (a, b) = (face.vertices[k], face.vertices[(k + 1) % 3]);
+                ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), f as u32)
+            })
+        })
+        .collect();
+    edges.par_sort_unstable();
+    edges
+        .chunk_by(|x, y| x.0 == y.0)
+        .filter(|group| group.len() != 2)
+        .map(|group| ([(group[0].0 >> 32) as u32, group[0].0 as u32], group.iter().map(|e| e.1).collect()))
+        .collect()
 }
 
 /// Faces that belong to exactly one tet, oriented outward; errors on faces shared by > 2 tets.

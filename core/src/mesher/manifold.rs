@@ -9,7 +9,7 @@
 
 use glam::DVec3;
 
-use crate::mesh::{TetMesh, TetMeshError};
+use crate::mesh::{BoundaryFace, CheckedBoundary, TetMesh, TetMeshError};
 
 /// What the manifold repair ([`without_removal`], [`finish`]) changed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -27,18 +27,20 @@ pub(crate) struct Repair {
 
 /// Moves boundary vertices among `touched` that a removal exposed (off the input surface) to
 /// their closest point on it, one at a time, keeping each move only if every tet around the
-/// vertex stays positively oriented and within the dihedral bounds.
+/// vertex (as `tets` stores it) stays positively oriented and within the dihedral bounds.
+/// `on_boundary` flags the boundary vertices of `tets`.
 fn project_exposed(
     positions: &mut [DVec3],
     tets: &[[u32; 4]],
-    mesh: &TetMesh,
+    on_boundary: &[bool],
     touched: &[u32],
     surface: &crate::mesh::TriangleBvh,
 ) -> usize {
-    let scale = mesh.positions().iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+    let scale = positions.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+    let star = VertexStar::new(positions.len(), tets);
     let mut moved = 0;
     for &v in touched {
-        if !mesh.is_boundary_vertex(v as usize) {
+        if !on_boundary[v as usize] {
             continue;
         }
         let Some(target) = surface.closest_point(positions[v as usize]) else {
@@ -47,11 +49,10 @@ fn project_exposed(
         if target.distance <= 1e-9 * scale {
             continue;
         }
-        let around: Vec<usize> = (0..tets.len()).filter(|&t| tets[t].contains(&v)).collect();
         let old = positions[v as usize];
         positions[v as usize] = target.point;
-        let ok = around.iter().all(|&t| {
-            let p = tets[t].map(|w| positions[w as usize]);
+        let ok = star.of(v).iter().all(|&t| {
+            let p = tets[t as usize].map(|w| positions[w as usize]);
             let angles = crate::mesh::dihedral_angles(p);
             crate::mesh::tet_volume(p) > 0.0
                 && angles.iter().all(|a| (MIN_DIHEDRAL_DEG..=MAX_DIHEDRAL_DEG).contains(&a.to_degrees()))
@@ -63,6 +64,82 @@ fn project_exposed(
         }
     }
     moved
+}
+
+/// The tets around each vertex in compressed rows: the tets containing `v` are
+/// `tets[offsets[v]..offsets[v + 1]]`, in ascending order.
+struct VertexStar {
+    offsets: Vec<u32>,
+    tets: Vec<u32>,
+}
+
+impl VertexStar {
+    /// The stars of the `vertex_count` vertices of `tets`.
+    fn new(vertex_count: usize, tets: &[[u32; 4]]) -> Self {
+        let mut offsets = vec![0u32; vertex_count + 1];
+        for t in tets {
+            for &v in t {
+                offsets[v as usize + 1] += 1;
+            }
+        }
+        for v in 0..vertex_count {
+            offsets[v + 1] += offsets[v];
+        }
+        let mut fill = offsets[..vertex_count].to_vec();
+        let mut star = vec![0u32; offsets[vertex_count] as usize];
+        for (ti, t) in tets.iter().enumerate() {
+            for &v in t {
+                star[fill[v as usize] as usize] = ti as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        Self { offsets, tets: star }
+    }
+
+    /// The tets containing `v`, ascending.
+    fn of(&self, v: u32) -> &[u32] {
+        &self.tets[self.offsets[v as usize] as usize..self.offsets[v as usize + 1] as usize]
+    }
+}
+
+/// What a repair round reads of the topology of its tets: the boundary faces (those
+/// [`TetMesh::new`] would give, in the same order) and the boundary edges not in exactly two of
+/// them. Building only this, instead of a whole [`TetMesh`] with its edges and one-rings, is what
+/// keeps a round cheap; the mesh is built once, from the last round's boundary.
+struct Boundary<'a> {
+    positions: &'a [DVec3],
+    /// The tets as the repair stores them (either orientation).
+    tets: &'a [[u32; 4]],
+    checked: CheckedBoundary,
+    irregular: Vec<([u32; 2], Vec<u32>)>,
+}
+
+impl<'a> Boundary<'a> {
+    /// The boundary of `tets` over `positions`.
+    ///
+    /// # Errors
+    /// As [`TetMesh::new`] on the same arrays.
+    fn new(positions: &'a [DVec3], tets: &'a [[u32; 4]]) -> Result<Self, TetMeshError> {
+        let checked = CheckedBoundary::new(positions, tets)?;
+        let irregular = crate::mesh::irregular_edges(&checked.faces);
+        Ok(Self { positions, tets, checked, irregular })
+    }
+
+    /// The boundary faces.
+    fn faces(&self) -> &[BoundaryFace] {
+        &self.checked.faces
+    }
+
+    /// Whether each vertex is on a boundary face.
+    fn on_boundary(&self) -> Vec<bool> {
+        let mut flags = vec![false; self.positions.len()];
+        for f in self.faces() {
+            for v in f.vertices {
+                flags[v as usize] = true;
+            }
+        }
+        flags
+    }
 }
 
 /// A stuffing whose repair needs tets removed ([`without_removal`]): the mesh as split and
@@ -112,19 +189,21 @@ fn repair_loop(
     let mut touched: Vec<u32> = Vec::new();
     for _ in 0..16 {
         repair.split_vertices += split_pinched_vertices(&mut positions, &mut tets, &mut on_surface);
-        let mesh = TetMesh::new(positions.clone(), tets.clone(), Vec::new())?;
-        let fill = gap_tets(&mesh);
+        let boundary = Boundary::new(&positions, &tets)?;
+        let fill = gap_tets(&boundary);
         if !fill.is_empty() {
             repair.filled_tets += fill.len();
             tets.extend(fill);
             continue;
         }
-        let remove = tets_to_remove(&mesh);
+        let remove = tets_to_remove(&boundary);
         if remove.is_empty() {
             if touched.is_empty() {
-                return Ok(Ok((mesh, repair)));
+                let checked = boundary.checked;
+                return Ok(Ok((TetMesh::from_checked(positions, checked), repair)));
             }
-            repair.projected_vertices = project_exposed(&mut positions, &tets, &mesh, &touched, surface);
+            let on_boundary = boundary.on_boundary();
+            repair.projected_vertices = project_exposed(&mut positions, &tets, &on_boundary, &touched, surface);
             let mesh = TetMesh::new(positions, tets, Vec::new())?;
             return Ok(Ok((mesh, repair)));
         }
@@ -185,21 +264,29 @@ fn repair_loop(
 /// them. All its vertices are already on the surface, so fidelity is kept; it is only used when
 /// its dihedral angles stay within the mesher's bounds and it overlaps no tet (its sector is
 /// empty: no other face of the edge lies inside it).
-fn gap_tets(mesh: &TetMesh) -> Vec<[u32; 4]> {
-    let mut out: Vec<[u32; 4]> = mesh
-        .irregular_boundary_edges()
-        .into_iter()
+fn gap_tets(boundary: &Boundary<'_>) -> Vec<[u32; 4]> {
+    let mut out: Vec<[u32; 4]> = boundary
+        .irregular
+        .iter()
         .filter(|(_, faces)| faces.len() > 2)
-        .filter_map(|([u, v], faces)| best_gap_tet(mesh, u, v, &faces))
+        .filter_map(|&([u, v], ref faces)| best_gap_tet(boundary, u, v, faces))
         .collect();
     out.sort_unstable();
     out.dedup();
+    // The same tet can close the gaps of two edges (listed from each with its vertices in
+    // another order); adding it twice would make its faces shared by three tets.
+    let mut seen = std::collections::HashSet::new();
+    out.retain(|t| {
+        let mut key = *t;
+        key.sort_unstable();
+        seen.insert(key)
+    });
     out
 }
 
 /// The best-shaped gap tet at edge `(u, v)` whose boundary faces are `edge_faces`.
-fn best_gap_tet(mesh: &TetMesh, u: u32, v: u32, edge_faces: &[u32]) -> Option<[u32; 4]> {
-    let p = mesh.positions();
+fn best_gap_tet(boundary: &Boundary<'_>, u: u32, v: u32, edge_faces: &[u32]) -> Option<[u32; 4]> {
+    let p = boundary.positions;
     let (pu, pv) = (p[u as usize], p[v as usize]);
     let axis = (pv - pu).normalize_or_zero();
     let frame_x = axis.any_orthonormal_vector();
@@ -209,11 +296,11 @@ fn best_gap_tet(mesh: &TetMesh, u: u32, v: u32, edge_faces: &[u32]) -> Option<[u
     let mut around: Vec<(f64, u32, bool)> = edge_faces
         .iter()
         .map(|&f| {
-            let face = mesh.boundary_faces()[f as usize];
+            let face = boundary.faces()[f as usize];
             let x = face.vertices.into_iter().find(|&w| w != u && w != v).unwrap_or(u);
             let d = p[x as usize] - pu;
             let angle = d.dot(frame_y).atan2(d.dot(frame_x));
-            let tet = mesh.tets()[face.tet as usize];
+            let tet = boundary.tets[face.tet as usize];
             let inner = tet.into_iter().find(|w| !face.vertices.contains(w)).unwrap_or(u);
             let di = p[inner as usize] - pu;
             let inner_angle = di.dot(frame_y).atan2(di.dot(frame_x));
@@ -259,28 +346,42 @@ const MAX_DIHEDRAL_DEG: f64 = 165.0;
 /// Tets to remove so that non-manifold boundary edges and vertices go away: around each edge in
 /// more than two boundary faces, the smaller face-connected group of the tets sharing the edge;
 /// at each vertex whose boundary faces form several fans, the owners of all but the largest fan.
-fn tets_to_remove(mesh: &TetMesh) -> Vec<u32> {
-    let faces = mesh.boundary_faces();
+fn tets_to_remove(boundary: &Boundary<'_>) -> Vec<u32> {
+    let faces = boundary.faces();
+    let tets = boundary.tets;
     let mut remove = Vec::new();
-    for ([u, v], edge_faces) in mesh.irregular_boundary_edges() {
+    let mut star: Option<VertexStar> = None;
+    for &([u, v], ref edge_faces) in &boundary.irregular {
         if edge_faces.len() > 2 {
-            let around: Vec<u32> = (0..mesh.tet_count() as u32)
-                .filter(|&t| mesh.tets()[t as usize].contains(&u) && mesh.tets()[t as usize].contains(&v))
-                .collect();
-            let groups = groups_by_shared_face(mesh, &around);
+            let star = star.get_or_insert_with(|| VertexStar::new(boundary.positions.len(), tets));
+            let around: Vec<u32> = star.of(u).iter().copied().filter(|&t| tets[t as usize].contains(&v)).collect();
+            let groups = groups_by_shared_face(tets, &around);
             if let Some(smallest) = groups.iter().min_by_key(|g| g.len()) {
                 remove.extend(smallest);
             }
         }
     }
-    // Fans at each vertex.
-    let mut faces_at: Vec<Vec<u32>> = vec![Vec::new(); mesh.vertex_count()];
-    for (f, face) in faces.iter().enumerate() {
+    // Fans at each vertex: the faces around each vertex in compressed rows, ascending.
+    let n = boundary.positions.len();
+    let mut offsets = vec![0u32; n + 1];
+    for face in faces {
         for &v in &face.vertices {
-            faces_at[v as usize].push(f as u32);
+            offsets[v as usize + 1] += 1;
         }
     }
-    for (v, around) in faces_at.iter().enumerate() {
+    for v in 0..n {
+        offsets[v + 1] += offsets[v];
+    }
+    let mut fill = offsets[..n].to_vec();
+    let mut faces_at = vec![0u32; offsets[n] as usize];
+    for (f, face) in faces.iter().enumerate() {
+        for &v in &face.vertices {
+            faces_at[fill[v as usize] as usize] = f as u32;
+            fill[v as usize] += 1;
+        }
+    }
+    for v in 0..n {
+        let around = &faces_at[offsets[v] as usize..offsets[v + 1] as usize];
         let fans = fans(faces, v as u32, around);
         if fans.len() > 1 {
             let largest = fans.iter().enumerate().max_by_key(|(_, f)| f.len()).map_or(0, |(i, _)| i);
@@ -296,23 +397,24 @@ fn tets_to_remove(mesh: &TetMesh) -> Vec<u32> {
     remove
 }
 
-/// Groups of `tets` connected through shared faces (three shared vertices).
-fn groups_by_shared_face(mesh: &TetMesh, tets: &[u32]) -> Vec<Vec<u32>> {
-    let mut group: Vec<usize> = (0..tets.len()).collect();
-    for a in 0..tets.len() {
-        for b in a + 1..tets.len() {
-            let (ta, tb) = (mesh.tets()[tets[a] as usize], mesh.tets()[tets[b] as usize]);
+/// Groups of `around` (indices into `tets`) connected through shared faces (three shared
+/// vertices).
+fn groups_by_shared_face(tets: &[[u32; 4]], around: &[u32]) -> Vec<Vec<u32>> {
+    let mut group: Vec<usize> = (0..around.len()).collect();
+    for a in 0..around.len() {
+        for b in a + 1..around.len() {
+            let (ta, tb) = (tets[around[a] as usize], tets[around[b] as usize]);
             if ta.iter().filter(|x| tb.contains(x)).count() == 3 {
                 let (ra, rb) = (root(&mut group, a), root(&mut group, b));
                 group[ra] = rb;
             }
         }
     }
-    collect_groups(&mut group, tets)
+    collect_groups(&mut group, around)
 }
 
 /// The fans of boundary faces around vertex `v`: groups joined through edges at `v`.
-fn fans(faces: &[crate::mesh::BoundaryFace], v: u32, around: &[u32]) -> Vec<Vec<u32>> {
+fn fans(faces: &[BoundaryFace], v: u32, around: &[u32]) -> Vec<Vec<u32>> {
     let mut group: Vec<usize> = (0..around.len()).collect();
     for a in 0..around.len() {
         for b in a + 1..around.len() {
@@ -353,28 +455,11 @@ fn collect_groups(group: &mut [usize], items: &[u32]) -> Vec<Vec<u32>> {
 /// copies inherit the flag.
 pub(crate) fn split_pinched_vertices(positions: &mut Vec<DVec3>, tets: &mut [[u32; 4]], on_surface: &mut Vec<bool>) -> usize {
     let n = positions.len();
-    // Vertex → tets incidence (CSR).
-    let mut offsets = vec![0u32; n + 1];
-    for t in tets.iter() {
-        for &v in t {
-            offsets[v as usize + 1] += 1;
-        }
-    }
-    for v in 0..n {
-        offsets[v + 1] += offsets[v];
-    }
-    let mut fill = offsets[..n].to_vec();
-    let mut star = vec![0u32; offsets[n] as usize];
-    for (ti, t) in tets.iter().enumerate() {
-        for &v in t {
-            star[fill[v as usize] as usize] = ti as u32;
-            fill[v as usize] += 1;
-        }
-    }
+    let star = VertexStar::new(n, tets);
     let mut added = 0;
     let mut group = Vec::new();
     for v in 0..n {
-        let around = &star[offsets[v] as usize..offsets[v + 1] as usize];
+        let around = star.of(v as u32);
         if around.len() < 2 || !on_surface[v] {
             continue;
         }

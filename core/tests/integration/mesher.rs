@@ -71,6 +71,16 @@ fn every_test_mesh_at_100k_tets() {
     }
 }
 
+/// The cheburashka at the default size: two non-manifold edges there are closed by the same
+/// gap tet, which must be added once (twice, its faces were shared by three tets).
+#[test]
+fn cheburashka_at_the_default_size() {
+    let input = shared_mesh("cheburashka");
+    let target = MesherOptions::default();
+    let MeshSize::Tets(tets) = target.size else { unreachable!("the default size is a tet count") };
+    check("cheburashka", &input, &mesh_to(&input, tets), tets);
+}
+
 /// The slow tier (`bash scripts/test.sh --slow`): every test mesh meshed at 500k and 1M tets.
 #[test]
 #[ignore = "slow tier: bash scripts/test.sh --slow"]
