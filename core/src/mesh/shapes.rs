@@ -79,6 +79,49 @@ pub fn icosphere(radius: f64, subdivisions: u32) -> TriMesh {
     TriMesh::from_triangles(&positions, &indices).expect("an icosphere is a valid mesh")
 }
 
+/// The closed box [0, `size`] with each face split into a grid of quads (two triangles each),
+/// `divisions` along x, y and z, wound counter-clockwise seen from outside: a block whose
+/// per-vertex bake resolves that spacing on every face (a bake's radiance lives on the input
+/// mesh's vertices). Vertex (i, j, k) of the surface lattice is at `size` × (i, j, k) /
+/// `divisions`.
+///
+/// # Panics
+/// When a division is 0 or a side of `size` is not finite and > 0.
+#[must_use]
+pub fn gridded_box(size: DVec3, divisions: [usize; 3]) -> TriMesh {
+    assert!(divisions.iter().all(|&d| d > 0), "at least one division per axis");
+    assert!(size.is_finite() && size.min_element() > 0.0, "finite sides > 0");
+    let mut index: HashMap<[usize; 3], u32> = HashMap::new();
+    let mut positions: Vec<[f64; 3]> = Vec::new();
+    let mut vertex = |l: [usize; 3]| {
+        *index.entry(l).or_insert_with(|| {
+            positions.push(std::array::from_fn(|a| size[a] * l[a] as f64 / divisions[a] as f64));
+            (positions.len() - 1) as u32
+        })
+    };
+    let mut indices = Vec::new();
+    for axis in 0..3 {
+        // (u, v, axis) is right-handed, so (0, 0), (1, 0), (1, 1), (0, 1) in (u, v) faces +axis.
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [0, divisions[axis]] {
+            for i in 0..divisions[u] {
+                for j in 0..divisions[v] {
+                    let mut quad = [(0, 0), (1, 0), (1, 1), (0, 1)].map(|(di, dj)| {
+                        let mut l = [0; 3];
+                        (l[axis], l[u], l[v]) = (side, i + di, j + dj);
+                        vertex(l)
+                    });
+                    if side == 0 {
+                        quad.reverse();
+                    }
+                    indices.extend([quad[0], quad[1], quad[2], quad[0], quad[2], quad[3]]);
+                }
+            }
+        }
+    }
+    TriMesh::from_triangles(&positions, &indices).expect("a gridded box is a valid mesh")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -98,5 +141,19 @@ mod tests {
         }
         let fine = icosphere(1.0, 5);
         assert!((fine.area() / (4.0 * std::f64::consts::PI) - 1.0).abs() < 2e-3);
+    }
+
+    #[test]
+    fn a_gridded_box_is_closed_with_its_lattice_area_and_volume() {
+        let m = gridded_box(DVec3::new(3.0, 2.0, 1.5), [6, 4, 3]);
+        // The surface lattice: (a+1)(b+1)(c+1) − (a−1)(b−1)(c−1) vertices, 4(ab + bc + ca)
+        // triangles.
+        assert_eq!(m.positions().len(), 7 * 5 * 4 - 5 * 3 * 2);
+        assert_eq!(m.triangles().len(), 4 * (6 * 4 + 4 * 3 + 3 * 6));
+        assert!(m.is_closed());
+        assert_eq!(m.flipped_faces(), 0);
+        assert!((m.area() - 2.0 * (6.0 + 3.0 + 4.5)).abs() < 1e-12);
+        assert!((m.signed_volume() - 9.0).abs() < 1e-12);
+        assert!(m.positions().iter().any(|p| (*p - DVec3::new(0.5, 2.0, 1.0)).length() < 1e-15));
     }
 }
