@@ -9,6 +9,7 @@ mod dipole;
 mod edit;
 mod fig7;
 mod inverse;
+mod inverse_quality;
 mod mesh;
 mod multires;
 mod polygrid;

@@ -1,5 +1,5 @@
-//! `transcut bench inverse` on a tiny block: every field is there and the numbers agree with
-//! each other (no timings are asserted).
+//! `transcut bench inverse` on a tiny block, with and without the sweep: every field is there
+//! and the numbers agree with each other (no timings are asserted).
 
 use std::process::Command;
 
@@ -38,5 +38,71 @@ fn the_inverse_suite_reports_both_optimisers_and_the_marble_estimate() {
     let e = &r["marble_estimate"];
     assert!((e["seconds"].as_f64().unwrap() / expected - 1.0).abs() < 1e-9, "{e}");
     assert_eq!(e["paper_hours"], 11.0);
+    // TransCut's rendering of the default run's grid and its homogeneous fit, per light.
+    let rendered = &r["rendered_lit_face_rms"];
+    assert_eq!(rendered["tets"], 60_000);
+    for fit in ["recovered", "homogeneous"] {
+        for light in ["sun", "spot"] {
+            let v = rendered[fit][light].as_f64().unwrap();
+            assert!(v > 0.0 && v < 1.0, "{fit} under the {light}: {v}");
+        }
+    }
+    // Each fit's κ and μ by layer of cells (three at 0.5 mm) and its held-out appearance.
+    for method in methods {
+        let q = &method["quality"];
+        assert_eq!(q["depth"].as_array().unwrap().len(), 3);
+        assert!(q["held_out_point_rms"].as_f64().unwrap() > 0.0);
+    }
     assert_eq!(e["warm_start_bytes"].as_u64().unwrap(), 48 * 16 * 256 * 256 * 20);
+}
+
+#[test]
+fn the_sweep_reports_every_pattern_count_and_the_noisy_repeat() {
+    let out = Command::new(env!("CARGO_BIN_EXE_transcut"))
+        .args(["bench", "inverse", "--inverse-nodes", "6,6,4", "--inverse-iterations", "3", "--inverse-sweep"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let sweep = &r["sweep"];
+    let entries = sweep["patterns"].as_array().unwrap();
+    let counts: Vec<u64> = entries.iter().map(|e| e["images"].as_u64().unwrap()).collect();
+    assert_eq!(counts, [1, 4, 9, 16, 25, 64]);
+    for e in entries {
+        let m = e["images"].as_u64().unwrap();
+        // One solve per image per evaluation or gradient.
+        assert_eq!(e["forward_solves"].as_u64().unwrap() % m, 0, "{e}");
+        assert_eq!(e["adjoint_solves"].as_u64().unwrap() % m, 0, "{e}");
+        let q = &e["quality"];
+        for k in ["held_out_random_rms", "held_out_point_rms"] {
+            let v = q[k].as_f64().unwrap();
+            assert!(v > 0.0 && v < 1.0, "{k} {v}");
+        }
+        // Three layers of cells at 0.5 mm from the lit face; the top 1 mm is the first two.
+        let depth = q["depth"].as_array().unwrap();
+        let depths: Vec<f64> = depth.iter().map(|d| d["depth_mm"].as_f64().unwrap()).collect();
+        assert_eq!(depths, [0.25, 0.75, 1.25]);
+        assert_eq!(q["top_1mm"]["depth_mm"], 0.75);
+        // The top 1 mm's squared error is a weighted mean of its two layers': between them.
+        for k in ["kappa_rms", "mu_rms"] {
+            for c in 0..3 {
+                let layer = |i: usize| depth[i][k][c].as_f64().unwrap();
+                let top = q["top_1mm"][k][c].as_f64().unwrap();
+                let (lo, hi) = (layer(0).min(layer(1)), layer(0).max(layer(1)));
+                assert!(top >= lo - 1e-12 && top <= hi + 1e-12, "{k}[{c}]: top {top} against layers {lo} … {hi}");
+            }
+        }
+    }
+    // The 16-pattern entry is the comparison's default run.
+    let default = &r["methods"][0];
+    assert_eq!(entries[3]["forward_solves"], default["forward_solves"]);
+    assert_eq!(entries[3]["quality"], default["quality"]);
+    // The noisy repeat: 16 images at 1% noise, λ from the discrepancy principle's decades.
+    let noisy = &sweep["noisy"];
+    assert_eq!(noisy["images"], 16);
+    assert_eq!(noisy["noise_rms"], 0.01);
+    for l in noisy["lambda"].as_array().unwrap() {
+        let decades = (1e-2 / l.as_f64().unwrap()).log10();
+        assert!((decades - decades.round()).abs() < 1e-9 && (0.0..8.0).contains(&decades.round()), "λ {l}");
+    }
 }

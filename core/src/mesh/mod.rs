@@ -27,7 +27,7 @@ pub use incidence::Incidence;
 pub use obj::{load_obj, load_obj_uv_map, load_obj_with, parse_obj, parse_obj_uv_map, parse_obj_with, UvMap};
 pub use ply::{load_ply, load_ply_with, parse_ply, parse_ply_with};
 pub use quality::{dihedral_angles, dihedral_cotangents, tet_volume, QualityReport};
-pub use shapes::icosphere;
+pub use shapes::{gridded_box, icosphere};
 pub(crate) use tetmesh::{irregular_edges, CheckedBoundary};
 pub use tetmesh::{BoundaryFace, BoundaryTopology, TetMesh, TetMeshError};
 pub use trimesh::{area_weighted_normals, TriMesh, WeldOptions, MAX_COORDINATE};

@@ -79,6 +79,49 @@ pub fn icosphere(radius: f64, subdivisions: u32) -> TriMesh {
     TriMesh::from_triangles(&positions, &indices).expect("an icosphere is a valid mesh")
 }
 
+/// The closed box [0, `size`] with each face split into a grid of quads (two triangles each),
+/// `divisions` along x, y and z, wound counter-clockwise seen from outside: a block whose
+/// per-vertex bake resolves that spacing on every face (a bake's radiance lives on the input
+/// mesh's vertices). Vertex (i, j, k) of the surface lattice is at `size` × (i, j, k) /
+/// `divisions`.
+///
+/// # Panics
+/// When a division is 0 or a side of `size` is not finite and > 0.
+#[must_use]
+pub fn gridded_box(size: DVec3, divisions: [usize; 3]) -> TriMesh {
+    assert!(divisions.iter().all(|&d| d > 0), "at least one division per axis");
+    assert!(size.is_finite() && size.min_element() > 0.0, "finite sides > 0");
+    let mut index: HashMap<[usize; 3], u32> = HashMap::new();
+    let mut positions: Vec<[f64; 3]> = Vec::new();
+    let mut vertex = |l: [usize; 3]| {
+        *index.entry(l).or_insert_with(|| {
+            positions.push(std::array::from_fn(|a| size[a] * l[a] as f64 / divisions[a] as f64));
+            (positions.len() - 1) as u32
+        })
+    };
+    let mut indices = Vec::new();
+    for axis in 0..3 {
+        // (u, v, axis) is right-handed, so (0, 0), (1, 0), (1, 1), (0, 1) in (u, v) faces +axis.
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [0, divisions[axis]] {
+            for i in 0..divisions[u] {
+                for j in 0..divisions[v] {
+                    let mut quad = [(0, 0), (1, 0), (1, 1), (0, 1)].map(|(di, dj)| {
+                        let mut l = [0; 3];
+                        (l[axis], l[u], l[v]) = (side, i + di, j + dj);
+                        vertex(l)
+                    });
+                    if side == 0 {
+                        quad.reverse();
+                    }
+                    indices.extend([quad[0], quad[1], quad[2], quad[0], quad[2], quad[3]]);
+                }
+            }
+        }
+    }
+    TriMesh::from_triangles(&positions, &indices).expect("a gridded box is a valid mesh")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

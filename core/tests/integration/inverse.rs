@@ -1,16 +1,25 @@
-//! Inverse diffusion (issue 19): the adjoint gradient against central differences and a Taylor
-//! test, the block model against the polygrid system's independent code, a homogeneous fit to
-//! images from a 2× finer independent grid, a heterogeneous fit that never goes uphill and
-//! predicts held-out lighting, and every named input error.
+//! Inverse diffusion: the adjoint gradient against central differences and a Taylor test, the
+//! block model against the polygrid system's independent code, a homogeneous fit to images from
+//! a 2× finer independent grid, a heterogeneous fit that never goes uphill and predicts
+//! held-out lighting, and every named input error.
 //!
-//! Longer cases run with `TRANSCUT_INVERSE_LONG=1`.
+//! The slow tier (`#[ignore]`d, named `slow_*`: `cargo test -p transcut --test integration --
+//! --ignored inverse::slow_`) holds the cases that take minutes: L-BFGS against paper mode's forward
+//! solves, and the full-size round trip.
+
+use std::sync::OnceLock;
 
 use glam::DVec3;
+use transcut::gpu::Backend;
 use transcut::inverse::{
-    acquire, check_gradient, synthesize, to_voxel_grid, AcquireOptions, Acquisition, CellMedia, Channels, InverseError,
+    acquire, check_gradient, synthesize, to_voxel_grid, AcquireOptions, Acquired, Acquisition, CellMedia, Channels, InverseError,
     IterationRecord, Lambda, Method, Observation, Pattern, Setup, SolveSettings, StopReason, SynthOptions,
 };
+use transcut::light::Light;
+use transcut::mesh::gridded_box;
 use transcut::progress::Progress;
+use transcut::volume::{Coefficients, VoxelGrid};
+use transcut::{bake, BakeOptions, MediumSource, Object, Scene, Shape, TransCutOptions};
 
 /// A deterministic pseudo-random sequence in [0, 1) (xorshift64*), so the test needs no RNG.
 fn rng(seed: u64) -> impl FnMut() -> f64 {
@@ -139,7 +148,7 @@ const HOMOGENEOUS: ([f64; 3], [f64; 3]) = ([0.1, 0.15, 0.2], [0.5, 0.6, 0.7]);
 
 /// The homogeneous case: a 4 × 4 × 2 mm block at h = 0.25 mm, 16 images of the paper's 4 × 4
 /// regions from the 2× finer independent grid.
-fn homogeneous_case(observation: Observation, method: Method) -> (transcut::inverse::Acquired, Acquisition) {
+fn homogeneous_case(observation: Observation, method: Method) -> (Acquired, Acquisition) {
     let setup = Setup { dims: [17, 17, 9], spacing_mm: 0.25, eta: 1.3, observation };
     let patterns = Pattern::grid_all(4, setup.face_size_mm(), [1.0; 3]);
     let t = std::time::Instant::now();
@@ -230,29 +239,32 @@ fn random_patterns(n: usize, size: [f64; 2], seed: u64) -> Vec<Pattern> {
         .collect()
 }
 
-/// Whether the long cases run (`TRANSCUT_INVERSE_LONG=1`).
-fn long() -> bool {
-    std::env::var_os("TRANSCUT_INVERSE_LONG").is_some_and(|v| v != "0")
+/// The veined block's acquisition: 3 × 3 × 1.5 mm at h = 0.25 mm (13 × 13 × 7 nodes, 864
+/// cells, 5,184 parameters), back-lit, 16 images from the 2× finer independent grid; L-BFGS,
+/// λ = 1e-4, 25 iterations per channel. Fitted once and shared by the tests that check it
+/// (with the fit's seconds).
+fn veined_fit() -> &'static (Setup, Acquired, f64) {
+    static FIT: OnceLock<(Setup, Acquired, f64)> = OnceLock::new();
+    FIT.get_or_init(|| {
+        let setup = Setup { dims: [13, 13, 7], spacing_mm: 0.25, eta: 1.3, observation: Observation::BackLit };
+        let patterns = Pattern::grid_all(4, setup.face_size_mm(), [1.0; 3]);
+        let images = synthesize(&setup, &patterns, &veined(1.5), SynthOptions::default()).unwrap();
+        let mut model = Acquisition::new(setup.clone(), &patterns, images, None).unwrap();
+        let options = AcquireOptions { max_iterations: 25, lambda: Lambda::Given(1e-4), ..AcquireOptions::default() };
+        let t = std::time::Instant::now();
+        let fit = acquire(&mut model, &options, &Progress::none()).unwrap();
+        (setup, fit, t.elapsed().as_secs_f64())
+    })
 }
 
 #[test]
 fn a_veined_block_is_fitted_without_going_uphill_and_predicts_held_out_light() {
-    // 3 × 3 × 1.5 mm at h = 0.25 mm (13 × 13 × 7 nodes, 864 cells, 5,184 parameters),
-    // back-lit, 16 images from the 2× finer independent grid; L-BFGS, λ = 1e-4, 25
-    // iterations per channel. Held out: 8 random patterns, rendered by the fine grid. The
-    // issue's bounds: training misfit ≤ 1% RMS, held-out appearance ≤ 3% RMS.
-    let setup = Setup { dims: [13, 13, 7], spacing_mm: 0.25, eta: 1.3, observation: Observation::BackLit };
+    // [`veined_fit`]; held out: 8 random patterns, rendered by the fine grid. The issue's
+    // bounds: training misfit ≤ 1% RMS, held-out appearance ≤ 3% RMS.
+    let (setup, fit, seconds) = veined_fit();
     let size = setup.face_size_mm();
-    let patterns = Pattern::grid_all(4, size, [1.0; 3]);
-    let truth = veined(1.5);
-    let images = synthesize(&setup, &patterns, &truth, SynthOptions::default()).unwrap();
     let held = random_patterns(8, size, 5);
-    let held_images = synthesize(&setup, &held, &truth, SynthOptions::default()).unwrap();
-    let mut model = Acquisition::new(setup.clone(), &patterns, images, None).unwrap();
-    let options = AcquireOptions { max_iterations: 25, lambda: Lambda::Given(1e-4), ..AcquireOptions::default() };
-    let t = std::time::Instant::now();
-    let fit = acquire(&mut model, &options, &Progress::none()).unwrap();
-    let seconds = t.elapsed().as_secs_f64();
+    let held_images = synthesize(setup, &held, &veined(1.5), SynthOptions::default()).unwrap();
     assert!(never_increases(&fit.history), "the objective rose");
     // Training misfit: the homogeneous fit's against the per-cell fit's.
     let last =
@@ -261,7 +273,7 @@ fn a_veined_block_is_fitted_without_going_uphill_and_predicts_held_out_light() {
     let het = fit.evaluation.misfit_rms();
     // Held-out appearance: the recovered and the homogeneous media, each through the coarse
     // model, against the fine grid's images of the truth.
-    let mut held_model = Acquisition::new(setup, &held, held_images.clone(), None).unwrap();
+    let mut held_model = Acquisition::new(setup.clone(), &held, held_images.clone(), None).unwrap();
     let cells = held_model.grid().cell_count();
     let pred = held_model.predict(&fit.media).unwrap();
     let pred_hom = held_model.predict(&CellMedia::uniform(cells, fit.homogeneous.0, fit.homogeneous.1)).unwrap();
@@ -276,6 +288,107 @@ fn a_veined_block_is_fitted_without_going_uphill_and_predicts_held_out_light() {
     }
     assert!(e_het <= 0.03, "held-out appearance {e_het:.4} RMS");
     assert!(e_het < e_hom, "held-out: per-cell {e_het:.4} against homogeneous {e_hom:.4}");
+}
+
+/// The two lights of the rendered comparison on a block of `size` mm lit on its top face: a
+/// sun straight down (the whole face), and a spot from twice the face's width above, aimed
+/// straight down at (0.5, 0.7) of the face with a cone a quarter of the width across there
+/// (light that spreads sideways under the face, across the vein).
+fn lit_face_lights(size: DVec3) -> [(&'static str, Light); 2] {
+    let height = 2.0 * size.x;
+    [
+        ("sun", Light::Directional { direction: DVec3::NEG_Z, irradiance: [1.0; 3], angular_diameter_deg: 0.0 }),
+        (
+            "spot",
+            Light::Spot {
+                position: DVec3::new(0.5 * size.x, 0.7 * size.y, size.z + height),
+                direction: DVec3::NEG_Z,
+                intensity: [1.0; 3],
+                cone_half_angle_deg: (0.125 * size.x / height).atan().to_degrees(),
+                blend: 0.2,
+            },
+        ),
+    ]
+}
+
+/// Lo at the top-face vertices of the box [0, `size`] mm (faces gridded at `divisions`) filled
+/// with `grid` (η 1.3, g 0) under `light`: the TransCut bake of the scene, `tets` tets, on the
+/// CPU, solves to 1e-10.
+fn lit_face_radiance(size: DVec3, divisions: [usize; 3], grid: VoxelGrid, light: Light, tets: usize) -> Vec<[f64; 3]> {
+    let mesh = gridded_box(size, divisions);
+    let top: Vec<bool> =
+        mesh.user_to_internal().iter().map(|&v| (mesh.positions()[v as usize].z - size.z).abs() < 1e-9 * size.z).collect();
+    let object = Object::with_shape("block", Shape::Surface(mesh), MediumSource::Voxels { grid, eta: 1.3, g: 0.0 }, 1.0);
+    let options = BakeOptions::with_method(TransCutOptions {
+        tets,
+        tolerance: 1e-10,
+        backend: Some(Backend::Cpu),
+        ..TransCutOptions::default()
+    });
+    let baked = bake(&Scene { objects: vec![object], lights: vec![light] }, &options).unwrap();
+    baked.objects[0].radiance.iter().zip(&top).filter(|(_, &t)| t).map(|(l, _)| *l).collect()
+}
+
+/// Relative RMS of TransCut's Lo over the lit face of the block of `setup`, filled with `media`
+/// on the fit's cells, against the same block filled with `truth` sampled at the 2× finer
+/// cells the images were synthesised on; one per light of [`lit_face_lights`].
+fn rendered_lit_face_errors(
+    setup: &Setup,
+    truth: &(dyn Fn(DVec3) -> ([f64; 3], [f64; 3]) + Sync),
+    media: &CellMedia,
+    tets: usize,
+) -> Vec<(&'static str, f64)> {
+    let grid = transcut::inverse::BlockGrid::new(setup.dims, setup.spacing_mm).unwrap();
+    let cells = grid.cell_dims();
+    let size = DVec3::from(cells.map(|c| c as f64 * setup.spacing_mm));
+    let fine = VoxelGrid::from_fn(cells.map(|c| 2 * c as u32), DVec3::ZERO, DVec3::splat(0.5 * setup.spacing_mm), |p| {
+        let (a, s) = truth(p);
+        Coefficients::new(a, s)
+    })
+    .unwrap();
+    let recovered = to_voxel_grid(&grid, media, DVec3::ZERO, 1.0).unwrap();
+    lit_face_lights(size)
+        .into_iter()
+        .map(|(name, light)| {
+            let want = lit_face_radiance(size, cells, fine.clone(), light.clone(), tets);
+            let got = lit_face_radiance(size, cells, recovered.clone(), light, tets);
+            (name, rms_relative(&[got], &[want], None))
+        })
+        .collect()
+}
+
+#[test]
+fn the_recovered_block_renders_closer_to_the_truth_than_the_homogeneous_fit() {
+    // [`veined_fit`]'s cells, its homogeneous fit, and the truth on the fit's cells (sampled at
+    // their centres), each as the medium of the block meshed with 30k tets and baked by
+    // TransCut under a sun and a spot, against the truth on the synthesis's fine cells:
+    // relative RMS of Lo over the lit face. The comparison resolves far less than the 5% the
+    // recovered grid is to be held to: the truth on the coarse cells is within 1%. Here the
+    // recovered grid renders closer than the homogeneous fit under each light, but not within
+    // 5% under the sun (measured 37%): back-lit images are transmission, the same for a
+    // medium mirrored in depth (reciprocity), so the fit cannot place the skin under the lit
+    // face (its σ′s rises at both faces) and the lit face's albedo comes out low. On the
+    // full-size block (`slow_the_round_trip_at_full_size`'s fit, 60k tets) even the ordering
+    // fails: recovered 8.3% (sun) and 18.2% (spot), homogeneous 8.2% and 17.0%.
+    let (setup, fit, _) = veined_fit();
+    let t = std::time::Instant::now();
+    let truth = veined(1.5);
+    let grid = transcut::inverse::BlockGrid::new(setup.dims, setup.spacing_mm).unwrap();
+    let centres: Vec<([f64; 3], [f64; 3])> = (0..grid.cell_count()).map(|c| truth(DVec3::from(grid.cell_centre(c)))).collect();
+    let coarse =
+        CellMedia { sigma_a: centres.iter().map(|m| m.0).collect(), sigma_s_prime: centres.iter().map(|m| m.1).collect() };
+    let cells = grid.cell_count();
+    let het = rendered_lit_face_errors(setup, &truth, &fit.media, 30_000);
+    let hom = rendered_lit_face_errors(setup, &truth, &CellMedia::uniform(cells, fit.homogeneous.0, fit.homogeneous.1), 30_000);
+    let own = rendered_lit_face_errors(setup, &truth, &coarse, 30_000);
+    eprintln!(
+        "rendered lit face, relative RMS: recovered {het:.4?}, homogeneous {hom:.4?}, truth on the cells {own:.4?} (goal for the recovered: 0.05); {:.1} s",
+        t.elapsed().as_secs_f64()
+    );
+    for ((name, e_het), ((_, e_hom), (_, e_own))) in het.iter().zip(hom.iter().zip(&own)) {
+        assert!(*e_own <= 0.01, "{name}: the truth on the fit's cells renders {e_own:.4} from the fine truth");
+        assert!(e_het < e_hom, "{name}: recovered {e_het:.4} against homogeneous {e_hom:.4}");
+    }
 }
 
 #[test]
@@ -340,7 +453,7 @@ fn the_recovered_cells_are_a_voxel_grid_that_reads_back() {
     let g = transcut::inverse::BlockGrid::new([5, 4, 3], 0.5).unwrap();
     let media = CellMedia::uniform(g.cell_count(), SKIM.0, SKIM.1);
     let v = to_voxel_grid(&g, &media, DVec3::ZERO, 1.0).unwrap();
-    let back = transcut::volume::VoxelGrid::from_bytes(&v.to_bytes()).unwrap();
+    let back = VoxelGrid::from_bytes(&v.to_bytes()).unwrap();
     assert_eq!(back.dims(), [4, 3, 2]);
     let s = back.sample(DVec3::new(1.0, 0.7, 0.5));
     assert!((s.sigma_s_prime[1] - 1.3).abs() < 1e-6);
@@ -348,14 +461,10 @@ fn the_recovered_cells_are_a_voxel_grid_that_reads_back() {
 }
 
 #[test]
-fn lbfgs_needs_fewer_forward_solves_than_paper_mode() {
+#[ignore = "slow tier: minutes; run with --ignored slow_"]
+fn slow_lbfgs_needs_fewer_forward_solves_than_paper_mode() {
     // The veined block to 3% RMS training misfit per channel by each optimiser (design note
-    // P10: the default should need at most a third of paper mode's solves). Long: runs with
-    // TRANSCUT_INVERSE_LONG=1.
-    if !long() {
-        eprintln!("skipped: set TRANSCUT_INVERSE_LONG=1");
-        return;
-    }
+    // P10: the default should need at most a third of paper mode's solves).
     let setup = Setup { dims: [13, 13, 7], spacing_mm: 0.25, eta: 1.3, observation: Observation::BackLit };
     let patterns = Pattern::grid_all(4, setup.face_size_mm(), [1.0; 3]);
     let images = synthesize(&setup, &patterns, &veined(1.5), SynthOptions::default()).unwrap();
@@ -437,17 +546,14 @@ fn with_one_percent_noise_the_discrepancy_principle_picks_lambda_and_held_out_li
 }
 
 #[test]
-fn the_issues_round_trip_at_full_size() {
+#[ignore = "slow tier: minutes; run with --ignored slow_"]
+fn slow_the_round_trip_at_full_size() {
     // The issue's synthetic round trip: 40 × 40 × 12 nodes at 0.5 mm, marble (η = 1.3) with a
     // vein of 5× σa and a 1 mm skin of 1.5× σ′s, 16 images back-lit from the 2× finer grid;
     // L-BFGS, λ = 1e-4, 40 iterations per channel; the issue's bounds: training misfit ≤ 1%
     // RMS, held-out appearance (8 random patterns) ≤ 3% RMS. Measured on the shared 2-core
     // machine: training 0.09/0.13/0.19%, held-out 7.2% (homogeneous) → 1.1%, 227 s for 164
-    // iterations (1.4 s each), synthesis 30 s. Long: TRANSCUT_INVERSE_LONG=1.
-    if !long() {
-        eprintln!("skipped: set TRANSCUT_INVERSE_LONG=1");
-        return;
-    }
+    // iterations (1.4 s each), synthesis 30 s.
     let marble = ([0.0021, 0.0041, 0.0071], [2.19, 2.62, 3.0]);
     let setup = Setup { dims: [40, 40, 12], spacing_mm: 0.5, eta: 1.3, observation: Observation::BackLit };
     let size = setup.face_size_mm();
@@ -529,7 +635,7 @@ fn grey_images_fit_one_channel_and_copy_it() {
         }
     }
     assert!(grey.history.iter().all(|h| h.channel == 0));
-    let iterations = |f: &transcut::inverse::Acquired| f.history.iter().filter(|h| h.iteration > 0).count();
+    let iterations = |f: &Acquired| f.history.iter().filter(|h| h.iteration > 0).count();
     assert_eq!(3 * iterations(&grey), iterations(&rgb));
     // The same media give the same misfit, to the solves' accuracy (each channel's final
     // solve is warm-started from where its own fit left it).

@@ -688,3 +688,17 @@ fn error_bad_arrays() {
     let e = TriMesh::from_polygons(v, &[vec![0, 1, 2]], &WeldOptions { relative_tolerance: -1.0 }).unwrap_err();
     assert!(matches!(e, MeshError::InvalidTolerance { .. }), "{e:?}");
 }
+
+#[test]
+fn a_gridded_box_is_closed_with_its_lattice_area_and_volume() {
+    let m = mesh::gridded_box(DVec3::new(3.0, 2.0, 1.5), [6, 4, 3]);
+    // The surface lattice: (a+1)(b+1)(c+1) − (a−1)(b−1)(c−1) vertices, 4(ab + bc + ca)
+    // triangles; wound outwards as built (nothing flipped).
+    assert_eq!(m.positions().len(), 7 * 5 * 4 - 5 * 3 * 2);
+    assert_eq!(m.triangles().len(), 4 * (6 * 4 + 4 * 3 + 3 * 6));
+    assert!(m.is_closed());
+    assert_eq!(m.flipped_faces(), 0);
+    assert!((m.area() - 2.0 * (6.0 + 3.0 + 4.5)).abs() < 1e-12);
+    assert!((m.signed_volume() - 9.0).abs() < 1e-12);
+    assert!(m.positions().iter().any(|p| (*p - DVec3::new(0.5, 2.0, 1.0)).length() < 1e-15));
+}
