@@ -129,7 +129,8 @@ const CLI: Table = &[
     ("bench/dipole", &["bench/args", "bench/stats"]),
     ("bench/polygrid", &["bench/args", "bench/stats"]),
     ("bench/prt", &["bench/args", "bench/stats"]),
-    ("bench/inverse", &["bench/args"]),
+    ("bench/inverse_quality", &[]),
+    ("bench/inverse", &["bench/args", "bench/inverse_quality"]),
     ("bench/radiosity_coupled", &["bench/stats", "method_args", "scene_file"]),
     ("bench/radiosity", &["bench/args", "bench/radiosity_coupled", "bench/stats"]),
     (
