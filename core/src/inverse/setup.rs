@@ -100,6 +100,68 @@ impl Pattern {
     }
 }
 
+impl Pattern {
+    /// q at each node of the face of an `nx` × `ny` node grid at spacing `h` refined `refine`
+    /// times (((nx − 1)·refine + 1) × ((ny − 1)·refine + 1) nodes at h/refine), as the same
+    /// light: a rectangle by its exact overlaps on the fine grid, and per-node values as the
+    /// piecewise-constant q on the coarse dual cells they stand for, averaged over each fine
+    /// dual cell (the same power on both grids).
+    ///
+    /// # Errors
+    /// As [`Pattern::node_values`] on the coarse grid.
+    pub fn refined_node_values(
+        &self,
+        index: usize,
+        nx: usize,
+        ny: usize,
+        h: f64,
+        refine: usize,
+    ) -> Result<Vec<[f64; 3]>, InverseError> {
+        let (fx, fy) = ((nx - 1) * refine + 1, (ny - 1) * refine + 1);
+        match self {
+            Self::Rect { .. } => self.node_values(index, fx, fy, h / refine as f64),
+            Self::Nodes(_) => {
+                let coarse = self.node_values(index, nx, ny, h)?;
+                let (wx, wy) = (dual_overlaps(nx, refine), dual_overlaps(ny, refine));
+                Ok((0..fx * fy)
+                    .map(|p| {
+                        let mut q = [0.0; 3];
+                        for &(k, a) in &wx[p % fx] {
+                            for &(l, b) in &wy[p / fx] {
+                                for (q, c) in q.iter_mut().zip(coarse[k + nx * l]) {
+                                    *q += a * b * c;
+                                }
+                            }
+                        }
+                        q
+                    })
+                    .collect())
+            }
+        }
+    }
+}
+
+/// Along one axis of `n` coarse nodes refined `refine` times: for each fine node, the coarse
+/// dual cells its own dual cell overlaps and the fraction of it in each (one or two cells,
+/// fractions summing to 1). Dual cells are clipped to the face, in units of the fine spacing:
+/// fine node i covers [i − ½, i + ½], coarse node k covers [(k − ½)·refine, (k + ½)·refine].
+fn dual_overlaps(n: usize, refine: usize) -> Vec<Vec<(usize, f64)>> {
+    let last = ((n - 1) * refine) as f64;
+    let r = refine as f64;
+    (0..=(n - 1) * refine)
+        .map(|i| {
+            let (a, b) = ((i as f64 - 0.5).max(0.0), (i as f64 + 0.5).min(last));
+            (0..n)
+                .filter_map(|k| {
+                    let (lo, hi) = (((k as f64 - 0.5) * r).max(0.0), ((k as f64 + 0.5) * r).min(last));
+                    let overlap = b.min(hi) - a.max(lo);
+                    (overlap > 0.0).then(|| (k, overlap / (b - a)))
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// An error naming the first pixel that is not finite (or negative, with `nonnegative`).
 pub(crate) fn check_pixels(what: &'static str, index: usize, v: &[[f64; 3]], nonnegative: bool) -> Result<(), InverseError> {
     for (pixel, p) in v.iter().enumerate() {
@@ -176,6 +238,44 @@ mod tests {
         q[0] = [1.0, 0.0, 0.0];
         let m = front_mask(&q, nx, ny, 0.5, 1.0);
         assert_eq!(m, vec![false, false, false, true, true, true, true]);
+    }
+
+    #[test]
+    fn per_node_light_refined_keeps_its_power_and_a_dual_cell_rectangle() {
+        // A rectangle that is exactly coarse node (3, 2)'s dual cell lights that node alone on
+        // the coarse grid; as per-node values refined it must be the same rectangle on the
+        // fine grid, whose fine node values come from exact overlaps.
+        let (nx, ny, h) = (7, 5, 0.5);
+        let rect = Pattern::Rect { rect: [1.25, 1.75, 0.75, 1.25], q: [2.0, 1.0, 0.5] };
+        let nodes = Pattern::Nodes(rect.node_values(0, nx, ny, h).unwrap());
+        assert_eq!(nodes.node_values(0, nx, ny, h).unwrap().iter().filter(|q| q[0] > 0.0).count(), 1);
+        for refine in [1, 2, 3, 4] {
+            let want = rect.refined_node_values(0, nx, ny, h, refine).unwrap();
+            let got = nodes.refined_node_values(0, nx, ny, h, refine).unwrap();
+            assert_eq!(got.len(), ((nx - 1) * refine + 1) * ((ny - 1) * refine + 1));
+            for (g, w) in got.iter().zip(&want) {
+                assert!((0..3).all(|c| (g[c] - w[c]).abs() < 1e-12), "refine {refine}: {g:?} against {w:?}");
+            }
+        }
+        // Arbitrary per-node light: Σ q S over the face is the same on both grids.
+        let power = |q: &[[f64; 3]], nx: usize, ny: usize, h: f64| -> f64 {
+            q.iter()
+                .enumerate()
+                .map(|(k, q)| {
+                    let (i, j) = (k % nx, k / nx);
+                    let half = |i: usize, n: usize| if i == 0 || i == n - 1 { 0.5 } else { 1.0 };
+                    q[1] * h * h * half(i, nx) * half(j, ny)
+                })
+                .sum()
+        };
+        let values: Vec<[f64; 3]> = (0..nx * ny).map(|k| [0.0, ((k * 7919) % 13) as f64, 0.0]).collect();
+        let coarse = power(&values, nx, ny, h);
+        for refine in [2, 3] {
+            let fine = Pattern::Nodes(values.clone()).refined_node_values(0, nx, ny, h, refine).unwrap();
+            let (fx, fy) = ((nx - 1) * refine + 1, (ny - 1) * refine + 1);
+            let p = power(&fine, fx, fy, h / refine as f64);
+            assert!((p - coarse).abs() < 1e-12 * coarse, "refine {refine}: {p} against {coarse}");
+        }
     }
 
     #[test]

@@ -89,7 +89,7 @@ pub fn synthesize(
     let mut rhs = Vec::with_capacity(patterns.len());
     let mut fine_q = Vec::with_capacity(patterns.len());
     for (m, p) in patterns.iter().enumerate() {
-        let q = p.node_values(m, fdims[0], fdims[1], hf)?;
+        let q = p.refined_node_values(m, nx, ny, h, r)?;
         let source: Vec<[f64; 3]> = boundary
             .ids
             .iter()
@@ -192,5 +192,22 @@ mod tests {
         assert_eq!((a[1], s[1]), (5.0 * 0.0041, 2.62));
         let (a, s) = v.medium(DVec3::new(6.15 + 0.6 * 10.0 + 1.1, 10.0, 4.6));
         assert_eq!((a[1], s[1]), (0.0041, 1.5 * 2.62));
+    }
+
+    #[test]
+    fn per_node_light_renders_on_the_finer_grid_as_the_rectangle_it_equals() {
+        // Node (2, 2)'s dual cell lit by a rectangle, and the same light as per-node values of
+        // the (coarse) setup grid: the same images from the 2×-finer synthesis.
+        let setup = Setup { dims: [5, 5, 3], spacing_mm: 0.5, eta: 1.3, observation: Observation::BackLit };
+        let rect = Pattern::Rect { rect: [0.75, 1.25, 0.75, 1.25], q: [1.0, 2.0, 3.0] };
+        let nodes = Pattern::Nodes(rect.node_values(0, 5, 5, 0.5).unwrap());
+        let medium = |_: DVec3| ([0.01, 0.02, 0.03], [1.0, 1.5, 2.0]);
+        let options = SynthOptions::default();
+        let by_rect = synthesize(&setup, &[rect], &medium, options).unwrap();
+        let by_nodes = synthesize(&setup, &[nodes], &medium, options).unwrap();
+        for (a, b) in by_rect[0].iter().zip(&by_nodes[0]) {
+            assert!((0..3).all(|c| (a[c] - b[c]).abs() <= 1e-9 * a[c].abs().max(1e-30)), "{a:?} against {b:?}");
+        }
+        assert!(by_rect[0].iter().all(|p| p[0] > 0.0), "the light reaches the back face");
     }
 }
