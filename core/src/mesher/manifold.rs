@@ -9,7 +9,7 @@
 
 use glam::DVec3;
 
-use crate::mesh::{BoundaryFace, CheckedBoundary, TetMesh, TetMeshError};
+use crate::mesh::{BoundaryFace, CheckedBoundary, Incidence, TetMesh, TetMeshError};
 
 /// What the manifold repair ([`without_removal`], [`finish`]) changed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -37,7 +37,7 @@ fn project_exposed(
     surface: &crate::mesh::TriangleBvh,
 ) -> usize {
     let scale = positions.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
-    let star = VertexStar::new(positions.len(), tets);
+    let star = Incidence::new(tets, positions.len());
     let mut moved = 0;
     for &v in touched {
         if !on_boundary[v as usize] {
@@ -51,7 +51,7 @@ fn project_exposed(
         }
         let old = positions[v as usize];
         positions[v as usize] = target.point;
-        let ok = star.of(v).iter().all(|&t| {
+        let ok = star.around(v as usize).iter().all(|&(t, _)| {
             let p = tets[t as usize].map(|w| positions[w as usize]);
             let angles = crate::mesh::dihedral_angles(p);
             crate::mesh::tet_volume(p) > 0.0
@@ -64,42 +64,6 @@ fn project_exposed(
         }
     }
     moved
-}
-
-/// The tets around each vertex in compressed rows: the tets containing `v` are
-/// `tets[offsets[v]..offsets[v + 1]]`, in ascending order.
-struct VertexStar {
-    offsets: Vec<u32>,
-    tets: Vec<u32>,
-}
-
-impl VertexStar {
-    /// The stars of the `vertex_count` vertices of `tets`.
-    fn new(vertex_count: usize, tets: &[[u32; 4]]) -> Self {
-        let mut offsets = vec![0u32; vertex_count + 1];
-        for t in tets {
-            for &v in t {
-                offsets[v as usize + 1] += 1;
-            }
-        }
-        for v in 0..vertex_count {
-            offsets[v + 1] += offsets[v];
-        }
-        let mut fill = offsets[..vertex_count].to_vec();
-        let mut star = vec![0u32; offsets[vertex_count] as usize];
-        for (ti, t) in tets.iter().enumerate() {
-            for &v in t {
-                star[fill[v as usize] as usize] = ti as u32;
-                fill[v as usize] += 1;
-            }
-        }
-        Self { offsets, tets: star }
-    }
-
-    /// The tets containing `v`, ascending.
-    fn of(&self, v: u32) -> &[u32] {
-        &self.tets[self.offsets[v as usize] as usize..self.offsets[v as usize + 1] as usize]
-    }
 }
 
 /// What a repair round reads of the topology of its tets: the boundary faces (those
@@ -350,11 +314,12 @@ fn tets_to_remove(boundary: &Boundary<'_>) -> Vec<u32> {
     let faces = boundary.faces();
     let tets = boundary.tets;
     let mut remove = Vec::new();
-    let mut star: Option<VertexStar> = None;
+    let mut star: Option<Incidence> = None;
     for &([u, v], ref edge_faces) in &boundary.irregular {
         if edge_faces.len() > 2 {
-            let star = star.get_or_insert_with(|| VertexStar::new(boundary.positions.len(), tets));
-            let around: Vec<u32> = star.of(u).iter().copied().filter(|&t| tets[t as usize].contains(&v)).collect();
+            let star = star.get_or_insert_with(|| Incidence::new(tets, boundary.positions.len()));
+            let around: Vec<u32> =
+                star.around(u as usize).iter().map(|&(t, _)| t).filter(|&t| tets[t as usize].contains(&v)).collect();
             let groups = groups_by_shared_face(tets, &around);
             if let Some(smallest) = groups.iter().min_by_key(|g| g.len()) {
                 remove.extend(smallest);
@@ -455,11 +420,11 @@ fn collect_groups(group: &mut [usize], items: &[u32]) -> Vec<Vec<u32>> {
 /// copies inherit the flag.
 pub(crate) fn split_pinched_vertices(positions: &mut Vec<DVec3>, tets: &mut [[u32; 4]], on_surface: &mut Vec<bool>) -> usize {
     let n = positions.len();
-    let star = VertexStar::new(n, tets);
+    let star = Incidence::new(tets, n);
     let mut added = 0;
     let mut group = Vec::new();
     for v in 0..n {
-        let around = star.of(v as u32);
+        let around = star.around(v);
         if around.len() < 2 || !on_surface[v] {
             continue;
         }
@@ -476,7 +441,7 @@ pub(crate) fn split_pinched_vertices(positions: &mut Vec<DVec3>, tets: &mut [[u3
         }
         for a in 0..around.len() {
             for b in a + 1..around.len() {
-                let (ta, tb) = (tets[around[a] as usize], tets[around[b] as usize]);
+                let (ta, tb) = (tets[around[a].0 as usize], tets[around[b].0 as usize]);
                 let shared = ta.iter().filter(|x| tb.contains(x)).count();
                 if shared == 3 {
                     let (ra, rb) = (find(&mut group, a as u32), find(&mut group, b as u32));
@@ -502,7 +467,7 @@ pub(crate) fn split_pinched_vertices(positions: &mut Vec<DVec3>, tets: &mut [[u3
                     id
                 }
             };
-            for x in tets[around[a] as usize].iter_mut() {
+            for x in tets[around[a].0 as usize].iter_mut() {
                 if *x as usize == v {
                     *x = copy;
                 }
