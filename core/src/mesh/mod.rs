@@ -19,7 +19,6 @@ mod trimesh;
 mod vtk;
 mod weld;
 
-#[cfg(test)]
 pub(crate) use bvh::closest_point_on_triangle;
 pub use bvh::{RayHit, SurfacePoint, TriangleBvh};
 pub use error::MeshError;

@@ -19,6 +19,7 @@
 mod frame;
 mod lattice;
 mod manifold;
+mod octree;
 mod stencil;
 mod stuffing;
 mod winding;
@@ -45,11 +46,25 @@ pub enum MeshSize {
     Spacing(f64),
 }
 
+/// How tet sizes vary through the solid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum Grading {
+    /// One lattice spacing everywhere.
+    Uniform,
+    /// The finest spacing within two spacings of the surface; inwards, cube sizes double after
+    /// `layers` cubes of each size (at least 1). The interior of a thick object then costs
+    /// little, so a tet budget buys a finer surface.
+    Graded { layers: u32 },
+}
+
 /// Options of [`tetrahedralize`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct MesherOptions {
-    /// Target size.
+    /// Target size. With [`Grading::Graded`], a spacing is the finest (surface) spacing and a
+    /// tet count the total.
     pub size: MeshSize,
+    /// How sizes vary inside.
+    pub grading: Grading,
     /// Largest lattice (vertex count) the mesher will allocate; protects against a spacing that
     /// is far too small for the object.
     pub max_lattice_vertices: usize,
@@ -57,7 +72,7 @@ pub struct MesherOptions {
 
 impl Default for MesherOptions {
     fn default() -> Self {
-        Self { size: MeshSize::Tets(200_000), max_lattice_vertices: 200_000_000 }
+        Self { size: MeshSize::Tets(200_000), grading: Grading::Uniform, max_lattice_vertices: 200_000_000 }
     }
 }
 
@@ -125,8 +140,12 @@ pub struct MesherTimings {
 /// What [`tetrahedralize_with`] measured.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct MesherStats {
-    /// Lattice spacing used.
+    /// Lattice spacing used (the finest, at the surface).
     pub spacing: f64,
+    /// The grading asked for.
+    pub grading: Grading,
+    /// Cubes of side `2ᵏ · spacing` for k = 0, 1, … in the final octree: the size distribution.
+    pub cubes_per_level: Vec<usize>,
     /// Stuffing passes run to reach the target count.
     pub passes: usize,
     /// Lattice vertices of the final pass (winding numbers evaluated).
@@ -232,7 +251,7 @@ pub fn tetrahedralize_with(
     // is repaired to the end. (Repairing each to the end first cost 2-9 rebuilds of the whole
     // topology per offset: docs/benchmarks.md, "Mesher".)
     let t = Instant::now();
-    let mut pinched: Option<(manifold::Pinched, usize, usize, PhaseTimings)> = None;
+    let mut pinched: Option<(manifold::Pinched, PassFacts)> = None;
     let mut done = None;
     let mut next = Some(stuffed);
     for variant in 0..=3u32 {
@@ -243,25 +262,30 @@ pub fn tetrahedralize_with(
                 run_pass(&winding, lo, hi, spacing, variant, options, &progress)?
             }
         };
-        let (bisected, vertices, phases) = (pass.bisected_cuts, pass.lattice_vertices, pass.timings);
+        let facts = PassFacts {
+            bisected_cuts: pass.bisected_cuts,
+            lattice_vertices: pass.lattice_vertices,
+            cubes_per_level: pass.leaves_per_level,
+            timings: pass.timings,
+        };
         match manifold::without_removal(pass.positions, pass.tets, pass.on_surface, winding.bvh())? {
             Ok((mesh, repair)) => {
-                done = Some((mesh, repair, bisected, vertices, phases));
+                done = Some((mesh, repair, facts));
                 break;
             }
             Err(p) => {
-                if pinched.as_ref().is_none_or(|(best, ..)| p.removals < best.removals) {
-                    pinched = Some((p, bisected, vertices, phases));
+                if pinched.as_ref().is_none_or(|(best, _)| p.removals < best.removals) {
+                    pinched = Some((p, facts));
                 }
             }
         }
     }
-    let (mut mesh, repair, bisected_cuts, lattice_vertices, final_pass) = match done {
+    let (mut mesh, repair, facts) = match done {
         Some(d) => d,
         None => {
-            let (p, bisected, vertices, phases) = pinched.expect("every offset needing removals kept the best");
+            let (p, facts) = pinched.expect("every offset needing removals kept the best");
             let (mesh, repair) = manifold::finish(p, winding.bvh())?;
-            (mesh, repair, bisected, vertices, phases)
+            (mesh, repair, facts)
         }
     };
     timings.topology_ms = ms(t);
@@ -278,17 +302,19 @@ pub fn tetrahedralize_with(
 
     let quality = mesh.quality();
     timings.total_ms = ms(start);
-    timings.final_pass = final_pass;
+    timings.final_pass = facts.timings;
     let stats = MesherStats {
         spacing,
+        grading: options.grading,
+        cubes_per_level: facts.cubes_per_level,
         passes,
-        lattice_vertices,
+        lattice_vertices: facts.lattice_vertices,
         vertices: mesh.vertex_count(),
         tets: mesh.tet_count(),
         boundary_faces: mesh.boundary_faces().len(),
         quality,
         hausdorff,
-        bisected_cuts,
+        bisected_cuts: facts.bisected_cuts,
         split_vertices: repair.split_vertices,
         filled_tets: repair.filled_tets,
         removed_tets: repair.removed_tets,
@@ -296,6 +322,14 @@ pub fn tetrahedralize_with(
         timings,
     };
     Ok(Tetrahedralization { mesh, stats })
+}
+
+/// What the mesh statistics keep of the stuffing pass that produced the mesh.
+struct PassFacts {
+    bisected_cuts: usize,
+    lattice_vertices: usize,
+    cubes_per_level: Vec<usize>,
+    timings: PhaseTimings,
 }
 
 /// The BCC lattice of spacing `h` covering `[lo, hi]` with at least one and a half cells of
@@ -328,7 +362,11 @@ fn run_pass(
     if !(vertices <= options.max_lattice_vertices as f64) || vertices >= u32::MAX as f64 / 2.0 {
         return Err(MesherError::TooLarge { vertices: vertices as usize, limit: options.max_lattice_vertices });
     }
-    Ok(stuffing::stuff(winding, &lattice_for(lo, hi, h, variant), progress)?)
+    let grading = match options.grading {
+        Grading::Uniform => None,
+        Grading::Graded { layers } => Some(layers.max(1) as usize),
+    };
+    Ok(stuffing::stuff(winding, &lattice_for(lo, hi, h, variant), grading, progress)?)
 }
 
 /// Extra tets that the boundary stencils add per `area / h²` of surface, measured on the closed

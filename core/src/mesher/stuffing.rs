@@ -1,7 +1,6 @@
-//! Isosurface stuffing on a uniform BCC lattice (Labelle & Shewchuk 2007): label lattice
-//! vertices by the winding number, place cut points where lattice edges cross the surface, warp
-//! lattice vertices that are too close to a cut point onto it, and fill every BCC tet with the
-//! stencil of its labels.
+//! Isosurface stuffing (Labelle & Shewchuk 2007) on the BCC tets of an octree: label the vertices
+//! by the winding number, place cut points where tet edges cross the surface, warp vertices that
+//! are too close to a cut point onto it, and fill every tet with the stencil of its labels.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -9,6 +8,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::lattice::{edge_key, Lattice};
+use super::octree::{self, Background, Octree};
 use super::stencil::{fill, StencilContext, Vert};
 use super::winding::WindingNumber;
 use crate::progress::{Cancelled, Progress, ProgressCounter};
@@ -28,8 +28,10 @@ pub(crate) struct Stuffed {
     /// Whether each output vertex lies on the surface (warped lattice vertices and cut points);
     /// inside lattice vertices are interior to the mesh.
     pub on_surface: Vec<bool>,
-    /// Lattice vertices evaluated.
+    /// Background vertices evaluated (cube corners and centres).
     pub lattice_vertices: usize,
+    /// Leaf cubes of each level (side `2ᵏ h`) of the final octree.
+    pub leaves_per_level: Vec<usize>,
     /// Milliseconds in each phase.
     pub timings: PhaseTimings,
 }
@@ -81,105 +83,92 @@ pub(crate) fn inside(w: f64) -> bool {
     w.abs() >= 0.5
 }
 
-/// Runs isosurface stuffing of the solid `|w| ≥ ½` on `lattice`.
-pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progress) -> Result<Stuffed, Cancelled> {
-    let nv = lattice.vertex_count();
+/// Runs isosurface stuffing of the solid `|w| ≥ ½` on the octree of `lattice` (the finest
+/// cubes): with `grading = None` every cube inside the solid is of the finest level (the uniform
+/// BCC lattice); with `Some(layers)` only those near the surface are, and sizes double inwards
+/// after `layers` cubes of each size.
+pub(crate) fn stuff(
+    surface: &WindingNumber,
+    lattice: &Lattice,
+    grading: Option<usize>,
+    progress: &Progress,
+) -> Result<Stuffed, Cancelled> {
     let mut timings = PhaseTimings::default();
     let t = std::time::Instant::now();
-    // 1. Winding numbers at every lattice vertex (the dominant cost), with progress and cancel.
-    let done = ProgressCounter::new(progress, "winding numbers", nv);
-    let cancelled = AtomicBool::new(false);
-    let chunk = 4096;
-    let winding: Vec<f64> = (0..nv)
-        .into_par_iter()
-        .chunks(chunk)
-        .flat_map_iter(|ids| {
-            if cancelled.load(Ordering::Relaxed) {
-                return vec![0.0; ids.len()];
-            }
-            let out: Vec<f64> = ids.iter().map(|&v| accurate_winding(surface, lattice.position(v as u32))).collect();
-            if done.add(out.len()).is_err() {
-                cancelled.store(true, Ordering::Relaxed);
-            }
-            out
-        })
-        .collect();
-    if cancelled.load(Ordering::Relaxed) {
-        return Err(Cancelled);
-    }
-    let mut labels: Vec<i8> = winding.par_iter().map(|&w| label(w)).collect();
+    // 1. The octree and the winding numbers at its vertices (the dominant cost), with progress
+    //    and cancel. Where a coarse tet turns out to straddle the ½ contour (through a hole of an
+    //    open surface, away from any triangle) the cubes around it are refined and the octree
+    //    rebuilt.
+    let (fine, levels) = octree::padded(lattice, true);
+    let mut needed = octree::band(surface, &fine, levels, grading.is_none());
+    let (background, winding, mut labels) = loop {
+        let background = Octree::new(fine, levels, &needed, grading.unwrap_or(1)).background();
+        let winding = winding_numbers(surface, &background.positions, progress)?;
+        let labels: Vec<i8> = winding.par_iter().map(|&w| label(w)).collect();
+        let unresolved = unresolved(&background, &labels);
+        if unresolved.is_empty() {
+            break (background, winding, labels);
+        }
+        octree::mark_boxes(&mut needed, &fine, &unresolved);
+    };
+    let bg = &background;
+    let nv = bg.positions.len();
     timings.labels_ms = ms_since(t);
     let t = std::time::Instant::now();
 
-    // 2. Cut points on edges whose ends are labelled in and out.
+    // 2. Cut points on tet edges whose ends are labelled in and out.
+    let mut crossing: Vec<u64> = bg
+        .tets
+        .par_iter()
+        .flat_map_iter(|tet| mixed_edges(tet, &labels).map(|(a, b)| edge_key(a, b)))
+        .collect();
+    crossing.par_sort_unstable();
+    crossing.dedup();
     let bisected = AtomicUsize::new(0);
-    let mut cuts: Vec<(u64, DVec3)> = (0..nv as u32)
-        .into_par_iter()
-        .flat_map_iter(|u| {
-            let mut nb = [(0u32, false); 14];
-            let n = lattice.neighbours(u, &mut nb);
-            let mut hits = Vec::new();
-            let mut found = Vec::new();
-            for &(v, _) in &nb[..n] {
-                if v > u && labels[u as usize] != labels[v as usize] {
-                    let (a, b) = if labels[u as usize] > 0 { (u, v) } else { (v, u) };
-                    let (p, by_bisection) =
-                        cut_point(surface, lattice.position(a), lattice.position(b), winding[a as usize], &mut hits);
-                    if by_bisection {
-                        bisected.fetch_add(1, Ordering::Relaxed);
-                    }
-                    found.push((edge_key(u, v), p));
-                }
+    let cuts: Vec<(u64, DVec3)> = crossing
+        .par_iter()
+        .map_init(Vec::new, |hits, &key| {
+            let (u, v) = ((key >> 32) as u32, key as u32);
+            let (a, b) = if labels[u as usize] > 0 { (u, v) } else { (v, u) };
+            let (p, by_bisection) =
+                cut_point(surface, bg.positions[a as usize], bg.positions[b as usize], winding[a as usize], hits);
+            if by_bisection {
+                bisected.fetch_add(1, Ordering::Relaxed);
             }
-            found
+            (key, p)
         })
         .collect();
-    cuts.par_sort_unstable_by_key(|c| c.0);
     progress.report("cut points", 1.0)?;
     timings.cuts_ms = ms_since(t);
     let t = std::time::Instant::now();
 
     // 3. Warping: a vertex violated by a cut point (closer than α·|edge|) moves onto the closest
-    //    violating cut point and is labelled 0; decided on the unwarped lattice, then applied.
-    let lookup = |a: u32, b: u32| -> Option<DVec3> {
-        let key = edge_key(a, b);
-        cuts.binary_search_by_key(&key, |c| c.0).ok().map(|i| cuts[i].1)
-    };
-    let warps: Vec<Option<DVec3>> = (0..nv as u32)
-        .into_par_iter()
-        .map(|u| {
-            let pu = lattice.position(u);
-            let mut nb = [(0u32, false); 14];
-            let n = lattice.neighbours(u, &mut nb);
-            let mut best: Option<(f64, DVec3)> = None;
-            for &(v, long) in &nb[..n] {
-                if labels[v as usize] == labels[u as usize] {
-                    continue;
-                }
-                let Some(c) = lookup(u, v) else { continue };
-                let len = if long { lattice.h } else { lattice.h * 0.75f64.sqrt() };
-                let d = (c - pu).length();
-                let alpha = if long { ALPHA_LONG } else { ALPHA_SHORT };
-                if d < alpha * len && best.is_none_or(|(bd, _)| d < bd) {
-                    best = Some((d, c));
-                }
-            }
-            best.map(|b| b.1)
+    //    violating cut point and is labelled 0; decided on the unwarped vertices, then applied.
+    let mut violations: Vec<(u32, f64, DVec3)> = cuts
+        .par_iter()
+        .flat_map_iter(|&(key, c)| {
+            let (a, b) = ((key >> 32) as u32, key as u32);
+            let (pa, pb) = (bg.positions[a as usize], bg.positions[b as usize]);
+            let long = bg.is_corner(a) == bg.is_corner(b);
+            let alpha = if long { ALPHA_LONG } else { ALPHA_SHORT };
+            let limit = alpha * (pb - pa).length();
+            [(a, (c - pa).length()), (b, (c - pb).length())].into_iter().filter(move |&(_, d)| d < limit).map(move |(v, d)| (v, d, c))
         })
         .collect();
-    let mut positions: Vec<DVec3> = (0..nv as u32).into_par_iter().map(|v| lattice.position(v)).collect();
-    for (v, w) in warps.iter().enumerate() {
-        if let Some(p) = w {
-            positions[v] = *p;
-            labels[v] = 0;
+    violations.par_sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+    let mut positions = bg.positions.clone();
+    for (i, &(v, _, c)) in violations.iter().enumerate() {
+        if i == 0 || violations[i - 1].0 != v {
+            positions[v as usize] = c;
+            labels[v as usize] = 0;
         }
     }
     progress.report("warping", 1.0)?;
     timings.warp_ms = ms_since(t);
     let t = std::time::Instant::now();
 
-    // 4. Output numbering: lattice vertices in or on the surface, then surviving cut points
-    //    (both ends still strictly in and out).
+    // 4. Output numbering: vertices in or on the surface, then surviving cut points (both ends
+    //    still strictly in and out).
     let mut out_id = vec![u32::MAX; nv];
     let mut next = 0u32;
     for v in 0..nv {
@@ -210,8 +199,8 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
         }
     }
 
-    // 5. Stencils, slab by slab in parallel; the concatenation order is fixed (deterministic).
-    let ctx = Context { lattice, positions: &positions, cuts: &cuts };
+    // 5. Stencils, chunk by chunk in parallel; the concatenation order is fixed (deterministic).
+    let ctx = Context { background: bg, positions: &positions, cuts: &cuts };
     let resolve = |v: Vert| -> u32 {
         match v {
             Vert::Lattice(l) => out_id[l as usize],
@@ -221,40 +210,37 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
             }
         }
     };
-    let [nx, ny, nz] = lattice.n;
-    let slabs_done = ProgressCounter::new(progress, "stencils", nz);
-    let slabs: Vec<Vec<[u32; 4]>> = (0..nz)
-        .into_par_iter()
-        .map(|k| {
+    const CHUNK: usize = 8192;
+    let chunks_done = ProgressCounter::new(progress, "stencils", bg.tets.len().div_ceil(CHUNK));
+    let chunks: Vec<Vec<[u32; 4]>> = bg
+        .tets
+        .par_chunks(CHUNK)
+        .map(|chunk| {
             let mut local = Vec::new();
             let mut verts = Vec::new();
-            for j in 0..ny {
-                for i in 0..nx {
-                    lattice.tets_at([i, j, k], |ids| {
-                        let l = ids.map(|v| labels[v as usize]);
-                        if l.iter().all(|&x| x < 0) {
-                            return;
-                        }
-                        verts.clear();
-                        let centroid = || {
-                            let c = ids.iter().map(|&v| positions[v as usize]).sum::<DVec3>() / 4.0;
-                            inside(accurate_winding(surface, c))
-                        };
-                        fill(&ctx, ids, l, centroid, &mut verts);
-                        for t in &verts {
-                            let r = t.map(resolve);
-                            if r.iter().all(|&x| x != u32::MAX) {
-                                local.push(r);
-                            }
-                        }
-                    });
+            for &ids in chunk {
+                let l = ids.map(|v| labels[v as usize]);
+                if l.iter().all(|&x| x < 0) {
+                    continue;
+                }
+                verts.clear();
+                let centroid = || {
+                    let c = ids.iter().map(|&v| positions[v as usize]).sum::<DVec3>() / 4.0;
+                    inside(accurate_winding(surface, c))
+                };
+                fill(&ctx, ids, l, centroid, &mut verts);
+                for t in &verts {
+                    let r = t.map(resolve);
+                    if r.iter().all(|&x| x != u32::MAX) {
+                        local.push(r);
+                    }
                 }
             }
-            let _ = slabs_done.add(1);
+            let _ = chunks_done.add(1);
             local
         })
         .collect();
-    let tets: Vec<[u32; 4]> = slabs.concat();
+    let tets: Vec<[u32; 4]> = chunks.concat();
     progress.report("stencils", 1.0)?;
 
     // 6. Drop vertices no tet uses (isolated surface vertices) and renumber.
@@ -286,20 +272,75 @@ pub(crate) fn stuff(surface: &WindingNumber, lattice: &Lattice, progress: &Progr
         bisected_cuts: bisected.into_inner(),
         on_surface,
         lattice_vertices: nv,
+        leaves_per_level: background.leaves_per_level,
         timings,
     })
 }
 
-/// The lattice, warped positions and cut points, as the stencils see them.
+/// Winding numbers at `points`, in parallel, with progress and cancel.
+fn winding_numbers(surface: &WindingNumber, points: &[DVec3], progress: &Progress) -> Result<Vec<f64>, Cancelled> {
+    let done = ProgressCounter::new(progress, "winding numbers", points.len());
+    let cancelled = AtomicBool::new(false);
+    let winding: Vec<f64> = points
+        .par_chunks(4096)
+        .flat_map_iter(|chunk| {
+            if cancelled.load(Ordering::Relaxed) {
+                return vec![0.0; chunk.len()];
+            }
+            let out: Vec<f64> = chunk.iter().map(|&p| accurate_winding(surface, p)).collect();
+            if done.add(out.len()).is_err() {
+                cancelled.store(true, Ordering::Relaxed);
+            }
+            out
+        })
+        .collect();
+    if cancelled.load(Ordering::Relaxed) {
+        return Err(Cancelled);
+    }
+    Ok(winding)
+}
+
+/// The edges of `tet` whose ends are labelled differently.
+fn mixed_edges<'a>(tet: &'a [u32; 4], labels: &'a [i8]) -> impl Iterator<Item = (u32, u32)> + 'a {
+    const EDGES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+    EDGES
+        .iter()
+        .map(|&(i, j)| (tet[i], tet[j]))
+        .filter(|&(a, b)| labels[a as usize] != labels[b as usize])
+}
+
+/// Bounding boxes of the transition tets that the stencils must not see: those with vertices
+/// on both sides of the surface, or with a vertex that ends a crossing edge (and may be warped).
+/// Empty for closed surfaces, whose ½ contour keeps to the finest cubes near the triangles.
+fn unresolved(bg: &Background, labels: &[i8]) -> Vec<(DVec3, DVec3)> {
+    let mut ends_crossing = vec![false; bg.positions.len()];
+    for tet in &bg.tets {
+        for (a, b) in mixed_edges(tet, labels) {
+            ends_crossing[a as usize] = true;
+            ends_crossing[b as usize] = true;
+        }
+    }
+    bg.tets
+        .par_iter()
+        .zip(&bg.standard)
+        .filter(|&(tet, &standard)| !standard && tet.iter().any(|&v| ends_crossing[v as usize]))
+        .map(|(tet, _)| {
+            let p = tet.map(|v| bg.positions[v as usize]);
+            (p.iter().fold(p[0], |a, &b| a.min(b)), p.iter().fold(p[0], |a, &b| a.max(b)))
+        })
+        .collect()
+}
+
+/// The background, warped positions and cut points, as the stencils see them.
 struct Context<'a> {
-    lattice: &'a Lattice,
+    background: &'a Background,
     positions: &'a [DVec3],
     cuts: &'a [(u64, DVec3)],
 }
 
 impl StencilContext for Context<'_> {
     fn is_corner(&self, v: u32) -> bool {
-        self.lattice.is_corner(v)
+        self.background.is_corner(v)
     }
 
     fn position(&self, v: Vert) -> DVec3 {
@@ -307,15 +348,16 @@ impl StencilContext for Context<'_> {
             Vert::Lattice(l) => self.positions[l as usize],
             Vert::Cut(a, b) => {
                 let key = edge_key(a, b);
-                self.cuts
-                    .binary_search_by_key(&key, |c| c.0)
-                    .map_or_else(|_| 0.5 * (self.lattice.position(a) + self.lattice.position(b)), |i| self.cuts[i].1)
+                self.cuts.binary_search_by_key(&key, |c| c.0).map_or_else(
+                    |_| 0.5 * (self.background.positions[a as usize] + self.background.positions[b as usize]),
+                    |i| self.cuts[i].1,
+                )
             }
         }
     }
 
     fn lattice_position(&self, v: u32) -> DVec3 {
-        self.lattice.position(v)
+        self.background.positions[v as usize]
     }
 }
 
