@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use transcut::mesh;
-use transcut::mesher::{tetrahedralize_with, MeshSize, MesherOptions, MesherStats};
+use transcut::mesher::{tetrahedralize_with, Grading, MeshSize, MesherOptions, MesherStats};
 use transcut::Progress;
 
 use crate::progress::StageBar;
@@ -21,9 +21,13 @@ pub struct MeshArgs {
     #[arg(long, default_value_t = 200_000, value_parser = clap::value_parser!(u64).range(1..=50_000_000), conflicts_with = "spacing")]
     pub tets: u64,
     /// Lattice spacing in the mesh's units instead of a tet count (interior tets have volume
-    /// spacing³/12).
-    #[arg(long)]
+    /// spacing³/12). With --grading it is the spacing at the surface.
+    #[arg(long, visible_alias = "surface-spacing")]
     pub spacing: Option<f64>,
+    /// Grade the mesh: the finest spacing near the surface, cube sizes doubling inwards after
+    /// this many cubes of each size (1 grades fastest). 0 keeps one spacing everywhere.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub grading: u32,
     /// Write the tets as a legacy-VTK unstructured grid (binary; see --ascii).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -41,7 +45,11 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
         Some(h) => MeshSize::Spacing(h),
         None => MeshSize::Tets(args.tets as usize),
     };
-    let options = MesherOptions { size, ..MesherOptions::default() };
+    let grading = match args.grading {
+        0 => Grading::Uniform,
+        layers => Grading::Graded { layers },
+    };
+    let options = MesherOptions { size, grading, ..MesherOptions::default() };
     let bar = StageBar::new(args.json);
     let callback = |stage: &str, f: f64| bar.update(stage, f);
     let result = tetrahedralize_with(&input, &options, Progress::new(&callback));
@@ -70,6 +78,9 @@ fn print_human(path: &std::path::Path, input: &mesh::TriMesh, s: &MesherStats, o
     println!("{}: {} vertices, {} triangles", path.display(), input.user_vertex_count(), input.triangles().len());
     println!("tets        {:>10}   vertices {:>9}   boundary triangles {:>9}", s.tets, s.vertices, s.boundary_faces);
     println!("spacing     {:>10.4e}   passes {:>11}", s.spacing, s.passes);
+    if s.cubes_per_level.len() > 1 {
+        println!("cubes of side 2^k·spacing, k = 0, 1, …: {:?}", s.cubes_per_level);
+    }
     println!("dihedral    min {:>6.2}°   max {:>6.2}°", s.quality.min_dihedral_deg, s.quality.max_dihedral_deg);
     println!("  per-tet minimum angle (10° bins from 0°):   {:?}", s.quality.min_angle_histogram);
     println!("  per-tet maximum angle (10° bins from 90°):  {:?}", s.quality.max_angle_histogram);

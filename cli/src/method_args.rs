@@ -9,6 +9,7 @@ use transcut::diffusion::SolverKind;
 use transcut::gpu::Backend;
 use transcut::hierarchy::{DipoleOptions, EvalMode, Oracle, Receivers};
 use transcut::input::quote;
+use transcut::mesher::Grading;
 use transcut::optics::EdgeRule;
 use transcut::prt::{BasisSize, PrtCache, PrtOptions};
 use transcut::radiosity::{FormFactorOptions, HetRule, Iteration, SolveOptions};
@@ -190,6 +191,11 @@ pub struct MethodArgs {
     /// [default: 200000; a scene file's [bake] tets]
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=50_000_000), help_heading = "TransCut options")]
     pub tets: Option<u64>,
+    /// transcut, radiosity: grade the tets: the finest spacing near the surface, cube sizes
+    /// doubling inwards after this many cubes of each size (1 grades fastest); 0 keeps one
+    /// spacing everywhere [default: 0; a scene file's [bake] grading]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=64), help_heading = "TransCut options")]
+    pub grading: Option<u32>,
     /// transcut, radiosity, polygrid: relative residual ‖b − Mφ‖/‖b‖ at which the diffusion
     /// solver stops, in (0, 1) [default: 1e-6]
     #[arg(long, help_heading = "TransCut options")]
@@ -317,6 +323,7 @@ pub struct MethodDefaults {
     pub from_file: bool,
     pub method: Option<String>,
     pub tets: Option<u64>,
+    pub grading: Option<u32>,
     pub tolerance: Option<f64>,
     pub solver: Option<String>,
     /// The hierarchical dipole's mode when `--mode` is not given.
@@ -363,6 +370,7 @@ pub struct MethodDefaults {
 pub struct BakeTable {
     pub method: Option<String>,
     pub tets: Option<u64>,
+    pub grading: Option<u32>,
     pub tolerance: Option<f64>,
     pub solver: Option<String>,
     pub theta: Option<f64>,
@@ -444,6 +452,7 @@ impl MethodDefaults {
             from_file: true,
             method: table.method,
             tets: table.tets,
+            grading: table.grading,
             tolerance: table.tolerance,
             solver: table.solver,
             mode,
@@ -551,9 +560,10 @@ impl MethodArgs {
     }
 
     /// Every method option: whether it was given, its flag and its method.
-    fn options(&self) -> [OptionOwner; 28] {
+    fn options(&self) -> [OptionOwner; 29] {
         [
             (self.tets.is_some(), "--tets", DIFFUSION),
+            (self.grading.is_some(), "--grading", DIFFUSION),
             (self.tolerance.is_some(), "--tolerance", SOLVES),
             (self.solver.is_some(), "--solver", SOLVES),
             (self.backend.is_some(), "--backend", SOLVES),
@@ -600,8 +610,9 @@ impl MethodArgs {
         // A scene file's TransCut options, when the file itself chose another method: written
         // for nothing. (When the command line chose the method, they were for the file's.)
         if self.method.is_none() && defaults.from_file {
-            let file: [OptionOwner; 27] = [
+            let file: [OptionOwner; 28] = [
                 (defaults.tets.is_some(), "tets", DIFFUSION),
+                (defaults.grading.is_some(), "grading", DIFFUSION),
                 (defaults.tolerance.is_some(), "tolerance", SOLVES),
                 (defaults.solver.is_some(), "solver", SOLVES),
                 (defaults.theta.is_some(), "theta", &[DIPOLE]),
@@ -701,8 +712,14 @@ impl MethodArgs {
             (None, None) => d.solver,
         };
         let tets = self.tets.or(defaults.tets).map_or(Ok(d.tets), usize::try_from)?;
+        let grading = match self.grading.or(defaults.grading) {
+            None => d.grading,
+            Some(0) => Grading::Uniform,
+            Some(layers) => Grading::Graded { layers },
+        };
         Ok(TransCutOptions {
             tets,
+            grading,
             tolerance: self.tolerance.or(defaults.tolerance).unwrap_or(d.tolerance),
             solver,
             backend: self.backend,

@@ -69,6 +69,10 @@ pub struct BenchArgs {
     /// Target tet counts, comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = [100_000usize, 500_000, 1_000_000])]
     pub tets: Vec<usize>,
+    /// The `mesh` suite's grading: 0 one spacing everywhere, N ≥ 1 graded with N cubes of each
+    /// size (as `transcut mesh --grading`).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub grading: u32,
     /// Runs per size; the median is reported.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub runs: u32,

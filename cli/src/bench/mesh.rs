@@ -5,7 +5,7 @@ use std::time::Instant;
 use anyhow::Context;
 use serde::Serialize;
 use transcut::mesh;
-use transcut::mesher::{tetrahedralize_with, MesherOptions};
+use transcut::mesher::{tetrahedralize_with, Grading, MesherOptions};
 use transcut::Progress;
 
 use super::args::BenchArgs;
@@ -21,6 +21,8 @@ struct MeshEntry {
     tets_below_10_deg: usize,
     passes: usize,
     lattice_vertices: usize,
+    cubes_per_level: Vec<usize>,
+    spacing: f64,
     hausdorff: f64,
     median_ms: f64,
     runs_ms: Vec<f64>,
@@ -32,13 +34,18 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
     let load_ms = load_start.elapsed().as_secs_f64() * 1e3;
     let mut entries = Vec::new();
+    let grading = match args.grading {
+        0 => Grading::Uniform,
+        layers => Grading::Graded { layers },
+    };
     for &target in &args.tets {
         let mut runs = Vec::new();
         let mut stages = Vec::new();
         let mut last = None;
         for _ in 0..args.runs {
             let start = Instant::now();
-            let t = tetrahedralize_with(&input, &MesherOptions::with_tets(target), Progress::none())?;
+            let t =
+                tetrahedralize_with(&input, &MesherOptions { grading, ..MesherOptions::with_tets(target) }, Progress::none())?;
             runs.push(start.elapsed().as_secs_f64() * 1e3);
             stages.push(t.stats.timings);
             last = Some(t);
@@ -55,6 +62,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             tets_below_10_deg: q.min_angle_histogram[0],
             passes: t.stats.passes,
             lattice_vertices: t.stats.lattice_vertices,
+            cubes_per_level: t.stats.cubes_per_level.clone(),
+            spacing: t.stats.spacing,
             hausdorff: t.stats.hausdorff.max,
             median_ms: median(runs.clone()),
             runs_ms: runs,
@@ -77,6 +86,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "suite": "mesh",
         "input": args.input.display().to_string(),
         "load_ms": load_ms,
+        "grading": grading,
         "threads": rayon::current_num_threads(),
         "entries": entries,
     });

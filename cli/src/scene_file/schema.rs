@@ -69,6 +69,8 @@ pub struct BakeSpec {
     /// The subsurface method's name (default `transcut`).
     pub method: Option<String>,
     pub tets: Option<u64>,
+    /// transcut, radiosity: cubes of each size before the next doubling (`--grading`; 0 uniform).
+    pub grading: Option<u32>,
     pub tolerance: Option<f64>,
     /// The solver's name ([`transcut::diffusion::SolverKind::name`]).
     pub solver: Option<String>,
@@ -350,6 +352,7 @@ impl BakeSpec {
         BakeTable {
             method: b.method.clone(),
             tets: b.tets,
+            grading: b.grading,
             tolerance: b.tolerance,
             solver: b.solver.clone(),
             theta: b.theta,

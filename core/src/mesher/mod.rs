@@ -390,6 +390,16 @@ fn spacing_for_count(volume: f64, area: f64, target: f64) -> f64 {
     h
 }
 
+/// The finest spacing at which a graded octree (`layers` cubes per size) over a solid of surface
+/// area `area` gives about `target` tets, counting only the shell near the surface: cubes within
+/// two spacings of it and `layers` more are finest (about `(2 + layers) h` of them inside), each
+/// coarser level adds `layers` cubes whose tets are 8× fewer per volume for twice the thickness
+/// (a geometric series summing to `layers / 3`), twelve tets per cube, plus the boundary stencils'.
+fn graded_spacing_for_count(area: f64, layers: f64, target: f64) -> f64 {
+    let per_area = 12.0 * (2.0 + layers + layers / 3.0) + BOUNDARY_TETS_PER_AREA;
+    (per_area * area / target).sqrt()
+}
+
 /// Chooses the lattice spacing for about `target` tets from similarity invariants only — the
 /// enclosed volume and the surface area — so that rotating, moving or scaling the input does not
 /// change the spacing relative to the object (the count then varies only with the lattice's
@@ -397,6 +407,10 @@ fn spacing_for_count(volume: f64, area: f64, target: f64) -> f64 {
 /// misses the target by more than 10% (open scans, overlapping shells: the winding-number solid
 /// differs from the signed volume) the volume is re-measured from that pass's tets and the
 /// spacing recomputed once more from the same formula (tet volume hardly depends on alignment).
+///
+/// A graded octree starts from the smaller of the uniform spacing and the shell estimate
+/// ([`graded_spacing_for_count`]) and corrects it by the count's measured power law in `h`
+/// (secant steps in log–log, from the shell's `h⁻²`).
 fn size_to_count(
     winding: &WindingNumber,
     surface: &TriMesh,
@@ -413,6 +427,11 @@ fn size_to_count(
     let volume = if volume > 1e-3 * box_volume { volume } else { 0.3 * box_volume };
     let n = target as f64;
     let mut h = spacing_for_count(volume, area, n);
+    let graded = matches!(options.grading, Grading::Graded { .. });
+    if let Grading::Graded { layers } = options.grading {
+        h = h.min(graded_spacing_for_count(area, f64::from(layers.max(1)), n));
+    }
+    let mut previous: Option<(f64, f64)> = None;
     let mut passes = 0;
     loop {
         passes += 1;
@@ -427,8 +446,17 @@ fn size_to_count(
             h *= 0.25;
             continue;
         }
-        if (count as f64 / n - 1.0).abs() <= 0.1 || passes >= 3 {
+        let max_passes = if graded { 4 } else { 3 };
+        if (count as f64 / n - 1.0).abs() <= 0.1 || passes >= max_passes {
             return Ok((stuffed, h, passes));
+        }
+        if graded {
+            let c = count as f64;
+            let power =
+                previous.map(|(h0, c0)| ((c / c0).ln() / (h0 / h).ln()).clamp(1.5, 3.0)).filter(|p| p.is_finite()).unwrap_or(2.0);
+            previous = Some((h, c));
+            h *= (c / n).powf(1.0 / power);
+            continue;
         }
         // Summed in tet order, not by rayon's `sum` (whose grouping follows the work stealing):
         // the next spacing, and so the whole mesh, must not depend on the thread schedule.

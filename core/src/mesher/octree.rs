@@ -316,7 +316,7 @@ impl Octree {
                         let beyond = [(w, -1isize), (u, 1), (w, 1), (u, -1)];
                         let along = |e: usize| {
                             let mut h = [false; 3];
-                            h[if e % 2 == 0 { u } else { w }] = true;
+                            h[if e.is_multiple_of(2) { u } else { w }] = true;
                             h
                         };
                         if self.exists(k, n) && !self.is_split(k, n) {
@@ -328,9 +328,8 @@ impl Octree {
                             for e in 0..4 {
                                 let (e0, e1) = (corner(k, ring[e], [false; 3]), corner(k, ring[(e + 1) % 4], [false; 3]));
                                 let (ba, bs) = beyond[e];
-                                let split_edge = [c, n]
-                                    .iter()
-                                    .any(|&x| self.step(k, x, ba, bs).is_some_and(|y| self.is_split(k, y)));
+                                let split_edge =
+                                    [c, n].iter().any(|&x| self.step(k, x, ba, bs).is_some_and(|y| self.is_split(k, y)));
                                 if split_edge {
                                     let lo = if e < 2 { ring[e] } else { ring[(e + 1) % 4] };
                                     let m = corner(k, lo, along(e));
@@ -390,12 +389,13 @@ mod tests {
         let (fine, levels) = padded(&fine, true);
         assert_eq!(levels, 2);
         let d0 = dims(&fine, 0);
-        let mut needed = vec![false; d0.iter().product()];
-        for i in 0..needed.len() {
-            let c = coords(d0, i);
-            // A block of needed cubes and a lone one.
-            needed[i] = c.iter().all(|&x| (2..=4).contains(&x)) || c == [12, 5, 9];
-        }
+        // A block of needed cubes and a lone one.
+        let needed: Vec<bool> = (0..d0.iter().product())
+            .map(|i| {
+                let c = coords(d0, i);
+                c.iter().all(|&x| (2..=4).contains(&x)) || c == [12, 5, 9]
+            })
+            .collect();
         Octree::new(fine, levels, &needed, layers)
     }
 
@@ -436,7 +436,8 @@ mod tests {
             // the half pyramid (the three transition shapes) lie within [45°, 120°].
             for (tet, &standard) in bg.tets.iter().zip(&bg.standard) {
                 let angles = dihedral_angles(tet.map(|v| bg.positions[v as usize]));
-                let (lo, hi) = angles.iter().fold((180.0f64, 0.0f64), |(a, b), &x| (a.min(x.to_degrees()), b.max(x.to_degrees())));
+                let (lo, hi) =
+                    angles.iter().fold((180.0f64, 0.0f64), |(a, b), &x| (a.min(x.to_degrees()), b.max(x.to_degrees())));
                 if standard {
                     assert!((lo - 60.0).abs() < 1e-9 && (hi - 90.0).abs() < 1e-9, "{lo} {hi}");
                 } else {
@@ -452,7 +453,8 @@ mod tests {
         // Every leaf's 26 neighbourhood, sampled at the finest level, holds leaves of adjacent
         // levels only.
         let d0 = dims(&t.fine, 0);
-        let level_at = |c: [usize; 3]| (0..=t.levels).find(|&k| t.exists(k, c.map(|x| x >> k)) && !t.is_split(k, c.map(|x| x >> k)));
+        let level_at =
+            |c: [usize; 3]| (0..=t.levels).find(|&k| t.exists(k, c.map(|x| x >> k)) && !t.is_split(k, c.map(|x| x >> k)));
         for i in 0..d0.iter().product::<usize>() {
             let c = coords(d0, i);
             let k = level_at(c).unwrap();

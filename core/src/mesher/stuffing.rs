@@ -117,11 +117,8 @@ pub(crate) fn stuff(
     let t = std::time::Instant::now();
 
     // 2. Cut points on tet edges whose ends are labelled in and out.
-    let mut crossing: Vec<u64> = bg
-        .tets
-        .par_iter()
-        .flat_map_iter(|tet| mixed_edges(tet, &labels).map(|(a, b)| edge_key(a, b)))
-        .collect();
+    let mut crossing: Vec<u64> =
+        bg.tets.par_iter().flat_map_iter(|tet| mixed_edges(tet, &labels).map(|(a, b)| edge_key(a, b))).collect();
     crossing.par_sort_unstable();
     crossing.dedup();
     let bisected = AtomicUsize::new(0);
@@ -152,7 +149,10 @@ pub(crate) fn stuff(
             let long = bg.is_corner(a) == bg.is_corner(b);
             let alpha = if long { ALPHA_LONG } else { ALPHA_SHORT };
             let limit = alpha * (pb - pa).length();
-            [(a, (c - pa).length()), (b, (c - pb).length())].into_iter().filter(move |&(_, d)| d < limit).map(move |(v, d)| (v, d, c))
+            [(a, (c - pa).length()), (b, (c - pb).length())]
+                .into_iter()
+                .filter(move |&(_, d)| d < limit)
+                .map(move |(v, d)| (v, d, c))
         })
         .collect();
     violations.par_sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
@@ -303,10 +303,7 @@ fn winding_numbers(surface: &WindingNumber, points: &[DVec3], progress: &Progres
 /// The edges of `tet` whose ends are labelled differently.
 fn mixed_edges<'a>(tet: &'a [u32; 4], labels: &'a [i8]) -> impl Iterator<Item = (u32, u32)> + 'a {
     const EDGES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
-    EDGES
-        .iter()
-        .map(|&(i, j)| (tet[i], tet[j]))
-        .filter(|&(a, b)| labels[a as usize] != labels[b as usize])
+    EDGES.iter().map(|&(i, j)| (tet[i], tet[j])).filter(|&(a, b)| labels[a as usize] != labels[b as usize])
 }
 
 /// Bounding boxes of the transition tets that the stencils must not see: those with vertices

@@ -9,6 +9,7 @@
 use crate::diffusion::SolverKind;
 use crate::gpu::Backend;
 use crate::hierarchy::DipoleOptions;
+use crate::mesher::Grading;
 pub use crate::polygrid::Stencil;
 use crate::prt::PrtOptions;
 use crate::radiosity::{FormFactorOptions, SolveOptions};
@@ -169,6 +170,8 @@ pub struct TransCutOptions {
     /// Target tetrahedra per surface object (objects given as a tet mesh are solved as given),
     /// in [1, [`TransCutOptions::MAX_TETS`]].
     pub tets: usize,
+    /// How the tet sizes vary inside each object ([`Grading::Uniform`] by default).
+    pub grading: Grading,
     /// Relative residual ‖b − Mφ‖/‖b‖ at which every solve stops, in (0, 1).
     pub tolerance: f64,
     /// Iteration cap of every solve, in [1, [`TransCutOptions::MAX_ITERATIONS`]].
@@ -189,6 +192,7 @@ impl Default for TransCutOptions {
     fn default() -> Self {
         Self {
             tets: 200_000,
+            grading: Grading::Uniform,
             tolerance: 1e-6,
             max_iterations: 10_000,
             solver: SolverKind::SsorPcg,
@@ -205,6 +209,9 @@ impl TransCutOptions {
     /// The largest `max_iterations`: a solve that has not converged in a million iterations
     /// never will (every solver here converges in thousands on the test meshes).
     pub const MAX_ITERATIONS: usize = 1_000_000;
+    /// The most cubes of one size a graded mesh keeps before the next doubling: beyond a few
+    /// dozen, a graded mesh is a uniform one for any object the tet budget allows.
+    pub const MAX_GRADING_LAYERS: u32 = 64;
 
     /// Checks the options.
     ///
@@ -213,6 +220,11 @@ impl TransCutOptions {
     pub fn validate(&self) -> Result<(), String> {
         if self.tets == 0 {
             return Err("tets must be at least 1".into());
+        }
+        if let Grading::Graded { layers } = self.grading {
+            if !(1..=Self::MAX_GRADING_LAYERS).contains(&layers) {
+                return Err(format!("grading layers = {layers} is outside [1, {}]", Self::MAX_GRADING_LAYERS));
+            }
         }
         if self.tets > Self::MAX_TETS {
             return Err(format!("tets = {} is above the maximum of {}", self.tets, Self::MAX_TETS));

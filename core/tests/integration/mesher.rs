@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use glam::{DMat4, DQuat, DVec3};
 use rand::{Rng, SeedableRng};
 use transcut::mesh::{self, TriMesh};
-use transcut::mesher::{tetrahedralize_with, MeshSize, MesherError, MesherOptions, Tetrahedralization};
+use transcut::mesher::{tetrahedralize_with, Grading, MeshSize, MesherError, MesherOptions, Tetrahedralization};
 use transcut::Progress;
 
 const MESHES: [&str; 8] = ["cow", "suzanne", "stanford-bunny", "fandisk", "homer", "cheburashka", "spot", "rocker-arm"];
@@ -35,6 +35,11 @@ fn is_closed(m: &TriMesh) -> bool {
 
 fn mesh_to(m: &TriMesh, tets: usize) -> Tetrahedralization {
     tetrahedralize_with(m, &MesherOptions::with_tets(tets), Progress::none()).expect("meshing succeeds")
+}
+
+fn mesh_graded(m: &TriMesh, tets: usize, layers: u32) -> Tetrahedralization {
+    let options = MesherOptions { grading: Grading::Graded { layers }, ..MesherOptions::with_tets(tets) };
+    tetrahedralize_with(m, &options, Progress::none()).expect("meshing succeeds")
 }
 
 /// Every property the issue asks of a mesh of about `target` tets.
@@ -68,6 +73,19 @@ fn every_test_mesh_at_100k_tets() {
     for name in MESHES {
         let input = shared_mesh(name);
         check(name, &input, &mesh_to(&input, 100_000), 100_000);
+    }
+}
+
+/// Graded meshes (one cube per size, the fastest grading) keep every property of the uniform
+/// ones: the stuffing stencils only ever cut uniform BCC tets, and the transition tets' dihedral
+/// angles lie in [45°, 120°]. They are graded: coarser cubes hold part of the interior.
+#[test]
+fn every_test_mesh_graded_at_100k_tets() {
+    for name in MESHES {
+        let input = shared_mesh(name);
+        let t = mesh_graded(&input, 100_000, 1);
+        check(name, &input, &t, 100_000);
+        assert!(t.stats.cubes_per_level.len() >= 3 && t.stats.cubes_per_level[1] > 0, "{name}: {:?}", t.stats.cubes_per_level);
     }
 }
 

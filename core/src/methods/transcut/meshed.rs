@@ -12,7 +12,7 @@
 use std::sync::Arc;
 
 use crate::mesh::{TetMesh, TriMesh};
-use crate::mesher::MesherStats;
+use crate::mesher::{MesherOptions, MesherStats};
 
 /// An object's tet mesh as the mesher made it (world space, every material id 0, before a
 /// medium was put on it), kept by a bake that was asked to keep its meshes
@@ -21,21 +21,21 @@ use crate::mesher::MesherStats;
 pub struct Meshed {
     /// The world-space surface it was meshed from.
     surface: TriMesh,
-    /// The tet budget it was meshed at ([`crate::scene::TransCutOptions::tets`]).
-    budget: usize,
+    /// The mesher's options: the tet budget ([`crate::scene::TransCutOptions::tets`]) and grading.
+    options: MesherOptions,
     mesh: TetMesh,
     stats: MesherStats,
 }
 
 impl Meshed {
-    pub(crate) fn new(surface: &TriMesh, budget: usize, mesh: TetMesh, stats: MesherStats) -> Self {
-        Self { surface: surface.clone(), budget, mesh, stats }
+    pub(crate) fn new(surface: &TriMesh, options: &MesherOptions, mesh: TetMesh, stats: MesherStats) -> Self {
+        Self { surface: surface.clone(), options: options.clone(), mesh, stats }
     }
 
-    /// Whether this is what meshing `surface` at a budget of `budget` tets makes.
+    /// Whether this is what meshing `surface` with `options` makes.
     #[must_use]
-    pub fn made_from(&self, surface: &TriMesh, budget: usize) -> bool {
-        self.budget == budget && self.surface == *surface
+    pub fn made_from(&self, surface: &TriMesh, options: &MesherOptions) -> bool {
+        self.options == *options && self.surface == *surface
     }
 
     /// The tet mesh (world space, material ids 0).
@@ -66,17 +66,20 @@ pub(crate) enum Reuse<'a> {
 mod tests {
     use super::*;
     use crate::mesh::icosphere;
-    use crate::mesher::{tetrahedralize_with, MesherOptions};
+    use crate::mesher::{tetrahedralize_with, Grading};
     use crate::progress::Progress;
 
     #[test]
-    fn only_the_same_surface_at_the_same_budget_is_the_same_mesh() {
+    fn only_the_same_surface_with_the_same_options_is_the_same_mesh() {
         let sphere = icosphere(1.0, 2);
-        let meshed = tetrahedralize_with(&sphere, &MesherOptions::with_tets(2000), Progress::none()).unwrap();
-        let kept = Meshed::new(&sphere, 2000, meshed.mesh, meshed.stats);
-        assert!(kept.made_from(&sphere, 2000));
-        assert!(!kept.made_from(&sphere, 2001), "another budget");
-        assert!(!kept.made_from(&icosphere(1.0 + 1e-12, 2), 2000), "a surface moved by 1e-12");
-        assert!(!kept.made_from(&icosphere(1.0, 3), 2000), "another surface");
+        let options = MesherOptions::with_tets(2000);
+        let meshed = tetrahedralize_with(&sphere, &options, Progress::none()).unwrap();
+        let kept = Meshed::new(&sphere, &options, meshed.mesh, meshed.stats);
+        assert!(kept.made_from(&sphere, &options));
+        assert!(!kept.made_from(&sphere, &MesherOptions::with_tets(2001)), "another budget");
+        let graded = MesherOptions { grading: Grading::Graded { layers: 1 }, ..options.clone() };
+        assert!(!kept.made_from(&sphere, &graded), "another grading");
+        assert!(!kept.made_from(&icosphere(1.0 + 1e-12, 2), &options), "a surface moved by 1e-12");
+        assert!(!kept.made_from(&icosphere(1.0, 3), &options), "another surface");
     }
 }

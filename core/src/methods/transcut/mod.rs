@@ -452,8 +452,9 @@ fn world_tets(
     let (object, surface) = (target.object, target.world);
     match &object.shape {
         Shape::Surface(_) => {
+            let mesher_options = MesherOptions { grading: options.grading, ..MesherOptions::with_tets(options.tets) };
             if let Reuse::Keep(Some(kept)) = target.reuse {
-                if kept.made_from(surface, options.tets) {
+                if kept.made_from(surface, &mesher_options) {
                     stage("tetrahedra kept", 0.6).map_err(|c| TetsError::Mesher(MesherError::Cancelled(c)))?;
                     stats.meshing = Some(kept.stats().clone());
                     stats.mesh_reused = true;
@@ -462,12 +463,11 @@ fn world_tets(
             }
             // The mesher reports each of its stages from 0 to 1: one fraction of the meshing.
             let mesh_progress = |s: &str, f: f64| stage(s, 0.6 * mesher_fraction(s, f)).is_ok();
-            let meshed =
-                mesher::tetrahedralize_with(surface, &MesherOptions::with_tets(options.tets), Progress::new(&mesh_progress))
-                    .map_err(TetsError::Mesher)?;
+            let meshed = mesher::tetrahedralize_with(surface, &mesher_options, Progress::new(&mesh_progress))
+                .map_err(TetsError::Mesher)?;
             stats.meshing = Some(meshed.stats.clone());
             let record = matches!(target.reuse, Reuse::Keep(_))
-                .then(|| Arc::new(Meshed::new(surface, options.tets, meshed.mesh.clone(), meshed.stats)));
+                .then(|| Arc::new(Meshed::new(surface, &mesher_options, meshed.mesh.clone(), meshed.stats)));
             Ok((meshed.mesh, record))
         }
         Shape::Tetrahedra(mesh) => {
