@@ -327,6 +327,12 @@
 #define TC_MAX_ITERATIONS 1000000
 
 /**
+ * The most cubes of one size `TcTransCutOptions.grading` may ask for (above it:
+ * `TC_INVALID_ARGUMENT`).
+ */
+#define TC_MAX_GRADING_LAYERS 64
+
+/**
  * `TcAcquireOptions.observe`: the camera sees the face opposite the light (thin samples; the
  * default).
  */
@@ -682,6 +688,13 @@ typedef struct TcTransCutOptions {
    * `TC_SOLVER_DEFAULT` (the smoothed-aggregation V-cycle) or a `TC_SOLVER_*`.
    */
   uint32_t edit_solver;
+  /**
+   * 0 (default): one tet size everywhere. N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets,
+   * the finest near the surface, cube sizes doubling inwards after N cubes of each size, so
+   * that `TcBakeOptions.tets` buys a finer surface layer. Read only when `size` covers it (a
+   * struct of the first version, 12 bytes, has no such field).
+   */
+  uint32_t grading;
 } TcTransCutOptions;
 
 /**
@@ -1588,9 +1601,9 @@ TcStatus tc_bake_options_init(struct TcBakeOptions *options, size_t size);
 
 /**
  * Fills the first `size` bytes of `*options` with TransCut's defaults (`TC_SOLVER_DEFAULT`
- * for both solvers), as `tc_bake_options_init` fills its struct; pass
+ * for both solvers, uniform tets), as `tc_bake_options_init` fills its struct; pass
  * `sizeof(TcTransCutOptions)`. `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size
- * below 12 bytes; nothing is written on failure.
+ * below 12 bytes (the first version's); nothing is written on failure.
  */
 TcStatus tc_transcut_options_init(struct TcTransCutOptions *options, size_t size);
 
@@ -2587,10 +2600,11 @@ TC_LAYOUT_CHECK(TcBakeOptions_area_samples, offsetof(TcBakeOptions, area_samples
 TC_LAYOUT_CHECK(TcBakeOptions_environment_samples, offsetof(TcBakeOptions, environment_samples) == 40);
 TC_LAYOUT_CHECK(TcBakeOptions_backend, offsetof(TcBakeOptions, backend) == 44);
 TC_LAYOUT_CHECK(TcBakeOptions_method_options, offsetof(TcBakeOptions, method_options) == 48);
-TC_LAYOUT_CHECK(TcTransCutOptions__sizeof, sizeof(TcTransCutOptions) == 12);
+TC_LAYOUT_CHECK(TcTransCutOptions__sizeof, sizeof(TcTransCutOptions) == 16);
 TC_LAYOUT_CHECK(TcTransCutOptions_size, offsetof(TcTransCutOptions, size) == 0);
 TC_LAYOUT_CHECK(TcTransCutOptions_solver, offsetof(TcTransCutOptions, solver) == 4);
 TC_LAYOUT_CHECK(TcTransCutOptions_edit_solver, offsetof(TcTransCutOptions, edit_solver) == 8);
+TC_LAYOUT_CHECK(TcTransCutOptions_grading, offsetof(TcTransCutOptions, grading) == 12);
 TC_LAYOUT_CHECK(TcDipoleOptions__sizeof, sizeof(TcDipoleOptions) == 64);
 TC_LAYOUT_CHECK(TcDipoleOptions_size, offsetof(TcDipoleOptions, size) == 0);
 TC_LAYOUT_CHECK(TcDipoleOptions_oracle, offsetof(TcDipoleOptions, oracle) == 4);

@@ -193,6 +193,8 @@ MATERIAL_NAMES = {TC_MATERIAL_TRANSLUCENT: "translucent", TC_MATERIAL_DIFFUSE: "
 TC_MAX_THREADS = 256
 TC_MAX_SAMPLES = 1 << 20  # area_samples and environment_samples
 TC_MAX_TETS = 20_000_000
+#: The most cubes of one size ``TcTransCutOptions.grading`` may ask for.
+TC_MAX_GRADING_LAYERS = 64
 TC_MAX_TEXTURE_SIZE = 16_384  # the largest width or height of tc_object_bake_texture
 TC_MAX_ITERATIONS = 1_000_000
 
@@ -267,6 +269,8 @@ class TcTransCutOptions(Structure):
         ("size", c_uint32),
         ("solver", c_uint32),
         ("edit_solver", c_uint32),
+        # 0: one tet size everywhere; N: graded, N cubes of each size before the next doubling
+        ("grading", c_uint32),
     ]
 
 

@@ -758,6 +758,7 @@ class Scene:
         method: str | int | None = None,
         solver: str | int | None = None,
         edit_solver: str | int | None = None,
+        grading: int | None = None,
         oracle: str | int | None = None,
         theta: float | None = None,
         eps1: float | None = None,
@@ -793,7 +794,9 @@ class Scene:
         ``TC_METHOD_*`` value; unset: the library's default, TransCut. TransCut's own options:
         ``solver``, the bake's solver on the CPU, and ``edit_solver``, the solver of the edits
         after it (relight, paint, cut), each a name of :data:`SOLVERS` (any case) or a
-        ``TC_SOLVER_*`` value; unset: the method's defaults.
+        ``TC_SOLVER_*`` value, and ``grading`` (0: one tet size everywhere; N: graded tets, the
+        finest near the surface, N cubes of each size before the next doubling); unset: the
+        method's defaults.
         The hierarchical dipole's options (``method="hierarchical-dipole"``), the
         :class:`TcDipoleOptions` fields: ``theta`` (the opening angle, in (0, 1]), ``oracle``
         (``"opening-angle"`` or ``"paper"``, whose thresholds are ``eps1`` and ``eps2``),
@@ -899,13 +902,15 @@ class Scene:
         elif opts.method == TC_METHOD_POLYGRID:
             if polygrid or solver is not None or edit_solver is not None:
                 method_options = self._polygrid_options(solver, edit_solver, polygrid)
-        elif solver is not None or edit_solver is not None:
+        elif solver is not None or edit_solver is not None or grading is not None:
             if opts.method != TC_METHOD_TRANSCUT:
                 raise ValueError(
                     "solver and edit_solver are options of transcut and polygrid (solver also of radiosity), "
                     f"not of method {method!r}"
                 )
             method_options = self.lib.default_transcut_options()
+            if grading is not None:
+                method_options.grading = _unsigned(grading, "grading")
             if solver is not None:
                 method_options.solver = _solver(solver, "solver")
             if edit_solver is not None:

@@ -9,7 +9,7 @@ use super::handle::{with_scene, TcScene};
 use super::options::{
     backend_used, default_bake_options, default_dipole_options, default_polygrid_options, default_prt_options,
     default_radiosity_options, default_transcut_options, init, read_bake_options, TcBakeOptions, TcDipoleOptions,
-    TcPolygridOptions, TcPrtOptions, TcRadiosityOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1,
+    TcPolygridOptions, TcPrtOptions, TcRadiosityOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1, TRANSCUT_OPTIONS_SIZE_V1,
 };
 use super::progress::{Callback, TcProgressFn};
 use super::ptr;
@@ -110,13 +110,13 @@ pub unsafe extern "C" fn tc_bake_options_init(options: *mut TcBakeOptions, size:
 }
 
 /// Fills the first `size` bytes of `*options` with TransCut's defaults (`TC_SOLVER_DEFAULT`
-/// for both solvers), as `tc_bake_options_init` fills its struct; pass
+/// for both solvers, uniform tets), as `tc_bake_options_init` fills its struct; pass
 /// `sizeof(TcTransCutOptions)`. `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size
-/// below 12 bytes; nothing is written on failure.
+/// below 12 bytes (the first version's); nothing is written on failure.
 #[no_mangle]
 pub unsafe extern "C" fn tc_transcut_options_init(options: *mut TcTransCutOptions, size: usize) -> TcStatus {
     run("tc_transcut_options_init", || {
-        let first = size_of::<TcTransCutOptions>();
+        let first = TRANSCUT_OPTIONS_SIZE_V1;
         // SAFETY: the caller's contract: `size` writable bytes.
         unsafe { init(options, size, first, default_transcut_options()) }
     })

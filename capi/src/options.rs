@@ -14,6 +14,7 @@ use transcut_core::diffusion::SolverKind;
 use transcut_core::gpu::Backend;
 use transcut_core::hierarchy::{DipoleOptions, DipoleRadiance, EvalMode, Oracle, Receivers};
 use transcut_core::light::SourceOptions;
+use transcut_core::mesher::Grading;
 use transcut_core::optics::{DipoleGeometry, EdgeRule};
 use transcut_core::prt::{BasisSize, PrtCache, PrtOptions};
 use transcut_core::radiosity::{FormFactorOptions, Iteration, SolveOptions};
@@ -220,7 +221,18 @@ pub struct TcTransCutOptions {
     /// The solver of edits after the bake (relight, material edits, cuts):
     /// `TC_SOLVER_DEFAULT` (the smoothed-aggregation V-cycle) or a `TC_SOLVER_*`.
     pub edit_solver: u32,
+    /// 0 (default): one tet size everywhere. N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets,
+    /// the finest near the surface, cube sizes doubling inwards after N cubes of each size, so
+    /// that `TcBakeOptions.tets` buys a finer surface layer. Read only when `size` covers it (a
+    /// struct of the first version, 12 bytes, has no such field).
+    pub grading: u32,
 }
+
+/// The first version's `sizeof(TcTransCutOptions)` (no `grading`).
+pub(crate) const TRANSCUT_OPTIONS_SIZE_V1: usize = 12;
+/// The most cubes of one size `TcTransCutOptions.grading` may ask for (above it:
+/// `TC_INVALID_ARGUMENT`).
+pub const TC_MAX_GRADING_LAYERS: u32 = 64;
 
 /// The hierarchical dipole's own options (`TcBakeOptions.method_options` with
 /// `TC_METHOD_HIERARCHICAL_DIPOLE`). Fill it with `tc_dipole_options_init(&options, sizeof
@@ -650,7 +662,12 @@ pub(crate) fn default_bake_options() -> TcBakeOptions {
 
 /// The defaults, as `tc_transcut_options_init` writes them.
 pub(crate) fn default_transcut_options() -> TcTransCutOptions {
-    TcTransCutOptions { size: size_of::<TcTransCutOptions>() as u32, solver: TC_SOLVER_DEFAULT, edit_solver: TC_SOLVER_DEFAULT }
+    TcTransCutOptions {
+        size: size_of::<TcTransCutOptions>() as u32,
+        solver: TC_SOLVER_DEFAULT,
+        edit_solver: TC_SOLVER_DEFAULT,
+        grading: 0,
+    }
 }
 
 /// The core's backend choice for `TcBakeOptions.backend` (`None`: the environment decides).
@@ -784,12 +801,21 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
                 let sized =
                     Sized { what: "options->method_options", type_name: "TcTransCutOptions", filler: "tc_transcut_options_init" };
                 // SAFETY: the caller's contract, checked for NULL and alignment.
-                unsafe { read_sized(t, size_of::<TcTransCutOptions>(), default_transcut_options(), &sized)? }
+                unsafe { read_sized(t, TRANSCUT_OPTIONS_SIZE_V1, default_transcut_options(), &sized)? }
             };
             let d = TransCutOptions::default();
             let solver = solver_from(t.solver, "options->method_options->solver")?.unwrap_or(d.solver);
             let edit_solver = solver_from(t.edit_solver, "options->method_options->edit_solver")?.unwrap_or(d.edit_solver);
-            Method::TransCut(TransCutOptions { solver, edit_solver, ..transcut()? })
+            let grading = match t.grading {
+                0 => Grading::Uniform,
+                layers @ 1..=TC_MAX_GRADING_LAYERS => Grading::Graded { layers },
+                other => {
+                    return Err(Failure::invalid(format!(
+                        "options->method_options->grading = {other}: 0 (uniform) or 1 to TC_MAX_GRADING_LAYERS = {TC_MAX_GRADING_LAYERS} cubes per size"
+                    )))
+                }
+            };
+            Method::TransCut(TransCutOptions { solver, edit_solver, grading, ..transcut()? })
         }
         TC_METHOD_RADIOSITY => {
             let r = if o.method_options.is_null() {
@@ -904,6 +930,31 @@ mod tests {
         assert!(bad(TcDipoleOptions { mode: 3, ..default_dipole_options() }).contains("mode = 3"));
         assert!(bad(TcDipoleOptions { oracle: 9, ..default_dipole_options() }).contains("oracle = 9"));
         assert!(bad(TcDipoleOptions { theta: f64::NAN, ..default_dipole_options() }).contains("theta"));
+    }
+
+    /// TransCut's grading: 0 is uniform, N cubes per size is graded, above the maximum is named,
+    /// and a first-version struct (12 bytes) leaves the grading field unread.
+    #[test]
+    fn transcut_grading_maps_onto_the_cores() {
+        let method = |t: &TcTransCutOptions| {
+            let o = TcBakeOptions {
+                method: TC_METHOD_TRANSCUT,
+                method_options: std::ptr::from_ref(t).cast(),
+                ..default_bake_options()
+            };
+            // SAFETY: valid pointers to structs of the sizes they state.
+            unsafe { read_bake_options(&o) }.map(|b| b.method)
+        };
+        let grading = |t: &TcTransCutOptions| match method(t).unwrap() {
+            Method::TransCut(o) => o.grading,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(grading(&default_transcut_options()), Grading::Uniform);
+        assert_eq!(grading(&TcTransCutOptions { grading: 3, ..default_transcut_options() }), Grading::Graded { layers: 3 });
+        let older = TcTransCutOptions { size: TRANSCUT_OPTIONS_SIZE_V1 as u32, grading: 3, ..default_transcut_options() };
+        assert_eq!(grading(&older), Grading::Uniform);
+        let e = method(&TcTransCutOptions { grading: TC_MAX_GRADING_LAYERS + 1, ..default_transcut_options() }).unwrap_err();
+        assert!(e.message.contains("grading = 65"), "{}", e.message);
     }
 
     /// Radiosity's defaults are the core's (with the translucent objects' bake as given), every

@@ -117,6 +117,16 @@ def test_unknown_methods_and_solvers_are_errors(addon, lib, sphere_arrays):
                 s.bake(tets=2000, **{option: 99})
             assert err.value.status == tc.TC_INVALID_ARGUMENT
             assert f"method_options->{option} = 99" in err.value.message
+        # So does the grading: above TC_MAX_GRADING_LAYERS the library names it; a negative
+        # one is refused before the call.
+        with pytest.raises(tc.TranscutError) as err:
+            s.bake(tets=2000, grading=tc.TC_MAX_GRADING_LAYERS + 1)
+        assert err.value.status == tc.TC_INVALID_ARGUMENT
+        assert f"method_options->grading = {tc.TC_MAX_GRADING_LAYERS + 1}" in err.value.message
+        with pytest.raises(ValueError, match="grading"):
+            s.bake(tets=2000, grading=-1)
+        with pytest.raises(ValueError, match="options of transcut"):
+            s.bake(method="hierarchical-dipole", grading=1)
 
 
 def test_pcg_bake_agrees_with_the_default_solver(addon, sphere_arrays):
