@@ -56,6 +56,7 @@
 
 mod error;
 mod fem;
+mod fitted;
 pub(crate) mod resolution;
 pub mod solve;
 pub mod solver;
@@ -70,4 +71,4 @@ pub use solve::{energy_balance, solve, surface_fluence, surface_radiance, Energy
 pub(crate) use solver::start_vector;
 pub use solver::{Solver, SolverKind};
 pub use structure::BoundaryVertices;
-pub use system::{assemble, assemble_consistent, assemble_with, rhs, DiffusionSystem, Discretization};
+pub use system::{assemble, assemble_consistent, assemble_fitted, assemble_with, rhs, DiffusionSystem, Discretization};

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 
 use super::error::DiffusionError;
 use super::fem;
+use super::fitted;
 use super::structure::{fill_selected_rows, BoundaryVertices, Coefficients, Structure};
 use super::transcut;
 use crate::mesh::TetMesh;
@@ -30,6 +31,9 @@ pub enum Discretization {
     /// The P1 Galerkin reference with consistent volume and boundary mass and a consistent
     /// boundary load ([`super::fem`]), scaled by the same factor 4.
     ConsistentFem,
+    /// TransCut's rows with each edge's stiffness part exponentially fitted to the boundary
+    /// layer along it ([`super::fitted`]): more accurate where σtr h is not small.
+    ExponentiallyFitted,
 }
 
 /// A diffusion system on a tet mesh: the sparsity pattern (shared), the three-channel matrix M,
@@ -125,7 +129,7 @@ pub fn rhs(system: &DiffusionSystem, q: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, Di
 fn rhs_unchecked(system: &DiffusionSystem, q: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let s = &system.structure;
     match system.discretization {
-        Discretization::TransCut => transcut::rhs_transcut(s, &system.terms, q),
+        Discretization::TransCut | Discretization::ExponentiallyFitted => transcut::rhs_transcut(s, &system.terms, q),
         Discretization::ConsistentFem => fem::rhs_consistent(s, &system.terms, q),
     }
 }
@@ -446,6 +450,15 @@ pub fn assemble_consistent(mesh: &TetMesh, media: &[Medium], mm_per_unit: f64) -
     DiffusionSystem::new(mesh, media, mm_per_unit, Discretization::ConsistentFem)
 }
 
+/// Assembles the exponentially fitted variant of TransCut's system ([`super::fitted`]), with
+/// the same inputs, units and scale as [`assemble`].
+///
+/// # Errors
+/// Those of [`assemble`].
+pub fn assemble_fitted(mesh: &TetMesh, media: &[Medium], mm_per_unit: f64) -> Result<DiffusionSystem, DiffusionError> {
+    DiffusionSystem::new(mesh, media, mm_per_unit, Discretization::ExponentiallyFitted)
+}
+
 /// Checks the material ids against the table, naming the first tet at fault.
 fn check_materials(materials: &[u32], media: &[Medium]) -> Result<(), DiffusionError> {
     if let Some(tet) = materials.par_iter().position_first(|&m| m as usize >= media.len()) {
@@ -498,6 +511,7 @@ fn refill_rows(
     fill_selected_rows(values, s.pattern.row_ptr(), rows, |i, row| match discretization {
         Discretization::TransCut => transcut::transcut_row(s, c, terms, i, row),
         Discretization::ConsistentFem => fem::consistent_row(s, c, terms, i, row),
+        Discretization::ExponentiallyFitted => fitted::fitted_row(s, c, terms, i, row),
     });
 }
 
@@ -506,6 +520,7 @@ fn fill_matrix(s: &Structure, discretization: Discretization, c: &Coefficients, 
     match discretization {
         Discretization::TransCut => transcut::fill_transcut(s, c, terms, values),
         Discretization::ConsistentFem => fem::fill_consistent(s, c, terms, values),
+        Discretization::ExponentiallyFitted => fitted::fill_fitted(s, c, terms, values),
     }
 }
 
