@@ -16,8 +16,9 @@ use transcut::edit::pieces::{check_rigid, connected_components, extract, weld};
 use transcut::edit::EditError;
 use transcut::edit::{Cutter, SweptStroke};
 use transcut::mesh::{tet_volume, TetMesh, TriMesh};
-use transcut::mesher::{tetrahedralize, MesherOptions};
+use transcut::mesher::{tetrahedralize, tetrahedralize_with, Grading, MesherOptions};
 use transcut::DVec3;
+use transcut::Progress;
 
 const RADIUS: f64 = 1.0;
 
@@ -25,6 +26,18 @@ const RADIUS: f64 = 1.0;
 fn sphere() -> &'static TetMesh {
     static MESH: OnceLock<TetMesh> = OnceLock::new();
     MESH.get_or_init(|| tetrahedralize(&uv_sphere(RADIUS, 96, 48), &MesherOptions::with_tets(30_000)).unwrap())
+}
+
+/// The unit sphere meshed graded (one cube per size) with about 30k tets: the cuts cross its
+/// transition tets as well as the stuffed surface layer.
+fn graded_sphere() -> &'static TetMesh {
+    static MESH: OnceLock<TetMesh> = OnceLock::new();
+    MESH.get_or_init(|| {
+        let options = MesherOptions { grading: Grading::Graded { layers: 1 }, ..MesherOptions::with_tets(30_000) };
+        let t = tetrahedralize_with(&uv_sphere(RADIUS, 96, 48), &options, Progress::none()).unwrap();
+        assert!(t.stats.cubes_per_level.len() >= 3 && t.stats.cubes_per_level[1] > 0, "{:?}", t.stats.cubes_per_level);
+        t.mesh
+    })
 }
 
 fn identity_ids(mesh: &TetMesh) -> Vec<u32> {
@@ -102,7 +115,17 @@ fn min_dihedral_deg(mesh: &TetMesh) -> f64 {
 
 #[test]
 fn plane_cut_of_a_sphere_keeps_quality_and_lies_on_the_plane() {
-    let mesh = sphere();
+    plane_cut_keeps_quality_and_lies_on_the_plane(sphere());
+}
+
+/// The same on a graded mesh: the plane passes through cubes of three sizes and the tets between
+/// them, and every property holds as on the uniform mesh.
+#[test]
+fn plane_cut_of_a_graded_sphere_keeps_quality_and_lies_on_the_plane() {
+    plane_cut_keeps_quality_and_lies_on_the_plane(graded_sphere());
+}
+
+fn plane_cut_keeps_quality_and_lies_on_the_plane(mesh: &TetMesh) {
     let ids = identity_ids(mesh);
     let point = DVec3::new(0.05, -0.02, 0.3);
     let normal = DVec3::new(0.1, 0.2, 1.0);
