@@ -327,6 +327,23 @@
 #define TC_MAX_ITERATIONS 1000000
 
 /**
+ * `TcTransCutOptions.discretization`: TransCut's assembly (eqs. 10–14; the default).
+ */
+#define TC_DISCRETIZATION_TRANSCUT 0
+
+/**
+ * `TcTransCutOptions.discretization`: TransCut's assembly with each edge's stiffness
+ * exponentially fitted to the boundary layer (more accurate where the tets are coarse against
+ * the diffusion length).
+ */
+#define TC_DISCRETIZATION_FITTED 1
+
+/**
+ * `TcTransCutOptions.discretization`: the consistent P1 finite elements (the reference).
+ */
+#define TC_DISCRETIZATION_CONSISTENT_FEM 2
+
+/**
  * The most cubes of one size `TcTransCutOptions.grading` may ask for (above it:
  * `TC_INVALID_ARGUMENT`).
  */
@@ -695,6 +712,12 @@ typedef struct TcTransCutOptions {
    * struct of the first version, 12 bytes, has no such field).
    */
   uint32_t grading;
+  /**
+   * The assembly: `TC_DISCRETIZATION_TRANSCUT` (default), `TC_DISCRETIZATION_FITTED` or
+   * `TC_DISCRETIZATION_CONSISTENT_FEM`; another value fails with `TC_INVALID_ARGUMENT`. Read
+   * only when `size` covers it.
+   */
+  uint32_t discretization;
 } TcTransCutOptions;
 
 /**
@@ -2600,11 +2623,12 @@ TC_LAYOUT_CHECK(TcBakeOptions_area_samples, offsetof(TcBakeOptions, area_samples
 TC_LAYOUT_CHECK(TcBakeOptions_environment_samples, offsetof(TcBakeOptions, environment_samples) == 40);
 TC_LAYOUT_CHECK(TcBakeOptions_backend, offsetof(TcBakeOptions, backend) == 44);
 TC_LAYOUT_CHECK(TcBakeOptions_method_options, offsetof(TcBakeOptions, method_options) == 48);
-TC_LAYOUT_CHECK(TcTransCutOptions__sizeof, sizeof(TcTransCutOptions) == 16);
+TC_LAYOUT_CHECK(TcTransCutOptions__sizeof, sizeof(TcTransCutOptions) == 20);
 TC_LAYOUT_CHECK(TcTransCutOptions_size, offsetof(TcTransCutOptions, size) == 0);
 TC_LAYOUT_CHECK(TcTransCutOptions_solver, offsetof(TcTransCutOptions, solver) == 4);
 TC_LAYOUT_CHECK(TcTransCutOptions_edit_solver, offsetof(TcTransCutOptions, edit_solver) == 8);
 TC_LAYOUT_CHECK(TcTransCutOptions_grading, offsetof(TcTransCutOptions, grading) == 12);
+TC_LAYOUT_CHECK(TcTransCutOptions_discretization, offsetof(TcTransCutOptions, discretization) == 16);
 TC_LAYOUT_CHECK(TcDipoleOptions__sizeof, sizeof(TcDipoleOptions) == 64);
 TC_LAYOUT_CHECK(TcDipoleOptions_size, offsetof(TcDipoleOptions, size) == 0);
 TC_LAYOUT_CHECK(TcDipoleOptions_oracle, offsetof(TcDipoleOptions, oracle) == 4);

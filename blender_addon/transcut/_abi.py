@@ -114,6 +114,11 @@ TC_SOLVER_CASCADE = 3  # TransCut §4.2's coarse-to-fine cascade (CPU only)
 TC_SOLVER_MG_PCG = 4  # CG preconditioned by a V-cycle on TransCut's §4.1 hierarchy
 TC_SOLVER_SA_PCG = 5  # CG preconditioned by a smoothed-aggregation V-cycle
 
+# TcTransCutOptions.discretization.
+TC_DISCRETIZATION_TRANSCUT = 0  # TransCut eqs. 10-14 (default)
+TC_DISCRETIZATION_FITTED = 1  # each edge's stiffness exponentially fitted to the boundary layer
+TC_DISCRETIZATION_CONSISTENT_FEM = 2  # the consistent P1 reference
+
 # TcDipoleOptions (the hierarchical dipole's options; tc_dipole_options_init gives the defaults,
 # the first of each pair).
 TC_DIPOLE_ORACLE_OPENING_ANGLE = 0  # link when the clusters' radii sum below theta × their distance
@@ -208,6 +213,13 @@ SOLVERS = {
     "sa-pcg": TC_SOLVER_SA_PCG,
 }
 
+#: ``discretization`` names accepted by :meth:`Scene.bake` (the CLI's ``--discretization`` names).
+DISCRETIZATIONS = {
+    "transcut": TC_DISCRETIZATION_TRANSCUT,
+    "fitted": TC_DISCRETIZATION_FITTED,
+    "consistent-fem": TC_DISCRETIZATION_CONSISTENT_FEM,
+}
+
 # TcMediumEdit.region and .op (tc_object_edit_medium).
 TC_REGION_ALL = 0
 TC_REGION_SPHERE = 1
@@ -271,6 +283,7 @@ class TcTransCutOptions(Structure):
         ("edit_solver", c_uint32),
         # 0: one tet size everywhere; N: graded, N cubes of each size before the next doubling
         ("grading", c_uint32),
+        ("discretization", c_uint32),  # TC_DISCRETIZATION_*
     ]
 
 

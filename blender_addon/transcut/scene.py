@@ -22,6 +22,7 @@ from ._abi import (
     ARTIST_MAPPINGS,
     BACKENDS,
     DIPOLE_CHOICES,
+    DISCRETIZATIONS,
     MATERIAL_NAMES,
     OPTIONAL,
     POLYGRID_STENCILS,
@@ -105,6 +106,16 @@ def _solver(value, what: str) -> int:
             raise ValueError(f"unknown {what} {value!r} (known: {', '.join(SOLVERS)})")
         return SOLVERS[value.lower()]
     return int(value)
+
+
+def _discretization(value) -> int:
+    """A ``TC_DISCRETIZATION_*`` value from a name of :data:`DISCRETIZATIONS` (any case) or the
+    value itself."""
+    if isinstance(value, str):
+        if value.lower() not in DISCRETIZATIONS:
+            raise ValueError(f"unknown discretization {value!r} (known: {', '.join(DISCRETIZATIONS)})")
+        return DISCRETIZATIONS[value.lower()]
+    return _unsigned(value, "discretization")
 
 
 def _choice(value, field: str) -> int:
@@ -759,6 +770,7 @@ class Scene:
         solver: str | int | None = None,
         edit_solver: str | int | None = None,
         grading: int | None = None,
+        discretization: str | int | None = None,
         oracle: str | int | None = None,
         theta: float | None = None,
         eps1: float | None = None,
@@ -794,9 +806,10 @@ class Scene:
         ``TC_METHOD_*`` value; unset: the library's default, TransCut. TransCut's own options:
         ``solver``, the bake's solver on the CPU, and ``edit_solver``, the solver of the edits
         after it (relight, paint, cut), each a name of :data:`SOLVERS` (any case) or a
-        ``TC_SOLVER_*`` value, and ``grading`` (0: one tet size everywhere; N: graded tets, the
-        finest near the surface, N cubes of each size before the next doubling); unset: the
-        method's defaults.
+        ``TC_SOLVER_*`` value, ``grading`` (0: one tet size everywhere; N: graded tets, the
+        finest near the surface, N cubes of each size before the next doubling) and
+        ``discretization`` (a name of :data:`DISCRETIZATIONS`, any case, or a
+        ``TC_DISCRETIZATION_*`` value); unset: the method's defaults.
         The hierarchical dipole's options (``method="hierarchical-dipole"``), the
         :class:`TcDipoleOptions` fields: ``theta`` (the opening angle, in (0, 1]), ``oracle``
         (``"opening-angle"`` or ``"paper"``, whose thresholds are ``eps1`` and ``eps2``),
@@ -902,7 +915,7 @@ class Scene:
         elif opts.method == TC_METHOD_POLYGRID:
             if polygrid or solver is not None or edit_solver is not None:
                 method_options = self._polygrid_options(solver, edit_solver, polygrid)
-        elif solver is not None or edit_solver is not None or grading is not None:
+        elif solver is not None or edit_solver is not None or grading is not None or discretization is not None:
             if opts.method != TC_METHOD_TRANSCUT:
                 raise ValueError(
                     "solver and edit_solver are options of transcut and polygrid (solver also of radiosity), "
@@ -911,6 +924,8 @@ class Scene:
             method_options = self.lib.default_transcut_options()
             if grading is not None:
                 method_options.grading = _unsigned(grading, "grading")
+            if discretization is not None:
+                method_options.discretization = _discretization(discretization)
             if solver is not None:
                 method_options.solver = _solver(solver, "solver")
             if edit_solver is not None:

@@ -10,7 +10,7 @@
 
 use std::ffi::{c_char, c_void};
 
-use transcut_core::diffusion::SolverKind;
+use transcut_core::diffusion::{Discretization, SolverKind};
 use transcut_core::gpu::Backend;
 use transcut_core::hierarchy::{DipoleOptions, DipoleRadiance, EvalMode, Oracle, Receivers};
 use transcut_core::light::SourceOptions;
@@ -226,9 +226,22 @@ pub struct TcTransCutOptions {
     /// that `TcBakeOptions.tets` buys a finer surface layer. Read only when `size` covers it (a
     /// struct of the first version, 12 bytes, has no such field).
     pub grading: u32,
+    /// The assembly: `TC_DISCRETIZATION_TRANSCUT` (default), `TC_DISCRETIZATION_FITTED` or
+    /// `TC_DISCRETIZATION_CONSISTENT_FEM`; another value fails with `TC_INVALID_ARGUMENT`. Read
+    /// only when `size` covers it.
+    pub discretization: u32,
 }
 
-/// The first version's `sizeof(TcTransCutOptions)` (no `grading`).
+/// `TcTransCutOptions.discretization`: TransCut's assembly (eqs. 10–14; the default).
+pub const TC_DISCRETIZATION_TRANSCUT: u32 = 0;
+/// `TcTransCutOptions.discretization`: TransCut's assembly with each edge's stiffness
+/// exponentially fitted to the boundary layer (more accurate where the tets are coarse against
+/// the diffusion length).
+pub const TC_DISCRETIZATION_FITTED: u32 = 1;
+/// `TcTransCutOptions.discretization`: the consistent P1 finite elements (the reference).
+pub const TC_DISCRETIZATION_CONSISTENT_FEM: u32 = 2;
+
+/// The first version's `sizeof(TcTransCutOptions)` (no `grading`, no `discretization`).
 pub(crate) const TRANSCUT_OPTIONS_SIZE_V1: usize = 12;
 /// The most cubes of one size `TcTransCutOptions.grading` may ask for (above it:
 /// `TC_INVALID_ARGUMENT`).
@@ -667,6 +680,7 @@ pub(crate) fn default_transcut_options() -> TcTransCutOptions {
         solver: TC_SOLVER_DEFAULT,
         edit_solver: TC_SOLVER_DEFAULT,
         grading: 0,
+        discretization: TC_DISCRETIZATION_TRANSCUT,
     }
 }
 
@@ -815,7 +829,17 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
                     )))
                 }
             };
-            Method::TransCut(TransCutOptions { solver, edit_solver, grading, ..transcut()? })
+            let discretization = match t.discretization {
+                TC_DISCRETIZATION_TRANSCUT => Discretization::TransCut,
+                TC_DISCRETIZATION_FITTED => Discretization::ExponentiallyFitted,
+                TC_DISCRETIZATION_CONSISTENT_FEM => Discretization::ConsistentFem,
+                other => {
+                    return Err(Failure::invalid(format!(
+                        "options->method_options->discretization = {other}: TC_DISCRETIZATION_TRANSCUT 0, _FITTED 1 or _CONSISTENT_FEM 2"
+                    )))
+                }
+            };
+            Method::TransCut(TransCutOptions { solver, edit_solver, grading, discretization, ..transcut()? })
         }
         TC_METHOD_RADIOSITY => {
             let r = if o.method_options.is_null() {
@@ -932,8 +956,9 @@ mod tests {
         assert!(bad(TcDipoleOptions { theta: f64::NAN, ..default_dipole_options() }).contains("theta"));
     }
 
-    /// TransCut's grading: 0 is uniform, N cubes per size is graded, above the maximum is named,
-    /// and a first-version struct (12 bytes) leaves the grading field unread.
+    /// TransCut's grading and discretisation: 0 is uniform, N cubes per size is graded, above
+    /// the maximum is named, and a first-version struct (12 bytes) leaves the grading field
+    /// unread; each discretisation maps onto the core's, another value is named.
     #[test]
     fn transcut_grading_maps_onto_the_cores() {
         let method = |t: &TcTransCutOptions| {
@@ -955,6 +980,15 @@ mod tests {
         assert_eq!(grading(&older), Grading::Uniform);
         let e = method(&TcTransCutOptions { grading: TC_MAX_GRADING_LAYERS + 1, ..default_transcut_options() }).unwrap_err();
         assert!(e.message.contains("grading = 65"), "{}", e.message);
+        let discretization = |d: u32| match method(&TcTransCutOptions { discretization: d, ..default_transcut_options() }) {
+            Ok(Method::TransCut(o)) => Ok(o.discretization),
+            Ok(other) => panic!("{other:?}"),
+            Err(e) => Err(e.message),
+        };
+        assert_eq!(discretization(TC_DISCRETIZATION_TRANSCUT), Ok(Discretization::TransCut));
+        assert_eq!(discretization(TC_DISCRETIZATION_FITTED), Ok(Discretization::ExponentiallyFitted));
+        assert_eq!(discretization(TC_DISCRETIZATION_CONSISTENT_FEM), Ok(Discretization::ConsistentFem));
+        assert!(discretization(3).unwrap_err().contains("discretization = 3"));
     }
 
     /// Radiosity's defaults are the core's (with the translucent objects' bake as given), every

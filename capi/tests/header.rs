@@ -69,7 +69,7 @@ fn layouts() -> Vec<Layout> {
             backend,
             method_options
         }),
-        layout!(TcTransCutOptions { size, solver, edit_solver, grading }),
+        layout!(TcTransCutOptions { size, solver, edit_solver, grading, discretization }),
         layout!(TcDipoleOptions { size, oracle, theta, eps1, eps2, rule, receivers, mode, geometry, budget, radiance }),
         layout!(TcPrtOptions { size, samples_log2, basis_terms, terms_per_vertex, near_field, near_radius, seed, cache_dir }),
         layout!(TcPrtStats {

@@ -5,7 +5,7 @@
 
 use anyhow::{anyhow, bail};
 use clap::{Args, ValueEnum};
-use transcut::diffusion::SolverKind;
+use transcut::diffusion::{Discretization, SolverKind};
 use transcut::gpu::Backend;
 use transcut::hierarchy::{DipoleOptions, EvalMode, Oracle, Receivers};
 use transcut::input::quote;
@@ -196,6 +196,13 @@ pub struct MethodArgs {
     /// spacing everywhere [default: 0; a scene file's [bake] grading]
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=64), help_heading = "TransCut options")]
     pub grading: Option<u32>,
+    /// transcut, radiosity: the assembly of the diffusion system: transcut (the paper's,
+    /// default), fitted (each edge's stiffness exponentially fitted to the boundary layer: more
+    /// accurate where the tets are coarse against the diffusion length, e.g. skin's blue) or
+    /// consistent-fem (the P1 reference) [default: transcut; a scene file's [bake]
+    /// discretization]
+    #[arg(long, value_parser = discretization, help_heading = "TransCut options")]
+    pub discretization: Option<Discretization>,
     /// transcut, radiosity, polygrid: relative residual ‖b − Mφ‖/‖b‖ at which the diffusion
     /// solver stops, in (0, 1) [default: 1e-6]
     #[arg(long, help_heading = "TransCut options")]
@@ -324,6 +331,7 @@ pub struct MethodDefaults {
     pub method: Option<String>,
     pub tets: Option<u64>,
     pub grading: Option<u32>,
+    pub discretization: Option<String>,
     pub tolerance: Option<f64>,
     pub solver: Option<String>,
     /// The hierarchical dipole's mode when `--mode` is not given.
@@ -371,6 +379,7 @@ pub struct BakeTable {
     pub method: Option<String>,
     pub tets: Option<u64>,
     pub grading: Option<u32>,
+    pub discretization: Option<String>,
     pub tolerance: Option<f64>,
     pub solver: Option<String>,
     pub theta: Option<f64>,
@@ -453,6 +462,7 @@ impl MethodDefaults {
             method: table.method,
             tets: table.tets,
             grading: table.grading,
+            discretization: table.discretization,
             tolerance: table.tolerance,
             solver: table.solver,
             mode,
@@ -515,6 +525,17 @@ pub fn solver_kind(name: &str) -> Result<SolverKind, String> {
     })
 }
 
+/// Parses a discretisation name ([`Discretization::from_name`]).
+///
+/// # Errors
+/// The valid names.
+pub fn discretization(name: &str) -> Result<Discretization, String> {
+    Discretization::from_name(name).ok_or_else(|| {
+        let names: Vec<&str> = Discretization::ALL.iter().map(|d| d.name()).collect();
+        format!("unknown discretization '{name}' (the discretizations are: {})", names.join(", "))
+    })
+}
+
 /// Parses a polygrid stencil name ([`Stencil::from_name`]).
 ///
 /// # Errors
@@ -560,10 +581,11 @@ impl MethodArgs {
     }
 
     /// Every method option: whether it was given, its flag and its method.
-    fn options(&self) -> [OptionOwner; 29] {
+    fn options(&self) -> [OptionOwner; 30] {
         [
             (self.tets.is_some(), "--tets", DIFFUSION),
             (self.grading.is_some(), "--grading", DIFFUSION),
+            (self.discretization.is_some(), "--discretization", DIFFUSION),
             (self.tolerance.is_some(), "--tolerance", SOLVES),
             (self.solver.is_some(), "--solver", SOLVES),
             (self.backend.is_some(), "--backend", SOLVES),
@@ -610,9 +632,10 @@ impl MethodArgs {
         // A scene file's TransCut options, when the file itself chose another method: written
         // for nothing. (When the command line chose the method, they were for the file's.)
         if self.method.is_none() && defaults.from_file {
-            let file: [OptionOwner; 28] = [
+            let file: [OptionOwner; 29] = [
                 (defaults.tets.is_some(), "tets", DIFFUSION),
                 (defaults.grading.is_some(), "grading", DIFFUSION),
+                (defaults.discretization.is_some(), "discretization", DIFFUSION),
                 (defaults.tolerance.is_some(), "tolerance", SOLVES),
                 (defaults.solver.is_some(), "solver", SOLVES),
                 (defaults.theta.is_some(), "theta", &[DIPOLE]),
@@ -717,9 +740,15 @@ impl MethodArgs {
             Some(0) => Grading::Uniform,
             Some(layers) => Grading::Graded { layers },
         };
+        let discretization = match (self.discretization, &defaults.discretization) {
+            (Some(d), _) => d,
+            (None, Some(name)) => discretization(name).map_err(|e| anyhow!("[bake] discretization: {e}"))?,
+            (None, None) => d.discretization,
+        };
         Ok(TransCutOptions {
             tets,
             grading,
+            discretization,
             tolerance: self.tolerance.or(defaults.tolerance).unwrap_or(d.tolerance),
             solver,
             backend: self.backend,
@@ -826,6 +855,32 @@ mod tests {
         assert_eq!(Oracle::default(), Oracle::OpeningAngle { theta: DEFAULT_THETA });
         assert_eq!(EvalMode::default(), EvalMode::OnTheFly);
         assert_eq!(DEFAULT_MODE, ModeName::OnTheFly);
+    }
+
+    /// The grading and the discretisation: a scene file's keys, overridden by the flags; 0 is
+    /// uniform; an unknown name is named with the valid ones; another method refuses them.
+    #[test]
+    fn grading_and_discretization_reach_transcuts_options() {
+        let file = MethodDefaults::from_bake_table(BakeTable {
+            grading: Some(2),
+            discretization: Some("Fitted".into()),
+            ..BakeTable::default()
+        })
+        .unwrap();
+        let Method::TransCut(o) = MethodArgs::default().method(&file).unwrap() else { panic!() };
+        assert_eq!((o.grading, o.discretization), (Grading::Graded { layers: 2 }, Discretization::ExponentiallyFitted));
+        let args = MethodArgs { grading: Some(0), discretization: Some(Discretization::ConsistentFem), ..MethodArgs::default() };
+        let Method::TransCut(o) = args.method(&file).unwrap() else { panic!() };
+        assert_eq!((o.grading, o.discretization), (Grading::Uniform, Discretization::ConsistentFem));
+        let bad = MethodDefaults::from_bake_table(BakeTable { discretization: Some("galerkin".into()), ..BakeTable::default() })
+            .unwrap();
+        let e = error(MethodArgs::default(), &bad);
+        assert!(e.contains("[bake] discretization") && e.contains("transcut, fitted, consistent-fem"), "{e}");
+        let e = error(
+            MethodArgs { method: Some(DIPOLE.into()), grading: Some(1), ..MethodArgs::default() },
+            &MethodDefaults::default(),
+        );
+        assert!(e.contains("--grading"), "{e}");
     }
 
     #[test]

@@ -127,6 +127,12 @@ def test_unknown_methods_and_solvers_are_errors(addon, lib, sphere_arrays):
             s.bake(tets=2000, grading=-1)
         with pytest.raises(ValueError, match="options of transcut"):
             s.bake(method="hierarchical-dipole", grading=1)
+        # The discretization by name or value; an unknown name before the call, a value after.
+        with pytest.raises(ValueError, match="consistent-fem"):
+            s.bake(tets=2000, discretization="galerkin")
+        with pytest.raises(tc.TranscutError) as err:
+            s.bake(tets=2000, discretization=7)
+        assert "method_options->discretization = 7" in err.value.message
 
 
 def test_pcg_bake_agrees_with_the_default_solver(addon, sphere_arrays):

@@ -82,7 +82,7 @@ fn the_method_options_choose_the_solver_and_an_older_struct_bakes_as_before() {
     older.method_options = 8 as *const std::ffi::c_void; // past its size: never read
     assert_eq!(bake_ball(&older).unwrap(), reference);
     // TransCut's options with another solver: the same answer to the solver's tolerance.
-    let mut transcut = TcTransCutOptions { size: 0, solver: 7, edit_solver: 7, grading: 7 };
+    let mut transcut = TcTransCutOptions { size: 0, solver: 7, edit_solver: 7, grading: 7, discretization: 7 };
     // SAFETY: a valid pointer and its size.
     ok(unsafe { tc_transcut_options_init(&mut transcut, size_of::<TcTransCutOptions>()) }, "init");
     assert_eq!(
@@ -107,7 +107,7 @@ fn bad_method_choices_are_named() {
     let (status, msg) = bake_ball(&o).unwrap_err();
     assert_eq!(status, TC_INVALID_ARGUMENT);
     assert!(msg.contains("options->method") && msg.contains("0 = transcut"), "{msg}");
-    let mut transcut = TcTransCutOptions { size: 0, solver: 0, edit_solver: 0, grading: 0 };
+    let mut transcut = TcTransCutOptions { size: 0, solver: 0, edit_solver: 0, grading: 0, discretization: 0 };
     // SAFETY: a valid pointer and its size.
     ok(unsafe { tc_transcut_options_init(&mut transcut, size_of::<TcTransCutOptions>()) }, "init");
     transcut.solver = 99;
@@ -116,7 +116,7 @@ fn bad_method_choices_are_named() {
     let (status, msg) = bake_ball(&o).unwrap_err();
     assert_eq!(status, TC_INVALID_ARGUMENT);
     assert!(msg.contains("method_options->solver = 99") && msg.contains("SSOR_PCG 2"), "{msg}");
-    let short = TcTransCutOptions { size: 4, solver: 0, edit_solver: 0, grading: 0 };
+    let short = TcTransCutOptions { size: 4, solver: 0, edit_solver: 0, grading: 0, discretization: 0 };
     o.method_options = (&raw const short).cast();
     let (status, msg) = bake_ball(&o).unwrap_err();
     assert_eq!(status, TC_INVALID_ARGUMENT);
@@ -129,9 +129,13 @@ fn bad_method_choices_are_named() {
     // SAFETY: NULL and short sizes are refused.
     unsafe {
         fails(tc_transcut_options_init(ptr::null_mut(), 12), TC_NULL_POINTER, &["options"]);
-        let mut t = TcTransCutOptions { size: 5, solver: 5, edit_solver: 5, grading: 5 };
+        let mut t = TcTransCutOptions { size: 5, solver: 5, edit_solver: 5, grading: 5, discretization: 5 };
         fails(tc_transcut_options_init(&mut t, 8), TC_INVALID_ARGUMENT, &["size = 8"]);
-        assert_eq!(t, TcTransCutOptions { size: 5, solver: 5, edit_solver: 5, grading: 5 }, "untouched on failure");
+        assert_eq!(
+            t,
+            TcTransCutOptions { size: 5, solver: 5, edit_solver: 5, grading: 5, discretization: 5 },
+            "untouched on failure"
+        );
     }
 }
 

@@ -71,6 +71,8 @@ pub struct BakeSpec {
     pub tets: Option<u64>,
     /// transcut, radiosity: cubes of each size before the next doubling (`--grading`; 0 uniform).
     pub grading: Option<u32>,
+    /// transcut, radiosity: the assembly's name (`--discretization`).
+    pub discretization: Option<String>,
     pub tolerance: Option<f64>,
     /// The solver's name ([`transcut::diffusion::SolverKind::name`]).
     pub solver: Option<String>,
@@ -353,6 +355,7 @@ impl BakeSpec {
             method: b.method.clone(),
             tets: b.tets,
             grading: b.grading,
+            discretization: b.discretization.clone(),
             tolerance: b.tolerance,
             solver: b.solver.clone(),
             theta: b.theta,

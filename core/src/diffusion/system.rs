@@ -36,6 +36,28 @@ pub enum Discretization {
     ExponentiallyFitted,
 }
 
+impl Discretization {
+    /// Every discretisation, in the order of their names.
+    pub const ALL: [Discretization; 3] =
+        [Discretization::TransCut, Discretization::ExponentiallyFitted, Discretization::ConsistentFem];
+
+    /// The name used by the command line and scene files: `transcut`, `fitted`, `consistent-fem`.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Discretization::TransCut => "transcut",
+            Discretization::ExponentiallyFitted => "fitted",
+            Discretization::ConsistentFem => "consistent-fem",
+        }
+    }
+
+    /// The discretisation of a [`Self::name`] (any case).
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|d| d.name().eq_ignore_ascii_case(name.trim()))
+    }
+}
+
 /// A diffusion system on a tet mesh: the sparsity pattern (shared), the three-channel matrix M,
 /// the source q per boundary vertex and the right-hand side b.
 ///

@@ -96,10 +96,11 @@ pub use region::{MediumEdit, MediumOp, Region};
 
 use crate::diffusion::resolution;
 use crate::diffusion::system::MediaUndo;
-use crate::diffusion::SolverKind;
+use crate::diffusion::{Discretization, SolverKind};
 use crate::gpu::Backend;
 use crate::light::{self, Light, SourceOptions};
 use crate::mesh::{TetMesh, TriangleBvh};
+use crate::mesher::Grading;
 use crate::optics::Medium;
 use crate::progress::{ms, Progress};
 use crate::scene::{BakeOptions, TransCutOptions};
@@ -111,6 +112,10 @@ use piece::{SolveSetup, Span, Timings};
 pub struct EditOptions {
     /// Target tetrahedra when [`Editor::new`] meshes a surface (as [`TransCutOptions::tets`]).
     pub tets: usize,
+    /// Their grading (as [`TransCutOptions::grading`]).
+    pub grading: Grading,
+    /// The assembly of every piece's system (as [`TransCutOptions::discretization`]).
+    pub discretization: Discretization,
     /// Relative residual at which every solve stops (as [`TransCutOptions::tolerance`]).
     pub tolerance: f64,
     /// Iteration cap of every solve.
@@ -146,6 +151,8 @@ impl EditOptions {
     pub fn from_bake_options(bake: &BakeOptions, transcut: &TransCutOptions) -> Self {
         Self {
             tets: transcut.tets,
+            grading: transcut.grading,
+            discretization: transcut.discretization,
             tolerance: transcut.tolerance,
             max_iterations: transcut.max_iterations,
             solver: transcut.edit_solver,
@@ -188,6 +195,8 @@ impl EditOptions {
     pub fn transcut_options(&self) -> TransCutOptions {
         TransCutOptions {
             tets: self.tets,
+            grading: self.grading,
+            discretization: self.discretization,
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
             edit_solver: self.solver,
@@ -323,6 +332,7 @@ impl Editor {
             solver: options.solver,
             backend,
             mm_per_unit,
+            discretization: options.discretization,
         };
         let centroids = centroids(&original);
         let mut timings = Timings::default();

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use super::error::EditError;
 use crate::diffusion::system::SourceState;
-use crate::diffusion::{self, DiffusionError, DiffusionSystem, Solution, Solver, SolverKind};
+use crate::diffusion::{self, DiffusionError, DiffusionSystem, Discretization, Solution, Solver, SolverKind};
 use crate::gpu::{self, Backend, GpuError, SolveWith};
 use crate::light::{self, Light, SourceOptions};
 use crate::mesh::{TetMesh, TriMesh, TriangleBvh};
@@ -123,6 +123,7 @@ pub(crate) struct SolveSetup {
     pub solver: SolverKind,
     pub backend: Backend,
     pub mm_per_unit: f64,
+    pub discretization: Discretization,
 }
 
 /// Where one step of an update reports: the sink and the part `[lo, hi]` of the whole update
@@ -195,7 +196,8 @@ pub(crate) fn build(
     mesh.set_materials((0..mesh.tet_count() as u32).collect())?;
     let table = local_table(media, &original_tets);
     let keep_going = || span.report("assembly", 0.25).is_ok();
-    let mut system = diffusion::assemble_with(&mesh, &table, setup.mm_per_unit, &keep_going).map_err(diffusion_error)?;
+    let mut system = DiffusionSystem::new_with(&mesh, &table, setup.mm_per_unit, setup.discretization, &keep_going)
+        .map_err(diffusion_error)?;
     span.report("assembly", 0.4)?;
     system.keep_coefficients();
     timings.assembly_ms += ms(t);

@@ -6,7 +6,7 @@
 //! everything else. The set is closed: a method is a variant here, a folder under
 //! `core/src/methods/`, and one line in the conformance suite `core/tests/integration/methods.rs`.
 
-use crate::diffusion::SolverKind;
+use crate::diffusion::{Discretization, SolverKind};
 use crate::gpu::Backend;
 use crate::hierarchy::DipoleOptions;
 use crate::mesher::Grading;
@@ -172,6 +172,10 @@ pub struct TransCutOptions {
     pub tets: usize,
     /// How the tet sizes vary inside each object ([`Grading::Uniform`] by default).
     pub grading: Grading,
+    /// The assembly: [`Discretization::TransCut`] (the paper's, default),
+    /// [`Discretization::ExponentiallyFitted`] (more accurate where σtr h is not small) or
+    /// [`Discretization::ConsistentFem`] (the P1 reference).
+    pub discretization: Discretization,
     /// Relative residual ‖b − Mφ‖/‖b‖ at which every solve stops, in (0, 1).
     pub tolerance: f64,
     /// Iteration cap of every solve, in [1, [`TransCutOptions::MAX_ITERATIONS`]].
@@ -193,6 +197,7 @@ impl Default for TransCutOptions {
         Self {
             tets: 200_000,
             grading: Grading::Uniform,
+            discretization: Discretization::TransCut,
             tolerance: 1e-6,
             max_iterations: 10_000,
             solver: SolverKind::SsorPcg,

@@ -101,7 +101,13 @@ impl SubsurfaceMethod for PolygridMethod {
         });
         stage("assembly", 0.6)?;
         match options.stencil {
-            Stencil::Fem => Ok(PolygridPrepared::Fem(Box::new(Prepared::from_tets(target, tet_mesh, None, stats)?))),
+            Stencil::Fem => Ok(PolygridPrepared::Fem(Box::new(Prepared::from_tets(
+                target,
+                tet_mesh,
+                None,
+                options.solve.discretization,
+                stats,
+            )?))),
             Stencil::FiniteVolume => {
                 let t = Instant::now();
                 let media = target

@@ -29,7 +29,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::{BakedState, Lighting, ObjectStats, Stage, SubsurfaceMethod, Target};
-use crate::diffusion::{self, resolution, DiffusionError, DiffusionSystem};
+use crate::diffusion::{self, resolution, DiffusionError, DiffusionSystem, Discretization};
 use crate::gpu::{self, Backend, GpuError, SolveWith};
 use crate::mesh::{TetMesh, TetMeshError};
 use crate::mesher::{self, MesherError, MesherOptions};
@@ -185,11 +185,9 @@ impl Prepared {
         let surface_media = resolution::surface_media(&tet_mesh, &media);
         let checked = resolution::resolution(&surface_media, spacing);
         resolution::check(&surface_media, spacing, tet_mesh.tet_count()).map_err(|u| SceneError::unresolved(index, name(), u))?;
-        let mut system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(|source| SceneError::Diffusion {
-            index,
-            name: name(),
-            source,
-        })?;
+        let discretization = self.system.discretization();
+        let mut system = DiffusionSystem::new(&tet_mesh, &media, object.mm_per_unit, discretization)
+            .map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
         system.set_signed_source(self.system.source()).map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
         stats.resolution = checked;
         stats.assembly_ms = ms(t);
@@ -207,6 +205,7 @@ impl Prepared {
         target: &Target<'_>,
         mut tet_mesh: TetMesh,
         meshed: Option<Arc<Meshed>>,
+        discretization: Discretization,
         stats: &mut ObjectStats,
     ) -> Result<Self, SceneError> {
         let (index, object) = (target.index, target.object);
@@ -221,11 +220,8 @@ impl Prepared {
         let surface_media = resolution::surface_media(&tet_mesh, &media);
         stats.resolution = resolution::resolution(&surface_media, spacing);
         resolution::check(&surface_media, spacing, tet_mesh.tet_count()).map_err(|u| SceneError::unresolved(index, name(), u))?;
-        let system = diffusion::assemble(&tet_mesh, &media, object.mm_per_unit).map_err(|source| SceneError::Diffusion {
-            index,
-            name: name(),
-            source,
-        })?;
+        let system = DiffusionSystem::new(&tet_mesh, &media, object.mm_per_unit, discretization)
+            .map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
         stats.assembly_ms = ms(t);
         stats.tets = tet_mesh.tet_count();
         stats.vertices = tet_mesh.vertex_count();
@@ -364,7 +360,7 @@ impl SubsurfaceMethod for TransCut {
         stats.meshing_ms = ms(t);
         stage("assembly", 0.6)?;
 
-        Prepared::from_tets(target, tet_mesh, meshed, stats)
+        Prepared::from_tets(target, tet_mesh, meshed, options.discretization, stats)
     }
 
     fn solve(
