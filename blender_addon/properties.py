@@ -48,6 +48,18 @@ METHOD_LABELS = {
     "polygrid": "Polygrid",
 }
 
+#: TransCut's assemblies (``Scene.bake(discretization=...)`` names, upper case with ``_``).
+DISCRETIZATION_ITEMS = (
+    ("TRANSCUT", "TransCut", "The paper's assembly (cotangent weights, lumped mass)"),
+    (
+        "FITTED",
+        "Fitted",
+        "Each edge's stiffness exponentially fitted to the boundary layer: more accurate where the "
+        "tetrahedra are coarse against the diffusion length (skin's blue, ketchup), same cost",
+    ),
+    ("CONSISTENT_FEM", "Consistent FEM", "The P1 finite-element reference (consistent mass)"),
+)
+
 #: The polygrid's stencils (``Scene.bake(polygrid_stencil=...)`` names, upper case with ``_``).
 POLYGRID_STENCIL_ITEMS = (
     (
@@ -151,6 +163,23 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         default=100_000,
         min=1_000,
         soft_max=2_000_000,
+    )
+    grading: IntProperty(
+        name="Grading",
+        description=(
+            "TransCut: 0 keeps one tetrahedron size everywhere; N grades them, the finest near the surface and "
+            "sizes doubling inwards after N cubes of each size, so the same Resolution gives a finer surface"
+        ),
+        default=0,
+        min=0,
+        max=transcut.TC_MAX_GRADING_LAYERS,
+        soft_max=4,
+    )
+    discretization: EnumProperty(
+        name="Assembly",
+        description="TransCut: how the diffusion equation is discretised on the tetrahedra",
+        items=DISCRETIZATION_ITEMS,
+        default="TRANSCUT",
     )
     tolerance: FloatProperty(
         name="Tolerance",

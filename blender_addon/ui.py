@@ -58,6 +58,9 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
         else:
             if settings.method in ("transcut", RADIOSITY):
                 col.prop(settings, "tets")
+            if settings.method == "transcut":
+                col.prop(settings, "grading")
+                col.prop(settings, "discretization")
             col.prop(settings, "tolerance")
             col.prop(settings, "backend")
         if settings.method == POLYGRID:

@@ -909,6 +909,11 @@ class Scene:
                 f"{', '.join(polygrid)} {'is an option' if len(polygrid) == 1 else 'are options'} of "
                 f"polygrid, not of method {method if method is not None else 'transcut'!r}"
             )
+        if (grading is not None or discretization is not None) and opts.method != TC_METHOD_TRANSCUT:
+            raise ValueError(
+                "grading and discretization are options of transcut, "
+                f"not of method {method if method is not None else 'transcut'!r}"
+            )
         if opts.method == TC_METHOD_RADIOSITY and edit_solver is None:
             if radiosity or solver is not None:
                 method_options = self._radiosity_options(solver, radiosity)

@@ -444,6 +444,41 @@ def test_progress_reported_and_cancel_changes_nothing(scene, addon):
     assert snapshot() == before
 
 
+def test_grading_and_assembly_settings_reach_the_library(scene, addon):
+    """Scene > TransCut > Grading and Assembly are passed to a TransCut bake (and to no other
+    method's): a graded, fitted bake runs and differs from the default one, which the
+    defaults (0, TransCut) reproduce exactly."""
+    require_library()
+    obj = add_sphere()
+    add_light("SUN", rotation=(math.radians(30), 0.0, 0.0), energy=3.0)
+    select_only(obj)
+    ctx = bpy.context
+    lib = addon.library.get()
+    settings = ctx.scene.transcut
+    assert (settings.grading, settings.discretization) == (0, "TRANSCUT")
+    before = (settings.tets, settings.method)
+
+    def run():
+        job = addon.bake.prepare_job(ctx)
+        (rgb,) = addon.bake.run_job(lib, job, None, [])
+        return job.options, rgb
+
+    try:
+        settings.tets = 20_000
+        options, paper = run()
+        assert (options["grading"], options["discretization"]) == (0, "transcut")
+        settings.grading, settings.discretization = 1, "FITTED"
+        options, graded = run()
+        assert (options["grading"], options["discretization"]) == (1, "fitted")
+        assert graded.shape == paper.shape and not (graded == paper).all()
+        assert abs(graded.mean() / paper.mean() - 1.0) < 0.05
+        settings.method = "hierarchical-dipole"
+        assert "grading" not in addon.bake.prepare_job(ctx).options
+    finally:
+        settings.tets, settings.method = before
+        settings.grading, settings.discretization = 0, "TRANSCUT"
+
+
 def test_backend_setting_reaches_the_library(scene, addon):
     """Scene > TransCut > Backend is passed to the bake: CPU solves on the CPU; GPU on the
     adapter there is (lavapipe without a GPU; TRANSCUT_GPU_TESTS=skip skips that part, loudly)
@@ -658,6 +693,7 @@ def test_panels_draw(scene, addon):
         panel_cls.draw(fake, bpy.context)
         assert ("operator", "object.transcut_bake") in log
         assert ("prop", "tets") in log and ("prop", "attribute_name") in log and ("prop", "backend") in log
+        assert ("prop", "grading") in log and ("prop", "discretization") in log  # TransCut's
         assert log.index(("prop", "method")) < log.index(("prop", "tets"))  # TransCut's Resolution
         if source == "COEFFICIENTS":
             assert ("prop", "sigma_s_prime") in log
