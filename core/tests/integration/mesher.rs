@@ -3,6 +3,7 @@
 //! input.
 
 use std::path::PathBuf;
+use std::sync::OnceLock;
 
 use glam::{DMat4, DQuat, DVec3};
 use rand::{Rng, SeedableRng};
@@ -35,6 +36,18 @@ fn is_closed(m: &TriMesh) -> bool {
 
 fn mesh_to(m: &TriMesh, tets: usize) -> Tetrahedralization {
     tetrahedralize_with(m, &MesherOptions::with_tets(tets), Progress::none()).expect("meshing succeeds")
+}
+
+/// Each shared mesh meshed uniformly at 100k tets, once for the whole test binary (the checks
+/// and the similarity test's reference).
+fn at_100k(name: &str) -> &'static (TriMesh, Tetrahedralization) {
+    static MESHED: [OnceLock<(TriMesh, Tetrahedralization)>; MESHES.len()] = [const { OnceLock::new() }; MESHES.len()];
+    let i = MESHES.iter().position(|&n| n == name).expect("a shared mesh");
+    MESHED[i].get_or_init(|| {
+        let input = shared_mesh(name);
+        let t = mesh_to(&input, 100_000);
+        (input, t)
+    })
 }
 
 fn mesh_graded(m: &TriMesh, tets: usize, layers: u32) -> Tetrahedralization {
@@ -71,8 +84,8 @@ fn check(name: &str, input: &TriMesh, t: &Tetrahedralization, target: usize) {
 #[test]
 fn every_test_mesh_at_100k_tets() {
     for name in MESHES {
-        let input = shared_mesh(name);
-        check(name, &input, &mesh_to(&input, 100_000), 100_000);
+        let (input, t) = at_100k(name);
+        check(name, input, t, 100_000);
     }
 }
 
@@ -118,8 +131,8 @@ fn slow_every_test_mesh_at_500k_and_1m_tets() {
 fn similarity_transforms_keep_counts_and_quality() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
     for name in MESHES {
-        let input = shared_mesh(name);
-        let base = mesh_to(&input, 100_000).stats;
+        let (input, base) = at_100k(name);
+        let base = &base.stats;
         for _ in 0..3 {
             let axis = DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5).normalize();
             let scale = 10f64.powf(rng.random_range(-3.0..3.0));
