@@ -17,7 +17,8 @@
 //! keep the zero-sum Laplacian structure with TransCut's mass, so the energy balance
 //! ([`super::energy_balance`]) holds unchanged; and x → 0 gives TransCut's scheme back.
 
-use super::structure::{fill_rows, Coefficients, Structure, EDGE_INDEX, INTERIOR, OTHERS};
+use super::structure::{fill_rows, Coefficients, Structure};
+use super::transcut::scaled_row;
 use crate::optics::BoundaryTerms;
 
 /// `f(x) = x / sinh x`, the stiffness factor of an edge with x = σtr |ij| (1 − x²/6 + … near 0,
@@ -38,43 +39,15 @@ pub(crate) fn fill_fitted(s: &Structure, c: &Coefficients, terms: &BoundaryTerms
     fill_rows(values, s.pattern.row_ptr(), |i, row| fitted_row(s, c, terms, i, row));
 }
 
-/// Row `i`: TransCut's row ([`super::transcut::transcut_row`]) with each edge's stiffness part
+/// Row `i`: TransCut's row ([`super::transcut::scaled_row`]) with each edge's stiffness part
 /// w_ijt scaled by `f(σtr,t |ij|)` (σtr,t = √(μ_t/κ_t) of the tet's medium, per channel).
 pub(crate) fn fitted_row(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, i: usize, row: &mut [[f64; 3]]) {
-    let row_ptr = s.pattern.row_ptr();
-    let diag = s.pattern.diagonal_positions();
-    row.fill([0.0; 3]);
-    let mut d = [0.0; 3];
-    let p = s.positions_mm[i];
-    for inc in s.tets_of(i) {
-        let t = inc.tet as usize;
+    scaled_row(s, c, terms, i, row, |t, a, b| {
         let m = s.materials[t] as usize;
-        let (kappa, mu) = (c.kappa[m], c.mu[m]);
-        let tr: [f64; 3] = std::array::from_fn(|ch| (mu[ch] / kappa[ch]).sqrt());
-        let a = inc.local as usize;
         let tet = s.tets[t];
-        for (k, &b) in OTHERS[a].iter().enumerate() {
-            let coef = s.edge_coef[t][EDGE_INDEX[a][b]];
-            let l = (s.positions_mm[tet[b] as usize] - p).length();
-            let v = &mut row[inc.slots[k] as usize];
-            for ch in 0..3 {
-                let w4 = -4.0 * kappa[ch] * coef * stiffness_factor(tr[ch] * l);
-                v[ch] += w4;
-                d[ch] -= w4;
-            }
-        }
-        for ch in 0..3 {
-            d[ch] += s.volume[t] * mu[ch];
-        }
-    }
-    let b = s.boundary_index[i];
-    if b != INTERIOR {
-        let x = terms.matrix_diagonal(s.boundary.area_mm2[b as usize]);
-        for dc in &mut d {
-            *dc += x;
-        }
-    }
-    row[diag[i] - row_ptr[i]] = d;
+        let l = (s.positions_mm[tet[b] as usize] - s.positions_mm[tet[a] as usize]).length();
+        std::array::from_fn(|ch| stiffness_factor((c.mu[m][ch] / c.kappa[m][ch]).sqrt() * l))
+    });
 }
 
 #[cfg(test)]

@@ -31,6 +31,21 @@ pub(crate) fn fill_transcut(s: &Structure, c: &Coefficients, terms: &BoundaryTer
 /// tets are summed in increasing order, so a row refilled alone ([`DiffusionSystem::update_media_rows`])
 /// is bit-identical to the same row of a full fill.
 pub(crate) fn transcut_row(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, i: usize, row: &mut [[f64; 3]]) {
+    scaled_row(s, c, terms, i, row, |_, _, _| [1.0; 3]);
+}
+
+/// Row `i` of TransCut's scheme with each tet's part of each edge weight, w_ijt, scaled per
+/// channel by `factor(t, a, b)` (tet `t`, the local indices `a` of vertex i and `b` of vertex j):
+/// 1 for TransCut itself (exactly: ×1 changes no bit), the fitting factor for
+/// [`super::fitted`].
+pub(crate) fn scaled_row(
+    s: &Structure,
+    c: &Coefficients,
+    terms: &BoundaryTerms,
+    i: usize,
+    row: &mut [[f64; 3]],
+    factor: impl Fn(usize, usize, usize) -> [f64; 3],
+) {
     let row_ptr = s.pattern.row_ptr();
     let diag = s.pattern.diagonal_positions();
     row.fill([0.0; 3]);
@@ -42,9 +57,10 @@ pub(crate) fn transcut_row(s: &Structure, c: &Coefficients, terms: &BoundaryTerm
         let a = inc.local as usize;
         for (k, &b) in OTHERS[a].iter().enumerate() {
             let coef = s.edge_coef[t][EDGE_INDEX[a][b]];
+            let f = factor(t, a, b);
             let v = &mut row[inc.slots[k] as usize];
             for ch in 0..3 {
-                let w4 = -4.0 * kappa[ch] * coef;
+                let w4 = -4.0 * kappa[ch] * coef * f[ch];
                 v[ch] += w4;
                 d[ch] -= w4;
             }
