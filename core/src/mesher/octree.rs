@@ -208,12 +208,12 @@ impl Octree {
     /// split twice would have to be split itself.
     pub fn new(fine: Lattice, levels: usize, needed: &[bool], layers: usize) -> Self {
         let layers = layers.max(1);
-        let mut split = vec![Vec::new()];
-        let mut below = needed.to_vec();
+        let mut split: Vec<Vec<bool>> = vec![Vec::new()];
         for k in 0..levels {
             let d = dims(&fine, k);
-            below = coarsen(&dilate(&below, d, layers), d);
-            split.push(below.clone());
+            let below = if k == 0 { needed } else { &split[k] };
+            let next = coarsen(&dilate(below, d, layers), d);
+            split.push(next);
         }
         Self { fine, levels, split }
     }
@@ -314,10 +314,13 @@ impl Octree {
                         // ring[i+1]) the offset (axis, direction) towards the cubes beyond it.
                         let ring = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)];
                         let beyond = [(w, -1isize), (u, 1), (w, 1), (u, -1)];
-                        let along = |e: usize| {
-                            let mut h = [false; 3];
-                            h[if e.is_multiple_of(2) { u } else { w }] = true;
-                            h
+                        // Edge e's two ends, and its midpoint (half a cube along the edge from its
+                        // lower end).
+                        let ends = |e: usize| (corner(k, ring[e], [false; 3]), corner(k, ring[(e + 1) % 4], [false; 3]));
+                        let midpoint = |e: usize| {
+                            let mut half = [false; 3];
+                            half[if e.is_multiple_of(2) { u } else { w }] = true;
+                            corner(k, if e < 2 { ring[e] } else { ring[(e + 1) % 4] }, half)
                         };
                         if self.exists(k, n) && !self.is_split(k, n) {
                             // Same-size neighbour: BCC tets, once per face (from the − side).
@@ -325,14 +328,12 @@ impl Octree {
                                 continue;
                             }
                             let rn = centre(k, n);
-                            for e in 0..4 {
-                                let (e0, e1) = (corner(k, ring[e], [false; 3]), corner(k, ring[(e + 1) % 4], [false; 3]));
-                                let (ba, bs) = beyond[e];
+                            for (e, &(ba, bs)) in beyond.iter().enumerate() {
+                                let (e0, e1) = ends(e);
                                 let split_edge =
                                     [c, n].iter().any(|&x| self.step(k, x, ba, bs).is_some_and(|y| self.is_split(k, y)));
                                 if split_edge {
-                                    let lo = if e < 2 { ring[e] } else { ring[(e + 1) % 4] };
-                                    let m = corner(k, lo, along(e));
+                                    let m = midpoint(e);
                                     out.push(([r, rn, e0, m], false));
                                     out.push(([r, rn, m, e1], false));
                                 } else {
@@ -345,9 +346,8 @@ impl Octree {
                             fh[axis] = false;
                             let f = corner(k, ring[0], fh);
                             for e in 0..4 {
-                                let (e0, e1) = (corner(k, ring[e], [false; 3]), corner(k, ring[(e + 1) % 4], [false; 3]));
-                                let lo = if e < 2 { ring[e] } else { ring[(e + 1) % 4] };
-                                let m = corner(k, lo, along(e));
+                                let (e0, e1) = ends(e);
+                                let m = midpoint(e);
                                 out.push(([r, f, e0, m], false));
                                 out.push(([r, f, m, e1], false));
                             }
