@@ -172,9 +172,15 @@ fn coarse_operators_are_equation_17_and_galerkin_is_symmetric() {
 #[test]
 fn multigrid_pcg_needs_far_fewer_iterations_than_jacobi_pcg() {
     let (sys, h) = bunny();
+    mg_pcg_needs_a_third_of_jacobis_iterations(sys, h.clone());
+}
+
+/// MG-PCG on `h` converges to 1e-8 in at most a third of Jacobi PCG's iterations in every
+/// channel, to the same answer (1e-6).
+fn mg_pcg_needs_a_third_of_jacobis_iterations(sys: &DiffusionSystem, h: Hierarchy) {
     let options = SolveOptions::default().with_tolerance(1e-8);
     let jacobi = jacobi_pcg(sys, &options);
-    let mg = Multigrid::new(Arc::new(h.clone()), sys.matrix(), MultigridOptions::default()).unwrap();
+    let mg = Multigrid::new(Arc::new(h), sys.matrix(), MultigridOptions::default()).unwrap();
     let mut x = vec![[0.0; 3]; sys.vertex_count()];
     let stats = mg_pcg(sys.matrix(), sys.rhs(), &mut x, &mg, &options).unwrap();
     eprintln!("iterations: Jacobi PCG {:?}, MG-PCG {:?}", jacobi.stats.iterations, stats.iterations);
@@ -202,17 +208,7 @@ fn the_hierarchy_works_on_a_graded_mesh() {
     for l in 0..h.levels() - 1 {
         check_invariants(&h, l).unwrap();
     }
-    let options = SolveOptions::default().with_tolerance(1e-8);
-    let jacobi = jacobi_pcg(&sys, &options);
-    let mg = Multigrid::new(Arc::new(h), sys.matrix(), MultigridOptions::default()).unwrap();
-    let mut x = vec![[0.0; 3]; sys.vertex_count()];
-    let stats = mg_pcg(sys.matrix(), sys.rhs(), &mut x, &mg, &options).unwrap();
-    eprintln!("graded: iterations Jacobi PCG {:?}, MG-PCG {:?}", jacobi.stats.iterations, stats.iterations);
-    assert!(stats.converged);
-    for c in 0..3 {
-        assert!(3 * stats.iterations[c] <= jacobi.stats.iterations[c], "{:?} {:?}", stats.iterations, jacobi.stats.iterations);
-    }
-    assert!(max_rel_diff(&x, &jacobi.phi) < 1e-6);
+    mg_pcg_needs_a_third_of_jacobis_iterations(&sys, h);
 }
 
 /// Every method reaches PCG's solution within 1e-5 (relative, max norm) on every shared mesh.
