@@ -17,7 +17,8 @@
 //! factor by forward and back substitution; on the device that would be 2 n_c dependent steps
 //! (n_c up to 600 by default) in a single workgroup, one SM of a GPU working through ~1200
 //! barriers, so the device applies the same map as a dense product with `A_c⁻¹` (computed once in
-//! f64 from the Cholesky factor, exactly symmetrised, rounded to f32; n_c² × 12 bytes, 4.3 MB at
+//! f64 from the Cholesky factor, column by column in parallel and exactly symmetric, rounded to
+//! f32; n_c² × 12 bytes, 4.3 MB at
 //! 600), one invocation per row reading row i as column i (symmetry), so neighbouring invocations
 //! read neighbouring entries, every row in parallel and without barriers (one workgroup per row
 //! with a tree reduction is no faster: the coarsest solve is not where a V-cycle's time goes). The rounding of `A_c⁻¹` (relative 6e-8 per
@@ -222,14 +223,8 @@ impl<'c> DeviceMultigrid<'c> {
             });
         }
         let coarsest = match mg.coarsest_inverse() {
-            Some(inv) => {
-                let nc = inv[0].nrows();
-                let mut values = Vec::with_capacity(3 * nc * nc);
-                for i in 0..nc {
-                    for j in 0..nc {
-                        values.extend([inv[0][(i, j)] as f32, inv[1][(i, j)] as f32, inv[2][(i, j)] as f32]);
-                    }
-                }
+            Some((nc, inv)) => {
+                let values: Vec<f32> = inv.iter().flat_map(|v| v.map(|x| x as f32)).collect();
                 let (params, row_grid) = level_params(ctx, nc)?;
                 Some(CoarsestLevel {
                     params,

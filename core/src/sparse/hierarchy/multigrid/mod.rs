@@ -58,8 +58,6 @@ mod workspace;
 use std::sync::Arc;
 
 use glam::DVec3;
-#[cfg(feature = "gpu")]
-use nalgebra::{Cholesky, DMatrix};
 
 use self::coarse_solve::CoarseFactor;
 use self::operator32::Operator32;
@@ -287,16 +285,12 @@ impl Multigrid {
         (&self.smoothers[l].inv_diag, self.smoothers[l].lambda_max)
     }
 
-    /// `A_c⁻¹` of the coarsest level per channel (dense, from its Cholesky factor, exactly
-    /// symmetrised), `None` for a one-level hierarchy; for the GPU twin of the coarse solve.
+    /// `A_c⁻¹` of the coarsest level (dense, row-major, channels interleaved, exactly
+    /// symmetric) and its order, `None` for a one-level hierarchy; for the GPU twin of the
+    /// coarse solve.
     #[cfg(feature = "gpu")]
-    pub(crate) fn coarsest_inverse(&self) -> Option<[DMatrix<f64>; 3]> {
-        self.coarsest.as_ref().map(|f| {
-            [0, 1, 2].map(|c| {
-                let inv = Cholesky::pack_dirty(f.dense(c)).inverse();
-                (&inv + inv.transpose()) * 0.5
-            })
-        })
+    pub(crate) fn coarsest_inverse(&self) -> Option<(usize, Vec<[f64; 3]>)> {
+        self.coarsest.as_ref().map(|f| (f.n(), f.inverse()))
     }
 }
 
