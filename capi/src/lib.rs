@@ -1,6 +1,6 @@
 //! The C ABI of libtranscut: `libtranscut.so` and `libtranscut.a`, declared in
 //! `include/transcut.h`, which cbindgen generates from these sources (`capi/cbindgen.toml`;
-//! `capi/tests/header.rs` fails when the committed header is stale and rewrites it with
+//! `capi/tests/abi/header.rs` fails when the committed header is stale and rewrites it with
 //! `TRANSCUT_BLESS=1`).
 //!
 //! Conventions (ARCHITECTURE.md, "The C ABI"):

@@ -4,7 +4,7 @@
 //! A panic (none may cross the ABI, so it would come from a check here) is a finding.
 //!
 //! Shared by the `cargo fuzz` target and the C ABI's smoke test of the corpus
-//! (`capi/tests/fuzz_corpus.rs`), which includes this file as a module.
+//! (`capi/tests/abi/fuzz_corpus.rs`), which includes this file as a module.
 //!
 //! Byte layout: byte 0 is the vertex count n (0..=255); then 3n little-endian `f32`
 //! coordinates (missing bytes read as 0); every remaining 4 bytes are one `u32` index. The

@@ -1,6 +1,6 @@
 //! The bodies of libtranscut's fuzz targets, one plain function per target, so that the
 //! stable-Rust smoke tests of the corpus (`core/tests/integration/fuzz_corpus.rs`,
-//! `capi/tests/fuzz_corpus.rs`, the CLI's `scene_file` tests) call exactly what the fuzzer
+//! `capi/tests/abi/fuzz_corpus.rs`, the CLI's `scene_file` tests) call exactly what the fuzzer
 //! calls: they include the same files as modules.
 
 // The core under its own name, for `core_targets.rs` (written as the core's tests write it).

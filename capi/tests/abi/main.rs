@@ -14,6 +14,8 @@ mod backend;
 mod bake;
 mod concurrency;
 mod edit;
+mod fuzz_corpus;
+mod header;
 mod kept_meshes;
 mod method;
 mod misuse;

@@ -7,14 +7,12 @@
 //! `fuzz_capi_mutations` (ignored: run it with `--ignored`) mutates the corpus at random for
 //! `TRANSCUT_FUZZ_SECONDS` (default 60), see `fuzz/src/mutate.rs`.
 
-#[allow(dead_code, unused_imports)]
-#[path = "../src/lib.rs"]
-mod abi;
+use crate::abi;
 #[allow(dead_code)]
-#[path = "../../fuzz/src/capi_target.rs"]
+#[path = "../../../fuzz/src/capi_target.rs"]
 mod capi_target;
 #[allow(dead_code)]
-#[path = "../../fuzz/src/mutate.rs"]
+#[path = "../../../fuzz/src/mutate.rs"]
 mod mutate;
 
 use abi::{TC_INVALID_MESH, TC_OK};

@@ -7,15 +7,11 @@
 //! every struct exactly as Rust does (`sizeof` and `offsetof` of every field, the values taken
 //! from this build), so a header/library mismatch fails to compile instead of corrupting memory.
 
-#[allow(dead_code, unused_imports)]
-#[path = "../src/lib.rs"]
-mod abi;
-
 use std::fmt::Write as _;
 use std::mem::{offset_of, size_of};
 use std::path::{Path, PathBuf};
 
-use abi::{
+use crate::abi::{
     TcAcquireOptions, TcAcquireStats, TcArtistMedium, TcBakeOptions, TcBakeStats, TcDipoleOptions, TcDipoleStats, TcEditStats,
     TcMedium, TcMediumEdit, TcPolygridOptions, TcPolygridStats, TcPrtOptions, TcPrtStats, TcRadiosityOptions, TcRadiosityStats,
     TcTransCutOptions,
@@ -257,7 +253,7 @@ fn committed_header_is_current() {
                 format!("first difference at line {}", i + 1)
             });
         panic!(
-            "{} is stale {line}; regenerate it with: TRANSCUT_BLESS=1 cargo test -p transcut-capi --test header",
+            "{} is stale {line}; regenerate it with: TRANSCUT_BLESS=1 cargo test -p transcut-capi --test abi header::",
             display(&path)
         );
     }
