@@ -55,7 +55,7 @@ DISCRETIZATION_ITEMS = (
         "FITTED",
         "Fitted",
         "Each edge's stiffness exponentially fitted to the boundary layer: more accurate where the "
-        "tetrahedra are coarse against the diffusion length (skin's blue, ketchup), same cost",
+        "tetrahedra are coarse against the diffusion length (skin's blue, ketchup), same cost (default)",
     ),
     ("CONSISTENT_FEM", "Consistent FEM", "The P1 finite-element reference (consistent mass)"),
 )
@@ -168,7 +168,8 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         name="Grading",
         description=(
             "TransCut: 0 keeps one tetrahedron size everywhere; N grades them, the finest near the surface and "
-            "sizes doubling inwards after N cubes of each size, so the same Resolution gives a finer surface"
+            "sizes doubling inwards after N cubes of each size, so the same Resolution gives a finer surface "
+            "(1 is the most accurate for every preset medium; a cut exposes the coarser interior)"
         ),
         default=0,
         min=0,
@@ -179,7 +180,7 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         name="Assembly",
         description="TransCut: how the diffusion equation is discretised on the tetrahedra",
         items=DISCRETIZATION_ITEMS,
-        default="TRANSCUT",
+        default="FITTED",
     )
     tolerance: FloatProperty(
         name="Tolerance",

@@ -327,14 +327,14 @@
 #define TC_MAX_ITERATIONS 1000000
 
 /**
- * `TcTransCutOptions.discretization`: TransCut's assembly (eqs. 10–14; the default).
+ * `TcTransCutOptions.discretization`: TransCut's assembly (eqs. 10–14).
  */
 #define TC_DISCRETIZATION_TRANSCUT 0
 
 /**
  * `TcTransCutOptions.discretization`: TransCut's assembly with each edge's stiffness
  * exponentially fitted to the boundary layer (more accurate where the tets are coarse against
- * the diffusion length).
+ * the diffusion length; the default).
  */
 #define TC_DISCRETIZATION_FITTED 1
 
@@ -708,14 +708,16 @@ typedef struct TcTransCutOptions {
   /**
    * 0 (default): one tet size everywhere. N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets,
    * the finest near the surface, cube sizes doubling inwards after N cubes of each size, so
-   * that `TcBakeOptions.tets` buys a finer surface layer. Read only when `size` covers it (a
-   * struct of the first version, 12 bytes, has no such field).
+   * that `TcBakeOptions.tets` buys a finer surface layer (1 is more accurate than uniform
+   * tets for every preset medium at the same count, but a cut exposes the coarser interior).
+   * Read only when `size` covers it (a struct of the first version, 12 bytes, has no such
+   * field and gets the default).
    */
   uint32_t grading;
   /**
-   * The assembly: `TC_DISCRETIZATION_TRANSCUT` (default), `TC_DISCRETIZATION_FITTED` or
-   * `TC_DISCRETIZATION_CONSISTENT_FEM`; another value fails with `TC_INVALID_ARGUMENT`. Read
-   * only when `size` covers it.
+   * The assembly: `TC_DISCRETIZATION_FITTED` (what `tc_transcut_options_init` writes, the
+   * library's default), `TC_DISCRETIZATION_TRANSCUT` or `TC_DISCRETIZATION_CONSISTENT_FEM`;
+   * another value fails with `TC_INVALID_ARGUMENT`. Read only when `size` covers it.
    */
   uint32_t discretization;
 } TcTransCutOptions;

@@ -115,8 +115,8 @@ TC_SOLVER_MG_PCG = 4  # CG preconditioned by a V-cycle on TransCut's §4.1 hiera
 TC_SOLVER_SA_PCG = 5  # CG preconditioned by a smoothed-aggregation V-cycle
 
 # TcTransCutOptions.discretization.
-TC_DISCRETIZATION_TRANSCUT = 0  # TransCut eqs. 10-14 (default)
-TC_DISCRETIZATION_FITTED = 1  # each edge's stiffness exponentially fitted to the boundary layer
+TC_DISCRETIZATION_TRANSCUT = 0  # TransCut eqs. 10-14
+TC_DISCRETIZATION_FITTED = 1  # each edge's stiffness exponentially fitted to the boundary layer (default)
 TC_DISCRETIZATION_CONSISTENT_FEM = 2  # the consistent P1 reference
 
 # TcDipoleOptions (the hierarchical dipole's options; tc_dipole_options_init gives the defaults,

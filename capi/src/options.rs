@@ -223,20 +223,22 @@ pub struct TcTransCutOptions {
     pub edit_solver: u32,
     /// 0 (default): one tet size everywhere. N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets,
     /// the finest near the surface, cube sizes doubling inwards after N cubes of each size, so
-    /// that `TcBakeOptions.tets` buys a finer surface layer. Read only when `size` covers it (a
-    /// struct of the first version, 12 bytes, has no such field).
+    /// that `TcBakeOptions.tets` buys a finer surface layer (1 is more accurate than uniform
+    /// tets for every preset medium at the same count, but a cut exposes the coarser interior).
+    /// Read only when `size` covers it (a struct of the first version, 12 bytes, has no such
+    /// field and gets the default).
     pub grading: u32,
-    /// The assembly: `TC_DISCRETIZATION_TRANSCUT` (default), `TC_DISCRETIZATION_FITTED` or
-    /// `TC_DISCRETIZATION_CONSISTENT_FEM`; another value fails with `TC_INVALID_ARGUMENT`. Read
-    /// only when `size` covers it.
+    /// The assembly: `TC_DISCRETIZATION_FITTED` (what `tc_transcut_options_init` writes, the
+    /// library's default), `TC_DISCRETIZATION_TRANSCUT` or `TC_DISCRETIZATION_CONSISTENT_FEM`;
+    /// another value fails with `TC_INVALID_ARGUMENT`. Read only when `size` covers it.
     pub discretization: u32,
 }
 
-/// `TcTransCutOptions.discretization`: TransCut's assembly (eqs. 10–14; the default).
+/// `TcTransCutOptions.discretization`: TransCut's assembly (eqs. 10–14).
 pub const TC_DISCRETIZATION_TRANSCUT: u32 = 0;
 /// `TcTransCutOptions.discretization`: TransCut's assembly with each edge's stiffness
 /// exponentially fitted to the boundary layer (more accurate where the tets are coarse against
-/// the diffusion length).
+/// the diffusion length; the default).
 pub const TC_DISCRETIZATION_FITTED: u32 = 1;
 /// `TcTransCutOptions.discretization`: the consistent P1 finite elements (the reference).
 pub const TC_DISCRETIZATION_CONSISTENT_FEM: u32 = 2;
@@ -680,7 +682,7 @@ pub(crate) fn default_transcut_options() -> TcTransCutOptions {
         solver: TC_SOLVER_DEFAULT,
         edit_solver: TC_SOLVER_DEFAULT,
         grading: 0,
-        discretization: TC_DISCRETIZATION_TRANSCUT,
+        discretization: TC_DISCRETIZATION_FITTED,
     }
 }
 
@@ -956,9 +958,10 @@ mod tests {
         assert!(bad(TcDipoleOptions { theta: f64::NAN, ..default_dipole_options() }).contains("theta"));
     }
 
-    /// TransCut's grading and discretisation: 0 is uniform, N cubes per size is graded, above
-    /// the maximum is named, and a first-version struct (12 bytes) leaves the grading field
-    /// unread; each discretisation maps onto the core's, another value is named.
+    /// TransCut's grading and discretisation: the init defaults are the core's, 0 is uniform,
+    /// N cubes per size is graded, above the maximum is named, and a first-version struct
+    /// (12 bytes) leaves the grading field unread (the core's default); each discretisation
+    /// maps onto the core's, another value is named.
     #[test]
     fn transcut_grading_maps_onto_the_cores() {
         let method = |t: &TcTransCutOptions| {
@@ -974,10 +977,16 @@ mod tests {
             Method::TransCut(o) => o.grading,
             other => panic!("{other:?}"),
         };
-        assert_eq!(grading(&default_transcut_options()), Grading::Uniform);
+        let core = TransCutOptions::default();
+        assert_eq!(grading(&default_transcut_options()), core.grading);
+        assert_eq!(grading(&TcTransCutOptions { grading: 0, ..default_transcut_options() }), Grading::Uniform);
         assert_eq!(grading(&TcTransCutOptions { grading: 3, ..default_transcut_options() }), Grading::Graded { layers: 3 });
         let older = TcTransCutOptions { size: TRANSCUT_OPTIONS_SIZE_V1 as u32, grading: 3, ..default_transcut_options() };
-        assert_eq!(grading(&older), Grading::Uniform);
+        assert_eq!(grading(&older), core.grading);
+        match method(&default_transcut_options()).unwrap() {
+            Method::TransCut(o) => assert_eq!(o.discretization, core.discretization),
+            other => panic!("{other:?}"),
+        }
         let e = method(&TcTransCutOptions { grading: TC_MAX_GRADING_LAYERS + 1, ..default_transcut_options() }).unwrap_err();
         assert!(e.message.contains("grading = 65"), "{}", e.message);
         let discretization = |d: u32| match method(&TcTransCutOptions { discretization: d, ..default_transcut_options() }) {

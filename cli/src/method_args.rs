@@ -192,15 +192,16 @@ pub struct MethodArgs {
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=50_000_000), help_heading = "TransCut options")]
     pub tets: Option<u64>,
     /// transcut, radiosity: grade the tets: the finest spacing near the surface, cube sizes
-    /// doubling inwards after this many cubes of each size (1 grades fastest); 0 keeps one
-    /// spacing everywhere [default: 0; a scene file's [bake] grading]
+    /// doubling inwards after this many cubes of each size (1 grades fastest and is the most
+    /// accurate for every preset medium at a given count, but a cut exposes the coarser
+    /// interior); 0 keeps one spacing everywhere [default: 0; a scene file's [bake] grading]
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=64), help_heading = "TransCut options")]
     pub grading: Option<u32>,
-    /// transcut, radiosity: the assembly of the diffusion system: transcut (the paper's,
-    /// default), fitted (each edge's stiffness exponentially fitted to the boundary layer: more
-    /// accurate where the tets are coarse against the diffusion length, e.g. skin's blue) or
-    /// consistent-fem (the P1 reference) [default: transcut; a scene file's [bake]
-    /// discretization]
+    /// transcut, radiosity: the assembly of the diffusion system: fitted (each edge's stiffness
+    /// exponentially fitted to the boundary layer: more accurate where the tets are coarse
+    /// against the diffusion length, e.g. skin's blue, and equal where they are not), transcut
+    /// (the paper's) or consistent-fem (the P1 reference) [default: fitted; a scene file's
+    /// [bake] discretization]
     #[arg(long, value_parser = discretization, help_heading = "TransCut options")]
     pub discretization: Option<Discretization>,
     /// transcut, radiosity, polygrid: relative residual ‖b − Mφ‖/‖b‖ at which the diffusion

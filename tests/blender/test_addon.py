@@ -446,8 +446,8 @@ def test_progress_reported_and_cancel_changes_nothing(scene, addon):
 
 def test_grading_and_assembly_settings_reach_the_library(scene, addon):
     """Scene > TransCut > Grading and Assembly are passed to a TransCut bake (and to no other
-    method's): a graded, fitted bake runs and differs from the default one, which the
-    defaults (0, TransCut) reproduce exactly."""
+    method's): their defaults are the library's (uniform, fitted), and a graded bake with the
+    paper's assembly runs and differs from the default one."""
     require_library()
     obj = add_sphere()
     add_light("SUN", rotation=(math.radians(30), 0.0, 0.0), energy=3.0)
@@ -455,7 +455,7 @@ def test_grading_and_assembly_settings_reach_the_library(scene, addon):
     ctx = bpy.context
     lib = addon.library.get()
     settings = ctx.scene.transcut
-    assert (settings.grading, settings.discretization) == (0, "TRANSCUT")
+    assert (settings.grading, settings.discretization) == (0, "FITTED")
     before = (settings.tets, settings.method)
 
     def run():
@@ -465,18 +465,18 @@ def test_grading_and_assembly_settings_reach_the_library(scene, addon):
 
     try:
         settings.tets = 20_000
+        options, default = run()
+        assert (options["grading"], options["discretization"]) == (0, "fitted")
+        settings.grading, settings.discretization = 1, "TRANSCUT"
         options, paper = run()
-        assert (options["grading"], options["discretization"]) == (0, "transcut")
-        settings.grading, settings.discretization = 1, "FITTED"
-        options, graded = run()
-        assert (options["grading"], options["discretization"]) == (1, "fitted")
-        assert graded.shape == paper.shape and not (graded == paper).all()
-        assert abs(graded.mean() / paper.mean() - 1.0) < 0.05
+        assert (options["grading"], options["discretization"]) == (1, "transcut")
+        assert default.shape == paper.shape and not (default == paper).all()
+        assert abs(default.mean() / paper.mean() - 1.0) < 0.05
         settings.method = "hierarchical-dipole"
         assert "grading" not in addon.bake.prepare_job(ctx).options
     finally:
         settings.tets, settings.method = before
-        settings.grading, settings.discretization = 0, "TRANSCUT"
+        settings.grading, settings.discretization = 0, "FITTED"
 
 
 def test_backend_setting_reaches_the_library(scene, addon):

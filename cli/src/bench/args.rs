@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use transcut::diffusion::SolverKind;
+use transcut::diffusion::{Discretization, SolverKind};
 
 use crate::method_args::solver_kind;
 
@@ -55,6 +55,10 @@ pub enum Suite {
     /// errors by depth and its held-out appearance error. One run each; --inverse-sweep adds
     /// the pattern-count sweep and the 1%-noise repeat.
     Inverse,
+    /// The uniformly lit sphere (R = 10 mm) against its closed form: Lo's RMS and mean error
+    /// per channel for every --presets medium, --discretizations assembly and --grading at
+    /// each --tets, with σtr·h and the times.
+    Sphere,
 }
 
 /// Arguments of `transcut bench`.
@@ -69,10 +73,20 @@ pub struct BenchArgs {
     /// Target tet counts, comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = [100_000usize, 500_000, 1_000_000])]
     pub tets: Vec<usize>,
-    /// The `mesh` suite's grading: 0 one spacing everywhere, N ≥ 1 graded with N cubes of each
-    /// size (as `transcut mesh --grading`).
-    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
-    pub grading: u32,
+    /// Gradings of the `mesh` and `sphere` suites, comma-separated: 0 one spacing everywhere,
+    /// N ≥ 1 graded with N cubes of each size (as `transcut mesh --grading`). Default: 0 for
+    /// `mesh`; 0, 1, 2 and 4 for `sphere`.
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub grading: Vec<u32>,
+    /// Media of the `sphere` suite (preset names), comma-separated.
+    #[arg(long, value_delimiter = ',', default_values = transcut::optics::PRESET_NAMES)]
+    pub presets: Vec<String>,
+    /// The `sphere` suite's radius, mm.
+    #[arg(long, default_value_t = 10.0)]
+    pub radius_mm: f64,
+    /// Assemblies of the `sphere` suite, comma-separated: transcut, fitted, consistent-fem.
+    #[arg(long, value_delimiter = ',', value_parser = crate::method_args::discretization, default_values = ["transcut", "fitted"])]
+    pub discretizations: Vec<Discretization>,
     /// Runs per size; the median is reported.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub runs: u32,

@@ -14,6 +14,7 @@ use super::stats::median;
 #[derive(Serialize)]
 struct MeshEntry {
     target_tets: usize,
+    grading: Grading,
     tets: usize,
     vertices: usize,
     min_dihedral_deg: f64,
@@ -34,11 +35,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
     let load_ms = load_start.elapsed().as_secs_f64() * 1e3;
     let mut entries = Vec::new();
-    let grading = match args.grading {
-        0 => Grading::Uniform,
-        layers => Grading::Graded { layers },
-    };
-    for &target in &args.tets {
+    let gradings = if args.grading.is_empty() { vec![0] } else { args.grading.clone() };
+    for (&target, layers) in args.tets.iter().flat_map(|t| gradings.iter().map(move |&g| (t, g))) {
+        let grading = if layers == 0 { Grading::Uniform } else { Grading::Graded { layers } };
         let mut runs = Vec::new();
         let mut stages = Vec::new();
         let mut last = None;
@@ -55,6 +54,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         let pick = |f: fn(&transcut::mesher::MesherTimings) -> f64| median(stages.iter().map(f).collect());
         entries.push(MeshEntry {
             target_tets: target,
+            grading,
             tets: t.stats.tets,
             vertices: t.stats.vertices,
             min_dihedral_deg: q.min_dihedral_deg,
@@ -86,7 +86,6 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "suite": "mesh",
         "input": args.input.display().to_string(),
         "load_ms": load_ms,
-        "grading": grading,
         "threads": rayon::current_num_threads(),
         "entries": entries,
     });

@@ -17,6 +17,7 @@ mod prt;
 mod radiosity;
 mod radiosity_coupled;
 mod solve;
+mod sphere;
 mod stats;
 
 pub use args::{BenchArgs, Suite};
@@ -33,5 +34,6 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Suite::Prt => prt::run(args),
         Suite::Polygrid => polygrid::run(args),
         Suite::Inverse => inverse::run(args),
+        Suite::Sphere => sphere::run(args),
     }
 }

@@ -9,6 +9,7 @@ mod bench_edit;
 mod bench_inverse;
 mod bench_polygrid;
 mod bench_radiosity;
+mod bench_sphere;
 mod cli;
 mod dipole;
 mod render;

@@ -213,13 +213,16 @@ fn edit_examples_differ_from_their_unedited_scenes() {
     // surface: the outlines differ by the mesher's surface approximation only.)
     assert!(a.abs_diff(b) <= b / 20, "painting changed the outline: {a} vs {b} pixels");
     // The stroke is a band across the top face: a part of the block, not all of it, at least
-    // 10% darker; nowhere is the painted block much lighter.
+    // 5% darker; nowhere is the painted block much lighter. (The band's 5% outline is what the
+    // discretisation converges to: 183 of these 2059 pixels at 1.5M tets, 156–180 at the
+    // test's 8000 with either assembly. Its 10% core is a tail that swings from 0 to 72 pixels
+    // with the assembly and the tet count.)
     let (dark, light) = (mean_luminance(&painted), mean_luminance(&clean));
     assert!(dark < light, "painted {dark:.1} vs clean {light:.1}");
-    let band = changed_pixels(&painted, &clean, |p, c| p < 0.9 * c);
+    let band = changed_pixels(&painted, &clean, |p, c| p < 0.95 * c);
     let lighter = changed_pixels(&painted, &clean, |p, c| p > 1.1 * c + 2.0);
-    eprintln!("jade_block_paint: {band} of {b} pixels 10% darker, {lighter} lighter");
-    assert!(band >= b / 200 && band <= b / 4, "{band} of {b} pixels 10% darker");
+    eprintln!("jade_block_paint: {band} of {b} pixels 5% darker, {lighter} lighter");
+    assert!(band >= b / 20 && band <= b / 4, "{band} of {b} pixels 5% darker");
     assert!(lighter <= band / 10, "{lighter} pixels lighter, {band} darker");
 }
 
