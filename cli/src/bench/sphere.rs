@@ -1,9 +1,9 @@
 //! `transcut bench sphere`: the diffusion solve's accuracy against the closed form of a uniformly
-//! lit sphere (R = --radius-mm, 10 by default, `optics::UniformSphere`, the source of a constant sky), for every
-//! --presets medium, --discretizations assembly and --grading mesh at each --tets: the
-//! area-weighted RMS and mean of Lo(n)/Lo_exact − 1 over the surface per channel, with σtr·h
-//! (the surface spacing against the diffusion length) and the mesher's and solver's times.
-//! One mesh per grading and size serves every medium and assembly.
+//! lit sphere (R = --radius-mm, 10 by default, `optics::UniformSphere`, the source of a constant
+//! sky), for every --presets medium, --discretizations assembly and --grading mesh at each
+//! --tets: the area-weighted RMS and mean of Lo(n)/Lo_exact − 1 over the surface per channel,
+//! with σtr·h (the surface spacing against the diffusion length) and the mesher's and solver's
+//! times. One mesh per grading and size serves every medium and assembly.
 
 use std::time::Instant;
 
