@@ -55,7 +55,7 @@ DISCRETIZATION_ITEMS = (
         "FITTED",
         "Fitted",
         "Each edge's stiffness exponentially fitted to the boundary layer: more accurate where the "
-        "tetrahedra are coarse against the diffusion length (skin's blue, ketchup), same cost (default)",
+        "tetrahedra are coarse against the diffusion length (skin's blue, ketchup), same solve cost (default)",
     ),
     ("CONSISTENT_FEM", "Consistent FEM", "The P1 finite-element reference (consistent mass)"),
 )
