@@ -823,8 +823,7 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
             let solver = solver_from(t.solver, "options->method_options->solver")?.unwrap_or(d.solver);
             let edit_solver = solver_from(t.edit_solver, "options->method_options->edit_solver")?.unwrap_or(d.edit_solver);
             let grading = match t.grading {
-                0 => Grading::Uniform,
-                layers @ 1..=TC_MAX_GRADING_LAYERS => Grading::Graded { layers },
+                layers @ 0..=TC_MAX_GRADING_LAYERS => Grading::from_layers(layers),
                 other => {
                     return Err(Failure::invalid(format!(
                         "options->method_options->grading = {other}: 0 (uniform) or 1 to TC_MAX_GRADING_LAYERS = {TC_MAX_GRADING_LAYERS} cubes per size"

@@ -45,11 +45,7 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
         Some(h) => MeshSize::Spacing(h),
         None => MeshSize::Tets(args.tets as usize),
     };
-    let grading = match args.grading {
-        0 => Grading::Uniform,
-        layers => Grading::Graded { layers },
-    };
-    let options = MesherOptions { size, grading, ..MesherOptions::default() };
+    let options = MesherOptions { size, grading: Grading::from_layers(args.grading), ..MesherOptions::default() };
     let bar = StageBar::new(args.json);
     let callback = |stage: &str, f: f64| bar.update(stage, f);
     let result = tetrahedralize_with(&input, &options, Progress::new(&callback));

@@ -736,11 +736,7 @@ impl MethodArgs {
             (None, None) => d.solver,
         };
         let tets = self.tets.or(defaults.tets).map_or(Ok(d.tets), usize::try_from)?;
-        let grading = match self.grading.or(defaults.grading) {
-            None => d.grading,
-            Some(0) => Grading::Uniform,
-            Some(layers) => Grading::Graded { layers },
-        };
+        let grading = self.grading.or(defaults.grading).map_or(d.grading, Grading::from_layers);
         let discretization = match (self.discretization, &defaults.discretization) {
             (Some(d), _) => d,
             (None, Some(name)) => discretization(name).map_err(|e| anyhow!("[bake] discretization: {e}"))?,

@@ -37,7 +37,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut entries = Vec::new();
     let gradings = if args.grading.is_empty() { vec![0] } else { args.grading.clone() };
     for (&target, layers) in args.tets.iter().flat_map(|t| gradings.iter().map(move |&g| (t, g))) {
-        let grading = if layers == 0 { Grading::Uniform } else { Grading::Graded { layers } };
+        let grading = Grading::from_layers(layers);
         let mut runs = Vec::new();
         let mut stages = Vec::new();
         let mut last = None;

@@ -91,7 +91,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut meshes = Vec::new();
     for &target in &args.tets {
         for layers in gradings(args) {
-            let grading = if layers == 0 { Grading::Uniform } else { Grading::Graded { layers } };
+            let grading = Grading::from_layers(layers);
             let start = Instant::now();
             let t =
                 tetrahedralize_with(&surface, &MesherOptions { grading, ..MesherOptions::with_tets(target) }, Progress::none())

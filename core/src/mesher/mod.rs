@@ -57,6 +57,18 @@ pub enum Grading {
     Graded { layers: u32 },
 }
 
+impl Grading {
+    /// The grading of a layer count as the command line, scene files and the C ABI give it:
+    /// 0 is [`Grading::Uniform`], N ≥ 1 is [`Grading::Graded`] with N cubes of each size.
+    #[must_use]
+    pub const fn from_layers(layers: u32) -> Self {
+        match layers {
+            0 => Grading::Uniform,
+            layers => Grading::Graded { layers },
+        }
+    }
+}
+
 /// Options of [`tetrahedralize`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct MesherOptions {
@@ -514,6 +526,12 @@ pub(crate) mod tests {
         }
         let user_to_internal = (0..positions.len() as u32).collect();
         TriMesh { positions, triangles, user_to_internal, flipped_faces: 0 }
+    }
+
+    #[test]
+    fn a_layer_count_of_zero_is_uniform() {
+        assert_eq!(Grading::from_layers(0), Grading::Uniform);
+        assert_eq!(Grading::from_layers(3), Grading::Graded { layers: 3 });
     }
 
     #[test]
