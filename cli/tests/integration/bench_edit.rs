@@ -2,7 +2,6 @@
 //! other (no timings are asserted).
 
 use std::path::PathBuf;
-use std::process::Command;
 
 fn bunny() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/stanford-bunny.obj")
@@ -22,13 +21,7 @@ fn positive(v: &serde_json::Value, what: &str) -> f64 {
 
 #[test]
 fn bench_edit_reports_every_edit_consistently() {
-    let out = Command::new(env!("CARGO_BIN_EXE_transcut"))
-        .args(["bench", "edit", "--tets", "5000", "--runs", "1", "--input"])
-        .arg(bunny())
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let json = crate::bench_report(&["edit", "--tets", "5000", "--runs", "1", "--input", bunny().to_str().unwrap()]);
     assert_eq!(json["suite"], "edit");
     let entries = json["entries"].as_array().unwrap();
     assert_eq!(entries.len(), 1);

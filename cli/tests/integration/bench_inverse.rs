@@ -1,16 +1,9 @@
 //! `transcut bench inverse` on a tiny block, with and without the sweep: every field is there
 //! and the numbers agree with each other (no timings are asserted).
 
-use std::process::Command;
-
 #[test]
 fn the_inverse_suite_reports_both_optimisers_and_the_marble_estimate() {
-    let out = Command::new(env!("CARGO_BIN_EXE_transcut"))
-        .args(["bench", "inverse", "--inverse-nodes", "6,6,4", "--inverse-iterations", "3"])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let r = crate::bench_report(&["inverse", "--inverse-nodes", "6,6,4", "--inverse-iterations", "3"]);
     assert_eq!(r["suite"], "inverse");
     assert_eq!(r["images"], 16);
     assert_eq!(r["cells"], 5 * 5 * 3);
@@ -58,12 +51,7 @@ fn the_inverse_suite_reports_both_optimisers_and_the_marble_estimate() {
 
 #[test]
 fn the_sweep_reports_every_pattern_count_and_the_noisy_repeat() {
-    let out = Command::new(env!("CARGO_BIN_EXE_transcut"))
-        .args(["bench", "inverse", "--inverse-nodes", "6,6,4", "--inverse-iterations", "3", "--inverse-sweep"])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let r = crate::bench_report(&["inverse", "--inverse-nodes", "6,6,4", "--inverse-iterations", "3", "--inverse-sweep"]);
     let sweep = &r["sweep"];
     let entries = sweep["patterns"].as_array().unwrap();
     let counts: Vec<u64> = entries.iter().map(|e| e["images"].as_u64().unwrap()).collect();

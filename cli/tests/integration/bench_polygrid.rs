@@ -1,16 +1,9 @@
 //! `transcut bench polygrid` on small grids: every field is there and the numbers agree with
 //! each other (no timings are asserted).
 
-use std::process::Command;
-
 #[test]
 fn the_polygrid_suite_reports_fig15_and_the_diffusion_pass() {
-    let out = Command::new(env!("CARGO_BIN_EXE_transcut"))
-        .args(["bench", "polygrid", "--runs", "1", "--polygrid-resolution", "16", "--polygrid-nodes", "3000"])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let report = crate::bench_report(&["polygrid", "--runs", "1", "--polygrid-resolution", "16", "--polygrid-nodes", "3000"]);
     assert_eq!(report["suite"], "polygrid");
     // The ball and the block, each with both stencils.
     let figure = report["fig15"].as_array().unwrap();

@@ -1,17 +1,20 @@
 //! `transcut bench radiosity` on a coarse Cornell box, opaque and with the example's marble
 //! block: every field is there and the numbers agree with each other (no timings are asserted).
 
-use std::process::Command;
-
 #[test]
 fn the_radiosity_suite_reports_every_patch_size() {
-    let out = Command::new(env!("CARGO_BIN_EXE_transcut"))
-        .args(["bench", "radiosity", "--runs", "1", "--patch-sizes", "50,35", "--radiosity-tets", "8000"])
-        .args(["--scene", concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/cornell_marble.toml")])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/cornell_marble.toml");
+    let report = crate::bench_report(&[
+        "radiosity",
+        "--runs",
+        "1",
+        "--patch-sizes",
+        "50,35",
+        "--radiosity-tets",
+        "8000",
+        "--scene",
+        scene,
+    ]);
     assert_eq!(report["suite"], "radiosity");
     let entries = report["entries"].as_array().unwrap();
     assert_eq!(entries.len(), 2);

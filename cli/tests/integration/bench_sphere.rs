@@ -2,8 +2,6 @@
 //! (computed here from Jensen's coefficients) times the reported spacing, the graded mesh has the
 //! finer surface, marble is resolved and the fitted assembly beats the paper's in skin's blue.
 
-use std::process::Command;
-
 /// σtr = √(3 σa (σa + σ′s)) per channel, mm⁻¹.
 fn sigma_tr(sigma_a: [f64; 3], sigma_s_prime: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|c| (3.0 * sigma_a[c] * (sigma_a[c] + sigma_s_prime[c])).sqrt())
@@ -11,13 +9,17 @@ fn sigma_tr(sigma_a: [f64; 3], sigma_s_prime: [f64; 3]) -> [f64; 3] {
 
 #[test]
 fn the_sphere_suite_reports_every_medium_assembly_and_grading() {
-    let out = Command::new(env!("CARGO_BIN_EXE_transcut"))
-        .args(["bench", "sphere", "--tets", "100000", "--grading", "0,1", "--presets", "marble,skin1"])
-        .args(["--discretizations", "transcut,fitted"])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let report = crate::bench_report(&[
+        "sphere",
+        "--tets",
+        "100000",
+        "--grading",
+        "0,1",
+        "--presets",
+        "marble,skin1",
+        "--discretizations",
+        "transcut,fitted",
+    ]);
     assert_eq!(report["suite"], "sphere");
     assert_eq!(report["radius_mm"], 10.0);
     let meshes = report["meshes"].as_array().unwrap();
