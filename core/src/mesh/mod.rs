@@ -6,6 +6,7 @@
 //! vertex of the file it came from, the internal (welded) vertex that stands for it.
 
 mod bvh;
+mod by_vertex;
 mod error;
 mod incidence;
 mod obj;
@@ -27,7 +28,7 @@ pub use obj::{load_obj, load_obj_uv_map, load_obj_with, parse_obj, parse_obj_uv_
 pub use ply::{load_ply, load_ply_with, parse_ply, parse_ply_with};
 pub use quality::{dihedral_angles, dihedral_cotangents, tet_volume, QualityReport};
 pub use shapes::{gridded_box, icosphere};
-pub(crate) use tetmesh::{irregular_edges, CheckedBoundary};
+pub(crate) use tetmesh::{boundary_faces_among, irregular_edges, orient_tets};
 pub use tetmesh::{BoundaryFace, BoundaryTopology, TetMesh, TetMeshError};
 pub use trimesh::{area_weighted_normals, TriMesh, WeldOptions, MAX_COORDINATE};
 pub use vtk::write_vtk;

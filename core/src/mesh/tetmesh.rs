@@ -9,6 +9,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::bvh::SurfacePoint;
+use super::by_vertex::ByVertex;
 use super::quality::{dihedral_angles, tet_volume, QualityReport, TET_EDGES, TET_FACES};
 
 /// A triangle of the boundary surface, counter-clockwise seen from outside, and the tet it
@@ -92,22 +93,14 @@ impl TetMesh {
             return Err(TetMeshError::MaterialCount { materials: materials.len(), tets: tets.len() });
         }
         orient_and_check(&positions, &mut tets)?;
-        let boundary_faces = boundary_faces(&tets)?;
+        let boundary_faces = boundary_faces(&tets, positions.len())?;
         Ok(Self::with_boundary(positions, tets, materials, boundary_faces))
-    }
-
-    /// The mesh of `checked`, a [`CheckedBoundary`] of these `positions` (material 0
-    /// everywhere): what [`TetMesh::new`] gives for the same arrays, without orienting, checking
-    /// and finding the boundary again.
-    pub(crate) fn from_checked(positions: Vec<DVec3>, checked: CheckedBoundary) -> Self {
-        let materials = vec![0; checked.tets.len()];
-        Self::with_boundary(positions, checked.tets, materials, checked.faces)
     }
 
     /// The rest of the topology, from oriented, checked tets and their boundary faces.
     fn with_boundary(positions: Vec<DVec3>, tets: Vec<[u32; 4]>, materials: Vec<u32>, boundary_faces: Vec<BoundaryFace>) -> Self {
         let n = positions.len();
-        let edges = unique_edges(&tets);
+        let edges = unique_edges(&tets, n);
         let (ring_offsets, ring) = one_rings(n, &edges);
         let mut on_boundary = vec![false; n];
         for f in &boundary_faces {
@@ -437,28 +430,26 @@ fn orient_and_check(positions: &[DVec3], tets: &mut [[u32; 4]]) -> Result<(), Te
     })
 }
 
-/// Tets oriented and checked as [`TetMesh::new`] does, with their boundary faces: for callers
-/// that change the tets round after round and only need the boundary in between, then make a
-/// mesh of the last round with [`TetMesh::from_checked`].
-pub(crate) struct CheckedBoundary {
-    /// The tets, each positively oriented.
-    pub tets: Vec<[u32; 4]>,
-    /// The boundary faces [`TetMesh::new`] gives the same arrays, in the same order.
-    pub faces: Vec<BoundaryFace>,
+/// Orients `tets` in place and checks them as [`TetMesh::new`] does: for callers that change
+/// the tets round after round and need only their boundary in between
+/// ([`boundary_faces_among`]).
+///
+/// # Errors
+/// As [`TetMesh::new`] on the same arrays.
+pub(crate) fn orient_tets(positions: &[DVec3], tets: &mut [[u32; 4]]) -> Result<(), TetMeshError> {
+    check_nonempty_finite(positions, tets)?;
+    orient_and_check(positions, tets)
 }
 
-impl CheckedBoundary {
-    /// Orients a copy of `tets` and finds its boundary; `tets` itself is not modified.
-    ///
-    /// # Errors
-    /// As [`TetMesh::new`] on the same arrays.
-    pub(crate) fn new(positions: &[DVec3], tets: &[[u32; 4]]) -> Result<Self, TetMeshError> {
-        check_nonempty_finite(positions, tets)?;
-        let mut oriented = tets.to_vec();
-        orient_and_check(positions, &mut oriented)?;
-        let faces = boundary_faces(&oriented)?;
-        Ok(Self { tets: oriented, faces })
-    }
+/// The boundary faces of positively oriented `tets` ([`orient_tets`]) among the faces whose
+/// three vertices are flagged in `candidates`, in the order [`TetMesh::new`] gives them. When
+/// every boundary vertex is flagged (the mesher's surface vertices) these are all the boundary
+/// faces, found at the cost of the flagged faces instead of all 4T.
+///
+/// # Errors
+/// [`TetMeshError::NonManifoldFace`] for a flagged face shared by more than two tets.
+pub(crate) fn boundary_faces_among(tets: &[[u32; 4]], candidates: &[bool]) -> Result<Vec<BoundaryFace>, TetMeshError> {
+    boundary_faces_where(tets, candidates.len(), |key| key.iter().all(|&v| candidates[v as usize]))
 }
 
 /// Boundary edges `[a, b]` (`a < b`, sorted) of `faces` that do not lie in exactly two of them,
@@ -483,55 +474,66 @@ pub(crate) fn irregular_edges(faces: &[BoundaryFace]) -> Vec<([u32; 2], Vec<u32>
         .collect()
 }
 
-/// Faces that belong to exactly one tet, oriented outward; errors on faces shared by > 2 tets.
-fn boundary_faces(tets: &[[u32; 4]]) -> Result<Vec<BoundaryFace>, TetMeshError> {
-    let mut faces: Vec<([u32; 3], u32, u8)> = tets
+/// Faces that belong to exactly one tet, oriented outward, in ascending order of their sorted
+/// vertex triples; errors on the first (in that order) face shared by more than two tets.
+fn boundary_faces(tets: &[[u32; 4]], vertex_count: usize) -> Result<Vec<BoundaryFace>, TetMeshError> {
+    boundary_faces_where(tets, vertex_count, |_| true)
+}
+
+/// [`boundary_faces`] among the faces whose sorted vertex triple passes `keep`.
+///
+/// Each face is filed under its smallest vertex with the other two as its key ([`ByVertex`]),
+/// so the tets sharing it meet in one short sorted list.
+fn boundary_faces_where(
+    tets: &[[u32; 4]],
+    vertex_count: usize,
+    keep: impl Fn(&[u32; 3]) -> bool + Sync,
+) -> Result<Vec<BoundaryFace>, TetMeshError> {
+    let keep = &keep;
+    let pairs: Vec<_> = tets
         .par_iter()
         .enumerate()
         .flat_map_iter(|(t, tet)| {
-            (0..4u8).map(move |f| {
+            (0..4u8).filter_map(move |f| {
                 let mut key = TET_FACES[f as usize].map(|i| tet[i]);
                 key.sort_unstable();
-                (key, t as u32, f)
+                keep(&key).then(|| (key[0], ((u64::from(key[1]) << 32) | u64::from(key[2]), t as u32, f)))
             })
         })
         .collect();
-    faces.par_sort_unstable();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < faces.len() {
-        let mut j = i + 1;
-        while j < faces.len() && faces[j].0 == faces[i].0 {
-            j += 1;
-        }
-        match j - i {
-            1 => {
-                let (_, t, f) = faces[i];
-                let vertices = TET_FACES[f as usize].map(|k| tets[t as usize][k]);
-                out.push(BoundaryFace { vertices, tet: t });
+    let faces = ByVertex::new(vertex_count, &pairs);
+    faces.collect(|a, filed, out| {
+        for group in filed.chunk_by(|x, y| x.0 == y.0) {
+            match group.len() {
+                1 => {
+                    let (_, t, f) = group[0];
+                    let vertices = TET_FACES[f as usize].map(|k| tets[t as usize][k]);
+                    out.push(BoundaryFace { vertices, tet: t });
+                }
+                2 => {}
+                count => {
+                    let face = [a, (group[0].0 >> 32) as u32, group[0].0 as u32];
+                    return Err(TetMeshError::NonManifoldFace { face, count });
+                }
             }
-            2 => {}
-            count => return Err(TetMeshError::NonManifoldFace { face: faces[i].0, count }),
         }
-        i = j;
-    }
-    Ok(out)
+        Ok(())
+    })
 }
 
-/// Unique undirected edges, sorted, `[i, j]` with `i < j`.
-fn unique_edges(tets: &[[u32; 4]]) -> Vec<[u32; 2]> {
-    let mut keys: Vec<u64> = tets
+/// Unique undirected edges, sorted, `[i, j]` with `i < j` (each filed under its smaller end,
+/// [`ByVertex`]).
+fn unique_edges(tets: &[[u32; 4]], vertex_count: usize) -> Vec<[u32; 2]> {
+    let pairs: Vec<(u32, u32)> = tets
         .par_iter()
-        .flat_map_iter(|tet| {
-            TET_EDGES.iter().map(move |&[a, b]| {
-                let (i, j) = (tet[a].min(tet[b]), tet[a].max(tet[b]));
-                (u64::from(i) << 32) | u64::from(j)
-            })
-        })
+        .flat_map_iter(|tet| TET_EDGES.iter().map(move |&[a, b]| (tet[a].min(tet[b]), tet[a].max(tet[b]))))
         .collect();
-    keys.par_sort_unstable();
-    keys.dedup();
-    keys.into_iter().map(|k| [(k >> 32) as u32, k as u32]).collect()
+    let ends = ByVertex::new(vertex_count, &pairs);
+    let edges: Result<_, std::convert::Infallible> = ends.collect(|i, others, out| {
+        out.extend(others.chunk_by(|x, y| x == y).map(|same| [i, same[0]]));
+        Ok(())
+    });
+    edges.unwrap_or_else(|never| match never {})
 }
 
 /// CSR vertex adjacency from sorted unique edges; each ring comes out sorted.
@@ -613,5 +615,87 @@ mod tests {
         for a in dihedral_angles(p) {
             assert!((a - (1.0f64 / 3.0).acos()).abs() < 1e-12);
         }
+    }
+
+    /// Kuhn's six tets per cube on an n³ grid of cubes, vertices in grid order.
+    fn kuhn_grid(n: u32) -> (Vec<DVec3>, Vec<[u32; 4]>) {
+        let id = |x: u32, y: u32, z: u32| x + (n + 1) * (y + (n + 1) * z);
+        let positions = (0..(n + 1).pow(3))
+            .map(|i| DVec3::new(f64::from(i % (n + 1)), f64::from((i / (n + 1)) % (n + 1)), f64::from(i / (n + 1).pow(2))))
+            .collect();
+        let mut tets = Vec::new();
+        for (x, y, z) in (0..n).flat_map(|z| (0..n).flat_map(move |y| (0..n).map(move |x| (x, y, z)))) {
+            let corner = |c: [u32; 3]| id(x + c[0], y + c[1], z + c[2]);
+            for axes in [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]] {
+                let mut c = [0u32; 3];
+                let mut tet = [corner(c); 4];
+                for (k, &a) in axes.iter().enumerate() {
+                    c[a] = 1;
+                    tet[k + 1] = corner(c);
+                }
+                tets.push(tet);
+            }
+        }
+        (positions, tets)
+    }
+
+    /// The faces in exactly one tet and the unique edges, by brute force with ordered maps, are
+    /// what the per-vertex filing gives, in the same (sorted) order; restricted to faces of the
+    /// boundary vertices the boundary is the same; a face in three tets is named.
+    #[test]
+    fn boundary_and_edges_match_a_brute_force_count() {
+        let (positions, mut tets) = kuhn_grid(3);
+        orient_tets(&positions, &mut tets).unwrap();
+        let mut faces = std::collections::BTreeMap::<[u32; 3], Vec<(u32, usize)>>::new();
+        let mut edges = std::collections::BTreeSet::new();
+        for (t, tet) in tets.iter().enumerate() {
+            for (f, face) in TET_FACES.iter().enumerate() {
+                let mut key = face.map(|i| tet[i]);
+                key.sort_unstable();
+                faces.entry(key).or_default().push((t as u32, f));
+            }
+            for [a, b] in TET_EDGES {
+                edges.insert([tet[a].min(tet[b]), tet[a].max(tet[b])]);
+            }
+        }
+        let expected: Vec<BoundaryFace> = faces
+            .values()
+            .filter(|owners| owners.len() == 1)
+            .map(|owners| {
+                let (t, f) = owners[0];
+                BoundaryFace { vertices: TET_FACES[f].map(|k| tets[t as usize][k]), tet: t }
+            })
+            .collect();
+        assert_eq!(expected.len(), 6 * 9 * 2);
+        let found = boundary_faces(&tets, positions.len()).unwrap();
+        assert_eq!(found, expected);
+        assert_eq!(unique_edges(&tets, positions.len()), edges.into_iter().collect::<Vec<_>>());
+        let mut on_boundary = vec![false; positions.len()];
+        for f in &found {
+            for v in f.vertices {
+                on_boundary[v as usize] = true;
+            }
+        }
+        assert_eq!(on_boundary.iter().filter(|&&b| b).count(), 64 - 8);
+        assert_eq!(boundary_faces_among(&tets, &on_boundary).unwrap(), expected);
+
+        // A copy of one tet: its faces inside the grid are now in three tets, and the first of
+        // them in sorted order is the one named.
+        let copy = tets[5];
+        let first = TET_FACES
+            .iter()
+            .map(|face| {
+                let mut key = face.map(|i| copy[i]);
+                key.sort_unstable();
+                key
+            })
+            .filter(|key| faces[key].len() == 2)
+            .min()
+            .unwrap();
+        tets.push(copy);
+        assert!(matches!(
+            boundary_faces(&tets, positions.len()),
+            Err(TetMeshError::NonManifoldFace { face, count: 3 }) if face == first
+        ));
     }
 }

@@ -9,7 +9,7 @@
 
 use glam::DVec3;
 
-use crate::mesh::{BoundaryFace, CheckedBoundary, Incidence, TetMesh, TetMeshError};
+use crate::mesh::{boundary_faces_among, irregular_edges, orient_tets, BoundaryFace, Incidence, TetMesh, TetMeshError};
 
 /// What the manifold repair ([`without_removal`], [`finish`]) changed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -23,22 +23,26 @@ pub(crate) struct Repair {
     /// Vertices exposed by a removal and moved onto the input surface (where every tet around
     /// them stays within the dihedral bounds).
     pub projected_vertices: usize,
+    /// Exposed boundary vertices left off the input surface, because moving them onto it would
+    /// have broken the bounds.
+    pub off_surface_vertices: usize,
 }
 
 /// Moves boundary vertices among `touched` that a removal exposed (off the input surface) to
 /// their closest point on it, one at a time, keeping each move only if every tet around the
 /// vertex (as `tets` stores it) stays positively oriented and within the dihedral bounds.
-/// `on_boundary` flags the boundary vertices of `tets`.
+/// `on_boundary` flags the boundary vertices of `tets`. Returns how many moved and how many
+/// stayed off the surface.
 fn project_exposed(
     positions: &mut [DVec3],
     tets: &[[u32; 4]],
     on_boundary: &[bool],
     touched: &[u32],
     surface: &crate::mesh::TriangleBvh,
-) -> usize {
+) -> (usize, usize) {
     let scale = positions.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
     let star = Incidence::new(tets, positions.len());
-    let mut moved = 0;
+    let (mut moved, mut stayed) = (0, 0);
     for &v in touched {
         if !on_boundary[v as usize] {
             continue;
@@ -61,37 +65,40 @@ fn project_exposed(
             moved += 1;
         } else {
             positions[v as usize] = old;
+            stayed += 1;
         }
     }
-    moved
+    (moved, stayed)
 }
 
 /// What a repair round reads of the topology of its tets: the boundary faces (those
 /// [`TetMesh::new`] would give, in the same order) and the boundary edges not in exactly two of
-/// them. Building only this, instead of a whole [`TetMesh`] with its edges and one-rings, is what
-/// keeps a round cheap; the mesh is built once, from the last round's boundary.
+/// them. A round finds them among the faces of surface vertices only (every boundary vertex of a
+/// stuffing is one, and the repair keeps it so), at the cost of those faces and not of all 4T;
+/// the mesh, with its whole topology found afresh, is built once from the last round's tets.
 struct Boundary<'a> {
     positions: &'a [DVec3],
-    /// The tets as the repair stores them (either orientation).
+    /// The tets, positively oriented.
     tets: &'a [[u32; 4]],
-    checked: CheckedBoundary,
+    faces: Vec<BoundaryFace>,
     irregular: Vec<([u32; 2], Vec<u32>)>,
 }
 
 impl<'a> Boundary<'a> {
-    /// The boundary of `tets` over `positions`.
+    /// The boundary of the oriented `tets` over `positions`, whose vertices off the surface are
+    /// flagged false in `on_surface`.
     ///
     /// # Errors
-    /// As [`TetMesh::new`] on the same arrays.
-    fn new(positions: &'a [DVec3], tets: &'a [[u32; 4]]) -> Result<Self, TetMeshError> {
-        let checked = CheckedBoundary::new(positions, tets)?;
-        let irregular = crate::mesh::irregular_edges(&checked.faces);
-        Ok(Self { positions, tets, checked, irregular })
+    /// [`TetMeshError::NonManifoldFace`] for a face shared by more than two tets.
+    fn new(positions: &'a [DVec3], tets: &'a [[u32; 4]], on_surface: &[bool]) -> Result<Self, TetMeshError> {
+        let faces = boundary_faces_among(tets, on_surface)?;
+        let irregular = irregular_edges(&faces);
+        Ok(Self { positions, tets, faces, irregular })
     }
 
     /// The boundary faces.
     fn faces(&self) -> &[BoundaryFace] {
-        &self.checked.faces
+        &self.faces
     }
 
     /// Whether each vertex is on a boundary face.
@@ -106,54 +113,29 @@ impl<'a> Boundary<'a> {
     }
 }
 
-/// A stuffing whose repair needs tets removed ([`without_removal`]): the mesh as split and
-/// filled so far, to [`finish`], and how many tets the first removal takes.
-pub(crate) struct Pinched {
-    positions: Vec<DVec3>,
-    tets: Vec<[u32; 4]>,
-    on_surface: Vec<bool>,
-    repair: Repair,
-    /// The tets the first removal takes.
-    pub removals: usize,
-}
-
-/// Builds the tet mesh with a closed 2-manifold boundary, as far as that goes without removing
-/// a tet.
+/// Builds the tet mesh with a closed 2-manifold boundary from a stuffing.
 ///
 /// First every pinched vertex is split (no geometric change). Where the boundary is still not
 /// manifold — two lobes meeting along an edge — a tet that closes the gap is added where it can
 /// be. What is left needs tets removed: the tets of the smaller side (the smaller wedge around
 /// the edge, the smaller fans at a vertex), and the split repeated. That happens at a handful of
-/// places on thin features and removes a few tets; this function stops before it and hands
-/// back what [`finish`] continues from (the mesher first tries another lattice offset: one
-/// often needs no removal at all). [`Repair`] reports what was changed.
-pub(crate) fn without_removal(
-    positions: Vec<DVec3>,
-    tets: Vec<[u32; 4]>,
-    on_surface: Vec<bool>,
+/// places on features thinner than the lattice and removes a few tets, whose exposed vertices
+/// are then moved onto the surface where the quality bounds allow. [`Repair`] reports what was
+/// changed.
+pub(crate) fn repaired(
+    mut positions: Vec<DVec3>,
+    mut tets: Vec<[u32; 4]>,
+    mut on_surface: Vec<bool>,
     surface: &crate::mesh::TriangleBvh,
-) -> Result<Result<(TetMesh, Repair), Pinched>, TetMeshError> {
-    repair_loop(Pinched { positions, tets, on_surface, repair: Repair::default(), removals: 0 }, surface, true)
-}
-
-/// The rest of the repair of [`without_removal`] for a stuffing that needs removals.
-pub(crate) fn finish(pinched: Pinched, surface: &crate::mesh::TriangleBvh) -> Result<(TetMesh, Repair), TetMeshError> {
-    Ok(repair_loop(pinched, surface, false)?.unwrap_or_else(|_| unreachable!("a repair allowed to remove returns a mesh")))
-}
-
-/// The repair rounds from `state`; with `stop_at_removal`, the state is
-/// handed back at the first round that would remove tets.
-fn repair_loop(
-    state: Pinched,
-    surface: &crate::mesh::TriangleBvh,
-    stop_at_removal: bool,
-) -> Result<Result<(TetMesh, Repair), Pinched>, TetMeshError> {
-    let Pinched { mut positions, mut tets, mut on_surface, mut repair, .. } = state;
+) -> Result<(TetMesh, Repair), TetMeshError> {
+    let mut repair = Repair::default();
+    // Gap tets are added positively oriented; splits and removals keep the orientation.
+    orient_tets(&positions, &mut tets)?;
     // Vertices of removed tets (current numbering): candidates for projection at the end.
     let mut touched: Vec<u32> = Vec::new();
     for _ in 0..16 {
         repair.split_vertices += split_pinched_vertices(&mut positions, &mut tets, &mut on_surface);
-        let boundary = Boundary::new(&positions, &tets)?;
+        let boundary = Boundary::new(&positions, &tets, &on_surface)?;
         let fill = gap_tets(&boundary);
         if !fill.is_empty() {
             repair.filled_tets += fill.len();
@@ -162,17 +144,15 @@ fn repair_loop(
         }
         let remove = tets_to_remove(&boundary);
         if remove.is_empty() {
-            if touched.is_empty() {
-                let checked = boundary.checked;
-                return Ok(Ok((TetMesh::from_checked(positions, checked), repair)));
+            let faces = boundary.faces.len();
+            if !touched.is_empty() {
+                let on_boundary = boundary.on_boundary();
+                (repair.projected_vertices, repair.off_surface_vertices) =
+                    project_exposed(&mut positions, &tets, &on_boundary, &touched, surface);
             }
-            let on_boundary = boundary.on_boundary();
-            repair.projected_vertices = project_exposed(&mut positions, &tets, &on_boundary, &touched, surface);
             let mesh = TetMesh::new(positions, tets, Vec::new())?;
-            return Ok(Ok((mesh, repair)));
-        }
-        if stop_at_removal {
-            return Ok(Err(Pinched { positions, tets, on_surface, repair, removals: remove.len() }));
+            debug_assert_eq!(mesh.boundary_faces().len(), faces, "a boundary face has a vertex off the surface");
+            return Ok((mesh, repair));
         }
         repair.removed_tets += remove.len();
         touched.extend(remove.iter().flat_map(|&t| tets[t as usize]));
@@ -219,7 +199,7 @@ fn repair_loop(
         touched.dedup();
     }
     let mesh = TetMesh::new(positions, tets, Vec::new())?;
-    Ok(Ok((mesh, repair)))
+    Ok((mesh, repair))
 }
 
 /// Tets that close the gap between two wedges meeting along a non-manifold boundary edge

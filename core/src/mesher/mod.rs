@@ -184,6 +184,10 @@ pub struct MesherStats {
     pub removed_tets: usize,
     /// Vertices exposed by those removals and moved onto the input surface.
     pub projected_vertices: usize,
+    /// Vertices exposed by those removals that could not be moved onto the input surface
+    /// within the dihedral bounds (the mesh of another lattice offset is taken when it has
+    /// fewer).
+    pub off_surface_vertices: usize,
     /// Stage timings.
     pub timings: MesherTimings,
 }
@@ -256,15 +260,16 @@ pub fn tetrahedralize_with(
         });
     }
 
-    // The manifold repair. A stuffing whose boundary splits and fills make manifold is taken as
-    // it is; one that needs tets removed (lobes meeting on features thinner than the lattice) is
-    // set aside while up to three other lattice offsets at the same spacing are tried, since one
-    // of them often needs no removal; when none does, the one whose first removal is smallest
-    // is repaired to the end. (Repairing each to the end first cost 2-9 rebuilds of the whole
-    // topology per offset: docs/benchmarks.md, "Mesher".)
+    // The manifold repair. Where it had to remove tets and could not move every vertex that
+    // exposed onto the surface, up to three other lattice offsets at the same spacing are tried
+    // (one often needs no removal) and the mesh with the fewest such vertices, then the fewest
+    // removals, is kept; not for an open input (cut points bisected across its holes), whose
+    // boundary is off the input wherever the solid closes a hole. Trying offsets whenever a tet
+    // was removed cost up to three more stuffings for no better quality (docs/benchmarks.md,
+    // "Mesher: linear topology, cheap repair rounds").
     let t = Instant::now();
-    let mut pinched: Option<(manifold::Pinched, PassFacts)> = None;
-    let mut done = None;
+    let open = stuffed.bisected_cuts > 0;
+    let mut best: Option<(TetMesh, manifold::Repair, PassFacts)> = None;
     let mut next = Some(stuffed);
     for variant in 0..=3u32 {
         let pass = match next.take() {
@@ -280,26 +285,17 @@ pub fn tetrahedralize_with(
             cubes_per_level: pass.leaves_per_level,
             timings: pass.timings,
         };
-        match manifold::without_removal(pass.positions, pass.tets, pass.on_surface, winding.bvh())? {
-            Ok((mesh, repair)) => {
-                done = Some((mesh, repair, facts));
-                break;
-            }
-            Err(p) => {
-                if pinched.as_ref().is_none_or(|(best, _)| p.removals < best.removals) {
-                    pinched = Some((p, facts));
-                }
-            }
+        let (mesh, repair) = manifold::repaired(pass.positions, pass.tets, pass.on_surface, winding.bvh())?;
+        let rank = |r: &manifold::Repair| (r.off_surface_vertices, r.removed_tets);
+        let clean = repair.off_surface_vertices == 0;
+        if best.as_ref().is_none_or(|(_, kept, _)| rank(&repair) < rank(kept)) {
+            best = Some((mesh, repair, facts));
+        }
+        if clean || open {
+            break;
         }
     }
-    let (mut mesh, repair, facts) = match done {
-        Some(d) => d,
-        None => {
-            let (p, facts) = pinched.expect("every offset needing removals kept the best");
-            let (mesh, repair) = manifold::finish(p, winding.bvh())?;
-            (mesh, repair, facts)
-        }
-    };
+    let (mut mesh, repair, facts) = best.expect("the first offset is always repaired");
     timings.topology_ms = ms(t);
     progress.report("topology", 1.0)?;
 
@@ -331,6 +327,7 @@ pub fn tetrahedralize_with(
         filled_tets: repair.filled_tets,
         removed_tets: repair.removed_tets,
         projected_vertices: repair.projected_vertices,
+        off_surface_vertices: repair.off_surface_vertices,
         timings,
     };
     Ok(Tetrahedralization { mesh, stats })
@@ -349,8 +346,8 @@ struct PassFacts {
 /// irrational fraction of `h` so that lattice planes do not coincide with the axis-aligned faces
 /// of CAD models (a lattice vertex exactly on the surface has an ill-defined label).
 ///
-/// `variant` picks another irrational shift, used when a lattice position produced a pinch that
-/// could only be repaired by removing tets.
+/// `variant` picks another irrational shift, tried when the manifold repair of a lattice left
+/// a boundary vertex off the surface.
 fn lattice_for(lo: DVec3, hi: DVec3, h: f64, variant: u32) -> Lattice {
     const SHIFT: [f64; 3] = [0.118_033_988_749_895, 0.141_421_356_237_31, 0.173_205_080_756_89];
     const GOLDEN: f64 = 0.618_033_988_749_895;
