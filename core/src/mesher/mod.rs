@@ -235,7 +235,7 @@ pub fn tetrahedralize_with(
     }
 
     let t = Instant::now();
-    let winding = WindingNumber::new(TriangleBvh::from_indexed(surface.positions(), surface.triangles()));
+    let winding = WindingNumber::of_surface(surface.positions(), surface.triangles());
     timings.winding_tree_ms = ms(t);
 
     let t = Instant::now();

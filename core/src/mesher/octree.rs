@@ -108,14 +108,20 @@ fn near(surface: &WindingNumber, p: DVec3, r: f64) -> bool {
 /// The finest cubes that must stay finest: those whose centre is within [`BAND`] spacings of the
 /// surface, and with `fill_inside` (the uniform mesh) also every cube inside the solid. Found top
 /// down from the coarsest cubes, so far-away space costs one query per coarse cube.
-pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_inside: bool) -> Vec<bool> {
+///
+/// With `fill_inside`, the cubes filled because no triangle comes near them are also returned
+/// as [`Known`] with their centre's winding number.
+pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_inside: bool) -> (Vec<bool>, Known) {
     let d0 = dims(fine, 0);
     let roots = dims(fine, levels);
     let h = fine.h;
-    let lists: Vec<Vec<u32>> = (0..roots.iter().product::<usize>())
+    // Per root: the needed finest cubes, and those filled with their coarse cube's winding number.
+    type Filled = (Vec<u32>, Vec<(u32, f64)>);
+    let lists: Vec<Filled> = (0..roots.iter().product::<usize>())
         .into_par_iter()
         .map(|r| {
             let mut out = Vec::new();
+            let mut known = Vec::new();
             let mut stack = vec![(levels, coords(roots, r))];
             while let Some((k, c)) = stack.pop() {
                 let side = (1usize << k) as f64 * h;
@@ -130,25 +136,83 @@ pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_
                             stack.push((k - 1, std::array::from_fn(|a| 2 * c[a] + ((child >> a) & 1))));
                         }
                     }
-                } else if fill_inside && inside(accurate_winding(surface, centre)) {
-                    let s = 1usize << k;
-                    for z in 0..s {
-                        for y in 0..s {
-                            for x in 0..s {
-                                out.push(index(d0, [c[0] * s + x, c[1] * s + y, c[2] * s + z]) as u32);
+                } else if fill_inside {
+                    let w = accurate_winding(surface, centre);
+                    if inside(w) {
+                        let s = 1usize << k;
+                        for z in 0..s {
+                            for y in 0..s {
+                                for x in 0..s {
+                                    let i = index(d0, [c[0] * s + x, c[1] * s + y, c[2] * s + z]) as u32;
+                                    out.push(i);
+                                    known.push((i, w));
+                                }
                             }
                         }
                     }
                 }
             }
-            out
+            (out, known)
         })
         .collect();
     let mut needed = vec![false; d0.iter().product()];
-    for i in lists.into_iter().flatten() {
-        needed[i as usize] = true;
+    let mut known = Known { fine: *fine, winding: vec![f64::NAN; if fill_inside { needed.len() } else { 0 }] };
+    for (out, filled) in lists {
+        for i in out {
+            needed[i as usize] = true;
+        }
+        for (i, w) in filled {
+            known.winding[i as usize] = w;
+        }
     }
-    needed
+    (needed, known)
+}
+
+/// Finest cubes whose winding number is known without evaluating it at their vertices: cubes
+/// [`band`] filled because no triangle comes within [`BAND`] − √3/2 spacings of them, each
+/// with the winding number at the centre of the coarse cube it filled. Where the surface is a
+/// cycle (every edge as often in one direction as in the other: closed, consistently oriented
+/// shells, overlapping or not) the winding number is an integer constant on any region free of
+/// triangles, so it is exact at every point of such a cube; elsewhere it is not used.
+pub(crate) struct Known {
+    fine: Lattice,
+    /// Per finest cube, in grid order; NaN where unknown (empty when none is known).
+    winding: Vec<f64>,
+}
+
+impl Known {
+    /// The winding number at `p` if `p` lies in (or on the boundary of) a known cube.
+    pub fn at(&self, p: DVec3) -> Option<f64> {
+        if self.winding.is_empty() {
+            return None;
+        }
+        let d = dims(&self.fine, 0);
+        let q = (p - self.fine.origin) / self.fine.h;
+        // The cubes whose closed box holds p: one per axis, two where p is on a grid plane.
+        let span = |a: usize| {
+            let r = q[a].round();
+            if (q[a] - r).abs() < 1e-9 {
+                (r - 1.0, r)
+            } else {
+                (q[a].floor(), q[a].floor())
+            }
+        };
+        let (x, y, z) = (span(0), span(1), span(2));
+        for cz in [z.0, z.1] {
+            for cy in [y.0, y.1] {
+                for cx in [x.0, x.1] {
+                    let c = [cx, cy, cz];
+                    if c.iter().zip(d).all(|(&v, n)| v >= 0.0 && (v as usize) < n) {
+                        let w = self.winding[index(d, c.map(|v| v as usize))];
+                        if !w.is_nan() {
+                            return Some(w);
+                        }
+                    }
+                }
+            }
+        }
+        None
+    }
 }
 
 /// Marks as needed every finest cube that meets one of `boxes` grown by one spacing.
@@ -470,5 +534,32 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Every vertex of a uniform background over a sphere that [`Known`] answers for gets the
+    /// winding number evaluated there (an integer for a closed sphere), corners on cube faces
+    /// included; and the known ones are a real share of the interior.
+    #[test]
+    fn known_cubes_give_the_winding_number_of_their_points() {
+        let sphere = crate::mesh::icosphere(1.0, 3);
+        let surface = WindingNumber::of_surface(sphere.positions(), sphere.triangles());
+        assert!(surface.is_cycle());
+        let fine = Lattice { origin: DVec3::splat(-1.37), h: 0.09, n: [31, 31, 31] };
+        let (fine, levels) = padded(&fine, true);
+        let (needed, known) = band(&surface, &fine, levels, true);
+        let bg = Octree::new(fine, levels, &needed, 1).background();
+        let inside = bg.positions.iter().filter(|p| p.length() < 1.0).count();
+        let mut answered = 0;
+        for &p in &bg.positions {
+            if let Some(w) = known.at(p) {
+                answered += 1;
+                assert!((w - 1.0).abs() < 0.05 && (surface.at_with_accuracy(p, 5.0) - 1.0).abs() < 0.01, "{p}: {w}");
+                assert!(p.length() < 1.0 - 1.1 * fine.h, "{p} is too near the surface to be known");
+            }
+        }
+        assert!(answered > inside / 10 && answered < inside, "{answered} known of {inside} inside");
+        // Without filling, nothing is known.
+        let (_, none) = band(&surface, &fine, levels, false);
+        assert!(bg.positions.iter().all(|&p| none.at(p).is_none()));
     }
 }

@@ -86,7 +86,9 @@ pub(crate) fn inside(w: f64) -> bool {
 /// Runs isosurface stuffing of the solid `|w| ≥ ½` on the octree of `lattice` (the finest
 /// cubes): with `grading = None` every cube inside the solid is of the finest level (the uniform
 /// BCC lattice); with `Some(layers)` only those near the surface are, and sizes double inwards
-/// after `layers` cubes of each size.
+/// after `layers` cubes of each size. Where the surface is a cycle
+/// ([`WindingNumber::is_cycle`]) the winding number is not evaluated inside the cubes whose value
+/// is known from their coarse cube's centre ([`octree::Known`]).
 pub(crate) fn stuff(
     surface: &WindingNumber,
     lattice: &Lattice,
@@ -100,10 +102,11 @@ pub(crate) fn stuff(
     //    open surface, away from any triangle) the cubes around it are refined and the octree
     //    rebuilt.
     let (fine, levels) = octree::padded(lattice, true);
-    let mut needed = octree::band(surface, &fine, levels, grading.is_none());
+    let (mut needed, known) = octree::band(surface, &fine, levels, grading.is_none());
+    let known = |p: DVec3| if surface.is_cycle() { known.at(p) } else { None };
     let (background, winding, mut labels) = loop {
         let background = Octree::new(fine, levels, &needed, grading.unwrap_or(1)).background();
-        let winding = winding_numbers(surface, &background.positions, progress)?;
+        let winding = winding_numbers(surface, &background.positions, known, progress)?;
         let labels: Vec<i8> = winding.par_iter().map(|&w| label(w)).collect();
         let unresolved = unresolved(&background, &labels);
         if unresolved.is_empty() {
@@ -277,8 +280,14 @@ pub(crate) fn stuff(
     })
 }
 
-/// Winding numbers at `points`, in parallel, with progress and cancel.
-fn winding_numbers(surface: &WindingNumber, points: &[DVec3], progress: &Progress) -> Result<Vec<f64>, Cancelled> {
+/// The winding numbers at `points`, in parallel, with progress and cancel; evaluated only where
+/// `known` does not give them.
+fn winding_numbers(
+    surface: &WindingNumber,
+    points: &[DVec3],
+    known: impl Fn(DVec3) -> Option<f64> + Sync,
+    progress: &Progress,
+) -> Result<Vec<f64>, Cancelled> {
     let done = ProgressCounter::new(progress, "winding numbers", points.len());
     let cancelled = AtomicBool::new(false);
     let winding: Vec<f64> = points
@@ -287,7 +296,7 @@ fn winding_numbers(surface: &WindingNumber, points: &[DVec3], progress: &Progres
             if cancelled.load(Ordering::Relaxed) {
                 return vec![0.0; chunk.len()];
             }
-            let out: Vec<f64> = chunk.iter().map(|&p| accurate_winding(surface, p)).collect();
+            let out: Vec<f64> = chunk.iter().map(|&p| known(p).unwrap_or_else(|| accurate_winding(surface, p))).collect();
             if done.add(out.len()).is_err() {
                 cancelled.store(true, Ordering::Relaxed);
             }

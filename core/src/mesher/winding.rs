@@ -40,6 +40,7 @@ struct Moments {
 pub struct WindingNumber {
     bvh: TriangleBvh,
     moments: Vec<Moments>,
+    cycle: bool,
 }
 
 impl WindingNumber {
@@ -51,7 +52,23 @@ impl WindingNumber {
         if !bvh.nodes.is_empty() {
             fill_moments(&bvh, 0, &mut moments);
         }
-        Self { bvh, moments }
+        Self { bvh, moments, cycle: false }
+    }
+
+    /// Prepares the hierarchy for an indexed surface, noting whether it is a cycle
+    /// ([`WindingNumber::is_cycle`]).
+    #[must_use]
+    pub fn of_surface(positions: &[DVec3], triangles: &[[u32; 3]]) -> Self {
+        Self { cycle: is_cycle(triangles), ..Self::new(TriangleBvh::from_indexed(positions, triangles)) }
+    }
+
+    /// Whether the surface is known to be a cycle: every edge used as often from a to b as from
+    /// b to a (closed, consistently oriented shells, overlapping or not). Then the winding number
+    /// is an integer, constant on every region no triangle crosses. False for a bare BVH
+    /// ([`WindingNumber::new`]).
+    #[must_use]
+    pub fn is_cycle(&self) -> bool {
+        self.cycle
     }
 
     /// The BVH the evaluation walks (also usable for rays and closest points).
@@ -113,6 +130,21 @@ impl WindingNumber {
             self.exact_subtree(ni + 1, q) + self.exact_subtree(node.start_or_right, q)
         }
     }
+}
+
+/// Whether `triangles` form a cycle ([`WindingNumber::is_cycle`]).
+fn is_cycle(triangles: &[[u32; 3]]) -> bool {
+    let mut edges: Vec<(u64, i32)> = triangles
+        .iter()
+        .flat_map(|t| {
+            (0..3).map(move |k| {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), if a < b { 1 } else { -1 })
+            })
+        })
+        .collect();
+    edges.sort_unstable_by_key(|e| e.0);
+    edges.chunk_by(|x, y| x.0 == y.0).all(|same| same.iter().map(|e| e.1).sum::<i32>() == 0)
 }
 
 /// Second-order far-field contribution (times 4π) of a node seen from `q`, with `r = p̃ − q`.
@@ -299,5 +331,19 @@ mod tests {
         let tris: Vec<_> = octahedron().into_iter().filter(|t| t.iter().any(|p| p.z > 0.5)).collect();
         let w = exact(&tris, DVec3::ZERO);
         assert!((w - 0.5).abs() < 1e-12, "{w}");
+    }
+
+    /// A closed, consistently oriented surface is a cycle, also as two overlapping copies; one
+    /// flipped face or one missing face is not.
+    #[test]
+    fn cycles_are_closed_consistently_oriented_surfaces() {
+        let tet = [[0u32, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+        assert!(is_cycle(&tet));
+        let twice: Vec<[u32; 3]> = tet.iter().copied().chain(tet.iter().map(|t| t.map(|v| v + 4))).collect();
+        assert!(is_cycle(&twice));
+        let mut flipped = tet;
+        flipped[2] = [1, 3, 2];
+        assert!(!is_cycle(&flipped));
+        assert!(!is_cycle(&tet[..3]));
     }
 }
