@@ -883,6 +883,17 @@ typedef struct TcRadiosityOptions {
    * `TC_SOLVER_*`, as `TcTransCutOptions.solver`.
    */
   uint32_t solver;
+  /**
+   * The translucent objects' tets: 0 (default) uniform, N in 1 to `TC_MAX_GRADING_LAYERS`
+   * graded, as `TcTransCutOptions.grading`. Read only when `size` covers it (a struct of the
+   * first version, 56 bytes, has no such field and gets the default).
+   */
+  uint32_t grading;
+  /**
+   * The translucent objects' assembly, as `TcTransCutOptions.discretization` (default
+   * `TC_DISCRETIZATION_FITTED`). Read only when `size` covers it.
+   */
+  uint32_t discretization;
 } TcRadiosityOptions;
 
 /**
@@ -1653,10 +1664,11 @@ TcStatus tc_prt_options_init(struct TcPrtOptions *options, size_t size);
 /**
  * Fills the first `size` bytes of `*options` with translucent radiosity's defaults (Jacobi,
  * the default patch size (0: the scene's diagonal / 80), 512 rays per patch, tolerance 1e-3,
- * at most 200 sweeps, covered fraction 0.1, every bounce, the default solver), as
- * `tc_bake_options_init` fills its struct; pass `sizeof(TcRadiosityOptions)`.
- * `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size below
- * `sizeof(TcRadiosityOptions)`; nothing is written on failure.
+ * at most 200 sweeps, covered fraction 0.1, every bounce, the default solver, uniform tets and
+ * the fitted assembly for the translucent objects), as `tc_bake_options_init` fills its
+ * struct; pass `sizeof(TcRadiosityOptions)`. `TC_NULL_POINTER` for NULL,
+ * `TC_INVALID_ARGUMENT` for a size below 56 bytes (the first version's); nothing is written
+ * on failure.
  */
 TcStatus tc_radiosity_options_init(struct TcRadiosityOptions *options, size_t size);
 
@@ -2684,7 +2696,7 @@ TC_LAYOUT_CHECK(TcPolygridStats_nodes, offsetof(TcPolygridStats, nodes) == 24);
 TC_LAYOUT_CHECK(TcPolygridStats_cells, offsetof(TcPolygridStats, cells) == 32);
 TC_LAYOUT_CHECK(TcPolygridStats_min_scaled_jacobian, offsetof(TcPolygridStats, min_scaled_jacobian) == 40);
 TC_LAYOUT_CHECK(TcPolygridStats_mean_scaled_jacobian, offsetof(TcPolygridStats, mean_scaled_jacobian) == 48);
-TC_LAYOUT_CHECK(TcRadiosityOptions__sizeof, sizeof(TcRadiosityOptions) == 56);
+TC_LAYOUT_CHECK(TcRadiosityOptions__sizeof, sizeof(TcRadiosityOptions) == 64);
 TC_LAYOUT_CHECK(TcRadiosityOptions_size, offsetof(TcRadiosityOptions, size) == 0);
 TC_LAYOUT_CHECK(TcRadiosityOptions_iteration, offsetof(TcRadiosityOptions, iteration) == 4);
 TC_LAYOUT_CHECK(TcRadiosityOptions_patch_size_mm, offsetof(TcRadiosityOptions, patch_size_mm) == 8);
@@ -2695,6 +2707,8 @@ TC_LAYOUT_CHECK(TcRadiosityOptions_tolerance, offsetof(TcRadiosityOptions, toler
 TC_LAYOUT_CHECK(TcRadiosityOptions_covered_fraction, offsetof(TcRadiosityOptions, covered_fraction) == 40);
 TC_LAYOUT_CHECK(TcRadiosityOptions_bounces, offsetof(TcRadiosityOptions, bounces) == 48);
 TC_LAYOUT_CHECK(TcRadiosityOptions_solver, offsetof(TcRadiosityOptions, solver) == 52);
+TC_LAYOUT_CHECK(TcRadiosityOptions_grading, offsetof(TcRadiosityOptions, grading) == 56);
+TC_LAYOUT_CHECK(TcRadiosityOptions_discretization, offsetof(TcRadiosityOptions, discretization) == 60);
 TC_LAYOUT_CHECK(TcRadiosityStats__sizeof, sizeof(TcRadiosityStats) == 120);
 TC_LAYOUT_CHECK(TcRadiosityStats_size, offsetof(TcRadiosityStats, size) == 0);
 TC_LAYOUT_CHECK(TcRadiosityStats_patches, offsetof(TcRadiosityStats, patches) == 8);

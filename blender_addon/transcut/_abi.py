@@ -388,6 +388,8 @@ class TcRadiosityOptions(Structure):
         ("covered_fraction", c_double),
         ("bounces", c_uint32),  # 0: until the tolerance
         ("solver", c_uint32),  # the translucent objects' TC_SOLVER_*
+        ("grading", c_uint32),  # the translucent objects' tets, as TcTransCutOptions.grading
+        ("discretization", c_uint32),  # their assembly, a TC_DISCRETIZATION_*
     ]
 
 

@@ -826,8 +826,9 @@ class Scene:
         ``TC_RADIOSITY_*`` value), ``bounces`` (exactly that many bounces, Jacobi only; 0: until
         the tolerance), ``radiosity_tolerance`` (the estimated relative error in power at
         which the iteration stops), ``radiosity_max_iterations`` (its sweeps at most), ``seed``
-        (of the rays) and ``covered_fraction``, and ``solver`` (the translucent objects'
-        diffusion solver; their ``tets``, ``tolerance``, ``max_iterations`` and ``backend``
+        (of the rays) and ``covered_fraction``, and ``solver``, ``grading`` and
+        ``discretization`` (the translucent objects' diffusion solver, tets and assembly, as
+        TransCut's; their ``tets``, ``tolerance``, ``max_iterations`` and ``backend``
         are the :class:`TcBakeOptions` fields, as for TransCut); unset:
         ``tc_radiosity_options_init``'s defaults. A negative or fractional count, or an unknown
         name, raises ValueError before the call; the library names a value out of range
@@ -909,14 +910,17 @@ class Scene:
                 f"{', '.join(polygrid)} {'is an option' if len(polygrid) == 1 else 'are options'} of "
                 f"polygrid, not of method {method if method is not None else 'transcut'!r}"
             )
-        if (grading is not None or discretization is not None) and opts.method != TC_METHOD_TRANSCUT:
+        if (grading is not None or discretization is not None) and opts.method not in (
+            TC_METHOD_TRANSCUT,
+            TC_METHOD_RADIOSITY,
+        ):
             raise ValueError(
-                "grading and discretization are options of transcut, "
+                "grading and discretization are options of transcut and radiosity, "
                 f"not of method {method if method is not None else 'transcut'!r}"
             )
         if opts.method == TC_METHOD_RADIOSITY and edit_solver is None:
-            if radiosity or solver is not None:
-                method_options = self._radiosity_options(solver, radiosity)
+            if radiosity or solver is not None or grading is not None or discretization is not None:
+                method_options = self._radiosity_options(solver, grading, discretization, radiosity)
         elif opts.method == TC_METHOD_POLYGRID:
             if polygrid or solver is not None or edit_solver is not None:
                 method_options = self._polygrid_options(solver, edit_solver, polygrid)
@@ -1004,12 +1008,17 @@ class Scene:
             setattr(options, POLYGRID_OPTIONS[key], value)
         return options
 
-    def _radiosity_options(self, solver, given: dict) -> TcRadiosityOptions:
+    def _radiosity_options(self, solver, grading, discretization, given: dict) -> TcRadiosityOptions:
         """``tc_radiosity_options_init``'s defaults with the :meth:`bake` keywords ``given``
-        (:data:`RADIOSITY_OPTIONS`) and ``solver`` set, counts and names checked."""
+        (:data:`RADIOSITY_OPTIONS`), ``solver``, ``grading`` and ``discretization`` (the
+        translucent objects', as TransCut's) set, counts and names checked."""
         options = self.lib.default_radiosity_options()
         if solver is not None:
             options.solver = _solver(solver, "solver")
+        if grading is not None:
+            options.grading = _unsigned(grading, "grading")
+        if discretization is not None:
+            options.discretization = _discretization(discretization)
         for key, value in given.items():
             field = RADIOSITY_OPTIONS[key]
             if key == "iteration":

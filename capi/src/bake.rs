@@ -9,7 +9,8 @@ use super::handle::{with_scene, TcScene};
 use super::options::{
     backend_used, default_bake_options, default_dipole_options, default_polygrid_options, default_prt_options,
     default_radiosity_options, default_transcut_options, init, read_bake_options, TcBakeOptions, TcDipoleOptions,
-    TcPolygridOptions, TcPrtOptions, TcRadiosityOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1, TRANSCUT_OPTIONS_SIZE_V1,
+    TcPolygridOptions, TcPrtOptions, TcRadiosityOptions, TcTransCutOptions, BAKE_OPTIONS_SIZE_V1, RADIOSITY_OPTIONS_SIZE_V1,
+    TRANSCUT_OPTIONS_SIZE_V1,
 };
 use super::progress::{Callback, TcProgressFn};
 use super::ptr;
@@ -152,14 +153,15 @@ pub unsafe extern "C" fn tc_prt_options_init(options: *mut TcPrtOptions, size: u
 
 /// Fills the first `size` bytes of `*options` with translucent radiosity's defaults (Jacobi,
 /// the default patch size (0: the scene's diagonal / 80), 512 rays per patch, tolerance 1e-3,
-/// at most 200 sweeps, covered fraction 0.1, every bounce, the default solver), as
-/// `tc_bake_options_init` fills its struct; pass `sizeof(TcRadiosityOptions)`.
-/// `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size below
-/// `sizeof(TcRadiosityOptions)`; nothing is written on failure.
+/// at most 200 sweeps, covered fraction 0.1, every bounce, the default solver, uniform tets and
+/// the fitted assembly for the translucent objects), as `tc_bake_options_init` fills its
+/// struct; pass `sizeof(TcRadiosityOptions)`. `TC_NULL_POINTER` for NULL,
+/// `TC_INVALID_ARGUMENT` for a size below 56 bytes (the first version's); nothing is written
+/// on failure.
 #[no_mangle]
 pub unsafe extern "C" fn tc_radiosity_options_init(options: *mut TcRadiosityOptions, size: usize) -> TcStatus {
     run("tc_radiosity_options_init", || {
-        let first = size_of::<TcRadiosityOptions>();
+        let first = RADIOSITY_OPTIONS_SIZE_V1;
         // SAFETY: the caller's contract: `size` writable bytes.
         unsafe { init(options, size, first, default_radiosity_options()) }
     })

@@ -383,7 +383,17 @@ pub struct TcRadiosityOptions {
     /// The translucent objects' diffusion solver on the CPU: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a
     /// `TC_SOLVER_*`, as `TcTransCutOptions.solver`.
     pub solver: u32,
+    /// The translucent objects' tets: 0 (default) uniform, N in 1 to `TC_MAX_GRADING_LAYERS`
+    /// graded, as `TcTransCutOptions.grading`. Read only when `size` covers it (a struct of the
+    /// first version, 56 bytes, has no such field and gets the default).
+    pub grading: u32,
+    /// The translucent objects' assembly, as `TcTransCutOptions.discretization` (default
+    /// `TC_DISCRETIZATION_FITTED`). Read only when `size` covers it.
+    pub discretization: u32,
 }
+
+/// The first version's `sizeof(TcRadiosityOptions)` (no `grading`, no `discretization`).
+pub(crate) const RADIOSITY_OPTIONS_SIZE_V1: usize = 56;
 
 /// The defaults, as `tc_radiosity_options_init` writes them.
 pub(crate) fn default_radiosity_options() -> TcRadiosityOptions {
@@ -403,6 +413,8 @@ pub(crate) fn default_radiosity_options() -> TcRadiosityOptions {
         covered_fraction: d.form_factors.covered_fraction,
         bounces: d.solve.bounces.map_or(0, |b| u32::try_from(b).unwrap_or(u32::MAX)),
         solver: TC_SOLVER_DEFAULT,
+        grading: 0,
+        discretization: TC_DISCRETIZATION_FITTED,
     }
 }
 
@@ -460,6 +472,8 @@ fn radiosity_options(o: &TcRadiosityOptions, transcut: TransCutOptions) -> Resul
         b => Some(b as usize),
     };
     let solver = solver_from(o.solver, "options->method_options->solver")?.unwrap_or(transcut.solver);
+    let grading = grading_from(o.grading)?;
+    let discretization = discretization_from(o.discretization)?;
     let options = RadiosityOptions {
         patch_size_mm,
         form_factors: FormFactorOptions {
@@ -469,7 +483,7 @@ fn radiosity_options(o: &TcRadiosityOptions, transcut: TransCutOptions) -> Resul
         },
         solve: SolveOptions { iteration, tolerance: o.tolerance, max_iterations: o.max_iterations as usize, bounces },
         backend: transcut.backend,
-        transcut: TransCutOptions { solver, ..transcut },
+        transcut: TransCutOptions { solver, grading, discretization, ..transcut },
         ..RadiosityOptions::default()
     };
     // What the checks above do not cover (the core's own bounds, should they tighten).
@@ -686,6 +700,30 @@ pub(crate) fn default_transcut_options() -> TcTransCutOptions {
     }
 }
 
+/// The core's grading for `method_options->grading` (`TcTransCutOptions`, `TcRadiosityOptions`).
+fn grading_from(layers: u32) -> Result<Grading, Failure> {
+    if layers <= TC_MAX_GRADING_LAYERS {
+        Ok(Grading::from_layers(layers))
+    } else {
+        Err(Failure::invalid(format!(
+            "options->method_options->grading = {layers}: 0 (uniform) or 1 to TC_MAX_GRADING_LAYERS = {TC_MAX_GRADING_LAYERS} cubes per size"
+        )))
+    }
+}
+
+/// The core's assembly for `method_options->discretization` (`TcTransCutOptions`,
+/// `TcRadiosityOptions`).
+fn discretization_from(value: u32) -> Result<Discretization, Failure> {
+    match value {
+        TC_DISCRETIZATION_TRANSCUT => Ok(Discretization::TransCut),
+        TC_DISCRETIZATION_FITTED => Ok(Discretization::ExponentiallyFitted),
+        TC_DISCRETIZATION_CONSISTENT_FEM => Ok(Discretization::ConsistentFem),
+        other => Err(Failure::invalid(format!(
+            "options->method_options->discretization = {other}: TC_DISCRETIZATION_TRANSCUT 0, _FITTED 1 or _CONSISTENT_FEM 2"
+        ))),
+    }
+}
+
 /// The core's backend choice for `TcBakeOptions.backend` (`None`: the environment decides).
 pub(crate) fn backend_from(value: u32, what: &str) -> Result<Option<Backend>, Failure> {
     match value {
@@ -822,24 +860,8 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
             let d = TransCutOptions::default();
             let solver = solver_from(t.solver, "options->method_options->solver")?.unwrap_or(d.solver);
             let edit_solver = solver_from(t.edit_solver, "options->method_options->edit_solver")?.unwrap_or(d.edit_solver);
-            let grading = match t.grading {
-                layers @ 0..=TC_MAX_GRADING_LAYERS => Grading::from_layers(layers),
-                other => {
-                    return Err(Failure::invalid(format!(
-                        "options->method_options->grading = {other}: 0 (uniform) or 1 to TC_MAX_GRADING_LAYERS = {TC_MAX_GRADING_LAYERS} cubes per size"
-                    )))
-                }
-            };
-            let discretization = match t.discretization {
-                TC_DISCRETIZATION_TRANSCUT => Discretization::TransCut,
-                TC_DISCRETIZATION_FITTED => Discretization::ExponentiallyFitted,
-                TC_DISCRETIZATION_CONSISTENT_FEM => Discretization::ConsistentFem,
-                other => {
-                    return Err(Failure::invalid(format!(
-                        "options->method_options->discretization = {other}: TC_DISCRETIZATION_TRANSCUT 0, _FITTED 1 or _CONSISTENT_FEM 2"
-                    )))
-                }
-            };
+            let grading = grading_from(t.grading)?;
+            let discretization = discretization_from(t.discretization)?;
             Method::TransCut(TransCutOptions { solver, edit_solver, grading, discretization, ..transcut()? })
         }
         TC_METHOD_RADIOSITY => {
@@ -856,7 +878,7 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
                     filler: "tc_radiosity_options_init",
                 };
                 // SAFETY: the caller's contract, checked for NULL and alignment.
-                unsafe { read_sized(r, size_of::<TcRadiosityOptions>(), default_radiosity_options(), &sized)? }
+                unsafe { read_sized(r, RADIOSITY_OPTIONS_SIZE_V1, default_radiosity_options(), &sized)? }
             };
             Method::Radiosity(radiosity_options(&r, transcut()?)?)
         }
@@ -997,6 +1019,39 @@ mod tests {
         assert_eq!(discretization(TC_DISCRETIZATION_FITTED), Ok(Discretization::ExponentiallyFitted));
         assert_eq!(discretization(TC_DISCRETIZATION_CONSISTENT_FEM), Ok(Discretization::ConsistentFem));
         assert!(discretization(3).unwrap_err().contains("discretization = 3"));
+    }
+
+    /// Radiosity's translucent objects take the grading and discretisation of its own struct:
+    /// the init defaults are the core's, values map onto the core's, a value out of range is
+    /// named, and a first-version struct (56 bytes) leaves both fields unread.
+    #[test]
+    fn radiosity_grading_and_discretization_map_onto_the_cores() {
+        let translucent = |r: &TcRadiosityOptions| {
+            let o = TcBakeOptions {
+                method: TC_METHOD_RADIOSITY,
+                method_options: std::ptr::from_ref(r).cast(),
+                ..default_bake_options()
+            };
+            // SAFETY: valid pointers to structs of the sizes they state.
+            match unsafe { read_bake_options(&o) }.map(|b| b.method) {
+                Ok(Method::Radiosity(o)) => Ok((o.transcut.grading, o.transcut.discretization)),
+                Ok(other) => panic!("{other:?}"),
+                Err(e) => Err(e.message),
+            }
+        };
+        let core = TransCutOptions::default();
+        assert_eq!(translucent(&default_radiosity_options()), Ok((core.grading, core.discretization)));
+        let set = TcRadiosityOptions { grading: 2, discretization: TC_DISCRETIZATION_TRANSCUT, ..default_radiosity_options() };
+        assert_eq!(translucent(&set), Ok((Grading::Graded { layers: 2 }, Discretization::TransCut)));
+        let consistent = TcRadiosityOptions { discretization: TC_DISCRETIZATION_CONSISTENT_FEM, ..default_radiosity_options() };
+        assert_eq!(translucent(&consistent).unwrap().1, Discretization::ConsistentFem);
+        let older = TcRadiosityOptions { size: RADIOSITY_OPTIONS_SIZE_V1 as u32, ..set };
+        assert_eq!(translucent(&older), Ok((core.grading, core.discretization)));
+        let too_many = TcRadiosityOptions { grading: TC_MAX_GRADING_LAYERS + 1, ..default_radiosity_options() };
+        assert!(translucent(&too_many).unwrap_err().contains("grading = 65"));
+        let unknown = TcRadiosityOptions { discretization: 7, ..default_radiosity_options() };
+        assert!(translucent(&unknown).unwrap_err().contains("discretization = 7"));
+        assert_eq!(RADIOSITY_OPTIONS_SIZE_V1, std::mem::offset_of!(TcRadiosityOptions, grading));
     }
 
     /// Radiosity's defaults are the core's (with the translucent objects' bake as given), every

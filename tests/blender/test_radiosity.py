@@ -104,6 +104,7 @@ def test_radiosity_options_defaults_and_names(tclib):
     r = tclib.default_radiosity_options()
     assert r.size == ctypes.sizeof(tc.TcRadiosityOptions)
     assert (r.iteration, r.patch_size_mm, r.rays_per_patch, r.bounces) == (tc.TC_RADIOSITY_JACOBI, 0.0, 512, 0)
+    assert (r.grading, r.discretization) == (0, tc.TC_DISCRETIZATION_FITTED)
     assert tclib.method_number("radiosity") == tc.TC_METHOD_RADIOSITY
     assert tc.RADIOSITY_ITERATIONS == {"jacobi": 0, "gauss-seidel": 1, "bicgstab": 2}
     assert tc.SIDES == {"both": tc.TC_SIDES_BOTH, "front": tc.TC_SIDES_FRONT, "back": tc.TC_SIDES_BACK}
@@ -140,6 +141,25 @@ def test_an_emissive_room_of_albedo_0_matches_its_closed_forms(tclib, ball):
     print(f"\nball in the room against the sky: worst {worst:.2e}, mean {mean:.2e}")
     assert worst < BALL_PER_VERTEX and mean < BALL_MEAN
     np.testing.assert_allclose(gauss_seidel, lit, rtol=BALL_PER_VERTEX)
+
+
+def test_the_translucent_objects_take_grading_and_discretization(tclib, ball):
+    """grading and discretization reach the translucent ball of a radiosity bake: the default
+    is the fitted assembly on uniform tets (the same bake, bit for bit, when named), and the
+    paper's assembly and a graded mesh each change the ball's radiance."""
+    s, b, _ = room_scene(tclib, ball)
+    with s:
+        s.bake(**ROOM_BAKE)
+        default = s.radiance(b)
+        s.bake(**ROOM_BAKE, grading=0, discretization="fitted")
+        np.testing.assert_array_equal(s.radiance(b), default)
+        s.bake(**ROOM_BAKE, discretization="transcut")
+        paper = s.radiance(b)
+        s.bake(**ROOM_BAKE, grading=1)
+        graded = s.radiance(b)
+    for other in (paper, graded):
+        change = np.abs(other / default - 1.0).max()
+        assert 1e-6 < change < 0.05, change
 
 
 def test_inter_reflection_and_one_bounce(tclib, ball):
@@ -244,6 +264,8 @@ def test_radiosity_options_are_checked(tclib, ball):
             ("radiosity_tolerance", 0.0, "tolerance"),
             ("solver", 99, "solver = 99"),
             ("iteration", 7, "iteration = 7"),
+            ("grading", tc.TC_MAX_GRADING_LAYERS + 1, f"grading = {tc.TC_MAX_GRADING_LAYERS + 1}"),
+            ("discretization", 7, "discretization = 7"),
         ):
             with pytest.raises(tc.TranscutError) as err:
                 s.bake(method="radiosity", tets=2000, **{key: value})

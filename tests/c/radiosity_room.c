@@ -197,6 +197,13 @@ int main(void) {
     bad.bounces = 2;
     CHECK(bake(scene, &options) == TC_INVALID_ARGUMENT && says("bounces") && says("JACOBI"), "bounces need Jacobi");
     bad = radiosity;
+    bad.discretization = 9;
+    CHECK(bake(scene, &options) == TC_INVALID_ARGUMENT && says("method_options->discretization = 9"),
+          "unknown discretization");
+    bad = radiosity;
+    bad.grading = TC_MAX_GRADING_LAYERS + 1;
+    CHECK(bake(scene, &options) == TC_INVALID_ARGUMENT && says("method_options->grading"), "grading out of range");
+    bad = radiosity;
     bad.size = 4;
     CHECK(bake(scene, &options) == TC_INVALID_ARGUMENT && says("tc_radiosity_options_init"), "short options struct");
     options.method_options = &radiosity;

@@ -96,7 +96,9 @@ fn layouts() -> Vec<Layout> {
             tolerance,
             covered_fraction,
             bounces,
-            solver
+            solver,
+            grading,
+            discretization
         }),
         layout!(TcRadiosityStats {
             size,

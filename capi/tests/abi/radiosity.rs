@@ -92,6 +92,7 @@ fn the_options_defaults_are_the_cores_and_the_struct_is_filled_as_far_as_its_siz
     assert_eq!(r.size as usize, size_of::<TcRadiosityOptions>());
     assert_eq!((r.iteration, r.patch_size_mm, r.rays_per_patch, r.max_iterations), (TC_RADIOSITY_JACOBI, 0.0, 512, 200));
     assert_eq!((r.tolerance, r.covered_fraction, r.bounces, r.solver), (1e-3, 0.1, 0, TC_SOLVER_DEFAULT));
+    assert_eq!((r.grading, r.discretization), (0, TC_DISCRETIZATION_FITTED));
     let mut count = 0u32;
     // SAFETY: valid pointers.
     unsafe {
@@ -100,6 +101,10 @@ fn the_options_defaults_are_the_cores_and_the_struct_is_filled_as_far_as_its_siz
         let mut t = TcRadiosityOptions { size: 3, ..r };
         fails(tc_radiosity_options_init(&mut t, 16), TC_INVALID_ARGUMENT, &["size = 16"]);
         assert_eq!(t, TcRadiosityOptions { size: 3, ..r }, "untouched on failure");
+        // A caller of the first version (56 bytes, no grading or discretization) is served.
+        let mut v1 = TcRadiosityOptions { grading: 7, discretization: 7, ..r };
+        ok(tc_radiosity_options_init(&mut v1, 56), "tc_radiosity_options_init, 56 bytes");
+        assert_eq!(v1, TcRadiosityOptions { size: 56, grading: 7, discretization: 7, ..r });
         fails(tc_radiosity_options_init(ptr::null_mut(), size_of::<TcRadiosityOptions>()), TC_NULL_POINTER, &["options"]);
     }
 }
