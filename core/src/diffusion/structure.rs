@@ -90,16 +90,30 @@ pub(crate) struct Coefficients {
     pub kappa: Vec<[f64; 3]>,
     /// μ = σa.
     pub mu: Vec<[f64; 3]>,
+    /// σtr = √(μ/κ), the inverse thickness of the boundary layer (the fitted assembly's).
+    pub sigma_tr: Vec<[f64; 3]>,
 }
 
 impl Coefficients {
-    /// κ = 1/(3(σa + σ′s)) and μ = σa of every medium of a table.
+    /// κ = 1/(3(σa + σ′s)), μ = σa and σtr = √(μ/κ) of every medium of a table.
     pub(crate) fn of(media: &[Medium]) -> Self {
-        Self {
-            kappa: media.par_iter().map(Medium::diffusion_coefficient).collect(),
-            mu: media.par_iter().map(|m| m.sigma_a).collect(),
-        }
+        let kappa: Vec<[f64; 3]> = media.par_iter().map(Medium::diffusion_coefficient).collect();
+        let mu: Vec<[f64; 3]> = media.par_iter().map(|m| m.sigma_a).collect();
+        let sigma_tr = mu.iter().zip(&kappa).map(|(&m, &k)| sigma_tr(m, k)).collect();
+        Self { kappa, mu, sigma_tr }
     }
+
+    /// Entry `m` from `medium`, as [`Coefficients::of`] derives it.
+    pub(crate) fn set(&mut self, m: usize, medium: &Medium) {
+        self.kappa[m] = medium.diffusion_coefficient();
+        self.mu[m] = medium.sigma_a;
+        self.sigma_tr[m] = sigma_tr(self.mu[m], self.kappa[m]);
+    }
+}
+
+/// σtr = √(μ/κ) per channel.
+fn sigma_tr(mu: [f64; 3], kappa: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|ch| (mu[ch] / kappa[ch]).sqrt())
 }
 
 /// Mesh-only data shared by every system assembled on one mesh (see the module docs).

@@ -343,13 +343,12 @@ impl DiffusionSystem {
         }
     }
 
-    /// Sets media entry `m` and, when they are kept, its κ and μ (as [`prepare_media`] derives
-    /// them); returns the previous entry.
+    /// Sets media entry `m` and, when they are kept, its κ, μ and σtr (as [`prepare_media`]
+    /// derives them); returns the previous entry.
     fn set_entry(&mut self, m: u32, medium: Medium) -> Medium {
         let m = m as usize;
         if let Some(c) = &mut self.coefficients {
-            c.kappa[m] = medium.diffusion_coefficient();
-            c.mu[m] = medium.sigma_a;
+            c.set(m, &medium);
         }
         std::mem::replace(&mut self.media[m], medium)
     }
