@@ -11,7 +11,7 @@ use glam::DVec3;
 
 use crate::mesh::{boundary_faces_among, irregular_edges, orient_tets, BoundaryFace, Incidence, TetMesh, TetMeshError};
 
-/// What the manifold repair ([`without_removal`], [`finish`]) changed.
+/// What the manifold repair ([`repaired`]) changed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(crate) struct Repair {
     /// Vertex copies added by splitting pinched vertices.
