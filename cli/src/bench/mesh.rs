@@ -20,6 +20,14 @@ struct MeshEntry {
     min_dihedral_deg: f64,
     max_dihedral_deg: f64,
     tets_below_10_deg: usize,
+    /// Whether the boundary is a closed 2-manifold (every tet is positively oriented and above
+    /// the degeneracy bound by construction: `TetMesh::new` refuses any other).
+    closed_manifold_boundary: bool,
+    /// Cut points bisected across holes (nonzero: an open input).
+    bisected_cuts: usize,
+    /// Tets the manifold repair removed, and the vertices that left off the input surface.
+    removed_tets: usize,
+    off_surface_vertices: usize,
     passes: usize,
     lattice_vertices: usize,
     cubes_per_level: Vec<usize>,
@@ -60,6 +68,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             min_dihedral_deg: q.min_dihedral_deg,
             max_dihedral_deg: q.max_dihedral_deg,
             tets_below_10_deg: q.min_angle_histogram[0],
+            closed_manifold_boundary: t.mesh.boundary_topology().is_closed_manifold(),
+            bisected_cuts: t.stats.bisected_cuts,
+            removed_tets: t.stats.removed_tets,
+            off_surface_vertices: t.stats.off_surface_vertices,
             passes: t.stats.passes,
             lattice_vertices: t.stats.lattice_vertices,
             cubes_per_level: t.stats.cubes_per_level.clone(),

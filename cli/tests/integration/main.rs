@@ -16,6 +16,7 @@ fn bench_report(args: &[&str]) -> serde_json::Value {
 mod acquire;
 mod bench_edit;
 mod bench_inverse;
+mod bench_mesh;
 mod bench_polygrid;
 mod bench_radiosity;
 mod bench_sphere;
