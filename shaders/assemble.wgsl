@@ -3,7 +3,9 @@
 // every tet t around i and every other vertex j of t, the tet's edge weight
 // w_ijt = −κ_t c_ij (eq. 10) goes to M_ij as 4 w_ijt (eq. 14) and to M_ii as −4 w_ijt;
 // V_t μ_t goes to M_ii (eq. 13, lumped absorption), and 2S_i/(3A) on boundary vertices.
-// CPU twin: diffusion::assembly::fill_transcut.
+// The exponentially fitted variant scales each w_ijt by f(σtr,t |ij|), f(x) = x / sinh x; the
+// media carry σtr = 0 for TransCut's own scheme, where f is exactly 1.
+// CPU twins: diffusion::transcut::fill_transcut and diffusion::fitted::fill_fitted.
 
 struct Row {
     value_start: u32,  // first nonzero of the row
@@ -30,8 +32,18 @@ struct Incidence {
 @group(0) @binding(1) var<storage, read> rows: array<Row>;
 @group(0) @binding(2) var<storage, read> incidences: array<Incidence>;
 @group(0) @binding(3) var<storage, read> geometry: array<f32>;
-@group(0) @binding(4) var<storage, read> media: array<vec4<f32>>; // per material: κ, μ
+@group(0) @binding(4) var<storage, read> media: array<vec4<f32>>; // per material: κ, μ, σtr
 @group(0) @binding(5) var<storage, read_write> values: array<f32>;
+@group(0) @binding(6) var<storage, read> positions: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> tets: array<vec4<u32>>;
+
+// f(x) = x / sinh x per channel: its series 1 − x²/6 + 7x⁴/360 − 31x⁶/15120 below 1/4 (f32
+// exact there, and exactly 1 at 0), x / sinh x above (0 once sinh overflows).
+fn stiffness_factor(x: vec3<f32>) -> vec3<f32> {
+    let y = x * x;
+    let series = 1.0 + y * (-1.0 / 6.0 + y * (7.0 / 360.0 - y * (31.0 / 15120.0)));
+    return select(x / sinh(x), series, x < vec3<f32>(0.25));
+}
 
 // Index of edge ab (a ≠ b) in the order 01, 02, 03, 12, 13, 23.
 fn edge_index(a: u32, b: u32) -> u32 {
@@ -58,13 +70,18 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         let inc = incidences[m];
         let base = 8u * inc.tet;
         let material = bitcast<u32>(geometry[base + 7u]);
-        let kappa = media[2u * material].xyz;
-        let mu = media[2u * material + 1u].xyz;
+        let kappa = media[3u * material].xyz;
+        let mu = media[3u * material + 1u].xyz;
+        let sigma_tr = media[3u * material + 2u].xyz;
+        let tet = tets[inc.tet];
+        var corners = array<u32, 4>(tet.x, tet.y, tet.z, tet.w);
+        let here = positions[corners[inc.local]].xyz;
         var slots = array<u32, 3>(inc.s0, inc.s1, inc.s2);
         for (var k = 0u; k < 3u; k = k + 1u) {
             let b = k + select(0u, 1u, k >= inc.local); // k-th other local vertex
             let coef = geometry[base + 1u + edge_index(inc.local, b)];
-            let w4 = -4.0 * kappa * coef;
+            let f = stiffness_factor(sigma_tr * length(positions[corners[b]].xyz - here));
+            let w4 = -4.0 * kappa * coef * f;
             let pos = 3u * (row.value_start + slots[k]);
             values[pos] = values[pos] + w4.x;
             values[pos + 1u] = values[pos + 1u] + w4.y;

@@ -48,12 +48,12 @@ fn to_u32(v: usize, what: &'static str) -> Result<u32, GpuError> {
 }
 
 impl<'c> DeviceMatrix<'c> {
-    /// The system's matrix on the device: assembled there for the TransCut discretisation,
-    /// uploaded from the CPU values otherwise; then scaled.
+    /// The system's matrix on the device: assembled there for TransCut's discretisation and
+    /// its fitted variant, uploaded from the CPU values for the consistent FEM; then scaled.
     pub(crate) fn from_system(ctx: &'c GpuContext, system: &DiffusionSystem) -> Result<DeviceMatrix<'c>, GpuError> {
         match system.discretization() {
-            Discretization::TransCut => Self::assemble(ctx, system),
-            _ => Self::upload(ctx, system.matrix(), params_for(system)),
+            Discretization::TransCut | Discretization::ExponentiallyFitted => Self::assemble(ctx, system),
+            Discretization::ConsistentFem => Self::upload(ctx, system.matrix(), params_for(system)),
         }
     }
 
@@ -95,7 +95,8 @@ impl<'c> DeviceMatrix<'c> {
         })
     }
 
-    /// TransCut assembly on the device from the system's mesh structure and media.
+    /// TransCut's assembly, or its fitted variant, on the device from the system's mesh
+    /// structure and media.
     fn assemble(ctx: &'c GpuContext, system: &DiffusionSystem) -> Result<DeviceMatrix<'c>, GpuError> {
         let start = Instant::now();
         let s = system.structure();
@@ -142,13 +143,20 @@ impl<'c> DeviceMatrix<'c> {
         to_u32(s.tet_inc.len(), "tet incidences")?;
         let incidences: Vec<Incidence> =
             s.tet_inc.iter().map(|inc| Incidence { tet: inc.tet, local: inc.local, slots: inc.slots }).collect();
+        // κ, μ and the fitting's σtr = √(μ/κ) per medium (0 for TransCut's own scheme: f(0) = 1).
+        let fitted = system.discretization() == Discretization::ExponentiallyFitted;
         let media: Vec<[f32; 4]> = system
             .media()
             .iter()
             .flat_map(|md| {
                 let k = md.diffusion_coefficient();
                 let mu = md.sigma_a;
-                [[k[0] as f32, k[1] as f32, k[2] as f32, 0.0], [mu[0] as f32, mu[1] as f32, mu[2] as f32, 0.0]]
+                let st: [f64; 3] = std::array::from_fn(|c| if fitted { (mu[c] / k[c]).sqrt() } else { 0.0 });
+                [
+                    [k[0] as f32, k[1] as f32, k[2] as f32, 0.0],
+                    [mu[0] as f32, mu[1] as f32, mu[2] as f32, 0.0],
+                    [st[0] as f32, st[1] as f32, st[2] as f32, 0.0],
+                ]
             })
             .collect();
         let mut tet_params = params;
@@ -171,7 +179,8 @@ impl<'c> DeviceMatrix<'c> {
         let start = Instant::now();
         let tet_grid = ctx.grid(s.tets.len())?;
         let geo_bind = ctx.bind(Kernel::TetGeometry, &[&tet_params, &positions, &tets_buf, &materials, &geometry]);
-        let asm_bind = ctx.bind(Kernel::Assemble, &[&m.params, &rows, &incidences, &geometry, &media, &m.values]);
+        let asm_bind =
+            ctx.bind(Kernel::Assemble, &[&m.params, &rows, &incidences, &geometry, &media, &m.values, &positions, &tets_buf]);
         let mut encoder = ctx.encoder();
         {
             let mut pass =
@@ -230,14 +239,15 @@ pub(crate) fn params_for(system: &DiffusionSystem) -> Params {
     }
 }
 
-/// The matrix of `system` assembled on the device (TransCut eqs. 10–14, f32), read back: the
-/// GPU twin of [`crate::diffusion::assemble`]'s matrix, for comparison entry by entry.
+/// The matrix of `system` assembled on the device (TransCut eqs. 10–14, or their fitted
+/// variant, f32), read back: the GPU twin of [`crate::diffusion::assemble`]'s and
+/// [`crate::diffusion::assemble_fitted`]'s matrices, for comparison entry by entry.
 ///
 /// # Errors
-/// [`GpuError::Unsupported`] unless the system is a TransCut one; device errors.
+/// [`GpuError::Unsupported`] for the consistent FEM (assembled on the CPU only); device errors.
 pub fn assemble(ctx: &GpuContext, system: &DiffusionSystem) -> Result<CsrMatrix3, GpuError> {
-    if system.discretization() != Discretization::TransCut {
-        return Err(GpuError::Unsupported { what: "GPU assembly of a discretisation other than TransCut" });
+    if system.discretization() == Discretization::ConsistentFem {
+        return Err(GpuError::Unsupported { what: "GPU assembly of the consistent FEM" });
     }
     let m = DeviceMatrix::assemble(ctx, system)?;
     let values = m.read_values(ctx)?;
