@@ -76,7 +76,7 @@ def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
     """The :meth:`transcut.Scene.bake` keywords of ``method`` from the TransCut settings: for
     TransCut its resolution, grading, assembly, tolerance and backend; for the hierarchical dipole its oracle with
     its θ (opening angle) or ε₁ and ε₂ (paper), edge rule, receivers and mode with its budget
-    (incremental); for radiosity TransCut's three (for the translucent objects) and its own
+    (incremental); for radiosity TransCut's five (for the translucent objects) and its own
     patch size (the setting is a length in scene units, sent in mm: × ``mm_per_unit``; 0 = the
     library's default), rays, iteration, bounces and tolerance (the options of the other
     methods, and of the oracle or mode not chosen, are left out: the binding refuses the
@@ -115,7 +115,7 @@ def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
         )
     else:
         options.update(tets=settings.tets, tolerance=settings.tolerance, backend=settings.backend.lower())
-    if method == "transcut":
+    if method in ("transcut", RADIOSITY):
         options.update(grading=settings.grading, discretization=_name(settings.discretization))
     if method == RADIOSITY:
         options.update(

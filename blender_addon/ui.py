@@ -58,7 +58,7 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
         else:
             if settings.method in ("transcut", RADIOSITY):
                 col.prop(settings, "tets")
-            if settings.method == "transcut":
+            if settings.method in ("transcut", RADIOSITY):
                 col.prop(settings, "grading")
                 col.prop(settings, "discretization")
             col.prop(settings, "tolerance")

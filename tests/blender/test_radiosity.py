@@ -549,8 +549,9 @@ def test_a_failed_radiosity_bake_changes_nothing(red_floor, radiosity_scene, add
 
 
 def test_panel_and_options_of_radiosity(red_floor, addon):
-    """The panel shows radiosity's settings after TransCut's three (Bounces with Jacobi only);
-    the bake options carry them, the patch size in mm."""
+    """The panel shows radiosity's settings after TransCut's five (Bounces with Jacobi only);
+    the bake options carry them, the patch size in mm, and the translucent objects' grading and
+    assembly."""
     settings = bpy.context.scene.transcut
     radiosity = [
         "radiosity_patch_size",
@@ -566,10 +567,12 @@ def test_panel_and_options_of_radiosity(red_floor, addon):
         addon.ui.VIEW3D_PT_transcut.draw(type("P", (), {"layout": RecordingLayout(log)})(), bpy.context)
         props = [name for kind, name in log if kind == "prop"]
         assert [n for n in props if n.startswith("radiosity_")] == shown
-        assert props.index("tets") < props.index("backend") < props.index("radiosity_patch_size")
+        assert props.index("tets") < props.index("grading") < props.index("discretization") < props.index("backend")
+        assert props.index("backend") < props.index("radiosity_patch_size")
     settings.radiosity_iteration = "JACOBI"
     options = addon.bake.bake_options(settings, "radiosity", 10.0)
     assert options["bounces"] == 0 and options["radiosity_tolerance"] == pytest.approx(1e-3)
+    assert (options["grading"], options["discretization"]) == (settings.grading, "fitted")
     settings.radiosity_bounces = 3
     settings.radiosity_iteration = "GAUSS_SEIDEL"
     options = addon.bake.bake_options(settings, "radiosity", 10.0)
