@@ -979,21 +979,21 @@ mod tests {
         assert!(bad(TcDipoleOptions { theta: f64::NAN, ..default_dipole_options() }).contains("theta"));
     }
 
+    /// The core's method of bake options with `method` and its own struct `options` (filled by
+    /// its init, so of the size it states).
+    fn read_method<T>(method: u32, options: &T) -> Result<Method, Failure> {
+        let o = TcBakeOptions { method, method_options: std::ptr::from_ref(options).cast(), ..default_bake_options() };
+        // SAFETY: valid pointers to structs of the sizes they state.
+        unsafe { read_bake_options(&o) }.map(|b| b.method)
+    }
+
     /// TransCut's grading and discretisation: the init defaults are the core's, 0 is uniform,
     /// N cubes per size is graded, above the maximum is named, and a first-version struct
     /// (12 bytes) leaves the grading field unread (the core's default); each discretisation
     /// maps onto the core's, another value is named.
     #[test]
     fn transcut_grading_maps_onto_the_cores() {
-        let method = |t: &TcTransCutOptions| {
-            let o = TcBakeOptions {
-                method: TC_METHOD_TRANSCUT,
-                method_options: std::ptr::from_ref(t).cast(),
-                ..default_bake_options()
-            };
-            // SAFETY: valid pointers to structs of the sizes they state.
-            unsafe { read_bake_options(&o) }.map(|b| b.method)
-        };
+        let method = |t: &TcTransCutOptions| read_method(TC_METHOD_TRANSCUT, t);
         let grading = |t: &TcTransCutOptions| match method(t).unwrap() {
             Method::TransCut(o) => o.grading,
             other => panic!("{other:?}"),
@@ -1026,18 +1026,10 @@ mod tests {
     /// named, and a first-version struct (56 bytes) leaves both fields unread.
     #[test]
     fn radiosity_grading_and_discretization_map_onto_the_cores() {
-        let translucent = |r: &TcRadiosityOptions| {
-            let o = TcBakeOptions {
-                method: TC_METHOD_RADIOSITY,
-                method_options: std::ptr::from_ref(r).cast(),
-                ..default_bake_options()
-            };
-            // SAFETY: valid pointers to structs of the sizes they state.
-            match unsafe { read_bake_options(&o) }.map(|b| b.method) {
-                Ok(Method::Radiosity(o)) => Ok((o.transcut.grading, o.transcut.discretization)),
-                Ok(other) => panic!("{other:?}"),
-                Err(e) => Err(e.message),
-            }
+        let translucent = |r: &TcRadiosityOptions| match read_method(TC_METHOD_RADIOSITY, r) {
+            Ok(Method::Radiosity(o)) => Ok((o.transcut.grading, o.transcut.discretization)),
+            Ok(other) => panic!("{other:?}"),
+            Err(e) => Err(e.message),
         };
         let core = TransCutOptions::default();
         assert_eq!(translucent(&default_radiosity_options()), Ok((core.grading, core.discretization)));
