@@ -71,4 +71,6 @@ pub use solve::{energy_balance, solve, surface_fluence, surface_radiance, Energy
 pub(crate) use solver::start_vector;
 pub use solver::{Solver, SolverKind};
 pub use structure::BoundaryVertices;
+#[cfg(feature = "gpu")]
+pub(crate) use structure::Coefficients;
 pub use system::{assemble, assemble_consistent, assemble_fitted, assemble_with, rhs, DiffusionSystem, Discretization};

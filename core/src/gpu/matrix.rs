@@ -16,7 +16,7 @@ use super::error::GpuError;
 use super::layout::{Incidence, Params, RowInfo};
 use super::pool::Lease;
 use super::shaders::Kernel;
-use crate::diffusion::{DiffusionError, DiffusionSystem, Discretization};
+use crate::diffusion::{Coefficients, DiffusionError, DiffusionSystem, Discretization};
 use crate::sparse::{CsrMatrix3, CsrPattern};
 
 /// A matrix on the device with its Jacobi scaling.
@@ -143,21 +143,13 @@ impl<'c> DeviceMatrix<'c> {
         to_u32(s.tet_inc.len(), "tet incidences")?;
         let incidences: Vec<Incidence> =
             s.tet_inc.iter().map(|inc| Incidence { tet: inc.tet, local: inc.local, slots: inc.slots }).collect();
-        // κ, μ and the fitting's σtr = √(μ/κ) per medium (0 for TransCut's own scheme: f(0) = 1).
+        // κ, μ and the fitting's σtr per medium, as the CPU assembly derives them (σtr = 0 for
+        // TransCut's own scheme: f(0) = 1).
         let fitted = system.discretization() == Discretization::ExponentiallyFitted;
-        let media: Vec<[f32; 4]> = system
-            .media()
-            .iter()
-            .flat_map(|md| {
-                let k = md.diffusion_coefficient();
-                let mu = md.sigma_a;
-                let st: [f64; 3] = std::array::from_fn(|c| if fitted { (mu[c] / k[c]).sqrt() } else { 0.0 });
-                [
-                    [k[0] as f32, k[1] as f32, k[2] as f32, 0.0],
-                    [mu[0] as f32, mu[1] as f32, mu[2] as f32, 0.0],
-                    [st[0] as f32, st[1] as f32, st[2] as f32, 0.0],
-                ]
-            })
+        let c = Coefficients::of(system.media());
+        let f32x4 = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
+        let media: Vec<[f32; 4]> = (0..c.kappa.len())
+            .flat_map(|m| [f32x4(c.kappa[m]), f32x4(c.mu[m]), if fitted { f32x4(c.sigma_tr[m]) } else { [0.0; 4] }])
             .collect();
         let mut tet_params = params;
         tet_params.n_tets = to_u32(s.tets.len(), "tets")?;
