@@ -115,7 +115,8 @@ pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_
     let d0 = dims(fine, 0);
     let roots = dims(fine, levels);
     let h = fine.h;
-    // Per root: the needed finest cubes, and those filled with their coarse cube's winding number.
+    // Per root: the finest cubes needed near the surface, and those filled (needed too) with
+    // their coarse cube's winding number.
     type Filled = (Vec<u32>, Vec<(u32, f64)>);
     let lists: Vec<Filled> = (0..roots.iter().product::<usize>())
         .into_par_iter()
@@ -143,9 +144,7 @@ pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_
                         for z in 0..s {
                             for y in 0..s {
                                 for x in 0..s {
-                                    let i = index(d0, [c[0] * s + x, c[1] * s + y, c[2] * s + z]) as u32;
-                                    out.push(i);
-                                    known.push((i, w));
+                                    known.push((index(d0, [c[0] * s + x, c[1] * s + y, c[2] * s + z]) as u32, w));
                                 }
                             }
                         }
@@ -162,6 +161,7 @@ pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_
             needed[i as usize] = true;
         }
         for (i, w) in filled {
+            needed[i as usize] = true;
             known.winding[i as usize] = w;
         }
     }
