@@ -17,7 +17,8 @@
 //! keep the zero-sum Laplacian structure with TransCut's mass, so the energy balance
 //! ([`super::energy_balance`]) holds unchanged; and x → 0 gives TransCut's scheme back.
 
-use super::structure::{fill_rows, Coefficients, Structure};
+use super::layer;
+use super::structure::{fill_rows, Coefficients, Structure, EDGE_INDEX, INTERIOR, OTHERS};
 use super::transcut::scaled_row;
 use crate::optics::BoundaryTerms;
 
@@ -44,14 +45,73 @@ pub(crate) fn fill_fitted(s: &Structure, c: &Coefficients, terms: &BoundaryTerms
 }
 
 /// Row `i`: TransCut's row ([`super::transcut::scaled_row`]) with each edge's stiffness part
-/// w_ijt scaled by `f(σtr,t |ij|)` (σtr,t = √(μ_t/κ_t) of the tet's medium, per channel).
+/// w_ijt scaled by `f(σtr,t |ij|)` (σtr,t = √(μ_t/κ_t) of the tet's medium, per channel), and on a
+/// boundary vertex of the smooth surface the lumped absorption replaced by [`layer_mass`].
 pub(crate) fn fitted_row(s: &Structure, c: &Coefficients, terms: &BoundaryTerms, i: usize, row: &mut [[f64; 3]]) {
-    scaled_row(s, c, terms, i, row, |t, a, b| {
-        let sigma_tr = c.sigma_tr[s.materials[t] as usize];
-        let tet = s.tets[t];
-        let l = (s.positions_mm[tet[b] as usize] - s.positions_mm[tet[a] as usize]).length();
-        sigma_tr.map(|st| stiffness_factor(st * l))
-    });
+    scaled_row(s, c, terms, i, row, |t, a, b| edge_factor(s, c, t, a, b));
+    if let Some((mass, lumped)) = layer_mass(s, c, i) {
+        let diag = s.pattern.diagonal_positions()[i] - s.pattern.row_ptr()[i];
+        for ch in 0..3 {
+            row[diag][ch] += mass[ch] - lumped[ch];
+        }
+    }
+}
+
+/// f(σtr,t |ij|) per channel for the edge from local vertex `a` to `b` of tet `t`.
+fn edge_factor(s: &Structure, c: &Coefficients, t: usize, a: usize, b: usize) -> [f64; 3] {
+    let sigma_tr = c.sigma_tr[s.materials[t] as usize];
+    let tet = s.tets[t];
+    let l = (s.positions_mm[tet[b] as usize] - s.positions_mm[tet[a] as usize]).length();
+    sigma_tr.map(|st| stiffness_factor(st * l))
+}
+
+/// The absorption of boundary vertex i's row that makes the row exact for the boundary layer
+/// under it, with TransCut's lumped absorption Σ_t V_t μ_t beside it: None inside, and where
+/// the surface has no curvature at i (an edge or a corner: [`layer::mean_curvature`]).
+///
+/// With ψ the layer's profile ([`layer::profile`], per tet's σtr, the vertex's normal and mean
+/// curvature) and g its inward flux ([`layer::inward_flux`]), the fitted row applied to ψ gives
+/// the Robin flux of the exact solution when the absorption is
+/// m_i = 4 ḡκ S_i/3 − Σ_t Σ_j 4 w_ijt f_ijt (1 − ψ(x_j − x_i)), ḡκ the volume-weighted mean of
+/// g κ over the row's tets. Lumping puts the whole control volume's absorption at the surface
+/// fluence, the layer's largest, so it over-absorbs in proportion to the control volume's
+/// thickness, and the stuffed surface's control volumes vary from vertex to vertex: on the
+/// R = 10 mm sphere (300k tets, graded) skin1's blue Lo error correlates with V_i/S_i at −0.97.
+/// m_i is kept non-negative (the matrix stays an M-matrix with a positive diagonal); as h → 0
+/// it tends to the lumped absorption.
+fn layer_mass(s: &Structure, c: &Coefficients, i: usize) -> Option<([f64; 3], [f64; 3])> {
+    let b = s.boundary_index[i];
+    if b == INTERIOR {
+        return None;
+    }
+    let b = b as usize;
+    let curvature = s.curvature[b]?;
+    let n = s.boundary.normal[b];
+    let here = s.positions_mm[i];
+    let (mut flux, mut stiffness, mut lumped, mut volume) = ([0.0; 3], [0.0; 3], [0.0; 3], 0.0);
+    for inc in s.tets_of(i) {
+        let t = inc.tet as usize;
+        let m = s.materials[t] as usize;
+        let (kappa, mu, sigma_tr) = (c.kappa[m], c.mu[m], c.sigma_tr[m]);
+        let a = inc.local as usize;
+        for &o in &OTHERS[a] {
+            let coef = s.edge_coef[t][EDGE_INDEX[a][o]];
+            let f = edge_factor(s, c, t, a, o);
+            let d = s.positions_mm[s.tets[t][o] as usize] - here;
+            for ch in 0..3 {
+                stiffness[ch] += 4.0 * kappa[ch] * coef * f[ch] * (1.0 - layer::profile(sigma_tr[ch], curvature, n, d));
+            }
+        }
+        let v = s.volume[t];
+        volume += v;
+        for ch in 0..3 {
+            flux[ch] += v * kappa[ch] * layer::inward_flux(sigma_tr[ch], curvature);
+            lumped[ch] += v * mu[ch];
+        }
+    }
+    let share = s.boundary.area_mm2[b] / 3.0;
+    let mass = std::array::from_fn(|ch| (4.0 * share * flux[ch] / volume - stiffness[ch]).max(0.0));
+    Some((mass, lumped))
 }
 
 #[cfg(test)]

@@ -57,6 +57,7 @@
 mod error;
 mod fem;
 mod fitted;
+mod layer;
 pub(crate) mod resolution;
 pub mod solve;
 pub mod solver;

@@ -11,6 +11,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::error::DiffusionError;
+use super::layer;
 use crate::mesh::TetMesh;
 use crate::optics::Medium;
 use crate::sparse::CsrPattern;
@@ -138,6 +139,9 @@ pub(crate) struct Structure {
     pub boundary_index: Vec<u32>,
     /// Areas (mm²) of the boundary triangles (in the mesh's boundary-face order).
     pub face_area: Vec<f64>,
+    /// Mean curvature (mm⁻¹, positive where convex) at each boundary vertex from its ring of
+    /// boundary neighbours ([`super::layer::mean_curvature`]); None at edges and corners.
+    pub curvature: Vec<Option<f64>>,
     /// Material of the tet owning each boundary face.
     pub face_material: Vec<u32>,
     /// Boundary vertex b's faces: `face_inc[face_inc_offsets[b]..face_inc_offsets[b + 1]]`.
@@ -318,7 +322,19 @@ impl Structure {
                 normal[b] += face_cross[fi];
             }
         }
-        let normal = normal.into_iter().map(DVec3::normalize_or_zero).collect();
+        let normal: Vec<DVec3> = normal.into_iter().map(DVec3::normalize_or_zero).collect();
+        let curvature = (0..nb)
+            .into_par_iter()
+            .map(|b| {
+                let here = positions_mm[ids[b] as usize];
+                let offsets: Vec<DVec3> = face_inc[face_inc_offsets[b]..face_inc_offsets[b + 1]]
+                    .iter()
+                    .flat_map(|f| f.others)
+                    .map(|o| positions_mm[o as usize] - here)
+                    .collect();
+                layer::mean_curvature(normal[b], &offsets)
+            })
+            .collect();
         Ok(Structure {
             pattern,
             mm_per_unit,
@@ -332,6 +348,7 @@ impl Structure {
             boundary: BoundaryVertices { ids, area_mm2, normal },
             boundary_index,
             face_area,
+            curvature,
             face_material,
             face_inc_offsets,
             face_inc,
