@@ -3,8 +3,9 @@
 // every tet t around i and every other vertex j of t, the tet's edge weight
 // w_ijt = −κ_t c_ij (eq. 10) goes to M_ij as 4 w_ijt (eq. 14) and to M_ii as −4 w_ijt;
 // V_t μ_t goes to M_ii (eq. 13, lumped absorption), and 2S_i/(3A) on boundary vertices.
-// The exponentially fitted variant scales each w_ijt by f(σtr,t |ij|), f(x) = x / sinh x; the
-// media carry σtr = 0 for TransCut's own scheme, where f is exactly 1.
+// The exponentially fitted variant scales each w_ijt by f(σtr,t |ij|), f(x) = x / sinh x (the
+// media carry σtr = 0 for TransCut's own scheme, where f is exactly 1), and its boundary rows'
+// absorption comes with the boundary term.
 // CPU twins: diffusion::transcut::fill_transcut and diffusion::fitted::fill_fitted.
 
 struct Row {
@@ -13,9 +14,11 @@ struct Row {
     inc_start: u32,    // the row's tets: incidences[inc_start..inc_end]
     inc_end: u32,
     diag: u32,         // position of the diagonal nonzero
-    boundary: f32,     // 2S_i/(3A) on boundary vertices, 0 inside
-    pad0: u32,
-    pad1: u32,
+    // Per channel: 2S_i/(3A) on boundary vertices (plus, for the fitted scheme, its boundary
+    // layer's absorption over the lumped one, computed on the CPU), 0 inside.
+    boundary_r: f32,
+    boundary_g: f32,
+    boundary_b: f32,
 }
 
 // One tet around the row's vertex: the tet, the vertex's local index in it, and the value slots
@@ -90,7 +93,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         }
         d = d + geometry[base] * mu;
     }
-    d = d + vec3<f32>(row.boundary);
+    d = d + vec3<f32>(row.boundary_r, row.boundary_g, row.boundary_b);
     values[3u * row.diag] = d.x;
     values[3u * row.diag + 1u] = d.y;
     values[3u * row.diag + 2u] = d.z;

@@ -73,5 +73,7 @@ pub(crate) use solver::start_vector;
 pub use solver::{Solver, SolverKind};
 pub use structure::BoundaryVertices;
 #[cfg(feature = "gpu")]
+pub(crate) use fitted::layer_excess;
+#[cfg(feature = "gpu")]
 pub(crate) use structure::Coefficients;
 pub use system::{assemble, assemble_consistent, assemble_fitted, assemble_with, rhs, DiffusionSystem, Discretization};

@@ -8,8 +8,10 @@
 //! - [`energy_balance`]: absorbed, exitant and incident power of a solution.
 
 use super::error::DiffusionError;
+use super::fitted::layer_excess;
 use super::solver::{Solver, SolverKind};
-use super::system::DiffusionSystem;
+use super::structure::Coefficients;
+use super::system::{DiffusionSystem, Discretization};
 use crate::sparse::hierarchy::HierarchyOptions;
 use crate::sparse::{SolveOptions, SolveStats};
 
@@ -102,7 +104,8 @@ pub fn surface_radiance(system: &DiffusionSystem, phi: &[[f64; 3]]) -> Result<Ve
 pub struct EnergyBalance {
     /// Absorbed in the volume, ∫ μ φ dV = Σ_t μ_t V_t φ̄_t (φ̄_t the mean of φ over the tet's
     /// vertices: the exact integral of the piecewise-linear φ, and the row sums of the lumped
-    /// mass of TransCut eq. 13).
+    /// mass of TransCut eq. 13); for the fitted scheme with its boundary rows' absorption in
+    /// place of the lumped one.
     pub absorbed: [f64; 3],
     /// Leaving through the surface: the exitance ∫ Lo cos θo dωo integrated over the surface.
     /// With ∫ Ft(ωo) cos θo dωo = π(1 − Fdr) and (1 + 1/A) = 2/(1 + Fdr), eq. 3 gives the
@@ -134,7 +137,9 @@ impl EnergyBalance {
 /// stiffness rows sum to zero, so ∫ μ φ dV + (1/(2A)) ∫ φ dS = (1/(2A)) ∫ Q dS, Q = 4q/(1 − Fdr):
 /// the absorbed power equals the net inward flux. Adding the exitance (φ − 2q)/(2A):
 /// absorbed + exitant = ∫ (Q − 2q)/(2A) dS = ∫ q dS, since (4/(1 − Fdr) − 2)/(2A) = 1. So a
-/// converged solution balances to the solver's tolerance, for both discretisations.
+/// converged solution balances to the solver's tolerance, for every discretisation, with the
+/// absorption each one solves with: the fitted scheme's boundary rows absorb by the layer's
+/// profile ([`super::fitted`]), not at the surface fluence.
 ///
 /// # Errors
 /// [`DiffusionError::LengthMismatch`] unless `phi` has one entry per vertex.
@@ -148,6 +153,16 @@ pub fn energy_balance(system: &DiffusionSystem, phi: &[[f64; 3]]) -> Result<Ener
         for c in 0..3 {
             let mean = tet.iter().map(|&v| phi[v as usize][c]).sum::<f64>() / 4.0;
             absorbed[c] += mu[c] * s.volume[t] * mean;
+        }
+    }
+    if system.discretization() == Discretization::ExponentiallyFitted {
+        // The boundary rows' layer absorption over the lumped one (M is 4 × the weak form).
+        let coefficients = Coefficients::of(system.media());
+        for &v in &s.boundary.ids {
+            let excess = layer_excess(s, &coefficients, v as usize);
+            for c in 0..3 {
+                absorbed[c] += excess[c] * phi[v as usize][c] / 4.0;
+            }
         }
     }
     let (mut exitant, mut incident) = ([0.0; 3], [0.0; 3]);

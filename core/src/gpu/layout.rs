@@ -41,8 +41,9 @@ pub(crate) struct RowInfo {
     pub inc_start: u32,
     pub inc_end: u32,
     pub diag: u32,
-    pub boundary: f32,
-    pub pad: [u32; 2],
+    /// Per channel: 2S_i/(3A) on boundary vertices, with the fitted scheme's layer absorption
+    /// over the lumped one added; 0 inside.
+    pub boundary: [f32; 3],
 }
 
 /// `Incidence` of `assemble.wgsl`.

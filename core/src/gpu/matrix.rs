@@ -11,12 +11,14 @@
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use super::context::{dispatch, GpuContext};
 use super::error::GpuError;
 use super::layout::{Incidence, Params, RowInfo};
 use super::pool::Lease;
 use super::shaders::Kernel;
-use crate::diffusion::{Coefficients, DiffusionError, DiffusionSystem, Discretization};
+use crate::diffusion::{layer_excess, Coefficients, DiffusionError, DiffusionSystem, Discretization};
 use crate::sparse::{CsrMatrix3, CsrPattern};
 
 /// A matrix on the device with its Jacobi scaling.
@@ -121,32 +123,35 @@ impl<'c> DeviceMatrix<'c> {
         let row_ptr = s.pattern.row_ptr();
         let diag = s.pattern.diagonal_positions();
         let terms = system.boundary_terms();
+        // κ, μ and the fitting's σtr per medium, as the CPU assembly derives them (σtr = 0 for
+        // TransCut's own scheme: f(0) = 1).
+        let fitted = system.discretization() == Discretization::ExponentiallyFitted;
+        let c = Coefficients::of(system.media());
         let rows: Vec<RowInfo> = (0..s.n())
+            .into_par_iter()
             .map(|i| {
                 let b = s.boundary_index[i];
+                let boundary = if b == u32::MAX {
+                    // diffusion's INTERIOR marker: an interior vertex
+                    [0.0; 3]
+                } else {
+                    let robin = terms.matrix_diagonal(s.boundary.area_mm2[b as usize]);
+                    let excess = if fitted { layer_excess(s, &c, i) } else { [0.0; 3] };
+                    excess.map(|x| (robin + x) as f32)
+                };
                 RowInfo {
                     value_start: row_ptr[i] as u32,
                     value_end: row_ptr[i + 1] as u32,
                     inc_start: s.tet_inc_offsets[i] as u32,
                     inc_end: s.tet_inc_offsets[i + 1] as u32,
                     diag: diag[i] as u32,
-                    boundary: if b == u32::MAX {
-                        // diffusion's INTERIOR marker: an interior vertex
-                        0.0
-                    } else {
-                        terms.matrix_diagonal(s.boundary.area_mm2[b as usize]) as f32
-                    },
-                    pad: [0; 2],
+                    boundary,
                 }
             })
             .collect();
         to_u32(s.tet_inc.len(), "tet incidences")?;
         let incidences: Vec<Incidence> =
             s.tet_inc.iter().map(|inc| Incidence { tet: inc.tet, local: inc.local, slots: inc.slots }).collect();
-        // κ, μ and the fitting's σtr per medium, as the CPU assembly derives them (σtr = 0 for
-        // TransCut's own scheme: f(0) = 1).
-        let fitted = system.discretization() == Discretization::ExponentiallyFitted;
-        let c = Coefficients::of(system.media());
         let f32x4 = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
         let media: Vec<[f32; 4]> = (0..c.kappa.len())
             .flat_map(|m| [f32x4(c.kappa[m]), f32x4(c.mu[m]), if fitted { f32x4(c.sigma_tr[m]) } else { [0.0; 4] }])

@@ -344,9 +344,12 @@ fn matrix_is_symmetric_positive_definite() {
 #[test]
 fn energy_balance_holds() {
     let mesh = sphere_mesh(50_000);
-    for (name, assembler) in
-        [("marble", assemble as Assembler), ("skin1", assemble), ("jade", assemble), ("skin1", assemble_fitted)]
-    {
+    for (name, assembler, fitted) in [
+        ("marble", assemble as Assembler, false),
+        ("skin1", assemble, false),
+        ("jade", assemble, false),
+        ("skin1", assemble_fitted, true),
+    ] {
         let m = Medium::preset(name).unwrap();
         let (sys, phi) = solved_with(mesh, m, assembler);
         let q = uniform_q(&m);
@@ -358,7 +361,25 @@ fn energy_balance_holds() {
                 lumped[v as usize] += mesh.tet_volume(tet) / 4.0;
             }
         }
-        let absorbed = [0, 1, 2].map(|c| (0..phi.len()).map(|i| lumped[i] * m.sigma_a[c] * phi[i][c]).sum::<f64>());
+        let lumped_absorbed = [0, 1, 2].map(|c| (0..phi.len()).map(|i| lumped[i] * m.sigma_a[c] * phi[i][c]).sum::<f64>());
+        // The fitted scheme's boundary rows absorb by the layer's profile instead: its
+        // absorption is the rows' sums less the Robin term 2S_i/(3A) (the stiffness rows sum to
+        // zero; M is 4 × the weak form), S_i from the mesh's boundary areas.
+        let absorbed = if fitted {
+            let mut robin = vec![0.0; mesh.vertex_count()];
+            for (f, face) in mesh.boundary_faces().iter().enumerate() {
+                for &v in &face.vertices {
+                    robin[v as usize] += 2.0 * mesh.boundary_area(f) / (3.0 * t.a);
+                }
+            }
+            let matrix = sys.matrix();
+            let (row_ptr, values) = (matrix.pattern().row_ptr(), matrix.values());
+            [0, 1, 2].map(|c| {
+                (0..phi.len()).map(|i| phi[i][c] * (values[row_ptr[i]..row_ptr[i + 1]].iter().map(|v| v[c]).sum::<f64>() - robin[i]) / 4.0).sum::<f64>()
+            })
+        } else {
+            lumped_absorbed
+        };
         // Surface integrals of piecewise-linear functions over the boundary triangles.
         let mut phi_integral = [0.0; 3];
         let mut lo_weighted = [0.0; 3]; // ∫ [(1 + 1/A)φ − 4q/(1 + Fdr)] dS
@@ -397,7 +418,18 @@ fn energy_balance_holds() {
             );
             assert!(discrete.abs() < 1e-5, "{name} {c}: {discrete}");
             assert!(integrated.abs() < 0.01, "{name} {c}: {integrated}");
-            assert!((library.absorbed[c] / absorbed[c] - 1.0).abs() < 1e-10);
+            assert!((library.absorbed[c] / absorbed[c] - 1.0).abs() < if fitted { 1e-8 } else { 1e-10 });
+            if fitted {
+                // Both estimate ∫ μ φ dV; the closed form's absorbed fraction is
+                // 1 − (φ(R) − 2q)/(2Aq) (its exitance per area over q). The fitted rows' own
+                // absorption is within 0.01 of it (measured: 0.0012, 0.0049, 0.0056), where
+                // the lumped Σ μ V φ̄ of the same φ is 0.15 off in blue, above the incident power.
+                let phi_r = UniformSphere::new(m, RADIUS, [q; 3]).unwrap().surface_fluence()[c];
+                let exact = 1.0 - (phi_r - 2.0 * q) / (2.0 * t.a * q);
+                let (own, lumped) = (absorbed[c] / incident, lumped_absorbed[c] / incident);
+                eprintln!("  absorbed fraction: closed form {exact:.4}, fitted rows {own:.4}, lumped {lumped:.4}");
+                assert!((own - exact).abs() < 0.01, "{name} {c}: absorbed fraction {own}, closed form {exact}");
+            }
             assert!((library.exitant[c] / exitant - 1.0).abs() < 1e-10);
             assert!((library.incident[c] / incident - 1.0).abs() < 1e-10);
         }
@@ -445,9 +477,11 @@ fn relighting_keeps_the_matrix_and_warm_starts() {
 /// skin1 blue Lo RMS 12.1% → 9.4%, chicken1 blue 1.37% → 1.12%: ratios 0.78 and 0.82 against
 /// the predicted (0.550 / 0.637)² = 0.75.
 ///
-/// The exponentially fitted assembly on the graded mesh takes them further: skin1 blue 5.2%,
-/// chicken1 blue 0.66% (ratios 0.55 and 0.59 to TransCut's on the same mesh), and leaves the
-/// resolved channels within 1e-4 of TransCut's.
+/// The exponentially fitted assembly on the graded mesh takes them further: skin1 blue 1.17%,
+/// chicken1 blue 0.27% (ratios 0.125 and 0.24 to TransCut's 9.4% and 1.12% on the same mesh).
+/// Its boundary rows' absorption (the difference of two fluxes, `diffusion::fitted`) costs the
+/// weakly absorbing channels a little: chicken1 red 0.012% → 0.055%, green 0.109% → 0.160%;
+/// skin1's red and green improve.
 #[test]
 fn graded_meshes_trade_interior_tets_for_surface_accuracy() {
     use transcut::mesher::{tetrahedralize_with, Grading};
@@ -479,9 +513,46 @@ fn graded_meshes_trade_interior_tets_for_surface_accuracy() {
         let (sys, phi) = solved_with(&graded.mesh, m, assemble_fitted);
         let fitted = surface_errors(&sys, &phi, &sphere).lo_rms;
         eprintln!("{name} Lo RMS, graded mesh: TransCut {} fitted {}", exp3(transcut), exp3(fitted));
-        assert!(fitted[2] < 0.7 * transcut[2], "{name} blue: fitted {:.3e}, TransCut {:.3e}", fitted[2], transcut[2]);
+        assert!(fitted[2] < 0.3 * transcut[2], "{name} blue: fitted {:.3e}, TransCut {:.3e}", fitted[2], transcut[2]);
         for c in 0..2 {
-            assert!(fitted[c] < transcut[c] + 1e-4, "{name} channel {c}: fitted {:.3e}, TransCut {:.3e}", fitted[c], transcut[c]);
+            assert!(fitted[c] < transcut[c] + 1e-3, "{name} channel {c}: fitted {:.3e}, TransCut {:.3e}", fitted[c], transcut[c]);
         }
     }
+}
+
+/// Issue 23's accuracy bar: the R = 10 mm sphere at ≤ 300k tets, graded with one cube per size,
+/// the fitted assembly: Lo within 1% RMS of the closed form for every preset and channel whose
+/// closed-form Lo is positive. Ketchup's green and blue are the exception the model itself makes
+/// (its Lo is negative there: −0.013, −0.025), checked to be so.
+///
+/// Measured (291,408 tets, h = 0.463 mm): the worst, skin1 blue (σtr h = 0.68), 0.84%; the next,
+/// chicken2 and chicken1 blue, 0.24% and 0.22%. Before the fitted boundary rows
+/// (`diffusion::fitted::layer_mass`) skin1 blue was 3.75%.
+#[test]
+fn every_positive_channel_is_within_one_percent_on_a_graded_sphere_at_300k() {
+    use transcut::mesher::{tetrahedralize_with, Grading};
+    use transcut::Progress;
+    let radius = 10.0;
+    let surface = uv_sphere(radius, 256, 128);
+    let options = MesherOptions { grading: Grading::Graded { layers: 1 }, ..MesherOptions::with_tets(300_000) };
+    let meshed = tetrahedralize_with(&surface, &options, Progress::none()).unwrap();
+    assert!(meshed.stats.tets <= 300_000, "{} tets", meshed.stats.tets);
+    let mut negative = Vec::new();
+    for name in PRESET_NAMES {
+        let m = Medium::preset(name).unwrap();
+        let q = uniform_q(&m);
+        let sphere = UniformSphere::new(m, radius, [q; 3]).unwrap();
+        let exact = sphere.surface_radiance(1.0);
+        let (sys, phi) = solved_with(&meshed.mesh, m, assemble_fitted);
+        let e = surface_errors(&sys, &phi, &sphere);
+        eprintln!("{name:9} Lo RMS {} (exact Lo {exact:.3?})", exp3(e.lo_rms));
+        for c in 0..3 {
+            if exact[c] > 0.0 {
+                assert!(e.lo_rms[c] < 0.01, "{name} channel {c}: Lo RMS {:.3e}", e.lo_rms[c]);
+            } else {
+                negative.push((name, c));
+            }
+        }
+    }
+    assert_eq!(negative, [("ketchup", 1), ("ketchup", 2)], "the channels whose closed-form Lo is not positive");
 }
