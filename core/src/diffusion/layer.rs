@@ -130,10 +130,8 @@ mod tests {
                 // The Laplacian by central differences at a point 0.3 mm inside.
                 let x = -0.3 * n + DVec3::new(0.1, -0.05, 0.02);
                 let h = 1e-3;
-                let lap: f64 = [DVec3::X, DVec3::Y, DVec3::Z]
-                    .iter()
-                    .map(|&a| (p(x + h * a) - 2.0 * p(x) + p(x - h * a)) / (h * h))
-                    .sum();
+                let lap: f64 =
+                    [DVec3::X, DVec3::Y, DVec3::Z].iter().map(|&a| (p(x + h * a) - 2.0 * p(x) + p(x - h * a)) / (h * h)).sum();
                 assert!((lap - sigma * sigma * p(x)).abs() < 1e-5 * (1.0 + sigma * sigma), "σ {sigma} H {curvature}: ∇²ψ {lap}");
             }
         }
@@ -184,7 +182,8 @@ mod tests {
         let plane = ring(&|_, _| 0.0);
         assert!(mean_curvature(n, &plane).unwrap().abs() < 1e-12);
         // A cube's edge: half the ring folds down at 90°.
-        let edge: Vec<DVec3> = ring(&|_, _| 0.0).into_iter().map(|d| if d.dot(u) > 0.0 { -d.dot(u) * n + d.dot(v) * v } else { d }).collect();
+        let edge: Vec<DVec3> =
+            ring(&|_, _| 0.0).into_iter().map(|d| if d.dot(u) > 0.0 { -d.dot(u) * n + d.dot(v) * v } else { d }).collect();
         assert_eq!(mean_curvature(n, &edge), None);
         // Collinear neighbours do not determine a quadric.
         assert_eq!(mean_curvature(n, &[u, -u, 2.0 * u]), None);

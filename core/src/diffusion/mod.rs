@@ -66,14 +66,14 @@ pub mod system;
 mod transcut;
 
 pub use error::DiffusionError;
+#[cfg(feature = "gpu")]
+pub(crate) use fitted::layer_excess;
 pub use resolution::{Unresolved, MAX_RESOLUTION};
 pub use solve::{energy_balance, solve, surface_fluence, surface_radiance, EnergyBalance, Solution};
 #[cfg(feature = "gpu")]
 pub(crate) use solver::start_vector;
 pub use solver::{Solver, SolverKind};
 pub use structure::BoundaryVertices;
-#[cfg(feature = "gpu")]
-pub(crate) use fitted::layer_excess;
 #[cfg(feature = "gpu")]
 pub(crate) use structure::Coefficients;
 pub use system::{assemble, assemble_consistent, assemble_fitted, assemble_with, rhs, DiffusionSystem, Discretization};

@@ -375,7 +375,9 @@ fn energy_balance_holds() {
             let matrix = sys.matrix();
             let (row_ptr, values) = (matrix.pattern().row_ptr(), matrix.values());
             [0, 1, 2].map(|c| {
-                (0..phi.len()).map(|i| phi[i][c] * (values[row_ptr[i]..row_ptr[i + 1]].iter().map(|v| v[c]).sum::<f64>() - robin[i]) / 4.0).sum::<f64>()
+                (0..phi.len())
+                    .map(|i| phi[i][c] * (values[row_ptr[i]..row_ptr[i + 1]].iter().map(|v| v[c]).sum::<f64>() - robin[i]) / 4.0)
+                    .sum::<f64>()
             })
         } else {
             lumped_absorbed

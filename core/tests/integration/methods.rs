@@ -11,7 +11,7 @@
 //! - bad input answered with an error that names the object (or the method) and the fault.
 
 use glam::{DMat4, DVec3};
-use transcut::diffusion::{assemble, energy_balance};
+use transcut::diffusion::{energy_balance, DiffusionSystem, Discretization};
 use transcut::edit::{MediumEdit, MediumOp, Region};
 use transcut::hierarchy::{DipoleOptions, Oracle};
 use transcut::light::{self, Environment, Light, SourceOptions};
@@ -50,7 +50,10 @@ fn transcut() -> Conformance {
         sphere_tolerance: 0.01,
         energy_defect: Some(|scene, baked| {
             let state = baked.transcut().expect("a TransCut bake");
-            let mut system = assemble(&state.tet_mesh, &state.media, state.mm_per_unit).unwrap();
+            // The suite bakes with the default assembly, the fitted one.
+            let mut system =
+                DiffusionSystem::new(&state.tet_mesh, &state.media, state.mm_per_unit, Discretization::ExponentiallyFitted)
+                    .unwrap();
             let boundary = system.boundary();
             let points: Vec<DVec3> = boundary.ids.iter().map(|&v| state.tet_mesh.positions()[v as usize]).collect();
             let q =
@@ -119,7 +122,9 @@ fn radiosity() -> Conformance {
         invalid: RadiosityOptions { patch_size_mm: Some(-1.0), ..RadiosityOptions::default() }.into(),
         energy_defect: Some(|scene, baked| {
             let state = baked.radiosity().and_then(|r| r.transcut.as_ref()).expect("a translucent radiosity object");
-            let mut system = assemble(&state.tet_mesh, &state.media, state.mm_per_unit).unwrap();
+            let mut system =
+                DiffusionSystem::new(&state.tet_mesh, &state.media, state.mm_per_unit, Discretization::ExponentiallyFitted)
+                    .unwrap();
             let boundary = system.boundary();
             let points: Vec<DVec3> = boundary.ids.iter().map(|&v| state.tet_mesh.positions()[v as usize]).collect();
             let q =
