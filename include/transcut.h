@@ -334,7 +334,7 @@
 /**
  * `TcTransCutOptions.discretization`: TransCut's assembly with each edge's stiffness
  * exponentially fitted to the boundary layer (more accurate where the tets are coarse against
- * the diffusion length; the default).
+ * the diffusion length; second order in the spacing).
  */
 #define TC_DISCRETIZATION_FITTED 1
 
@@ -342,6 +342,12 @@
  * `TcTransCutOptions.discretization`: the consistent P1 finite elements (the reference).
  */
 #define TC_DISCRETIZATION_CONSISTENT_FEM 2
+
+/**
+ * `TcTransCutOptions.discretization`: the fitted assembly with each boundary row's absorption
+ * taken from the boundary layer under it (the most accurate at practical sizes; the default).
+ */
+#define TC_DISCRETIZATION_FITTED_LAYER 3
 
 /**
  * The most cubes of one size `TcTransCutOptions.grading` may ask for (above it:
@@ -715,9 +721,10 @@ typedef struct TcTransCutOptions {
    */
   uint32_t grading;
   /**
-   * The assembly: `TC_DISCRETIZATION_FITTED` (what `tc_transcut_options_init` writes, the
-   * library's default), `TC_DISCRETIZATION_TRANSCUT` or `TC_DISCRETIZATION_CONSISTENT_FEM`;
-   * another value fails with `TC_INVALID_ARGUMENT`. Read only when `size` covers it.
+   * The assembly: `TC_DISCRETIZATION_FITTED_LAYER` (what `tc_transcut_options_init` writes,
+   * the library's default), `TC_DISCRETIZATION_FITTED`, `TC_DISCRETIZATION_TRANSCUT` or
+   * `TC_DISCRETIZATION_CONSISTENT_FEM`; another value fails with `TC_INVALID_ARGUMENT`. Read
+   * only when `size` covers it.
    */
   uint32_t discretization;
 } TcTransCutOptions;
@@ -891,7 +898,7 @@ typedef struct TcRadiosityOptions {
   uint32_t grading;
   /**
    * The translucent objects' assembly, as `TcTransCutOptions.discretization` (default
-   * `TC_DISCRETIZATION_FITTED`). Read only when `size` covers it.
+   * `TC_DISCRETIZATION_FITTED_LAYER`). Read only when `size` covers it.
    */
   uint32_t discretization;
 } TcRadiosityOptions;

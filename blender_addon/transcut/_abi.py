@@ -116,8 +116,9 @@ TC_SOLVER_SA_PCG = 5  # CG preconditioned by a smoothed-aggregation V-cycle
 
 # TcTransCutOptions.discretization.
 TC_DISCRETIZATION_TRANSCUT = 0  # TransCut eqs. 10-14
-TC_DISCRETIZATION_FITTED = 1  # each edge's stiffness exponentially fitted to the boundary layer (default)
+TC_DISCRETIZATION_FITTED = 1  # each edge's stiffness exponentially fitted to the boundary layer
 TC_DISCRETIZATION_CONSISTENT_FEM = 2  # the consistent P1 reference
+TC_DISCRETIZATION_FITTED_LAYER = 3  # fitted, boundary rows' absorption from the layer (default)
 
 # TcDipoleOptions (the hierarchical dipole's options; tc_dipole_options_init gives the defaults,
 # the first of each pair).
@@ -218,6 +219,7 @@ DISCRETIZATIONS = {
     "transcut": TC_DISCRETIZATION_TRANSCUT,
     "fitted": TC_DISCRETIZATION_FITTED,
     "consistent-fem": TC_DISCRETIZATION_CONSISTENT_FEM,
+    "fitted-layer": TC_DISCRETIZATION_FITTED_LAYER,
 }
 
 # TcMediumEdit.region and .op (tc_object_edit_medium).

@@ -809,7 +809,7 @@ class Scene:
         ``TC_SOLVER_*`` value, ``grading`` (0: one tet size everywhere; N: graded tets, the
         finest near the surface, N cubes of each size before the next doubling; default 0) and
         ``discretization`` (a name of :data:`DISCRETIZATIONS`, any case, or a
-        ``TC_DISCRETIZATION_*`` value; default ``"fitted"``); unset: the method's defaults.
+        ``TC_DISCRETIZATION_*`` value; default ``"fitted-layer"``); unset: the method's defaults.
         The hierarchical dipole's options (``method="hierarchical-dipole"``), the
         :class:`TcDipoleOptions` fields: ``theta`` (the opening angle, in (0, 1]), ``oracle``
         (``"opening-angle"`` or ``"paper"``, whose thresholds are ``eps1`` and ``eps2``),

@@ -228,9 +228,10 @@ pub struct TcTransCutOptions {
     /// Read only when `size` covers it (a struct of the first version, 12 bytes, has no such
     /// field and gets the default).
     pub grading: u32,
-    /// The assembly: `TC_DISCRETIZATION_FITTED` (what `tc_transcut_options_init` writes, the
-    /// library's default), `TC_DISCRETIZATION_TRANSCUT` or `TC_DISCRETIZATION_CONSISTENT_FEM`;
-    /// another value fails with `TC_INVALID_ARGUMENT`. Read only when `size` covers it.
+    /// The assembly: `TC_DISCRETIZATION_FITTED_LAYER` (what `tc_transcut_options_init` writes,
+    /// the library's default), `TC_DISCRETIZATION_FITTED`, `TC_DISCRETIZATION_TRANSCUT` or
+    /// `TC_DISCRETIZATION_CONSISTENT_FEM`; another value fails with `TC_INVALID_ARGUMENT`. Read
+    /// only when `size` covers it.
     pub discretization: u32,
 }
 
@@ -238,10 +239,13 @@ pub struct TcTransCutOptions {
 pub const TC_DISCRETIZATION_TRANSCUT: u32 = 0;
 /// `TcTransCutOptions.discretization`: TransCut's assembly with each edge's stiffness
 /// exponentially fitted to the boundary layer (more accurate where the tets are coarse against
-/// the diffusion length; the default).
+/// the diffusion length; second order in the spacing).
 pub const TC_DISCRETIZATION_FITTED: u32 = 1;
 /// `TcTransCutOptions.discretization`: the consistent P1 finite elements (the reference).
 pub const TC_DISCRETIZATION_CONSISTENT_FEM: u32 = 2;
+/// `TcTransCutOptions.discretization`: the fitted assembly with each boundary row's absorption
+/// taken from the boundary layer under it (the most accurate at practical sizes; the default).
+pub const TC_DISCRETIZATION_FITTED_LAYER: u32 = 3;
 
 /// The first version's `sizeof(TcTransCutOptions)` (no `grading`, no `discretization`).
 pub(crate) const TRANSCUT_OPTIONS_SIZE_V1: usize = 12;
@@ -388,7 +392,7 @@ pub struct TcRadiosityOptions {
     /// first version, 56 bytes, has no such field and gets the default).
     pub grading: u32,
     /// The translucent objects' assembly, as `TcTransCutOptions.discretization` (default
-    /// `TC_DISCRETIZATION_FITTED`). Read only when `size` covers it.
+    /// `TC_DISCRETIZATION_FITTED_LAYER`). Read only when `size` covers it.
     pub discretization: u32,
 }
 
@@ -414,7 +418,7 @@ pub(crate) fn default_radiosity_options() -> TcRadiosityOptions {
         bounces: d.solve.bounces.map_or(0, |b| u32::try_from(b).unwrap_or(u32::MAX)),
         solver: TC_SOLVER_DEFAULT,
         grading: 0,
-        discretization: TC_DISCRETIZATION_FITTED,
+        discretization: TC_DISCRETIZATION_FITTED_LAYER,
     }
 }
 
@@ -696,7 +700,7 @@ pub(crate) fn default_transcut_options() -> TcTransCutOptions {
         solver: TC_SOLVER_DEFAULT,
         edit_solver: TC_SOLVER_DEFAULT,
         grading: 0,
-        discretization: TC_DISCRETIZATION_FITTED,
+        discretization: TC_DISCRETIZATION_FITTED_LAYER,
     }
 }
 
@@ -718,8 +722,10 @@ fn discretization_from(value: u32) -> Result<Discretization, Failure> {
         TC_DISCRETIZATION_TRANSCUT => Ok(Discretization::TransCut),
         TC_DISCRETIZATION_FITTED => Ok(Discretization::ExponentiallyFitted),
         TC_DISCRETIZATION_CONSISTENT_FEM => Ok(Discretization::ConsistentFem),
+        TC_DISCRETIZATION_FITTED_LAYER => Ok(Discretization::FittedLayer),
         other => Err(Failure::invalid(format!(
-            "options->method_options->discretization = {other}: TC_DISCRETIZATION_TRANSCUT 0, _FITTED 1 or _CONSISTENT_FEM 2"
+            "options->method_options->discretization = {other}: TC_DISCRETIZATION_TRANSCUT 0, _FITTED 1, _CONSISTENT_FEM 2 \
+             or _FITTED_LAYER 3"
         ))),
     }
 }
@@ -1018,7 +1024,8 @@ mod tests {
         assert_eq!(discretization(TC_DISCRETIZATION_TRANSCUT), Ok(Discretization::TransCut));
         assert_eq!(discretization(TC_DISCRETIZATION_FITTED), Ok(Discretization::ExponentiallyFitted));
         assert_eq!(discretization(TC_DISCRETIZATION_CONSISTENT_FEM), Ok(Discretization::ConsistentFem));
-        assert!(discretization(3).unwrap_err().contains("discretization = 3"));
+        assert_eq!(discretization(TC_DISCRETIZATION_FITTED_LAYER), Ok(Discretization::FittedLayer));
+        assert!(discretization(4).unwrap_err().contains("discretization = 4"));
     }
 
     /// Radiosity's translucent objects take the grading and discretisation of its own struct:

@@ -446,7 +446,7 @@ def test_progress_reported_and_cancel_changes_nothing(scene, addon):
 
 def test_grading_and_assembly_settings_reach_the_library(scene, addon):
     """Scene > TransCut > Grading and Assembly are passed to a TransCut bake (and to no other
-    method's): their defaults are the library's (uniform, fitted), and a graded bake with the
+    method's): their defaults are the library's (uniform, fitted with the layer), and a graded bake with the
     paper's assembly runs and differs from the default one."""
     require_library()
     obj = add_sphere()
@@ -455,7 +455,7 @@ def test_grading_and_assembly_settings_reach_the_library(scene, addon):
     ctx = bpy.context
     lib = addon.library.get()
     settings = ctx.scene.transcut
-    assert (settings.grading, settings.discretization) == (0, "FITTED")
+    assert (settings.grading, settings.discretization) == (0, "FITTED_LAYER")
     before = (settings.tets, settings.method)
 
     def run():
@@ -466,7 +466,7 @@ def test_grading_and_assembly_settings_reach_the_library(scene, addon):
     try:
         settings.tets = 20_000
         options, default = run()
-        assert (options["grading"], options["discretization"]) == (0, "fitted")
+        assert (options["grading"], options["discretization"]) == (0, "fitted-layer")
         settings.grading, settings.discretization = 1, "TRANSCUT"
         options, paper = run()
         assert (options["grading"], options["discretization"]) == (1, "transcut")

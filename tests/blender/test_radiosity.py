@@ -104,7 +104,7 @@ def test_radiosity_options_defaults_and_names(tclib):
     r = tclib.default_radiosity_options()
     assert r.size == ctypes.sizeof(tc.TcRadiosityOptions)
     assert (r.iteration, r.patch_size_mm, r.rays_per_patch, r.bounces) == (tc.TC_RADIOSITY_JACOBI, 0.0, 512, 0)
-    assert (r.grading, r.discretization) == (0, tc.TC_DISCRETIZATION_FITTED)
+    assert (r.grading, r.discretization) == (0, tc.TC_DISCRETIZATION_FITTED_LAYER)
     assert tclib.method_number("radiosity") == tc.TC_METHOD_RADIOSITY
     assert tc.RADIOSITY_ITERATIONS == {"jacobi": 0, "gauss-seidel": 1, "bicgstab": 2}
     assert tc.SIDES == {"both": tc.TC_SIDES_BOTH, "front": tc.TC_SIDES_FRONT, "back": tc.TC_SIDES_BACK}
@@ -145,13 +145,13 @@ def test_an_emissive_room_of_albedo_0_matches_its_closed_forms(tclib, ball):
 
 def test_the_translucent_objects_take_grading_and_discretization(tclib, ball):
     """grading and discretization reach the translucent ball of a radiosity bake: the default
-    is the fitted assembly on uniform tets (the same bake, bit for bit, when named), and the
+    is the fitted assembly with the layer on uniform tets (the same bake, bit for bit, when named), and the
     paper's assembly and a graded mesh each change the ball's radiance."""
     s, b, _ = room_scene(tclib, ball)
     with s:
         s.bake(**ROOM_BAKE)
         default = s.radiance(b)
-        s.bake(**ROOM_BAKE, grading=0, discretization="fitted")
+        s.bake(**ROOM_BAKE, grading=0, discretization="fitted-layer")
         np.testing.assert_array_equal(s.radiance(b), default)
         s.bake(**ROOM_BAKE, discretization="transcut")
         paper = s.radiance(b)
@@ -572,7 +572,7 @@ def test_panel_and_options_of_radiosity(red_floor, addon):
     settings.radiosity_iteration = "JACOBI"
     options = addon.bake.bake_options(settings, "radiosity", 10.0)
     assert options["bounces"] == 0 and options["radiosity_tolerance"] == pytest.approx(1e-3)
-    assert (options["grading"], options["discretization"]) == (settings.grading, "fitted")
+    assert (options["grading"], options["discretization"]) == (settings.grading, "fitted-layer")
     settings.radiosity_bounces = 3
     settings.radiosity_iteration = "GAUSS_SEIDEL"
     options = addon.bake.bake_options(settings, "radiosity", 10.0)

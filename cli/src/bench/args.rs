@@ -84,8 +84,9 @@ pub struct BenchArgs {
     /// The `sphere` suite's radius, mm.
     #[arg(long, default_value_t = 10.0)]
     pub radius_mm: f64,
-    /// Assemblies of the `sphere` suite, comma-separated: transcut, fitted, consistent-fem.
-    #[arg(long, value_delimiter = ',', value_parser = crate::method_args::discretization, default_values = ["transcut", "fitted"])]
+    /// Assemblies of the `sphere` suite, comma-separated: transcut, fitted, fitted-layer,
+    /// consistent-fem.
+    #[arg(long, value_delimiter = ',', value_parser = crate::method_args::discretization, default_values = ["transcut", "fitted", "fitted-layer"])]
     pub discretizations: Vec<Discretization>,
     /// Runs per size; the median is reported.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]

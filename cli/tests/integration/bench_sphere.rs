@@ -1,6 +1,7 @@
 //! `transcut bench sphere` at 100k tets: every entry is there, σtr·h is the preset's σtr
 //! (computed here from Jensen's coefficients) times the reported spacing, the graded mesh has the
-//! finer surface, marble is resolved and the fitted assembly beats the paper's in skin's blue.
+//! finer surface, marble is resolved, the fitted assembly beats the paper's in skin's blue and the
+//! layer's absorption beats the fitting alone.
 
 /// σtr = √(3 σa (σa + σ′s)) per channel, mm⁻¹.
 fn sigma_tr(sigma_a: [f64; 3], sigma_s_prime: [f64; 3]) -> [f64; 3] {
@@ -18,7 +19,7 @@ fn the_sphere_suite_reports_every_medium_assembly_and_grading() {
         "--presets",
         "marble,skin1",
         "--discretizations",
-        "transcut,fitted",
+        "transcut,fitted,fitted-layer",
     ]);
     assert_eq!(report["suite"], "sphere");
     assert_eq!(report["radius_mm"], 10.0);
@@ -35,7 +36,17 @@ fn the_sphere_suite_reports_every_medium_assembly_and_grading() {
         let media = m["media"].as_array().unwrap();
         let names: Vec<(&str, &str)> =
             media.iter().map(|e| (e["preset"].as_str().unwrap(), e["discretization"].as_str().unwrap())).collect();
-        assert_eq!(names, [("marble", "transcut"), ("marble", "fitted"), ("skin1", "transcut"), ("skin1", "fitted")]);
+        assert_eq!(
+            names,
+            [
+                ("marble", "transcut"),
+                ("marble", "fitted"),
+                ("marble", "fitted-layer"),
+                ("skin1", "transcut"),
+                ("skin1", "fitted"),
+                ("skin1", "fitted-layer")
+            ]
+        );
         for e in media {
             let tr = if e["preset"] == "marble" { marble } else { skin1 };
             let (rms, mean, trh) = (f3(&e["lo_rms"]), f3(&e["lo_mean"]), f3(&e["sigma_tr_h"]));
@@ -48,6 +59,7 @@ fn the_sphere_suite_reports_every_medium_assembly_and_grading() {
             }
         }
         let skin_blue = |i: usize| f3(&media[i]["lo_rms"])[2];
-        assert!(skin_blue(3) < skin_blue(2), "skin1 blue: fitted {} against transcut {}", skin_blue(3), skin_blue(2));
+        assert!(skin_blue(4) < skin_blue(3), "skin1 blue: fitted {} against transcut {}", skin_blue(4), skin_blue(3));
+        assert!(skin_blue(5) < skin_blue(4), "skin1 blue: fitted-layer {} against fitted {}", skin_blue(5), skin_blue(4));
     }
 }

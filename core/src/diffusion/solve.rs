@@ -155,7 +155,7 @@ pub fn energy_balance(system: &DiffusionSystem, phi: &[[f64; 3]]) -> Result<Ener
             absorbed[c] += mu[c] * s.volume[t] * mean;
         }
     }
-    if system.discretization() == Discretization::ExponentiallyFitted {
+    if system.discretization() == Discretization::FittedLayer {
         // The boundary rows' layer absorption over the lumped one (M is 4 × the weak form).
         let coefficients = Coefficients::of(system.media());
         for &v in &s.boundary.ids {

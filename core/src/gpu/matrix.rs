@@ -54,7 +54,9 @@ impl<'c> DeviceMatrix<'c> {
     /// its fitted variant, uploaded from the CPU values for the consistent FEM; then scaled.
     pub(crate) fn from_system(ctx: &'c GpuContext, system: &DiffusionSystem) -> Result<DeviceMatrix<'c>, GpuError> {
         match system.discretization() {
-            Discretization::TransCut | Discretization::ExponentiallyFitted => Self::assemble(ctx, system),
+            Discretization::TransCut | Discretization::ExponentiallyFitted | Discretization::FittedLayer => {
+                Self::assemble(ctx, system)
+            }
             Discretization::ConsistentFem => Self::upload(ctx, system.matrix(), params_for(system)),
         }
     }
@@ -125,7 +127,8 @@ impl<'c> DeviceMatrix<'c> {
         let terms = system.boundary_terms();
         // κ, μ and the fitting's σtr per medium, as the CPU assembly derives them (σtr = 0 for
         // TransCut's own scheme: f(0) = 1).
-        let fitted = system.discretization() == Discretization::ExponentiallyFitted;
+        let fitted = matches!(system.discretization(), Discretization::ExponentiallyFitted | Discretization::FittedLayer);
+        let layer = system.discretization() == Discretization::FittedLayer;
         let c = Coefficients::of(system.media());
         let rows: Vec<RowInfo> = (0..s.n())
             .into_par_iter()
@@ -136,7 +139,7 @@ impl<'c> DeviceMatrix<'c> {
                     [0.0; 3]
                 } else {
                     let robin = terms.matrix_diagonal(s.boundary.area_mm2[b as usize]);
-                    let excess = if fitted { layer_excess(s, &c, i) } else { [0.0; 3] };
+                    let excess = if layer { layer_excess(s, &c, i) } else { [0.0; 3] };
                     excess.map(|x| (robin + x) as f32)
                 };
                 RowInfo {

@@ -175,10 +175,12 @@ pub struct TransCutOptions {
     /// (`transcut bench sphere`, spheres of 10 and 30 mm), but a cut or fracture exposes its
     /// interior, whose tets are up to 2^k times coarser, as new surface.
     pub grading: Grading,
-    /// The assembly: [`Discretization::ExponentiallyFitted`] (default: TransCut's rows with the
-    /// stiffness fitted to the boundary layer, more accurate than the paper's wherever σtr h is
-    /// not small and equal where it is), [`Discretization::TransCut`] (the paper's, eqs. 10–14)
-    /// or [`Discretization::ConsistentFem`] (the P1 reference).
+    /// The assembly: [`Discretization::FittedLayer`] (default: TransCut's rows with the
+    /// stiffness fitted to the boundary layer and the boundary rows' absorption taken from it,
+    /// the most accurate at practical sizes), [`Discretization::ExponentiallyFitted`] (the
+    /// stiffness fitting alone: less accurate up to a few million tets, but second order in h),
+    /// [`Discretization::TransCut`] (the paper's, eqs. 10–14) or
+    /// [`Discretization::ConsistentFem`] (the P1 reference).
     pub discretization: Discretization,
     /// Relative residual ‖b − Mφ‖/‖b‖ at which every solve stops, in (0, 1).
     pub tolerance: f64,
@@ -201,7 +203,7 @@ impl Default for TransCutOptions {
         Self {
             tets: 200_000,
             grading: Grading::Uniform,
-            discretization: Discretization::ExponentiallyFitted,
+            discretization: Discretization::FittedLayer,
             tolerance: 1e-6,
             max_iterations: 10_000,
             solver: SolverKind::SsorPcg,

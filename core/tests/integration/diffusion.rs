@@ -40,6 +40,7 @@ use std::time::Instant;
 
 use transcut::diffusion::{
     assemble, assemble_consistent, assemble_fitted, energy_balance, solve, surface_fluence, surface_radiance, DiffusionSystem,
+    Discretization,
 };
 use transcut::mesh::{TetMesh, TriMesh};
 use transcut::mesher::{tetrahedralize, MesherOptions};
@@ -84,6 +85,15 @@ fn solved(mesh: &TetMesh, m: Medium, consistent: bool) -> (DiffusionSystem, Vec<
 
 /// An assembly of the library's: TransCut's, the consistent FEM or the fitted variant.
 type Assembler = fn(&TetMesh, &[Medium], f64) -> Result<DiffusionSystem, transcut::diffusion::DiffusionError>;
+
+/// The fitted rows with the boundary layer's absorption (`Discretization::FittedLayer`).
+fn assemble_fitted_layer(
+    mesh: &TetMesh,
+    media: &[Medium],
+    mm_per_unit: f64,
+) -> Result<DiffusionSystem, transcut::diffusion::DiffusionError> {
+    DiffusionSystem::new(mesh, media, mm_per_unit, Discretization::FittedLayer)
+}
 
 /// Assembled by `assembler`, lit uniformly and solved with the default options.
 fn solved_with(mesh: &TetMesh, m: Medium, assembler: Assembler) -> (DiffusionSystem, Vec<[f64; 3]>) {
@@ -348,7 +358,8 @@ fn energy_balance_holds() {
         ("marble", assemble as Assembler, false),
         ("skin1", assemble, false),
         ("jade", assemble, false),
-        ("skin1", assemble_fitted, true),
+        ("skin1", assemble_fitted, false),
+        ("skin1", assemble_fitted_layer, true),
     ] {
         let m = Medium::preset(name).unwrap();
         let (sys, phi) = solved_with(mesh, m, assembler);
@@ -479,11 +490,9 @@ fn relighting_keeps_the_matrix_and_warm_starts() {
 /// skin1 blue Lo RMS 12.1% → 9.4%, chicken1 blue 1.37% → 1.12%: ratios 0.78 and 0.82 against
 /// the predicted (0.550 / 0.637)² = 0.75.
 ///
-/// The exponentially fitted assembly on the graded mesh takes them further: skin1 blue 1.17%,
-/// chicken1 blue 0.27% (ratios 0.125 and 0.24 to TransCut's 9.4% and 1.12% on the same mesh).
-/// Its boundary rows' absorption (the difference of two fluxes, `diffusion::fitted`) costs the
-/// weakly absorbing channels a little: chicken1 red 0.012% → 0.055%, green 0.109% → 0.160%;
-/// skin1's red and green improve.
+/// The exponentially fitted assembly on the graded mesh takes them further: skin1 blue 5.2%,
+/// chicken1 blue 0.66% (ratios 0.55 and 0.59 to TransCut's on the same mesh), and leaves the
+/// resolved channels within 1e-4 of TransCut's.
 #[test]
 fn graded_meshes_trade_interior_tets_for_surface_accuracy() {
     use transcut::mesher::{tetrahedralize_with, Grading};
@@ -515,15 +524,15 @@ fn graded_meshes_trade_interior_tets_for_surface_accuracy() {
         let (sys, phi) = solved_with(&graded.mesh, m, assemble_fitted);
         let fitted = surface_errors(&sys, &phi, &sphere).lo_rms;
         eprintln!("{name} Lo RMS, graded mesh: TransCut {} fitted {}", exp3(transcut), exp3(fitted));
-        assert!(fitted[2] < 0.3 * transcut[2], "{name} blue: fitted {:.3e}, TransCut {:.3e}", fitted[2], transcut[2]);
+        assert!(fitted[2] < 0.7 * transcut[2], "{name} blue: fitted {:.3e}, TransCut {:.3e}", fitted[2], transcut[2]);
         for c in 0..2 {
-            assert!(fitted[c] < transcut[c] + 1e-3, "{name} channel {c}: fitted {:.3e}, TransCut {:.3e}", fitted[c], transcut[c]);
+            assert!(fitted[c] < transcut[c] + 1e-4, "{name} channel {c}: fitted {:.3e}, TransCut {:.3e}", fitted[c], transcut[c]);
         }
     }
 }
 
 /// Issue 23's accuracy bar: the R = 10 mm sphere at ≤ 300k tets, graded with one cube per size,
-/// the fitted assembly: Lo within 1% RMS of the closed form for every preset and channel whose
+/// the default assembly (`Discretization::FittedLayer`): Lo within 1% RMS of the closed form for every preset and channel whose
 /// closed-form Lo is positive. Ketchup's green and blue are the exception the model itself makes
 /// (its Lo is negative there: −0.013, −0.025), checked to be so.
 ///
@@ -545,7 +554,7 @@ fn every_positive_channel_is_within_one_percent_on_a_graded_sphere_at_300k() {
         let q = uniform_q(&m);
         let sphere = UniformSphere::new(m, radius, [q; 3]).unwrap();
         let exact = sphere.surface_radiance(1.0);
-        let (sys, phi) = solved_with(&meshed.mesh, m, assemble_fitted);
+        let (sys, phi) = solved_with(&meshed.mesh, m, assemble_fitted_layer);
         let e = surface_errors(&sys, &phi, &sphere);
         eprintln!("{name:9} Lo RMS {} (exact Lo {exact:.3?})", exp3(e.lo_rms));
         for c in 0..3 {

@@ -16,7 +16,9 @@ use gpu_common::{device, lit, lock, rel_rms, scaled_tets, shared_mesh_dir, syste
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use transcut::diffusion::SolverKind;
-use transcut::diffusion::{assemble, assemble_consistent, assemble_fitted, solve, surface_radiance};
+use transcut::diffusion::{
+    assemble, assemble_consistent, assemble_fitted, solve, surface_radiance, DiffusionSystem, Discretization,
+};
 use transcut::gpu::{self, Backend, GpuError, SolveWith};
 use transcut::mesh::TetMesh;
 use transcut::optics::Medium;
@@ -62,10 +64,11 @@ fn entry_differences(x: &transcut::sparse::CsrMatrix3, y: &transcut::sparse::Csr
     (worst, worst_diag)
 }
 
-/// TransCut's assembly (marble) and its fitted variant (skin1, whose blue boundary layer the
-/// tets do not resolve, so that the fitting factors are far from 1) on the device, against the
-/// CPU's matrices entry by entry (f32 geometry: relative to the larger diagonal of the entry's
-/// rows), and symmetric bit for bit.
+/// TransCut's assembly (marble) and its fitted variants (skin1, whose blue boundary layer the
+/// tets do not resolve, so that the fitting factors are far from 1; with and without the
+/// layer's absorption on boundary rows) on the device, against the CPU's matrices entry by
+/// entry (f32 geometry: relative to the larger diagonal of the entry's rows), and symmetric bit
+/// for bit.
 #[test]
 fn gpu_assembly_matches_the_cpu_matrix_entry_by_entry() {
     let _g = lock();
@@ -75,7 +78,14 @@ fn gpu_assembly_matches_the_cpu_matrix_entry_by_entry() {
         let fitted = assemble_fitted(mesh, &skin1, *scale).unwrap();
         let (fitting, _) = entry_differences(assemble(mesh, &skin1, *scale).unwrap().matrix(), fitted.matrix());
         assert!(fitting > 1e-3, "{name}: the fitting changes skin1's matrix by only {fitting:e}");
-        for (what, cpu) in [("transcut, marble", system_for(mesh, *scale, "marble")), ("fitted, skin1", fitted)] {
+        let layer = DiffusionSystem::new(mesh, &skin1, *scale, Discretization::FittedLayer).unwrap();
+        let (_, absorption) = entry_differences(fitted.matrix(), layer.matrix());
+        assert!(absorption > 1e-3, "{name}: the layer changes skin1's diagonal by only {absorption:e}");
+        for (what, cpu) in [
+            ("transcut, marble", system_for(mesh, *scale, "marble")),
+            ("fitted, skin1", fitted),
+            ("fitted with the layer, skin1", layer),
+        ] {
             let gpu_m = gpu::assemble(ctx, &cpu).unwrap();
             let a = cpu.matrix();
             let (worst, worst_diag) = entry_differences(&gpu_m, a);

@@ -50,10 +50,9 @@ fn transcut() -> Conformance {
         sphere_tolerance: 0.01,
         energy_defect: Some(|scene, baked| {
             let state = baked.transcut().expect("a TransCut bake");
-            // The suite bakes with the default assembly, the fitted one.
+            // The suite bakes with the default assembly, the fitted one with the layer's absorption.
             let mut system =
-                DiffusionSystem::new(&state.tet_mesh, &state.media, state.mm_per_unit, Discretization::ExponentiallyFitted)
-                    .unwrap();
+                DiffusionSystem::new(&state.tet_mesh, &state.media, state.mm_per_unit, Discretization::FittedLayer).unwrap();
             let boundary = system.boundary();
             let points: Vec<DVec3> = boundary.ids.iter().map(|&v| state.tet_mesh.positions()[v as usize]).collect();
             let q =
@@ -123,8 +122,7 @@ fn radiosity() -> Conformance {
         energy_defect: Some(|scene, baked| {
             let state = baked.radiosity().and_then(|r| r.transcut.as_ref()).expect("a translucent radiosity object");
             let mut system =
-                DiffusionSystem::new(&state.tet_mesh, &state.media, state.mm_per_unit, Discretization::ExponentiallyFitted)
-                    .unwrap();
+                DiffusionSystem::new(&state.tet_mesh, &state.media, state.mm_per_unit, Discretization::FittedLayer).unwrap();
             let boundary = system.boundary();
             let points: Vec<DVec3> = boundary.ids.iter().map(|&v| state.tet_mesh.positions()[v as usize]).collect();
             let q =
