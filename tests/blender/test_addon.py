@@ -591,8 +591,8 @@ def test_environment_texture_sky_lights_the_top(scene, addon):
 
 def test_preset_and_coefficient_media(scene, addon):
     require_library()
-    # Skin's blue channel on this 10 mm sphere needs about 60k tets to be resolved (at the
-    # fixture's 15k the bake is refused as TC_UNRESOLVED).
+    # Skin's blue channel on this 10 mm sphere needs about 7.5k tets to be resolved with the
+    # default assembly (60k with the paper's, below which the bake is refused as TC_UNRESOLVED).
     scene.transcut.tets = 60_000
     obj = add_sphere()
     add_light("SUN", energy=3.0)

@@ -68,7 +68,7 @@ mod transcut;
 pub use error::DiffusionError;
 #[cfg(feature = "gpu")]
 pub(crate) use fitted::layer_excess;
-pub use resolution::{Unresolved, MAX_RESOLUTION};
+pub use resolution::{max_resolution, Unresolved, MAX_RESOLUTION};
 pub use solve::{energy_balance, solve, surface_fluence, surface_radiance, EnergyBalance, Solution};
 #[cfg(feature = "gpu")]
 pub(crate) use solver::start_vector;

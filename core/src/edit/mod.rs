@@ -605,7 +605,8 @@ impl Editor {
             let media: Vec<&Medium> = entries.iter().filter(|(t, _)| at_surface[*t as usize]).map(|(_, m)| m).collect();
             if !media.is_empty() {
                 let spacing = resolution::surface_spacing_mm(&p.mesh, self.setup.mm_per_unit);
-                resolution::check(&media, spacing, self.original.tet_count()).map_err(EditError::Unresolved)?;
+                let max = resolution::max_resolution(self.setup.discretization);
+                resolution::check(&media, spacing, self.original.tet_count(), max).map_err(EditError::Unresolved)?;
             }
         }
         Ok(())

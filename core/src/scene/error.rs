@@ -85,8 +85,8 @@ pub enum SceneError {
         channel: &'static str,
         /// σtr · h of that channel.
         sigma_tr_h: f64,
-        /// The largest σtr · h the method bakes in this channel of this medium (TransCut:
-        /// `MAX_RESOLUTION` over the radiance amplification of the channel's albedo).
+        /// The largest σtr · h the method bakes in this channel of this medium (TransCut: its
+        /// assembly's `max_resolution` over the radiance amplification of the channel's albedo).
         bound: f64,
         /// The mesh's spacing at the surface in mm (TransCut: the mean boundary edge length).
         spacing_mm: f64,

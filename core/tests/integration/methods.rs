@@ -212,7 +212,7 @@ fn uniform_sphere_matches_its_models_closed_form() {
 #[test]
 fn a_sun_lit_sphere_is_brighter_on_the_lit_side_and_balances_energy() {
     // Radius 10 mm: at the suite's 60k tets skin's blue channel is resolved (σtr·h 1.1 against
-    // TransCut's bound 1.24); a 20 mm radius is refused as unresolved.
+    // the default assembly's bound 2.49).
     let mesh = uv_sphere(10.0, 64, 32);
     let scene = Scene {
         objects: vec![Object::new("ball", mesh.clone(), Medium::preset("skin1").unwrap(), 1.0)],

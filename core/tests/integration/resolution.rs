@@ -7,7 +7,7 @@
 //! the tet mesh the bake kept, in mm; σtr = √(3 σa (σa + σ′s)) from the preset's coefficients.
 
 use glam::DVec3;
-use transcut::diffusion::{assemble, solve, surface_radiance};
+use transcut::diffusion::{assemble, solve, surface_radiance, Discretization};
 use transcut::edit::{EditError, MediumEdit, MediumOp, PaintStroke, Region};
 use transcut::light::{Environment, Light};
 use transcut::mesh::TetMesh;
@@ -53,9 +53,16 @@ fn amplification(m: &Medium) -> [f64; 3] {
     })
 }
 
-/// A channel's bound on σtr·h: `MAX_RESOLUTION / amp`.
-fn bound(m: &Medium) -> [f64; 3] {
+/// A channel's bound on σtr·h with TransCut's assembly: `MAX_RESOLUTION / amp`.
+fn paper_bound(m: &Medium) -> [f64; 3] {
     amplification(m).map(|a| MAX_RESOLUTION / a)
+}
+
+/// A channel's bound on σtr·h with the default assembly (the fitted rows with the layer's
+/// absorption): twice TransCut's.
+fn bound(m: &Medium) -> [f64; 3] {
+    assert_eq!(TransCutOptions::default().discretization, Discretization::FittedLayer);
+    paper_bound(m).map(|b| 2.0 * b)
 }
 
 fn sun() -> Light {
@@ -106,8 +113,8 @@ fn metre_scale_marble_spheres_at_5000_tets_are_refused_not_black() {
         // Blue has the shortest diffusion length of marble.
         assert_eq!(*channel, "blue");
         assert!((bound / self::bound(&marble)[2] - 1.0).abs() < 1e-3, "{bound}");
-        // Marble's blue bound: amp = 1.327 (by hand in the unit test), 5 / 1.327 = 3.77.
-        assert!((bound - 3.77).abs() < 0.01, "{bound}");
+        // Marble's blue bound: amp = 1.327 (by hand in the unit test), 2 × 5 / 1.327 = 7.54.
+        assert!((bound - 7.54).abs() < 0.01, "{bound}");
         // The spacing against the lattice's own estimate (interior tets h³/12 fill the volume).
         let volume_mm3 = 4.0 / 3.0 * std::f64::consts::PI * (radius_m * 1000.0).powi(3);
         let lattice = (12.0 * volume_mm3 / *tets as f64).cbrt();
@@ -173,7 +180,7 @@ fn slow_sphere_error_against_sigma_tr_h() {
             let m = Medium::preset(name).unwrap();
             for mm_per_unit in [0.5, 1.0, 2.0, 4.0, 10.0, 100.0, 1000.0] {
                 let s = sigma_tr(&m).map(|x| x * h * mm_per_unit);
-                let b = bound(&m);
+                let b = paper_bound(&m);
                 let (means, max, negative) = sphere_error(&mesh, 10.0, m, mm_per_unit);
                 let mean = means.iter().fold(0.0f64, |a, &b| if b.abs() > a.abs() { b } else { a });
                 eprintln!(
@@ -210,7 +217,10 @@ fn slow_sphere_error_against_sigma_tr_h() {
 }
 
 /// The environment light of the closed form, through the bake: a sphere the bound accepts bakes
-/// within the accuracy the table promises (the guard does not refuse what it should not).
+/// within the accuracy the table promises (the guard does not refuse what it should not). With
+/// TransCut's assembly the bound promises 25%; with the default one, whose bound is twice it,
+/// the sphere at 0.9 of that bound is within 10% (measured: (0.5, 2.1, 3.8)% low on average at
+/// 7.5k tets; the paper's at 0.9 of its own, 60k tets: (0.0, 2.6, 18.7)%).
 #[test]
 fn a_resolved_bake_is_accepted_and_near_the_closed_form() {
     let skin = Medium::preset("skin1").unwrap();
@@ -218,20 +228,30 @@ fn a_resolved_bake_is_accepted_and_near_the_closed_form() {
         objects: vec![Object::new("sphere", uv_sphere(10.0, 96, 48), skin, 1.0)],
         lights: vec![Light::Environment(Environment::Constant([1.0; 3]))],
     };
-    // Blue at about 0.9 of its bound (σtr·h 1.1 against 5 / 4.02 = 1.24): accepted, and within
-    // the 25% the bound promises.
-    let baked = bake(&scene, &at(60_000)).unwrap();
-    let object = &baked.objects[0];
-    let (s, b) = (object.stats.resolution, bound(&skin));
-    assert!(s[2] > 0.75 * b[2] && s[2] <= b[2], "{s:?} vs {b:?}");
-    // At a third of the tets the same sphere is refused, naming blue.
-    let err = bake(&scene, &at(20_000)).unwrap_err();
-    assert!(matches!(&err, SceneError::Unresolved { channel: "blue", .. }), "{err}");
     let q = std::f64::consts::PI * (1.0 - f_ext(skin.eta));
     let exact = UniformSphere::new(skin, 10.0, [q; 3]).unwrap().surface_radiance(1.0);
-    for c in 0..3 {
-        let mean = object.radiance.iter().map(|l| l[c] / exact[c] - 1.0).sum::<f64>() / object.radiance.len() as f64;
-        assert!(mean.abs() < 0.25, "channel {c}: mean error {mean}");
+    let paper = |tets| BakeOptions {
+        method: TransCutOptions { tets, discretization: Discretization::TransCut, ..TransCutOptions::default() }.into(),
+        ..BakeOptions::default()
+    };
+    // (options at about 0.9 of the bound, at a third of the tets, the bound, the promise): blue
+    // σtr·h 1.1 against 5 / 4.02 = 1.24 with the paper's assembly, 2.2 against 2.49 with the
+    // default.
+    for (accepted, refused, b, promise) in
+        [(paper(60_000), paper(20_000), paper_bound(&skin), 0.25), (at(7_500), at(2_500), bound(&skin), 0.10)]
+    {
+        let baked = bake(&scene, &accepted).unwrap();
+        let object = &baked.objects[0];
+        let s = object.stats.resolution;
+        assert!(s[2] > 0.75 * b[2] && s[2] <= b[2], "{s:?} vs {b:?}");
+        // At a third of the tets the same sphere is refused, naming blue.
+        let err = bake(&scene, &refused).unwrap_err();
+        assert!(matches!(&err, SceneError::Unresolved { channel: "blue", .. }), "{err}");
+        for c in 0..3 {
+            let mean = object.radiance.iter().map(|l| l[c] / exact[c] - 1.0).sum::<f64>() / object.radiance.len() as f64;
+            eprintln!("bound {:.3}, σtr·h {:.3}: channel {c} mean error {mean:+.4}", b[2], s[2]);
+            assert!(mean.abs() < promise, "channel {c}: mean error {mean}");
+        }
     }
 }
 
@@ -266,8 +286,8 @@ fn an_edit_that_the_mesh_cannot_resolve_at_the_surface_is_refused() {
     let scene = Scene { objects: vec![Object::new("ball", uv_sphere(10.0, 32, 16), marble, 1.0)], lights: vec![sun()] };
     let mut session = Session::bake(&scene, &at(4_000), Progress::none()).unwrap();
     session.start(0, Progress::none()).unwrap();
-    // A dark ink, a hundred times marble's absorption in green and blue.
-    let dense = Medium { sigma_a: [0.1, 0.4, 0.8], sigma_s_prime: [2.0, 2.5, 3.0], ..marble };
+    // A dark ink, three hundred times marble's absorption in green and blue.
+    let dense = Medium { sigma_a: [0.3, 1.2, 2.4], sigma_s_prime: [2.0, 2.5, 3.0], ..marble };
     let ratio = worst_ratio(&session, &dense);
     assert!(ratio > 2.0, "the test medium must be well above the bound: {ratio}");
     let (expected, b) = (surface_sigma_tr_h(&session, &dense), bound(&dense));

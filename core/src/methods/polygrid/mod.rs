@@ -117,7 +117,7 @@ impl SubsurfaceMethod for PolygridMethod {
                 let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
                 let surface_media = resolution::surface_media(&tet_mesh, &media);
                 stats.resolution = resolution::resolution(&surface_media, spacing);
-                resolution::check(&surface_media, spacing, tet_mesh.tet_count())
+                resolution::check(&surface_media, spacing, tet_mesh.tet_count(), resolution::MAX_RESOLUTION)
                     .map_err(|u| SceneError::unresolved(index, name(), u))?;
                 let cell_media = cell_media(&tet_mesh, &media);
                 let system =

@@ -5,7 +5,8 @@
 //! - `prepare`: tetrahedralise a surface ([`crate::mesher`]; a ready tet mesh is only moved to
 //!   world space), put the medium on the tets ([`crate::scene::MediumSource`]) and assemble M
 //!   ([`crate::diffusion::assemble`]), after checking the method's validity limit: the mesh
-//!   must resolve the medium's diffusion length at the surface ([`MAX_RESOLUTION`]);
+//!   must resolve the medium's diffusion length at the surface ([`MAX_RESOLUTION`], twice it
+//!   for the default assembly: [`crate::diffusion::max_resolution`]);
 //! - `solve`: q at the boundary vertices ([`super::Lighting`]), the solve
 //!   ([`crate::gpu::solve_on`] with [`TransCutOptions::solver`]), Lo(x, n) at the boundary
 //!   ([`crate::diffusion::surface_radiance`]), clamped at 0 and interpolated at the user's
@@ -184,8 +185,9 @@ impl Prepared {
         let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
         let surface_media = resolution::surface_media(&tet_mesh, &media);
         let checked = resolution::resolution(&surface_media, spacing);
-        resolution::check(&surface_media, spacing, tet_mesh.tet_count()).map_err(|u| SceneError::unresolved(index, name(), u))?;
         let discretization = self.system.discretization();
+        resolution::check(&surface_media, spacing, tet_mesh.tet_count(), resolution::max_resolution(discretization))
+            .map_err(|u| SceneError::unresolved(index, name(), u))?;
         let mut system = DiffusionSystem::new(&tet_mesh, &media, object.mm_per_unit, discretization)
             .map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
         system.set_signed_source(self.system.source()).map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
@@ -219,7 +221,8 @@ impl Prepared {
         let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
         let surface_media = resolution::surface_media(&tet_mesh, &media);
         stats.resolution = resolution::resolution(&surface_media, spacing);
-        resolution::check(&surface_media, spacing, tet_mesh.tet_count()).map_err(|u| SceneError::unresolved(index, name(), u))?;
+        resolution::check(&surface_media, spacing, tet_mesh.tet_count(), resolution::max_resolution(discretization))
+            .map_err(|u| SceneError::unresolved(index, name(), u))?;
         let system = DiffusionSystem::new(&tet_mesh, &media, object.mm_per_unit, discretization)
             .map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
         stats.assembly_ms = ms(t);
