@@ -25,7 +25,8 @@
 //!   ([`super::layer`]: the decaying solution under a surface of the vertex's normal and mean
 //!   curvature), so it is first-order consistent on curved surfaces and tends to the lumped
 //!   absorption as h → 0. Only the diagonal changes: the matrix stays symmetric, and with the
-//!   absorption kept non-negative an M-matrix with a positive diagonal, so positive definite.
+//!   absorption kept non-negative it is the fitted stiffness plus the Robin term plus a
+//!   non-negative diagonal, positive definite wherever the fitted rows are.
 //!   Rows keep the zero-sum Laplacian structure, so the energy balance
 //!   ([`super::energy_balance`]) holds with the rows' own absorption.
 //!
@@ -82,8 +83,8 @@ pub(crate) fn fitted_row(s: &Structure, c: &Coefficients, terms: &BoundaryTerms,
 }
 
 /// What [`layer_mass`] adds to row i's diagonal over TransCut's lumped absorption (0 where it
-/// keeps it): the fitted rows are TransCut's rows with this on the diagonal and the stiffness
-/// fitted. The device assembly adds it to its boundary term.
+/// keeps it): the `FittedLayer` rows are the fitted rows with this added to the diagonal. The
+/// device assembly adds it to its boundary term.
 pub(crate) fn layer_excess(s: &Structure, c: &Coefficients, i: usize) -> [f64; 3] {
     layer_mass(s, c, i).map_or([0.0; 3], |(mass, lumped)| std::array::from_fn(|ch| mass[ch] - lumped[ch]))
 }

@@ -312,7 +312,9 @@ fn matrix_is_symmetric_positive_definite() {
     let materials =
         (0..mesh.tet_count()).map(|t| u32::from(mesh.tet_positions(t).iter().map(|p| p.z).sum::<f64>() < 0.0)).collect();
     mesh.set_materials(materials).unwrap();
-    for (consistent, assembler) in [(false, assemble as Assembler), (true, assemble_consistent), (false, assemble_fitted)] {
+    for (consistent, assembler) in
+        [(false, assemble as Assembler), (true, assemble_consistent), (false, assemble_fitted), (false, assemble_fitted_layer)]
+    {
         let sys = assembler(&mesh, &[marble, skin], 1.0).unwrap();
         let m = sys.matrix();
         let largest = m.values().iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
