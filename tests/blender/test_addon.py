@@ -476,7 +476,7 @@ def test_grading_and_assembly_settings_reach_the_library(scene, addon):
         assert "grading" not in addon.bake.prepare_job(ctx).options
     finally:
         settings.tets, settings.method = before
-        settings.grading, settings.discretization = 0, "FITTED"
+        settings.grading, settings.discretization = 0, "FITTED_LAYER"
 
 
 def test_backend_setting_reaches_the_library(scene, addon):
