@@ -104,8 +104,8 @@ pub fn surface_radiance(system: &DiffusionSystem, phi: &[[f64; 3]]) -> Result<Ve
 pub struct EnergyBalance {
     /// Absorbed in the volume, ∫ μ φ dV = Σ_t μ_t V_t φ̄_t (φ̄_t the mean of φ over the tet's
     /// vertices: the exact integral of the piecewise-linear φ, and the row sums of the lumped
-    /// mass of TransCut eq. 13); for the fitted scheme with its boundary rows' absorption in
-    /// place of the lumped one.
+    /// mass of TransCut eq. 13); for [`Discretization::FittedLayer`] with its boundary rows'
+    /// absorption in place of the lumped one.
     pub absorbed: [f64; 3],
     /// Leaving through the surface: the exitance ∫ Lo cos θo dωo integrated over the surface.
     /// With ∫ Ft(ωo) cos θo dωo = π(1 − Fdr) and (1 + 1/A) = 2/(1 + Fdr), eq. 3 gives the
@@ -138,8 +138,8 @@ impl EnergyBalance {
 /// the absorbed power equals the net inward flux. Adding the exitance (φ − 2q)/(2A):
 /// absorbed + exitant = ∫ (Q − 2q)/(2A) dS = ∫ q dS, since (4/(1 − Fdr) − 2)/(2A) = 1. So a
 /// converged solution balances to the solver's tolerance, for every discretisation, with the
-/// absorption each one solves with: the fitted scheme's boundary rows absorb by the layer's
-/// profile ([`super::fitted`]), not at the surface fluence.
+/// absorption each one solves with: [`Discretization::FittedLayer`]'s boundary rows absorb by
+/// the layer's profile ([`super::fitted`]), not at the surface fluence.
 ///
 /// # Errors
 /// [`DiffusionError::LengthMismatch`] unless `phi` has one entry per vertex.
