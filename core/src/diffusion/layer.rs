@@ -1,5 +1,6 @@
 //! The boundary layer under a boundary vertex: the local profile of the fluence and the flux it
-//! carries into the object, for the fitted scheme's boundary rows ([`super::fitted`]).
+//! carries into the object, for the boundary rows of `Discretization::FittedLayer`
+//! ([`super::fitted`]).
 //!
 //! Under a lit surface the fluence decays into the object over 1/σtr. Near a boundary vertex x_i
 //! with outward normal n and mean curvature H, the local solution of ∇·(κ∇φ) = μφ that decays
@@ -11,9 +12,9 @@
 //! - H = 0: φ ∝ e^(σ (x − x_i)·n).
 //!
 //! [`profile`] is that φ divided by its value at x_i, and [`inward_flux`] is (∂φ/∂n)/φ at x_i:
-//! the diffusive flux −κ∇φ into the object per unit κ and φ. Curvature enters both at first order and cancels between them to that order in
-//! a consistent row; without it a row sees its neighbours on a curved surface as deeper or
-//! shallower than they are.
+//! the diffusive flux −κ∇φ into the object per unit κ and φ. Curvature enters both at first
+//! order and cancels between them to that order in a consistent row; without it a row sees its
+//! neighbours on a curved surface as deeper or shallower than they are.
 
 use glam::DVec3;
 
