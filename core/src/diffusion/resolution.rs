@@ -115,6 +115,20 @@ pub(crate) fn resolution(media: &[&Medium], spacing_mm: f64) -> [f64; 3] {
     })
 }
 
+/// The resolution of `mesh` filled with `media` (`materials[t]` indexes `media`) at its
+/// surface: `σtr · h` per channel ([`resolution`] of the [`surface_media`] at the
+/// [`surface_spacing_mm`]), and [`check`]'s verdict with the largest `amp · σtr · h` `max`.
+pub(crate) fn surface_resolution(
+    mesh: &TetMesh,
+    media: &[Medium],
+    mm_per_unit: f64,
+    max: f64,
+) -> ([f64; 3], Result<(), Unresolved>) {
+    let spacing = surface_spacing_mm(mesh, mm_per_unit);
+    let surface = surface_media(mesh, media);
+    (resolution(&surface, spacing), check(&surface, spacing, mesh.tet_count(), max))
+}
+
 /// What would bring a channel at `ratio` times its bound down to `target` times it: the tet
 /// count (`tets` now; the spacing scales as `N^(−1/3)`, so the count as the cube of the ratio)
 /// and the object scale factor (shrinking the object shrinks `h` in mm at the same count).

@@ -114,11 +114,10 @@ impl SubsurfaceMethod for PolygridMethod {
                     .medium("polygrid")?
                     .apply(&mut tet_mesh, &object.transform.inverse(), object.mm_per_unit)
                     .map_err(|source| SceneError::Medium { index, name: name(), source })?;
-                let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
-                let surface_media = resolution::surface_media(&tet_mesh, &media);
-                stats.resolution = resolution::resolution(&surface_media, spacing);
-                resolution::check(&surface_media, spacing, tet_mesh.tet_count(), resolution::MAX_RESOLUTION)
-                    .map_err(|u| SceneError::unresolved(index, name(), u))?;
+                let (measured, verdict) =
+                    resolution::surface_resolution(&tet_mesh, &media, object.mm_per_unit, resolution::MAX_RESOLUTION);
+                stats.resolution = measured;
+                verdict.map_err(|u| SceneError::unresolved(index, name(), u))?;
                 let cell_media = cell_media(&tet_mesh, &media);
                 let system =
                     PolygridSystem::finite_volume(&grid, &cell_media, object.mm_per_unit, None).map_err(polygrid_error)?;

@@ -182,12 +182,10 @@ impl Prepared {
         let media = medium
             .apply(&mut tet_mesh, &object.transform.inverse(), object.mm_per_unit)
             .map_err(|source| SceneError::Medium { index, name: name(), source })?;
-        let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
-        let surface_media = resolution::surface_media(&tet_mesh, &media);
-        let checked = resolution::resolution(&surface_media, spacing);
         let discretization = self.system.discretization();
-        resolution::check(&surface_media, spacing, tet_mesh.tet_count(), resolution::max_resolution(discretization))
-            .map_err(|u| SceneError::unresolved(index, name(), u))?;
+        let (checked, verdict) =
+            resolution::surface_resolution(&tet_mesh, &media, object.mm_per_unit, resolution::max_resolution(discretization));
+        verdict.map_err(|u| SceneError::unresolved(index, name(), u))?;
         let mut system = DiffusionSystem::new(&tet_mesh, &media, object.mm_per_unit, discretization)
             .map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
         system.set_signed_source(self.system.source()).map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
@@ -218,11 +216,10 @@ impl Prepared {
             .medium(stats.method)?
             .apply(&mut tet_mesh, &to_object, object.mm_per_unit)
             .map_err(|source| SceneError::Medium { index, name: name(), source })?;
-        let spacing = resolution::surface_spacing_mm(&tet_mesh, object.mm_per_unit);
-        let surface_media = resolution::surface_media(&tet_mesh, &media);
-        stats.resolution = resolution::resolution(&surface_media, spacing);
-        resolution::check(&surface_media, spacing, tet_mesh.tet_count(), resolution::max_resolution(discretization))
-            .map_err(|u| SceneError::unresolved(index, name(), u))?;
+        let (measured, verdict) =
+            resolution::surface_resolution(&tet_mesh, &media, object.mm_per_unit, resolution::max_resolution(discretization));
+        stats.resolution = measured;
+        verdict.map_err(|u| SceneError::unresolved(index, name(), u))?;
         let system = DiffusionSystem::new(&tet_mesh, &media, object.mm_per_unit, discretization)
             .map_err(|source| SceneError::Diffusion { index, name: name(), source })?;
         stats.assembly_ms = ms(t);
