@@ -72,6 +72,11 @@ def _name(item: str) -> str:
     return item.lower().replace("_", "-")
 
 
+def _grading(settings):
+    """The binding's ``grading`` of the settings: ``"auto"``, 0 (uniform) or the cubes per size."""
+    return {"AUTO": "auto", "UNIFORM": 0}.get(settings.grading, settings.grading_layers)
+
+
 def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
     """The :meth:`transcut.Scene.bake` keywords of ``method`` from the TransCut settings: for
     TransCut its resolution, grading, assembly, tolerance and backend; for the hierarchical dipole its oracle with
@@ -116,7 +121,7 @@ def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
     else:
         options.update(tets=settings.tets, tolerance=settings.tolerance, backend=settings.backend.lower())
     if method in ("transcut", RADIOSITY):
-        options.update(grading=settings.grading, discretization=_name(settings.discretization))
+        options.update(grading=_grading(settings), discretization=_name(settings.discretization))
     if method == RADIOSITY:
         options.update(
             patch_size=float(settings.radiosity_patch_size) * mm_per_unit,

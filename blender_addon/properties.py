@@ -48,6 +48,23 @@ METHOD_LABELS = {
     "polygrid": "Polygrid",
 }
 
+#: TransCut's gradings: automatic (``TC_GRADING_AUTO``), uniform (0) or graded (Cubes per Size).
+GRADING_ITEMS = (
+    (
+        "AUTO",
+        "Automatic",
+        "Graded where the medium's boundary layer is thinner than two uniform tetrahedra at this Resolution "
+        "(skin's blue, ketchup), uniform elsewhere (a cut then exposes tetrahedra as fine as the surface's)",
+    ),
+    ("UNIFORM", "Uniform", "One tetrahedron size everywhere"),
+    (
+        "GRADED",
+        "Graded",
+        "The finest tetrahedra near the surface, sizes doubling inwards: the same Resolution gives a finer "
+        "surface, but a cut exposes the coarser interior",
+    ),
+)
+
 #: TransCut's assemblies (``Scene.bake(discretization=...)`` names, upper case with ``_``).
 DISCRETIZATION_ITEMS = (
     ("TRANSCUT", "TransCut", "The paper's assembly (cotangent weights, lumped mass)"),
@@ -170,15 +187,20 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         min=1_000,
         soft_max=2_000_000,
     )
-    grading: IntProperty(
+    grading: EnumProperty(
         name="Grading",
+        description="TransCut: how tetrahedron sizes vary through each object",
+        items=GRADING_ITEMS,
+        default="AUTO",
+    )
+    grading_layers: IntProperty(
+        name="Cubes per Size",
         description=(
-            "TransCut: 0 keeps one tetrahedron size everywhere; N grades them, the finest near the surface and "
-            "sizes doubling inwards after N cubes of each size, so the same Resolution gives a finer surface "
-            "(1 is the most accurate for every preset medium; a cut exposes the coarser interior)"
+            "TransCut, graded: cubes of each size before the size doubles inwards "
+            "(1 gives the finest surface for a Resolution and is the most accurate for every preset medium)"
         ),
-        default=0,
-        min=0,
+        default=1,
+        min=1,
         max=transcut.TC_MAX_GRADING_LAYERS,
         soft_max=4,
     )

@@ -60,6 +60,8 @@ class VIEW3D_PT_transcut(bpy.types.Panel):
                 col.prop(settings, "tets")
             if settings.method in ("transcut", RADIOSITY):
                 col.prop(settings, "grading")
+                if settings.grading == "GRADED":
+                    col.prop(settings, "grading_layers")
                 col.prop(settings, "discretization")
             col.prop(settings, "tolerance")
             col.prop(settings, "backend")

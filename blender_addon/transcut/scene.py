@@ -31,6 +31,7 @@ from ._abi import (
     SIDES,
     SOLVERS,
     STATUS_NAMES,
+    TC_GRADING_AUTO,
     TC_METHOD_HIERARCHICAL_DIPOLE,
     TC_METHOD_POLYGRID,
     TC_METHOD_PRT,
@@ -188,6 +189,15 @@ def _unsigned(value, what: str, bits: int = 32) -> int:
     if not 0 <= number < 1 << bits:
         raise ValueError(f"{what} must be in [0, 2^{bits}), got {number}")
     return number
+
+
+def _grading(value) -> int:
+    """``TcTransCutOptions.grading`` from ``"auto"`` (any case) or a whole number."""
+    if isinstance(value, str):
+        if value.lower() != "auto":
+            raise ValueError(f"grading must be 'auto' or a whole number, got {value!r}")
+        return TC_GRADING_AUTO
+    return _unsigned(value, "grading")
 
 
 def _iteration(value) -> int:
@@ -806,8 +816,10 @@ class Scene:
         ``TC_METHOD_*`` value; unset: the library's default, TransCut. TransCut's own options:
         ``solver``, the bake's solver on the CPU, and ``edit_solver``, the solver of the edits
         after it (relight, paint, cut), each a name of :data:`SOLVERS` (any case) or a
-        ``TC_SOLVER_*`` value, ``grading`` (0: one tet size everywhere; N: graded tets, the
-        finest near the surface, N cubes of each size before the next doubling; default 0) and
+        ``TC_SOLVER_*`` value, ``grading`` (``"auto"`` or ``TC_GRADING_AUTO``, the default:
+        graded where the medium's boundary layer needs it, uniform elsewhere; 0: one tet size
+        everywhere; N: graded tets, the finest near the surface, N cubes of each size before the
+        next doubling) and
         ``discretization`` (a name of :data:`DISCRETIZATIONS`, any case, or a
         ``TC_DISCRETIZATION_*`` value; default ``"fitted-layer"``); unset: the method's defaults.
         The hierarchical dipole's options (``method="hierarchical-dipole"``), the
@@ -932,7 +944,7 @@ class Scene:
                 )
             method_options = self.lib.default_transcut_options()
             if grading is not None:
-                method_options.grading = _unsigned(grading, "grading")
+                method_options.grading = _grading(grading)
             if discretization is not None:
                 method_options.discretization = _discretization(discretization)
             if solver is not None:
@@ -1016,7 +1028,7 @@ class Scene:
         if solver is not None:
             options.solver = _solver(solver, "solver")
         if grading is not None:
-            options.grading = _unsigned(grading, "grading")
+            options.grading = _grading(grading)
         if discretization is not None:
             options.discretization = _discretization(discretization)
         for key, value in given.items():

@@ -18,7 +18,7 @@ use transcut_core::mesher::Grading;
 use transcut_core::optics::{DipoleGeometry, EdgeRule};
 use transcut_core::prt::{BasisSize, PrtCache, PrtOptions};
 use transcut_core::radiosity::{FormFactorOptions, Iteration, SolveOptions};
-use transcut_core::{BakeOptions, Method, PolygridOptions, RadiosityOptions, Stencil, TransCutOptions};
+use transcut_core::{BakeOptions, GradingChoice, Method, PolygridOptions, RadiosityOptions, Stencil, TransCutOptions};
 
 use super::ptr;
 use super::status::Failure;
@@ -221,12 +221,15 @@ pub struct TcTransCutOptions {
     /// The solver of edits after the bake (relight, material edits, cuts):
     /// `TC_SOLVER_DEFAULT` (the smoothed-aggregation V-cycle) or a `TC_SOLVER_*`.
     pub edit_solver: u32,
-    /// 0 (default): one tet size everywhere. N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets,
-    /// the finest near the surface, cube sizes doubling inwards after N cubes of each size, so
-    /// that `TcBakeOptions.tets` buys a finer surface layer (1 is more accurate than uniform
-    /// tets for every preset medium at the same count, but a cut exposes the coarser interior).
-    /// Read only when `size` covers it (a struct of the first version, 12 bytes, has no such
-    /// field and gets the default).
+    /// `TC_GRADING_AUTO` (what `tc_transcut_options_init` writes, the library's default):
+    /// graded (1) where the object's medium has a boundary layer thinner than two uniform
+    /// lattice spacings at `TcBakeOptions.tets`, uniform elsewhere. 0: one tet size everywhere.
+    /// N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets, the finest near the surface, cube sizes
+    /// doubling inwards after N cubes of each size, so that `TcBakeOptions.tets` buys a finer
+    /// surface layer (1 is more accurate than uniform tets for every preset medium at the same
+    /// count, but a cut exposes the coarser interior). Another value fails with
+    /// `TC_INVALID_ARGUMENT`. Read only when `size` covers it (a struct of the first version,
+    /// 12 bytes, has no such field and gets the default).
     pub grading: u32,
     /// The assembly: `TC_DISCRETIZATION_FITTED_LAYER` (what `tc_transcut_options_init` writes,
     /// the library's default), `TC_DISCRETIZATION_FITTED`, `TC_DISCRETIZATION_TRANSCUT` or
@@ -252,6 +255,9 @@ pub(crate) const TRANSCUT_OPTIONS_SIZE_V1: usize = 12;
 /// The most cubes of one size `TcTransCutOptions.grading` may ask for (above it:
 /// `TC_INVALID_ARGUMENT`).
 pub const TC_MAX_GRADING_LAYERS: u32 = 64;
+/// `TcTransCutOptions.grading`, `TcRadiosityOptions.grading`: chosen per object from its medium
+/// and the tet budget (the default).
+pub const TC_GRADING_AUTO: u32 = u32::MAX;
 
 /// The hierarchical dipole's own options (`TcBakeOptions.method_options` with
 /// `TC_METHOD_HIERARCHICAL_DIPOLE`). Fill it with `tc_dipole_options_init(&options, sizeof
@@ -387,8 +393,8 @@ pub struct TcRadiosityOptions {
     /// The translucent objects' diffusion solver on the CPU: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a
     /// `TC_SOLVER_*`, as `TcTransCutOptions.solver`.
     pub solver: u32,
-    /// The translucent objects' tets: 0 (default) uniform, N in 1 to `TC_MAX_GRADING_LAYERS`
-    /// graded, as `TcTransCutOptions.grading`. Read only when `size` covers it (a struct of the
+    /// The translucent objects' tets: `TC_GRADING_AUTO` (default), 0 uniform, N in 1 to
+    /// `TC_MAX_GRADING_LAYERS` graded, as `TcTransCutOptions.grading`. Read only when `size` covers it (a struct of the
     /// first version, 56 bytes, has no such field and gets the default).
     pub grading: u32,
     /// The translucent objects' assembly, as `TcTransCutOptions.discretization` (default
@@ -417,7 +423,7 @@ pub(crate) fn default_radiosity_options() -> TcRadiosityOptions {
         covered_fraction: d.form_factors.covered_fraction,
         bounces: d.solve.bounces.map_or(0, |b| u32::try_from(b).unwrap_or(u32::MAX)),
         solver: TC_SOLVER_DEFAULT,
-        grading: 0,
+        grading: TC_GRADING_AUTO,
         discretization: TC_DISCRETIZATION_FITTED_LAYER,
     }
 }
@@ -699,18 +705,20 @@ pub(crate) fn default_transcut_options() -> TcTransCutOptions {
         size: size_of::<TcTransCutOptions>() as u32,
         solver: TC_SOLVER_DEFAULT,
         edit_solver: TC_SOLVER_DEFAULT,
-        grading: 0,
+        grading: TC_GRADING_AUTO,
         discretization: TC_DISCRETIZATION_FITTED_LAYER,
     }
 }
 
 /// The core's grading for `method_options->grading` (`TcTransCutOptions`, `TcRadiosityOptions`).
-fn grading_from(layers: u32) -> Result<Grading, Failure> {
-    if layers <= TC_MAX_GRADING_LAYERS {
-        Ok(Grading::from_layers(layers))
+fn grading_from(layers: u32) -> Result<GradingChoice, Failure> {
+    if layers == TC_GRADING_AUTO {
+        Ok(GradingChoice::Auto)
+    } else if layers <= TC_MAX_GRADING_LAYERS {
+        Ok(Grading::from_layers(layers).into())
     } else {
         Err(Failure::invalid(format!(
-            "options->method_options->grading = {layers}: 0 (uniform) or 1 to TC_MAX_GRADING_LAYERS = {TC_MAX_GRADING_LAYERS} cubes per size"
+            "options->method_options->grading = {layers}: TC_GRADING_AUTO, 0 (uniform) or 1 to TC_MAX_GRADING_LAYERS = {TC_MAX_GRADING_LAYERS} cubes per size"
         )))
     }
 }
@@ -993,8 +1001,8 @@ mod tests {
         unsafe { read_bake_options(&o) }.map(|b| b.method)
     }
 
-    /// TransCut's grading and discretisation: the init defaults are the core's, 0 is uniform,
-    /// N cubes per size is graded, above the maximum is named, and a first-version struct
+    /// TransCut's grading and discretisation: the init defaults are the core's (automatic), 0 is
+    /// uniform, N cubes per size is graded, `TC_GRADING_AUTO` is automatic, anything else is named, and a first-version struct
     /// (12 bytes) leaves the grading field unread (the core's default); each discretisation
     /// maps onto the core's, another value is named.
     #[test]
@@ -1006,8 +1014,12 @@ mod tests {
         };
         let core = TransCutOptions::default();
         assert_eq!(grading(&default_transcut_options()), core.grading);
-        assert_eq!(grading(&TcTransCutOptions { grading: 0, ..default_transcut_options() }), Grading::Uniform);
-        assert_eq!(grading(&TcTransCutOptions { grading: 3, ..default_transcut_options() }), Grading::Graded { layers: 3 });
+        assert_eq!(grading(&TcTransCutOptions { grading: 0, ..default_transcut_options() }), Grading::Uniform.into());
+        assert_eq!(grading(&TcTransCutOptions { grading: TC_GRADING_AUTO, ..default_transcut_options() }), GradingChoice::Auto);
+        assert_eq!(
+            grading(&TcTransCutOptions { grading: 3, ..default_transcut_options() }),
+            Grading::Graded { layers: 3 }.into()
+        );
         let older = TcTransCutOptions { size: TRANSCUT_OPTIONS_SIZE_V1 as u32, grading: 3, ..default_transcut_options() };
         assert_eq!(grading(&older), core.grading);
         match method(&default_transcut_options()).unwrap() {
@@ -1016,6 +1028,8 @@ mod tests {
         }
         let e = method(&TcTransCutOptions { grading: TC_MAX_GRADING_LAYERS + 1, ..default_transcut_options() }).unwrap_err();
         assert!(e.message.contains("grading = 65"), "{}", e.message);
+        let e = method(&TcTransCutOptions { grading: TC_GRADING_AUTO - 1, ..default_transcut_options() }).unwrap_err();
+        assert!(e.message.contains("grading = 4294967294") && e.message.contains("TC_GRADING_AUTO"), "{}", e.message);
         let discretization = |d: u32| match method(&TcTransCutOptions { discretization: d, ..default_transcut_options() }) {
             Ok(Method::TransCut(o)) => Ok(o.discretization),
             Ok(other) => panic!("{other:?}"),
@@ -1041,7 +1055,7 @@ mod tests {
         let core = TransCutOptions::default();
         assert_eq!(translucent(&default_radiosity_options()), Ok((core.grading, core.discretization)));
         let set = TcRadiosityOptions { grading: 2, discretization: TC_DISCRETIZATION_TRANSCUT, ..default_radiosity_options() };
-        assert_eq!(translucent(&set), Ok((Grading::Graded { layers: 2 }, Discretization::TransCut)));
+        assert_eq!(translucent(&set), Ok((Grading::Graded { layers: 2 }.into(), Discretization::TransCut)));
         let consistent = TcRadiosityOptions { discretization: TC_DISCRETIZATION_CONSISTENT_FEM, ..default_radiosity_options() };
         assert_eq!(translucent(&consistent).unwrap().1, Discretization::ConsistentFem);
         let older = TcRadiosityOptions { size: RADIOSITY_OPTIONS_SIZE_V1 as u32, ..set };

@@ -14,8 +14,8 @@ use transcut::optics::EdgeRule;
 use transcut::prt::{BasisSize, PrtCache, PrtOptions};
 use transcut::radiosity::{FormFactorOptions, HetRule, Iteration, SolveOptions};
 use transcut::{
-    Method, OpticalDistance, PolygridOptions, ProfileKind, ProfileScatteringOptions, RadiosityOptions, Stencil, TransCutOptions,
-    TranslucentScattering,
+    GradingChoice, Method, OpticalDistance, PolygridOptions, ProfileKind, ProfileScatteringOptions, RadiosityOptions, Stencil,
+    TransCutOptions, TranslucentScattering,
 };
 
 /// The names of the methods whose options are here ([`Method::NAMES`]).
@@ -194,9 +194,11 @@ pub struct MethodArgs {
     /// transcut, radiosity: grade the tets: the finest spacing near the surface, cube sizes
     /// doubling inwards after this many cubes of each size (1 grades fastest and is the most
     /// accurate for every preset medium at a given count, but a cut exposes the coarser
-    /// interior); 0 keeps one spacing everywhere [default: 0; a scene file's [bake] grading]
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=64), help_heading = "TransCut options")]
-    pub grading: Option<u32>,
+    /// interior); 0 keeps one spacing everywhere; auto grades (1) an object whose medium has a
+    /// boundary layer thinner than two uniform spacings at --tets (skin's blue, ketchup) and
+    /// keeps the others uniform [default: auto; a scene file's [bake] grading]
+    #[arg(long, value_parser = grading_choice, help_heading = "TransCut options")]
+    pub grading: Option<GradingChoice>,
     /// transcut, radiosity: the assembly of the diffusion system: fitted-layer (each edge's
     /// stiffness exponentially fitted to the boundary layer, and each surface vertex's absorption
     /// taken from the layer under it: the most accurate at usual tet counts, e.g. skin's blue
@@ -333,7 +335,7 @@ pub struct MethodDefaults {
     pub from_file: bool,
     pub method: Option<String>,
     pub tets: Option<u64>,
-    pub grading: Option<u32>,
+    pub grading: Option<GradingChoice>,
     pub discretization: Option<String>,
     pub tolerance: Option<f64>,
     pub solver: Option<String>,
@@ -381,7 +383,8 @@ pub struct MethodDefaults {
 pub struct BakeTable {
     pub method: Option<String>,
     pub tets: Option<u64>,
-    pub grading: Option<u32>,
+    /// `auto` or a layer count, as written.
+    pub grading: Option<String>,
     pub discretization: Option<String>,
     pub tolerance: Option<f64>,
     pub solver: Option<String>,
@@ -464,7 +467,7 @@ impl MethodDefaults {
             from_file: true,
             method: table.method,
             tets: table.tets,
-            grading: table.grading,
+            grading: table.grading.as_deref().map(grading_choice).transpose().map_err(|e| anyhow!("[bake] grading: {e}"))?,
             discretization: table.discretization,
             tolerance: table.tolerance,
             solver: table.solver,
@@ -537,6 +540,21 @@ pub fn discretization(name: &str) -> Result<Discretization, String> {
         let names: Vec<&str> = Discretization::ALL.iter().map(|d| d.name()).collect();
         format!("unknown discretization '{name}' (the discretizations are: {})", names.join(", "))
     })
+}
+
+/// Parses a grading: `auto` ([`GradingChoice::Auto`]), 0 (uniform) or a number of cubes of each
+/// size up to [`TransCutOptions::MAX_GRADING_LAYERS`].
+///
+/// # Errors
+/// What is accepted.
+pub fn grading_choice(text: &str) -> Result<GradingChoice, String> {
+    if text.eq_ignore_ascii_case("auto") {
+        return Ok(GradingChoice::Auto);
+    }
+    match text.parse::<u32>() {
+        Ok(layers) if layers <= TransCutOptions::MAX_GRADING_LAYERS => Ok(Grading::from_layers(layers).into()),
+        _ => Err(format!("'{text}': auto, 0 (uniform) or 1 to {} cubes of each size", TransCutOptions::MAX_GRADING_LAYERS)),
+    }
 }
 
 /// Parses a polygrid stencil name ([`Stencil::from_name`]).
@@ -738,7 +756,7 @@ impl MethodArgs {
             (None, None) => d.solver,
         };
         let tets = self.tets.or(defaults.tets).map_or(Ok(d.tets), usize::try_from)?;
-        let grading = self.grading.or(defaults.grading).map_or(d.grading, Grading::from_layers);
+        let grading = self.grading.or(defaults.grading).unwrap_or(d.grading);
         let discretization = match (self.discretization, &defaults.discretization) {
             (Some(d), _) => d,
             (None, Some(name)) => discretization(name).map_err(|e| anyhow!("[bake] discretization: {e}"))?,
@@ -861,22 +879,34 @@ mod tests {
     #[test]
     fn grading_and_discretization_reach_transcuts_options() {
         let file = MethodDefaults::from_bake_table(BakeTable {
-            grading: Some(2),
+            grading: Some("2".into()),
             discretization: Some("Fitted".into()),
             ..BakeTable::default()
         })
         .unwrap();
         let Method::TransCut(o) = MethodArgs::default().method(&file).unwrap() else { panic!() };
-        assert_eq!((o.grading, o.discretization), (Grading::Graded { layers: 2 }, Discretization::ExponentiallyFitted));
-        let args = MethodArgs { grading: Some(0), discretization: Some(Discretization::ConsistentFem), ..MethodArgs::default() };
+        assert_eq!((o.grading, o.discretization), (Grading::Graded { layers: 2 }.into(), Discretization::ExponentiallyFitted));
+        let args = MethodArgs {
+            grading: Some(Grading::Uniform.into()),
+            discretization: Some(Discretization::ConsistentFem),
+            ..MethodArgs::default()
+        };
         let Method::TransCut(o) = args.method(&file).unwrap() else { panic!() };
-        assert_eq!((o.grading, o.discretization), (Grading::Uniform, Discretization::ConsistentFem));
+        assert_eq!((o.grading, o.discretization), (Grading::Uniform.into(), Discretization::ConsistentFem));
+        let auto = MethodDefaults::from_bake_table(BakeTable { grading: Some("auto".into()), ..BakeTable::default() }).unwrap();
+        let Method::TransCut(o) = MethodArgs::default().method(&auto).unwrap() else { panic!() };
+        assert_eq!(o.grading, GradingChoice::Auto);
+        let e = MethodDefaults::from_bake_table(BakeTable { grading: Some("65".into()), ..BakeTable::default() }).unwrap_err();
+        assert!(e.to_string().contains("[bake] grading: '65': auto, 0 (uniform) or 1 to 64"), "{e}");
+        assert_eq!(grading_choice("AUTO"), Ok(GradingChoice::Auto));
+        assert_eq!(grading_choice("0"), Ok(Grading::Uniform.into()));
+        assert!(grading_choice("-1").is_err() && grading_choice("graded").is_err());
         let bad = MethodDefaults::from_bake_table(BakeTable { discretization: Some("galerkin".into()), ..BakeTable::default() })
             .unwrap();
         let e = error(MethodArgs::default(), &bad);
         assert!(e.contains("[bake] discretization") && e.contains("transcut, fitted, consistent-fem"), "{e}");
         let e = error(
-            MethodArgs { method: Some(DIPOLE.into()), grading: Some(1), ..MethodArgs::default() },
+            MethodArgs { method: Some(DIPOLE.into()), grading: Some(GradingChoice::Auto), ..MethodArgs::default() },
             &MethodDefaults::default(),
         );
         assert!(e.contains("--grading"), "{e}");

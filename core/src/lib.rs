@@ -78,7 +78,7 @@ pub use glam::DVec3;
 pub use methods::{BakedState, ObjectBake, ObjectStats, RadiositySession, RadiosityUpdate};
 pub use progress::{Cancelled, Progress};
 pub use scene::{
-    BakeOptions, Diffuse, Material, MediumSource, Method, Object, OpticalDistance, PolygridOptions, ProfileKind,
+    BakeOptions, Diffuse, GradingChoice, Material, MediumSource, Method, Object, OpticalDistance, PolygridOptions, ProfileKind,
     ProfileScatteringOptions, RadiosityOptions, Scene, SceneError, Shape, Sides, Stencil, TransCutOptions, TranslucentScattering,
 };
 pub use session::{Session, SessionError};

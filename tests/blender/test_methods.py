@@ -125,6 +125,8 @@ def test_unknown_methods_and_solvers_are_errors(addon, lib, sphere_arrays):
         assert f"method_options->grading = {tc.TC_MAX_GRADING_LAYERS + 1}" in err.value.message
         with pytest.raises(ValueError, match="grading"):
             s.bake(tets=2000, grading=-1)
+        with pytest.raises(ValueError, match="'auto' or a whole number"):
+            s.bake(tets=2000, grading="graded")
         with pytest.raises(ValueError, match="options of transcut"):
             s.bake(method="hierarchical-dipole", grading=1)
         # The discretization by name or value; an unknown name before the call, a value after.

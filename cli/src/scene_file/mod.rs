@@ -20,8 +20,8 @@
 //! [bake]                    # optional
 //! method = "transcut"       # the subsurface method (`transcut bake --method help`)
 //! tets = 50000              # transcut: target tetrahedra per object
-//! # grading = 1             # transcut, radiosity: graded tets, N cubes per size (0: uniform)
-//! # discretization = "transcut"  # transcut, radiosity: fitted (default), transcut or consistent-fem
+//! # grading = "auto"        # transcut, radiosity: "auto" (default), N cubes per size graded, 0 uniform
+//! # discretization = "transcut"  # transcut, radiosity: fitted-layer (default), fitted, transcut or consistent-fem
 //! tolerance = 1e-6          # solver relative residual (transcut, radiosity, polygrid)
 //! solver = "ssor-pcg"       # transcut, radiosity, polygrid: the bake's solver (pcg, ssor-pcg, cascade, mg-pcg, sa-pcg)
 //! # theta = 0.4             # hierarchical-dipole: the opening angle, in (0, 1]

@@ -62,6 +62,24 @@ impl Default for RenderSpec {
     }
 }
 
+/// `[bake] grading` as written: a layer count or a name (`"auto"`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum GradingSpec {
+    Layers(u32),
+    Name(String),
+}
+
+impl GradingSpec {
+    /// The value as `--grading` takes it.
+    fn text(&self) -> String {
+        match self {
+            Self::Layers(n) => n.to_string(),
+            Self::Name(name) => name.clone(),
+        }
+    }
+}
+
 /// The `[bake]` table.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -69,8 +87,9 @@ pub struct BakeSpec {
     /// The subsurface method's name (default `transcut`).
     pub method: Option<String>,
     pub tets: Option<u64>,
-    /// transcut, radiosity: cubes of each size before the next doubling (`--grading`; 0 uniform).
-    pub grading: Option<u32>,
+    /// transcut, radiosity: `"auto"` or cubes of each size before the next doubling
+    /// (`--grading`; 0 uniform).
+    pub grading: Option<GradingSpec>,
     /// transcut, radiosity: the assembly's name (`--discretization`).
     pub discretization: Option<String>,
     pub tolerance: Option<f64>,
@@ -354,7 +373,7 @@ impl BakeSpec {
         BakeTable {
             method: b.method.clone(),
             tets: b.tets,
-            grading: b.grading,
+            grading: b.grading.as_ref().map(GradingSpec::text),
             discretization: b.discretization.clone(),
             tolerance: b.tolerance,
             solver: b.solver.clone(),

@@ -100,10 +100,9 @@ use crate::diffusion::{Discretization, SolverKind};
 use crate::gpu::Backend;
 use crate::light::{self, Light, SourceOptions};
 use crate::mesh::{TetMesh, TriangleBvh};
-use crate::mesher::Grading;
 use crate::optics::Medium;
 use crate::progress::{ms, Progress};
-use crate::scene::{BakeOptions, TransCutOptions};
+use crate::scene::{BakeOptions, GradingChoice, TransCutOptions};
 use crate::volume::{Coefficients, PerTetMedia};
 use piece::{SolveSetup, Span, Timings};
 
@@ -113,7 +112,7 @@ pub struct EditOptions {
     /// Target tetrahedra when [`Editor::new`] meshes a surface (as [`TransCutOptions::tets`]).
     pub tets: usize,
     /// Their grading (as [`TransCutOptions::grading`]).
-    pub grading: Grading,
+    pub grading: GradingChoice,
     /// The assembly of every piece's system (as [`TransCutOptions::discretization`]).
     pub discretization: Discretization,
     /// Relative residual at which every solve stops (as [`TransCutOptions::tolerance`]).

@@ -109,20 +109,22 @@ fn near(surface: &WindingNumber, p: DVec3, r: f64) -> bool {
 /// surface, and with `fill_inside` (the uniform mesh) also every cube inside the solid. Found top
 /// down from the coarsest cubes, so far-away space costs one query per coarse cube.
 ///
-/// With `fill_inside`, the cubes filled because no triangle comes near them are also returned
-/// as [`Known`] with their centre's winding number.
+/// Where the surface is a cycle, the cubes that no triangle comes near (inside or outside, also
+/// those a graded octree leaves coarse) are returned as [`Known`] with their coarse cube's centre
+/// winding number, so their vertices cost no evaluation; otherwise only filled cubes are known.
 pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_inside: bool) -> (Vec<bool>, Known) {
     let d0 = dims(fine, 0);
     let roots = dims(fine, levels);
     let h = fine.h;
-    // Per root: the finest cubes needed near the surface, and those filled (needed too) with
-    // their coarse cube's winding number.
-    type Filled = (Vec<u32>, Vec<(u32, f64)>);
-    let lists: Vec<Filled> = (0..roots.iter().product::<usize>())
+    let cycle = surface.is_cycle();
+    // Per root: the finest cubes needed near the surface, and the coarse cubes away from it
+    // (level, coordinates, centre winding number, filled) whose winding number was evaluated.
+    type Away = (usize, [usize; 3], f64, bool);
+    let lists: Vec<(Vec<u32>, Vec<Away>)> = (0..roots.iter().product::<usize>())
         .into_par_iter()
         .map(|r| {
             let mut out = Vec::new();
-            let mut known = Vec::new();
+            let mut away = Vec::new();
             let mut stack = vec![(levels, coords(roots, r))];
             while let Some((k, c)) = stack.pop() {
                 let side = (1usize << k) as f64 * h;
@@ -137,40 +139,42 @@ pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_
                             stack.push((k - 1, std::array::from_fn(|a| 2 * c[a] + ((child >> a) & 1))));
                         }
                     }
-                } else if fill_inside {
+                } else if fill_inside || cycle {
                     let w = accurate_winding(surface, centre);
-                    if inside(w) {
-                        let s = 1usize << k;
-                        for z in 0..s {
-                            for y in 0..s {
-                                for x in 0..s {
-                                    known.push((index(d0, [c[0] * s + x, c[1] * s + y, c[2] * s + z]) as u32, w));
-                                }
-                            }
-                        }
+                    let fill = fill_inside && inside(w);
+                    if fill || cycle {
+                        away.push((k, c, w, fill));
                     }
                 }
             }
-            (out, known)
+            (out, away)
         })
         .collect();
     let mut needed = vec![false; d0.iter().product()];
-    let mut known = Known { fine: *fine, winding: vec![f64::NAN; if fill_inside { needed.len() } else { 0 }] };
-    for (out, filled) in lists {
+    let mut known = Known { fine: *fine, winding: vec![f64::NAN; if cycle || fill_inside { needed.len() } else { 0 }] };
+    for (out, away) in lists {
         for i in out {
             needed[i as usize] = true;
         }
-        for (i, w) in filled {
-            needed[i as usize] = true;
-            known.winding[i as usize] = w;
+        for (k, c, w, fill) in away {
+            let s = 1usize << k;
+            for z in 0..s {
+                for y in 0..s {
+                    for x in 0..s {
+                        let i = index(d0, [c[0] * s + x, c[1] * s + y, c[2] * s + z]);
+                        needed[i] |= fill;
+                        known.winding[i] = w;
+                    }
+                }
+            }
         }
     }
     (needed, known)
 }
 
 /// Finest cubes whose winding number is known without evaluating it at their vertices: cubes
-/// [`band`] filled because no triangle comes within [`BAND`] − √3/2 spacings of them, each
-/// with the winding number at the centre of the coarse cube it filled. Where the surface is a
+/// [`band`] found no triangle within [`BAND`] − √3/2 spacings of, each with the winding number
+/// at the centre of the coarse cube it tested. Where the surface is a
 /// cycle (every edge as often in one direction as in the other: closed, consistently oriented
 /// shells, overlapping or not) the winding number is an integer constant on any region free of
 /// triangles, so it is exact at every point of such a cube; elsewhere it is not used.
@@ -536,9 +540,10 @@ mod tests {
         }
     }
 
-    /// Every vertex of a uniform background over a sphere that [`Known`] answers for gets the
-    /// winding number evaluated there (an integer for a closed sphere), corners on cube faces
-    /// included; and the known ones are a real share of the interior.
+    /// Every vertex of a background over a sphere, uniform or graded, that [`Known`] answers for
+    /// gets the winding number evaluated there (an integer for a closed sphere: 1 inside, 0
+    /// outside), corners on cube faces included, and lies away from the surface; and the known
+    /// ones are a real share of the interior and of the exterior.
     #[test]
     fn known_cubes_give_the_winding_number_of_their_points() {
         let sphere = crate::mesh::icosphere(1.0, 3);
@@ -546,20 +551,29 @@ mod tests {
         assert!(surface.is_cycle());
         let fine = Lattice { origin: DVec3::splat(-1.37), h: 0.09, n: [31, 31, 31] };
         let (fine, levels) = padded(&fine, true);
-        let (needed, known) = band(&surface, &fine, levels, true);
-        let bg = Octree::new(fine, levels, &needed, 1).background();
-        let inside = bg.positions.iter().filter(|p| p.length() < 1.0).count();
-        let mut answered = 0;
-        for &p in &bg.positions {
-            if let Some(w) = known.at(p) {
-                answered += 1;
-                assert!((w - 1.0).abs() < 0.05 && (surface.at_with_accuracy(p, 5.0) - 1.0).abs() < 0.01, "{p}: {w}");
-                assert!(p.length() < 1.0 - 1.1 * fine.h, "{p} is too near the surface to be known");
+        for fill_inside in [true, false] {
+            let (needed, known) = band(&surface, &fine, levels, fill_inside);
+            let bg = Octree::new(fine, levels, &needed, 1).background();
+            let inside = bg.positions.iter().filter(|p| p.length() < 1.0).count();
+            let (mut answered_inside, mut answered_outside) = (0, 0);
+            for &p in &bg.positions {
+                if let Some(w) = known.at(p) {
+                    let exact = if p.length() < 1.0 { 1.0 } else { 0.0 };
+                    assert!((w - exact).abs() < 0.05 && (surface.at_with_accuracy(p, 5.0) - exact).abs() < 0.01, "{p}: {w}");
+                    assert!((p.length() - 1.0).abs() > 1.1 * fine.h, "{p} is too near the surface to be known");
+                    if exact == 1.0 {
+                        answered_inside += 1;
+                    } else {
+                        answered_outside += 1;
+                    }
+                }
             }
+            let outside = bg.positions.len() - inside;
+            assert!(answered_inside > inside / 10 && answered_inside < inside, "{answered_inside} known of {inside} inside");
+            assert!(
+                answered_outside > outside / 10 && answered_outside < outside,
+                "{answered_outside} known of {outside} outside"
+            );
         }
-        assert!(answered > inside / 10 && answered < inside, "{answered} known of {inside} inside");
-        // Without filling, nothing is known.
-        let (_, none) = band(&surface, &fine, levels, false);
-        assert!(bg.positions.iter().all(|&p| none.at(p).is_none()));
     }
 }

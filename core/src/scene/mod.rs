@@ -14,7 +14,7 @@ mod scattering;
 
 pub use error::SceneError;
 pub use material::{Diffuse, Material, Sides};
-pub use method::{Method, PolygridOptions, RadiosityOptions, Stencil, TransCutOptions};
+pub use method::{GradingChoice, Method, PolygridOptions, RadiosityOptions, Stencil, TransCutOptions};
 pub use object::{MediumSource, Object, Shape};
 pub use options::BakeOptions;
 pub use scattering::{HetRule, OpticalDistance, ProfileKind, ProfileScatteringOptions, TranslucentScattering};

@@ -6,8 +6,8 @@ use glam::{DMat4, DVec3};
 
 use super::material::{Diffuse, Material};
 use crate::mesh::{MeshError, TetMesh, TriMesh};
-use crate::optics::Medium;
-use crate::volume::{check_object, Layers, PerTetMedia, TableLayout, TetSampling, Veins, VolumeError, VoxelGrid};
+use crate::optics::{dipole, Medium};
+use crate::volume::{check_object, Coefficients, Layers, PerTetMedia, TableLayout, TetSampling, Veins, VolumeError, VoxelGrid};
 
 /// The geometry of an object, in object space (scene units).
 #[derive(Debug, Clone)]
@@ -79,6 +79,30 @@ impl MediumSource {
             Self::Voxels { eta, g, .. } => Some((*eta, *g)),
             Self::Layers(layers) => layers.layers().first().map(|l| (l.medium.eta, l.medium.g)),
             Self::Veins(veins) => Some((veins.base().eta, veins.base().g)),
+        }
+    }
+
+    /// The largest transport coefficient σtr (mm⁻¹) per channel anywhere in the source — every
+    /// medium of a table, layer stack or vein pair, every per-tet value and voxel — so
+    /// `1/σtr` is the shortest diffusion length the object's tets must resolve. Zero for an
+    /// empty table or no layers.
+    #[must_use]
+    pub fn max_sigma_tr(&self) -> [f64; 3] {
+        let of = |c: &Coefficients| std::array::from_fn(|k| dipole::sigma_tr(c.sigma_a[k], c.sigma_s_prime[k]));
+        let max = |all: &mut dyn Iterator<Item = [f64; 3]>| {
+            all.fold([0.0; 3], |m: [f64; 3], s| std::array::from_fn(|k| m[k].max(s[k])))
+        };
+        match self {
+            Self::Homogeneous(m) => m.sigma_tr(),
+            Self::Table(table) => max(&mut table.iter().map(Medium::sigma_tr)),
+            Self::PerTet(media) => max(&mut media.coefficients().iter().map(of)),
+            Self::Voxels { grid, .. } => {
+                let [nx, ny, nz] = grid.dims();
+                let voxels = (0..nz).flat_map(|z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])));
+                max(&mut voxels.filter_map(|v| grid.voxel(v)).map(|c| of(&c)))
+            }
+            Self::Layers(layers) => max(&mut layers.layers().iter().map(|l| l.medium.sigma_tr())),
+            Self::Veins(veins) => max(&mut [veins.base(), veins.vein()].into_iter().map(Medium::sigma_tr)),
         }
     }
 

@@ -33,7 +33,7 @@ fn scene(light: Light) -> Scene {
 fn a_relight_equals_a_fresh_bake_with_one_object_shadowing_another() {
     let paper = TransCutOptions { tets: 6_000, tolerance: 1e-10, backend: Some(Backend::Cpu), ..TransCutOptions::default() };
     let graded_fitted = TransCutOptions {
-        grading: Grading::Graded { layers: 1 },
+        grading: Grading::Graded { layers: 1 }.into(),
         discretization: Discretization::ExponentiallyFitted,
         ..paper.clone()
     };
