@@ -21,7 +21,15 @@
 //!    its minimum dihedral angle at or above the bound; otherwise the largest accepted fraction of
 //!    the step is found by bisection ([`BISECTIONS`] halvings) and the vertex tries again in the
 //!    next sweep. Sweeps stop early when a sweep moves nothing.
-//! 4. **Rim.** Snapping a vertex of the object's surface along the cutter normal pulls the rim
+//! 4. **Unblock.** Where tet sizes change (graded meshes), a cut vertex can stay held back: its
+//!    move would flatten a kept tet against a firm vertex near the cutter, or leave a sliver
+//!    triangle on the cut surface. For up to [`UNBLOCK_ROUNDS`] rounds, each held-back vertex
+//!    first lets the firm vertices of its failing tets (inside the object) step away from the
+//!    cutter, by at most `β h` of their own and as far as their rings' guard allows; then, inside
+//!    the object, it tries the cutter's points nearest the centroid of its snapped neighbours and
+//!    half way to it (the cut surface only needs the vertex on the cutter, not at its closest
+//!    point), and last the closest point again, whole or in part.
+//! 5. **Rim.** Snapping a vertex of the object's surface along the cutter normal pulls the rim
 //!    of the cross-section inside the object (a sphere cut this way lost 2.4% of its
 //!    cross-section area). In one more pass, each such vertex that reached the cutter moves,
 //!    along the cutter, to where the cutter meets the surface's tangent plane at the vertex's
@@ -29,8 +37,8 @@
 //!    guard or none, so the cut surface stays on the cutter.
 //!
 //! The order (classify, delete, then snap on the kept mesh only) is what makes the result valid:
-//! every kept tet has a firm vertex, which never moves and lies at least `β h_v` inside, so no
-//! kept tet can be flattened onto the cut surface; the guard is evaluated on kept tets only, so
+//! every kept tet has a firm vertex, which lies at least `β h_v` inside and only ever moves
+//! away from the cutter, so no kept tet can be flattened onto the cut surface; the guard is evaluated on kept tets only, so
 //! deleted tets never block a move; and since the guard holds after every single move, the output
 //! has positive volumes and no dihedral angle below the bound by induction. Compared with
 //! TransCut's relaxation (`x ← x + 0.1 (x̄ − x)` towards the one-ring average, with a fixed 0.5°
@@ -67,6 +75,10 @@ pub const SNAP_BAND: f64 = 0.25;
 
 /// Halvings of a rejected step in the bisection for the largest acceptable part-way move.
 pub const BISECTIONS: usize = 10;
+
+/// Rounds of the unblocking pass (firm vertices stepping away from the cutter so that the cut
+/// vertices they hold back can reach it).
+pub const UNBLOCK_ROUNDS: usize = 10;
 
 /// Options of [`cut`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -167,18 +179,18 @@ pub fn cut_with(
     let prepared = cutter.prepare();
     let positions = mesh.positions();
     let distance: Vec<f64> = positions.par_iter().map(|&p| prepared.signed_distance(p)).collect();
-    let is_cut: Vec<bool> = (0..positions.len())
+    let mean_edge: Vec<f64> = (0..positions.len())
         .into_par_iter()
         .map(|v| {
             let ring = mesh.one_ring(v);
-            let h = if ring.is_empty() {
+            if ring.is_empty() {
                 0.0
             } else {
                 ring.iter().map(|&w| (positions[w as usize] - positions[v]).length()).sum::<f64>() / ring.len() as f64
-            };
-            distance[v] >= -SNAP_BAND * h
+            }
         })
         .collect();
+    let is_cut: Vec<bool> = (0..positions.len()).map(|v| distance[v] >= -SNAP_BAND * mean_edge[v]).collect();
 
     poll()?;
     // Delete: keep tets with a firm vertex.
@@ -231,45 +243,88 @@ pub fn cut_with(
     // Snap.
     let incident = Incidence::new(&tets, pos.len());
     let movable: Vec<u32> = (0..pos.len() as u32).filter(|&v| is_cut[kept_vertex[v as usize] as usize]).collect();
+    let valid = |v: usize, p: DVec3, pos: &[DVec3]| ring_is_valid(incident.around(v), &tets, pos, v, p, bound, min_volume);
     let mut done = vec![false; movable.len()];
     for _ in 0..options.relax_iterations {
         poll()?;
         let mut any = false;
         for (i, &v) in movable.iter().enumerate() {
-            if done[i] {
-                continue;
-            }
-            let v = v as usize;
-            let from = pos[v];
-            let target = prepared.closest_point(from);
-            if target == from {
-                done[i] = true;
-                continue;
-            }
-            let ring = incident.around(v);
-            let ok = |p: DVec3, pos: &[DVec3]| ring_is_valid(ring, &tets, pos, v, p, bound, min_volume);
-            if ok(target, &pos) {
-                pos[v] = target;
-                done[i] = true;
-                any = true;
-                continue;
-            }
-            let (mut good, mut bad) = (0.0, 1.0);
-            for _ in 0..BISECTIONS {
-                let mid = 0.5 * (good + bad);
-                if ok(from + mid * (target - from), &pos) {
-                    good = mid;
-                } else {
-                    bad = mid;
-                }
-            }
-            if good > 0.0 {
-                pos[v] = from + good * (target - from);
-                any = true;
+            if !done[i] {
+                let target = prepared.closest_point(pos[v as usize]);
+                let (moved, reached) = step_towards(&mut pos, v as usize, target, &valid);
+                any |= moved;
+                done[i] = reached;
             }
         }
         if !any {
             break;
+        }
+    }
+
+    poll()?;
+    // Unblock (step 4 of the module docs).
+    if options.relax_iterations > 0 {
+        let mut is_movable = vec![false; pos.len()];
+        for &v in &movable {
+            is_movable[v as usize] = true;
+        }
+        for _ in 0..UNBLOCK_ROUNDS {
+            let mut any = false;
+            for (i, &v) in movable.iter().enumerate() {
+                if done[i] {
+                    continue;
+                }
+                let v = v as usize;
+                let target = prepared.closest_point(pos[v]);
+                for &(t, _) in incident.around(v) {
+                    let corners = tets[t as usize].map(|w| if w as usize == v { target } else { pos[w as usize] });
+                    if tet_volume(corners) > min_volume && min_dihedral(corners) >= bound {
+                        continue;
+                    }
+                    for w in tets[t as usize].map(|w| w as usize) {
+                        if w == v || is_movable[w] || boundary_normal[w] != DVec3::ZERO {
+                            continue;
+                        }
+                        let away = (pos[w] - prepared.closest_point(pos[w])).normalize_or_zero();
+                        let goal = pos[w] + SNAP_BAND * mean_edge[kept_vertex[w] as usize] * away;
+                        any |= step_towards(&mut pos, w, goal, &valid).0;
+                    }
+                }
+                let mut reached = false;
+                if boundary_normal[v] == DVec3::ZERO {
+                    let snapped = |w: usize| {
+                        w != v
+                            && is_movable[w]
+                            && prepared.signed_distance(pos[w]).abs() <= 1e-12 * mean_edge[kept_vertex[w] as usize]
+                    };
+                    let (sum, n) = incident
+                        .around(v)
+                        .iter()
+                        .flat_map(|&(t, _)| tets[t as usize])
+                        .map(|w| w as usize)
+                        .filter(|&w| snapped(w))
+                        .fold((DVec3::ZERO, 0.0), |(s, n), w| (s + pos[w], n + 1.0));
+                    if n > 0.0 {
+                        let centroid = sum / n;
+                        for goal in [prepared.closest_point(0.5 * (target + centroid)), prepared.closest_point(centroid)] {
+                            if valid(v, goal, &pos) {
+                                pos[v] = goal;
+                                (any, reached) = (true, true);
+                                break;
+                            }
+                        }
+                    }
+                }
+                if !reached {
+                    let (moved, arrived) = step_towards(&mut pos, v, target, &valid);
+                    any |= moved;
+                    reached = arrived;
+                }
+                done[i] = reached;
+            }
+            if !any {
+                break;
+            }
         }
     }
 
@@ -337,6 +392,32 @@ fn snap_target(cutter: &Prepared<'_>, p: DVec3, boundary: DVec3) -> DVec3 {
         return closest;
     }
     p - (d / t.dot(nc)) * t
+}
+
+/// Moves vertex `v` towards `target`: the whole way if `valid(v, target, pos)` accepts it, else
+/// the largest accepted fraction found by [`BISECTIONS`] halvings. Returns (moved, reached).
+fn step_towards(pos: &mut [DVec3], v: usize, target: DVec3, valid: &impl Fn(usize, DVec3, &[DVec3]) -> bool) -> (bool, bool) {
+    let from = pos[v];
+    if target == from {
+        return (false, true);
+    }
+    if valid(v, target, pos) {
+        pos[v] = target;
+        return (true, true);
+    }
+    let (mut good, mut bad) = (0.0, 1.0);
+    for _ in 0..BISECTIONS {
+        let mid = 0.5 * (good + bad);
+        if valid(v, from + mid * (target - from), pos) {
+            good = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    if good > 0.0 {
+        pos[v] = from + good * (target - from);
+    }
+    (good > 0.0, false)
 }
 
 /// Smallest dihedral angle of a tet, radians.

@@ -22,9 +22,10 @@ use super::scattering::TranslucentScattering;
 /// what an unresolved boundary layer needs (skin1's blue on the R = 10 mm sphere at 300k tets:
 /// 1.22% RMS uniform, 0.84% graded). Where the layer is resolved, grading changes little
 /// (marble: 0.03% either way) and costs twice: a cut or fracture exposes the interior, whose
-/// tets are up to 2^k times coarser, as new surface, and the graded lattice's vertices lie
-/// nearer the surface, where winding numbers cost more (the open bunny at 1M tets meshes in
-/// about 2.2 s graded against 1.2 s uniform). Numbers: `docs/benchmarks.md`.
+/// tets are up to 2^k times coarser, as new surface (skin1's blue on a cut face 16.5% off a
+/// fresh bake graded, 13.9% uniform), and the graded lattice's vertices lie nearer the
+/// surface, where winding numbers cost more (the open bunny at 1M tets meshes in about 2.1 s
+/// graded against 1.2 s uniform). Numbers: `docs/benchmarks.md`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum GradingChoice {
     /// Per object, from its medium and the tet budget: [`Grading::Graded`] with one cube per
