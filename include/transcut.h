@@ -357,7 +357,7 @@
 
 /**
  * `TcTransCutOptions.grading`, `TcRadiosityOptions.grading`: chosen per object from its medium
- * and the tet budget (the default).
+ * and the tet budget.
  */
 #define TC_GRADING_AUTO UINT32_MAX
 
@@ -718,10 +718,10 @@ typedef struct TcTransCutOptions {
    */
   uint32_t edit_solver;
   /**
-   * `TC_GRADING_AUTO` (what `tc_transcut_options_init` writes, the library's default):
-   * graded (1) where the object's medium has a boundary layer thinner than two uniform
-   * lattice spacings at `TcBakeOptions.tets`, uniform elsewhere. 0: one tet size everywhere.
-   * N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets, the finest near the surface, cube sizes
+   * 0 (what `tc_transcut_options_init` writes, the library's default): one tet size
+   * everywhere. `TC_GRADING_AUTO`: graded (1) where the object's medium has a boundary layer
+   * thinner than two uniform lattice spacings at `TcBakeOptions.tets`, uniform elsewhere
+   * (a cut then exposes coarser interior tets only where grading paid off). N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets, the finest near the surface, cube sizes
    * doubling inwards after N cubes of each size, so that `TcBakeOptions.tets` buys a finer
    * surface layer (1 is more accurate than uniform tets for every preset medium at the same
    * count, but a cut exposes the coarser interior). Another value fails with
@@ -900,7 +900,7 @@ typedef struct TcRadiosityOptions {
    */
   uint32_t solver;
   /**
-   * The translucent objects' tets: `TC_GRADING_AUTO` (default), 0 uniform, N in 1 to
+   * The translucent objects' tets: 0 (default) uniform, `TC_GRADING_AUTO`, N in 1 to
    * `TC_MAX_GRADING_LAYERS` graded, as `TcTransCutOptions.grading`. Read only when `size` covers it (a struct of the
    * first version, 56 bytes, has no such field and gets the default).
    */

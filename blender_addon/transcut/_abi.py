@@ -201,8 +201,7 @@ TC_MAX_SAMPLES = 1 << 20  # area_samples and environment_samples
 TC_MAX_TETS = 20_000_000
 #: The most cubes of one size ``TcTransCutOptions.grading`` may ask for.
 TC_MAX_GRADING_LAYERS = 64
-#: ``TcTransCutOptions.grading``: chosen per object from its medium and the tet budget (the
-#: default).
+#: ``TcTransCutOptions.grading``: chosen per object from its medium and the tet budget.
 TC_GRADING_AUTO = 0xFFFF_FFFF
 TC_MAX_TEXTURE_SIZE = 16_384  # the largest width or height of tc_object_bake_texture
 TC_MAX_ITERATIONS = 1_000_000

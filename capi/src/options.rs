@@ -221,10 +221,10 @@ pub struct TcTransCutOptions {
     /// The solver of edits after the bake (relight, material edits, cuts):
     /// `TC_SOLVER_DEFAULT` (the smoothed-aggregation V-cycle) or a `TC_SOLVER_*`.
     pub edit_solver: u32,
-    /// `TC_GRADING_AUTO` (what `tc_transcut_options_init` writes, the library's default):
-    /// graded (1) where the object's medium has a boundary layer thinner than two uniform
-    /// lattice spacings at `TcBakeOptions.tets`, uniform elsewhere. 0: one tet size everywhere.
-    /// N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets, the finest near the surface, cube sizes
+    /// 0 (what `tc_transcut_options_init` writes, the library's default): one tet size
+    /// everywhere. `TC_GRADING_AUTO`: graded (1) where the object's medium has a boundary layer
+    /// thinner than two uniform lattice spacings at `TcBakeOptions.tets`, uniform elsewhere
+    /// (a cut then exposes coarser interior tets only where grading paid off). N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets, the finest near the surface, cube sizes
     /// doubling inwards after N cubes of each size, so that `TcBakeOptions.tets` buys a finer
     /// surface layer (1 is more accurate than uniform tets for every preset medium at the same
     /// count, but a cut exposes the coarser interior). Another value fails with
@@ -256,7 +256,7 @@ pub(crate) const TRANSCUT_OPTIONS_SIZE_V1: usize = 12;
 /// `TC_INVALID_ARGUMENT`).
 pub const TC_MAX_GRADING_LAYERS: u32 = 64;
 /// `TcTransCutOptions.grading`, `TcRadiosityOptions.grading`: chosen per object from its medium
-/// and the tet budget (the default).
+/// and the tet budget.
 pub const TC_GRADING_AUTO: u32 = u32::MAX;
 
 /// The hierarchical dipole's own options (`TcBakeOptions.method_options` with
@@ -393,7 +393,7 @@ pub struct TcRadiosityOptions {
     /// The translucent objects' diffusion solver on the CPU: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a
     /// `TC_SOLVER_*`, as `TcTransCutOptions.solver`.
     pub solver: u32,
-    /// The translucent objects' tets: `TC_GRADING_AUTO` (default), 0 uniform, N in 1 to
+    /// The translucent objects' tets: 0 (default) uniform, `TC_GRADING_AUTO`, N in 1 to
     /// `TC_MAX_GRADING_LAYERS` graded, as `TcTransCutOptions.grading`. Read only when `size` covers it (a struct of the
     /// first version, 56 bytes, has no such field and gets the default).
     pub grading: u32,
@@ -423,7 +423,7 @@ pub(crate) fn default_radiosity_options() -> TcRadiosityOptions {
         covered_fraction: d.form_factors.covered_fraction,
         bounces: d.solve.bounces.map_or(0, |b| u32::try_from(b).unwrap_or(u32::MAX)),
         solver: TC_SOLVER_DEFAULT,
-        grading: TC_GRADING_AUTO,
+        grading: 0,
         discretization: TC_DISCRETIZATION_FITTED_LAYER,
     }
 }
@@ -705,7 +705,7 @@ pub(crate) fn default_transcut_options() -> TcTransCutOptions {
         size: size_of::<TcTransCutOptions>() as u32,
         solver: TC_SOLVER_DEFAULT,
         edit_solver: TC_SOLVER_DEFAULT,
-        grading: TC_GRADING_AUTO,
+        grading: 0,
         discretization: TC_DISCRETIZATION_FITTED_LAYER,
     }
 }
@@ -1001,7 +1001,7 @@ mod tests {
         unsafe { read_bake_options(&o) }.map(|b| b.method)
     }
 
-    /// TransCut's grading and discretisation: the init defaults are the core's (automatic), 0 is
+    /// TransCut's grading and discretisation: the init defaults are the core's (uniform), 0 is
     /// uniform, N cubes per size is graded, `TC_GRADING_AUTO` is automatic, anything else is named, and a first-version struct
     /// (12 bytes) leaves the grading field unread (the core's default); each discretisation
     /// maps onto the core's, another value is named.

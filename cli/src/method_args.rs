@@ -196,7 +196,7 @@ pub struct MethodArgs {
     /// accurate for every preset medium at a given count, but a cut exposes the coarser
     /// interior); 0 keeps one spacing everywhere; auto grades (1) an object whose medium has a
     /// boundary layer thinner than two uniform spacings at --tets (skin's blue, ketchup) and
-    /// keeps the others uniform [default: auto; a scene file's [bake] grading]
+    /// keeps the others uniform [default: 0; a scene file's [bake] grading]
     #[arg(long, value_parser = grading_choice, help_heading = "TransCut options")]
     pub grading: Option<GradingChoice>,
     /// transcut, radiosity: the assembly of the diffusion system: fitted-layer (each edge's

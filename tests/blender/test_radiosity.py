@@ -572,7 +572,7 @@ def test_panel_and_options_of_radiosity(red_floor, addon):
     settings.radiosity_iteration = "JACOBI"
     options = addon.bake.bake_options(settings, "radiosity", 10.0)
     assert options["bounces"] == 0 and options["radiosity_tolerance"] == pytest.approx(1e-3)
-    assert (options["grading"], options["discretization"]) == (settings.grading, "fitted-layer")
+    assert (settings.grading, options["grading"], options["discretization"]) == ("UNIFORM", 0, "fitted-layer")
     settings.radiosity_bounces = 3
     settings.radiosity_iteration = "GAUSS_SEIDEL"
     options = addon.bake.bake_options(settings, "radiosity", 10.0)

@@ -1,6 +1,7 @@
 //! A scene bakes again after a change without meshing what did not change (`tc_scene_bake`
 //! keeps each object's tetrahedra; `TcBakeStats.mesh_reused`), with a new scene's answer bit
-//! for bit; `tc_object_set_mesh` replaces one object's mesh (and only that one is meshed
+//! for bit (with `TC_GRADING_AUTO`, a medium change that changes the grading meshes that object
+//! again); `tc_object_set_mesh` replaces one object's mesh (and only that one is meshed
 //! again); its misuse is named and changes nothing.
 
 use std::ptr;
@@ -18,7 +19,7 @@ fn mesh_reused(s: *mut TcScene, object: u32) -> u32 {
 }
 
 /// An absorbing wax: σtr h ≈ 1.1 in blue at the uniform spacing of 5k tets on the R = 8 ball,
-/// so the default grading grades it.
+/// so the automatic grading grades it.
 const WAX: TcMedium = TcMedium { sigma_a: [0.02, 0.01, 0.05], sigma_s_prime: [2.19, 2.62, 3.00], eta: 1.3, g: 0.0 };
 /// A pale one: σtr h ≈ 0.27 at most, uniform tets as for the default medium.
 const PALE: TcMedium = TcMedium { sigma_a: [0.001, 0.002, 0.003], sigma_s_prime: [2.19, 2.62, 3.00], eta: 1.3, g: 0.0 };
@@ -50,9 +51,17 @@ fn two_spheres(b_mesh: &Mesh) -> *mut TcScene {
     s
 }
 
+/// Bakes with the automatic grading (`TC_GRADING_AUTO`), so that a medium change can change
+/// the tets.
 fn bake(s: *mut TcScene) {
+    let mut transcut = TcTransCutOptions { size: 0, solver: 0, edit_solver: 0, grading: 0, discretization: 0 };
+    // SAFETY: a valid pointer and its size.
+    ok(unsafe { tc_transcut_options_init(&mut transcut, size_of::<TcTransCutOptions>()) }, "init");
+    transcut.grading = TC_GRADING_AUTO;
     let mut o = options(5_000);
     o.backend = TC_BACKEND_CPU;
+    o.method = TC_METHOD_TRANSCUT;
+    o.method_options = (&raw const transcut).cast();
     // SAFETY: valid pointers.
     ok(unsafe { tc_scene_bake(s, &o, None, ptr::null_mut()) }, "bake");
 }
@@ -70,7 +79,7 @@ fn a_rebake_meshes_only_what_changed_and_equals_a_new_scene() {
     bake(s);
     assert_eq!((mesh_reused(s, 0), mesh_reused(s, 1)), (1, 1));
     assert_eq!([radiance(s, 0), radiance(s, 1)], fresh(&ball, Some(&PALE)), "bit for bit");
-    // One whose boundary layer the default grading grades: that object alone meshed again.
+    // One whose boundary layer the automatic grading grades: that object alone meshed again.
     // SAFETY: valid pointers.
     ok(unsafe { tc_object_set_medium(s, 1, &WAX) }, "medium");
     bake(s);

@@ -21,14 +21,13 @@
 //!    its minimum dihedral angle at or above the bound; otherwise the largest accepted fraction of
 //!    the step is found by bisection ([`BISECTIONS`] halvings) and the vertex tries again in the
 //!    next sweep. Sweeps stop early when a sweep moves nothing.
-//! 4. **Unblock.** Where tet sizes change (graded meshes), a cut vertex can stay held back: its
-//!    move would flatten a kept tet against a firm vertex near the cutter, or leave a sliver
-//!    triangle on the cut surface. For up to [`UNBLOCK_ROUNDS`] rounds, each held-back vertex
-//!    first lets the firm vertices of its failing tets (inside the object) step away from the
-//!    cutter, by at most `β h` of their own and as far as their rings' guard allows; then, inside
-//!    the object, it tries the cutter's points nearest the centroid of its snapped neighbours and
-//!    half way to it (the cut surface only needs the vertex on the cutter, not at its closest
-//!    point), and last the closest point again, whole or in part.
+//! 4. **Unblock.** A cut vertex inside the object can stay held back where its closest point
+//!    would leave a sliver triangle on the cut surface (where tet sizes change, as on graded
+//!    meshes). The cut surface only needs the vertex on the cutter, not at its closest point: for
+//!    up to [`UNBLOCK_ROUNDS`] rounds, each such vertex tries the cutter's points nearest the
+//!    centroid of its snapped neighbours and half way to it (within one mean edge of its closest
+//!    point, so it cannot jump to another sheet of the cutter), under the same guard, and then
+//!    its closest point again, whole or in part.
 //! 5. **Rim.** Snapping a vertex of the object's surface along the cutter normal pulls the rim
 //!    of the cross-section inside the object (a sphere cut this way lost 2.4% of its
 //!    cross-section area). In one more pass, each such vertex that reached the cutter moves,
@@ -37,8 +36,8 @@
 //!    guard or none, so the cut surface stays on the cutter.
 //!
 //! The order (classify, delete, then snap on the kept mesh only) is what makes the result valid:
-//! every kept tet has a firm vertex, which lies at least `β h_v` inside and only ever moves
-//! away from the cutter, so no kept tet can be flattened onto the cut surface; the guard is evaluated on kept tets only, so
+//! every kept tet has a firm vertex, which never moves and lies at least `β h_v` inside, so no
+//! kept tet can be flattened onto the cut surface; the guard is evaluated on kept tets only, so
 //! deleted tets never block a move; and since the guard holds after every single move, the output
 //! has positive volumes and no dihedral angle below the bound by induction. Compared with
 //! TransCut's relaxation (`x ← x + 0.1 (x̄ − x)` towards the one-ring average, with a fixed 0.5°
@@ -76,8 +75,8 @@ pub const SNAP_BAND: f64 = 0.25;
 /// Halvings of a rejected step in the bisection for the largest acceptable part-way move.
 pub const BISECTIONS: usize = 10;
 
-/// Rounds of the unblocking pass (firm vertices stepping away from the cutter so that the cut
-/// vertices they hold back can reach it).
+/// Rounds of the unblocking pass (held-back cut vertices landing on the cutter near their
+/// snapped neighbours).
 pub const UNBLOCK_ROUNDS: usize = 10;
 
 /// Options of [`cut`].
@@ -276,20 +275,6 @@ pub fn cut_with(
                 }
                 let v = v as usize;
                 let target = prepared.closest_point(pos[v]);
-                for &(t, _) in incident.around(v) {
-                    let corners = tets[t as usize].map(|w| if w as usize == v { target } else { pos[w as usize] });
-                    if tet_volume(corners) > min_volume && min_dihedral(corners) >= bound {
-                        continue;
-                    }
-                    for w in tets[t as usize].map(|w| w as usize) {
-                        if w == v || is_movable[w] || boundary_normal[w] != DVec3::ZERO {
-                            continue;
-                        }
-                        let away = (pos[w] - prepared.closest_point(pos[w])).normalize_or_zero();
-                        let goal = pos[w] + SNAP_BAND * mean_edge[kept_vertex[w] as usize] * away;
-                        any |= step_towards(&mut pos, w, goal, &valid).0;
-                    }
-                }
                 let mut reached = false;
                 if boundary_normal[v] == DVec3::ZERO {
                     let snapped = |w: usize| {
@@ -306,8 +291,9 @@ pub fn cut_with(
                         .fold((DVec3::ZERO, 0.0), |(s, n), w| (s + pos[w], n + 1.0));
                     if n > 0.0 {
                         let centroid = sum / n;
+                        let reach = mean_edge[kept_vertex[v] as usize];
                         for goal in [prepared.closest_point(0.5 * (target + centroid)), prepared.closest_point(centroid)] {
-                            if valid(v, goal, &pos) {
+                            if (goal - target).length() <= reach && valid(v, goal, &pos) {
                                 pos[v] = goal;
                                 (any, reached) = (true, true);
                                 break;

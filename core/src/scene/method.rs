@@ -26,14 +26,19 @@ use super::scattering::TranslucentScattering;
 /// fresh bake graded, 13.9% uniform), and the graded lattice's vertices lie nearer the
 /// surface, where winding numbers cost more (the open bunny at 1M tets meshes in about 2.1 s
 /// graded against 1.2 s uniform). Numbers: `docs/benchmarks.md`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+///
+/// The default is uniform: cuts, fractures and splits are TransCut's editing, and a graded
+/// interior limits what they can separate (a cutter thinner than the interior tets leaves
+/// kept tets across it: a 3 mm slab cut through a 20 mm ball of 15k tets, graded because of
+/// its dense medium, left a piece reaching across the slab to the other piece's face, where
+/// uniform tets left each piece on its own side).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GradingChoice {
     /// Per object, from its medium and the tet budget: [`Grading::Graded`] with one cube per
     /// size where a uniform mesh of the budget would leave some channel's diffusion length
     /// `1/σtr` (the shortest anywhere in the medium, [`super::MediumSource::max_sigma_tr`])
     /// under [`GradingChoice::AUTO_RESOLUTION`]⁻¹ lattice spacings, [`Grading::Uniform`]
     /// otherwise.
-    #[default]
     Auto,
     /// This grading for every object.
     Fixed(Grading),
@@ -62,6 +67,13 @@ impl GradingChoice {
                 }
             }
         }
+    }
+}
+
+impl Default for GradingChoice {
+    /// [`Grading::Uniform`].
+    fn default() -> Self {
+        Self::Fixed(Grading::Uniform)
     }
 }
 
@@ -225,8 +237,9 @@ pub struct TransCutOptions {
     /// Target tetrahedra per surface object (objects given as a tet mesh are solved as given),
     /// in [1, [`TransCutOptions::MAX_TETS`]].
     pub tets: usize,
-    /// How the tet sizes vary inside each object. Default [`GradingChoice::Auto`]: graded
-    /// where the medium's boundary layer needs it, uniform elsewhere.
+    /// How the tet sizes vary inside each object. Default uniform
+    /// ([`GradingChoice::default`]); [`GradingChoice::Auto`] grades where the medium's boundary
+    /// layer needs it.
     pub grading: GradingChoice,
     /// The assembly: [`Discretization::FittedLayer`] (default: TransCut's rows with the
     /// stiffness fitted to the boundary layer and the boundary rows' absorption taken from it,
@@ -255,7 +268,7 @@ impl Default for TransCutOptions {
     fn default() -> Self {
         Self {
             tets: 200_000,
-            grading: GradingChoice::Auto,
+            grading: GradingChoice::default(),
             discretization: Discretization::FittedLayer,
             tolerance: 1e-6,
             max_iterations: 10_000,

@@ -533,7 +533,7 @@ fn graded_meshes_trade_interior_tets_for_surface_accuracy() {
     }
 }
 
-/// Issue 23's accuracy bar: the R = 10 mm sphere at ≤ 300k tets with the default sizing (each
+/// Issue 23's accuracy bar: the R = 10 mm sphere at ≤ 300k tets with the automatic sizing (each
 /// preset's grading as [`GradingChoice::Auto`] chooses it for a 300k budget: graded with one
 /// cube per size where the uniform lattice would leave σtr h > ½) and the default assembly
 /// (`Discretization::FittedLayer`): Lo within 1% RMS of the closed form for every preset and
@@ -546,9 +546,9 @@ fn graded_meshes_trade_interior_tets_for_surface_accuracy() {
 /// blue, are 0.30% and 0.28%. Before the fitted boundary rows (`diffusion::fitted::layer_mass`)
 /// skin1 blue was 3.75% graded.
 #[test]
-fn every_positive_channel_is_within_one_percent_on_the_default_sphere_at_300k() {
+fn every_positive_channel_is_within_one_percent_on_the_auto_graded_sphere_at_300k() {
     use transcut::mesher::{tetrahedralize_with, uniform_spacing_estimate, Grading};
-    use transcut::{GradingChoice, Progress, TransCutOptions};
+    use transcut::{GradingChoice, Progress};
     let radius = 10.0;
     // The budget that keeps both gradings at or below 300k (the mesher lands within ±10%).
     let tets = 290_000;
@@ -561,14 +561,12 @@ fn every_positive_channel_is_within_one_percent_on_the_default_sphere_at_300k() 
         meshed.mesh
     };
     let (uniform, graded) = (mesh(Grading::Uniform), mesh(Grading::Graded { layers: 1 }));
-    let default = TransCutOptions::default().grading;
-    assert_eq!(default, GradingChoice::Auto);
     let spacing_mm = uniform_spacing_estimate(&surface, tets);
     let mut negative = Vec::new();
     let mut chosen_graded = Vec::new();
     for name in PRESET_NAMES {
         let m = Medium::preset(name).unwrap();
-        let grading = default.resolve(m.sigma_tr(), spacing_mm);
+        let grading = GradingChoice::Auto.resolve(m.sigma_tr(), spacing_mm);
         let tets = if grading == Grading::Uniform {
             &uniform
         } else {
@@ -591,18 +589,19 @@ fn every_positive_channel_is_within_one_percent_on_the_default_sphere_at_300k() 
     }
     // σtr h at the uniform 0.556 mm: skin1 0.81, ketchup 1.41 and skin2 0.51 in blue; the
     // next, chicken1 blue, 0.32.
-    assert_eq!(chosen_graded, ["ketchup", "skin1", "skin2"], "the presets the default grades at 300k");
+    assert_eq!(chosen_graded, ["ketchup", "skin1", "skin2"], "the presets graded at 300k");
     assert_eq!(negative, [("ketchup", 1), ("ketchup", 2)], "the channels whose closed-form Lo is not positive");
 }
 
-/// The default grading reaches the mesher per object, from the object's own medium: a 20k-tet
-/// bake of the R = 10 mm sphere grades skin1 (σtr h ≈ 2.0 in blue at the uniform 1.36 mm) and
-/// keeps marble uniform (0.34 in blue), in one scene, and the statistics say which.
+/// The automatic grading reaches the mesher per object, from the object's own medium: a
+/// 20k-tet bake of the R = 10 mm sphere grades skin1 (σtr h ≈ 2.0 in blue at the uniform
+/// 1.36 mm) and keeps marble uniform (0.34 in blue), in one scene, and the statistics say
+/// which; the default grades neither.
 #[test]
-fn the_default_grading_follows_each_objects_medium() {
+fn the_automatic_grading_follows_each_objects_medium() {
     use transcut::light::Light;
     use transcut::mesher::Grading;
-    use transcut::{bake, BakeOptions, Object, Scene, TransCutOptions};
+    use transcut::{bake, BakeOptions, GradingChoice, Object, Scene, TransCutOptions};
     let sphere = |x: f64| uv_sphere(10.0, 64, 32).transformed(&glam::DMat4::from_translation(DVec3::new(x, 0.0, 0.0)));
     let objects = ["skin1", "marble"]
         .iter()
@@ -611,8 +610,12 @@ fn the_default_grading_follows_each_objects_medium() {
         .collect();
     let sun = Light::Directional { direction: DVec3::NEG_Z, irradiance: [1.0; 3], angular_diameter_deg: 0.0 };
     let scene = Scene { objects, lights: vec![sun] };
-    let options = BakeOptions::with_method(TransCutOptions { tets: 20_000, ..TransCutOptions::default() });
-    let baked = bake(&scene, &options).unwrap();
-    let grading = |i: usize| baked.objects[i].stats.meshing.as_ref().unwrap().grading;
-    assert_eq!((grading(0), grading(1)), (Grading::Graded { layers: 1 }, Grading::Uniform));
+    let gradings = |grading| {
+        let options = BakeOptions::with_method(TransCutOptions { tets: 20_000, grading, ..TransCutOptions::default() });
+        let baked = bake(&scene, &options).unwrap();
+        let of = |i: usize| baked.objects[i].stats.meshing.as_ref().unwrap().grading;
+        (of(0), of(1))
+    };
+    assert_eq!(gradings(GradingChoice::Auto), (Grading::Graded { layers: 1 }, Grading::Uniform));
+    assert_eq!(gradings(GradingChoice::default()), (Grading::Uniform, Grading::Uniform));
 }
