@@ -422,6 +422,23 @@ impl RadiosityOptions {
 mod tests {
     use super::*;
 
+    /// Auto grades exactly when the largest σtr h over the channels exceeds ½; a fixed grading
+    /// is kept whatever the medium; the default is uniform.
+    #[test]
+    fn the_automatic_grading_follows_the_largest_sigma_tr_h() {
+        let graded = Grading::Graded { layers: 1 };
+        let auto = |s: [f64; 3], h: f64| GradingChoice::Auto.resolve(s, h);
+        assert_eq!(auto([0.1, 0.2, 0.49], 1.0), Grading::Uniform);
+        assert_eq!(auto([0.1, 0.51, 0.2], 1.0), graded);
+        assert_eq!(auto([1.2, 0.0, 0.0], 0.4), Grading::Uniform); // 0.48
+        assert_eq!(auto([1.2, 0.0, 0.0], 0.45), graded); // 0.54
+        assert_eq!(auto([0.0; 3], 1e3), Grading::Uniform);
+        let fixed = GradingChoice::from(Grading::Graded { layers: 3 });
+        assert_eq!(fixed.resolve([0.0; 3], 1.0), Grading::Graded { layers: 3 });
+        assert_eq!(GradingChoice::from(Grading::Uniform).resolve([9.0; 3], 9.0), Grading::Uniform);
+        assert_eq!(TransCutOptions::default().grading, GradingChoice::Fixed(Grading::Uniform));
+    }
+
     #[test]
     fn every_name_round_trips_and_unknown_names_list_the_valid_ones() {
         for (method, name) in Method::all().iter().zip(Method::NAMES) {

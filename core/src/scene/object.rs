@@ -292,6 +292,38 @@ fn boundary_surface(mesh: &TetMesh) -> Result<TriMesh, MeshError> {
 mod tests {
     use super::*;
 
+    /// The largest σtr per channel over every medium a source holds, each channel on its own.
+    #[test]
+    fn max_sigma_tr_takes_each_channels_largest_over_the_source() {
+        let marble = Medium::preset("marble").unwrap();
+        // One η and g for both, as veins require.
+        let skin = Medium { eta: marble.eta, g: marble.g, ..Medium::preset("skin1").unwrap() };
+        let (s, m) = (skin.sigma_tr(), marble.sigma_tr());
+        let max: [f64; 3] = std::array::from_fn(|c| s[c].max(m[c]));
+        assert!(s[2] > m[2] && s[0] != m[0], "the two presets differ: {s:?} {m:?}");
+        assert_eq!(MediumSource::Homogeneous(skin).max_sigma_tr(), s);
+        assert_eq!(MediumSource::Table(vec![marble, skin]).max_sigma_tr(), max);
+        assert_eq!(MediumSource::Table(vec![]).max_sigma_tr(), [0.0; 3]);
+        let layers = Layers::new(&[(1.0, marble), (f64::INFINITY, skin)], 0.1).unwrap();
+        assert_eq!(MediumSource::Layers(layers).max_sigma_tr(), max);
+        let veins = Veins::new(marble, skin, 7, Default::default()).unwrap();
+        assert_eq!(MediumSource::Veins(veins).max_sigma_tr(), max);
+        let coefficients = |m: &Medium| Coefficients { sigma_a: m.sigma_a, sigma_s_prime: m.sigma_s_prime };
+        let grid = VoxelGrid::from_fn([2, 1, 1], DVec3::ZERO, DVec3::ONE, |centre| {
+            if centre.x < 1.0 {
+                coefficients(&marble)
+            } else {
+                coefficients(&skin)
+            }
+        })
+        .unwrap();
+        let voxels = MediumSource::Voxels { grid, eta: 1.3, g: 0.0 }.max_sigma_tr();
+        for c in 0..3 {
+            assert!((voxels[c] - max[c]).abs() < 1e-5 * max[c], "channel {c}: {voxels:?} {max:?}");
+            // f32 storage
+        }
+    }
+
     #[test]
     fn sizes_outside_the_bounds_are_refused_by_name() {
         assert_eq!(size_in_range(1e-6), Ok(()));
