@@ -24,15 +24,14 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use transcut::inverse::{
-    acquire, synthesize, AcquireOptions, Acquired, Acquisition, BlockGrid, CellMedia, Lambda, Method, Observation, Pattern,
-    Setup, StopReason, SynthOptions, VeinedBlock,
+    acquire, random_patterns, single_node_patterns, synthesize, with_noise, AcquireOptions, Acquired, Acquisition, BlockGrid,
+    CellMedia, Lambda, Method, Observation, Pattern, Setup, StopReason, SynthOptions, VeinedBlock,
 };
 use transcut::Progress;
 
 use super::args::BenchArgs;
 use super::inverse_quality::{
-    appearance_error, depth_errors, fine_truth_voxels, point_patterns, random_patterns, rendered_errors, top_errors,
-    truth_on_cells, with_noise, DepthError,
+    appearance_error, depth_errors, fine_truth_voxels, rendered_errors, top_errors, truth_on_cells, DepthError,
 };
 
 /// The paper's marble acquisition: nodes and hours (J. Wang et al. 2008 §6).
@@ -103,7 +102,7 @@ impl Reference {
         Ok(Self {
             truth: truth_on_cells(&grid, &medium),
             random: render(random_patterns(8, setup.face_size_mm(), 5))?,
-            points: render(point_patterns(8, setup.dims[0], setup.dims[1], setup.spacing_mm))?,
+            points: render(single_node_patterns(8, setup.dims[0], setup.dims[1], setup.spacing_mm))?,
         })
     }
 

@@ -100,56 +100,6 @@ pub fn top_errors(grid: &BlockGrid, got: &CellMedia, want: &CellMedia, depth_mm:
     errors_over(got, want, &cells, (layers as f64 - 0.5) * h)
 }
 
-/// A deterministic pseudo-random sequence in [0, 1) (xorshift64*), for reproducible held-out
-/// patterns and noise without a random-number dependency.
-pub fn rng(seed: u64) -> impl FnMut() -> f64 {
-    let mut s = seed.max(1);
-    move || {
-        s ^= s >> 12;
-        s ^= s << 25;
-        s ^= s >> 27;
-        (s.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
-/// `n` held-out patterns on a face of `size` mm: each a random rectangle (20–50% of the face
-/// per axis) of random colour (each channel in [0.5, 1.5)).
-pub fn random_patterns(n: usize, size: [f64; 2], seed: u64) -> Vec<Pattern> {
-    let mut r = rng(seed);
-    (0..n)
-        .map(|_| {
-            let (x0, y0) = (r() * size[0] * 0.7, r() * size[1] * 0.7);
-            let (w, h) = (0.2 * size[0] + r() * 0.3 * size[0], 0.2 * size[1] + r() * 0.3 * size[1]);
-            Pattern::Rect { rect: [x0, (x0 + w).min(size[0]), y0, (y0 + h).min(size[1])], q: [0.5 + r(), 0.5 + r(), 0.5 + r()] }
-        })
-        .collect()
-}
-
-/// `n` × `n` held-out single-node sources on an `nx` × `ny` lit face at spacing `h` mm: q = 1
-/// over one node's dual cell each (a rectangle, so the synthesis's finer grid gets the same
-/// light), the nodes spread evenly over the face ((a + ½)/n of each axis).
-pub fn point_patterns(n: usize, nx: usize, ny: usize, h: f64) -> Vec<Pattern> {
-    let at = |a: usize, count: usize| (((a as f64 + 0.5) / n as f64) * (count - 1) as f64).round();
-    let dual = |i: f64, count: usize| [((i - 0.5) * h).max(0.0), ((i + 0.5) * h).min((count - 1) as f64 * h)];
-    (0..n * n)
-        .map(|p| {
-            let ([x0, x1], [y0, y1]) = (dual(at(p % n, nx), nx), dual(at(p / n, ny), ny));
-            Pattern::Rect { rect: [x0, x1, y0, y1], q: [1.0; 3] }
-        })
-        .collect()
-}
-
-/// `images` with Gaussian noise of relative RMS `rms` on every pixel and channel
-/// (v ← v(1 + rms·g), g standard normal by Box–Muller on [`rng`]).
-pub fn with_noise(images: &[Vec<[f64; 3]>], rms: f64, seed: u64) -> Vec<Vec<[f64; 3]>> {
-    let mut r = rng(seed);
-    let mut gauss = move || {
-        let (u, v) = (r().max(1e-300), r());
-        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
-    };
-    images.iter().map(|img| img.iter().map(|p| p.map(|v| v * (1.0 + rms * gauss()))).collect()).collect()
-}
-
 /// Relative RMS over all pixels and channels of `media`'s images under `patterns` (the
 /// acquisition model of `setup`) against `images`, the independent synthesis of the truth.
 ///
@@ -264,6 +214,7 @@ pub fn rendered_errors(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use transcut::inverse::{single_node_patterns, with_noise};
 
     #[test]
     fn a_cell_crossed_by_an_edge_gets_the_mean_of_its_halves() {
@@ -299,7 +250,7 @@ mod tests {
     #[test]
     fn point_sources_are_single_nodes_spread_over_the_face() {
         let (nx, ny, h) = (5, 3, 0.5);
-        let patterns = point_patterns(2, nx, ny, h);
+        let patterns = single_node_patterns(2, nx, ny, h);
         assert_eq!(patterns.len(), 4);
         let lit: Vec<Vec<usize>> = patterns
             .iter()

@@ -12,25 +12,15 @@ use std::sync::OnceLock;
 use glam::DVec3;
 use transcut::gpu::Backend;
 use transcut::inverse::{
-    acquire, check_gradient, synthesize, to_voxel_grid, AcquireOptions, Acquired, Acquisition, CellMedia, Channels, InverseError,
-    IterationRecord, Lambda, Method, Observation, Pattern, Setup, SolveSettings, StopReason, SynthOptions,
+    acquire, check_gradient, random_patterns, synthesize, to_voxel_grid, uniform_sequence, with_noise, AcquireOptions, Acquired,
+    Acquisition, CellMedia, Channels, InverseError, IterationRecord, Lambda, Method, Observation, Pattern, Setup, SolveSettings,
+    StopReason, SynthOptions,
 };
 use transcut::light::Light;
 use transcut::mesh::gridded_box;
 use transcut::progress::Progress;
 use transcut::volume::{Coefficients, VoxelGrid};
 use transcut::{bake, BakeOptions, MediumSource, Object, Scene, Shape, TransCutOptions};
-
-/// A deterministic pseudo-random sequence in [0, 1) (xorshift64*), so the test needs no RNG.
-fn rng(seed: u64) -> impl FnMut() -> f64 {
-    let mut s = seed.max(1);
-    move || {
-        s ^= s >> 12;
-        s ^= s << 25;
-        s ^= s >> 27;
-        (s.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 const SKIM: ([f64; 3], [f64; 3]) = ([0.07, 0.12, 0.2], [1.0, 1.3, 1.6]);
 
@@ -72,7 +62,7 @@ fn small_model(observation: Observation, dims: [usize; 3]) -> (Acquisition, Vec<
     model.set_lambda(0.01).unwrap();
     model.set_kappa_reference([0.3; 3]);
     let cells = model.grid().cell_count();
-    let mut r = rng(7);
+    let mut r = uniform_sequence(7);
     let x: Vec<f64> = (0..6 * cells).map(|i| if i % 6 < 3 { (0.03 + 0.1 * r()).ln() } else { (0.8 + 1.5 * r()).ln() }).collect();
     (model, x)
 }
@@ -99,7 +89,7 @@ fn the_taylor_remainder_falls_at_second_order() {
     // r(ε) = |f(x + εd) − f(x) − ε ∇f·d| = O(ε²) for a random d: slope 2 ± 0.05.
     let (mut model, x) = small_model(Observation::BackLit, [5, 5, 3]);
     let (e0, g) = model.gradient(&x).unwrap();
-    let mut r = rng(11);
+    let mut r = uniform_sequence(11);
     let d: Vec<f64> = (0..x.len()).map(|_| 2.0 * r() - 1.0).collect();
     let slope: f64 = g.iter().zip(&d).map(|(a, b)| a * b).sum();
     let eps: Vec<f64> = (0..5).map(|k| 0.05 / 2f64.powi(k)).collect();
@@ -225,18 +215,6 @@ fn veined(thickness: f64) -> impl Fn(DVec3) -> ([f64; 3], [f64; 3]) + Sync {
         }
         (a, s)
     }
-}
-
-/// `n` random patterns: each a random rectangle of random colour.
-fn random_patterns(n: usize, size: [f64; 2], seed: u64) -> Vec<Pattern> {
-    let mut r = rng(seed);
-    (0..n)
-        .map(|_| {
-            let (x0, y0) = (r() * size[0] * 0.7, r() * size[1] * 0.7);
-            let (w, h) = (0.2 * size[0] + r() * 0.3 * size[0], 0.2 * size[1] + r() * 0.3 * size[1]);
-            Pattern::Rect { rect: [x0, (x0 + w).min(size[0]), y0, (y0 + h).min(size[1])], q: [0.5 + r(), 0.5 + r(), 0.5 + r()] }
-        })
-        .collect()
 }
 
 /// The veined block's acquisition: 3 × 3 × 1.5 mm at h = 0.25 mm (13 × 13 × 7 nodes, 864
@@ -497,16 +475,6 @@ fn slow_lbfgs_needs_fewer_forward_solves_than_paper_mode() {
     }
     eprintln!("forward solves: L-BFGS / paper = {:.3}", solves[0] as f64 / solves[1] as f64);
     assert!(3 * solves[0] <= solves[1], "{solves:?}");
-}
-
-/// `images` with Gaussian noise of `rms` relative to each pixel (Box–Muller on [`rng`]).
-fn with_noise(images: &[Vec<[f64; 3]>], rms: f64, seed: u64) -> Vec<Vec<[f64; 3]>> {
-    let mut r = rng(seed);
-    let mut gauss = move || {
-        let (u, v) = (r().max(1e-300), r());
-        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
-    };
-    images.iter().map(|img| img.iter().map(|p| p.map(|v| v * (1.0 + rms * gauss()))).collect()).collect()
 }
 
 #[test]
