@@ -223,11 +223,12 @@ pub struct TcTransCutOptions {
     pub edit_solver: u32,
     /// 0 (what `tc_transcut_options_init` writes, the library's default): one tet size
     /// everywhere. `TC_GRADING_AUTO`: graded (1) where the object's medium has a boundary layer
-    /// thinner than two uniform lattice spacings at `TcBakeOptions.tets`, uniform elsewhere
-    /// (a cut then exposes coarser interior tets only where grading paid off). N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets, the finest near the surface, cube sizes
+    /// thinner than two uniform lattice spacings at `TcBakeOptions.tets`, uniform elsewhere.
+    /// N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets, the finest near the surface, cube sizes
     /// doubling inwards after N cubes of each size, so that `TcBakeOptions.tets` buys a finer
     /// surface layer (1 is more accurate than uniform tets for every preset medium at the same
-    /// count, but a cut exposes the coarser interior). Another value fails with
+    /// count, but a cut exposes the coarser interior, and a cutter thinner than those tets can
+    /// leave tets across it). Another value fails with
     /// `TC_INVALID_ARGUMENT`. Read only when `size` covers it (a struct of the first version,
     /// 12 bytes, has no such field and gets the default).
     pub grading: u32,
