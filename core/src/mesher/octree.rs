@@ -111,7 +111,7 @@ fn near(surface: &WindingNumber, p: DVec3, r: f64) -> bool {
 ///
 /// Where the surface is a cycle, the cubes that no triangle comes near (inside or outside, also
 /// those a graded octree leaves coarse) are returned as [`Known`] with their coarse cube's centre
-/// winding number, so their vertices cost no evaluation; otherwise only filled cubes are known.
+/// winding number, so their vertices cost no evaluation; otherwise nothing is known.
 pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_inside: bool) -> (Vec<bool>, Known) {
     let d0 = dims(fine, 0);
     let roots = dims(fine, levels);
@@ -151,7 +151,7 @@ pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_
         })
         .collect();
     let mut needed = vec![false; d0.iter().product()];
-    let mut known = Known { fine: *fine, winding: vec![f64::NAN; if cycle || fill_inside { needed.len() } else { 0 }] };
+    let mut known = Known { fine: *fine, winding: vec![f64::NAN; if cycle { needed.len() } else { 0 }] };
     for (out, away) in lists {
         for i in out {
             needed[i as usize] = true;
@@ -163,7 +163,9 @@ pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_
                     for x in 0..s {
                         let i = index(d0, [c[0] * s + x, c[1] * s + y, c[2] * s + z]);
                         needed[i] |= fill;
-                        known.winding[i] = w;
+                        if cycle {
+                            known.winding[i] = w;
+                        }
                     }
                 }
             }
@@ -177,7 +179,7 @@ pub(crate) fn band(surface: &WindingNumber, fine: &Lattice, levels: usize, fill_
 /// at the centre of the coarse cube it tested. Where the surface is a
 /// cycle (every edge as often in one direction as in the other: closed, consistently oriented
 /// shells, overlapping or not) the winding number is an integer constant on any region free of
-/// triangles, so it is exact at every point of such a cube; elsewhere it is not used.
+/// triangles, so it is exact at every point of such a cube; elsewhere nothing is kept.
 pub(crate) struct Known {
     fine: Lattice,
     /// Per finest cube, in grid order; NaN where unknown (empty when none is known).

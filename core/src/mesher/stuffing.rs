@@ -103,7 +103,7 @@ pub(crate) fn stuff(
     //    rebuilt.
     let (fine, levels) = octree::padded(lattice, true);
     let (mut needed, known) = octree::band(surface, &fine, levels, grading.is_none());
-    let known = |p: DVec3| if surface.is_cycle() { known.at(p) } else { None };
+    let known = |p: DVec3| known.at(p);
     let (background, winding, mut labels) = loop {
         let background = Octree::new(fine, levels, &needed, grading.unwrap_or(1)).background();
         let winding = winding_numbers(surface, &background.positions, known, progress)?;

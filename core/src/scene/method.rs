@@ -51,14 +51,16 @@ impl GradingChoice {
     /// σtr h = 0.51: 0.24%; skin1's at 0.81: 1.22%).
     pub const AUTO_RESOLUTION: f64 = 0.5;
 
-    /// The grading of an object whose medium's largest σtr per channel is `max_sigma_tr`
-    /// (mm⁻¹) and whose uniform mesh of the budget would have the lattice spacing
-    /// `uniform_spacing_mm` ([`crate::mesher::uniform_spacing_estimate`] in millimetres).
+    /// The grading of an object: for [`GradingChoice::Auto`] from `measure`, called only then,
+    /// which gives the medium's largest σtr per channel (mm⁻¹) and the lattice spacing a
+    /// uniform mesh of the budget would have ([`crate::mesher::uniform_spacing_estimate`] in
+    /// millimetres).
     #[must_use]
-    pub fn resolve(self, max_sigma_tr: [f64; 3], uniform_spacing_mm: f64) -> Grading {
+    pub fn resolve(self, measure: impl FnOnce() -> ([f64; 3], f64)) -> Grading {
         match self {
             Self::Fixed(grading) => grading,
             Self::Auto => {
+                let (max_sigma_tr, uniform_spacing_mm) = measure();
                 let coarsest = max_sigma_tr.iter().fold(0.0f64, |m, &s| m.max(s)) * uniform_spacing_mm;
                 if coarsest > Self::AUTO_RESOLUTION {
                     Grading::Graded { layers: 1 }
@@ -427,15 +429,16 @@ mod tests {
     #[test]
     fn the_automatic_grading_follows_the_largest_sigma_tr_h() {
         let graded = Grading::Graded { layers: 1 };
-        let auto = |s: [f64; 3], h: f64| GradingChoice::Auto.resolve(s, h);
+        let auto = |s: [f64; 3], h: f64| GradingChoice::Auto.resolve(|| (s, h));
         assert_eq!(auto([0.1, 0.2, 0.49], 1.0), Grading::Uniform);
         assert_eq!(auto([0.1, 0.51, 0.2], 1.0), graded);
         assert_eq!(auto([1.2, 0.0, 0.0], 0.4), Grading::Uniform); // 0.48
         assert_eq!(auto([1.2, 0.0, 0.0], 0.45), graded); // 0.54
         assert_eq!(auto([0.0; 3], 1e3), Grading::Uniform);
         let fixed = GradingChoice::from(Grading::Graded { layers: 3 });
-        assert_eq!(fixed.resolve([0.0; 3], 1.0), Grading::Graded { layers: 3 });
-        assert_eq!(GradingChoice::from(Grading::Uniform).resolve([9.0; 3], 9.0), Grading::Uniform);
+        let unmeasured = || -> ([f64; 3], f64) { panic!("a fixed grading measures nothing") };
+        assert_eq!(fixed.resolve(unmeasured), Grading::Graded { layers: 3 });
+        assert_eq!(GradingChoice::from(Grading::Uniform).resolve(unmeasured), Grading::Uniform);
         assert_eq!(TransCutOptions::default().grading, GradingChoice::Fixed(Grading::Uniform));
     }
 

@@ -566,7 +566,7 @@ fn every_positive_channel_is_within_one_percent_on_the_auto_graded_sphere_at_300
     let mut chosen_graded = Vec::new();
     for name in PRESET_NAMES {
         let m = Medium::preset(name).unwrap();
-        let grading = GradingChoice::Auto.resolve(m.sigma_tr(), spacing_mm);
+        let grading = GradingChoice::Auto.resolve(|| (m.sigma_tr(), spacing_mm));
         let tets = if grading == Grading::Uniform {
             &uniform
         } else {

@@ -36,7 +36,7 @@ use crate::mesh::{TetMesh, TetMeshError};
 use crate::mesher::{self, MesherError, MesherOptions};
 use crate::optics::Medium;
 use crate::progress::{ms, solve_fraction, Cancelled, Progress};
-use crate::scene::{GradingChoice, MediumSource, SceneError, Shape, TransCutOptions};
+use crate::scene::{MediumSource, SceneError, Shape, TransCutOptions};
 use crate::sparse::{SolveOptions, SparseError};
 
 /// The TransCut method ([`SubsurfaceMethod`]).
@@ -448,13 +448,12 @@ fn world_tets(
     let (object, surface) = (target.object, target.world);
     match &object.shape {
         Shape::Surface(_) => {
-            let grading = match options.grading {
-                GradingChoice::Fixed(grading) => grading,
-                auto @ GradingChoice::Auto => auto.resolve(
+            let grading = options.grading.resolve(|| {
+                (
                     object.medium().map_or([0.0; 3], MediumSource::max_sigma_tr),
                     mesher::uniform_spacing_estimate(surface, options.tets) * object.mm_per_unit,
-                ),
-            };
+                )
+            });
             let mesher_options = MesherOptions { grading, ..MesherOptions::with_tets(options.tets) };
             if let Reuse::Keep(Some(kept)) = target.reuse {
                 if kept.made_from(surface, &mesher_options) {
