@@ -263,10 +263,6 @@ pub fn cut_with(
     poll()?;
     // Unblock (step 4 of the module docs).
     if options.relax_iterations > 0 {
-        let mut is_movable = vec![false; pos.len()];
-        for &v in &movable {
-            is_movable[v as usize] = true;
-        }
         for _ in 0..UNBLOCK_ROUNDS {
             let mut any = false;
             for (i, &v) in movable.iter().enumerate() {
@@ -278,9 +274,8 @@ pub fn cut_with(
                 let mut reached = false;
                 if boundary_normal[v] == DVec3::ZERO {
                     let snapped = |w: usize| {
-                        w != v
-                            && is_movable[w]
-                            && prepared.signed_distance(pos[w]).abs() <= 1e-12 * mean_edge[kept_vertex[w] as usize]
+                        let original = kept_vertex[w] as usize;
+                        w != v && is_cut[original] && prepared.signed_distance(pos[w]).abs() <= 1e-12 * mean_edge[original]
                     };
                     let (sum, n) = incident
                         .around(v)
