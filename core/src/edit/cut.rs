@@ -10,6 +10,10 @@
 //! 1. **Classify.** A vertex is a *cut vertex* when `d_v ≥ −β h_v` ([`SNAP_BAND`] `β = 0.25`):
 //!    on the removed side, or on the kept side but so close to the cut surface that a tet
 //!    between it and the surface would be a sliver. Every other vertex is *firm*.
+//!    A vertex is also a cut vertex when one of its edges passes through the removed side
+//!    between two vertices that are not on it (`bridging_vertices`): a cutter thinner than the
+//!    tets, such as a slab through a graded mesh's coarse interior, would otherwise leave tets
+//!    with four firm vertices reaching across it and joining its two sides.
 //! 2. **Delete.** A tet is kept when at least one of its vertices is firm; tets whose four vertices
 //!    are all cut vertices (entirely on the removed side, or in the thin band that will collapse
 //!    onto the cut surface) are deleted. Vertices no kept tet uses are removed. Kept tets keep
@@ -74,6 +78,10 @@ pub const SNAP_BAND: f64 = 0.25;
 
 /// Halvings of a rejected step in the bisection for the largest acceptable part-way move.
 pub const BISECTIONS: usize = 10;
+
+/// Levels of halving in the search for edges that reach through the removed side between two
+/// kept vertices ([`segment_reaches`]): removed parts down to 1/64 of an edge are found.
+pub const BRIDGE_HALVINGS: u32 = 6;
 
 /// Rounds of the unblocking pass (held-back cut vertices landing on the cutter near their
 /// snapped neighbours).
@@ -189,7 +197,10 @@ pub fn cut_with(
             }
         })
         .collect();
-    let is_cut: Vec<bool> = (0..positions.len()).map(|v| distance[v] >= -SNAP_BAND * mean_edge[v]).collect();
+    let mut is_cut: Vec<bool> = (0..positions.len()).map(|v| distance[v] >= -SNAP_BAND * mean_edge[v]).collect();
+    for v in bridging_vertices(mesh, &prepared, &distance, &is_cut) {
+        is_cut[v as usize] = true;
+    }
 
     poll()?;
     // Delete: keep tets with a firm vertex.
@@ -213,8 +224,10 @@ pub fn cut_with(
             kept_vertex.push(v as u32);
         }
     }
-    let tets: Vec<[u32; 4]> = kept.iter().map(|&t| mesh.tets()[t as usize].map(|v| new_index[v as usize])).collect();
+    let mut tets: Vec<[u32; 4]> = kept.iter().map(|&t| mesh.tets()[t as usize].map(|v| new_index[v as usize])).collect();
     let mut pos: Vec<DVec3> = kept_vertex.iter().map(|&v| positions[v as usize]).collect();
+    let distinct_kept = pos.len();
+    let anchor = separate_sides(&prepared, &distance, &is_cut, &mut tets, &mut pos, &mut kept_vertex);
     let materials: Vec<u32> = kept.iter().map(|&t| mesh.materials()[t as usize]).collect();
     let original: Vec<u32> = kept.iter().map(|&t| original_tet[t as usize]).collect();
 
@@ -238,6 +251,10 @@ pub fn cut_with(
             }
         }
     }
+    for copy in distinct_kept..pos.len() {
+        boundary_normal[copy] = boundary_normal[new_index[kept_vertex[copy] as usize] as usize];
+    }
+    let target_of = |v: usize, pos: &[DVec3]| anchor[v].unwrap_or_else(|| prepared.closest_point(pos[v]));
 
     // Snap.
     let incident = Incidence::new(&tets, pos.len());
@@ -249,7 +266,7 @@ pub fn cut_with(
         let mut any = false;
         for (i, &v) in movable.iter().enumerate() {
             if !done[i] {
-                let target = prepared.closest_point(pos[v as usize]);
+                let target = target_of(v as usize, &pos);
                 let (moved, reached) = step_towards(&mut pos, v as usize, target, &valid);
                 any |= moved;
                 done[i] = reached;
@@ -270,7 +287,7 @@ pub fn cut_with(
                     continue;
                 }
                 let v = v as usize;
-                let target = prepared.closest_point(pos[v]);
+                let target = target_of(v, &pos);
                 let mut reached = false;
                 if boundary_normal[v] == DVec3::ZERO {
                     let snapped = |w: usize| {
@@ -316,7 +333,7 @@ pub fn cut_with(
     if options.relax_iterations > 0 {
         for (i, &v) in movable.iter().enumerate() {
             let v = v as usize;
-            if !done[i] || boundary_normal[v] == DVec3::ZERO {
+            if !done[i] || boundary_normal[v] == DVec3::ZERO || anchor[v].is_some() {
                 continue;
             }
             let start = positions[kept_vertex[v] as usize];
@@ -337,7 +354,7 @@ pub fn cut_with(
     let min_after = tets.par_iter().map(|t| min_dihedral(t.map(|v| pos[v as usize]))).reduce(|| f64::INFINITY, f64::min);
     let stats = CutStats {
         removed_tets: mesh.tet_count() - tets.len(),
-        removed_vertices: positions.len() - pos.len(),
+        removed_vertices: positions.len() - distinct_kept,
         moved_vertices,
         cut_surface_vertices: movable.len(),
         max_cut_distance,
@@ -347,6 +364,140 @@ pub fn cut_with(
     poll()?;
     let mesh = TetMesh::new(pos, tets, materials)?;
     Ok(CutResult { mesh, original_tet: original, kept_vertex, stats })
+}
+
+/// The second rule of step 1: both ends of every edge that passes through the removed side
+/// although neither end lies on it (`d < 0` at both), with at least one end firm (an edge of two
+/// cut vertices changes nothing). Such an edge reaches across a cutter thinner than the tets
+/// (a slab through a graded mesh's interior): without this rule, its tets, whose four vertices are
+/// all firm, would be kept and join the two sides. Sorted, without repeats.
+fn bridging_vertices(mesh: &TetMesh, cutter: &Prepared<'_>, distance: &[f64], is_cut: &[bool]) -> Vec<u32> {
+    let p = mesh.positions();
+    let mut ends: Vec<u32> = mesh
+        .edges()
+        .par_iter()
+        .filter(|&&[a, b]| {
+            let (a, b) = (a as usize, b as usize);
+            distance[a] < 0.0
+                && distance[b] < 0.0
+                && !(is_cut[a] && is_cut[b])
+                && segment_reaches(cutter, (p[a], distance[a]), (p[b], distance[b]), BRIDGE_HALVINGS)
+        })
+        .flat_map_iter(|&[a, b]| [a, b])
+        .collect();
+    ends.par_sort_unstable();
+    ends.dedup();
+    ends
+}
+
+/// Whether the segment between `a` and `b` (points with their signed distances, both `< 0`)
+/// reaches the removed side (`d ≥ 0`). The signed distance is 1-Lipschitz, so no point of the
+/// segment is removed when `|d_a| + |d_b| ≥ |b − a|`; otherwise the midpoint is tested, then
+/// both halves in turn, for at most `halvings` levels (a removed part thinner than
+/// `|b − a| / 2^halvings` can be missed).
+fn segment_reaches(cutter: &Prepared<'_>, (a, da): (DVec3, f64), (b, db): (DVec3, f64), halvings: u32) -> bool {
+    if -(da + db) >= (b - a).length() || halvings == 0 {
+        return false;
+    }
+    let m = 0.5 * (a + b);
+    let dm = cutter.signed_distance(m);
+    dm >= 0.0
+        || segment_reaches(cutter, (a, da), (m, dm), halvings - 1)
+        || segment_reaches(cutter, (m, dm), (b, db), halvings - 1)
+}
+
+/// Step 3: a kept vertex on the removed side (`d ≥ 0`) that kept tets on BOTH sides of a thin
+/// removed part still use would join them. Its kept tets are grouped by side (two tets are on
+/// the same side when the segment between firm vertices of theirs does not reach the removed
+/// side, [`segment_reaches`]); each group after the first gets its own copy of the vertex
+/// (appended to `pos` and `kept_vertex`, the group's tets renumbered).
+///
+/// Returns per new vertex the fixed point its snap aims at, `None` for its closest point
+/// (recomputed as it moves). The closest point of a vertex inside a thin removed part can lie on
+/// the far side of it, away from the vertex's tets; then, and only then, the vertex (or copy)
+/// aims at the point where the segment from its side's firm vertex to it enters the removed side.
+fn separate_sides(
+    cutter: &Prepared<'_>,
+    distance: &[f64],
+    is_cut: &[bool],
+    tets: &mut [[u32; 4]],
+    pos: &mut Vec<DVec3>,
+    kept_vertex: &mut Vec<u32>,
+) -> Vec<Option<DVec3>> {
+    let incident = Incidence::new(tets, pos.len());
+    let d = |v: u32| distance[kept_vertex[v as usize] as usize];
+    let firm = |t: u32| tets[t as usize].into_iter().find(|&w| !is_cut[kept_vertex[w as usize] as usize]);
+    let apart = |a: u32, b: DVec3, db: f64| segment_reaches(cutter, (pos[a as usize], d(a)), (b, db), BRIDGE_HALVINGS);
+    // Per vertex inside the removed side: its sides (tets, and the anchor if not the closest point).
+    type Side = (Vec<u32>, Option<DVec3>);
+    let split: Vec<(u32, Vec<Side>)> = (0..pos.len() as u32)
+        .into_par_iter()
+        .filter(|&v| d(v) > 0.0)
+        .filter_map(|v| {
+            let mut sides: Vec<(u32, Vec<u32>)> = Vec::new();
+            for &(t, _) in incident.around(v as usize) {
+                let f = firm(t).expect("every kept tet has a firm vertex");
+                match sides.iter_mut().find(|(r, _)| *r == f || !apart(*r, pos[f as usize], d(f))) {
+                    Some(side) => side.1.push(t),
+                    None => sides.push((f, vec![t])),
+                }
+            }
+            // Just outside the cutter at the closest point: on a side's side, or across.
+            let p = pos[v as usize];
+            let closest = cutter.closest_point(p);
+            let outside = closest + 1e-3 * (closest - p);
+            let outside_distance = cutter.signed_distance(outside);
+            let sides: Vec<Side> = sides
+                .into_iter()
+                .map(|(f, tets)| {
+                    let across = outside_distance >= 0.0 || apart(f, outside, outside_distance);
+                    (tets, across.then(|| entry_point(cutter, pos[f as usize], p)))
+                })
+                .collect();
+            (sides.len() > 1 || sides[0].1.is_some()).then_some((v, sides))
+        })
+        .collect();
+    let mut anchor = vec![None; pos.len()];
+    for (v, sides) in split {
+        for (k, (side, aim)) in sides.into_iter().enumerate() {
+            let copy = if k == 0 {
+                v
+            } else {
+                pos.push(pos[v as usize]);
+                kept_vertex.push(kept_vertex[v as usize]);
+                anchor.push(None);
+                let copy = (pos.len() - 1) as u32;
+                for t in side {
+                    for w in &mut tets[t as usize] {
+                        if *w == v {
+                            *w = copy;
+                        }
+                    }
+                }
+                copy
+            };
+            anchor[copy as usize] = aim;
+        }
+    }
+    anchor
+}
+
+/// A point of the cut surface on the segment from `from` (kept side, `d < 0`) to `to` (removed
+/// side, `d ≥ 0`), by bisection of the signed distance to rounding.
+fn entry_point(cutter: &Prepared<'_>, from: DVec3, to: DVec3) -> DVec3 {
+    let (mut kept, mut removed) = (from, to);
+    for _ in 0..60 {
+        let m = 0.5 * (kept + removed);
+        if m == kept || m == removed {
+            break;
+        }
+        if cutter.signed_distance(m) >= 0.0 {
+            removed = m;
+        } else {
+            kept = m;
+        }
+    }
+    cutter.closest_point(0.5 * (kept + removed))
 }
 
 /// Where a cut vertex at `p` should go. Inside the mesh: the closest point of the cut surface.

@@ -341,15 +341,40 @@ fn components_and_extract_round_trip() {
 
 #[test]
 fn a_slab_cut_fractures_the_sphere_in_two() {
-    let mesh = sphere();
-    let slab = cube(DVec3::ZERO, 1.0).transformed(&DMat4::from_scale(DVec3::new(2.0, 2.0, 0.15)));
+    slab_cut_fractures_in_two(sphere(), 0.15);
+}
+
+/// The graded sphere's interior tets are larger than these slabs are thick: tets whose four
+/// vertices lie outside the slab on both sides of it must still go, or the two parts stay joined.
+#[test]
+fn a_slab_thinner_than_the_interior_tets_fractures_the_graded_sphere_in_two() {
+    let mesh = graded_sphere();
+    let longest = mesh
+        .edges()
+        .iter()
+        .map(|&[a, b]| (mesh.positions()[a as usize] - mesh.positions()[b as usize]).length())
+        .fold(0.0, f64::max);
+    for half in [0.08, 0.04, 0.02] {
+        assert!(2.0 * half < longest, "{half} vs {longest}");
+        slab_cut_fractures_in_two(mesh, half);
+    }
+}
+
+/// Cuts `mesh` with the slab `|z| < half` and checks two parts, each on its own side of the slab
+/// (within the cut's own tolerance) and with the volume of the ball's cap beyond it.
+fn slab_cut_fractures_in_two(mesh: &TetMesh, half: f64) {
+    let slab = cube(DVec3::ZERO, 1.0).transformed(&DMat4::from_scale(DVec3::new(2.0, 2.0, half)));
     let r = cut(mesh, &identity_ids(mesh), &Cutter::Solid(slab), &CutOptions::default()).unwrap();
+    eprintln!("slab |z| < {half}: {:?}", r.stats);
     let comps = connected_components(&r.mesh);
-    assert_eq!(comps.len(), 2);
-    let volumes: Vec<f64> = comps.iter().map(|c| extract(&r.mesh, &r.original_tet, c).unwrap().0.volume()).collect();
-    let expected = ball_below(RADIUS, -0.15);
-    for v in &volumes {
-        assert!((v / expected - 1.0).abs() < 0.02, "{v} vs {expected}");
+    assert_eq!(comps.len(), 2, "slab |z| < {half}");
+    let expected = ball_below(RADIUS, -half);
+    let tolerance = r.stats.max_cut_distance + 1e-9;
+    for c in &comps {
+        let part = extract(&r.mesh, &r.original_tet, c).unwrap().0;
+        let (lo, hi) = part.positions().iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.z), hi.max(p.z)));
+        assert!(hi <= -half + tolerance || lo >= half - tolerance, "slab |z| < {half}: a part spans z {lo}..{hi}");
+        assert!((part.volume() / expected - 1.0).abs() < 0.02, "slab |z| < {half}: {} vs {expected}", part.volume());
     }
 }
 
