@@ -50,13 +50,13 @@ METHOD_LABELS = {
 
 #: TransCut's gradings: automatic (``TC_GRADING_AUTO``), uniform (0) or graded (Cubes per Size).
 GRADING_ITEMS = (
-    ("UNIFORM", "Uniform", "One tetrahedron size everywhere: a cut exposes tetrahedra as fine as the surface's"),
     (
         "AUTO",
         "Automatic",
         "Graded where the medium's boundary layer is thinner than two uniform tetrahedra at this Resolution "
         "(skin's blue, ketchup), uniform elsewhere",
     ),
+    ("UNIFORM", "Uniform", "One tetrahedron size everywhere: a cut exposes tetrahedra as fine as the surface's"),
     (
         "GRADED",
         "Graded",
@@ -191,7 +191,7 @@ class TranscutSceneSettings(bpy.types.PropertyGroup):
         name="Grading",
         description="TransCut: how tetrahedron sizes vary through each object",
         items=GRADING_ITEMS,
-        default="UNIFORM",
+        default="AUTO",
     )
     grading_layers: IntProperty(
         name="Cubes per Size",

@@ -718,14 +718,13 @@ typedef struct TcTransCutOptions {
    */
   uint32_t edit_solver;
   /**
-   * 0 (what `tc_transcut_options_init` writes, the library's default): one tet size
-   * everywhere. `TC_GRADING_AUTO`: graded (1) where the object's medium has a boundary layer
-   * thinner than two uniform lattice spacings at `TcBakeOptions.tets`, uniform elsewhere.
+   * `TC_GRADING_AUTO` (what `tc_transcut_options_init` writes, the library's default): graded
+   * (1) where the object's medium has a boundary layer thinner than two uniform lattice
+   * spacings at `TcBakeOptions.tets`, uniform elsewhere. 0: one tet size everywhere.
    * N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets, the finest near the surface, cube sizes
    * doubling inwards after N cubes of each size, so that `TcBakeOptions.tets` buys a finer
    * surface layer (1 is more accurate than uniform tets for every preset medium at the same
-   * count, but a cut exposes the coarser interior, and a cutter thinner than those tets can
-   * leave tets across it). Another value fails with
+   * count, but a cut exposes the coarser interior as new surface). Another value fails with
    * `TC_INVALID_ARGUMENT`. Read only when `size` covers it (a struct of the first version,
    * 12 bytes, has no such field and gets the default).
    */
@@ -901,7 +900,7 @@ typedef struct TcRadiosityOptions {
    */
   uint32_t solver;
   /**
-   * The translucent objects' tets: 0 (default) uniform, `TC_GRADING_AUTO`, N in 1 to
+   * The translucent objects' tets: `TC_GRADING_AUTO` (default), 0 uniform, N in 1 to
    * `TC_MAX_GRADING_LAYERS` graded, as `TcTransCutOptions.grading`. Read only when `size` covers it (a struct of the
    * first version, 56 bytes, has no such field and gets the default).
    */

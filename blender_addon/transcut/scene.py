@@ -816,9 +816,9 @@ class Scene:
         ``TC_METHOD_*`` value; unset: the library's default, TransCut. TransCut's own options:
         ``solver``, the bake's solver on the CPU, and ``edit_solver``, the solver of the edits
         after it (relight, paint, cut), each a name of :data:`SOLVERS` (any case) or a
-        ``TC_SOLVER_*`` value, ``grading`` (0, the default: one tet size everywhere;
-        ``"auto"`` or ``TC_GRADING_AUTO``: graded where the medium's boundary layer needs it,
-        uniform elsewhere; N: graded tets, the finest near the surface, N cubes of each size
+        ``TC_SOLVER_*`` value, ``grading`` (``"auto"`` or ``TC_GRADING_AUTO``, the
+        default: graded where the medium's boundary layer needs it, uniform elsewhere; 0: one tet
+        size everywhere; N: graded tets, the finest near the surface, N cubes of each size
         before the next doubling) and
         ``discretization`` (a name of :data:`DISCRETIZATIONS`, any case, or a
         ``TC_DISCRETIZATION_*`` value; default ``"fitted-layer"``); unset: the method's defaults.

@@ -221,14 +221,13 @@ pub struct TcTransCutOptions {
     /// The solver of edits after the bake (relight, material edits, cuts):
     /// `TC_SOLVER_DEFAULT` (the smoothed-aggregation V-cycle) or a `TC_SOLVER_*`.
     pub edit_solver: u32,
-    /// 0 (what `tc_transcut_options_init` writes, the library's default): one tet size
-    /// everywhere. `TC_GRADING_AUTO`: graded (1) where the object's medium has a boundary layer
-    /// thinner than two uniform lattice spacings at `TcBakeOptions.tets`, uniform elsewhere.
+    /// `TC_GRADING_AUTO` (what `tc_transcut_options_init` writes, the library's default): graded
+    /// (1) where the object's medium has a boundary layer thinner than two uniform lattice
+    /// spacings at `TcBakeOptions.tets`, uniform elsewhere. 0: one tet size everywhere.
     /// N in 1 to `TC_MAX_GRADING_LAYERS`: graded tets, the finest near the surface, cube sizes
     /// doubling inwards after N cubes of each size, so that `TcBakeOptions.tets` buys a finer
     /// surface layer (1 is more accurate than uniform tets for every preset medium at the same
-    /// count, but a cut exposes the coarser interior, and a cutter thinner than those tets can
-    /// leave tets across it). Another value fails with
+    /// count, but a cut exposes the coarser interior as new surface). Another value fails with
     /// `TC_INVALID_ARGUMENT`. Read only when `size` covers it (a struct of the first version,
     /// 12 bytes, has no such field and gets the default).
     pub grading: u32,
@@ -394,7 +393,7 @@ pub struct TcRadiosityOptions {
     /// The translucent objects' diffusion solver on the CPU: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a
     /// `TC_SOLVER_*`, as `TcTransCutOptions.solver`.
     pub solver: u32,
-    /// The translucent objects' tets: 0 (default) uniform, `TC_GRADING_AUTO`, N in 1 to
+    /// The translucent objects' tets: `TC_GRADING_AUTO` (default), 0 uniform, N in 1 to
     /// `TC_MAX_GRADING_LAYERS` graded, as `TcTransCutOptions.grading`. Read only when `size` covers it (a struct of the
     /// first version, 56 bytes, has no such field and gets the default).
     pub grading: u32,
@@ -424,7 +423,7 @@ pub(crate) fn default_radiosity_options() -> TcRadiosityOptions {
         covered_fraction: d.form_factors.covered_fraction,
         bounces: d.solve.bounces.map_or(0, |b| u32::try_from(b).unwrap_or(u32::MAX)),
         solver: TC_SOLVER_DEFAULT,
-        grading: 0,
+        grading: grading_code(d.transcut.grading),
         discretization: TC_DISCRETIZATION_FITTED_LAYER,
     }
 }
@@ -706,8 +705,17 @@ pub(crate) fn default_transcut_options() -> TcTransCutOptions {
         size: size_of::<TcTransCutOptions>() as u32,
         solver: TC_SOLVER_DEFAULT,
         edit_solver: TC_SOLVER_DEFAULT,
-        grading: 0,
+        grading: grading_code(TransCutOptions::default().grading),
         discretization: TC_DISCRETIZATION_FITTED_LAYER,
+    }
+}
+
+/// `method_options->grading` for the core's grading (the inverse of [`grading_from`]).
+fn grading_code(grading: GradingChoice) -> u32 {
+    match grading {
+        GradingChoice::Auto => TC_GRADING_AUTO,
+        GradingChoice::Fixed(Grading::Uniform) => 0,
+        GradingChoice::Fixed(Grading::Graded { layers }) => layers,
     }
 }
 
@@ -1002,7 +1010,7 @@ mod tests {
         unsafe { read_bake_options(&o) }.map(|b| b.method)
     }
 
-    /// TransCut's grading and discretisation: the init defaults are the core's (uniform), 0 is
+    /// TransCut's grading and discretisation: the init defaults are the core's (automatic), 0 is
     /// uniform, N cubes per size is graded, `TC_GRADING_AUTO` is automatic, anything else is named, and a first-version struct
     /// (12 bytes) leaves the grading field unread (the core's default); each discretisation
     /// maps onto the core's, another value is named.

@@ -191,12 +191,12 @@ pub struct MethodArgs {
     /// [default: 200000; a scene file's [bake] tets]
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=50_000_000), help_heading = "TransCut options")]
     pub tets: Option<u64>,
-    /// transcut, radiosity: grade the tets: the finest spacing near the surface, cube sizes
-    /// doubling inwards after this many cubes of each size (1 grades fastest and is the most
-    /// accurate for every preset medium at a given count, but a cut exposes the coarser
-    /// interior); 0 keeps one spacing everywhere; auto grades (1) an object whose medium has a
-    /// boundary layer thinner than two uniform spacings at --tets (skin's blue, ketchup) and
-    /// keeps the others uniform [default: 0; a scene file's [bake] grading]
+    /// transcut, radiosity: how the tet sizes vary: auto grades (1) an object whose medium has
+    /// a boundary layer thinner than two uniform spacings at --tets (skin's blue, ketchup) and
+    /// keeps the others uniform; 0 keeps one spacing everywhere; N ≥ 1 grades every object, the
+    /// finest spacing near the surface, cube sizes doubling inwards after N cubes of each size
+    /// (1 is the most accurate for every preset medium at a given count, but a cut exposes the
+    /// coarser interior) [default: auto; a scene file's [bake] grading]
     #[arg(long, value_parser = grading_choice, help_heading = "TransCut options")]
     pub grading: Option<GradingChoice>,
     /// transcut, radiosity: the assembly of the diffusion system: fitted-layer (each edge's

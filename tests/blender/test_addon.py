@@ -446,9 +446,9 @@ def test_progress_reported_and_cancel_changes_nothing(scene, addon):
 
 def test_grading_and_assembly_settings_reach_the_library(scene, addon):
     """Scene > TransCut > Grading and Assembly are passed to a TransCut bake (and to no other
-    method's): their defaults are the library's (uniform, fitted with the layer), automatic is
-    "auto" and graded its cubes per size, and a graded bake with the paper's assembly runs and
-    differs from the default one."""
+    method's): their defaults are the library's (automatic, "auto", and fitted with the layer),
+    uniform is 0 and graded its cubes per size, and a graded bake with the paper's assembly runs
+    and differs from the default one."""
     require_library()
     obj = add_sphere()
     add_light("SUN", rotation=(math.radians(30), 0.0, 0.0), energy=3.0)
@@ -456,7 +456,7 @@ def test_grading_and_assembly_settings_reach_the_library(scene, addon):
     ctx = bpy.context
     lib = addon.library.get()
     settings = ctx.scene.transcut
-    assert (settings.grading, settings.grading_layers, settings.discretization) == ("UNIFORM", 1, "FITTED_LAYER")
+    assert (settings.grading, settings.grading_layers, settings.discretization) == ("AUTO", 1, "FITTED_LAYER")
     before = (settings.tets, settings.method)
 
     def run():
@@ -467,9 +467,9 @@ def test_grading_and_assembly_settings_reach_the_library(scene, addon):
     try:
         settings.tets = 20_000
         options, default = run()
-        assert (options["grading"], options["discretization"]) == (0, "fitted-layer")
-        settings.grading = "AUTO"
-        assert addon.bake.prepare_job(ctx).options["grading"] == "auto"
+        assert (options["grading"], options["discretization"]) == ("auto", "fitted-layer")
+        settings.grading = "UNIFORM"
+        assert addon.bake.prepare_job(ctx).options["grading"] == 0
         settings.grading, settings.grading_layers, settings.discretization = "GRADED", 2, "TRANSCUT"
         options, paper = run()
         assert (options["grading"], options["discretization"]) == (2, "transcut")
@@ -479,7 +479,7 @@ def test_grading_and_assembly_settings_reach_the_library(scene, addon):
         assert "grading" not in addon.bake.prepare_job(ctx).options
     finally:
         settings.tets, settings.method = before
-        settings.grading, settings.grading_layers, settings.discretization = "UNIFORM", 1, "FITTED_LAYER"
+        settings.grading, settings.grading_layers, settings.discretization = "AUTO", 1, "FITTED_LAYER"
 
 
 def test_backend_setting_reaches_the_library(scene, addon):

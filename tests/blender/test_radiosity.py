@@ -104,7 +104,7 @@ def test_radiosity_options_defaults_and_names(tclib):
     r = tclib.default_radiosity_options()
     assert r.size == ctypes.sizeof(tc.TcRadiosityOptions)
     assert (r.iteration, r.patch_size_mm, r.rays_per_patch, r.bounces) == (tc.TC_RADIOSITY_JACOBI, 0.0, 512, 0)
-    assert (r.grading, r.discretization) == (0, tc.TC_DISCRETIZATION_FITTED_LAYER)
+    assert (r.grading, r.discretization) == (tc.TC_GRADING_AUTO, tc.TC_DISCRETIZATION_FITTED_LAYER)
     assert tclib.method_number("radiosity") == tc.TC_METHOD_RADIOSITY
     assert tc.RADIOSITY_ITERATIONS == {"jacobi": 0, "gauss-seidel": 1, "bicgstab": 2}
     assert tc.SIDES == {"both": tc.TC_SIDES_BOTH, "front": tc.TC_SIDES_FRONT, "back": tc.TC_SIDES_BACK}
@@ -572,7 +572,7 @@ def test_panel_and_options_of_radiosity(red_floor, addon):
     settings.radiosity_iteration = "JACOBI"
     options = addon.bake.bake_options(settings, "radiosity", 10.0)
     assert options["bounces"] == 0 and options["radiosity_tolerance"] == pytest.approx(1e-3)
-    assert (settings.grading, options["grading"], options["discretization"]) == ("UNIFORM", 0, "fitted-layer")
+    assert (settings.grading, options["grading"], options["discretization"]) == ("AUTO", "auto", "fitted-layer")
     settings.radiosity_bounces = 3
     settings.radiosity_iteration = "GAUSS_SEIDEL"
     options = addon.bake.bake_options(settings, "radiosity", 10.0)

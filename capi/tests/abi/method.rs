@@ -87,7 +87,7 @@ fn the_method_options_choose_the_solver_and_an_older_struct_bakes_as_before() {
     ok(unsafe { tc_transcut_options_init(&mut transcut, size_of::<TcTransCutOptions>()) }, "init");
     assert_eq!(
         (transcut.size as usize, transcut.solver, transcut.edit_solver, transcut.grading, transcut.discretization),
-        (size_of::<TcTransCutOptions>(), 0, 0, 0, TC_DISCRETIZATION_FITTED_LAYER)
+        (size_of::<TcTransCutOptions>(), 0, 0, TC_GRADING_AUTO, TC_DISCRETIZATION_FITTED_LAYER)
     );
     for solver in [TC_SOLVER_PCG, TC_SOLVER_MG_PCG, TC_SOLVER_SA_PCG, TC_SOLVER_CASCADE] {
         transcut.solver = solver;

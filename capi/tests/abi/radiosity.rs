@@ -92,7 +92,7 @@ fn the_options_defaults_are_the_cores_and_the_struct_is_filled_as_far_as_its_siz
     assert_eq!(r.size as usize, size_of::<TcRadiosityOptions>());
     assert_eq!((r.iteration, r.patch_size_mm, r.rays_per_patch, r.max_iterations), (TC_RADIOSITY_JACOBI, 0.0, 512, 200));
     assert_eq!((r.tolerance, r.covered_fraction, r.bounces, r.solver), (1e-3, 0.1, 0, TC_SOLVER_DEFAULT));
-    assert_eq!((r.grading, r.discretization), (0, TC_DISCRETIZATION_FITTED_LAYER));
+    assert_eq!((r.grading, r.discretization), (TC_GRADING_AUTO, TC_DISCRETIZATION_FITTED_LAYER));
     let mut count = 0u32;
     // SAFETY: valid pointers.
     unsafe {

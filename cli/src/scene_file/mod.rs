@@ -20,7 +20,7 @@
 //! [bake]                    # optional
 //! method = "transcut"       # the subsurface method (`transcut bake --method help`)
 //! tets = 50000              # transcut: target tetrahedra per object
-//! # grading = "auto"        # transcut, radiosity: 0 uniform (default), "auto", N cubes per size graded
+//! # grading = 0             # transcut, radiosity: "auto" (default), 0 uniform, N cubes per size graded
 //! # discretization = "transcut"  # transcut, radiosity: fitted-layer (default), fitted, transcut or consistent-fem
 //! tolerance = 1e-6          # solver relative residual (transcut, radiosity, polygrid)
 //! solver = "ssor-pcg"       # transcut, radiosity, polygrid: the bake's solver (pcg, ssor-pcg, cascade, mg-pcg, sa-pcg)

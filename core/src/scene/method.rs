@@ -27,11 +27,11 @@ use super::scattering::TranslucentScattering;
 /// surface, where winding numbers cost more (the open bunny at 1M tets meshes in about 2.1 s
 /// graded against 1.2 s uniform). Numbers: `docs/benchmarks.md`.
 ///
-/// The default is uniform: cuts, fractures and splits are TransCut's editing, and a graded
-/// interior limits what they can separate (a cutter thinner than the interior tets leaves
-/// kept tets across it: a 3 mm slab cut through a 20 mm ball of 15k tets, graded because of
-/// its dense medium, left a piece reaching across the slab to the other piece's face, where
-/// uniform tets left each piece on its own side).
+/// The default is [`GradingChoice::Auto`]: graded only where the medium needs it. Cuts,
+/// fractures and splits work on graded tets as on uniform ones (a cutter thinner than the
+/// interior tets, such as a slab, still separates the sides, [`crate::edit::cut`] step 1);
+/// a cut face through the graded interior is coarser, which the dense media that Auto grades
+/// would suffer on a uniform mesh of the same budget everywhere.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GradingChoice {
     /// Per object, from its medium and the tet budget: [`Grading::Graded`] with one cube per
@@ -73,9 +73,9 @@ impl GradingChoice {
 }
 
 impl Default for GradingChoice {
-    /// [`Grading::Uniform`].
+    /// [`GradingChoice::Auto`].
     fn default() -> Self {
-        Self::Fixed(Grading::Uniform)
+        Self::Auto
     }
 }
 
@@ -239,9 +239,8 @@ pub struct TransCutOptions {
     /// Target tetrahedra per surface object (objects given as a tet mesh are solved as given),
     /// in [1, [`TransCutOptions::MAX_TETS`]].
     pub tets: usize,
-    /// How the tet sizes vary inside each object. Default uniform
-    /// ([`GradingChoice::default`]); [`GradingChoice::Auto`] grades where the medium's boundary
-    /// layer needs it.
+    /// How the tet sizes vary inside each object. Default [`GradingChoice::Auto`]: graded where
+    /// the medium's boundary layer needs it, uniform elsewhere.
     pub grading: GradingChoice,
     /// The assembly: [`Discretization::FittedLayer`] (default: TransCut's rows with the
     /// stiffness fitted to the boundary layer and the boundary rows' absorption taken from it,
@@ -439,7 +438,7 @@ mod tests {
         let unmeasured = || -> ([f64; 3], f64) { panic!("a fixed grading measures nothing") };
         assert_eq!(fixed.resolve(unmeasured), Grading::Graded { layers: 3 });
         assert_eq!(GradingChoice::from(Grading::Uniform).resolve(unmeasured), Grading::Uniform);
-        assert_eq!(TransCutOptions::default().grading, GradingChoice::Fixed(Grading::Uniform));
+        assert_eq!(TransCutOptions::default().grading, GradingChoice::Auto);
     }
 
     #[test]

@@ -533,9 +533,9 @@ fn graded_meshes_trade_interior_tets_for_surface_accuracy() {
     }
 }
 
-/// Issue 23's accuracy bar: the R = 10 mm sphere at ≤ 300k tets with the automatic sizing (each
-/// preset's grading as [`GradingChoice::Auto`] chooses it for a 300k budget: graded with one
-/// cube per size where the uniform lattice would leave σtr h > ½) and the default assembly
+/// Issue 23's accuracy bar: the R = 10 mm sphere at ≤ 300k tets with the default sizing (each
+/// preset's grading as [`GradingChoice::Auto`], the default, chooses it for a 300k budget: graded
+/// with one cube per size where the uniform lattice would leave σtr h > ½) and the default assembly
 /// (`Discretization::FittedLayer`): Lo within 1% RMS of the closed form for every preset and
 /// channel whose closed-form Lo is positive. Ketchup's green and blue are the exception the
 /// model itself makes (its Lo is negative there: −0.013, −0.025), checked to be so.
@@ -548,7 +548,8 @@ fn graded_meshes_trade_interior_tets_for_surface_accuracy() {
 #[test]
 fn every_positive_channel_is_within_one_percent_on_the_auto_graded_sphere_at_300k() {
     use transcut::mesher::{tetrahedralize_with, uniform_spacing_estimate, Grading};
-    use transcut::{GradingChoice, Progress};
+    use transcut::{GradingChoice, Progress, TransCutOptions};
+    assert_eq!(TransCutOptions::default().grading, GradingChoice::Auto, "the default sizing");
     let radius = 10.0;
     // The budget that keeps both gradings at or below 300k (the mesher lands within ±10%).
     let tets = 290_000;
@@ -596,7 +597,7 @@ fn every_positive_channel_is_within_one_percent_on_the_auto_graded_sphere_at_300
 /// The automatic grading reaches the mesher per object, from the object's own medium: a
 /// 20k-tet bake of the R = 10 mm sphere grades skin1 (σtr h ≈ 2.0 in blue at the uniform
 /// 1.36 mm) and keeps marble uniform (0.34 in blue), in one scene, and the statistics say
-/// which; the default grades neither.
+/// which; a fixed grading applies to both.
 #[test]
 fn the_automatic_grading_follows_each_objects_medium() {
     use transcut::light::Light;
@@ -617,5 +618,6 @@ fn the_automatic_grading_follows_each_objects_medium() {
         (of(0), of(1))
     };
     assert_eq!(gradings(GradingChoice::Auto), (Grading::Graded { layers: 1 }, Grading::Uniform));
-    assert_eq!(gradings(GradingChoice::default()), (Grading::Uniform, Grading::Uniform));
+    assert_eq!(gradings(Grading::Uniform.into()), (Grading::Uniform, Grading::Uniform));
+    assert_eq!(gradings(Grading::Graded { layers: 2 }.into()), (Grading::Graded { layers: 2 }, Grading::Graded { layers: 2 }));
 }
