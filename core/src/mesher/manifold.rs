@@ -28,21 +28,22 @@ pub(crate) struct Repair {
     pub off_surface_vertices: usize,
 }
 
-/// Moves boundary vertices among `touched` that a removal exposed (off the input surface) to
-/// their closest point on it, one at a time, keeping each move only if every tet around the
+/// Moves boundary vertices among `touched` that a removal exposed (off the input surface) onto
+/// it, one at a time: to the first of [`surface_candidates`] at which every tet around the
 /// vertex (as `tets` stores it) stays positively oriented and within the dihedral bounds.
-/// `on_boundary` flags the boundary vertices of `tets`. Returns how many moved and how many
-/// stayed off the surface.
+/// `on_boundary` flags the boundary vertices of `tets`. Returns how many moved, how many
+/// stayed off the surface, and the tets that blocked those at their closest point (sorted).
 fn project_exposed(
     positions: &mut [DVec3],
     tets: &[[u32; 4]],
     on_boundary: &[bool],
     touched: &[u32],
     surface: &crate::mesh::TriangleBvh,
-) -> (usize, usize) {
+) -> (usize, usize, Vec<u32>) {
     let scale = positions.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
     let star = Incidence::new(tets, positions.len());
     let (mut moved, mut stayed) = (0, 0);
+    let mut failing = Vec::new();
     for &v in touched {
         if !on_boundary[v as usize] {
             continue;
@@ -54,21 +55,64 @@ fn project_exposed(
             continue;
         }
         let old = positions[v as usize];
-        positions[v as usize] = target.point;
-        let ok = star.around(v as usize).iter().all(|&(t, _)| {
-            let p = tets[t as usize].map(|w| positions[w as usize]);
-            let angles = crate::mesh::dihedral_angles(p);
-            crate::mesh::tet_volume(p) > 0.0
-                && angles.iter().all(|a| (MIN_DIHEDRAL_DEG..=MAX_DIHEDRAL_DEG).contains(&a.to_degrees()))
-        });
-        if ok {
+        let within_bounds = |positions: &[DVec3]| {
+            star.around(v as usize).iter().all(|&(t, _)| tet_within_bounds(tets[t as usize].map(|w| positions[w as usize])))
+        };
+        let mut placed = false;
+        for candidate in surface_candidates(surface, old, target.point, target.distance) {
+            positions[v as usize] = candidate;
+            if within_bounds(positions) {
+                placed = true;
+                break;
+            }
+        }
+        if placed {
             moved += 1;
         } else {
+            positions[v as usize] = target.point;
+            failing.extend(
+                star.around(v as usize)
+                    .iter()
+                    .map(|&(t, _)| t)
+                    .filter(|&t| !tet_within_bounds(tets[t as usize].map(|w| positions[w as usize]))),
+            );
             positions[v as usize] = old;
             stayed += 1;
         }
     }
-    (moved, stayed)
+    failing.sort_unstable();
+    failing.dedup();
+    (moved, stayed, failing)
+}
+
+/// Whether a tet is positively oriented with every dihedral angle within the mesher's bounds.
+fn tet_within_bounds(p: [DVec3; 4]) -> bool {
+    crate::mesh::tet_volume(p) > 0.0
+        && crate::mesh::dihedral_angles(p).iter().all(|a| (MIN_DIHEDRAL_DEG..=MAX_DIHEDRAL_DEG).contains(&a.to_degrees()))
+}
+
+/// Points of the input surface an exposed vertex at `p` may move to, nearest first: its closest
+/// point (at `distance`), then the closest points of the 26 points at `distance` and
+/// `2 distance` from `p` along the lattice's axis, face and body diagonals. A vertex whose
+/// closest point would break the quality bounds often has a nearby surface point that does not.
+fn surface_candidates(surface: &crate::mesh::TriangleBvh, p: DVec3, closest: DVec3, distance: f64) -> Vec<DVec3> {
+    let mut candidates = vec![closest];
+    for (x, y, z) in (-1..=1).flat_map(|x| (-1..=1).flat_map(move |y| (-1..=1).map(move |z| (x, y, z)))) {
+        let direction = DVec3::new(f64::from(x), f64::from(y), f64::from(z)).normalize_or_zero();
+        if direction == DVec3::ZERO {
+            continue;
+        }
+        for reach in [1.0, 2.0] {
+            if let Some(c) = surface.closest_point(p + reach * distance * direction) {
+                candidates.push(c.point);
+            }
+        }
+    }
+    let first = candidates[0];
+    candidates[1..].sort_by(|a, b| (*a - p).length_squared().total_cmp(&(*b - p).length_squared()));
+    candidates.dedup();
+    candidates.retain(|c| *c == first || (*c - p).length() <= 3.0 * distance);
+    candidates
 }
 
 /// What a repair round reads of the topology of its tets: the boundary faces (those
@@ -120,21 +164,31 @@ impl<'a> Boundary<'a> {
 /// be. What is left needs tets removed: the tets of the smaller side (the smaller wedge around
 /// the edge, the smaller fans at a vertex), and the split repeated. That happens at a handful of
 /// places on features thinner than the lattice and removes a few tets, whose exposed vertices
-/// are then moved onto the surface where the quality bounds allow. [`Repair`] reports what was
-/// changed.
+/// are then moved onto the surface where the quality bounds allow. For a closed input
+/// (`closed`), the tets that keep an exposed vertex off the surface (flattened or turned over at
+/// its closest point, across a feature thinner than the lattice) are removed in turn, for up to
+/// [`BLOCKING_ROUNDS`] rounds: before, the mesher stuffed again at up to three other lattice
+/// offsets, which made such inputs two to three times slower per tet. An open input's boundary
+/// is off the input wherever the solid closes a hole, so there nothing more is removed.
+/// [`Repair`] reports what was changed.
 pub(crate) fn repaired(
     mut positions: Vec<DVec3>,
     mut tets: Vec<[u32; 4]>,
     mut on_surface: Vec<bool>,
     surface: &crate::mesh::TriangleBvh,
+    closed: bool,
 ) -> Result<(TetMesh, Repair), TetMeshError> {
     let mut repair = Repair::default();
     // Gap tets are added positively oriented; splits and removals keep the orientation.
     orient_tets(&positions, &mut tets)?;
     // Vertices of removed tets (current numbering): candidates for projection at the end.
     let mut touched: Vec<u32> = Vec::new();
-    for _ in 0..16 {
+    let mut blocking_rounds = 0;
+    for _ in 0..REPAIR_ROUNDS {
+        let before = positions.len() as u32;
         repair.split_vertices += split_pinched_vertices(&mut positions, &mut tets, &mut on_surface);
+        // A copy may be of an exposed vertex (copies of vertices on the surface stay put).
+        touched.extend(before..positions.len() as u32);
         let boundary = Boundary::new(&positions, &tets, &on_surface)?;
         let fill = gap_tets(&boundary);
         if !fill.is_empty() {
@@ -142,17 +196,24 @@ pub(crate) fn repaired(
             tets.extend(fill);
             continue;
         }
-        let remove = tets_to_remove(&boundary);
+        let mut remove = tets_to_remove(&boundary);
         if remove.is_empty() {
             let faces = boundary.faces.len();
             if !touched.is_empty() {
                 let on_boundary = boundary.on_boundary();
-                (repair.projected_vertices, repair.off_surface_vertices) =
-                    project_exposed(&mut positions, &tets, &on_boundary, &touched, surface);
+                let (projected, off_surface, blocking) = project_exposed(&mut positions, &tets, &on_boundary, &touched, surface);
+                repair.projected_vertices += projected;
+                repair.off_surface_vertices = off_surface;
+                if closed && off_surface > 0 && blocking_rounds < BLOCKING_ROUNDS {
+                    blocking_rounds += 1;
+                    remove = blocking;
+                }
             }
-            let mesh = TetMesh::new(positions, tets, Vec::new())?;
-            debug_assert_eq!(mesh.boundary_faces().len(), faces, "a boundary face has a vertex off the surface");
-            return Ok((mesh, repair));
+            if remove.is_empty() {
+                let mesh = TetMesh::new(positions, tets, Vec::new())?;
+                debug_assert_eq!(mesh.boundary_faces().len(), faces, "a boundary face has a vertex off the surface");
+                return Ok((mesh, repair));
+            }
         }
         repair.removed_tets += remove.len();
         touched.extend(remove.iter().flat_map(|&t| tets[t as usize]));
@@ -198,6 +259,12 @@ pub(crate) fn repaired(
         touched.sort_unstable();
         touched.dedup();
     }
+    // Out of rounds: the last removal's exposed vertices still go onto the surface where they
+    // can, and those that cannot are counted.
+    let on_boundary = Boundary::new(&positions, &tets, &on_surface)?.on_boundary();
+    let (projected, off_surface, _) = project_exposed(&mut positions, &tets, &on_boundary, &touched, surface);
+    repair.projected_vertices += projected;
+    repair.off_surface_vertices = off_surface;
     let mesh = TetMesh::new(positions, tets, Vec::new())?;
     Ok((mesh, repair))
 }
@@ -285,6 +352,10 @@ fn best_gap_tet(boundary: &Boundary<'_>, u: u32, v: u32, edge_faces: &[u32]) -> 
 
 /// Quality bounds a repair tet must meet: those the stuffing guarantees.
 const MIN_DIHEDRAL_DEG: f64 = 10.0;
+/// Rounds of [`repaired`] (splits, gap tets, removals), at most.
+const REPAIR_ROUNDS: usize = 24;
+/// Rounds in which [`repaired`] removes the tets that keep an exposed vertex off the surface.
+const BLOCKING_ROUNDS: usize = 8;
 const MAX_DIHEDRAL_DEG: f64 = 165.0;
 
 /// Tets to remove so that non-manifold boundary edges and vertices go away: around each edge in

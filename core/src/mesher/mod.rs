@@ -261,7 +261,8 @@ pub fn tetrahedralize_with(
     }
 
     // The manifold repair. Where it had to remove tets and could not move every vertex that
-    // exposed onto the surface, up to three other lattice offsets at the same spacing are tried
+    // exposed onto the surface, even after removing the tets that blocked them (a closed input,
+    // `manifold::repaired`), up to three other lattice offsets at the same spacing are tried
     // (one often needs no removal) and the mesh with the fewest such vertices, then the fewest
     // removals, is kept; not for an open input (cut points bisected across its holes), whose
     // boundary is off the input wherever the solid closes a hole. Trying offsets whenever a tet
@@ -285,7 +286,7 @@ pub fn tetrahedralize_with(
             cubes_per_level: pass.leaves_per_level,
             timings: pass.timings,
         };
-        let (mesh, repair) = manifold::repaired(pass.positions, pass.tets, pass.on_surface, winding.bvh())?;
+        let (mesh, repair) = manifold::repaired(pass.positions, pass.tets, pass.on_surface, winding.bvh(), !open)?;
         let rank = |r: &manifold::Repair| (r.off_surface_vertices, r.removed_tets);
         let clean = repair.off_surface_vertices == 0;
         if best.as_ref().is_none_or(|(_, kept, _)| rank(&repair) < rank(kept)) {
