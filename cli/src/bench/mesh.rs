@@ -30,6 +30,8 @@ struct MeshEntry {
     off_surface_vertices: usize,
     passes: usize,
     lattice_vertices: usize,
+    /// Octrees the final pass built (more than 1: a graded octree refined through a hole).
+    octree_rounds: usize,
     cubes_per_level: Vec<usize>,
     spacing: f64,
     hausdorff: f64,
@@ -74,6 +76,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             off_surface_vertices: t.stats.off_surface_vertices,
             passes: t.stats.passes,
             lattice_vertices: t.stats.lattice_vertices,
+            octree_rounds: t.stats.octree_rounds,
             cubes_per_level: t.stats.cubes_per_level.clone(),
             spacing: t.stats.spacing,
             hausdorff: t.stats.hausdorff.max,

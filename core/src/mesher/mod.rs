@@ -162,6 +162,10 @@ pub struct MesherStats {
     pub passes: usize,
     /// Lattice vertices of the final pass (winding numbers evaluated).
     pub lattice_vertices: usize,
+    /// Octrees the final pass built: 1, plus one per refinement where a coarse tet of a graded
+    /// octree straddled the surface (through a hole of an open input); a refinement evaluates
+    /// the winding numbers of its new vertices only.
+    pub octree_rounds: usize,
     /// Vertices, tets and boundary triangles of the result.
     pub vertices: usize,
     pub tets: usize,
@@ -283,6 +287,7 @@ pub fn tetrahedralize_with(
         let facts = PassFacts {
             bisected_cuts: pass.bisected_cuts,
             lattice_vertices: pass.lattice_vertices,
+            octree_rounds: pass.octree_rounds,
             cubes_per_level: pass.leaves_per_level,
             timings: pass.timings,
         };
@@ -318,6 +323,7 @@ pub fn tetrahedralize_with(
         cubes_per_level: facts.cubes_per_level,
         passes,
         lattice_vertices: facts.lattice_vertices,
+        octree_rounds: facts.octree_rounds,
         vertices: mesh.vertex_count(),
         tets: mesh.tet_count(),
         boundary_faces: mesh.boundary_faces().len(),
@@ -338,6 +344,7 @@ pub fn tetrahedralize_with(
 struct PassFacts {
     bisected_cuts: usize,
     lattice_vertices: usize,
+    octree_rounds: usize,
     cubes_per_level: Vec<usize>,
     timings: PhaseTimings,
 }

@@ -2,6 +2,7 @@
 //! by the winding number, place cut points where tet edges cross the surface, warp vertices that
 //! are too close to a cut point onto it, and fill every tet with the stencil of its labels.
 
+use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use glam::DVec3;
@@ -30,6 +31,8 @@ pub(crate) struct Stuffed {
     pub on_surface: Vec<bool>,
     /// Background vertices evaluated (cube corners and centres).
     pub lattice_vertices: usize,
+    /// Octrees built: 1, plus one per refinement where a coarse tet straddled the surface.
+    pub octree_rounds: usize,
     /// Leaf cubes of each level (side `2ᵏ h`) of the final octree.
     pub leaves_per_level: Vec<usize>,
     /// Milliseconds in each phase.
@@ -103,9 +106,15 @@ pub(crate) fn stuff(
     //    rebuilt.
     let (fine, levels) = octree::padded(lattice, true);
     let (mut needed, known) = octree::band(surface, &fine, levels, grading.is_none());
-    let known = |p: DVec3| known.at(p);
+    // A refinement round keeps almost every vertex of the last: their winding numbers are
+    // looked up by position (the octree computes a lattice point's coordinates the same way
+    // every time), not evaluated again.
+    let mut earlier: HashMap<[u64; 3], f64> = HashMap::new();
+    let mut octree_rounds = 0;
     let (background, winding, mut labels) = loop {
+        octree_rounds += 1;
         let background = Octree::new(fine, levels, &needed, grading.unwrap_or(1)).background();
+        let known = |p: DVec3| earlier.get(&p.to_array().map(f64::to_bits)).copied().or_else(|| known.at(p));
         let winding = winding_numbers(surface, &background.positions, known, progress)?;
         let labels: Vec<i8> = winding.par_iter().map(|&w| label(w)).collect();
         let unresolved = unresolved(&background, &labels);
@@ -113,6 +122,7 @@ pub(crate) fn stuff(
             break (background, winding, labels);
         }
         octree::mark_boxes(&mut needed, &fine, &unresolved);
+        earlier = background.positions.iter().zip(&winding).map(|(p, &w)| (p.to_array().map(f64::to_bits), w)).collect();
     };
     let bg = &background;
     let nv = bg.positions.len();
@@ -275,6 +285,7 @@ pub(crate) fn stuff(
         bisected_cuts: bisected.into_inner(),
         on_surface,
         lattice_vertices: nv,
+        octree_rounds,
         leaves_per_level: background.leaves_per_level,
         timings,
     })

@@ -118,6 +118,18 @@ fn cheburashka_at_the_default_size() {
     assert_eq!((t.stats.passes, t.stats.off_surface_vertices), (1, 0), "one stuffing, every boundary vertex on the surface");
 }
 
+/// The open bunny graded at 700k tets: a coarse tet of the first octree straddles the surface
+/// through a hole, so the octree is refined and built again (the winding numbers of the
+/// vertices it keeps are reused, not evaluated again), and the mesh keeps every property.
+#[test]
+fn a_graded_octree_refined_through_a_hole_keeps_every_property() {
+    let input = shared_mesh("stanford-bunny");
+    let t = mesh_graded(&input, 700_000, 1);
+    check("stanford-bunny graded", &input, &t, 700_000);
+    assert!(t.stats.octree_rounds >= 2, "{} octree rounds", t.stats.octree_rounds);
+    assert!(t.stats.bisected_cuts > 0, "the bunny is open");
+}
+
 /// The slow tier (`bash scripts/test.sh --slow`): every test mesh meshed at 500k and 1M tets.
 #[test]
 #[ignore = "slow tier: bash scripts/test.sh --slow"]
