@@ -18,21 +18,25 @@
 //!    are all cut vertices (entirely on the removed side, or in the thin band that will collapse
 //!    onto the cut surface) are deleted. Vertices no kept tet uses are removed. Kept tets keep
 //!    their id in the ORIGINAL mesh (`original_tet`), vertices are compacted in increasing old id.
-//! 3. **Snap.** Every kept cut vertex is moved onto the cut surface, to
+//! 3. **Separate.** A kept vertex inside a removed part thinner than its tets can still be used
+//!    by kept tets on both sides of it; it gets one copy per side (`separate_sides`), and a
+//!    vertex (or copy) whose closest point lies on the far side of the removed part aims at the
+//!    point where the segment from its side's firm vertex enters the removed part instead.
+//! 4. **Snap.** Every kept cut vertex is moved onto the cut surface, to
 //!    [`Cutter::closest_point`], in up to `relax_iterations` Gauss–Seidel sweeps in increasing
 //!    vertex order (deterministic). A move is accepted only if every kept tet of the vertex's one
 //!    ring stays positively oriented (volume above `1e-12 ×` the bounding-box diagonal³) and keeps
 //!    its minimum dihedral angle at or above the bound; otherwise the largest accepted fraction of
 //!    the step is found by bisection ([`BISECTIONS`] halvings) and the vertex tries again in the
 //!    next sweep. Sweeps stop early when a sweep moves nothing.
-//! 4. **Unblock.** A cut vertex inside the object can stay held back where its closest point
+//! 5. **Unblock.** A cut vertex inside the object can stay held back where its closest point
 //!    would leave a sliver triangle on the cut surface (where tet sizes change, as on graded
 //!    meshes). The cut surface only needs the vertex on the cutter, not at its closest point: for
 //!    up to [`UNBLOCK_ROUNDS`] rounds, each such vertex tries the cutter's points nearest the
 //!    centroid of its snapped neighbours and half way to it (within one mean edge of its closest
 //!    point, so it cannot jump to another sheet of the cutter), under the same guard, and then
 //!    its closest point again, whole or in part.
-//! 5. **Rim.** Snapping a vertex of the object's surface along the cutter normal pulls the rim
+//! 6. **Rim.** Snapping a vertex of the object's surface along the cutter normal pulls the rim
 //!    of the cross-section inside the object (a sphere cut this way lost 2.4% of its
 //!    cross-section area). In one more pass, each such vertex that reached the cutter moves,
 //!    along the cutter, to where the cutter meets the surface's tangent plane at the vertex's
@@ -278,7 +282,7 @@ pub fn cut_with(
     }
 
     poll()?;
-    // Unblock (step 4 of the module docs).
+    // Unblock (step 5 of the module docs).
     if options.relax_iterations > 0 {
         for _ in 0..UNBLOCK_ROUNDS {
             let mut any = false;
@@ -406,7 +410,7 @@ fn segment_reaches(cutter: &Prepared<'_>, (a, da): (DVec3, f64), (b, db): (DVec3
         || segment_reaches(cutter, (m, dm), (b, db), halvings - 1)
 }
 
-/// Step 3: a kept vertex on the removed side (`d ≥ 0`) that kept tets on BOTH sides of a thin
+/// Step 3 of the module docs: a kept vertex on the removed side (`d ≥ 0`) that kept tets on BOTH sides of a thin
 /// removed part still use would join them. Its kept tets are grouped by side (two tets are on
 /// the same side when the segment between firm vertices of theirs does not reach the removed
 /// side, [`segment_reaches`]); each group after the first gets its own copy of the vertex
