@@ -157,7 +157,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         bail!("--inverse-nodes {nodes:?}: at least 4 nodes per axis (the 4 × 4 patterns need a face to split)");
     }
     let cap = usize::try_from(args.inverse_iterations)?;
-    let setup = Setup { dims: nodes, spacing_mm: 0.5, eta: 1.3, observation: Observation::BackLit };
+    let observation = args.inverse_front_lit.map_or(Observation::BackLit, |margin_mm| Observation::FrontLit { margin_mm });
+    let setup = Setup { dims: nodes, spacing_mm: 0.5, eta: 1.3, observation };
     let truth = VeinedBlock::marble(&setup);
     let patterns = Pattern::grid_all(4, setup.face_size_mm(), [1.0; 3]);
     let t = Instant::now();
@@ -200,7 +201,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let estimate_s = solves as f64 * per_solve * node_factor * axis_factor;
     let report = serde_json::json!({
         "suite": "inverse",
-        "sample": "marble block with a diagonal vein of 5x sigma_a and a 1 mm skin of 1.5x sigma_s', back-lit",
+        "sample": "marble block with a diagonal vein of 5x sigma_a and a 1 mm skin of 1.5x sigma_s'",
+        "observation": match observation {
+            Observation::BackLit => serde_json::json!("back-lit"),
+            Observation::FrontLit { margin_mm } => serde_json::json!({ "front-lit": { "margin_mm": margin_mm } }),
+        },
         "nodes": nodes,
         "spacing_mm": setup.spacing_mm,
         "cells": (nodes[0] - 1) * (nodes[1] - 1) * (nodes[2] - 1),

@@ -5,6 +5,7 @@
 fn the_inverse_suite_reports_both_optimisers_and_the_marble_estimate() {
     let r = crate::bench_report(&["inverse", "--inverse-nodes", "6,6,4", "--inverse-iterations", "3"]);
     assert_eq!(r["suite"], "inverse");
+    assert_eq!(r["observation"], "back-lit");
     assert_eq!(r["images"], 16);
     assert_eq!(r["cells"], 5 * 5 * 3);
     let methods = r["methods"].as_array().unwrap();
@@ -47,6 +48,22 @@ fn the_inverse_suite_reports_both_optimisers_and_the_marble_estimate() {
         assert!(q["held_out_point_rms"].as_f64().unwrap() > 0.0);
     }
     assert_eq!(e["warm_start_bytes"].as_u64().unwrap(), 48 * 16 * 256 * 256 * 20);
+}
+
+/// `--inverse-front-lit` observes the lit face: the report names it with its margin, and the
+/// fit sees other pixels than the back-lit one (a different misfit).
+#[test]
+fn the_front_lit_acquisition_is_named_and_differs() {
+    let run = |extra: &[&str]| {
+        let mut args = vec!["inverse", "--inverse-nodes", "6,6,4", "--inverse-iterations", "3"];
+        args.extend_from_slice(extra);
+        crate::bench_report(&args)
+    };
+    let front = run(&["--inverse-front-lit", "0.5"]);
+    assert_eq!(front["observation"]["front-lit"]["margin_mm"], 0.5);
+    let back = run(&[]);
+    let misfit = |r: &serde_json::Value| r["methods"][0]["misfit_rms"].clone();
+    assert_ne!(misfit(&front), misfit(&back));
 }
 
 #[test]
