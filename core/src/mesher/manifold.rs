@@ -31,15 +31,17 @@ pub(crate) struct Repair {
 /// Moves boundary vertices among `touched` that a removal exposed (off the input surface) onto
 /// it, one at a time: to the first of [`surface_candidates`] at which every tet around the
 /// vertex (as `tets` stores it) stays positively oriented and within the dihedral bounds.
-/// `on_boundary` flags the boundary vertices of `tets`. Returns how many moved, how many
-/// stayed off the surface, and the tets that blocked those at their closest point (sorted).
+/// `on_boundary` flags the boundary vertices of `tets`. Adds how many moved to `repair`, sets
+/// how many stayed off the surface, and returns the tets that blocked those at their closest
+/// point (sorted).
 fn project_exposed(
     positions: &mut [DVec3],
     tets: &[[u32; 4]],
     on_boundary: &[bool],
     touched: &[u32],
     surface: &crate::mesh::TriangleBvh,
-) -> (usize, usize, Vec<u32>) {
+    repair: &mut Repair,
+) -> Vec<u32> {
     let scale = positions.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
     let star = Incidence::new(tets, positions.len());
     let (mut moved, mut stayed) = (0, 0);
@@ -82,7 +84,9 @@ fn project_exposed(
     }
     failing.sort_unstable();
     failing.dedup();
-    (moved, stayed, failing)
+    repair.projected_vertices += moved;
+    repair.off_surface_vertices = stayed;
+    failing
 }
 
 /// Whether a tet is positively oriented with every dihedral angle within the mesher's bounds.
@@ -201,10 +205,8 @@ pub(crate) fn repaired(
             let faces = boundary.faces.len();
             if !touched.is_empty() {
                 let on_boundary = boundary.on_boundary();
-                let (projected, off_surface, blocking) = project_exposed(&mut positions, &tets, &on_boundary, &touched, surface);
-                repair.projected_vertices += projected;
-                repair.off_surface_vertices = off_surface;
-                if closed && off_surface > 0 && blocking_rounds < BLOCKING_ROUNDS {
+                let blocking = project_exposed(&mut positions, &tets, &on_boundary, &touched, surface, &mut repair);
+                if closed && repair.off_surface_vertices > 0 && blocking_rounds < BLOCKING_ROUNDS {
                     blocking_rounds += 1;
                     remove = blocking;
                 }
@@ -262,9 +264,7 @@ pub(crate) fn repaired(
     // Out of rounds: the last removal's exposed vertices still go onto the surface where they
     // can, and those that cannot are counted.
     let on_boundary = Boundary::new(&positions, &tets, &on_surface)?.on_boundary();
-    let (projected, off_surface, _) = project_exposed(&mut positions, &tets, &on_boundary, &touched, surface);
-    repair.projected_vertices += projected;
-    repair.off_surface_vertices = off_surface;
+    project_exposed(&mut positions, &tets, &on_boundary, &touched, surface, &mut repair);
     let mesh = TetMesh::new(positions, tets, Vec::new())?;
     Ok((mesh, repair))
 }
