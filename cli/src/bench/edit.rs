@@ -1,7 +1,8 @@
 //! `transcut bench edit`: the interactive edits of TransCut §5 and the Fig. 7 curve on one mesh.
 //!
 //! The input (default the Stanford bunny) is scaled to 60 mm, marble, lit by one sun from
-//! (0, 1, 1) (irradiance 3, with shadows, as `transcut bake`), tetrahedralised once per size.
+//! (0, 1, 1) (irradiance 3, with shadows, as `transcut bake`), tetrahedralised once per size
+//! and `--grading` (default 0, one spacing).
 //! Per run, back to back:
 //! - **cold bake**: TransCut's bake of the tet mesh ([`transcut::bake()`]: assembly, source,
 //!   cold SSOR-PCG solve);
@@ -13,7 +14,10 @@
 //! - **paint**: a stroke of 8 points across the front of the surface, Gaussian radius 2 mm, of
 //!   an absorbing marble-like ink (rows rebuilt, tets changed, ms);
 //! - **cut**: a plane through the centre of the bounds removing the back half (rebuild of the
-//!   topology, hierarchy and matrix and the solve included, ms).
+//!   topology, hierarchy and matrix and the solve included, ms); then a **bite**: a ball of a
+//!   fifth of the largest extent ([`Cutter::Solid`], an icosphere) centred on the front vertex
+//!   nearest the middle, removed from what the plane kept. The cut's own steps (classify,
+//!   separate, snap) are timed in `last.cut`.
 //!
 //! Medians over `--runs`. Then Fig. 7 ([`super::fig7`]) on the same tet mesh
 //! (unshadowed sun, the reference solved to 1e-10): relative error against time for Jacobi
@@ -29,7 +33,7 @@ use transcut::edit::{Cutter, EditOptions, Editor, PaintStroke, UpdateStats};
 use transcut::gpu::Backend;
 use transcut::light::Light;
 use transcut::mesh;
-use transcut::mesher::{tetrahedralize, MesherOptions};
+use transcut::mesher::{tetrahedralize, Grading, MesherOptions};
 use transcut::optics::Medium;
 use transcut::sparse::hierarchy::HierarchyOptions;
 use transcut::sparse::SolveOptions;
@@ -92,6 +96,7 @@ struct PaintEntry {
 #[derive(Serialize)]
 struct SizeEntry {
     target_tets: usize,
+    grading: Grading,
     tets: usize,
     vertices: usize,
     meshing_ms: f64,
@@ -100,6 +105,7 @@ struct SizeEntry {
     relight_5deg: RelightEntry,
     paint: PaintEntry,
     cut_plane: EditEntry,
+    cut_ball: EditEntry,
     fig7: Fig7,
 }
 
@@ -178,15 +184,19 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let edit_options = EditOptions::from_bake_options(&bake_options, &transcut);
     let radius_mm = 2.0;
     let runs = args.runs as usize;
+    let ball_radius = 0.2 * (hi - lo).max_element();
+    let ball = mesh::icosphere(ball_radius, 3);
+    let gradings = if args.grading.is_empty() { vec![0] } else { args.grading.clone() };
     let mut entries = Vec::new();
-    for &target in &args.tets {
+    for (&target, layers) in args.tets.iter().flat_map(|t| gradings.iter().map(move |&g| (t, g))) {
+        let grading = Grading::from_layers(layers);
         let t = Instant::now();
-        let tet_mesh = tetrahedralize(&input, &MesherOptions::with_tets(target))?;
+        let tet_mesh = tetrahedralize(&input, &MesherOptions { grading, ..MesherOptions::with_tets(target) })?;
         let meshing_ms = ms(t);
         let object = Object::from_tets("bench", tet_mesh.clone(), MediumSource::Homogeneous(marble), mm_per_unit);
         let scene = |towards: DVec3| Scene { objects: vec![object.clone()], lights: vec![sun_light(towards)] };
         let (mut cold, mut cold5, mut setup) = (Vec::new(), Vec::new(), Vec::new());
-        let (mut relight, mut paint, mut cut) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut relight, mut paint, mut cut, mut bite) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut difference = None;
         let mut cold_same = [0; 3];
         let mut points = Vec::new();
@@ -211,6 +221,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
 
             let c = 0.5 * (lo + hi);
             cut.push(editor.cut(&Cutter::Plane { point: c, normal: DVec3::new(0.0, 0.0, -1.0) })?);
+            let centre = points[points.len() / 2];
+            let solid = ball.transformed(&glam::DMat4::from_translation(centre));
+            bite.push(editor.cut(&Cutter::Solid(solid))?);
         }
         let cold_bake = cold_entry(&cold)?;
         let cold5 = cold_entry(&cold5)?;
@@ -230,6 +243,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         let fig7 = fig7(&mut system, sun, runs, 1e-10)?;
         entries.push(SizeEntry {
             target_tets: target,
+            grading,
             tets: tet_mesh.tets().len(),
             vertices: tet_mesh.positions().len(),
             meshing_ms,
@@ -238,6 +252,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             relight_5deg,
             paint: PaintEntry { points: points.len(), radius_mm, edit: edit_entry(paint)? },
             cut_plane: edit_entry(cut)?,
+            cut_ball: edit_entry(bite)?,
             fig7,
         });
     }

@@ -26,6 +26,7 @@ fn bench_edit_reports_every_edit_consistently() {
     let entries = json["entries"].as_array().unwrap();
     assert_eq!(entries.len(), 1);
     let e = &entries[0];
+    assert_eq!(e["grading"], "Uniform", "the default grading of the edit suite");
     let tets = e["tets"].as_u64().unwrap();
     assert!((4_000..=6_000).contains(&tets), "{tets}");
 
@@ -69,6 +70,16 @@ fn bench_edit_reports_every_edit_consistently() {
     assert!(stats["min_dihedral_degrees"].as_f64().unwrap() >= stats["bound_degrees"].as_f64().unwrap());
     assert!(sum(&cut["last"]["iterations"]) > 0);
     positive(&cut["median_total_ms"], "cut ms");
+    // The cut's steps are timed and fit inside its total.
+    let step = |name: &str| stats[name].as_f64().unwrap();
+    assert!(step("classify_ms") >= 0.0 && step("separate_ms") >= 0.0 && step("snap_ms") >= 0.0);
+    assert!(step("classify_ms") + step("separate_ms") + step("snap_ms") <= step("total_ms"));
+
+    // The ball bites into what the plane kept: it removes tets, fewer than the plane left.
+    let bite = &e["cut_ball"]["last"]["cut"];
+    let bitten = bite["removed_tets"].as_u64().unwrap();
+    assert!(bitten > 0 && bitten < tets - removed, "the ball removed {bitten} of {}", tets - removed);
+    assert!(bite["min_dihedral_degrees"].as_f64().unwrap() >= bite["bound_degrees"].as_f64().unwrap());
 
     // Fig. 7: five methods, curves whose error falls as the tolerance tightens, and a time to
     // 1% for each (the 1e-6 solve is far below 1%).

@@ -122,6 +122,13 @@ pub(super) enum Prepared<'a> {
 }
 
 impl Prepared<'_> {
+    /// Whether the kept side is convex (a plane's half-space): then no segment between two kept
+    /// points reaches the removed side and no closest point lies across a thin removed part,
+    /// so the cut's bridging and separation steps have nothing to find.
+    pub(super) fn kept_side_is_convex(&self) -> bool {
+        matches!(self, Prepared::Plane { .. })
+    }
+
     pub(super) fn signed_distance(&self, p: DVec3) -> f64 {
         match self {
             Prepared::Plane { point, normal } => plane_distance(p, *point, *normal),

@@ -357,6 +357,10 @@ fn removed_stats(p: &Piece) -> CutStats {
         max_cut_distance: 0.0,
         min_dihedral_degrees: f64::INFINITY,
         bound_degrees: f64::INFINITY,
+        classify_ms: 0.0,
+        separate_ms: 0.0,
+        snap_ms: 0.0,
+        total_ms: 0.0,
     }
 }
 
@@ -372,6 +376,10 @@ fn merge(a: Option<CutStats>, b: &CutStats) -> CutStats {
             max_cut_distance: a.max_cut_distance.max(b.max_cut_distance),
             min_dihedral_degrees: a.min_dihedral_degrees.min(b.min_dihedral_degrees),
             bound_degrees: a.bound_degrees.min(b.bound_degrees),
+            classify_ms: a.classify_ms + b.classify_ms,
+            separate_ms: a.separate_ms + b.separate_ms,
+            snap_ms: a.snap_ms + b.snap_ms,
+            total_ms: a.total_ms + b.total_ms,
         },
     }
 }
