@@ -576,6 +576,16 @@ typedef struct TcAcquireOptions {
    * `TC_ACQUIRE_RGB` (default) or `TC_ACQUIRE_GREY`.
    */
   uint32_t channels;
+  /**
+   * Coarse to fine: with N ≥ 1 the per-cell fit is preceded by fits on blocks of 2^N cells
+   * a side, then 2^(N−1), …, 2, each capped at `max_iterations` (default 0: per cell
+   * straight from the homogeneous fit, as the paper does; at most 8).
+   */
+  uint32_t coarse_levels;
+  /**
+   * σa is fitted on blocks this many times wider than σ′s (default 1: the same grid; ≥ 1).
+   */
+  uint32_t absorption_coarsening;
 } TcAcquireOptions;
 
 /**
@@ -2801,7 +2811,7 @@ TC_LAYOUT_CHECK(TcEditStats_cut_surface_vertices, offsetof(TcEditStats, cut_surf
 TC_LAYOUT_CHECK(TcEditStats_cut_max_distance, offsetof(TcEditStats, cut_max_distance) == 112);
 TC_LAYOUT_CHECK(TcEditStats_cut_min_dihedral_degrees, offsetof(TcEditStats, cut_min_dihedral_degrees) == 120);
 TC_LAYOUT_CHECK(TcEditStats_cut_bound_degrees, offsetof(TcEditStats, cut_bound_degrees) == 128);
-TC_LAYOUT_CHECK(TcAcquireOptions__sizeof, sizeof(TcAcquireOptions) == 176);
+TC_LAYOUT_CHECK(TcAcquireOptions__sizeof, sizeof(TcAcquireOptions) == 184);
 TC_LAYOUT_CHECK(TcAcquireOptions_size, offsetof(TcAcquireOptions, size) == 0);
 TC_LAYOUT_CHECK(TcAcquireOptions_observe, offsetof(TcAcquireOptions, observe) == 4);
 TC_LAYOUT_CHECK(TcAcquireOptions_nodes, offsetof(TcAcquireOptions, nodes) == 8);

@@ -525,6 +525,8 @@ class TcAcquireOptions(Structure):
         ("origin", c_double * 3),
         ("units_per_mm", c_double),
         ("channels", c_uint32),
+        ("coarse_levels", c_uint32),
+        ("absorption_coarsening", c_uint32),
     ]
 
 

@@ -87,10 +87,16 @@ pub struct TcAcquireOptions {
     pub units_per_mm: f64,
     /// `TC_ACQUIRE_RGB` (default) or `TC_ACQUIRE_GREY`.
     pub channels: u32,
+    /// Coarse to fine: with N ≥ 1 the per-cell fit is preceded by fits on blocks of 2^N cells
+    /// a side, then 2^(N−1), …, 2, each capped at `max_iterations` (default 0: per cell
+    /// straight from the homogeneous fit, as the paper does; at most 8).
+    pub coarse_levels: u32,
+    /// σa is fitted on blocks this many times wider than σ′s (default 1: the same grid; ≥ 1).
+    pub absorption_coarsening: u32,
 }
 
-/// The first version's size of `TcAcquireOptions`.
-const ACQUIRE_OPTIONS_SIZE_V1: usize = size_of::<TcAcquireOptions>();
+/// The first version's size of `TcAcquireOptions` (up to `channels` and its padding).
+const ACQUIRE_OPTIONS_SIZE_V1: usize = std::mem::offset_of!(TcAcquireOptions, coarse_levels).next_multiple_of(8);
 
 fn default_acquire_options() -> TcAcquireOptions {
     let core = AcquireOptions::default();
@@ -99,7 +105,7 @@ fn default_acquire_options() -> TcAcquireOptions {
         Lambda::Discrepancy { start, .. } => start,
     };
     TcAcquireOptions {
-        size: ACQUIRE_OPTIONS_SIZE_V1 as u32,
+        size: size_of::<TcAcquireOptions>() as u32,
         observe: TC_ACQUIRE_BACK_LIT,
         nodes: [0; 3],
         method: TC_ACQUIRE_LBFGS,
@@ -117,6 +123,8 @@ fn default_acquire_options() -> TcAcquireOptions {
         origin: [0.0; 3],
         units_per_mm: 1.0,
         channels: TC_ACQUIRE_RGB,
+        coarse_levels: u32::try_from(core.coarse_levels).unwrap_or(u32::MAX),
+        absorption_coarsening: u32::try_from(core.absorption_coarsening).unwrap_or(u32::MAX),
     }
 }
 
@@ -226,7 +234,12 @@ pub unsafe extern "C" fn tc_acquire(
         check_not_null!(options, images, out_voxels);
         let sized = Sized { what: "options", type_name: "TcAcquireOptions", filler: "tc_acquire_options_init" };
         // SAFETY: the caller's contract (`options->size` readable bytes).
-        let o = unsafe { read_sized(options, ACQUIRE_OPTIONS_SIZE_V1, default_acquire_options(), &sized)? };
+        let mut o = unsafe { read_sized(options, ACQUIRE_OPTIONS_SIZE_V1, default_acquire_options(), &sized)? };
+        if (o.size as usize) < size_of::<TcAcquireOptions>() {
+            // A first-version struct: `coarse_levels` shares the bytes of its trailing padding.
+            let defaults = default_acquire_options();
+            (o.coarse_levels, o.absorption_coarsening) = (defaults.coarse_levels, defaults.absorption_coarsening);
+        }
         let nodes = o.nodes.map(|n| n as usize);
         if nodes.iter().any(|&n| n < 2) {
             return Err(Failure::invalid(format!("options->nodes = {:?}: at least 2 along each axis", o.nodes)));
@@ -326,6 +339,8 @@ pub unsafe extern "C" fn tc_acquire(
             target_misfit_rms: o.target_misfit_rms,
             solve: SolveSettings { tolerance: o.solve_tolerance, ..SolveSettings::default() },
             channels,
+            coarse_levels: o.coarse_levels as usize,
+            absorption_coarsening: o.absorption_coarsening as usize,
             ..AcquireOptions::default()
         };
         let mut model = Acquisition::new(setup, &pattern_list, image_data, None).map_err(|e| failure(&e))?;

@@ -6,7 +6,7 @@ use std::ffi::{c_char, c_void, CString};
 use std::ptr;
 
 use transcut_core::inverse::{
-    acquire, synthesize, AcquireOptions, Acquisition, Lambda, Observation, Pattern, Setup, SolveSettings, SynthOptions,
+    acquire, synthesize, AcquireOptions, Acquired, Acquisition, Lambda, Observation, Pattern, Setup, SolveSettings, SynthOptions,
     VeinedBlock,
 };
 use transcut_core::volume::VoxelGrid;
@@ -69,6 +69,50 @@ fn run(o: &TcAcquireOptions, images: &[f32], path: *const c_char) -> (TcStatus, 
     (status, out, stats)
 }
 
+/// The Rust API's fit of the ABI's `images` with the options `options()` sets (3 per-cell
+/// iterations, λ 1e-4) over `base`, and its voxels as `tc_acquire` returns them.
+fn rust_fit(images: &[f32], base: AcquireOptions) -> (Acquired, Vec<f32>) {
+    let s = setup();
+    let patterns = Pattern::grid_all(4, s.face_size_mm(), [1.0; 3]);
+    let per_image = 36;
+    let imgs: Vec<Vec<[f64; 3]>> = images
+        .chunks_exact(3 * per_image)
+        .map(|im| im.chunks_exact(3).map(|p| [p[0], p[1], p[2]].map(f64::from)).collect())
+        .collect();
+    let mut model = Acquisition::new(s, &patterns, imgs, None).unwrap();
+    let options = AcquireOptions { max_iterations: 3, lambda: Lambda::Given(1e-4), solve: SolveSettings::default(), ..base };
+    let fit = acquire(&mut model, &options, &Progress::none()).unwrap();
+    let voxels = fit
+        .media
+        .sigma_a
+        .iter()
+        .zip(&fit.media.sigma_s_prime)
+        .flat_map(|(a, s)| [a[0], a[1], a[2], s[0], s[1], s[2]].map(|v| v as f32))
+        .collect();
+    (fit, voxels)
+}
+
+#[test]
+fn coarse_to_fine_reaches_the_fit_and_a_first_version_struct_keeps_one_fit_per_cell() {
+    let data = images();
+    let mut o = options();
+    (o.coarse_levels, o.absorption_coarsening) = (1, 2);
+    let (status, voxels, _) = run(&o, &data, ptr::null());
+    ok(status, "tc_acquire coarse to fine");
+    let (_, expected) =
+        rust_fit(&data, AcquireOptions { coarse_levels: 1, absorption_coarsening: 2, ..AcquireOptions::default() });
+    assert_eq!(voxels, expected);
+    let (_, per_cell) = rust_fit(&data, AcquireOptions::default());
+    assert_ne!(voxels, per_cell, "the coarse fit is another fit");
+    // A caller built against the first header: its struct ends at `channels` (and padding),
+    // whatever bytes follow are not read, and the fit is the paper's, per cell.
+    o.size = std::mem::offset_of!(TcAcquireOptions, coarse_levels).next_multiple_of(8) as u32;
+    (o.coarse_levels, o.absorption_coarsening) = (u32::MAX, 0);
+    let (status, voxels, _) = run(&o, &data, ptr::null());
+    ok(status, "tc_acquire, first-version struct");
+    assert_eq!(voxels, per_cell);
+}
+
 #[test]
 fn an_acquisition_equals_the_rust_apis_and_writes_a_loadable_grid() {
     let data = images();
@@ -81,28 +125,7 @@ fn an_acquisition_equals_the_rust_apis_and_writes_a_loadable_grid() {
     ok(status, "tc_acquire");
 
     // The Rust API on the same images and options.
-    let s = setup();
-    let patterns = Pattern::grid_all(4, s.face_size_mm(), [1.0; 3]);
-    let per_image = 36;
-    let imgs: Vec<Vec<[f64; 3]>> = data
-        .chunks_exact(3 * per_image)
-        .map(|im| im.chunks_exact(3).map(|p| [p[0], p[1], p[2]].map(f64::from)).collect())
-        .collect();
-    let mut model = Acquisition::new(s, &patterns, imgs, None).unwrap();
-    let options = AcquireOptions {
-        max_iterations: 3,
-        lambda: Lambda::Given(1e-4),
-        solve: SolveSettings::default(),
-        ..AcquireOptions::default()
-    };
-    let fit = acquire(&mut model, &options, &Progress::none()).unwrap();
-    let expected: Vec<f32> = fit
-        .media
-        .sigma_a
-        .iter()
-        .zip(&fit.media.sigma_s_prime)
-        .flat_map(|(a, s)| [a[0], a[1], a[2], s[0], s[1], s[2]].map(|v| v as f32))
-        .collect();
+    let (fit, expected) = rust_fit(&data, AcquireOptions::default());
     assert_eq!(voxels, expected);
     assert_eq!(stats.dims, [5, 5, 3]);
     assert_eq!(stats.forward_solves, fit.counts.forward_solves as u64);
@@ -142,8 +165,10 @@ fn bad_input_is_named_and_nothing_is_written() {
 
     // Options that cannot describe these images.
     type Change = fn(&mut TcAcquireOptions);
-    let bad_options: [(Change, &[&str]); 4] = [
+    let bad_options: [(Change, &[&str]); 6] = [
         (|o| o.lambda = -0.5, &["λ", "-0.5"]),
+        (|o| o.coarse_levels = 9, &["coarse-to-fine levels", "at most 8"]),
+        (|o| o.absorption_coarsening = 0, &["absorption coarsening"]),
         (|o| o.pattern_grid = 3, &["16 images for 9 light patterns"]),
         (|o| o.channels = 7, &["options->channels = 7"]),
         (|o| o.nodes = [6, 6, 1], &["options->nodes"]),

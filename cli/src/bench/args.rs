@@ -73,9 +73,9 @@ pub struct BenchArgs {
     /// Target tet counts, comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = [100_000usize, 500_000, 1_000_000])]
     pub tets: Vec<usize>,
-    /// Gradings of the `mesh` and `sphere` suites, comma-separated: 0 one spacing everywhere,
-    /// N ≥ 1 graded with N cubes of each size (as `transcut mesh --grading`). Default: 0 for
-    /// `mesh`; 0, 1, 2 and 4 for `sphere`.
+    /// Gradings of the `mesh`, `edit` and `sphere` suites, comma-separated: 0 one spacing
+    /// everywhere, N ≥ 1 graded with N cubes of each size (as `transcut mesh --grading`).
+    /// Default: 0 for `mesh` and `edit`; 0, 1, 2 and 4 for `sphere`.
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(0..=64))]
     pub grading: Vec<u32>,
     /// Media of the `sphere` suite (preset names), comma-separated.
@@ -154,6 +154,13 @@ pub struct BenchArgs {
     /// default).
     #[arg(long, value_name = "MARGIN_MM", value_parser = front_lit_margin)]
     pub inverse_front_lit: Option<f64>,
+    /// The `inverse` suite's fits go coarse to fine: per-cell media are first fitted on blocks
+    /// of 2^N cells a side, then 2^(N−1), …, 2, then per cell.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=8))]
+    pub inverse_coarse_levels: u32,
+    /// The `inverse` suite fits σa on blocks this many times wider than σ′s (1: per cell).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub inverse_absorption_coarsening: u32,
     /// The `inverse` suite's tets for TransCut's rendering of the recovered and true blocks.
     #[arg(long, default_value_t = 60_000, value_parser = clap::value_parser!(u64).range(1_000..=2_000_000))]
     pub inverse_render_tets: u64,

@@ -58,25 +58,36 @@ struct Run {
     seconds: f64,
 }
 
-/// The fit of `images` by `method` from a marble-like start, the per-cell fit capped at `cap`
-/// iterations per channel and stopped at `target` RMS misfit per channel.
+/// How the suite's fits run: the per-cell fit's optimiser, its iteration cap per channel (per
+/// level when coarse to fine) and its parameter grids.
+#[derive(Clone, Copy)]
+struct Plan {
+    method: Method,
+    cap: usize,
+    coarse_levels: usize,
+    absorption_coarsening: usize,
+}
+
+/// The fit of `images` by `plan` from a marble-like start, stopped at `target` RMS misfit per
+/// channel.
 fn measure(
     setup: &Setup,
     patterns: &[Pattern],
     images: &[Vec<[f64; 3]>],
-    method: Method,
-    cap: usize,
+    plan: Plan,
     lambda: Lambda,
     target: f64,
 ) -> anyhow::Result<Acquired> {
     let mut model = Acquisition::new(setup.clone(), patterns, images.to_vec(), None)?;
     let options = AcquireOptions {
-        method,
+        method: plan.method,
         lambda,
         initial: ([0.005; 3], [2.0; 3]),
         homogeneous_iterations: 100,
-        max_iterations: cap,
+        max_iterations: plan.cap,
         target_misfit_rms: target,
+        coarse_levels: plan.coarse_levels,
+        absorption_coarsening: plan.absorption_coarsening,
         ..AcquireOptions::default()
     };
     Ok(acquire(&mut model, &options, &Progress::none())?)
@@ -132,12 +143,14 @@ fn method_report(r: &Run, quality: serde_json::Value) -> serde_json::Value {
     let f = &r.fit;
     let iterations = f.history.iter().filter(|h| h.iteration > 0).count();
     let heterogeneous = f.history.iter().filter(|h| h.iteration > 0 && h.stage == "heterogeneous").count();
+    let coarse = f.history.iter().filter(|h| h.iteration > 0 && h.stage == "coarse").count();
     let solves = f.counts.forward_solves + f.counts.adjoint_solves;
     serde_json::json!({
         "method": r.name,
         "seconds": r.seconds,
         "iterations": iterations,
         "heterogeneous_iterations": heterogeneous,
+        "coarse_iterations": coarse,
         "forward_solves": f.counts.forward_solves,
         "adjoint_solves": f.counts.adjoint_solves,
         "pcg_iterations": f.counts.pcg_iterations,
@@ -157,6 +170,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         bail!("--inverse-nodes {nodes:?}: at least 4 nodes per axis (the 4 × 4 patterns need a face to split)");
     }
     let cap = usize::try_from(args.inverse_iterations)?;
+    let plan = Plan {
+        method: Method::default(),
+        cap,
+        coarse_levels: args.inverse_coarse_levels as usize,
+        absorption_coarsening: args.inverse_absorption_coarsening as usize,
+    };
     let observation = args.inverse_front_lit.map_or(Observation::BackLit, |margin_mm| Observation::FrontLit { margin_mm });
     let setup = Setup { dims: nodes, spacing_mm: 0.5, eta: 1.3, observation };
     let truth = VeinedBlock::marble(&setup);
@@ -170,7 +189,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut runs = Vec::new();
     for (name, method) in [("lbfgs", Method::default()), ("paper", Method::PaperCg)] {
         let t = Instant::now();
-        let fit = measure(&setup, &patterns, &images, method, cap, Lambda::Given(LAMBDA), TARGET_MISFIT)?;
+        let fit = measure(&setup, &patterns, &images, Plan { method, ..plan }, Lambda::Given(LAMBDA), TARGET_MISFIT)?;
         runs.push(Run { name, fit, seconds: t.elapsed().as_secs_f64() });
     }
     let methods =
@@ -189,7 +208,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "homogeneous": named(rendered_errors(&setup, &truth_voxels, &homogeneous, tets)?),
         "seconds": t.elapsed().as_secs_f64(),
     });
-    let sweep = if args.inverse_sweep { Some(sweep(&setup, &truth, &reference, &runs[0], &images, cap)?) } else { None };
+    let sweep = if args.inverse_sweep { Some(sweep(&setup, &truth, &reference, &runs[0], &images, plan)?) } else { None };
     let (default, paper) = (&runs[0], &runs[1]);
     let ratio = default.fit.counts.forward_solves as f64 / paper.fit.counts.forward_solves.max(1) as f64;
     let solves = default.fit.counts.forward_solves + default.fit.counts.adjoint_solves;
@@ -215,6 +234,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "lambda": LAMBDA,
         "target_misfit_rms": TARGET_MISFIT,
         "iteration_cap_per_channel": cap,
+        "coarse_levels": plan.coarse_levels,
+        "absorption_coarsening": plan.absorption_coarsening,
         "synthesis_seconds": synthesis_s,
         "held_out_synthesis_seconds": reference_s,
         "methods": methods,
@@ -253,7 +274,7 @@ fn sweep(
     reference: &Reference,
     default: &Run,
     images: &[Vec<[f64; 3]>],
-    cap: usize,
+    plan: Plan,
 ) -> anyhow::Result<serde_json::Value> {
     let entry = |m: usize, fit: &Acquired, seconds: f64| -> anyhow::Result<serde_json::Value> {
         Ok(serde_json::json!({
@@ -276,7 +297,7 @@ fn sweep(
         let patterns = Pattern::grid_all(n, setup.face_size_mm(), [1.0; 3]);
         let images = synthesize(setup, &patterns, &|p| truth.medium(p), SynthOptions::default())?;
         let t = Instant::now();
-        let fit = measure(setup, &patterns, &images, Method::default(), cap, Lambda::Given(LAMBDA), TARGET_MISFIT)?;
+        let fit = measure(setup, &patterns, &images, plan, Lambda::Given(LAMBDA), TARGET_MISFIT)?;
         patterns_sweep.push(entry(n * n, &fit, t.elapsed().as_secs_f64())?);
     }
     let patterns = Pattern::grid_all(4, setup.face_size_mm(), [1.0; 3]);
@@ -284,7 +305,7 @@ fn sweep(
     let lambda = Lambda::Discrepancy { noise_rms: NOISE_RMS, tau: NOISE_TAU, start: NOISE_LAMBDA_START };
     let t = Instant::now();
     // The target is the principle's own: each λ's fit stops at τ × the noise.
-    let fit = measure(setup, &patterns, &noisy, Method::default(), cap, lambda, NOISE_TAU * NOISE_RMS)?;
+    let fit = measure(setup, &patterns, &noisy, plan, lambda, NOISE_TAU * NOISE_RMS)?;
     let mut noisy_entry = entry(16, &fit, t.elapsed().as_secs_f64())?;
     noisy_entry["noise_rms"] = serde_json::json!(NOISE_RMS);
     noisy_entry["discrepancy"] = serde_json::json!({ "tau": NOISE_TAU, "first_lambda": NOISE_LAMBDA_START });

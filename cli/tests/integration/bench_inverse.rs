@@ -67,6 +67,28 @@ fn the_front_lit_acquisition_is_named_and_differs() {
 }
 
 #[test]
+fn coarse_to_fine_and_coarser_absorption_are_passed_to_the_fits() {
+    let r = crate::bench_report(&[
+        "inverse",
+        "--inverse-nodes",
+        "6,6,4",
+        "--inverse-iterations",
+        "3",
+        "--inverse-coarse-levels",
+        "1",
+        "--inverse-absorption-coarsening",
+        "2",
+    ]);
+    assert_eq!((r["coarse_levels"].as_u64(), r["absorption_coarsening"].as_u64()), (Some(1), Some(2)));
+    for method in r["methods"].as_array().unwrap() {
+        let count = |k: &str| method[k].as_u64().unwrap();
+        // One coarse level and the per-cell fit, each capped at 3 per channel.
+        assert!((1..=3 * 3).contains(&count("coarse_iterations")), "{method}");
+        assert!(count("heterogeneous_iterations") <= 3 * 3, "{method}");
+    }
+}
+
+#[test]
 fn the_sweep_reports_every_pattern_count_and_the_noisy_repeat() {
     let r = crate::bench_report(&["inverse", "--inverse-nodes", "6,6,4", "--inverse-iterations", "3", "--inverse-sweep"]);
     let sweep = &r["sweep"];

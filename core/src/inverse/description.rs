@@ -33,6 +33,8 @@
 //! lambda = 1e-4                # or discrepancy = { noise_rms = 0.01 }
 //! max_iterations = 40
 //! channels = "rgb"             # or "grey": grey images, one channel fitted and copied
+//! coarse_levels = 0            # N: fit blocks of 2^N, …, 2 cells before single cells
+//! absorption_coarsening = 1    # F: σa on blocks F times wider than σ′s
 //! ```
 
 use std::io::Cursor;
@@ -156,6 +158,10 @@ pub struct OptimiserSettings {
     /// "rgb" (default: each channel fitted) or "grey" (grey images: the first channel fitted
     /// and copied, [`Channels::Grey`]).
     pub channels: ChannelsName,
+    /// Coarse-to-fine levels before the per-cell fit ([`AcquireOptions::coarse_levels`]).
+    pub coarse_levels: usize,
+    /// σa's blocks this many times wider than σ′s ([`AcquireOptions::absorption_coarsening`]).
+    pub absorption_coarsening: usize,
 }
 
 /// The fitted channels' name in a description.
@@ -220,6 +226,8 @@ impl Default for OptimiserSettings {
             initial_sigma_a: o.initial.0,
             initial_sigma_s_prime: o.initial.1,
             channels: ChannelsName::Rgb,
+            coarse_levels: o.coarse_levels,
+            absorption_coarsening: o.absorption_coarsening,
         }
     }
 }
@@ -334,6 +342,8 @@ impl Description {
                 ChannelsName::Rgb => Channels::Rgb,
                 ChannelsName::Grey => Channels::Grey,
             },
+            coarse_levels: o.coarse_levels,
+            absorption_coarsening: o.absorption_coarsening,
         })
     }
 
@@ -609,7 +619,10 @@ mod tests {
         d.optimiser.discrepancy = Some(Discrepancy { noise_rms: 0.02, tau: 1.5, start: 0.1 });
         d.optimiser.max_iterations = 7;
         d.optimiser.solve_tolerance = 1e-9;
+        d.optimiser.coarse_levels = 2;
+        d.optimiser.absorption_coarsening = 3;
         let o = d.options().unwrap();
+        assert_eq!((o.coarse_levels, o.absorption_coarsening), (2, 3));
         assert_eq!(o.method, Method::PaperCg);
         assert_eq!(o.channels, Channels::Grey);
         assert_eq!(o.lambda, Lambda::Discrepancy { noise_rms: 0.02, tau: 1.5, start: 0.1 });
@@ -617,6 +630,8 @@ mod tests {
         // What is left out keeps the library's defaults.
         let defaults = AcquireOptions::default();
         assert_eq!((o.homogeneous_iterations, o.initial), (defaults.homogeneous_iterations, defaults.initial));
+        let o = two_rects().options().unwrap();
+        assert_eq!((o.coarse_levels, o.absorption_coarsening), (0, 1), "one fit per cell by default");
     }
 
     #[test]

@@ -8,7 +8,9 @@
 //! - [`regularize`]: the unit-free smoothness of κ;
 //! - [`adjoint`]: the discrete adjoint gradient and the gradient check;
 //! - [`optimize`]: the homogeneous fit, L-BFGS (default) and the paper's Polak–Ribière CG with
-//!   golden-section search, λ given or by the discrepancy principle;
+//!   golden-section search, λ given or by the discrepancy principle, optionally coarse to fine;
+//! - [`parameters`]: the unknowns on blocks of cells (the homogeneous fit's one block, the
+//!   coarse-to-fine levels, σa on a coarser grid than σ′s);
 //! - [`synth`]: synthetic images from an independent discretisation (the polygrid
 //!   finite-volume system on a 2×-finer grid), so tests never fit the model to itself;
 //! - [`description`]: an acquisition on disk (a description of setup, patterns and optimiser,
@@ -53,6 +55,7 @@ pub mod held_out;
 pub mod model;
 pub mod optimize;
 pub mod output;
+pub mod parameters;
 pub mod regularize;
 pub mod setup;
 pub mod synth;
@@ -65,5 +68,6 @@ pub use held_out::{random_patterns, single_node_patterns, uniform_sequence, with
 pub use model::{Acquisition, CellMedia, Evaluation, Setup, SolveSettings, WorkCounts};
 pub use optimize::{acquire, AcquireOptions, Acquired, Channels, IterationRecord, Lambda, Method, Sample, StopReason};
 pub use output::to_voxel_grid;
+pub use parameters::ParameterGrid;
 pub use setup::{Observation, Pattern};
 pub use synth::{synthesize, SynthOptions, VeinedBlock};

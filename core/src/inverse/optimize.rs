@@ -22,6 +22,7 @@ use crate::progress::Progress;
 
 use super::error::InverseError;
 use super::model::{Acquisition, CellMedia, Evaluation, SolveSettings, WorkCounts};
+use super::parameters::ParameterGrid;
 
 /// The optimiser.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -95,6 +96,15 @@ pub struct AcquireOptions {
     pub solve: SolveSettings,
     /// The channels fitted.
     pub channels: Channels,
+    /// Coarse-to-fine: with L ≥ 1 the per-cell fit is preceded by fits on blocks of 2^L cells a
+    /// side, then 2^(L−1), …, 2 (the last block of an axis shorter), each started from the
+    /// last and capped at `max_iterations` (0: per cell straight from the homogeneous fit, as
+    /// the paper does; at most 8). A level that meets the target misfit leaves the finer ones
+    /// nothing to do: the result is then the coarsest blocks that explain the images.
+    pub coarse_levels: usize,
+    /// σa is fitted on blocks this many times wider than σ′s at every level (1: the same grid;
+    /// one face's images constrain σa per cell far less than σ′s).
+    pub absorption_coarsening: usize,
 }
 
 impl Default for AcquireOptions {
@@ -110,6 +120,8 @@ impl Default for AcquireOptions {
             gradient_tolerance: 1e-12,
             solve: SolveSettings::default(),
             channels: Channels::Rgb,
+            coarse_levels: 0,
+            absorption_coarsening: 1,
         }
     }
 }
@@ -133,8 +145,11 @@ pub enum StopReason {
 /// One iteration of a fit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IterationRecord {
-    /// "homogeneous" or "heterogeneous".
+    /// "homogeneous", "coarse" (σ′s on blocks of cells, [`AcquireOptions::coarse_levels`]) or
+    /// "heterogeneous" (σ′s per cell).
     pub stage: &'static str,
+    /// Cells per block side of the σa and the σ′s unknowns (0 for the homogeneous fit).
+    pub block_cells: [usize; 2],
     /// The colour channel fitted.
     pub channel: usize,
     /// λ during it.
@@ -189,37 +204,40 @@ trait Problem {
 /// one line search, where one channel can run off while the others descend (a channel whose
 /// start is far too bright lowers its misfit towards 1 by absorbing everything). The solves
 /// still carry all three channels; the held ones are warm-started at their solution and cost
-/// a residual check. `homogeneous`: 2 parameters (ln σa, ln σ′s) broadcast to every cell, the
-/// gradient summed over cells; otherwise 2 per cell.
+/// a residual check. The unknowns are ln σa and ln σ′s on `parameters`' blocks of cells (one
+/// block each for the homogeneous fit), the gradient summed over each block's cells.
 struct ChannelView<'a> {
     model: &'a mut Acquisition,
     channel: usize,
     base: Vec<f64>,
-    homogeneous: bool,
+    parameters: ParameterGrid,
 }
 
 impl ChannelView<'_> {
+    /// The full per-cell vector (every channel) with this channel's cells set from `x`.
     fn expand(&self, x: &[f64]) -> Vec<f64> {
         let mut full = self.base.clone();
-        for (k, cell) in full.chunks_exact_mut(6).enumerate() {
-            let (a, s) = if self.homogeneous { (x[0], x[1]) } else { (x[2 * k], x[2 * k + 1]) };
+        for (cell, (a, s)) in full.chunks_exact_mut(6).zip(self.parameters.prolong(x)) {
             cell[self.channel] = a;
             cell[3 + self.channel] = s;
         }
         full
     }
 
+    /// This channel's per-cell (σa, σ′s) entries of a full vector.
+    fn channel_cells<'b>(&self, full: &'b [f64]) -> impl Iterator<Item = (f64, f64)> + 'b {
+        let c = self.channel;
+        full.chunks_exact(6).map(move |cell| (cell[c], cell[3 + c]))
+    }
+
+    /// The gradient with respect to the block parameters of a full per-cell gradient.
     fn reduce(&self, full: &[f64]) -> Vec<f64> {
-        if self.homogeneous {
-            let mut g = vec![0.0; 2];
-            for cell in full.chunks_exact(6) {
-                g[0] += cell[self.channel];
-                g[1] += cell[3 + self.channel];
-            }
-            g
-        } else {
-            full.chunks_exact(6).flat_map(|cell| [cell[self.channel], cell[3 + self.channel]]).collect()
-        }
+        self.parameters.sum(self.channel_cells(full))
+    }
+
+    /// The block parameters that start a fit from the full vector `full` (block averages).
+    fn start(&self, full: &[f64]) -> Vec<f64> {
+        self.parameters.average(self.channel_cells(full))
     }
 
     fn sample(&self, e: &Evaluation) -> Sample {
@@ -252,6 +270,9 @@ struct Stop {
     relative_decrease: f64,
     gradient_tolerance: f64,
 }
+
+/// Most coarse-to-fine levels (blocks of 256 cells a side).
+const MAX_COARSE_LEVELS: usize = 8;
 
 /// The Armijo constant c₁ of the sufficient-decrease test f(α) ≤ f(0) + c₁ α f′(0).
 const ARMIJO: f64 = 1e-4;
@@ -458,10 +479,13 @@ fn misfit_met(e: &Sample, target: f64) -> bool {
 /// What a fit is, for its records.
 #[derive(Debug, Clone, Copy)]
 struct Label {
-    /// Which of the six fits (homogeneous R, G, B, then per-cell R, G, B) this is: the
-    /// reported fraction is (part + iteration/cap)/6, so it never goes back.
-    part: usize,
+    /// The share of the whole acquisition this fit covers, as (start, width) in [0, 1]: the
+    /// homogeneous R, G, B fits a sixth each, then the per-cell R, G, B fits (split among the
+    /// coarse-to-fine stages); the reported fraction is start + width · iteration/cap, so it
+    /// never goes back.
+    span: (f64, f64),
     stage: &'static str,
+    block_cells: [usize; 2],
     channel: usize,
     lambda: f64,
 }
@@ -476,10 +500,11 @@ fn minimise<P: Problem>(
     history: &mut Vec<IterationRecord>,
     progress: &Progress<'_>,
 ) -> Result<(Sample, StopReason), InverseError> {
-    let Label { part, stage, channel, lambda } = label;
+    let Label { span, stage, block_cells, channel, lambda } = label;
     let (mut e, mut g) = p.gradient(x)?;
     history.push(IterationRecord {
         stage,
+        block_cells,
         channel,
         lambda,
         iteration: 0,
@@ -510,7 +535,7 @@ fn minimise<P: Problem>(
                 ["red", "green", "blue"][channel],
                 100.0 * e.misfit_rms
             ),
-            (part as f64 + (it - 1) as f64 / stop.max_iterations as f64) / 6.0,
+            span.0 + span.1 * (it - 1) as f64 / stop.max_iterations as f64,
         )?;
         let (mut d, fresh) = match method {
             Method::Lbfgs { .. } => (lbfgs_direction(&g, &pairs), pairs.is_empty()),
@@ -575,6 +600,7 @@ fn minimise<P: Problem>(
         e = e_new;
         history.push(IterationRecord {
             stage,
+            block_cells,
             channel,
             lambda,
             iteration: it,
@@ -597,7 +623,8 @@ fn minimise<P: Problem>(
 /// misfit) and may cancel.
 ///
 /// # Errors
-/// [`InverseError::NegativeLambda`], [`InverseError::InvalidSetting`] or
+/// [`InverseError::NegativeLambda`], [`InverseError::InvalidSetting`] (also for more than 8
+/// coarse levels or an absorption coarsening of 0) or
 /// [`InverseError::InvalidParameters`] for bad options (checked before any solve);
 /// [`InverseError::Cancelled`]; a solver error. Nothing is returned but a finished fit.
 pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Progress<'_>) -> Result<Acquired, InverseError> {
@@ -629,6 +656,16 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
             return Err(InverseError::InvalidSetting { what, value: v, expected: "finite and ≥ 0" });
         }
     }
+    if options.coarse_levels > MAX_COARSE_LEVELS {
+        return Err(InverseError::InvalidSetting {
+            what: "coarse-to-fine levels",
+            value: options.coarse_levels as f64,
+            expected: "at most 8",
+        });
+    }
+    if options.absorption_coarsening == 0 {
+        return Err(InverseError::InvalidSetting { what: "absorption coarsening", value: 0.0, expected: "≥ 1" });
+    }
     if let Method::Lbfgs { memory: 0 } = options.method {
         return Err(InverseError::InvalidSetting { what: "L-BFGS memory", value: 0.0, expected: "≥ 1" });
     }
@@ -653,8 +690,10 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
     model.set_lambda(0.0)?;
     for channel in fitted.clone() {
         let mut x2 = vec![x[channel], x[3 + channel]];
-        let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), homogeneous: true };
-        let label = Label { part: channel, stage: "homogeneous", channel, lambda: 0.0 };
+        let parameters = ParameterGrid::homogeneous(cells);
+        let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), parameters };
+        let span = (channel as f64 / 6.0, 1.0 / 6.0);
+        let label = Label { span, stage: "homogeneous", block_cells: [0, 0], channel, lambda: 0.0 };
         let rules = stop(options.homogeneous_iterations, options.target_misfit_rms);
         (_, reasons[channel]) = minimise(&mut view, &mut x2, options.method, rules, label, &mut history, progress)?;
         x = view.expand(&x2);
@@ -676,22 +715,27 @@ pub fn acquire(model: &mut Acquisition, options: &AcquireOptions, progress: &Pro
                     ((0..8).map(|k| start * 0.1f64.powi(k)).collect(), tau * noise_rms)
                 }
             };
-            for &l in &lambdas {
+            for (trial, &l) in lambdas.iter().enumerate() {
                 *used = l;
                 model.set_lambda(l)?;
-                let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), homogeneous: false };
-                let mut xr = view.reduce(&x);
-                let label = Label { part: 3 + channel, stage: "heterogeneous", channel, lambda: l };
-                let (sample, reason) = minimise(
-                    &mut view,
-                    &mut xr,
-                    options.method,
-                    stop(options.max_iterations, target),
-                    label,
-                    &mut history,
-                    progress,
-                )?;
-                x = view.expand(&xr);
+                // Coarse-to-fine on the first λ only: a later λ starts from the last fit's cells.
+                let levels = if trial == 0 { options.coarse_levels } else { 0 };
+                let mut last = None;
+                for level in (0..=levels).rev() {
+                    let side = 1usize << level;
+                    let blocks = [side * options.absorption_coarsening, side];
+                    let parameters = ParameterGrid::blocks(model.grid(), blocks[0], blocks[1]);
+                    let mut view = ChannelView { model: &mut *model, channel, base: x.clone(), parameters };
+                    let mut xr = view.start(&x);
+                    let width = 1.0 / (6.0 * (levels + 1) as f64);
+                    let span = ((3 + channel) as f64 / 6.0 + (levels - level) as f64 * width, width);
+                    let stage = if side > 1 { "coarse" } else { "heterogeneous" };
+                    let label = Label { span, stage, block_cells: blocks, channel, lambda: l };
+                    let rules = stop(options.max_iterations, target);
+                    last = Some(minimise(&mut view, &mut xr, options.method, rules, label, &mut history, progress)?);
+                    x = view.expand(&xr);
+                }
+                let (sample, reason) = last.expect("the per-cell level always runs");
                 *reason_out = reason;
                 if misfit_met(&sample, target) || matches!(options.lambda, Lambda::Given(_)) {
                     break;
@@ -746,7 +790,7 @@ mod tests {
         let mut x = vec![0.0; 4];
         let mut h = Vec::new();
         let stop = Stop { max_iterations: 200, target_misfit_rms: 0.0, relative_decrease: 0.0, gradient_tolerance: 1e-9 };
-        let label = Label { part: 0, stage: "test", channel: 0, lambda: 0.0 };
+        let label = Label { span: (0.0, 1.0), stage: "test", block_cells: [1, 1], channel: 0, lambda: 0.0 };
         minimise(&mut q, &mut x, method, stop, label, &mut h, &Progress::none()).unwrap();
         (x, h)
     }

@@ -610,3 +610,56 @@ fn grey_images_fit_one_channel_and_copy_it() {
     let m = grey.evaluation.misfit_rms();
     assert!((m[1] / m[0] - 1.0).abs() < 1e-6 && (m[2] / m[0] - 1.0).abs() < 1e-6, "{m:?}");
 }
+
+#[test]
+fn coarse_to_fine_runs_its_levels_in_order_each_starting_where_the_last_stopped() {
+    // 8 × 8 × 4 cells, two coarse levels (blocks of 4 then 2 cells a side) before single
+    // cells, σa on blocks twice as wide as σ′s. Per channel the history must run the levels
+    // coarse to fine; each level must start at the objective its predecessor ended with (the
+    // block averages of nested blocks reproduce the cells exactly); the objective never rises;
+    // and the result's σa is constant on 2 × 2 × 2 blocks while σ′s varies inside them.
+    let setup = Setup { dims: [9, 9, 5], spacing_mm: 0.5, eta: 1.3, observation: Observation::BackLit };
+    let patterns = Pattern::grid_all(2, setup.face_size_mm(), [1.0; 3]);
+    let truth = |p: DVec3| ([0.04 + 0.02 * p.x, 0.06, 0.08 + 0.02 * p.y], [1.0 + 0.4 * p.z, 1.4 - 0.1 * p.x, 1.8]);
+    let images = synthesize(&setup, &patterns, &truth, SynthOptions::default()).unwrap();
+    let mut model = Acquisition::new(setup.clone(), &patterns, images, None).unwrap();
+    let options = AcquireOptions { max_iterations: 5, coarse_levels: 2, absorption_coarsening: 2, ..AcquireOptions::default() };
+    let fit = acquire(&mut model, &options, &Progress::none()).unwrap();
+    assert!(never_increases(&fit.history), "the objective rose");
+    for c in 0..3 {
+        let fits: Vec<&IterationRecord> = fit.history.iter().filter(|r| r.channel == c && r.stage != "homogeneous").collect();
+        let starts: Vec<usize> = (0..fits.len()).filter(|&i| fits[i].iteration == 0).collect();
+        let blocks: Vec<[usize; 2]> = starts.iter().map(|&i| fits[i].block_cells).collect();
+        assert_eq!(blocks, [[8, 4], [4, 2], [2, 1]], "channel {c}: levels");
+        let stages: Vec<&str> = starts.iter().map(|&i| fits[i].stage).collect();
+        assert_eq!(stages, ["coarse", "coarse", "heterogeneous"]);
+        for &i in &starts[1..] {
+            let (end, start) = (fits[i - 1].sample.value, fits[i].sample.value);
+            assert!((start / end - 1.0).abs() < 1e-6, "channel {c}: a level started at {start:e} after {end:e}");
+        }
+        // The first coarse level starts where the homogeneous fit ended.
+        let homogeneous = fit.history.iter().rev().find(|r| r.channel == c && r.stage == "homogeneous").unwrap().sample;
+        assert!(fits[0].sample.misfit_rms <= homogeneous.misfit_rms * (1.0 + 1e-6));
+    }
+    let cells = [8usize, 8, 4];
+    let at = |i: usize, j: usize, k: usize| i + cells[0] * (j + cells[1] * k);
+    let mut varies = false;
+    for k in 0..cells[2] {
+        for j in 0..cells[1] {
+            for i in 0..cells[0] {
+                let corner = at(i & !1, j & !1, k & !1);
+                assert_eq!(fit.media.sigma_a[at(i, j, k)], fit.media.sigma_a[corner], "σa varies inside a block");
+                varies |= fit.media.sigma_s_prime[at(i, j, k)] != fit.media.sigma_s_prime[corner];
+            }
+        }
+    }
+    assert!(varies, "σ′s is constant on σa's blocks");
+    // Bad settings are named before any solve.
+    for (bad, what) in [
+        (AcquireOptions { coarse_levels: 9, ..options }, "coarse-to-fine levels"),
+        (AcquireOptions { absorption_coarsening: 0, ..options }, "absorption coarsening"),
+    ] {
+        let e = acquire(&mut model, &bad, &Progress::none()).unwrap_err();
+        assert!(matches!(e, InverseError::InvalidSetting { .. }) && e.to_string().contains(what), "{e}");
+    }
+}
