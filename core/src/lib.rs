@@ -56,6 +56,7 @@ pub mod hierarchy;
 pub mod input;
 pub mod inverse;
 pub mod light;
+pub mod lit_face;
 pub mod mesh;
 pub mod mesher;
 pub mod methods;

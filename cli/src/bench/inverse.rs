@@ -30,9 +30,8 @@ use transcut::inverse::{
 use transcut::Progress;
 
 use super::args::BenchArgs;
-use super::inverse_quality::{
-    appearance_error, depth_errors, fine_truth_voxels, rendered_errors, top_errors, truth_on_cells, DepthError,
-};
+use super::inverse_quality::{appearance_error, depth_errors, top_errors, truth_on_cells, DepthError};
+use transcut::lit_face::{fine_truth_voxels, rendered_errors};
 
 /// The paper's marble acquisition: nodes and hours (J. Wang et al. 2008 §6).
 const MARBLE_NODES: [usize; 3] = [256, 256, 20];

@@ -1,19 +1,13 @@
 //! How good an acquisition is, for `transcut bench inverse`: the recovered κ and μ (= σa)
-//! against the truth by depth, the appearance under held-out lighting, the recovered grid
-//! rendered by TransCut against the truth, and the noise added to the images of the noisy
-//! repeat.
+//! against the truth by depth and the appearance under held-out lighting (the rendered
+//! comparison is the core's [`transcut::lit_face`]).
 //!
 //! The truth on a cell is the mean of σa and σ′s over the 2 × 2 × 2 finer cells the images
 //! were synthesised on ([`truth_on_cells`]), so a cell the vein's edge crosses is held to what
 //! the data could show, not to the value at its centre.
 
 use glam::DVec3;
-use transcut::gpu::Backend;
-use transcut::inverse::{model::kappa, to_voxel_grid, Acquisition, BlockGrid, CellMedia, Pattern, Setup};
-use transcut::light::Light;
-use transcut::mesh::gridded_box;
-use transcut::volume::{Coefficients, VoxelGrid};
-use transcut::{bake, BakeOptions, MediumSource, Object, Scene, Shape, TransCutOptions};
+use transcut::inverse::{model::kappa, Acquisition, BlockGrid, CellMedia, Pattern, Setup};
 
 /// The media `truth(p)` on `grid`'s cells: per cell, the mean σa and mean σ′s over its eight
 /// half-size sub-cells (the synthesis's 2×-finer cells), each sampled at its centre.
@@ -116,99 +110,6 @@ pub fn appearance_error(setup: &Setup, patterns: &[Pattern], images: &[Vec<[f64;
         }
     }
     Ok((num / den).sqrt())
-}
-
-/// The lights of the rendered comparison on a block of `size` mm lit on its top face: a sun
-/// straight down (the whole face), and a spot from twice the face's width above, aimed at
-/// (0.5, 0.7) of the face with a cone a quarter of the width across there (light that spreads
-/// sideways under the face, across the vein).
-pub fn lit_face_lights(size: DVec3) -> [(&'static str, Light); 2] {
-    let height = 2.0 * size.x;
-    [
-        ("sun", Light::Directional { direction: DVec3::NEG_Z, irradiance: [1.0; 3], angular_diameter_deg: 0.0 }),
-        (
-            "spot",
-            Light::Spot {
-                position: DVec3::new(0.5 * size.x, 0.7 * size.y, size.z + height),
-                direction: DVec3::NEG_Z,
-                intensity: [1.0; 3],
-                cone_half_angle_deg: (0.125 * size.x / height).atan().to_degrees(),
-                blend: 0.2,
-            },
-        ),
-    ]
-}
-
-/// Lo at the top-face vertices of the box [0, `size`] mm (faces gridded at `divisions`) filled
-/// with `grid` (η `eta`, g 0) under `light`: TransCut's bake of the scene with `tets` tets on
-/// the CPU, solves to 1e-10.
-///
-/// # Errors
-/// The bake's (a grid or setting the scene refuses, a failed solve).
-fn lit_face_radiance(
-    size: DVec3,
-    divisions: [usize; 3],
-    grid: VoxelGrid,
-    eta: f64,
-    light: Light,
-    tets: usize,
-) -> anyhow::Result<Vec<[f64; 3]>> {
-    let mesh = gridded_box(size, divisions);
-    let top: Vec<bool> =
-        mesh.user_to_internal().iter().map(|&v| (mesh.positions()[v as usize].z - size.z).abs() < 1e-9 * size.z).collect();
-    let object = Object::with_shape("block", Shape::Surface(mesh), MediumSource::Voxels { grid, eta, g: 0.0 }, 1.0);
-    let options = BakeOptions::with_method(TransCutOptions {
-        tets,
-        tolerance: 1e-10,
-        backend: Some(Backend::Cpu),
-        ..TransCutOptions::default()
-    });
-    let baked = bake(&Scene { objects: vec![object], lights: vec![light] }, &options)?;
-    Ok(baked.objects[0].radiance.iter().zip(&top).filter(|(_, &t)| t).map(|(l, _)| *l).collect())
-}
-
-/// The truth `truth(p)` as a voxel grid on the 2×-finer cells of `setup`'s block (the cells the
-/// images were synthesised on), corner at the origin, mm.
-///
-/// # Errors
-/// Values the voxel grid refuses.
-pub fn fine_truth_voxels(setup: &Setup, truth: &(dyn Fn(DVec3) -> ([f64; 3], [f64; 3]) + Sync)) -> anyhow::Result<VoxelGrid> {
-    let cells = setup.dims.map(|d| 2 * (d as u32 - 1));
-    Ok(VoxelGrid::from_fn(cells, DVec3::ZERO, DVec3::splat(0.5 * setup.spacing_mm), |p| {
-        let (a, s) = truth(p);
-        Coefficients::new(a, s)
-    })?)
-}
-
-/// Relative RMS, over all channels, of TransCut's Lo over the lit face of `setup`'s block
-/// filled with `media` on the fit's cells against the same block filled with `truth` (see
-/// [`fine_truth_voxels`]); one per light of [`lit_face_lights`], named.
-///
-/// # Errors
-/// The bakes'.
-pub fn rendered_errors(
-    setup: &Setup,
-    truth: &VoxelGrid,
-    media: &CellMedia,
-    tets: usize,
-) -> anyhow::Result<Vec<(&'static str, f64)>> {
-    let grid = BlockGrid::new(setup.dims, setup.spacing_mm)?;
-    let cells = grid.cell_dims();
-    let size = DVec3::from(cells.map(|c| c as f64 * setup.spacing_mm));
-    let recovered = to_voxel_grid(&grid, media, DVec3::ZERO, 1.0)?;
-    lit_face_lights(size)
-        .into_iter()
-        .map(|(name, light)| {
-            let want = lit_face_radiance(size, cells, truth.clone(), setup.eta, light.clone(), tets)?;
-            let got = lit_face_radiance(size, cells, recovered.clone(), setup.eta, light, tets)?;
-            let (num, den) = got
-                .iter()
-                .zip(&want)
-                .flat_map(|(g, w)| (0..3).map(move |c| ((g[c] - w[c]).powi(2), w[c] * w[c])))
-                .fold((0.0, 0.0), |(n, d), (a, b)| (n + a, d + b));
-            Ok((name, (num / den).sqrt()))
-        })
-        .collect()
 }
 
 #[cfg(test)]

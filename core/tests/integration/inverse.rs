@@ -10,17 +10,14 @@
 use std::sync::OnceLock;
 
 use glam::DVec3;
-use transcut::gpu::Backend;
 use transcut::inverse::{
     acquire, check_gradient, random_patterns, synthesize, to_voxel_grid, uniform_sequence, with_noise, AcquireOptions, Acquired,
     Acquisition, CellMedia, Channels, InverseError, IterationRecord, Lambda, Method, Observation, Pattern, Setup, SolveSettings,
     StopReason, SynthOptions,
 };
-use transcut::light::Light;
-use transcut::mesh::gridded_box;
+use transcut::lit_face::{fine_truth_voxels, rendered_errors};
 use transcut::progress::Progress;
-use transcut::volume::{Coefficients, VoxelGrid};
-use transcut::{bake, BakeOptions, MediumSource, Object, Scene, Shape, TransCutOptions};
+use transcut::volume::VoxelGrid;
 
 const SKIM: ([f64; 3], [f64; 3]) = ([0.07, 0.12, 0.2], [1.0, 1.3, 1.6]);
 
@@ -268,71 +265,14 @@ fn a_veined_block_is_fitted_without_going_uphill_and_predicts_held_out_light() {
     assert!(e_het < e_hom, "held-out: per-cell {e_het:.4} against homogeneous {e_hom:.4}");
 }
 
-/// The two lights of the rendered comparison on a block of `size` mm lit on its top face: a
-/// sun straight down (the whole face), and a spot from twice the face's width above, aimed
-/// straight down at (0.5, 0.7) of the face with a cone a quarter of the width across there
-/// (light that spreads sideways under the face, across the vein).
-fn lit_face_lights(size: DVec3) -> [(&'static str, Light); 2] {
-    let height = 2.0 * size.x;
-    [
-        ("sun", Light::Directional { direction: DVec3::NEG_Z, irradiance: [1.0; 3], angular_diameter_deg: 0.0 }),
-        (
-            "spot",
-            Light::Spot {
-                position: DVec3::new(0.5 * size.x, 0.7 * size.y, size.z + height),
-                direction: DVec3::NEG_Z,
-                intensity: [1.0; 3],
-                cone_half_angle_deg: (0.125 * size.x / height).atan().to_degrees(),
-                blend: 0.2,
-            },
-        ),
-    ]
-}
-
-/// Lo at the top-face vertices of the box [0, `size`] mm (faces gridded at `divisions`) filled
-/// with `grid` (η 1.3, g 0) under `light`: the TransCut bake of the scene, `tets` tets, on the
-/// CPU, solves to 1e-10.
-fn lit_face_radiance(size: DVec3, divisions: [usize; 3], grid: VoxelGrid, light: Light, tets: usize) -> Vec<[f64; 3]> {
-    let mesh = gridded_box(size, divisions);
-    let top: Vec<bool> =
-        mesh.user_to_internal().iter().map(|&v| (mesh.positions()[v as usize].z - size.z).abs() < 1e-9 * size.z).collect();
-    let object = Object::with_shape("block", Shape::Surface(mesh), MediumSource::Voxels { grid, eta: 1.3, g: 0.0 }, 1.0);
-    let options = BakeOptions::with_method(TransCutOptions {
-        tets,
-        tolerance: 1e-10,
-        backend: Some(Backend::Cpu),
-        ..TransCutOptions::default()
-    });
-    let baked = bake(&Scene { objects: vec![object], lights: vec![light] }, &options).unwrap();
-    baked.objects[0].radiance.iter().zip(&top).filter(|(_, &t)| t).map(|(l, _)| *l).collect()
-}
-
-/// Relative RMS of TransCut's Lo over the lit face of the block of `setup`, filled with `media`
-/// on the fit's cells, against the same block filled with `truth` sampled at the 2× finer
-/// cells the images were synthesised on; one per light of [`lit_face_lights`].
+/// [`rendered_errors`] of `media` against `truth` on the synthesis's fine cells.
 fn rendered_lit_face_errors(
     setup: &Setup,
     truth: &(dyn Fn(DVec3) -> ([f64; 3], [f64; 3]) + Sync),
     media: &CellMedia,
     tets: usize,
 ) -> Vec<(&'static str, f64)> {
-    let grid = transcut::inverse::BlockGrid::new(setup.dims, setup.spacing_mm).unwrap();
-    let cells = grid.cell_dims();
-    let size = DVec3::from(cells.map(|c| c as f64 * setup.spacing_mm));
-    let fine = VoxelGrid::from_fn(cells.map(|c| 2 * c as u32), DVec3::ZERO, DVec3::splat(0.5 * setup.spacing_mm), |p| {
-        let (a, s) = truth(p);
-        Coefficients::new(a, s)
-    })
-    .unwrap();
-    let recovered = to_voxel_grid(&grid, media, DVec3::ZERO, 1.0).unwrap();
-    lit_face_lights(size)
-        .into_iter()
-        .map(|(name, light)| {
-            let want = lit_face_radiance(size, cells, fine.clone(), light.clone(), tets);
-            let got = lit_face_radiance(size, cells, recovered.clone(), light, tets);
-            (name, rms_relative(&[got], &[want], None))
-        })
-        .collect()
+    rendered_errors(setup, &fine_truth_voxels(setup, truth).unwrap(), media, tets).unwrap()
 }
 
 #[test]

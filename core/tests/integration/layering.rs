@@ -76,6 +76,7 @@ const CORE: Table = &[
         ],
     ),
     ("bake", &["mesh", "methods", "progress", "scene", "workers"]),
+    ("lit_face", &["bake", "gpu", "inverse", "light", "mesh", "scene", "volume"]),
     ("session", &["bake", "edit", "light", "mesh", "methods", "progress", "render", "scene", "texture"]),
 ];
 
