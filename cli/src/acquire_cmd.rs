@@ -43,6 +43,8 @@ const MAX_DESCRIPTION_BYTES: u64 = 1 << 20;
   lambda = 1e-4            # or discrepancy = { noise_rms = 0.01 }
   max_iterations = 40
   channels = \"rgb\"         # or \"grey\" (grey images: one channel fitted, copied to all three)
+  coarse_levels = 0        # N ≥ 1: fit blocks of 2^N, …, 2 cells before single cells (coarse to fine)
+  absorption_coarsening = 1  # F: σa on blocks F times wider than σ′s
 
 The result is a TCVOX1 voxel grid (one voxel per cell: σa and σ′s per channel) that `bake`, `render`, the C ABI \
 and the add-on load as a medium; it is written only when the fit has finished (an interrupted run leaves no file).
@@ -215,6 +217,7 @@ fn report(fit: &Acquired, model: &Acquisition, output: &Path, images: usize, sec
         .map(|r| {
             serde_json::json!({
                 "stage": r.stage,
+                "block_cells": r.block_cells,
                 "channel": r.channel,
                 "lambda": r.lambda,
                 "iteration": r.iteration,

@@ -71,6 +71,11 @@ fn a_synthetic_block_is_acquired_end_to_end() {
             .collect();
         assert!(fit.len() >= 2 && fit.last().unwrap() <= fit.first().unwrap(), "channel {c}: {fit:?}");
     }
+    // One unknown pair per cell after the homogeneous fit's one block (no coarse levels).
+    for h in history {
+        let blocks = if h["stage"] == "homogeneous" { [0, 0] } else { [1, 1] };
+        assert_eq!(h["block_cells"], serde_json::json!(blocks), "{h}");
+    }
     // The file is the fit: one voxel per cell, 0.5 mm, and close to the truth on average.
     let got = VoxelGrid::read(&output).unwrap();
     let truth = VoxelGrid::read(dir.join("truth.tcvox")).unwrap();

@@ -529,9 +529,10 @@ fn minimise<P: Problem>(
         if max_abs(&g) <= stop.gradient_tolerance {
             return Ok((e, StopReason::Gradient));
         }
+        let blocks = if stage == "coarse" { format!(" (blocks of {} cells)", block_cells[1]) } else { String::new() };
         progress.report(
             &format!(
-                "{stage} fit, {} channel: iteration {it}, misfit {:.3}% RMS",
+                "{stage} fit{blocks}, {} channel: iteration {it}, misfit {:.3}% RMS",
                 ["red", "green", "blue"][channel],
                 100.0 * e.misfit_rms
             ),
