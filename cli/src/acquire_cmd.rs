@@ -43,7 +43,7 @@ const MAX_DESCRIPTION_BYTES: u64 = 1 << 20;
   lambda = 1e-4            # or discrepancy = { noise_rms = 0.01 }
   max_iterations = 40
   channels = \"rgb\"         # or \"grey\" (grey images: one channel fitted, copied to all three)
-  coarse_levels = 0        # N ≥ 1: fit blocks of 2^N, …, 2 cells before single cells (coarse to fine)
+  coarse_levels = 0        # N ≥ 1: coarse to fine, blocks of 2^N, …, 2 cells first
   absorption_coarsening = 1  # F: σa on blocks F times wider than σ′s
 
 The result is a TCVOX1 voxel grid (one voxel per cell: σa and σ′s per channel) that `bake`, `render`, the C ABI \
