@@ -14,6 +14,10 @@
 //!    between two vertices that are not on it (`bridging_vertices`): a cutter thinner than the
 //!    tets, such as a slab through a graded mesh's coarse interior, would otherwise leave tets
 //!    with four firm vertices reaching across it and joining its two sides.
+//!    Far from a solid cutter (two of the vertex's longest edges outside the cutter's box) a
+//!    bound stands in for `d_v`: the distance to the box, with the sign every point there has
+//!    (`Prepared::classifying_distance`). It decides both rules as the exact value would, and
+//!    saves a closest-point and winding-number query per vertex away from a local cut.
 //! 2. **Delete.** A tet is kept when at least one of its vertices is firm; tets whose four vertices
 //!    are all cut vertices (entirely on the removed side, or in the thin band that will collapse
 //!    onto the cut surface) are deleted. Vertices no kept tet uses are removed. Kept tets keep
@@ -200,18 +204,24 @@ pub fn cut_with(
     let start = Instant::now();
     let prepared = cutter.prepare();
     let positions = mesh.positions();
-    let distance: Vec<f64> = positions.par_iter().map(|&p| prepared.signed_distance(p)).collect();
-    let mean_edge: Vec<f64> = (0..positions.len())
+    // Per vertex: the mean and the longest length of its edges.
+    let (mean_edge, longest_edge): (Vec<f64>, Vec<f64>) = (0..positions.len())
         .into_par_iter()
         .map(|v| {
             let ring = mesh.one_ring(v);
+            let lengths = ring.iter().map(|&w| (positions[w as usize] - positions[v]).length());
+            let longest = lengths.clone().fold(0.0, f64::max);
             if ring.is_empty() {
-                0.0
+                (0.0, 0.0)
             } else {
-                ring.iter().map(|&w| (positions[w as usize] - positions[v]).length()).sum::<f64>() / ring.len() as f64
+                (lengths.sum::<f64>() / ring.len() as f64, longest)
             }
         })
-        .collect();
+        .unzip();
+    // Far from a solid cutter a bound stands in for the distance (`classifying_distance`): two
+    // longest edges away, it decides the snap band and every edge's Lipschitz test alike.
+    let distance: Vec<f64> =
+        positions.par_iter().zip(&longest_edge).map(|(&p, &l)| prepared.classifying_distance(p, 2.0 * l)).collect();
     let mut is_cut: Vec<bool> = (0..positions.len()).map(|v| distance[v] >= -SNAP_BAND * mean_edge[v]).collect();
     for v in bridging_vertices(mesh, &prepared, &distance, &is_cut) {
         is_cut[v as usize] = true;

@@ -96,7 +96,7 @@ impl Cutter {
             Cutter::Solid(m) => {
                 let bvh = TriangleBvh::from_indexed(m.positions(), m.triangles());
                 let threshold = if m.signed_volume() >= 0.0 { 0.5 } else { -0.5 };
-                Prepared::Solid { winding: WindingNumber::new(bvh), threshold }
+                Prepared::Solid { winding: WindingNumber::new(bvh), threshold, bounds: m.bounds() }
             }
         }
     }
@@ -116,9 +116,17 @@ fn plane_project(x: DVec3, point: DVec3, normal: DVec3) -> DVec3 {
 
 /// A cutter ready for many queries.
 pub(super) enum Prepared<'a> {
-    Plane { point: DVec3, normal: DVec3 },
+    Plane {
+        point: DVec3,
+        normal: DVec3,
+    },
     Stroke(&'a SweptStroke),
-    Solid { winding: WindingNumber, threshold: f64 },
+    /// `threshold` is ±½ (the removed side is `w > threshold`); `bounds` the triangles' box.
+    Solid {
+        winding: WindingNumber,
+        threshold: f64,
+        bounds: (DVec3, DVec3),
+    },
 }
 
 impl Prepared<'_> {
@@ -129,11 +137,29 @@ impl Prepared<'_> {
         matches!(self, Prepared::Plane { .. })
     }
 
+    /// A signed distance for the cut's classification, exact or, where that is cheap to know,
+    /// a bound: for a solid cutter and a point more than `margin` outside the triangles' box,
+    /// ±(distance to the box), closer to 0 than the true signed distance and of its sign.
+    /// Outside the box every triangle lies beyond a plane through the point, so |w| < ½ there
+    /// and the point is kept (threshold ½) or removed (threshold −½) without evaluating w, and
+    /// its distance to the surface is at least its distance to the box. The cut's uses of the
+    /// distances (the snap band, the Lipschitz bound of `segment_reaches`) stay correct with a
+    /// value nearer 0, and with `margin` a few edges long the bound never changes them.
+    pub(super) fn classifying_distance(&self, p: DVec3, margin: f64) -> f64 {
+        if let Prepared::Solid { threshold, bounds: (lo, hi), .. } = self {
+            let outside = (p.clamp(*lo, *hi) - p).length();
+            if outside > margin {
+                return if *threshold > 0.0 { -outside } else { outside };
+            }
+        }
+        self.signed_distance(p)
+    }
+
     pub(super) fn signed_distance(&self, p: DVec3) -> f64 {
         match self {
             Prepared::Plane { point, normal } => plane_distance(p, *point, *normal),
             Prepared::Stroke(s) => s.query(p).0,
-            Prepared::Solid { winding, threshold } => {
+            Prepared::Solid { winding, threshold, .. } => {
                 let Some(sp) = winding.bvh().closest_point(p) else {
                     return f64::NEG_INFINITY;
                 };
@@ -427,5 +453,30 @@ mod tests {
         assert!(err(SweptStroke::new(vec![DVec3::ZERO, DVec3::Z], vec![d, d])).contains("span no quad"));
         assert!(err(SweptStroke::new(vec![DVec3::ZERO, DVec3::X], vec![d, DVec3::new(0.0, 1.0, -1.0)])).contains("skew"));
         assert!(err(SweptStroke::perspective(DVec3::ZERO, vec![d, 2.0 * d])).contains("span no quad"));
+    }
+
+    #[test]
+    fn far_from_a_solid_the_classifying_distance_is_a_bound_of_the_right_sign() {
+        // A ball of radius 1 at the origin, as cut (removes inside) and flipped (removes
+        // outside). Points on rays out to 5: within `margin` of the ball's box the exact signed
+        // distance; beyond it a value of the same sign, no farther from 0 than the truth.
+        let ball = Cutter::Solid(crate::mesh::icosphere(1.0, 3));
+        for cutter in [ball.clone(), ball.flipped()] {
+            let prepared = cutter.prepare();
+            let mut bounded = 0;
+            for k in 0..400 {
+                let t = k as f64 * 0.37;
+                let dir = DVec3::new(t.sin() * (1.3 * t).cos(), t.sin() * (1.3 * t).sin(), t.cos());
+                let p = (0.2 + 4.8 * (k as f64 / 400.0)) * dir;
+                let exact = prepared.signed_distance(p);
+                let got = prepared.classifying_distance(p, 0.5);
+                if got == exact {
+                    continue;
+                }
+                bounded += 1;
+                assert!(got.signum() == exact.signum() && got.abs() <= exact.abs() && got.abs() > 0.5, "{p}: {got} vs {exact}");
+            }
+            assert!(bounded > 100, "only {bounded} of 400 points used the bound");
+        }
     }
 }
