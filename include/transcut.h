@@ -1590,9 +1590,9 @@ const char *tc_last_error_message(void);
 /**
  * Fills the first `size` bytes of `*options` with the defaults (back-lit, L-BFGS, the paper's
  * 4 × 4 patterns, η 1.3, λ 1e-4, 200 per-cell iterations; `nodes` and `spacing_mm` 0, to be
- * set) and sets `options->size`; pass `sizeof(TcAcquireOptions)`. `TC_NULL_POINTER` for NULL,
- * `TC_INVALID_ARGUMENT` for a size below `sizeof(TcAcquireOptions)`; nothing is written on
- * failure.
+ * set; no coarse-to-fine levels) and sets `options->size`; pass `sizeof(TcAcquireOptions)`.
+ * `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size below the first version's
+ * (the struct up to `channels`); nothing is written on failure.
  */
 TcStatus tc_acquire_options_init(struct TcAcquireOptions *options, size_t size);
 

@@ -158,9 +158,9 @@ const ACQUIRE_STATS_SIZE_V1: usize = size_of::<TcAcquireStats>();
 
 /// Fills the first `size` bytes of `*options` with the defaults (back-lit, L-BFGS, the paper's
 /// 4 × 4 patterns, η 1.3, λ 1e-4, 200 per-cell iterations; `nodes` and `spacing_mm` 0, to be
-/// set) and sets `options->size`; pass `sizeof(TcAcquireOptions)`. `TC_NULL_POINTER` for NULL,
-/// `TC_INVALID_ARGUMENT` for a size below `sizeof(TcAcquireOptions)`; nothing is written on
-/// failure.
+/// set; no coarse-to-fine levels) and sets `options->size`; pass `sizeof(TcAcquireOptions)`.
+/// `TC_NULL_POINTER` for NULL, `TC_INVALID_ARGUMENT` for a size below the first version's
+/// (the struct up to `channels`); nothing is written on failure.
 #[no_mangle]
 pub unsafe extern "C" fn tc_acquire_options_init(options: *mut TcAcquireOptions, size: usize) -> TcStatus {
     run("tc_acquire_options_init", || {
