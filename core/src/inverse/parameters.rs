@@ -26,7 +26,7 @@ pub struct ParameterGrid {
 
 /// Per cell of a `dims` cell grid (x fastest), its block's index when blocks are `f` cells on
 /// a side; and the number of blocks.
-fn blocks(dims: [usize; 3], f: usize) -> (Vec<u32>, usize) {
+fn block_index(dims: [usize; 3], f: usize) -> (Vec<u32>, usize) {
     let f = f.max(1);
     let b = dims.map(|n| n.div_ceil(f));
     let mut index = Vec::with_capacity(dims.iter().product());
@@ -58,8 +58,8 @@ impl ParameterGrid {
     #[must_use]
     pub fn blocks(grid: &BlockGrid, absorption: usize, scattering: usize) -> Self {
         let dims = grid.cell_dims();
-        let (a, absorption_count) = blocks(dims, absorption);
-        let (s, scattering_count) = blocks(dims, scattering);
+        let (a, absorption_count) = block_index(dims, absorption);
+        let (s, scattering_count) = block_index(dims, scattering);
         Self {
             absorption: a,
             scattering: s,
@@ -117,7 +117,7 @@ mod tests {
     #[test]
     fn blocks_cover_every_cell_once_with_short_last_blocks() {
         // 5 × 3 × 2 cells in blocks of 2: 3 × 2 × 1 blocks, the last of x one cell wide.
-        let (index, n) = blocks([5, 3, 2], 2);
+        let (index, n) = block_index([5, 3, 2], 2);
         assert_eq!(n, 6);
         assert_eq!(index.len(), 30);
         let mut sizes = vec![0; n];
