@@ -2830,6 +2830,8 @@ TC_LAYOUT_CHECK(TcAcquireOptions_initial_sigma_s_prime, offsetof(TcAcquireOption
 TC_LAYOUT_CHECK(TcAcquireOptions_origin, offsetof(TcAcquireOptions, origin) == 136);
 TC_LAYOUT_CHECK(TcAcquireOptions_units_per_mm, offsetof(TcAcquireOptions, units_per_mm) == 160);
 TC_LAYOUT_CHECK(TcAcquireOptions_channels, offsetof(TcAcquireOptions, channels) == 168);
+TC_LAYOUT_CHECK(TcAcquireOptions_coarse_levels, offsetof(TcAcquireOptions, coarse_levels) == 172);
+TC_LAYOUT_CHECK(TcAcquireOptions_absorption_coarsening, offsetof(TcAcquireOptions, absorption_coarsening) == 176);
 TC_LAYOUT_CHECK(TcAcquireStats__sizeof, sizeof(TcAcquireStats) == 120);
 TC_LAYOUT_CHECK(TcAcquireStats_size, offsetof(TcAcquireStats, size) == 0);
 TC_LAYOUT_CHECK(TcAcquireStats_iterations, offsetof(TcAcquireStats, iterations) == 4);

@@ -187,7 +187,9 @@ fn layouts() -> Vec<Layout> {
             initial_sigma_s_prime,
             origin,
             units_per_mm,
-            channels
+            channels,
+            coarse_levels,
+            absorption_coarsening
         }),
         layout!(TcAcquireStats {
             size,
