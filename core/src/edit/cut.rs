@@ -209,13 +209,11 @@ pub fn cut_with(
         .into_par_iter()
         .map(|v| {
             let ring = mesh.one_ring(v);
-            let lengths = ring.iter().map(|&w| (positions[w as usize] - positions[v]).length());
-            let longest = lengths.clone().fold(0.0, f64::max);
-            if ring.is_empty() {
-                (0.0, 0.0)
-            } else {
-                (lengths.sum::<f64>() / ring.len() as f64, longest)
-            }
+            let (sum, longest) = ring
+                .iter()
+                .map(|&w| (positions[w as usize] - positions[v]).length())
+                .fold((0.0, 0.0f64), |(s, m), l| (s + l, m.max(l)));
+            (sum / ring.len().max(1) as f64, longest)
         })
         .unzip();
     // Far from a solid cutter a bound stands in for the distance (`classifying_distance`): two

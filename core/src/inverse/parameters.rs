@@ -20,8 +20,6 @@ pub struct ParameterGrid {
     scattering: Vec<u32>,
     absorption_count: usize,
     scattering_count: usize,
-    /// Cells per block side of σa and of σ′s (0 for one block holding every cell).
-    block_cells: [usize; 2],
 }
 
 /// Per cell of a `dims` cell grid (x fastest), its block's index when blocks are `f` cells on
@@ -44,13 +42,7 @@ impl ParameterGrid {
     /// One σa and one σ′s for every cell (the homogeneous fit).
     #[must_use]
     pub fn homogeneous(cells: usize) -> Self {
-        Self {
-            absorption: vec![0; cells],
-            scattering: vec![0; cells],
-            absorption_count: 1,
-            scattering_count: 1,
-            block_cells: [0, 0],
-        }
+        Self { absorption: vec![0; cells], scattering: vec![0; cells], absorption_count: 1, scattering_count: 1 }
     }
 
     /// σa on blocks of `absorption` cells a side and σ′s on blocks of `scattering` cells a side
@@ -60,13 +52,7 @@ impl ParameterGrid {
         let dims = grid.cell_dims();
         let (a, absorption_count) = block_index(dims, absorption);
         let (s, scattering_count) = block_index(dims, scattering);
-        Self {
-            absorption: a,
-            scattering: s,
-            absorption_count,
-            scattering_count,
-            block_cells: [absorption.max(1), scattering.max(1)],
-        }
+        Self { absorption: a, scattering: s, absorption_count, scattering_count }
     }
 
     /// Unknowns: the σa blocks' then the σ′s blocks'.
@@ -79,12 +65,6 @@ impl ParameterGrid {
     #[must_use]
     pub fn is_empty(&self) -> bool {
         self.absorption.is_empty()
-    }
-
-    /// Cells per block side of σa and σ′s (0 for the homogeneous grid).
-    #[must_use]
-    pub fn block_cells(&self) -> [usize; 2] {
-        self.block_cells
     }
 
     /// `P x`: per cell, its (σa, σ′s) parameters' values.
