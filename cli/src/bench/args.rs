@@ -166,6 +166,17 @@ pub struct BenchArgs {
     pub inverse_render_tets: u64,
 }
 
+impl BenchArgs {
+    /// The suite's gradings: `--grading` as given, or `default` when it was not.
+    pub fn gradings_or(&self, default: &[u32]) -> Vec<u32> {
+        if self.grading.is_empty() {
+            default.to_vec()
+        } else {
+            self.grading.clone()
+        }
+    }
+}
+
 /// `--inverse-front-lit`: a finite margin of at least 0 mm.
 fn front_lit_margin(text: &str) -> Result<f64, String> {
     let margin: f64 = text.parse().map_err(|e| format!("{text:?} is not a number: {e}"))?;

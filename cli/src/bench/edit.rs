@@ -186,7 +186,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let runs = args.runs as usize;
     let ball_radius = 0.2 * (hi - lo).max_element();
     let ball = mesh::icosphere(ball_radius, 3);
-    let gradings = if args.grading.is_empty() { vec![0] } else { args.grading.clone() };
+    let gradings = args.gradings_or(&[0]);
     let mut entries = Vec::new();
     for (&target, layers) in args.tets.iter().flat_map(|t| gradings.iter().map(move |&g| (t, g))) {
         let grading = Grading::from_layers(layers);

@@ -45,7 +45,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let input = mesh::load(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
     let load_ms = load_start.elapsed().as_secs_f64() * 1e3;
     let mut entries = Vec::new();
-    let gradings = if args.grading.is_empty() { vec![0] } else { args.grading.clone() };
+    let gradings = args.gradings_or(&[0]);
     for (&target, layers) in args.tets.iter().flat_map(|t| gradings.iter().map(move |&g| (t, g))) {
         let grading = Grading::from_layers(layers);
         let mut runs = Vec::new();

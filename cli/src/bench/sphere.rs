@@ -58,15 +58,6 @@ struct Report {
     meshes: Vec<MeshEntry>,
 }
 
-/// The gradings of the suite: --grading, or uniform and 1, 2 and 4 cubes per size.
-fn gradings(args: &BenchArgs) -> Vec<u32> {
-    if args.grading.is_empty() {
-        vec![0, 1, 2, 4]
-    } else {
-        args.grading.clone()
-    }
-}
-
 /// Area-weighted RMS and mean of `got / exact − 1` per channel.
 fn relative_errors(got: &[[f64; 3]], exact: [f64; 3], area: &[f64]) -> ([f64; 3], [f64; 3]) {
     let total: f64 = area.iter().sum();
@@ -90,7 +81,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         args.presets.iter().map(|name| Ok((name.clone(), Medium::preset(name)?))).collect::<anyhow::Result<_>>()?;
     let mut meshes = Vec::new();
     for &target in &args.tets {
-        for layers in gradings(args) {
+        // --grading, or uniform and 1, 2 and 4 cubes per size.
+        for layers in args.gradings_or(&[0, 1, 2, 4]) {
             let grading = Grading::from_layers(layers);
             let start = Instant::now();
             let t =
