@@ -136,24 +136,25 @@ def bake_options(settings, method: str, mm_per_unit: float = 1.0) -> dict:
 def check_editable(context, what: str) -> None:
     """BakeError when the Method chosen cannot be edited after its bake (radiosity: its objects
     light each other, so the library offers no per-object edit; the polygrid's finite-volume
-    stencil: its bake takes no updates), before any work."""
+    and paper stencils: their bakes take no updates), before any work."""
     settings = context.scene.transcut
     if settings.method == RADIOSITY:
         raise BakeError(
             f"{what} cannot edit a radiosity bake (its objects light each other, so the library has no "
             "per-object edits for it yet); choose TransCut in the Method menu"
         )
-    if settings.method == POLYGRID and settings.polygrid_stencil == "FINITE_VOLUME":
+    if settings.method == POLYGRID and settings.polygrid_stencil != "FEM":
         raise BakeError(
-            f"{what} cannot edit a finite-volume polygrid bake (the library has no updates for it); "
-            "choose the FEM stencil or TransCut"
+            f"{what} cannot edit a {_name(settings.polygrid_stencil)} polygrid bake (the library has no updates for "
+            "it); choose the FEM stencil or TransCut"
         )
 
 
 def relights(options: dict) -> bool:
     """Whether a bake with these :meth:`transcut.Scene.bake` keywords takes a relight
-    (``tc_scene_relight``): every method's does but the polygrid's finite-volume stencil's."""
-    return not (options.get("method") == POLYGRID and options.get("polygrid_stencil") == "finite-volume")
+    (``tc_scene_relight``): every method's does but the polygrid's finite-volume and paper
+    stencils'."""
+    return not (options.get("method") == POLYGRID and options.get("polygrid_stencil") in ("finite-volume", "paper-lsq"))
 
 
 def prepare_job(context, objects: list | None = None, method: str | None = None, animated: bool = False) -> BakeJob:

@@ -260,8 +260,8 @@ class TRANSCUT_OT_live_start(RunnerOperator, bpy.types.Operator):
         job = bake.prepare_job(context)
         if not bake.relights(job.options):
             raise BakeError(
-                "Live Translucency relights its bake, and a finite-volume polygrid bake takes no relight; "
-                "choose the FEM stencil"
+                "Live Translucency relights its bake, and a finite-volume or paper-stencil polygrid bake takes no "
+                "relight; choose the FEM stencil"
             )
         changed = [m.object_name for m in job.meshes if m.replace_mesh]
         if changed:

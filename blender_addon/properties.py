@@ -97,6 +97,12 @@ POLYGRID_STENCIL_ITEMS = (
         "Two-point fluxes between the grid nodes: exactly conservative, accurate on nearly cubic cells only; "
         "no edits after the bake",
     ),
+    (
+        "PAPER_LSQ",
+        "Paper (least squares)",
+        "Wang et al.'s own weights, for comparison: biased where the material changes, not consistent on skewed "
+        "cells; no edits after the bake",
+    ),
 )
 
 #: Translucent radiosity's iterations (``Scene.bake(iteration=...)`` names, upper case with ``_``).

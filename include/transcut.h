@@ -130,6 +130,14 @@
 #define TC_POLYGRID_STENCIL_FINITE_VOLUME 1
 
 /**
+ * `TcPolygridOptions.stencil`: the paper's own (Wang et al. 2008 eq. 9, App. B): least-squares
+ * weights with the cross terms dropped, Stam's ψ = κφ form, for reproduction and comparison
+ * (not conservative at κ interfaces, not consistent on skewed cells); Jacobi-BiCGSTAB on the
+ * CPU whatever the solver and backend; the session takes no updates (`TC_UNSUPPORTED`).
+ */
+#define TC_POLYGRID_STENCIL_PAPER_LSQ 2
+
+/**
  * The largest `TcPolygridOptions.nodes` (above it: `TC_INVALID_ARGUMENT`).
  */
 #define TC_MAX_POLYGRID_NODES 4000000
@@ -952,7 +960,8 @@ typedef struct TcPolygridOptions {
    */
   double cube_mm;
   /**
-   * `TC_POLYGRID_STENCIL_FEM` (default) or `TC_POLYGRID_STENCIL_FINITE_VOLUME`.
+   * `TC_POLYGRID_STENCIL_FEM` (default), `TC_POLYGRID_STENCIL_FINITE_VOLUME` or
+   * `TC_POLYGRID_STENCIL_PAPER_LSQ`.
    */
   uint32_t stencil;
   /**

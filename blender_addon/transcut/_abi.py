@@ -77,12 +77,17 @@ TC_METHOD_POLYGRID = 4  # polygrid diffusion: the diffusion equation on a polycu
 # TcPolygridOptions.stencil: the discretisation on the grid.
 TC_POLYGRID_STENCIL_FEM = 0  # P1 on the cells' tets, TransCut's assembly (default; the session edits)
 TC_POLYGRID_STENCIL_FINITE_VOLUME = 1  # two-point fluxes, exactly conservative; no edits after the bake
+TC_POLYGRID_STENCIL_PAPER_LSQ = 2  # the paper's App. B weights, for comparison; no edits after the bake
 TC_MAX_POLYGRID_NODES = 4_000_000  # TcPolygridOptions.nodes at most
 TC_MAX_POLYGRID_RESOLUTION = 256  # TcPolygridOptions.resolution (cells per cube edge) at most
 
 #: ``polygrid_stencil`` names accepted by :meth:`Scene.bake` (besides the integer values; the
 #: CLI's names, any case).
-POLYGRID_STENCILS = {"fem": TC_POLYGRID_STENCIL_FEM, "finite-volume": TC_POLYGRID_STENCIL_FINITE_VOLUME}
+POLYGRID_STENCILS = {
+    "fem": TC_POLYGRID_STENCIL_FEM,
+    "finite-volume": TC_POLYGRID_STENCIL_FINITE_VOLUME,
+    "paper-lsq": TC_POLYGRID_STENCIL_PAPER_LSQ,
+}
 
 # TcAcquireOptions (tc_acquire: a heterogeneous medium measured from images of a lit block).
 TC_ACQUIRE_BACK_LIT = 0  # observe: the face opposite the lit one (default)

@@ -853,7 +853,7 @@ class Scene:
         The polygrid's options (``method="polygrid"``), the :class:`TcPolygridOptions` fields:
         ``polygrid_nodes`` (target grid nodes per object), ``polygrid_cube`` (the polycube's cube
         edge in mm; 0: from the nodes), ``polygrid_resolution`` (grid cells per cube edge) and
-        ``polygrid_stencil`` (``"fem"`` or ``"finite-volume"``, any case, or a
+        ``polygrid_stencil`` (``"fem"``, ``"finite-volume"`` or ``"paper-lsq"``, any case, or a
         ``TC_POLYGRID_STENCIL_*`` value), and ``solver`` and ``edit_solver`` as TransCut's (its
         ``tolerance``, ``max_iterations`` and ``backend`` are the :class:`TcBakeOptions` fields;
         ``tets`` does not apply); unset: ``tc_polygrid_options_init``'s defaults.

@@ -68,6 +68,11 @@ pub const TC_POLYGRID_STENCIL_FEM: u32 = 0;
 /// conservative, second order on orthogonal cells only; SSOR-PCG on the CPU whatever the
 /// solver and backend; the session takes no updates (`TC_UNSUPPORTED`).
 pub const TC_POLYGRID_STENCIL_FINITE_VOLUME: u32 = 1;
+/// `TcPolygridOptions.stencil`: the paper's own (Wang et al. 2008 eq. 9, App. B): least-squares
+/// weights with the cross terms dropped, Stam's ψ = κφ form, for reproduction and comparison
+/// (not conservative at κ interfaces, not consistent on skewed cells); Jacobi-BiCGSTAB on the
+/// CPU whatever the solver and backend; the session takes no updates (`TC_UNSUPPORTED`).
+pub const TC_POLYGRID_STENCIL_PAPER_LSQ: u32 = 2;
 /// The largest `TcPolygridOptions.nodes` (above it: `TC_INVALID_ARGUMENT`).
 pub const TC_MAX_POLYGRID_NODES: u64 = 4_000_000;
 /// The largest `TcPolygridOptions.resolution` (above it: `TC_INVALID_ARGUMENT`).
@@ -342,7 +347,8 @@ pub struct TcPolygridOptions {
     /// `nodes` (the object's volume over the node budget). A cube at which the polycube changes
     /// the surface's topology or the grid folds is made smaller, at the same node spacing.
     pub cube_mm: f64,
-    /// `TC_POLYGRID_STENCIL_FEM` (default) or `TC_POLYGRID_STENCIL_FINITE_VOLUME`.
+    /// `TC_POLYGRID_STENCIL_FEM` (default), `TC_POLYGRID_STENCIL_FINITE_VOLUME` or
+    /// `TC_POLYGRID_STENCIL_PAPER_LSQ`.
     pub stencil: u32,
     /// The bake's solver on the CPU with the FEM stencil: `TC_SOLVER_DEFAULT` (SSOR-PCG) or a
     /// `TC_SOLVER_*`, as `TcTransCutOptions.solver`.
@@ -512,6 +518,7 @@ pub(crate) fn default_polygrid_options() -> TcPolygridOptions {
         cube_mm: d.cube_mm.unwrap_or(0.0),
         stencil: match d.stencil {
             Stencil::FiniteVolume => TC_POLYGRID_STENCIL_FINITE_VOLUME,
+            Stencil::PaperLsq => TC_POLYGRID_STENCIL_PAPER_LSQ,
             _ => TC_POLYGRID_STENCIL_FEM,
         },
         solver: TC_SOLVER_DEFAULT,
@@ -527,10 +534,14 @@ fn polygrid_options(o: &TcPolygridOptions, transcut: TransCutOptions) -> Result<
     let stencil = match o.stencil {
         TC_POLYGRID_STENCIL_FEM => Stencil::Fem,
         TC_POLYGRID_STENCIL_FINITE_VOLUME => Stencil::FiniteVolume,
+        TC_POLYGRID_STENCIL_PAPER_LSQ => Stencil::PaperLsq,
         other => {
             return Err(field(
                 "stencil",
-                format!("{other}: unknown stencil (TC_POLYGRID_STENCIL_FEM = 0, TC_POLYGRID_STENCIL_FINITE_VOLUME = 1)"),
+                format!(
+                    "{other}: unknown stencil (TC_POLYGRID_STENCIL_FEM = 0, TC_POLYGRID_STENCIL_FINITE_VOLUME = 1, \
+                     TC_POLYGRID_STENCIL_PAPER_LSQ = 2)"
+                ),
             ))
         }
     };
@@ -1147,7 +1158,9 @@ mod tests {
         assert!(bad(TcPolygridOptions { nodes: 4_000_001, ..d() }).contains("nodes = 4000001"));
         assert!(bad(TcPolygridOptions { cube_mm: f64::NAN, ..d() }).contains("cube_mm = NaN"));
         assert!(bad(TcPolygridOptions { cube_mm: -1.0, ..d() }).contains("cube_mm = -1"));
-        assert!(bad(TcPolygridOptions { stencil: 2, ..d() }).contains("stencil = 2: unknown stencil"));
+        assert!(bad(TcPolygridOptions { stencil: 3, ..d() }).contains("stencil = 3: unknown stencil"));
+        let paper = TcPolygridOptions { stencil: TC_POLYGRID_STENCIL_PAPER_LSQ, ..d() };
+        assert_eq!(polygrid_options(&paper, TransCutOptions::default()).unwrap().stencil, Stencil::PaperLsq);
         assert!(bad(TcPolygridOptions { solver: 9, ..d() }).contains("solver = 9"));
         let tolerance = TransCutOptions { tolerance: 2.0, ..TransCutOptions::default() };
         assert!(polygrid_options(&d(), tolerance).unwrap_err().message.contains("tolerance"));

@@ -214,7 +214,7 @@ pub struct MethodArgs {
     pub tolerance: Option<f64>,
     /// transcut, radiosity, polygrid: the bake's diffusion solver on the CPU: pcg, ssor-pcg (default), cascade,
     /// mg-pcg or sa-pcg (on the GPU the single-level solvers run Jacobi PCG; the polygrid's
-    /// finite-volume stencil always runs SSOR-PCG on the CPU)
+    /// finite-volume stencil always runs SSOR-PCG on the CPU, the paper's Jacobi-BiCGSTAB)
     #[arg(long, value_parser = solver_kind, help_heading = "TransCut options")]
     pub solver: Option<SolverKind>,
     /// transcut, radiosity, polygrid: where the diffusion solve runs: cpu, gpu (an error without a GPU) or auto (a hardware
@@ -322,7 +322,9 @@ pub struct MethodArgs {
     pub polygrid_resolution: Option<u32>,
     /// polygrid: the discretisation on the grid: fem (P1 on the cells' tets, TransCut's
     /// assembly; second order on skewed cells, relight and edits) or finite-volume (two-point
-    /// fluxes, exactly conservative; no edits after the bake) [default: fem]
+    /// fluxes, exactly conservative; no edits after the bake) or paper-lsq (the paper's App. B
+    /// least-squares weights and ψ = κφ form, for comparison: biased at κ interfaces, not
+    /// consistent on skewed cells; no edits after the bake) [default: fem]
     #[arg(long, value_name = "STENCIL", value_parser = stencil, help_heading = "Polygrid options")]
     pub polygrid_stencil: Option<Stencil>,
 }
@@ -1206,8 +1208,9 @@ mod tests {
         assert_eq!(named.method(&none).unwrap(), Method::Polygrid(PolygridOptions::default()));
         assert_eq!(stencil("fem"), Ok(Stencil::Fem));
         assert_eq!(stencil("Finite-Volume"), Ok(Stencil::FiniteVolume));
+        assert_eq!(stencil("paper-LSQ"), Ok(Stencil::PaperLsq));
         let e = stencil("lsq").unwrap_err();
-        assert!(e.contains("'lsq'") && e.contains("fem, finite-volume"), "{e}");
+        assert!(e.contains("'lsq'") && e.contains("fem, finite-volume, paper-lsq"), "{e}");
         assert!(method_help().lines().any(|l| l.trim_start().starts_with("polygrid ")), "{}", method_help());
         // Out of range through the core's check, naming the method and the option.
         for (args, words) in [

@@ -64,7 +64,7 @@ class Polygrid(Structure):
 
 #: TC_METHOD_POLYGRID and TC_POLYGRID_STENCIL_* by name, written out here.
 METHOD_POLYGRID = 4
-POLYGRID_STENCILS = {"fem": 0, "finite-volume": 1}
+POLYGRID_STENCILS = {"fem": 0, "finite-volume": 1, "paper-lsq": 2}
 
 
 Progress = ctypes.CFUNCTYPE(c_int32, c_void_p, c_char_p, c_double)

@@ -71,7 +71,7 @@ def test_polygrid_options_defaults_and_names(tclib):
     d = tclib.default_polygrid_options()
     assert d.size == ctypes.sizeof(tc.TcPolygridOptions)
     assert (d.resolution, d.nodes, d.cube_mm, d.stencil) == (8, 200_000, 0.0, tc.TC_POLYGRID_STENCIL_FEM)
-    assert tc.POLYGRID_STENCILS == {"fem": 0, "finite-volume": 1}
+    assert tc.POLYGRID_STENCILS == {"fem": 0, "finite-volume": 1, "paper-lsq": 2}
 
 
 def test_polygrid_bake_of_a_sphere_matches_the_closed_form(tclib, ball):
@@ -179,6 +179,11 @@ def test_the_method_menu_and_panel_offer_polygrid(settings, addon):
     with pytest.raises(addon.mesh_export.BakeError, match="finite-volume polygrid"):
         addon.bake.check_editable(bpy.context, "Paint Medium")
     assert not addon.bake.relights(options)
+    settings.polygrid_stencil = "PAPER_LSQ"
+    options = addon.bake.bake_options(settings, "polygrid", MM_PER_UNIT)
+    assert options["polygrid_stencil"] == "paper-lsq" and not addon.bake.relights(options)
+    with pytest.raises(addon.mesh_export.BakeError, match="paper-lsq polygrid"):
+        addon.bake.check_editable(bpy.context, "Paint Medium")
     settings.polygrid_stencil = "FEM"
     assert addon.bake.relights(addon.bake.bake_options(settings, "polygrid", MM_PER_UNIT))
     addon.bake.check_editable(bpy.context, "Paint Medium")

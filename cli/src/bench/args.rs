@@ -44,7 +44,8 @@ pub enum Suite {
     Radiosity,
     /// The polygrid's relaxation (J. Wang et al. 2008 §5.2–5.3): Fig. 15 (error against node
     /// updates and time for single-level Gauss–Seidel, the hierarchical cascade and the adaptive
-    /// scheme) on a marble ball at --polygrid-resolution and on a block, then the diffusion pass
+    /// scheme, with each stencil, the paper's own included) on a marble ball at
+    /// --polygrid-resolution and on a block, then the diffusion pass
     /// (cold and warm) of PCG and the relaxation at --polygrid-nodes, each to 1% RMS.
     Polygrid,
     /// Inverse diffusion (J. Wang et al. 2008 §4): the synthetic acquisition of a veined marble

@@ -43,7 +43,7 @@
 //! # polygrid_nodes = 200000  # polygrid: target grid nodes per object
 //! # polygrid_cube = 2.5     # polygrid: the polycube's cube edge, mm (default: from polygrid_nodes)
 //! # polygrid_resolution = 8  # polygrid: grid cells per cube edge, 1 to 256
-//! # polygrid_stencil = "fem"  # polygrid: fem or finite-volume
+//! # polygrid_stencil = "fem"  # polygrid: fem, finite-volume or paper-lsq
 //!
 //! [[object]]                # one or more
 //! mesh = "bunny.obj"        # OBJ or PLY, relative to the scene file

@@ -143,7 +143,7 @@ pub struct BakeSpec {
     pub polygrid_cube: Option<f64>,
     /// polygrid: grid cells per cube edge (`--polygrid-resolution`).
     pub polygrid_resolution: Option<u32>,
-    /// polygrid: `fem` or `finite-volume` (`--polygrid-stencil`).
+    /// polygrid: `fem`, `finite-volume` or `paper-lsq` (`--polygrid-stencil`).
     pub polygrid_stencil: Option<String>,
 }
 

@@ -50,6 +50,10 @@ pub enum PolygridError {
          than the cubes: choose a smaller cube or a higher resolution"
     )]
     SurfaceFold { turned: usize, corners: usize },
+    /// A node the paper's stencil cannot carry ([`super::PolygridSystem::paper_lsq`]): folded
+    /// or nearly flat links, or no link to write its row with.
+    #[error("the paper stencil fails at polygrid node {node}: {reason}")]
+    Stencil { node: u32, reason: String },
     /// The medium put on the cells is invalid (NaN, negative coefficients).
     #[error("invalid medium on cell {cell}: {message}")]
     InvalidMedium { cell: usize, message: String },

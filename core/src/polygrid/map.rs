@@ -241,6 +241,126 @@ pub fn map_to_surface(grid: &mut Polygrid, bvh: &TriangleBvh, options: &MapOptio
     check_cells(grid, "the surface's features are finer than the cubes: choose a smaller cube or a higher resolution")
 }
 
+/// The paper's first interior layer (§5.1 step 5): every node off the boundary linked to
+/// nodes under the boundary condition (a lattice link, or a pillow's base below its surface
+/// node) moved to the mean of those boundary nodes less `fraction` × their mean spacing (the
+/// mean length of their quads' edges) along their mean unit normal; the paper takes 0.1, so
+/// that its one-sided boundary relation ([`super::PolygridSystem::paper_lsq`]) is accurate.
+/// Deeper nodes stay. `robin` as in [`super::PolygridSystem::finite_volume`]: a mirror face
+/// is not a boundary here (its nodes slide along it). Where a move would turn a Kuhn tet (a
+/// pillowed polycube's convex edges and corners, rounded inwards by the map), the corners of
+/// that cell keep their places, until no cell is turned.
+///
+/// # Errors
+/// [`PolygridError::LengthMismatch`] for a mask of the wrong length; [`PolygridError::InvalidCube`]
+/// for a `fraction` outside (0, 1); [`PolygridError::Fold`] if the grid was folded before.
+pub fn place_first_layer(grid: &mut Polygrid, fraction: f64, robin: Option<&[bool]>) -> Result<FirstLayer, PolygridError> {
+    if let Some(r) = robin {
+        if r.len() != grid.quads().len() {
+            return Err(PolygridError::LengthMismatch { what: "Robin quad mask", expected: grid.quads().len(), found: r.len() });
+        }
+    }
+    if !(fraction > 0.0 && fraction < 1.0) {
+        return Err(PolygridError::InvalidCube { cube: fraction });
+    }
+    let n = grid.node_count();
+    let x = grid.positions();
+    let (mut on_robin, mut normal, mut spacing, mut edges) = (vec![false; n], vec![DVec3::ZERO; n], vec![0.0; n], vec![0.0; n]);
+    for (qi, q) in grid.quads().iter().enumerate() {
+        if robin.is_some_and(|r| !r[qi]) {
+            continue;
+        }
+        let [a, b, c, d] = q.map(|i| x[i as usize]);
+        let area = (c - a).cross(d - b);
+        for k in 0..4 {
+            let (i, j) = (q[k] as usize, q[(k + 1) % 4] as usize);
+            on_robin[i] = true;
+            normal[i] += area;
+            let l = (x[j] - x[i]).length();
+            spacing[i] += l;
+            spacing[j] += l;
+            edges[i] += 1.0;
+            edges[j] += 1.0;
+        }
+    }
+    let mut pillow = vec![NONE; n];
+    for (k, &b) in grid.pillow_base().iter().enumerate() {
+        pillow[b as usize] = (grid.lattice_node_count() + k) as u32;
+    }
+    let neighbours = grid.neighbours();
+    let target: Vec<Option<DVec3>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            if on_robin[i] {
+                return None;
+            }
+            let partners = neighbours[i].iter().copied().chain([pillow[i]]).filter(|&j| j != NONE && on_robin[j as usize]);
+            let (mut at, mut nsum, mut s, mut count) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0);
+            for j in partners {
+                let j = j as usize;
+                at += x[j];
+                nsum += normal[j].normalize_or_zero();
+                s += spacing[j] / edges[j];
+                count += 1.0;
+            }
+            (count > 0.0).then(|| at / count - fraction * (s / count) * nsum.normalize_or_zero())
+        })
+        .collect();
+    let old = x.to_vec();
+    let mut positions = old.clone();
+    let mut moved = vec![false; n];
+    for (i, t) in target.iter().enumerate() {
+        if let Some(t) = t {
+            positions[i] = *t;
+            moved[i] = true;
+        }
+    }
+    // Keep the corners of turned cells where they were, until none is turned.
+    loop {
+        let turned: Vec<usize> = grid
+            .cells()
+            .par_iter()
+            .enumerate()
+            .filter(|(_, c)| c.iter().any(|&v| moved[v as usize]) && cell_turned(&c.map(|v| positions[v as usize])))
+            .map(|(k, _)| k)
+            .collect();
+        let mut reverted = false;
+        for k in turned {
+            for &v in &grid.cells()[k] {
+                if moved[v as usize] {
+                    moved[v as usize] = false;
+                    positions[v as usize] = old[v as usize];
+                    reverted = true;
+                }
+            }
+        }
+        if !reverted {
+            break;
+        }
+    }
+    let candidates = target.iter().filter(|t| t.is_some()).count();
+    let placed = moved.iter().filter(|&&m| m).count();
+    grid.set_positions(positions);
+    match check_cells(grid, "the grid was folded before its first layer was placed") {
+        Ok(quality) => Ok(FirstLayer { placed, kept: candidates - placed, quality }),
+        Err(e) => {
+            grid.set_positions(old);
+            Err(e)
+        }
+    }
+}
+
+/// What [`place_first_layer`] did.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct FirstLayer {
+    /// Nodes moved to the paper's depth.
+    pub placed: usize,
+    /// Nodes of the layer kept where they were (their move would turn a cell).
+    pub kept: usize,
+    /// The cells' shape afterwards.
+    pub quality: CellQuality,
+}
+
 /// The cells' shape: the scaled Jacobian of every cell corner (the determinant of the three
 /// unit edge vectors leaving the corner along +x, +y, +z of the lattice: 1 for a cube, ≤ 0 at
 /// a corner pushed through), and the fold check on the elements the stencils integrate over,
@@ -253,7 +373,6 @@ pub fn map_to_surface(grid: &mut Polygrid, bvh: &TriangleBvh, options: &MapOptio
 /// [`PolygridError::Fold`] naming the first cell with a tet of non-positive volume (and that
 /// cell's smallest corner Jacobian), with `hint` saying what to change.
 pub fn check_cells(grid: &Polygrid, hint: &'static str) -> Result<CellQuality, PolygridError> {
-    const PATHS: [[usize; 2]; 6] = [[1, 2], [1, 4], [2, 1], [2, 4], [4, 1], [4, 2]];
     let p = grid.positions();
     let per_cell: Vec<(f64, f64, bool)> = grid
         .cells()
@@ -278,16 +397,7 @@ pub fn check_cells(grid: &Polygrid, hint: &'static str) -> Result<CellQuality, P
                 min = min.min(j);
                 sum += j;
             }
-            // Kuhn tet [0, a, a|b, 7] of the path a, b, 7 ^ a ^ b: positive in the lattice when
-            // the path's axes are an even permutation of x, y, z.
-            let diagonal = (x[7] - x[0]).length();
-            let scale = diagonal * diagonal * diagonal;
-            let turned = PATHS.iter().any(|&[a, b]| {
-                let sign = if matches!((a, b), (1, 2) | (2, 4) | (4, 1)) { 1.0 } else { -1.0 };
-                let v = (x[a] - x[0]).dot((x[a | b] - x[0]).cross(x[7] - x[0]));
-                !(sign * v > 1e-12 * scale)
-            });
-            (min, sum / 8.0, turned)
+            (min, sum / 8.0, cell_turned(&x))
         })
         .collect();
     if let Some(cell) = per_cell.iter().position(|c| c.2) {
@@ -296,6 +406,20 @@ pub fn check_cells(grid: &Polygrid, hint: &'static str) -> Result<CellQuality, P
     let min = per_cell.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
     let mean = per_cell.iter().map(|c| c.1).sum::<f64>() / per_cell.len().max(1) as f64;
     Ok(CellQuality { min_scaled_jacobian: min, mean_scaled_jacobian: mean })
+}
+
+/// Whether a cell with corners `x` (lattice order) has a Kuhn tet turned over or flat: tet
+/// [0, a, a|b, 7] of the path a, b, 7 ^ a ^ b is positive in the lattice when the path's axes
+/// are an even permutation of x, y, z.
+fn cell_turned(x: &[DVec3; 8]) -> bool {
+    const PATHS: [[usize; 2]; 6] = [[1, 2], [1, 4], [2, 1], [2, 4], [4, 1], [4, 2]];
+    let diagonal = (x[7] - x[0]).length();
+    let scale = diagonal * diagonal * diagonal;
+    PATHS.iter().any(|&[a, b]| {
+        let sign = if matches!((a, b), (1, 2) | (2, 4) | (4, 1)) { 1.0 } else { -1.0 };
+        let v = (x[a] - x[0]).dot((x[a | b] - x[0]).cross(x[7] - x[0]));
+        !(sign * v > 1e-12 * scale)
+    })
 }
 
 #[cfg(test)]

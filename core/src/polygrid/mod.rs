@@ -8,6 +8,7 @@
 //!   paper's coarse levels ([`Polygrid::coarsened`]);
 //! - [`map`]: the nodes moved onto the object (a cubed sphere, or a surface by projection and
 //!   relaxation), folds refused;
+//! - [`lsq`]: the paper's least-squares Laplacian weights (App. B) of one node;
 //! - [`untangle`]: node-wise untangling and smoothing of the mapped surface quads and Kuhn
 //!   tets (Escobar et al. 2003).
 //!
@@ -18,7 +19,9 @@
 pub mod domain;
 mod error;
 pub mod grid;
+pub mod lsq;
 pub mod map;
+mod paper;
 pub mod relax;
 mod system;
 pub mod untangle;
@@ -26,7 +29,8 @@ pub mod untangle;
 pub use domain::Polycube;
 pub use error::PolygridError;
 pub use grid::{Polygrid, Prolongation, MAX_RESOLUTION};
-pub use map::{cubed_sphere, map_to_sphere, map_to_surface, CellQuality, MapOptions};
+pub use map::{cubed_sphere, map_to_sphere, map_to_surface, place_first_layer, CellQuality, FirstLayer, MapOptions};
+pub use paper::LsqDiagnostics;
 pub use relax::{FreezeDepth, RadianceReference, RelaxHierarchy, RelaxOptions, RelaxState, Schedule, Smoother, Start};
 pub use system::{BoundaryNodes, PolygridSystem, CELL_EDGES};
 
@@ -44,11 +48,16 @@ pub enum Stencil {
     /// nonzeros per row, but not consistent on skewed cells (the cubed sphere stays near
     /// 1.5%).
     FiniteVolume,
+    /// The paper's own (eq. 9, App. B; [`PolygridSystem::paper_lsq`]): least-squares weights
+    /// with the cross terms dropped, Stam's ψ = κφ form, media on the nodes; for reproduction
+    /// and comparison. Not symmetric (BiCGSTAB), not conservative at κ interfaces (a
+    /// two-layer slab's transmission −51%), not consistent on skewed cells.
+    PaperLsq,
 }
 
 impl Stencil {
     /// Every stencil's name, as front ends spell it.
-    pub const NAMES: [&'static str; 2] = ["fem", "finite-volume"];
+    pub const NAMES: [&'static str; 3] = ["fem", "finite-volume", "paper-lsq"];
 
     /// The stencil's name.
     #[must_use]
@@ -56,6 +65,7 @@ impl Stencil {
         match self {
             Self::Fem => "fem",
             Self::FiniteVolume => "finite-volume",
+            Self::PaperLsq => "paper-lsq",
         }
     }
 
@@ -65,6 +75,7 @@ impl Stencil {
         match name.trim().to_ascii_lowercase().as_str() {
             "fem" => Some(Self::Fem),
             "finite-volume" | "fv" => Some(Self::FiniteVolume),
+            "paper-lsq" | "paper" => Some(Self::PaperLsq),
             _ => None,
         }
     }

@@ -395,49 +395,50 @@ impl RelaxState {
 /// One level's system (the caller's stencil).
 #[derive(Debug, Clone)]
 enum LevelSystem {
-    FiniteVolume(PolygridSystem),
+    /// The finite-volume or the paper's stencil.
+    Nodes(Box<PolygridSystem>),
     Fem(Box<DiffusionSystem>),
 }
 
 impl LevelSystem {
     fn matrix(&self) -> &CsrMatrix3 {
         match self {
-            Self::FiniteVolume(s) => s.matrix(),
+            Self::Nodes(s) => s.matrix(),
             Self::Fem(s) => s.matrix(),
         }
     }
 
     fn rhs(&self) -> &[[f64; 3]] {
         match self {
-            Self::FiniteVolume(s) => s.rhs(),
+            Self::Nodes(s) => s.rhs(),
             Self::Fem(s) => s.rhs(),
         }
     }
 
     fn source(&self) -> &[[f64; 3]] {
         match self {
-            Self::FiniteVolume(s) => s.source(),
+            Self::Nodes(s) => s.source(),
             Self::Fem(s) => s.source(),
         }
     }
 
     fn boundary_ids(&self) -> &[u32] {
         match self {
-            Self::FiniteVolume(s) => &s.boundary().ids,
+            Self::Nodes(s) => &s.boundary().ids,
             Self::Fem(s) => &s.boundary().ids,
         }
     }
 
     fn terms(&self) -> &BoundaryTerms {
         match self {
-            Self::FiniteVolume(s) => s.boundary_terms(),
+            Self::Nodes(s) => s.boundary_terms(),
             Self::Fem(s) => s.boundary_terms(),
         }
     }
 
     fn set_source(&mut self, q: &[[f64; 3]]) -> Result<(), PolygridError> {
         match self {
-            Self::FiniteVolume(s) => s.set_source(q),
+            Self::Nodes(s) => s.set_source(q),
             Self::Fem(s) => Ok(s.set_source(q)?),
         }
     }
@@ -661,7 +662,7 @@ impl RelaxHierarchy {
     #[must_use]
     pub fn boundary_normals(&self) -> &[DVec3] {
         match &self.levels[0].system {
-            LevelSystem::FiniteVolume(s) => &s.boundary().normal,
+            LevelSystem::Nodes(s) => &s.boundary().normal,
             LevelSystem::Fem(s) => &s.boundary().normal,
         }
     }
@@ -1067,7 +1068,8 @@ fn assemble(
     l: usize,
 ) -> Result<LevelSystem, PolygridError> {
     match stencil {
-        Stencil::FiniteVolume => Ok(LevelSystem::FiniteVolume(PolygridSystem::finite_volume(grid, media, mm_per_unit, None)?)),
+        Stencil::FiniteVolume => Ok(LevelSystem::Nodes(Box::new(PolygridSystem::finite_volume(grid, media, mm_per_unit, None)?))),
+        Stencil::PaperLsq => Ok(LevelSystem::Nodes(Box::new(PolygridSystem::paper_lsq(grid, media, mm_per_unit, None)?))),
         Stencil::Fem => {
             // Tets 6c … 6c + 5 are cell c's; equal media share a table entry.
             let mut table: Vec<Medium> = Vec::new();

@@ -39,13 +39,16 @@ pub struct BoundaryNodes {
 /// A polygrid's diffusion system M φ = b (see the module documentation).
 #[derive(Debug, Clone)]
 pub struct PolygridSystem {
-    matrix: CsrMatrix3,
-    boundary: BoundaryNodes,
-    terms: BoundaryTerms,
+    pub(super) matrix: CsrMatrix3,
+    pub(super) boundary: BoundaryNodes,
+    pub(super) terms: BoundaryTerms,
     /// V_i μ_i per node and channel (mm³ · mm⁻¹).
-    absorption: Vec<[f64; 3]>,
-    source: Vec<[f64; 3]>,
-    rhs: Vec<[f64; 3]>,
+    pub(super) absorption: Vec<[f64; 3]>,
+    pub(super) source: Vec<[f64; 3]>,
+    pub(super) rhs: Vec<[f64; 3]>,
+    /// The paper stencil's diagnostics ([`PolygridSystem::paper_lsq`]); `None` for the
+    /// symmetric finite-volume matrix.
+    pub(super) lsq: Option<super::paper::LsqDiagnostics>,
 }
 
 impl PolygridSystem {
@@ -64,33 +67,8 @@ impl PolygridSystem {
         mm_per_unit: f64,
         robin: Option<&[bool]>,
     ) -> Result<Self, PolygridError> {
+        let terms = check_inputs(grid, cell_media, mm_per_unit, robin)?;
         let cells = grid.cells();
-        if cell_media.len() != cells.len() {
-            return Err(PolygridError::LengthMismatch { what: "cell media", expected: cells.len(), found: cell_media.len() });
-        }
-        if let Some(r) = robin {
-            if r.len() != grid.quads().len() {
-                return Err(PolygridError::LengthMismatch {
-                    what: "Robin quad mask",
-                    expected: grid.quads().len(),
-                    found: r.len(),
-                });
-            }
-        }
-        if !(mm_per_unit.is_finite() && mm_per_unit > 0.0) {
-            return Err(PolygridError::InvalidCube { cube: mm_per_unit });
-        }
-        if let Some((cell, e)) = cell_media.iter().enumerate().find_map(|(c, m)| m.validate().err().map(|e| (c, e))) {
-            return Err(PolygridError::InvalidMedium { cell, message: e.to_string() });
-        }
-        let eta = cell_media[0].eta;
-        if let Some(cell) = cell_media.iter().position(|m| m.eta != eta) {
-            return Err(PolygridError::InvalidMedium {
-                cell,
-                message: format!("its η {} differs from the object's {eta} (one η per object)", cell_media[cell].eta),
-            });
-        }
-        let terms = BoundaryTerms::new(eta).map_err(|e| PolygridError::InvalidMedium { cell: 0, message: e.to_string() })?;
         let x: Vec<DVec3> = grid.positions().iter().map(|&p| p * mm_per_unit).collect();
         let n = grid.node_count();
 
@@ -119,20 +97,7 @@ impl PolygridSystem {
                 *a = std::array::from_fn(|ch| a[ch] + v[k] * m.sigma_a[ch]);
             }
         }
-        // Boundary: each quad's corner quarters.
-        let mut area = vec![0.0; n];
-        let mut normal = vec![DVec3::ZERO; n];
-        for (qi, q) in grid.quads().iter().enumerate() {
-            if robin.is_some_and(|r| !r[qi]) {
-                continue;
-            }
-            let p = q.map(|i| x[i as usize]);
-            for (k, a) in quad_corner_areas(&p).into_iter().enumerate() {
-                area[q[k] as usize] += a.length();
-                normal[q[k] as usize] += a;
-            }
-        }
-        let ids: Vec<u32> = (0..n as u32).filter(|&i| area[i as usize] > 0.0).collect();
+        let (ids, area, normal) = robin_boundary(grid, &x, robin);
         for &i in &ids {
             let robin_term = area[i as usize] / (2.0 * terms.a);
             triplets.push(Triplet::new(i, i, [robin_term; 3]));
@@ -145,11 +110,11 @@ impl PolygridSystem {
         let matrix = CsrMatrix3::from_triplets_with_pattern(pattern, &triplets)?;
         let boundary = BoundaryNodes {
             area_mm2: ids.iter().map(|&i| area[i as usize]).collect(),
-            normal: ids.iter().map(|&i| normal[i as usize].normalize_or_zero()).collect(),
+            normal: ids.iter().map(|&i| normal[i as usize]).collect(),
             ids,
         };
         let nb = boundary.ids.len();
-        Ok(Self { matrix, boundary, terms, absorption, source: vec![[0.0; 3]; nb], rhs: vec![[0.0; 3]; n] })
+        Ok(Self { matrix, boundary, terms, absorption, source: vec![[0.0; 3]; nb], rhs: vec![[0.0; 3]; n], lsq: None })
     }
 
     /// The matrix M (symmetric positive definite).
@@ -252,13 +217,69 @@ impl PolygridSystem {
     }
 }
 
+/// Checks the inputs shared by the stencils' assemblies and returns the object's boundary
+/// terms (see [`PolygridSystem::finite_volume`]'s errors).
+pub(super) fn check_inputs(
+    grid: &Polygrid,
+    cell_media: &[Medium],
+    mm_per_unit: f64,
+    robin: Option<&[bool]>,
+) -> Result<BoundaryTerms, PolygridError> {
+    if cell_media.len() != grid.cells().len() {
+        return Err(PolygridError::LengthMismatch { what: "cell media", expected: grid.cells().len(), found: cell_media.len() });
+    }
+    if let Some(r) = robin {
+        if r.len() != grid.quads().len() {
+            return Err(PolygridError::LengthMismatch { what: "Robin quad mask", expected: grid.quads().len(), found: r.len() });
+        }
+    }
+    if !(mm_per_unit.is_finite() && mm_per_unit > 0.0) {
+        return Err(PolygridError::InvalidCube { cube: mm_per_unit });
+    }
+    if let Some((cell, e)) = cell_media.iter().enumerate().find_map(|(c, m)| m.validate().err().map(|e| (c, e))) {
+        return Err(PolygridError::InvalidMedium { cell, message: e.to_string() });
+    }
+    let eta = cell_media[0].eta;
+    if let Some(cell) = cell_media.iter().position(|m| m.eta != eta) {
+        return Err(PolygridError::InvalidMedium {
+            cell,
+            message: format!("its η {} differs from the object's {eta} (one η per object)", cell_media[cell].eta),
+        });
+    }
+    BoundaryTerms::new(eta).map_err(|e| PolygridError::InvalidMedium { cell: 0, message: e.to_string() })
+}
+
+/// The nodes under the boundary condition (increasing ids), with the dual area S_i (mm², per
+/// node) and unit outward normal (per node, area-weighted over its quads; zero off the
+/// boundary) from each Robin quad's corner quarters; `x` in mm.
+pub(super) fn robin_boundary(grid: &Polygrid, x: &[DVec3], robin: Option<&[bool]>) -> (Vec<u32>, Vec<f64>, Vec<DVec3>) {
+    let n = grid.node_count();
+    let mut area = vec![0.0; n];
+    let mut normal = vec![DVec3::ZERO; n];
+    for (qi, q) in grid.quads().iter().enumerate() {
+        if robin.is_some_and(|r| !r[qi]) {
+            continue;
+        }
+        let p = q.map(|i| x[i as usize]);
+        for (k, a) in quad_corner_areas(&p).into_iter().enumerate() {
+            area[q[k] as usize] += a.length();
+            normal[q[k] as usize] += a;
+        }
+    }
+    for v in &mut normal {
+        *v = v.normalize_or_zero();
+    }
+    let ids = (0..n as u32).filter(|&i| area[i as usize] > 0.0).collect();
+    (ids, area, normal)
+}
+
 /// The 12 edges of a hex as corner pairs (lattice order), x edges first, then y, then z.
 pub const CELL_EDGES: [[usize; 2]; 12] =
     [[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7], [0, 4], [1, 5], [2, 6], [3, 7]];
 
 /// The trilinear map of a hex with corners `p` (lattice order) at local (u, v, w) ∈ [0, 1]³
 /// and its three partial derivatives.
-fn trilinear(p: &[DVec3; 8], u: f64, v: f64, w: f64) -> [DVec3; 3] {
+pub(super) fn trilinear(p: &[DVec3; 8], u: f64, v: f64, w: f64) -> [DVec3; 3] {
     let (iu, iv, iw) = (1.0 - u, 1.0 - v, 1.0 - w);
     let du = (p[1] - p[0]) * iv * iw + (p[3] - p[2]) * v * iw + (p[5] - p[4]) * iv * w + (p[7] - p[6]) * v * w;
     let dv = (p[2] - p[0]) * iu * iw + (p[3] - p[1]) * u * iw + (p[6] - p[4]) * iu * w + (p[7] - p[5]) * u * w;

@@ -13,7 +13,7 @@
 use transcut::light::Light;
 use transcut::optics::Medium;
 use transcut::DVec3;
-use transcut::{bake, BakeOptions, MediumSource, Method, Object, PolygridOptions, Scene, TransCutOptions};
+use transcut::{bake, BakeOptions, MediumSource, Method, Object, PolygridOptions, Scene, Stencil, TransCutOptions};
 
 use crate::common;
 use common::bunny;
@@ -37,8 +37,19 @@ fn polygrid_agrees_with_transcut_on_the_bunny() {
     // Equal unknowns: stuffed tets come about six to a vertex (at 100k tets TransCut has a
     // sixth of the polygrid's unknowns, and the two differ by 5–6% for that reason alone).
     let transcut = Method::TransCut(TransCutOptions { tets: 6 * size, ..solve.clone() });
-    let polygrid = Method::Polygrid(PolygridOptions { nodes: size, resolution: 2, solve, ..PolygridOptions::default() });
+    let polygrid =
+        Method::Polygrid(PolygridOptions { nodes: size, resolution: 2, solve: solve.clone(), ..PolygridOptions::default() });
+    let paper = Method::Polygrid(PolygridOptions {
+        nodes: size,
+        resolution: 2,
+        stencil: Stencil::PaperLsq,
+        solve,
+        ..PolygridOptions::default()
+    });
     // (medium, bound on the relative L2 difference per channel: the issue's).
+    // The paper's stencil: within 10% (design note A5); measured 3.5–3.9% (marble) and 5.8–9.3%
+    // (veins: Stam's form is not conservative at their interfaces) at 100k.
+    let paper_bound = 0.10;
     for (name, medium, bound) in [("marble", MediumSource::Homogeneous(marble), 0.03), ("veined marble", veined, 0.05)] {
         let mut object = Object::new("bunny", surface.clone(), marble, mm_per_unit);
         object.material = medium.into();
@@ -52,5 +63,9 @@ fn polygrid_agrees_with_transcut_on_the_bunny() {
             t.objects[0].stats.tets, t.objects[0].stats.vertices, p.objects[0].stats.polygrid
         );
         assert!(l2.iter().all(|&d| d < bound), "{name}: {l2:?}");
+        let q = bake_with(&paper);
+        let l2 = relative_l2(&q.objects[0].radiance, &t.objects[0].radiance);
+        eprintln!("{name} at {size}: the paper's stencil vs TransCut {l2:.4?}; {:?}", q.objects[0].stats.polygrid);
+        assert!(l2.iter().all(|&d| d < paper_bound), "{name}, the paper's stencil: {l2:?}");
     }
 }

@@ -12,9 +12,10 @@
 //!   on the cells' Kuhn split and assembles TransCut's system on it (the state and every
 //!   capability are then TransCut's, on the polygrid's nodes); [`Stencil::FiniteVolume`] takes
 //!   each cell's medium (the volume-weighted mean of σa and σ′s of its tets, never of κ) and
-//!   assembles [`PolygridSystem::finite_volume`];
+//!   assembles [`PolygridSystem::finite_volume`]; [`Stencil::PaperLsq`] takes the same cell
+//!   media and assembles [`PolygridSystem::paper_lsq`];
 //! - `solve`: q at the boundary nodes, the solve (FEM: TransCut's solvers and backends; finite
-//!   volumes: SSOR-preconditioned CG on the CPU), eq. 3 at the boundary nodes, clamped at 0,
+//!   volumes: SSOR-preconditioned CG on the CPU; the paper's stencil: Jacobi-BiCGSTAB), eq. 3 at the boundary nodes, clamped at 0,
 //!   interpolated at the user's vertices through the boundary's surface map.
 
 use std::sync::Arc;
@@ -26,10 +27,12 @@ use crate::diffusion::resolution;
 use crate::mesh::{TetMesh, TriangleBvh};
 use crate::mesher::map_user_vertices;
 use crate::optics::Medium;
-use crate::polygrid::{map_to_surface, CellQuality, MapOptions, Polycube, Polygrid, PolygridError, PolygridSystem};
+use crate::polygrid::{
+    map_to_surface, CellQuality, LsqDiagnostics, MapOptions, Polycube, Polygrid, PolygridError, PolygridSystem,
+};
 use crate::progress::{ms, solve_fraction};
 use crate::scene::{PolygridOptions, SceneError, Shape, Stencil};
-use crate::sparse::{pcg, Preconditioner, PreconditionerKind, SolveOptions, SparseError};
+use crate::sparse::{bicgstab, pcg, Preconditioner, PreconditionerKind, SolveOptions, SparseError};
 
 /// The polygrid method ([`SubsurfaceMethod`]).
 pub struct PolygridMethod;
@@ -38,13 +41,14 @@ pub struct PolygridMethod;
 pub(crate) enum PolygridPrepared {
     /// P1 on the Kuhn split: TransCut's system on the polygrid's nodes.
     Fem(Box<Prepared>),
-    /// The finite-volume system.
-    FiniteVolume(Box<FiniteVolume>),
+    /// The finite-volume or the paper's system on the nodes.
+    Nodes(Box<NodeSystem>),
 }
 
-/// A finite-volume polygrid object: the grid's Kuhn split (for the surface map and the kept
-/// state), its media, the system and the last fluence.
-pub(crate) struct FiniteVolume {
+/// A polygrid object solved on its nodes (finite volumes or the paper's stencil): the grid's
+/// Kuhn split (for the surface map and the kept state), its media, the system and the last
+/// fluence.
+pub(crate) struct NodeSystem {
     tet_mesh: TetMesh,
     media: Vec<Medium>,
     system: PolygridSystem,
@@ -98,6 +102,7 @@ impl SubsurfaceMethod for PolygridMethod {
             nodes: grid.node_count(),
             cells: grid.cells().len(),
             quality,
+            lsq: None,
         });
         stage("assembly", 0.6)?;
         match options.stencil {
@@ -108,7 +113,7 @@ impl SubsurfaceMethod for PolygridMethod {
                 options.solve.discretization,
                 stats,
             )?))),
-            Stencil::FiniteVolume => {
+            Stencil::FiniteVolume | Stencil::PaperLsq => {
                 let t = Instant::now();
                 let media = target
                     .medium("polygrid")?
@@ -119,14 +124,21 @@ impl SubsurfaceMethod for PolygridMethod {
                 stats.resolution = measured;
                 verdict.map_err(|u| SceneError::unresolved(index, name(), u))?;
                 let cell_media = cell_media(&tet_mesh, &media);
-                let system =
-                    PolygridSystem::finite_volume(&grid, &cell_media, object.mm_per_unit, None).map_err(polygrid_error)?;
+                let system = if options.stencil == Stencil::PaperLsq {
+                    PolygridSystem::paper_lsq(&grid, &cell_media, object.mm_per_unit, None)
+                } else {
+                    PolygridSystem::finite_volume(&grid, &cell_media, object.mm_per_unit, None)
+                }
+                .map_err(polygrid_error)?;
+                if let Some(p) = stats.polygrid.as_mut() {
+                    p.lsq = system.lsq_diagnostics().copied();
+                }
                 stats.assembly_ms = ms(t);
                 stats.tets = tet_mesh.tet_count();
                 stats.vertices = grid.node_count();
                 stats.boundary_vertices = system.boundary().ids.len();
                 let fluence = vec![[0.0; 3]; grid.node_count()];
-                Ok(PolygridPrepared::FiniteVolume(Box::new(FiniteVolume {
+                Ok(PolygridPrepared::Nodes(Box::new(NodeSystem {
                     tet_mesh,
                     media,
                     system,
@@ -148,14 +160,14 @@ impl SubsurfaceMethod for PolygridMethod {
     ) -> Result<Vec<[f64; 3]>, SceneError> {
         match state {
             PolygridPrepared::Fem(p) => p.solve_lit(target, lighting, &options.solve, stats, stage),
-            PolygridPrepared::FiniteVolume(fv) => fv.solve(target, lighting, options, stats, stage),
+            PolygridPrepared::Nodes(fv) => fv.solve(target, lighting, options, stats, stage),
         }
     }
 
     fn into_baked(state: PolygridPrepared) -> BakedState {
         match state {
             PolygridPrepared::Fem(p) => BakedState::TransCut(p.into_state()),
-            PolygridPrepared::FiniteVolume(fv) => BakedState::TransCut(fv.into_state()),
+            PolygridPrepared::Nodes(fv) => BakedState::TransCut(fv.into_state()),
         }
     }
 }
@@ -175,9 +187,11 @@ pub struct PolygridStats {
     pub cells: usize,
     /// The cells' scaled Jacobians after the map.
     pub quality: CellQuality,
+    /// The paper stencil's weights ([`Stencil::PaperLsq`]; `None` for the others).
+    pub lsq: Option<LsqDiagnostics>,
 }
 
-impl FiniteVolume {
+impl NodeSystem {
     fn solve(
         &mut self,
         target: &Target<'_>,
@@ -198,8 +212,11 @@ impl FiniteVolume {
         let t = Instant::now();
         self.system.set_source(&q).map_err(polygrid_error)?;
         stage("solve", 0.8)?;
+        // SSOR-PCG for the symmetric finite-volume matrix, Jacobi-BiCGSTAB for the paper's.
+        let symmetric = self.system.is_symmetric();
         if self.precond.is_none() {
-            let p = Preconditioner::new(self.system.matrix(), PreconditionerKind::Ssor).map_err(|e| polygrid_error(e.into()))?;
+            let kind = if symmetric { PreconditionerKind::Ssor } else { PreconditionerKind::Jacobi };
+            let p = Preconditioner::new(self.system.matrix(), kind).map_err(|e| polygrid_error(e.into()))?;
             self.precond = Some(p);
         }
         let tolerance = options.solve.tolerance;
@@ -209,16 +226,18 @@ impl FiniteVolume {
             .with_max_iterations(options.solve.max_iterations)
             .with_monitor(&monitor);
         let mut phi = self.fluence.clone();
-        let report =
-            pcg(self.system.matrix(), self.system.rhs(), &mut phi, self.precond.as_ref().expect("built above"), &solve_options)
-                .map_err(|e| match e {
-                SparseError::Cancelled { .. } => SceneError::Cancelled(crate::progress::Cancelled),
-                e => polygrid_error(PolygridError::Sparse(e)),
-            })?;
+        let solver = if symmetric { pcg } else { bicgstab };
+        let precond = self.precond.as_ref().expect("built above");
+        let report = solver(self.system.matrix(), self.system.rhs(), &mut phi, precond, &solve_options).map_err(|e| match e {
+            SparseError::Cancelled { .. } => SceneError::Cancelled(crate::progress::Cancelled),
+            e => polygrid_error(PolygridError::Sparse(e)),
+        })?;
         if !report.converged {
             return Err(polygrid_error(PolygridError::Sparse(SparseError::InvalidOption(format!(
-                "the finite-volume solve did not reach the tolerance {tolerance} in {} iterations (residual {:?})",
-                options.solve.max_iterations, report.relative_residual
+                "the {} solve did not reach the tolerance {tolerance} in {} iterations (residual {:?})",
+                options.stencil.name(),
+                options.solve.max_iterations,
+                report.relative_residual
             )))));
         }
         stats.iterations = report.iterations;
