@@ -358,3 +358,27 @@ fn the_papers_stencil_on_the_cubed_sphere() {
     assert!(errors[0][2] < 0.05 && errors[0][2] > 0.02, "{errors:?}");
     assert!(errors[1][2] < 0.01 && errors[1][2] < errors[1][1] / 2.0, "{errors:?}");
 }
+
+/// The paper's stencil and first layer refuse bad input by name and leave the grid as it was.
+#[test]
+fn the_papers_stencil_and_first_layer_refuse_bad_input() {
+    use transcut::polygrid::PolygridError;
+    let mut grid = cubed_sphere(4, DVec3::ZERO, 10.0).unwrap();
+    let before = grid.positions().to_vec();
+    for fraction in [0.0, 1.0, f64::NAN] {
+        assert!(matches!(place_first_layer(&mut grid, fraction, None), Err(PolygridError::InvalidCube { .. })));
+    }
+    let short = vec![true; 3];
+    assert!(matches!(
+        place_first_layer(&mut grid, 0.1, Some(&short)),
+        Err(PolygridError::LengthMismatch { what: "Robin quad mask", .. })
+    ));
+    assert_eq!(grid.positions(), &before[..]);
+    let mut media = vec![marble(); grid.cells().len()];
+    media[5].sigma_a[1] = f64::NAN;
+    assert!(matches!(PolygridSystem::paper_lsq(&grid, &media, 1.0, None), Err(PolygridError::InvalidMedium { cell: 5, .. })));
+    // A cube of one cell has no node off the boundary: no row for its corners.
+    let one = Polygrid::new(Arc::new(Polycube::block(DVec3::ZERO, 1.0, [1, 1, 1]).unwrap()), 1).unwrap();
+    let e = PolygridSystem::paper_lsq(&one, &[marble()], 1.0, None).unwrap_err();
+    assert!(matches!(e, PolygridError::Stencil { .. }) && e.to_string().contains("raise the resolution"), "{e}");
+}
