@@ -124,8 +124,9 @@
 
 /**
  * `TcPolygridOptions.stencil`: node-centred finite volumes with two-point fluxes: exactly
- * conservative, second order on orthogonal cells only; SSOR-PCG on the CPU whatever the
- * solver and backend; the session takes no updates (`TC_UNSUPPORTED`).
+ * conservative, second order on orthogonal cells only; SSOR-PCG on the CPU or Jacobi PCG on
+ * the GPU (by `TcBakeOptions.backend`) whatever the solver; the session takes no updates
+ * (`TC_UNSUPPORTED`).
  */
 #define TC_POLYGRID_STENCIL_FINITE_VOLUME 1
 

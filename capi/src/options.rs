@@ -65,8 +65,9 @@ pub const TC_METHOD_POLYGRID: u32 = 4;
 /// assembly (default): second order on skewed cells; the session relights and edits.
 pub const TC_POLYGRID_STENCIL_FEM: u32 = 0;
 /// `TcPolygridOptions.stencil`: node-centred finite volumes with two-point fluxes: exactly
-/// conservative, second order on orthogonal cells only; SSOR-PCG on the CPU whatever the
-/// solver and backend; the session takes no updates (`TC_UNSUPPORTED`).
+/// conservative, second order on orthogonal cells only; SSOR-PCG on the CPU or Jacobi PCG on
+/// the GPU (by `TcBakeOptions.backend`) whatever the solver; the session takes no updates
+/// (`TC_UNSUPPORTED`).
 pub const TC_POLYGRID_STENCIL_FINITE_VOLUME: u32 = 1;
 /// `TcPolygridOptions.stencil`: the paper's own (Wang et al. 2008 eq. 9, App. B): least-squares
 /// weights with the cross terms dropped, Stam's ψ = κφ form, for reproduction and comparison

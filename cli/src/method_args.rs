@@ -214,7 +214,8 @@ pub struct MethodArgs {
     pub tolerance: Option<f64>,
     /// transcut, radiosity, polygrid: the bake's diffusion solver on the CPU: pcg, ssor-pcg (default), cascade,
     /// mg-pcg or sa-pcg (on the GPU the single-level solvers run Jacobi PCG; the polygrid's
-    /// finite-volume stencil always runs SSOR-PCG on the CPU, the paper's Jacobi-BiCGSTAB)
+    /// finite-volume stencil runs SSOR-PCG on the CPU or Jacobi PCG on the GPU, the paper's
+    /// Jacobi-BiCGSTAB on the CPU)
     #[arg(long, value_parser = solver_kind, help_heading = "TransCut options")]
     pub solver: Option<SolverKind>,
     /// transcut, radiosity, polygrid: where the diffusion solve runs: cpu, gpu (an error without a GPU) or auto (a hardware

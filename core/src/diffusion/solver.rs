@@ -283,7 +283,7 @@ impl Solver {
 ///
 /// # Errors
 /// [`DiffusionError::LengthMismatch`] for a warm start of the wrong length.
-pub(crate) fn start_vector(system: &DiffusionSystem, warm_start: Option<&[[f64; 3]]>) -> Result<Vec<[f64; 3]>, DiffusionError> {
+fn start_vector(system: &DiffusionSystem, warm_start: Option<&[[f64; 3]]>) -> Result<Vec<[f64; 3]>, DiffusionError> {
     let n = system.vertex_count();
     match warm_start {
         Some(x) if x.len() != n => {

@@ -8,7 +8,7 @@ use std::str::FromStr;
 use super::error::GpuError;
 use crate::diffusion::{DiffusionSystem, Solution, Solver, SolverKind};
 use crate::sparse::hierarchy::HierarchyOptions;
-use crate::sparse::SolveOptions;
+use crate::sparse::{CsrMatrix3, SolveOptions};
 
 /// The environment variable that chooses the backend when the caller does not.
 pub const BACKEND_ENV: &str = "TRANSCUT_BACKEND";
@@ -176,6 +176,29 @@ pub fn solve_on(
             let mg = solver.multigrid().ok_or(GpuError::Unsupported { what: "a multigrid solver without its multigrid" })?;
             super::GpuSolver::with_multigrid(context, system, mg)?.solve(system, warm_start, options)
         },
+    )
+}
+
+/// Solves a symmetric positive definite `matrix` x = `b` of one's own (the polygrid's
+/// finite-volume system) where `backend` says, by the rule of [`solve_on`]: on the CPU by
+/// `on_cpu`, on the device by Jacobi PCG inside the same f64 refinement
+/// ([`super::pcg::GpuSolver::for_matrix`]), to the same tolerance.
+///
+/// # Errors
+/// As [`solve_on`].
+pub fn solve_matrix_on(
+    backend: Backend,
+    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))] matrix: &CsrMatrix3,
+    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))] b: &[[f64; 3]],
+    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))] warm_start: Option<&[[f64; 3]]>,
+    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))] options: &SolveOptions<'_>,
+    on_cpu: impl FnOnce() -> Result<Solution, GpuError>,
+) -> Result<(Solution, BackendReport), GpuError> {
+    on_backend(
+        backend,
+        on_cpu,
+        #[cfg(feature = "gpu")]
+        |context| super::GpuSolver::for_matrix(context, matrix)?.solve_matrix(matrix, b, warm_start, options),
     )
 }
 

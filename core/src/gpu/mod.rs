@@ -52,7 +52,7 @@
 mod backend;
 mod error;
 
-pub use backend::{choose_device, solve_on, Backend, BackendReport, DeviceChoice, SolveWith, BACKEND_ENV};
+pub use backend::{choose_device, solve_matrix_on, solve_on, Backend, BackendReport, DeviceChoice, SolveWith, BACKEND_ENV};
 pub use error::GpuError;
 
 #[cfg(feature = "gpu")]

@@ -35,13 +35,13 @@ use rayon::prelude::*;
 
 use super::context::{dispatch, GpuContext};
 use super::error::GpuError;
-use super::layout::{from_vec4, to_vec4, Scalars};
+use super::layout::{from_vec4, to_vec4, Params, Scalars};
 use super::matrix::DeviceMatrix;
 use super::multigrid::DeviceMultigrid;
 use super::shaders::Kernel;
-use crate::diffusion::{start_vector, DiffusionError, DiffusionSystem, Solution};
+use crate::diffusion::{DiffusionError, DiffusionSystem, Solution};
 use crate::sparse::hierarchy::Multigrid;
-use crate::sparse::{SolveOptions, SolveStats, SparseError};
+use crate::sparse::{CsrMatrix3, SolveOptions, SolveStats, SparseError};
 
 /// Iterations between two read-backs of the scalars (convergence checks).
 pub const CHECK_EVERY: usize = 16;
@@ -167,6 +167,27 @@ impl<'c> GpuSolver<'c> {
         Ok(GpuSolver { ctx, matrix, multigrid: Some(multigrid) })
     }
 
+    /// A solver for a symmetric positive definite `matrix` of one's own (the polygrid's
+    /// finite-volume system, [`crate::polygrid::PolygridSystem`]): uploaded and Jacobi-scaled;
+    /// solve it with [`GpuSolver::solve_matrix`].
+    ///
+    /// # Errors
+    /// Device errors ([`GpuError::Device`], [`GpuError::TooLarge`]).
+    pub fn for_matrix(ctx: &'c GpuContext, matrix: &CsrMatrix3) -> Result<GpuSolver<'c>, GpuError> {
+        let params = Params {
+            n: matrix.n() as u32,
+            nnz: matrix.pattern().nnz() as u32,
+            n_tets: 0,
+            n_boundary: 0,
+            n_groups: 0,
+            pad: [0; 3],
+            rad_phi: 0.0,
+            rad_q: 0.0,
+            pad_f: [0.0; 2],
+        };
+        Ok(GpuSolver { ctx, matrix: DeviceMatrix::upload(ctx, matrix, params)?, multigrid: None })
+    }
+
     /// Solves for the current right-hand side of `system`, which must be the system this solver
     /// was built from (or one with the same matrix, e.g. after `set_source`).
     ///
@@ -179,12 +200,28 @@ impl<'c> GpuSolver<'c> {
         warm_start: Option<&[[f64; 3]]>,
         options: &SolveOptions<'_>,
     ) -> Result<GpuSolution, GpuError> {
+        self.solve_matrix(system.matrix(), system.rhs(), warm_start, options)
+    }
+
+    /// Solves `matrix` x = `rhs` (the matrix this solver was built from: its f64 original, for
+    /// the refinement's residuals), starting from `warm_start` or zero, to `options.tolerance`
+    /// in the relative residual, as [`crate::sparse::pcg`] on the CPU.
+    ///
+    /// # Errors
+    /// As [`GpuSolver::solve`], the lengths checked against `matrix`.
+    pub fn solve_matrix(
+        &self,
+        matrix: &CsrMatrix3,
+        b: &[[f64; 3]],
+        warm_start: Option<&[[f64; 3]]>,
+        options: &SolveOptions<'_>,
+    ) -> Result<GpuSolution, GpuError> {
         let n = self.matrix.n;
-        if system.vertex_count() != n || system.pattern().nnz() != self.matrix.nnz {
+        if matrix.n() != n || matrix.pattern().nnz() != self.matrix.nnz || b.len() != n {
             return Err(DiffusionError::LengthMismatch {
-                what: "system solved with a GPU solver built for another matrix (vertices)",
+                what: "system solved with a GPU solver built for another matrix (rows)",
                 expected: n,
-                found: system.vertex_count(),
+                found: if b.len() == n { matrix.n() } else { b.len() },
             }
             .into());
         }
@@ -194,11 +231,21 @@ impl<'c> GpuSolver<'c> {
                 options.tolerance
             ))));
         }
-        let mut x = start_vector(system, warm_start)?;
+        let mut x = match warm_start {
+            Some(x) if x.len() != n => {
+                return Err(DiffusionError::LengthMismatch {
+                    what: "warm start (one entry per vertex)",
+                    expected: n,
+                    found: x.len(),
+                }
+                .into())
+            }
+            Some(x) => x.to_vec(),
+            None => vec![[0.0; 3]; n],
+        };
         if let Some((row, channel, value)) = warm_start.and_then(first_non_finite) {
             return Err(sparse(SparseError::NonFinite { what: "initial guess", row, channel, value }));
         }
-        let b = system.rhs();
         let bn = norm3(b);
         for (c, &norm) in bn.iter().enumerate() {
             if norm == 0.0 {
@@ -273,7 +320,7 @@ impl<'c> GpuSolver<'c> {
         let mut converged;
         loop {
             let t = Instant::now();
-            let rn = residual(system, b, &x, &mut res)?;
+            let rn = residual(matrix, b, &x, &mut res)?;
             stats.host_residual_ms += 1e3 * t.elapsed().as_secs_f64();
             rel = [0, 1, 2].map(|c| if bn[c] > 0.0 { rn[c] / bn[c] } else { 0.0 });
             let need = [0, 1, 2].map(|c| bn[c] > 0.0 && rel[c] > options.tolerance);
@@ -431,8 +478,8 @@ fn norm3(v: &[[f64; 3]]) -> [f64; 3] {
 }
 
 /// `r = b − M x` in f64 from the system's matrix; returns ‖r‖ per channel.
-fn residual(system: &DiffusionSystem, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) -> Result<[f64; 3], GpuError> {
-    system.matrix().spmv(x, r).map_err(sparse)?;
+fn residual(matrix: &CsrMatrix3, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) -> Result<[f64; 3], GpuError> {
+    matrix.spmv(x, r).map_err(sparse)?;
     r.par_iter_mut().zip(b.par_iter()).for_each(|(ri, bi)| {
         for c in 0..3 {
             ri[c] = bi[c] - ri[c];

@@ -335,3 +335,48 @@ fn backend_choice_reports_what_ran() {
         assert!(rel_rms(&sol.phi, &cpu.phi).iter().all(|&e| e < 1e-4));
     }
 }
+
+/// The polygrid's finite-volume system (its own matrix, not a `DiffusionSystem`) on the device:
+/// `solve_matrix_on` meets the CPU's f64 tolerance, and a bake by the polygrid method with the
+/// finite-volume stencil on `Backend::Gpu` says it ran there and returns the CPU bake's radiance.
+#[test]
+fn the_polygrid_finite_volume_system_solves_on_the_gpu_as_on_the_cpu() {
+    use transcut::light::Light;
+    use transcut::polygrid::{cubed_sphere, PolygridSystem};
+    use transcut::sparse::{pcg, Preconditioner, PreconditionerKind};
+    use transcut::{bake, BakeOptions, Method, Object, PolygridOptions, Scene, Stencil, TransCutOptions};
+    let _g = lock();
+    let Some(ctx) = device() else { return };
+    let marble = Medium::new([0.0021, 0.0041, 0.0071], [2.19, 2.62, 3.00], 1.3, 0.0).unwrap();
+    let grid = cubed_sphere(16, DVec3::ZERO, 10.0).unwrap();
+    let mut system = PolygridSystem::finite_volume(&grid, &vec![marble; grid.cells().len()], 1.0, None).unwrap();
+    let q: Vec<[f64; 3]> = system.boundary().normal.iter().map(|n| [n.z.max(0.0); 3]).collect();
+    system.set_source(&q).unwrap();
+    let options = SolveOptions::default().with_tolerance(1e-10);
+    let cpu = || {
+        let pre = Preconditioner::new(system.matrix(), PreconditionerKind::Ssor).unwrap();
+        let mut phi = vec![[0.0; 3]; system.rhs().len()];
+        let stats = pcg(system.matrix(), system.rhs(), &mut phi, &pre, &options).unwrap();
+        Ok(transcut::diffusion::Solution { phi, stats })
+    };
+    let (reference, _) = gpu::solve_matrix_on(Backend::Cpu, system.matrix(), system.rhs(), None, &options, cpu).unwrap();
+    let unused = || -> Result<transcut::diffusion::Solution, GpuError> { unreachable!("the GPU was asked for") };
+    let (on_gpu, report) = gpu::solve_matrix_on(Backend::Gpu, system.matrix(), system.rhs(), None, &options, unused).unwrap();
+    assert_eq!((report.used, report.device.as_deref()), (Backend::Gpu, Some(ctx.device_name())));
+    assert!(on_gpu.stats.relative_residual.iter().all(|&r| r <= 1e-10), "{:?}", on_gpu.stats);
+    let d = rel_rms(&on_gpu.phi, &reference.phi);
+    assert!(d.iter().all(|&e| e < 1e-8), "{d:?}");
+
+    let sun = Light::Directional { direction: DVec3::new(0.3, -0.2, -1.0), irradiance: [3.0; 3], angular_diameter_deg: 0.0 };
+    let scene =
+        Scene { objects: vec![Object::new("ball", crate::common::uv_sphere(8.0, 64, 32), marble, 1.0)], lights: vec![sun] };
+    let bake_on = |backend| {
+        let solve = TransCutOptions { tolerance: 1e-9, backend: Some(backend), ..TransCutOptions::default() };
+        let options = PolygridOptions { nodes: 8_000, stencil: Stencil::FiniteVolume, solve, ..PolygridOptions::default() };
+        bake(&scene, &BakeOptions { method: Method::Polygrid(options), ..BakeOptions::default() }).unwrap().objects.remove(0)
+    };
+    let (cpu, on_gpu) = (bake_on(Backend::Cpu), bake_on(Backend::Gpu));
+    assert_eq!((cpu.stats.backend, on_gpu.stats.backend), (Backend::Cpu, Backend::Gpu));
+    let d = rel_rms(&on_gpu.radiance, &cpu.radiance);
+    assert!(d.iter().all(|&e| e < 1e-6), "{d:?}");
+}

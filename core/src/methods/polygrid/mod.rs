@@ -15,7 +15,8 @@
 //!   assembles [`PolygridSystem::finite_volume`]; [`Stencil::PaperLsq`] takes the same cell
 //!   media and assembles [`PolygridSystem::paper_lsq`];
 //! - `solve`: q at the boundary nodes, the solve (FEM: TransCut's solvers and backends; finite
-//!   volumes: SSOR-preconditioned CG on the CPU; the paper's stencil: Jacobi-BiCGSTAB), eq. 3 at the boundary nodes, clamped at 0,
+//!   volumes: SSOR-preconditioned CG on the CPU or Jacobi PCG on the GPU, by the backend; the
+//!   paper's stencil: Jacobi-BiCGSTAB on the CPU), eq. 3 at the boundary nodes, clamped at 0,
 //!   interpolated at the user's vertices through the boundary's surface map.
 
 use std::sync::Arc;
@@ -24,6 +25,8 @@ use std::time::Instant;
 use super::transcut::{Prepared, TransCutState};
 use super::{BakedState, Lighting, ObjectStats, Stage, SubsurfaceMethod, Target};
 use crate::diffusion::resolution;
+use crate::diffusion::{DiffusionError, Solution};
+use crate::gpu::{self, Backend, GpuError};
 use crate::mesh::{TetMesh, TriangleBvh};
 use crate::mesher::map_user_vertices;
 use crate::optics::Medium;
@@ -212,36 +215,61 @@ impl NodeSystem {
         let t = Instant::now();
         self.system.set_source(&q).map_err(polygrid_error)?;
         stage("solve", 0.8)?;
-        // SSOR-PCG for the symmetric finite-volume matrix, Jacobi-BiCGSTAB for the paper's.
+        // The finite-volume matrix (symmetric): SSOR-PCG on the CPU or Jacobi PCG on the
+        // device, where the backend says; the paper's (unsymmetric): Jacobi-BiCGSTAB on the CPU.
         let symmetric = self.system.is_symmetric();
-        if self.precond.is_none() {
-            let kind = if symmetric { PreconditionerKind::Ssor } else { PreconditionerKind::Jacobi };
-            let p = Preconditioner::new(self.system.matrix(), kind).map_err(|e| polygrid_error(e.into()))?;
-            self.precond = Some(p);
-        }
+        let backend = if symmetric {
+            crate::methods::transcut::backend(&options.solve).map_err(|e| target.invalid(e.to_string()))?
+        } else {
+            Backend::Cpu
+        };
         let tolerance = options.solve.tolerance;
         let monitor = |_: usize, residual: [f64; 3]| stage("solve", 0.8 + 0.19 * solve_fraction(residual, tolerance)).is_ok();
         let solve_options = SolveOptions::default()
             .with_tolerance(tolerance)
             .with_max_iterations(options.solve.max_iterations)
             .with_monitor(&monitor);
-        let mut phi = self.fluence.clone();
-        let solver = if symmetric { pcg } else { bicgstab };
-        let precond = self.precond.as_ref().expect("built above");
-        let report = solver(self.system.matrix(), self.system.rhs(), &mut phi, precond, &solve_options).map_err(|e| match e {
-            SparseError::Cancelled { .. } => SceneError::Cancelled(crate::progress::Cancelled),
-            e => polygrid_error(PolygridError::Sparse(e)),
-        })?;
-        if !report.converged {
-            return Err(polygrid_error(PolygridError::Sparse(SparseError::InvalidOption(format!(
-                "the {} solve did not reach the tolerance {tolerance} in {} iterations (residual {:?})",
+        let warm = self.fluence.iter().any(|p| p.iter().any(|&x| x != 0.0)).then_some(self.fluence.as_slice());
+        let (system, cached) = (&self.system, &mut self.precond);
+        let on_cpu = || -> Result<Solution, GpuError> {
+            let sparse = |e| GpuError::Diffusion(DiffusionError::Sparse(e));
+            if cached.is_none() {
+                let kind = if symmetric { PreconditionerKind::Ssor } else { PreconditionerKind::Jacobi };
+                *cached = Some(Preconditioner::new(system.matrix(), kind).map_err(sparse)?);
+            }
+            let mut phi = warm.map_or_else(|| vec![[0.0; 3]; system.rhs().len()], <[_]>::to_vec);
+            let solver = if symmetric { pcg } else { bicgstab };
+            let precond = cached.as_ref().expect("built above");
+            let stats = solver(system.matrix(), system.rhs(), &mut phi, precond, &solve_options).map_err(sparse)?;
+            Ok(Solution { phi, stats })
+        };
+        let not_reached = |iterations: [usize; 3], residual: [f64; 3]| {
+            polygrid_error(PolygridError::Sparse(SparseError::InvalidOption(format!(
+                "the {} solve did not reach the tolerance {tolerance} in {iterations:?} iterations (residual {residual:?})",
                 options.stencil.name(),
-                options.solve.max_iterations,
-                report.relative_residual
-            )))));
+            ))))
+        };
+        let (solution, report) = gpu::solve_matrix_on(backend, system.matrix(), system.rhs(), warm, &solve_options, on_cpu)
+            .map_err(|e| match e {
+                GpuError::Diffusion(DiffusionError::Sparse(SparseError::Cancelled { .. })) => {
+                    SceneError::Cancelled(crate::progress::Cancelled)
+                }
+                GpuError::Diffusion(DiffusionError::NotConverged { iterations, residual, .. }) => {
+                    not_reached(iterations, residual)
+                }
+                GpuError::Diffusion(DiffusionError::Sparse(e)) => polygrid_error(PolygridError::Sparse(e)),
+                GpuError::Diffusion(e) => polygrid_error(PolygridError::Diffusion(e)),
+                source => SceneError::Gpu { index, name: name(), source },
+            })?;
+        if !solution.stats.converged {
+            return Err(not_reached(solution.stats.iterations, solution.stats.relative_residual));
         }
-        stats.iterations = report.iterations;
-        stats.relative_residual = report.relative_residual;
+        stats.iterations = solution.stats.iterations;
+        stats.relative_residual = solution.stats.relative_residual;
+        stats.backend = report.used;
+        stats.device = report.device;
+        stats.backend_fallback = report.fallback;
+        let phi = solution.phi;
         self.fluence = phi;
         let lo = self.system.radiance(&self.fluence).map_err(polygrid_error)?;
         let per_vertex = self.per_vertex(&lo);

@@ -396,7 +396,7 @@ fn clamped_user_vertices(tet_mesh: &TetMesh, clamped: &[[f64; 1]]) -> usize {
 }
 
 /// The backend the options ask for: theirs, else `TRANSCUT_BACKEND`, else [`Backend::Auto`].
-fn backend(options: &TransCutOptions) -> Result<Backend, GpuError> {
+pub(crate) fn backend(options: &TransCutOptions) -> Result<Backend, GpuError> {
     match options.backend {
         Some(b) => Ok(b),
         None => Backend::from_env_or(Backend::Auto),
