@@ -20,8 +20,8 @@
 use glam::{DMat3, DVec3};
 use nalgebra::{Matrix3, SMatrix};
 
-/// A node's stencil is refused when the scaled fit's condition number exceeds this (design
-/// note P4: such a node's weights are noise).
+/// A node's App. B weights are not used when the scaled fit's condition number exceeds this
+/// (design note P4: such weights are noise); the paper's system puts P1's in their place.
 pub const MAX_CONDITION: f64 = 1e8;
 
 /// One node's Laplacian weights ([`laplacian_weights`]).

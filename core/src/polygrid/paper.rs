@@ -19,6 +19,12 @@
 //!   pillow has no such link (the paper deletes it, §5.1); it takes the nodes off the
 //!   boundary among its cells' corners instead, so that it still has a radiance.
 //!
+//! Where App. B's weights make no Laplacian (fewer than six links that do not determine it, as
+//! at a pillowed polycube's convex edges and corners; weights summing to ≤ 0 on skewed links; a
+//! fit conditioned over [`super::lsq::MAX_CONDITION`]; folded links), the node takes the P1
+//! Laplacian's weights on its Kuhn tets instead ([`p1_weights`]): the paper leaves such nodes
+//! unspecified (design note P6), and this keeps every row of a fold-free grid solvable.
+//!
 //! The source, the query and the energy balance are the finite-volume system's, so the two
 //! compare one to one; the energy balance is not exact here, and its defect is the measure of
 //! P3.
@@ -69,8 +75,8 @@ impl PolygridSystem {
     ///
     /// # Errors
     /// As [`PolygridSystem::finite_volume`]; [`PolygridError::Stencil`] naming the first node
-    /// whose links are folded, whose fit's condition number exceeds
-    /// [`super::lsq::MAX_CONDITION`], or that has no link to carry a row.
+    /// that has no link to carry its row (a pillow surface node off the boundary condition, a
+    /// boundary node with no node off the boundary among its cells).
     pub fn paper_lsq(
         grid: &Polygrid,
         cell_media: &[Medium],
@@ -480,4 +486,28 @@ fn p1_weights(grid: &Polygrid, x: &[DVec3], nodes: &[u32]) -> Vec<(Vec<u32>, Vec
             (columns, weights)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::polygrid::Polycube;
+
+    #[test]
+    fn p1_weights_on_a_regular_kuhn_split_are_the_seven_point_laplacian() {
+        // On a Kuhn-split cube lattice the P1 stiffness of an inner node has −h on its six axis
+        // links and 0 on the diagonal ones, and the lumped volume is h³: w = 1/h² on the axes.
+        let h = 0.5;
+        let grid = Polygrid::new(Arc::new(Polycube::block(DVec3::ZERO, 1.5, [1, 1, 1]).unwrap()), 3).unwrap();
+        let centre = grid.node_at([1, 1, 1]).unwrap();
+        let (columns, weights) = p1_weights(&grid, grid.positions(), &[centre]).remove(0);
+        let axes = grid.neighbours()[centre as usize];
+        for (j, w) in columns.iter().zip(&weights) {
+            let expected = if axes.contains(j) { 1.0 / (h * h) } else { 0.0 };
+            assert!((w - expected).abs() < 1e-12, "node {j}: {w} vs {expected}");
+        }
+        assert!(axes.iter().all(|a| columns.contains(a)));
+    }
 }
