@@ -5,9 +5,11 @@
 fn the_polygrid_suite_reports_fig15_and_the_diffusion_pass() {
     let report = crate::bench_report(&["polygrid", "--runs", "1", "--polygrid-resolution", "16", "--polygrid-nodes", "3000"]);
     assert_eq!(report["suite"], "polygrid");
-    // The ball and the block, each with both stencils.
+    // The ball and the block, each with the three stencils (the paper's included).
     let figure = report["fig15"].as_array().unwrap();
-    assert_eq!(figure.len(), 4);
+    assert_eq!(figure.len(), 6);
+    let stencils: Vec<&str> = figure.iter().map(|f| f["stencil"].as_str().unwrap()).collect();
+    assert_eq!(stencils, ["fem", "fem", "finite-volume", "finite-volume", "paper-lsq", "paper-lsq"]);
     for f in figure {
         let nodes: Vec<u64> = f["nodes"].as_array().unwrap().iter().map(|n| n.as_u64().unwrap()).collect();
         assert_eq!(nodes.len(), 3);

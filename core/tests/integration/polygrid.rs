@@ -228,6 +228,7 @@ fn the_polygrid_method_bakes_the_uniform_sphere_and_relights_exactly() {
                 Stencil::Fem => errors.fold(0.0, f64::max),
                 _ => errors.sum::<f64>() / object.radiance.len() as f64,
             };
+            eprintln!("the polygrid method on the sphere, {stencil:?}, channel {c}: error {error}");
             assert!(error < tolerance, "{stencil:?}: channel {c}: error {error} ({grid:?})");
         }
         if stencil == Stencil::Fem {
