@@ -125,6 +125,19 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
                 "polygrid {} cubes of {:.3} mm, {} cells per edge: {} nodes, {} cells (scaled Jacobian min {:.3}, mean {:.3})",
                 p.cubes, p.cube_mm, p.resolution, p.nodes, p.cells, p.quality.min_scaled_jacobian, p.quality.mean_scaled_jacobian
             );
+            if let Some(l) = &p.lsq {
+                println!(
+                    "the paper's stencil: {} nodes, {} with negative weights (most negative {:.2} of the largest), condition \
+                     median {:.1}, max {:.1}; {} on P1's weights (no Laplacian from App. B), {} boundary nodes tied to their cells",
+                    l.stencil_nodes,
+                    l.negative_weight_nodes,
+                    l.most_negative_ratio,
+                    l.median_condition,
+                    l.max_condition,
+                    l.p1_nodes,
+                    l.cell_linked_boundary_nodes
+                );
+            }
         }
         println!("tets {} ({} vertices, {} on the surface)", s.tets, s.vertices, s.boundary_vertices);
         let residual = s.relative_residual.iter().copied().fold(0.0, f64::max);
