@@ -70,6 +70,8 @@ pub use error::DiffusionError;
 pub(crate) use fitted::layer_excess;
 pub use resolution::{max_resolution, Unresolved, MAX_RESOLUTION};
 pub use solve::{energy_balance, solve, surface_fluence, surface_radiance, EnergyBalance, Solution};
+#[cfg(feature = "gpu")]
+pub(crate) use solver::start_vector;
 pub use solver::{Solver, SolverKind};
 pub use structure::BoundaryVertices;
 #[cfg(feature = "gpu")]

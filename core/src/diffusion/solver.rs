@@ -268,7 +268,7 @@ impl Solver {
         warm_start: Option<&[[f64; 3]]>,
         options: &SolveOptions<'_>,
     ) -> Result<Solution, DiffusionError> {
-        let mut phi = start_vector(system, warm_start)?;
+        let mut phi = start_vector(system.vertex_count(), warm_start)?;
         let (a, b) = (system.matrix(), system.rhs());
         let stats = match &self.prepared {
             Prepared::Pcg(p) => pcg(a, b, &mut phi, p, options)?,
@@ -279,12 +279,11 @@ impl Solver {
     }
 }
 
-/// The iterate a solve of `system` starts from: `warm_start` (one entry per vertex) or zero.
+/// The iterate a solve of `n` unknowns starts from: `warm_start` (one entry per vertex) or zero.
 ///
 /// # Errors
 /// [`DiffusionError::LengthMismatch`] for a warm start of the wrong length.
-fn start_vector(system: &DiffusionSystem, warm_start: Option<&[[f64; 3]]>) -> Result<Vec<[f64; 3]>, DiffusionError> {
-    let n = system.vertex_count();
+pub(crate) fn start_vector(n: usize, warm_start: Option<&[[f64; 3]]>) -> Result<Vec<[f64; 3]>, DiffusionError> {
     match warm_start {
         Some(x) if x.len() != n => {
             Err(DiffusionError::LengthMismatch { what: "warm start (one entry per vertex)", expected: n, found: x.len() })

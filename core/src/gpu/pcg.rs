@@ -39,7 +39,7 @@ use super::layout::{from_vec4, to_vec4, Params, Scalars};
 use super::matrix::DeviceMatrix;
 use super::multigrid::DeviceMultigrid;
 use super::shaders::Kernel;
-use crate::diffusion::{DiffusionError, DiffusionSystem, Solution};
+use crate::diffusion::{start_vector, DiffusionError, DiffusionSystem, Solution};
 use crate::sparse::hierarchy::Multigrid;
 use crate::sparse::{CsrMatrix3, SolveOptions, SolveStats, SparseError};
 
@@ -231,18 +231,7 @@ impl<'c> GpuSolver<'c> {
                 options.tolerance
             ))));
         }
-        let mut x = match warm_start {
-            Some(x) if x.len() != n => {
-                return Err(DiffusionError::LengthMismatch {
-                    what: "warm start (one entry per vertex)",
-                    expected: n,
-                    found: x.len(),
-                }
-                .into())
-            }
-            Some(x) => x.to_vec(),
-            None => vec![[0.0; 3]; n],
-        };
+        let mut x = start_vector(n, warm_start)?;
         if let Some((row, channel, value)) = warm_start.and_then(first_non_finite) {
             return Err(sparse(SparseError::NonFinite { what: "initial guess", row, channel, value }));
         }

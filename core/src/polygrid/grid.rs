@@ -343,6 +343,25 @@ impl Polygrid {
         &self.base
     }
 
+    /// The node linked to node `i` through the pillow: a lattice boundary node's surface node,
+    /// a surface node's base; [`NONE`] for every other node and without a pillow.
+    #[must_use]
+    pub fn pillow_partner(&self, i: u32) -> u32 {
+        let i = i as usize;
+        match i.checked_sub(self.lattice_nodes) {
+            None => self.surface_of[i],
+            Some(k) => self.base[k],
+        }
+    }
+
+    /// Node `i`'s links as the paper's stencil sees them: its lattice neighbours
+    /// ([`Polygrid::neighbours`]) and its [`Polygrid::pillow_partner`] (the only link of a
+    /// pillow's surface node).
+    pub fn links(&self, i: u32) -> impl Iterator<Item = u32> + '_ {
+        let lattice = self.neighbours[i as usize].into_iter();
+        lattice.chain([self.pillow_partner(i)]).filter(|&j| j != NONE)
+    }
+
     /// The node at lattice point `l`, if any (a lattice node).
     #[must_use]
     pub fn node_at(&self, l: [i32; 3]) -> Option<u32> {

@@ -283,18 +283,13 @@ pub fn place_first_layer(grid: &mut Polygrid, fraction: f64, robin: Option<&[boo
             edges[j] += 1.0;
         }
     }
-    let mut pillow = vec![NONE; n];
-    for (k, &b) in grid.pillow_base().iter().enumerate() {
-        pillow[b as usize] = (grid.lattice_node_count() + k) as u32;
-    }
-    let neighbours = grid.neighbours();
     let target: Vec<Option<DVec3>> = (0..n)
         .into_par_iter()
         .map(|i| {
             if on_robin[i] {
                 return None;
             }
-            let partners = neighbours[i].iter().copied().chain([pillow[i]]).filter(|&j| j != NONE && on_robin[j as usize]);
+            let partners = grid.links(i as u32).filter(|&j| on_robin[j as usize]);
             let (mut at, mut nsum, mut s, mut count) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0);
             for j in partners {
                 let j = j as usize;

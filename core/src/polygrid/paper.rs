@@ -40,7 +40,7 @@ use crate::optics::Medium;
 use crate::sparse::{CsrMatrix3, CsrPattern, Triplet};
 
 /// What the paper stencil's weights looked like over a grid (design note P4).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
 pub struct LsqDiagnostics {
     /// Nodes with an App. B stencil (those off the boundary).
     pub stencil_nodes: usize,
@@ -91,37 +91,24 @@ impl PolygridSystem {
         for &i in &ids {
             on_robin[i as usize] = true;
         }
-        let media = NodeMedia::new(grid, &x, cell_media);
-        let links = Links::new(grid);
+        let tets = grid.kuhn_tets();
+        let media = NodeMedia::new(grid, &tets, &x, cell_media);
         let frames = lattice_frames(grid, &x);
 
         // Rows off the boundary: App. B's weights, or P1's where they are no Laplacian.
         let mut rows: Vec<Option<InteriorRow>> = (0..n as u32)
             .into_par_iter()
-            .map(
-                |i| if on_robin[i as usize] { Ok(None) } else { interior_row(i, grid, &x, &links, frames[i as usize]).map(Some) },
-            )
+            .map(|i| if on_robin[i as usize] { Ok(None) } else { interior_row(i, grid, &x, frames[i as usize]).map(Some) })
             .collect::<Result<_, _>>()?;
         let replaced: Vec<u32> = (0..n as u32).filter(|&i| rows[i as usize].as_ref().is_some_and(|r| r.replaced_by_p1)).collect();
-        for (i, (columns, weights)) in replaced.iter().zip(p1_weights(grid, &x, &replaced)) {
+        for (i, (columns, weights)) in replaced.iter().zip(p1_weights(grid.node_count(), &tets, &x, &replaced)) {
             let row = rows[*i as usize].as_mut().expect("a row off the boundary");
             row.columns = columns;
             row.weights = weights;
         }
         let mut triplets = Vec::with_capacity(8 * n);
         let mut entries = Vec::with_capacity(7 * n);
-        let mut diagnostics = LsqDiagnostics {
-            stencil_nodes: 0,
-            negative_weight_nodes: 0,
-            most_negative_ratio: 0.0,
-            median_condition: 0.0,
-            max_condition: 0.0,
-            inconsistent_nodes: 0,
-            max_defect: 0.0,
-            p1_nodes: replaced.len(),
-            mirror_links: 0,
-            cell_linked_boundary_nodes: 0,
-        };
+        let mut diagnostics = LsqDiagnostics { p1_nodes: replaced.len(), ..LsqDiagnostics::default() };
         let mut conditions = Vec::new();
         for (i, row) in rows.into_iter().enumerate() {
             let Some(row) = row else { continue };
@@ -153,7 +140,8 @@ impl PolygridSystem {
         diagnostics.max_condition = conditions.last().copied().unwrap_or(0.0);
 
         // Rows on the boundary: the boundary relation with the partners off it.
-        let mut partners: Vec<Vec<u32>> = ids.iter().map(|&i| links.of(i).filter(|&j| !on_robin[j as usize]).collect()).collect();
+        let mut partners: Vec<Vec<u32>> =
+            ids.iter().map(|&i| grid.links(i).filter(|&j| !on_robin[j as usize]).collect()).collect();
         let lonely: Vec<usize> = (0..ids.len()).filter(|&k| partners[k].is_empty()).collect();
         if !lonely.is_empty() {
             let mut cells_of: Vec<Vec<u32>> = vec![Vec::new(); n];
@@ -238,9 +226,8 @@ struct NodeMedia {
 }
 
 impl NodeMedia {
-    fn new(grid: &Polygrid, x: &[DVec3], cell_media: &[Medium]) -> Self {
+    fn new(grid: &Polygrid, tets: &[[u32; 4]], x: &[DVec3], cell_media: &[Medium]) -> Self {
         let n = grid.node_count();
-        let tets = grid.kuhn_tets();
         let eighths: Vec<f64> = tets
             .par_chunks(6)
             .map(|cell| {
@@ -273,31 +260,6 @@ impl NodeMedia {
             .map(|((s, v), a)| std::array::from_fn(|c| 1.0 / (3.0 * (s[c] / v + a[c]))))
             .collect();
         Self { volume, sigma_a, kappa }
-    }
-}
-
-/// Every node's links: its lattice neighbours and, with a pillow, the link between a lattice
-/// boundary node and its surface node (the only link of the latter).
-struct Links<'a> {
-    neighbours: &'a [[u32; 6]],
-    /// Per node its pillow partner (surface node of a base, base of a surface node), or NONE.
-    pillow: Vec<u32>,
-}
-
-impl<'a> Links<'a> {
-    fn new(grid: &'a Polygrid) -> Self {
-        let mut pillow = vec![NONE; grid.node_count()];
-        let first = grid.lattice_node_count();
-        for (k, &b) in grid.pillow_base().iter().enumerate() {
-            pillow[b as usize] = (first + k) as u32;
-            pillow[first + k] = b;
-        }
-        Self { neighbours: grid.neighbours(), pillow }
-    }
-
-    fn of(&self, i: u32) -> impl Iterator<Item = u32> + '_ {
-        let lattice = self.neighbours.get(i as usize).into_iter().flatten().copied();
-        lattice.chain(std::iter::once(self.pillow[i as usize])).filter(|&j| j != NONE)
     }
 }
 
@@ -355,11 +317,11 @@ impl InteriorRow {
     }
 }
 
-fn interior_row(i: u32, grid: &Polygrid, x: &[DVec3], links: &Links<'_>, axes: DMat3) -> Result<InteriorRow, PolygridError> {
+fn interior_row(i: u32, grid: &Polygrid, x: &[DVec3], axes: DMat3) -> Result<InteriorRow, PolygridError> {
     let stencil_error = |reason: String| PolygridError::Stencil { node: i, reason };
     let here = x[i as usize];
     let nb = grid.neighbours()[i as usize];
-    let copy = links.pillow[i as usize];
+    let copy = grid.pillow_partner(i);
     if i as usize >= grid.lattice_node_count() {
         return Err(stencil_error(
             "a pillow surface node off the boundary condition has one link: the paper stencil needs the whole pillow \
@@ -437,15 +399,16 @@ fn interior_row(i: u32, grid: &Polygrid, x: &[DVec3], links: &Links<'_>, axes: D
 /// The P1 Laplacian's weights at each of `nodes` on the Kuhn split ([`Polygrid::kuhn_tets`]):
 /// w_j = −K_ij/V_i, K the stiffness of ∇² and V_i a quarter of each tet at the node, so
 /// Σ_j w_j (f_j − f_i) ≈ ∇²f(x_i) as the paper's rows say, with Σ_j w_j = K_ii/V_i > 0 on
-/// every grid the fold check passes. Per node its columns and weights.
-fn p1_weights(grid: &Polygrid, x: &[DVec3], nodes: &[u32]) -> Vec<(Vec<u32>, Vec<f64>)> {
-    let mut slot = vec![u32::MAX; grid.node_count()];
+/// every grid the fold check passes; `tets` the grid's Kuhn split of its `n` nodes. Per node its
+/// columns and weights.
+fn p1_weights(n: usize, tets: &[[u32; 4]], x: &[DVec3], nodes: &[u32]) -> Vec<(Vec<u32>, Vec<f64>)> {
+    let mut slot = vec![u32::MAX; n];
     for (k, &i) in nodes.iter().enumerate() {
         slot[i as usize] = k as u32;
     }
     let mut stiffness: Vec<Vec<(u32, f64)>> = vec![Vec::new(); nodes.len()];
     let mut volume = vec![0.0; nodes.len()];
-    for t in grid.kuhn_tets() {
+    for t in tets {
         if t.iter().all(|&v| slot[v as usize] == u32::MAX) {
             continue;
         }
@@ -502,7 +465,7 @@ mod tests {
         let h = 0.5;
         let grid = Polygrid::new(Arc::new(Polycube::block(DVec3::ZERO, 1.5, [1, 1, 1]).unwrap()), 3).unwrap();
         let centre = grid.node_at([1, 1, 1]).unwrap();
-        let (columns, weights) = p1_weights(&grid, grid.positions(), &[centre]).remove(0);
+        let (columns, weights) = p1_weights(grid.node_count(), &grid.kuhn_tets(), grid.positions(), &[centre]).remove(0);
         let axes = grid.neighbours()[centre as usize];
         for (j, w) in columns.iter().zip(&weights) {
             let expected = if axes.contains(j) { 1.0 / (h * h) } else { 0.0 };
