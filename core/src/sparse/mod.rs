@@ -50,6 +50,7 @@
 //! Every fallible call returns [`SparseError`], naming the channel, row or iteration at fault.
 
 mod bicgstab;
+mod colour_ordered;
 mod csr;
 mod eisenstat_cg;
 mod error;

@@ -17,6 +17,9 @@
 //! * [`coloured_gauss_seidel_sweep`]: Gauss–Seidel colour by colour, in place. The rows of one
 //!   colour read only rows of other colours, so they are updated in parallel and the sweep
 //!   equals the sequential Gauss–Seidel sweep of the rows ordered by colour, exactly.
+//! * [`ColourOrdered`]: the matrix renumbered colour by colour, whose sweep is the same sweep
+//!   on vectors in that order, streaming the matrix instead of striding through it: the form for
+//!   many sweeps of one matrix.
 //!
 //! A row whose `active` flag is `false` is *frozen*: it keeps its value, bit for bit, and the
 //! other rows read it as fixed (Dirichlet) data.
@@ -29,6 +32,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+pub use super::colour_ordered::ColourOrdered;
 use super::csr::{CsrMatrix3, CsrPattern};
 use super::error::SparseError;
 use super::ops::{row_mul, CHUNK};
@@ -230,7 +234,7 @@ fn transpose(pattern: &CsrPattern) -> (Vec<usize>, Vec<u32>) {
     (ptr, rows)
 }
 
-fn check_len(what: &'static str, expected: usize, found: usize) -> Result<(), SparseError> {
+pub(super) fn check_len(what: &'static str, expected: usize, found: usize) -> Result<(), SparseError> {
     if expected == found {
         Ok(())
     } else {
@@ -712,6 +716,90 @@ mod tests {
             }
             assert!(rel_max(&y, &exact).iter().all(|&e| e < 1e-10), "{:?}", rel_max(&y, &exact));
         }
+    }
+
+    #[test]
+    fn the_colour_ordered_sweep_is_the_coloured_sweep_bit_for_bit() {
+        let bits = |v: &[[f64; 3]]| v.iter().map(|r| r.map(f64::to_bits)).collect::<Vec<_>>();
+        for (name, a) in [("SPD", spd(6)), ("unsymmetric", unsymmetric(6)), ("irregular", irregular(3000))] {
+            let n = a.n();
+            let b = random_vector(n, 5);
+            let mut colourings = vec![Colouring::greedy(a.pattern())];
+            if name != "irregular" {
+                colourings.push(Colouring::from_colours(a.pattern(), parity(6)).unwrap());
+            }
+            // Every other row of the first third frozen, and one whole colour.
+            let mut active: Vec<bool> = (0..n).map(|i| i > n / 3 || i % 2 == 0).collect();
+            for colouring in &colourings {
+                let ordered = ColourOrdered::new(&a, colouring).unwrap();
+                assert_eq!(ordered.n(), n);
+                for &i in colouring.rows(colouring.count() - 1) {
+                    active[i as usize] = false;
+                }
+                for (mask, symmetric) in [(false, false), (false, true), (true, false), (true, true)] {
+                    let mask = mask.then_some(&active[..]);
+                    let mut x = random_vector(n, 9);
+                    let mut xo = vec![[0.0; 3]; n];
+                    let mut bo = vec![[0.0; 3]; n];
+                    let mut ao = vec![false; n];
+                    ordered.gather(&x, &mut xo).unwrap();
+                    ordered.gather(&b, &mut bo).unwrap();
+                    ordered.gather(&active, &mut ao).unwrap();
+                    let mask_o = mask.map(|_| &ao[..]);
+                    for sweep in 0..3 {
+                        let expected = coloured_gauss_seidel_sweep(&a, &b, &mut x, colouring, mask, symmetric).unwrap();
+                        assert_eq!(ordered.sweep(&bo, &mut xo, mask_o, symmetric).unwrap(), expected, "{name} sweep {sweep}");
+                    }
+                    let mut back = vec![[0.0; 3]; n];
+                    ordered.scatter(&xo, &mut back).unwrap();
+                    assert!(
+                        bits(&back) == bits(&x),
+                        "{name}, {} colours, mask {}, symmetric {symmetric}",
+                        colouring.count(),
+                        mask.is_some()
+                    );
+                }
+                // The order keeps the colours' rows in increasing order, and rank inverts it.
+                let concatenated: Vec<u32> = (0..colouring.count()).flat_map(|c| colouring.rows(c).to_vec()).collect();
+                assert_eq!(ordered.order(), &concatenated[..]);
+                assert!(ordered.order().iter().enumerate().all(|(k, &i)| ordered.rank()[i as usize] as usize == k));
+            }
+        }
+    }
+
+    #[test]
+    fn the_colour_ordered_sweep_refuses_what_the_coloured_sweep_refuses() {
+        let nx = 5;
+        let mut a = spd(nx);
+        let n = a.n();
+        let bad = 17;
+        let d = a.pattern().diagonal_positions()[bad];
+        a.values_mut()[d][2] = f64::NAN;
+        let rb = Colouring::from_colours(a.pattern(), parity(nx)).unwrap();
+        let ordered = ColourOrdered::new(&a, &rb).unwrap();
+        let b = vec![[1.0; 3]; n];
+        let mut x = vec![[0.0; 3]; n];
+        let e = ordered.sweep(&b, &mut x, None, false).unwrap_err();
+        assert!(matches!(e, SparseError::UnusableDiagonal { row, channel: 2, .. } if row == bad), "{e}");
+        let e2 = coloured_gauss_seidel_sweep(&a, &b, &mut x, &rb, None, false).unwrap_err();
+        assert_eq!(e.to_string(), e2.to_string());
+        // Frozen, the row is only read.
+        let mut active = vec![true; n];
+        active[bad] = false;
+        let mut ao = vec![false; n];
+        ordered.gather(&active, &mut ao).unwrap();
+        assert_eq!(ordered.sweep(&b, &mut x, Some(&ao), false).unwrap(), n - 1);
+        // Lengths are named.
+        let e = ordered.sweep(&b[1..], &mut x, None, false).unwrap_err();
+        assert!(matches!(e, SparseError::DimensionMismatch { what: "right-hand side length", .. }), "{e}");
+        let e = ordered.gather(&b, &mut x[1..]).unwrap_err();
+        assert!(matches!(e, SparseError::DimensionMismatch { what: "gathered vector", .. }), "{e}");
+        // A colouring of another pattern is refused when the copy is made.
+        let lone = Colouring::from_colours(&Arc::new(CsrPattern::from_edges(n, &[]).unwrap()), vec![0; n]).unwrap();
+        assert!(matches!(
+            ColourOrdered::new(&a, &lone).unwrap_err(),
+            SparseError::ColouringConflict { row: 0, col: 1, colour: 0 }
+        ));
     }
 
     #[test]
