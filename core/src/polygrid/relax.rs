@@ -15,7 +15,9 @@
 //!   (injection), so one [`RelaxHierarchy::set_source`] lights every level.
 //!
 //! [`RelaxHierarchy::solve`] runs one of the paper's schemes ([`Schedule`]) with one of its
-//! smoothers ([`Smoother`], the sweeps of [`crate::sparse::relax`]):
+//! smoothers ([`Smoother`], the sweeps of [`crate::sparse::relax`]; Gauss–Seidel on a
+//! [`ColourOrdered`] copy of each level's matrix, made by the first solve that needs it, so a
+//! sweep streams the matrix: the same sweep bit for bit, at the cost of the matrix's memory):
 //!
 //! - [`Schedule::SingleLevel`]: Jacobi (§5.2, the GPU's ping-pong update) or Gauss–Seidel in the
 //!   grid's parity colouring ([`Polygrid::parity_colours`], valid for both stencils) on the
@@ -28,8 +30,8 @@
 //!   surface is relaxed; the shell depth is set from the diffusion length
 //!   ([`FreezeDepth`]: by default 3 ℓd on the finest level, twice that one level coarser, …),
 //!   depth being the distance to the finest level's boundary quads (split in triangles, through
-//!   a [`TriangleBvh`]). The frozen nodes get colours of their own, so a Gauss–Seidel sweep
-//!   skips them (the paper drops texture blocks without an active node). The result is not the
+//!   a [`TriangleBvh`]). A sweep skips the frozen nodes (the paper drops texture blocks without
+//!   an active node); their neighbours read them as fixed values. The result is not the
 //!   finest level's solution: the frozen values carry the coarser level's error, which reaches
 //!   the surface damped by about e^(−2d/ℓd); at 3 ℓd the boundary radiance stays within 1e-4
 //!   RMS of PCG (measured 2–5e-5), at 1.4 ℓd within 1e-3.
@@ -55,6 +57,7 @@
 //! an ω diverges on the Kuhn split's P1 matrix, which is not diagonally dominant).
 
 use std::collections::HashMap;
+use std::sync::OnceLock;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -66,7 +69,7 @@ use super::Stencil;
 use crate::diffusion::{self, DiffusionSystem};
 use crate::mesh::{TetMesh, TetMeshError, TriangleBvh};
 use crate::optics::{BoundaryTerms, Medium};
-use crate::sparse::relax::{coloured_gauss_seidel_sweep, jacobi_sweep, Colouring};
+use crate::sparse::relax::{jacobi_sweep, ColourOrdered, Colouring};
 use crate::sparse::{CsrMatrix3, SparseError};
 
 /// Not a boundary node (in the finest level's boundary index).
@@ -342,9 +345,9 @@ pub struct RelaxState {
     scratch: Vec<[f64; 3]>,
     save: Vec<[f64; 3]>,
     active: Vec<bool>,
-    /// Per level, the adaptive shell depth last used and its colouring: the parity colours of
-    /// the shell, those of the frozen nodes shifted past them (so a sweep skips their colours).
-    shells: Vec<Option<(f64, Colouring)>>,
+    /// The right-hand side and the active flags in a level's colour order (Gauss–Seidel).
+    ordered_rhs: Vec<[f64; 3]>,
+    ordered_active: Vec<bool>,
 }
 
 impl RelaxState {
@@ -359,7 +362,8 @@ impl RelaxState {
             scratch: Vec::new(),
             save: Vec::new(),
             active: Vec::new(),
-            shells: vec![None; hierarchy.levels.len()],
+            ordered_rhs: Vec::new(),
+            ordered_active: Vec::new(),
         }
     }
 
@@ -454,11 +458,23 @@ struct Level {
     /// Per boundary node (system order), its index among the finest level's boundary nodes
     /// (the node at the same lattice point).
     finest_boundary: Vec<u32>,
+    /// The matrix renumbered by the colouring, for the Gauss–Seidel sweeps: made by the first
+    /// solve that sweeps this level, as it costs the matrix's memory again.
+    ordered: OnceLock<ColourOrdered>,
 }
 
 impl Level {
     fn n(&self) -> usize {
         self.depth_mm.len()
+    }
+
+    /// The colour-ordered matrix, made on first use.
+    fn colour_ordered(&self) -> Result<&ColourOrdered, SparseError> {
+        if let Some(o) = self.ordered.get() {
+            return Ok(o);
+        }
+        let made = ColourOrdered::new(self.system.matrix(), &self.colouring)?;
+        Ok(self.ordered.get_or_init(|| made))
     }
 }
 
@@ -562,7 +578,7 @@ impl RelaxHierarchy {
             let colours = g.parity_colours().into_iter().map(u32::from).collect();
             let colouring = Colouring::from_colours(system.matrix().pattern(), colours)?;
             let depth_mm = finest_node.iter().map(|&f| depth0[f as usize]).collect();
-            levels_out.push(Level { system, colouring, depth_mm, finest_boundary });
+            levels_out.push(Level { system, colouring, depth_mm, finest_boundary, ordered: OnceLock::new() });
         }
         let diffusion_lengths_mm =
             std::array::from_fn(|c| cell_media.iter().map(|m| 1.0 / m.sigma_tr()[c]).fold(f64::INFINITY, f64::min));
@@ -683,13 +699,12 @@ impl RelaxHierarchy {
     pub fn set_source(&mut self, q: &[[f64; 3]]) -> Result<(), PolygridError> {
         let nb = self.boundary_ids().len();
         check_len("source q", nb, q.len())?;
-        let mut systems: Vec<LevelSystem> = self.levels.iter().map(|l| l.system.clone()).collect();
-        for (level, system) in self.levels.iter().zip(&mut systems) {
+        // The finest level checks every value (and changes nothing when one fails); a coarser
+        // level's values are some of the same, so they pass too: no level is left with another
+        // light than the rest.
+        for level in &mut self.levels {
             let ql: Vec<[f64; 3]> = level.finest_boundary.iter().map(|&k| q[k as usize]).collect();
-            system.set_source(&ql)?;
-        }
-        for (level, system) in self.levels.iter_mut().zip(systems) {
-            level.system = system;
+            level.system.set_source(&ql)?;
         }
         Ok(())
     }
@@ -742,11 +757,12 @@ impl RelaxHierarchy {
         // Until it succeeds, no level holds a solution (a failed solve leaves them half done).
         let was_valid = std::mem::replace(&mut state.valid, vec![false; self.levels.len()]);
         let n0 = self.levels[0].n();
-        let RelaxState { x, old, previous, scratch, save, active, shells, .. } = state;
-        for v in [&mut *old, &mut *previous, &mut *scratch, &mut *save] {
+        let RelaxState { x, old, previous, scratch, save, active, ordered_rhs, ordered_active, .. } = state;
+        for v in [&mut *old, &mut *previous, &mut *scratch, &mut *save, &mut *ordered_rhs] {
             v.resize(n0, [0.0; 3]);
         }
         active.resize(n0, true);
+        ordered_active.resize(n0, true);
 
         let mut stats =
             RelaxStats { updates: 0, levels: Vec::new(), history: Vec::new(), converged: false, reached_reference: false };
@@ -798,35 +814,23 @@ impl RelaxHierarchy {
                 a.par_iter_mut().zip(&level.depth_mm).for_each(|(a, &depth)| *a = depth <= d);
                 &a[..]
             });
-            let colouring = match shell {
-                None => &level.colouring,
-                Some(d) => {
-                    if !shells[l].as_ref().is_some_and(|(depth, _)| *depth == d) {
-                        let offset = level.colouring.count() as u32;
-                        let colours = level
-                            .colouring
-                            .colours()
-                            .iter()
-                            .zip(&level.depth_mm)
-                            .map(|(&c, &depth)| if depth <= d { c } else { c + offset })
-                            .collect();
-                        shells[l] = Some((d, Colouring::from_colours(level.colouring.pattern(), colours)?));
-                    }
-                    &shells[l].as_ref().expect("the shell's colouring, just made").1
-                }
-            };
             let tolerance = if l == 0 { options.tolerance } else { options.coarse_tolerance };
             let run = LevelRun {
                 hierarchy: self,
                 level: l,
-                colouring,
                 active: mask,
                 options,
                 tolerance,
                 reference,
                 stop_below: if l == 0 { reference.and_then(|r| r.stop_below) } else { None },
             };
-            let level_stats = run.relax(&mut x[l], &mut scratch[..n], &mut save[..n], &mut stats)?;
+            let work = Work {
+                scratch: &mut scratch[..n],
+                save: &mut save[..n],
+                ordered_rhs: &mut ordered_rhs[..n],
+                ordered_active: &mut ordered_active[..n],
+            };
+            let level_stats = run.relax(&mut x[l], work, &mut stats)?;
             if l == 0 {
                 stats.converged = level_stats.converged;
             }
@@ -842,7 +846,6 @@ impl RelaxHierarchy {
 struct LevelRun<'a> {
     hierarchy: &'a RelaxHierarchy,
     level: usize,
-    colouring: &'a Colouring,
     active: Option<&'a [bool]>,
     options: &'a RelaxOptions,
     tolerance: f64,
@@ -850,20 +853,66 @@ struct LevelRun<'a> {
     stop_below: Option<f64>,
 }
 
+/// A level run's work vectors, one entry per node of the level.
+struct Work<'a> {
+    scratch: &'a mut [[f64; 3]],
+    save: &'a mut [[f64; 3]],
+    ordered_rhs: &'a mut [[f64; 3]],
+    ordered_active: &'a mut [bool],
+}
+
 impl LevelRun<'_> {
     /// Sweeps `x` until the estimate meets the tolerance, the reference error `stop_below`, or
-    /// `max_sweeps`; appends to `stats`.
-    fn relax(
+    /// `max_sweeps`; appends to `stats`. Gauss–Seidel sweeps the level's colour-ordered matrix:
+    /// `x`, the right-hand side and the mask are taken into its order once, and `x` is put back
+    /// at the end.
+    fn relax(&self, x: &mut [[f64; 3]], work: Work<'_>, stats: &mut RelaxStats) -> Result<LevelStats, PolygridError> {
+        let level = &self.hierarchy.levels[self.level];
+        let (matrix, b) = (level.system.matrix(), level.system.rhs());
+        let Work { scratch, save, ordered_rhs, ordered_active } = work;
+        match self.options.smoother {
+            Smoother::Jacobi { omega } => {
+                let active = self.active;
+                let sweep = |x: &mut [[f64; 3]]| {
+                    let u = jacobi_sweep(matrix, b, x, scratch, omega, active)?;
+                    x.copy_from_slice(scratch);
+                    Ok(u)
+                };
+                self.sweeps(x, active, save, None, sweep, stats)
+            }
+            Smoother::GaussSeidel => {
+                let ordered = level.colour_ordered()?;
+                ordered.gather(x, scratch)?;
+                ordered.gather(b, ordered_rhs)?;
+                let active = match self.active {
+                    Some(a) => {
+                        ordered.gather(a, ordered_active)?;
+                        Some(&ordered_active[..])
+                    }
+                    None => None,
+                };
+                let sweep = |x: &mut [[f64; 3]]| ordered.sweep(ordered_rhs, x, active, false);
+                let out = self.sweeps(scratch, active, save, Some(ordered.rank()), sweep, stats)?;
+                ordered.scatter(scratch, x)?;
+                Ok(out)
+            }
+        }
+    }
+
+    /// The sweeps of [`LevelRun::relax`] on `x` by `step`, `active` being its mask and `rank`
+    /// the position of each node in `x` (None: the level's own order).
+    fn sweeps(
         &self,
         x: &mut [[f64; 3]],
-        scratch: &mut [[f64; 3]],
+        active: Option<&[bool]>,
         save: &mut [[f64; 3]],
+        rank: Option<&[u32]>,
+        mut step: impl FnMut(&mut [[f64; 3]]) -> Result<usize, SparseError>,
         stats: &mut RelaxStats,
     ) -> Result<LevelStats, PolygridError> {
         let level = &self.hierarchy.levels[self.level];
-        let (matrix, b) = (level.system.matrix(), level.system.rhs());
         let nodes = level.n();
-        let active_count = self.active.map_or(nodes, |a| a.iter().filter(|&&f| f).count());
+        let active_count = active.map_or(nodes, |a| a.iter().filter(|&&f| f).count());
         let mut out = LevelStats {
             level: self.level,
             nodes,
@@ -891,21 +940,14 @@ impl LevelRun<'_> {
             if check {
                 save.copy_from_slice(x);
             }
-            let updates = match self.options.smoother {
-                Smoother::Jacobi { omega } => {
-                    let u = jacobi_sweep(matrix, b, x, scratch, omega, self.active)?;
-                    x.copy_from_slice(scratch);
-                    u
-                }
-                Smoother::GaussSeidel => coloured_gauss_seidel_sweep(matrix, b, x, self.colouring, self.active, false)?,
-            };
+            let updates = step(x)?;
             out.sweeps = sweep;
             out.updates += updates;
             stats.updates += updates;
-            let error = self.reference.map(|r| reference_error(level, x, r.radiance));
+            let error = self.reference.map(|r| reference_error(level, x, rank, r.radiance));
             let mut estimate = None;
             if check {
-                let delta = relative_change(x, save, self.active);
+                let delta = relative_change(x, save, active);
                 if let Some(channel) = (0..3).find(|&c| !delta[c].is_finite()) {
                     return Err(self.breakdown(channel, sweep, "the iterate is no longer finite".into()));
                 }
@@ -1017,15 +1059,17 @@ fn level_radiance(level: &Level, phi: &[[f64; 3]]) -> Vec<[f64; 3]> {
 }
 
 /// √(Σ(L − L₀)² / ΣL₀²) over a level's boundary nodes and the channels, L₀ the reference at the
-/// finest boundary node of the same lattice point.
-fn reference_error(level: &Level, phi: &[[f64; 3]], reference: &[[f64; 3]]) -> f64 {
+/// finest boundary node of the same lattice point; node i's fluence is `phi[rank[i]]` (`phi[i]`
+/// without a rank).
+fn reference_error(level: &Level, phi: &[[f64; 3]], rank: Option<&[u32]>, reference: &[[f64; 3]]) -> f64 {
     let terms = level.system.terms();
     let (num, den) = level.system.boundary_ids().iter().zip(level.system.source()).zip(&level.finest_boundary).fold(
         (0.0, 0.0),
         |(num, den), ((&i, q), &k)| {
             let l0 = reference[k as usize];
+            let phi = phi[rank.map_or(i as usize, |r| r[i as usize] as usize)];
             (0..3).fold((num, den), |(n, d), c| {
-                let l = terms.radiance_normal(phi[i as usize][c], q[c]);
+                let l = terms.radiance_normal(phi[c], q[c]);
                 (n + (l - l0[c]) * (l - l0[c]), d + l0[c] * l0[c])
             })
         },
