@@ -13,7 +13,7 @@ use transcut_core::inverse::{
 };
 use transcut_core::volume::VolumeError;
 
-use super::options::{init, read_sized, Sized};
+use super::options::{init, read_sized, Layout, Sized};
 use super::progress::{Callback, TcProgressFn};
 use super::ptr;
 use super::status::{
@@ -95,8 +95,12 @@ pub struct TcAcquireOptions {
     pub absorption_coarsening: u32,
 }
 
-/// The first version's size of `TcAcquireOptions` (up to `channels` and its padding).
-const ACQUIRE_OPTIONS_SIZE_V1: usize = std::mem::offset_of!(TcAcquireOptions, coarse_levels).next_multiple_of(8);
+/// The first version of `TcAcquireOptions`: up to `channels`, whose trailing padding
+/// `coarse_levels` now fills.
+const ACQUIRE_OPTIONS_V1: Layout = Layout {
+    size: std::mem::offset_of!(TcAcquireOptions, coarse_levels).next_multiple_of(8),
+    fields: std::mem::offset_of!(TcAcquireOptions, coarse_levels),
+};
 
 fn default_acquire_options() -> TcAcquireOptions {
     let core = AcquireOptions::default();
@@ -165,7 +169,7 @@ const ACQUIRE_STATS_SIZE_V1: usize = size_of::<TcAcquireStats>();
 pub unsafe extern "C" fn tc_acquire_options_init(options: *mut TcAcquireOptions, size: usize) -> TcStatus {
     run("tc_acquire_options_init", || {
         // SAFETY: the caller's contract: `size` writable bytes.
-        unsafe { init(options, size, ACQUIRE_OPTIONS_SIZE_V1, default_acquire_options()) }
+        unsafe { init(options, size, ACQUIRE_OPTIONS_V1.size, default_acquire_options()) }
     })
 }
 
@@ -234,12 +238,7 @@ pub unsafe extern "C" fn tc_acquire(
         check_not_null!(options, images, out_voxels);
         let sized = Sized { what: "options", type_name: "TcAcquireOptions", filler: "tc_acquire_options_init" };
         // SAFETY: the caller's contract (`options->size` readable bytes).
-        let mut o = unsafe { read_sized(options, ACQUIRE_OPTIONS_SIZE_V1, default_acquire_options(), &sized)? };
-        if (o.size as usize) < size_of::<TcAcquireOptions>() {
-            // A first-version struct: `coarse_levels` shares the bytes of its trailing padding.
-            let defaults = default_acquire_options();
-            (o.coarse_levels, o.absorption_coarsening) = (defaults.coarse_levels, defaults.absorption_coarsening);
-        }
+        let o = unsafe { read_sized(options, &[ACQUIRE_OPTIONS_V1], default_acquire_options(), &sized)? };
         let nodes = o.nodes.map(|n| n as usize);
         if nodes.iter().any(|&n| n < 2) {
             return Err(Failure::invalid(format!("options->nodes = {:?}: at least 2 along each axis", o.nodes)));

@@ -804,16 +804,35 @@ pub(crate) struct Sized {
     pub(crate) filler: &'static str,
 }
 
-/// Reads a size-prefixed struct of which the library knows the first `size_of::<T>()` bytes:
-/// `size` must be at least `min` (the first version's size); a shorter known prefix is
-/// completed from `defaults`.
+/// An earlier released layout of a size-prefixed struct: its `sizeof`, and the bytes its
+/// fields take. These are fewer where it ends in padding that a later version's first new
+/// field fills, and those bytes must not be read from a struct of that version.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Layout {
+    pub(crate) size: usize,
+    pub(crate) fields: usize,
+}
+
+impl Layout {
+    /// A layout whose fields fill its `sizeof`.
+    pub(crate) const fn whole(size: usize) -> Self {
+        Self { size, fields: size }
+    }
+}
+
+/// Reads a size-prefixed struct whose current layout is `T` and whose earlier layouts are
+/// `older` (oldest first): `size` must be at least the oldest one's (`T`'s without any); a
+/// struct of an earlier layout is read up to the end of that layout's fields (a size between two
+/// layouts as the smaller), the rest taken from `defaults`; a larger one (a later version) up to
+/// `T`'s end.
 ///
 /// # Safety
 /// `ptr` must be non-NULL, aligned, and point to at least `*ptr.size` readable bytes.
-pub(crate) unsafe fn read_sized<T: Copy>(ptr: *const T, min: usize, defaults: T, s: &Sized) -> Result<T, Failure> {
+pub(crate) unsafe fn read_sized<T: Copy>(ptr: *const T, older: &[Layout], defaults: T, s: &Sized) -> Result<T, Failure> {
     // SAFETY: the caller's contract; `size` is the first field of every such struct.
     let size = unsafe { ptr.cast::<u32>().read() } as usize;
     let ours = size_of::<T>();
+    let min = older.first().map_or(ours, |l| l.size);
     if size < min {
         return Err(Failure::invalid(format!(
             "{}->size = {size}, expected sizeof({}) = {ours} (fill the struct with {})",
@@ -821,7 +840,7 @@ pub(crate) unsafe fn read_sized<T: Copy>(ptr: *const T, min: usize, defaults: T,
         )));
     }
     let mut value = defaults;
-    let known = size.min(ours);
+    let known = if size >= ours { ours } else { older.iter().rev().find(|l| l.size <= size).map_or(size, |l| l.fields) };
     // SAFETY: `known` bytes are readable (≤ size) and writable in `value` (≤ size_of::<T>); a
     // byte copy of a prefix of a plain `repr(C)` struct whose later fields keep their defaults.
     unsafe { std::ptr::copy_nonoverlapping(ptr.cast::<u8>(), std::ptr::from_mut(&mut value).cast::<u8>(), known) };
@@ -846,6 +865,28 @@ pub(crate) unsafe fn init<T>(out: *mut T, size: usize, min: usize, mut defaults:
     Ok(())
 }
 
+/// The chosen method's struct at `ptr` as [`read_sized`] reads it, `defaults` for NULL.
+///
+/// # Safety
+/// A non-NULL `ptr` must point to at least `ptr->size` readable bytes.
+unsafe fn method_options<T: Copy>(
+    ptr: *const c_void,
+    older: &[Layout],
+    defaults: T,
+    type_name: &'static str,
+    filler: &'static str,
+) -> Result<T, Failure> {
+    if ptr.is_null() {
+        return Ok(defaults);
+    }
+    let p = ptr.cast::<T>();
+    if !p.is_aligned() {
+        return Err(Failure::invalid(format!("`options->method_options` is not aligned for {type_name}")));
+    }
+    // SAFETY: the caller's contract, checked for NULL and alignment.
+    unsafe { read_sized(p, older, defaults, &Sized { what: "options->method_options", type_name, filler }) }
+}
+
 /// The caller's options (NULL = defaults), checked and converted.
 ///
 /// # Safety
@@ -860,7 +901,7 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
         defaults.method_options = std::ptr::null();
         let sized = Sized { what: "options", type_name: "TcBakeOptions", filler: "tc_bake_options_init" };
         // SAFETY: forwarded.
-        unsafe { read_sized(options, BAKE_OPTIONS_SIZE_V1, defaults, &sized)? }
+        unsafe { read_sized(options, &[Layout::whole(BAKE_OPTIONS_SIZE_V1)], defaults, &sized)? }
     };
     let source = SourceOptions {
         area_samples: o.area_samples as usize,
@@ -880,17 +921,15 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
     };
     let method = match o.method {
         TC_METHOD_TRANSCUT => {
-            let t = if o.method_options.is_null() {
-                default_transcut_options()
-            } else {
-                let t = o.method_options.cast::<TcTransCutOptions>();
-                if !t.is_aligned() {
-                    return Err(Failure::invalid("`options->method_options` is not aligned for TcTransCutOptions"));
-                }
-                let sized =
-                    Sized { what: "options->method_options", type_name: "TcTransCutOptions", filler: "tc_transcut_options_init" };
-                // SAFETY: the caller's contract, checked for NULL and alignment.
-                unsafe { read_sized(t, TRANSCUT_OPTIONS_SIZE_V1, default_transcut_options(), &sized)? }
+            // SAFETY: the caller's contract.
+            let t = unsafe {
+                method_options(
+                    o.method_options,
+                    &[Layout::whole(TRANSCUT_OPTIONS_SIZE_V1)],
+                    default_transcut_options(),
+                    "TcTransCutOptions",
+                    "tc_transcut_options_init",
+                )?
             };
             let d = TransCutOptions::default();
             let solver = solver_from(t.solver, "options->method_options->solver")?.unwrap_or(d.solver);
@@ -900,64 +939,41 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
             Method::TransCut(TransCutOptions { solver, edit_solver, grading, discretization, ..transcut()? })
         }
         TC_METHOD_RADIOSITY => {
-            let r = if o.method_options.is_null() {
-                default_radiosity_options()
-            } else {
-                let r = o.method_options.cast::<TcRadiosityOptions>();
-                if !r.is_aligned() {
-                    return Err(Failure::invalid("`options->method_options` is not aligned for TcRadiosityOptions"));
-                }
-                let sized = Sized {
-                    what: "options->method_options",
-                    type_name: "TcRadiosityOptions",
-                    filler: "tc_radiosity_options_init",
-                };
-                // SAFETY: the caller's contract, checked for NULL and alignment.
-                unsafe { read_sized(r, RADIOSITY_OPTIONS_SIZE_V1, default_radiosity_options(), &sized)? }
+            // SAFETY: the caller's contract.
+            let r = unsafe {
+                method_options(
+                    o.method_options,
+                    &[Layout::whole(RADIOSITY_OPTIONS_SIZE_V1)],
+                    default_radiosity_options(),
+                    "TcRadiosityOptions",
+                    "tc_radiosity_options_init",
+                )?
             };
             Method::Radiosity(radiosity_options(&r, transcut()?)?)
         }
         TC_METHOD_HIERARCHICAL_DIPOLE => {
-            let d = if o.method_options.is_null() {
-                default_dipole_options()
-            } else {
-                let d = o.method_options.cast::<TcDipoleOptions>();
-                if !d.is_aligned() {
-                    return Err(Failure::invalid("`options->method_options` is not aligned for TcDipoleOptions"));
-                }
-                let sized =
-                    Sized { what: "options->method_options", type_name: "TcDipoleOptions", filler: "tc_dipole_options_init" };
-                // SAFETY: the caller's contract, checked for NULL and alignment.
-                unsafe { read_sized(d, size_of::<TcDipoleOptions>(), default_dipole_options(), &sized)? }
+            // SAFETY: the caller's contract.
+            let d = unsafe {
+                method_options(o.method_options, &[], default_dipole_options(), "TcDipoleOptions", "tc_dipole_options_init")?
             };
             Method::HierarchicalDipole(dipole_options(&d)?)
         }
         TC_METHOD_PRT => {
-            let p = if o.method_options.is_null() {
-                default_prt_options()
-            } else {
-                let p = o.method_options.cast::<TcPrtOptions>();
-                if !p.is_aligned() {
-                    return Err(Failure::invalid("`options->method_options` is not aligned for TcPrtOptions"));
-                }
-                let sized = Sized { what: "options->method_options", type_name: "TcPrtOptions", filler: "tc_prt_options_init" };
-                // SAFETY: the caller's contract, checked for NULL and alignment.
-                unsafe { read_sized(p, size_of::<TcPrtOptions>(), default_prt_options(), &sized)? }
-            };
+            // SAFETY: the caller's contract.
+            let p =
+                unsafe { method_options(o.method_options, &[], default_prt_options(), "TcPrtOptions", "tc_prt_options_init")? };
             Method::Prt(prt_options(&p)?)
         }
         TC_METHOD_POLYGRID => {
-            let p = if o.method_options.is_null() {
-                default_polygrid_options()
-            } else {
-                let p = o.method_options.cast::<TcPolygridOptions>();
-                if !p.is_aligned() {
-                    return Err(Failure::invalid("`options->method_options` is not aligned for TcPolygridOptions"));
-                }
-                let sized =
-                    Sized { what: "options->method_options", type_name: "TcPolygridOptions", filler: "tc_polygrid_options_init" };
-                // SAFETY: the caller's contract, checked for NULL and alignment.
-                unsafe { read_sized(p, size_of::<TcPolygridOptions>(), default_polygrid_options(), &sized)? }
+            // SAFETY: the caller's contract.
+            let p = unsafe {
+                method_options(
+                    o.method_options,
+                    &[],
+                    default_polygrid_options(),
+                    "TcPolygridOptions",
+                    "tc_polygrid_options_init",
+                )?
             };
             Method::Polygrid(polygrid_options(&p, transcut()?)?)
         }
@@ -984,6 +1000,53 @@ pub(crate) unsafe fn read_bake_options(options: *const TcBakeOptions) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A struct of two versions: the first ended with `c` and 4 bytes of padding, which the
+    /// second's `d` fills (before its `e`).
+    #[repr(C)]
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    struct Two {
+        size: u32,
+        a: u32,
+        b: f64,
+        c: u32,
+        d: u32,
+        e: u32,
+    }
+
+    const TWO_V1: Layout = Layout { size: 24, fields: std::mem::offset_of!(Two, d) };
+
+    /// `read_sized` on a caller's struct of `size` bytes whose every byte past `size` and whose
+    /// padding hold garbage (0xAB).
+    fn read_two(size: u32) -> Result<Two, Failure> {
+        let defaults = Two { size: 0, a: 1, b: 2.0, c: 3, d: 4, e: 5 };
+        // 64 aligned bytes of garbage, the caller's first `size` bytes over them.
+        let mut buffer = [0xABAB_ABAB_ABAB_ABABu64; 8];
+        let given = Two { size, a: 10, b: 20.0, c: 30, d: 40, e: 50 };
+        let bytes = size_of::<Two>().min(size as usize);
+        // SAFETY: `bytes` ≤ 32 of both; a plain repr(C) struct's bytes.
+        unsafe {
+            std::ptr::copy_nonoverlapping(std::ptr::from_ref(&given).cast::<u8>(), buffer.as_mut_ptr().cast::<u8>(), bytes)
+        };
+        let sized = Sized { what: "options", type_name: "Two", filler: "two_init" };
+        // SAFETY: 64 readable, aligned bytes, at least `size` of them for every size tested.
+        unsafe { read_sized(buffer.as_ptr().cast::<Two>(), &[TWO_V1], defaults, &sized) }
+    }
+
+    #[test]
+    fn a_struct_of_an_earlier_layout_is_read_to_the_end_of_its_fields() {
+        assert_eq!(size_of::<Two>(), 32);
+        // The first version: `d` lies in its padding, so what is there (here a 40) is not read.
+        assert_eq!(read_two(24).unwrap(), Two { size: 24, a: 10, b: 20.0, c: 30, d: 4, e: 5 });
+        // Between the two versions: read as the first.
+        assert_eq!(read_two(28).unwrap(), Two { size: 28, a: 10, b: 20.0, c: 30, d: 4, e: 5 });
+        // The current version, and a later one (its extra bytes are not ours).
+        assert_eq!(read_two(32).unwrap(), Two { size: 32, a: 10, b: 20.0, c: 30, d: 40, e: 50 });
+        assert_eq!(read_two(48).unwrap(), Two { size: 48, a: 10, b: 20.0, c: 30, d: 40, e: 50 });
+        // Below the first version: named, with the filler.
+        let e = read_two(20).unwrap_err();
+        assert!(e.message.contains("options->size = 20") && e.message.contains("two_init"), "{}", e.message);
+    }
 
     /// The dipole's defaults are the core's, every choice maps to its core value, and a value out
     /// of range is named.
