@@ -46,7 +46,8 @@ pub enum Suite {
     /// updates and time for single-level Gauss–Seidel, the hierarchical cascade and the adaptive
     /// scheme, with each stencil, the paper's own included) on a marble ball at
     /// --polygrid-resolution and on a block, then the diffusion pass
-    /// (cold and warm) of PCG and the relaxation at --polygrid-nodes, each to 1% RMS.
+    /// (cold and warm) of PCG and the relaxation at --polygrid-nodes, each to 1% RMS, on the
+    /// ball and with --polygrid-object on that surface's polygrid.
     Polygrid,
     /// Inverse diffusion (J. Wang et al. 2008 §4): the synthetic acquisition of a veined marble
     /// block (--inverse-nodes at 0.5 mm, 16 images, back-lit unless --inverse-front-lit, three
@@ -136,7 +137,13 @@ pub struct BenchArgs {
     /// 16; the block gets a quarter of it per 40 mm cube, the same spacing).
     #[arg(long, default_value_t = 48, value_parser = clap::value_parser!(u32).range(16..=256))]
     pub polygrid_resolution: u32,
-    /// The `polygrid` suite's diffusion pass: about this many nodes on the ball.
+    /// The `polygrid` suite's diffusion pass also on this surface (OBJ, PLY, …), scaled to the
+    /// ball's 160 mm and mapped at 4 cells per cube with about --polygrid-nodes nodes (Table
+    /// III on an object); a map or coarse level that folds is reported as skipped.
+    #[arg(long, value_name = "MESH")]
+    pub polygrid_object: Option<PathBuf>,
+    /// The `polygrid` suite's diffusion pass: about this many nodes on the ball (and on
+    /// --polygrid-object).
     #[arg(long, default_value_t = 250_000, value_parser = clap::value_parser!(u64).range(125..=20_000_000))]
     pub polygrid_nodes: u64,
     /// The `inverse` suite's grid nodes along x, y, z (8,8,4 is a seconds-long smoke run).

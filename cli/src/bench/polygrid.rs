@@ -17,17 +17,23 @@
 //!   at the fewest sweeps per level that give 1% (a renderer's fixed budget, found cold and warm
 //!   apart), medians of `--runs`, with iterations or updates and the errors reached. Both
 //!   stencils.
+//! - **The same pass on an object** with `--polygrid-object MESH`: the surface scaled to the
+//!   ball's 160 mm (largest extent), voxelised and mapped with a pillow at 4 cells per cube for
+//!   about `--polygrid-nodes` nodes (the paper's Table III on a real surface). A map that folds,
+//!   or a coarse level that does, is reported as skipped with its reason.
 
+use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
 use serde::Serialize;
+use transcut::mesh::{self, TriangleBvh};
 use transcut::optics::Medium;
 use transcut::polygrid::relax::{RelaxSample, RelaxStats};
 use transcut::polygrid::{
-    cubed_sphere, FreezeDepth, Polycube, Polygrid, RadianceReference, RelaxHierarchy, RelaxOptions, RelaxState, Schedule, Start,
-    Stencil,
+    cubed_sphere, map_to_surface, FreezeDepth, MapOptions, Polycube, Polygrid, RadianceReference, RelaxHierarchy, RelaxOptions,
+    RelaxState, Schedule, Start, Stencil,
 };
 use transcut::sparse::{bicgstab, pcg, Preconditioner, PreconditionerKind, SolveOptions};
 use transcut::DVec3;
@@ -39,6 +45,8 @@ use super::stats::{median, ms};
 const Q_SUN: f64 = 0.98299;
 /// The ball's radius and the block's cube, mm.
 const RADIUS_MM: f64 = 80.0;
+/// Cells per cube edge of an object's polygrid: two halvings for the 3 levels.
+const OBJECT_RESOLUTION: u32 = 4;
 const BLOCK_CUBE_MM: f64 = 40.0;
 const LEVELS: usize = 3;
 /// The error every timed solve must reach (RMS relative).
@@ -114,7 +122,9 @@ enum PassResult {
 
 #[derive(Serialize)]
 struct PassReport {
+    model: String,
     stencil: &'static str,
+    /// Cells per cube edge of the finest level.
     resolution: u32,
     nodes: Vec<usize>,
     nonzeros: usize,
@@ -147,9 +157,9 @@ fn block(resolution: u32) -> anyhow::Result<Polygrid> {
     Ok(Polygrid::new(Arc::new(Polycube::block(DVec3::ZERO, BLOCK_CUBE_MM, [4, 4, 2])?), resolution)?)
 }
 
-fn hierarchy(grid: &Polygrid, stencil: Stencil) -> anyhow::Result<(RelaxHierarchy, f64)> {
+fn hierarchy(grid: &Polygrid, mm_per_unit: f64, stencil: Stencil) -> anyhow::Result<(RelaxHierarchy, f64)> {
     let t = Instant::now();
-    let mut h = RelaxHierarchy::new(grid, &vec![marble()?; grid.cells().len()], 1.0, stencil, LEVELS)?;
+    let mut h = RelaxHierarchy::new(grid, &vec![marble()?; grid.cells().len()], mm_per_unit, stencil, LEVELS)?;
     let build = ms(t);
     set_sun(&mut h, false)?;
     Ok((h, build))
@@ -248,7 +258,7 @@ fn adaptive_schedules(h: &RelaxHierarchy) -> [(&'static str, Schedule); 2] {
 }
 
 fn fig15(model: String, grid: &Polygrid, spacing_mm: f64, stencil: Stencil, runs: usize) -> anyhow::Result<Fig15Entry> {
-    let (h, build_ms) = hierarchy(grid, stencil)?;
+    let (h, build_ms) = hierarchy(grid, 1.0, stencil)?;
     let lo = reference(&h)?;
     let base = RelaxOptions::default();
     let [(safe_name, safe), (short_name, short)] = adaptive_schedules(&h);
@@ -459,10 +469,37 @@ fn relax_setup(
     Ok(Some(Setup::Relax { cold, warm, state, tolerance, sweeps }))
 }
 
-fn diffusion_pass(nodes: usize, stencil: Stencil, runs: usize) -> anyhow::Result<PassReport> {
+/// The surface at `path` scaled to the ball's diameter, as a mapped polygrid of about `nodes`
+/// nodes at [`OBJECT_RESOLUTION`]: the grid and its millimetres per unit.
+fn object_grid(path: &Path, nodes: usize) -> anyhow::Result<(Polygrid, f64)> {
+    let surface = mesh::load(path).with_context(|| format!("reading {}", path.display()))?;
+    let (lo, hi) = surface.bounds();
+    let mm_per_unit = 2.0 * RADIUS_MM / (hi - lo).max_element();
+    let h = (surface.signed_volume().abs() / nodes as f64).cbrt();
+    let polycube = Polycube::voxelize(&surface, h * f64::from(OBJECT_RESOLUTION))?;
+    let mut grid = Polygrid::with_pillow(Arc::new(polycube), OBJECT_RESOLUTION)?;
+    let bvh = TriangleBvh::from_indexed(surface.positions(), surface.triangles());
+    map_to_surface(&mut grid, &bvh, &MapOptions::default())?;
+    Ok((grid, mm_per_unit))
+}
+
+/// The diffusion pass on the cubed-sphere ball of about `nodes` nodes.
+fn ball_pass(nodes: usize, stencil: Stencil, runs: usize) -> anyhow::Result<PassReport> {
     let k = ((((nodes as f64).cbrt() - 1.0) / 4.0).round() as u32).max(1) * 4;
     let grid = cubed_sphere(k, DVec3::ZERO, RADIUS_MM)?;
-    let (mut h, build_ms) = hierarchy(&grid, stencil)?;
+    let (h, build_ms) = hierarchy(&grid, 1.0, stencil)?;
+    diffusion_pass(format!("cubed-sphere ball, radius {RADIUS_MM} mm, k = {k}"), k, h, build_ms, runs)
+}
+
+/// The diffusion pass on hierarchy `h` (built in `build_ms`), lit by the sun.
+fn diffusion_pass(
+    model: String,
+    resolution: u32,
+    mut h: RelaxHierarchy,
+    build_ms: f64,
+    runs: usize,
+) -> anyhow::Result<PassReport> {
+    let stencil = h.stencil();
     let lo0 = reference(&h)?;
     set_sun(&mut h, true)?;
     let lo1 = reference(&h)?;
@@ -494,8 +531,9 @@ fn diffusion_pass(nodes: usize, stencil: Stencil, runs: usize) -> anyhow::Result
         })
         .collect();
     Ok(PassReport {
+        model,
         stencil: stencil.name(),
-        resolution: k,
+        resolution,
         nodes: (0..h.level_count()).map(|l| h.node_count(l)).collect(),
         nonzeros: h.matrix(0).nnz(),
         build_ms,
@@ -530,9 +568,27 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             runs,
         )?);
     }
+    let stencils = [Stencil::Fem, Stencil::FiniteVolume];
     let mut passes = Vec::new();
-    for stencil in [Stencil::Fem, Stencil::FiniteVolume] {
-        passes.push(diffusion_pass(args.polygrid_nodes as usize, stencil, runs)?);
+    for stencil in stencils {
+        passes.push(serde_json::to_value(ball_pass(args.polygrid_nodes as usize, stencil, runs)?)?);
+    }
+    if let Some(path) = &args.polygrid_object {
+        let model = format!("{}, {OBJECT_RESOLUTION} cells per cube", path.display());
+        match object_grid(path, args.polygrid_nodes as usize) {
+            Err(e) => passes.push(serde_json::json!({ "model": model, "skipped": format!("{e:#}") })),
+            Ok((grid, mm_per_unit)) => {
+                for stencil in stencils {
+                    let pass = match hierarchy(&grid, mm_per_unit, stencil) {
+                        Ok((h, build_ms)) => {
+                            serde_json::to_value(diffusion_pass(model.clone(), OBJECT_RESOLUTION, h, build_ms, runs)?)?
+                        }
+                        Err(e) => serde_json::json!({ "model": model, "stencil": stencil.name(), "skipped": format!("{e:#}") }),
+                    };
+                    passes.push(pass);
+                }
+            }
+        }
     }
     let report = serde_json::json!({
         "suite": "polygrid",

@@ -3,7 +3,18 @@
 
 #[test]
 fn the_polygrid_suite_reports_fig15_and_the_diffusion_pass() {
-    let report = crate::bench_report(&["polygrid", "--runs", "1", "--polygrid-resolution", "16", "--polygrid-nodes", "3000"]);
+    let spot = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/spot.obj");
+    let report = crate::bench_report(&[
+        "polygrid",
+        "--runs",
+        "1",
+        "--polygrid-resolution",
+        "16",
+        "--polygrid-nodes",
+        "3000",
+        "--polygrid-object",
+        spot.to_str().unwrap(),
+    ]);
     assert_eq!(report["suite"], "polygrid");
     // The ball and the block, each with the three stencils (the paper's included).
     let figure = report["fig15"].as_array().unwrap();
@@ -38,9 +49,16 @@ fn the_polygrid_suite_reports_fig15_and_the_diffusion_pass() {
             }
         }
     }
+    // The ball, then Spot mapped at 4 cells per cube (it maps at this size), each with P1 and FV.
     let passes = report["diffusion_pass"].as_array().unwrap();
-    assert_eq!(passes.len(), 2);
+    assert_eq!(passes.len(), 4);
+    for (p, stencil) in passes.iter().zip(["fem", "finite-volume", "fem", "finite-volume"]) {
+        assert_eq!(p["stencil"], stencil, "{p}");
+    }
+    assert!(passes[0]["model"].as_str().unwrap().starts_with("cubed-sphere ball"));
+    assert!(passes[2]["model"].as_str().unwrap().contains("spot.obj, 4 cells per cube"));
     for p in passes {
+        assert_eq!(p["resolution"], if p["model"].as_str().unwrap().contains("spot") { 4 } else { 12 }, "{p}");
         let solvers = p["solvers"].as_array().unwrap();
         assert_eq!(solvers.len(), 8);
         for s in solvers.iter().filter(|s| s.get("skipped").is_none()) {
