@@ -12,7 +12,8 @@
 //!   to 1% and 0.1%, and its curve down to 0.01% (at most 200 points).
 //! - **Diffusion pass** at `--polygrid-nodes` (the ball, k the nearest multiple of 4): cold and
 //!   warm (after the sun turned 5° about x, from the previous solution) time of Jacobi PCG,
-//!   SSOR-PCG and the hierarchical and adaptive relaxation, each at the loosest tolerance of
+//!   SSOR-PCG, CG with a smoothed-aggregation V-cycle (`Multigrid::aggregated`; no
+//!   preconditioner's setup is timed) and the hierarchical and adaptive relaxation, each at the loosest tolerance of
 //!   1e-2, 1e-3, … that gives at most 1% RMS (found on the cold solve), and the relaxation also
 //!   at the fewest sweeps per level that give 1% (a renderer's fixed budget, found cold and warm
 //!   apart), medians of `--runs`, with iterations or updates and the errors reached. Both
@@ -35,7 +36,8 @@ use transcut::polygrid::{
     cubed_sphere, map_to_surface, FreezeDepth, MapOptions, Polycube, Polygrid, RadianceReference, RelaxHierarchy, RelaxOptions,
     RelaxState, Schedule, Start, Stencil,
 };
-use transcut::sparse::{bicgstab, pcg, Preconditioner, PreconditionerKind, SolveOptions};
+use transcut::sparse::hierarchy::{mg_pcg, HierarchyOptions, Multigrid, MultigridOptions};
+use transcut::sparse::{bicgstab, pcg, CsrMatrix3, Preconditioner, PreconditionerKind, SolveOptions, SolveStats};
 use transcut::DVec3;
 
 use super::args::BenchArgs;
@@ -305,9 +307,26 @@ enum Budget {
 /// The sweep budgets tried, per level.
 const SWEEPS: [usize; 18] = [1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512];
 
-/// A solver of the pass, set up: how it stops.
+/// A preconditioned CG of the pass, set up.
+enum Krylov {
+    Pcg(Box<Preconditioner>),
+    /// CG with one V-cycle of a smoothed-aggregation multigrid per iteration.
+    Multigrid(Box<Multigrid>),
+}
+
+impl Krylov {
+    fn solve(&self, a: &CsrMatrix3, b: &[[f64; 3]], x: &mut [[f64; 3]], tolerance: f64) -> anyhow::Result<SolveStats> {
+        let options = SolveOptions::default().with_tolerance(tolerance);
+        Ok(match self {
+            Self::Pcg(pre) => pcg(a, b, x, pre, &options)?,
+            Self::Multigrid(mg) => mg_pcg(a, b, x, mg, &options)?,
+        })
+    }
+}
+
+/// A solver of the pass, set up (its preconditioner's setup is not timed): how it stops.
 enum Setup {
-    Pcg { pre: Preconditioner, tolerance: f64 },
+    Pcg { krylov: Krylov, tolerance: f64 },
     Relax { cold: RelaxOptions, warm: RelaxOptions, state: RelaxState, tolerance: Option<f64>, sweeps: Option<[usize; 2]> },
 }
 
@@ -341,17 +360,16 @@ impl Timed {
     fn run(&mut self, h: &mut RelaxHierarchy, lo: &[Vec<[f64; 3]>; 2]) -> anyhow::Result<()> {
         set_sun(h, false)?;
         match &mut self.setup {
-            Setup::Pcg { pre, tolerance } => {
-                let options = SolveOptions::default().with_tolerance(*tolerance);
+            Setup::Pcg { krylov, tolerance } => {
                 let mut phi = vec![[0.0; 3]; h.node_count(0)];
                 let t = Instant::now();
-                let stats = pcg(h.matrix(0), h.rhs(0), &mut phi, pre, &options)?;
+                let stats = krylov.solve(h.matrix(0), h.rhs(0), &mut phi, *tolerance)?;
                 self.cold_ms.push(ms(t));
                 self.cold_work = stats.iterations.to_vec();
                 self.cold_error = rms_relative(&h.radiance(&phi)?, &lo[0]);
                 set_sun(h, true)?;
                 let t = Instant::now();
-                let stats = pcg(h.matrix(0), h.rhs(0), &mut phi, pre, &options)?;
+                let stats = krylov.solve(h.matrix(0), h.rhs(0), &mut phi, *tolerance)?;
                 self.warm_ms.push(ms(t));
                 self.warm_work = stats.iterations.to_vec();
                 self.warm_error = rms_relative(&h.radiance(&phi)?, &lo[1]);
@@ -395,16 +413,15 @@ impl Timed {
     }
 }
 
-/// PCG with `kind` at the loosest tolerance that gives 1% cold, if any.
-fn pcg_setup(h: &mut RelaxHierarchy, kind: PreconditionerKind, lo: &[Vec<[f64; 3]>; 2]) -> anyhow::Result<Option<Setup>> {
+/// The CG of `krylov` at the loosest tolerance that gives 1% cold, if any.
+fn pcg_setup(h: &mut RelaxHierarchy, krylov: Krylov, lo: &[Vec<[f64; 3]>; 2]) -> anyhow::Result<Option<Setup>> {
     set_sun(h, false)?;
-    let pre = Preconditioner::new(h.matrix(0), kind)?;
     let tolerance = loosest(|t| {
         let mut phi = vec![[0.0; 3]; h.node_count(0)];
-        let _ = pcg(h.matrix(0), h.rhs(0), &mut phi, &pre, &SolveOptions::default().with_tolerance(t))?;
+        let _ = krylov.solve(h.matrix(0), h.rhs(0), &mut phi, t)?;
         Ok(rms_relative(&h.radiance(&phi)?, &lo[0]))
     })?;
-    Ok(tolerance.map(|tolerance| Setup::Pcg { pre, tolerance }))
+    Ok(tolerance.map(|tolerance| Setup::Pcg { krylov, tolerance }))
 }
 
 /// The relaxation by `schedule` stopped by `budget` at 1% (cold, and warm from the cold
@@ -488,26 +505,30 @@ fn ball_pass(nodes: usize, stencil: Stencil, runs: usize) -> anyhow::Result<Pass
     let k = ((((nodes as f64).cbrt() - 1.0) / 4.0).round() as u32).max(1) * 4;
     let grid = cubed_sphere(k, DVec3::ZERO, RADIUS_MM)?;
     let (h, build_ms) = hierarchy(&grid, 1.0, stencil)?;
-    diffusion_pass(format!("cubed-sphere ball, radius {RADIUS_MM} mm, k = {k}"), k, h, build_ms, runs)
+    diffusion_pass(format!("cubed-sphere ball, radius {RADIUS_MM} mm, k = {k}"), &grid, h, build_ms, runs)
 }
 
 /// The diffusion pass on hierarchy `h` (built in `build_ms`), lit by the sun.
 fn diffusion_pass(
     model: String,
-    resolution: u32,
+    grid: &Polygrid,
     mut h: RelaxHierarchy,
     build_ms: f64,
     runs: usize,
 ) -> anyhow::Result<PassReport> {
     let stencil = h.stencil();
+    let jacobi = Krylov::Pcg(Box::new(Preconditioner::new(h.matrix(0), PreconditionerKind::Jacobi)?));
+    let ssor = Krylov::Pcg(Box::new(Preconditioner::new(h.matrix(0), PreconditionerKind::Ssor)?));
+    let mg = Multigrid::aggregated(h.matrix(0), grid.positions(), &HierarchyOptions::default(), MultigridOptions::default())?;
     let lo0 = reference(&h)?;
     set_sun(&mut h, true)?;
     let lo1 = reference(&h)?;
     let lo = [lo0, lo1];
     let [(safe_name, safe), (short_name, short)] = adaptive_schedules(&h);
     let mut setups: Vec<(&'static str, Option<Setup>)> = vec![
-        ("pcg (jacobi)", pcg_setup(&mut h, PreconditionerKind::Jacobi, &lo)?),
-        ("pcg (ssor)", pcg_setup(&mut h, PreconditionerKind::Ssor, &lo)?),
+        ("pcg (jacobi)", pcg_setup(&mut h, jacobi, &lo)?),
+        ("pcg (ssor)", pcg_setup(&mut h, ssor, &lo)?),
+        ("mg-pcg (smoothed aggregation)", pcg_setup(&mut h, Krylov::Multigrid(Box::new(mg)), &lo)?),
     ];
     for (name, schedule) in [("hierarchical", Schedule::Hierarchical), (safe_name, safe), (short_name, short)] {
         for budget in [Budget::Tolerance, Budget::Sweeps] {
@@ -533,7 +554,7 @@ fn diffusion_pass(
     Ok(PassReport {
         model,
         stencil: stencil.name(),
-        resolution,
+        resolution: grid.resolution(),
         nodes: (0..h.level_count()).map(|l| h.node_count(l)).collect(),
         nonzeros: h.matrix(0).nnz(),
         build_ms,
@@ -580,9 +601,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             Ok((grid, mm_per_unit)) => {
                 for stencil in stencils {
                     let pass = match hierarchy(&grid, mm_per_unit, stencil) {
-                        Ok((h, build_ms)) => {
-                            serde_json::to_value(diffusion_pass(model.clone(), OBJECT_RESOLUTION, h, build_ms, runs)?)?
-                        }
+                        Ok((h, build_ms)) => serde_json::to_value(diffusion_pass(model.clone(), &grid, h, build_ms, runs)?)?,
                         Err(e) => serde_json::json!({ "model": model, "stencil": stencil.name(), "skipped": format!("{e:#}") }),
                     };
                     passes.push(pass);
