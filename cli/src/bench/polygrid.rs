@@ -327,7 +327,7 @@ impl Krylov {
 /// A solver of the pass, set up (its preconditioner's setup is not timed): how it stops.
 enum Setup {
     Pcg { krylov: Krylov, tolerance: f64 },
-    Relax { cold: RelaxOptions, warm: RelaxOptions, state: RelaxState, tolerance: Option<f64>, sweeps: Option<[usize; 2]> },
+    Relax { cold: RelaxOptions, warm: RelaxOptions, state: Box<RelaxState>, tolerance: Option<f64>, sweeps: Option<[usize; 2]> },
 }
 
 /// A solver's runs.
@@ -483,7 +483,7 @@ fn relax_setup(
     };
     // The state is kept across the runs, as a renderer keeps it (its shell colourings are
     // made once).
-    Ok(Some(Setup::Relax { cold, warm, state, tolerance, sweeps }))
+    Ok(Some(Setup::Relax { cold, warm, state: Box::new(state), tolerance, sweeps }))
 }
 
 /// The surface at `path` scaled to the ball's diameter, as a mapped polygrid of about `nodes`
