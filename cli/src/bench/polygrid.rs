@@ -481,8 +481,8 @@ fn relax_setup(
             (by_sweeps(s), Some([cold_sweeps, s]))
         }
     };
-    // The state is kept across the runs, as a renderer keeps it (its shell colourings are
-    // made once).
+    // The state is kept across the runs, as a renderer keeps it (its vectors are allocated
+    // once; the hierarchy's colour-ordered matrices were made by the searches above).
     Ok(Some(Setup::Relax { cold, warm, state: Box::new(state), tolerance, sweeps }))
 }
 
