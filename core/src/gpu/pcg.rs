@@ -174,17 +174,7 @@ impl<'c> GpuSolver<'c> {
     /// # Errors
     /// Device errors ([`GpuError::Device`], [`GpuError::TooLarge`]).
     pub fn for_matrix(ctx: &'c GpuContext, matrix: &CsrMatrix3) -> Result<GpuSolver<'c>, GpuError> {
-        let params = Params {
-            n: matrix.n() as u32,
-            nnz: matrix.pattern().nnz() as u32,
-            n_tets: 0,
-            n_boundary: 0,
-            n_groups: 0,
-            pad: [0; 3],
-            rad_phi: 0.0,
-            rad_q: 0.0,
-            pad_f: [0.0; 2],
-        };
+        let params = Params { n: matrix.n() as u32, nnz: matrix.pattern().nnz() as u32, ..Params::default() };
         Ok(GpuSolver { ctx, matrix: DeviceMatrix::upload(ctx, matrix, params)?, multigrid: None })
     }
 

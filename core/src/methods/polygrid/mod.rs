@@ -269,8 +269,7 @@ impl NodeSystem {
         stats.backend = report.used;
         stats.device = report.device;
         stats.backend_fallback = report.fallback;
-        let phi = solution.phi;
-        self.fluence = phi;
+        self.fluence = solution.phi;
         let lo = self.system.radiance(&self.fluence).map_err(polygrid_error)?;
         let per_vertex = self.per_vertex(&lo);
         let mut clamped = vec![[0.0]; self.tet_mesh.vertex_count()];
